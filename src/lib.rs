@@ -1,0 +1,6 @@
+//! A real-time MLS-MPM fluid: a single-thread CPU reference and CUDA kernels behind one step API.
+
+pub mod backend;
+pub mod export;
+pub mod runner;
+pub mod sim;

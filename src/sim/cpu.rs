@@ -1,0 +1,271 @@
+//! The single-thread CPU reference: physics.md step for step, with the names of the paper
+//! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
+//! phase is a public method that a test can run on its own.
+
+use super::params::Params;
+use super::scene::Particles;
+use super::solver::{PhaseTimings, Solver, StepExtremes};
+use glam::{IVec3, Mat3, UVec3, Vec3};
+use std::time::Instant;
+
+/// Quadratic B-spline weights of one particle on its 3x3x3 stencil.
+#[derive(Debug, Clone, Copy)]
+pub struct Stencil {
+    /// Lowest stencil node.
+    pub base: IVec3,
+    /// Position relative to `base`, in cells; each component in [0.5, 1.5).
+    pub fx: Vec3,
+    /// Per-axis weights of nodes base+0, base+1, base+2.
+    pub w: [Vec3; 3],
+}
+
+impl Stencil {
+    /// `x` in metres.
+    pub fn new(x: Vec3, inv_dx: f32) -> Stencil {
+        let xg = x * inv_dx;
+        let base = (xg - 0.5).floor();
+        let fx = xg - base;
+        let w = [
+            0.5 * (1.5 - fx) * (1.5 - fx),
+            0.75 - (fx - 1.0) * (fx - 1.0),
+            0.5 * (fx - 0.5) * (fx - 0.5),
+        ];
+        Stencil {
+            base: base.as_ivec3(),
+            fx,
+            w,
+        }
+    }
+
+    /// Calls `f(node index, w, d)` for the 27 stencil nodes, d = node - x in cells.
+    #[inline(always)]
+    pub fn for_each_node(&self, shape: GridShape, mut f: impl FnMut(usize, f32, Vec3)) {
+        let (sx, sxy) = (shape.res.x as usize, (shape.res.x * shape.res.y) as usize);
+        let base = shape.index(self.base);
+        for oz in 0..3 {
+            let (wz, dz) = (self.w[oz].z, oz as f32 - self.fx.z);
+            for oy in 0..3 {
+                let (wyz, dy) = (self.w[oy].y * wz, oy as f32 - self.fx.y);
+                let row = base + oy * sx + oz * sxy;
+                for ox in 0..3 {
+                    let d = Vec3::new(ox as f32 - self.fx.x, dy, dz);
+                    f(row + ox, self.w[ox].x * wyz, d);
+                }
+            }
+        }
+    }
+}
+
+/// Node count per axis, and the node order shared with the kernels: x fastest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GridShape {
+    pub res: UVec3,
+}
+
+impl GridShape {
+    #[inline]
+    pub fn index(&self, node: IVec3) -> usize {
+        let n = node.as_uvec3();
+        (n.x + self.res.x * (n.y + self.res.y * n.z)) as usize
+    }
+
+    pub fn node(&self, index: usize) -> UVec3 {
+        let i = index as u32;
+        UVec3::new(
+            i % self.res.x,
+            (i / self.res.x) % self.res.y,
+            i / (self.res.x * self.res.y),
+        )
+    }
+
+    pub fn num_nodes(&self) -> usize {
+        self.res.x as usize * self.res.y as usize * self.res.z as usize
+    }
+}
+
+/// Grid accumulators: mass, and momentum that grid_update turns into velocity in place.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    pub shape: GridShape,
+    pub mass: Vec<f32>,
+    pub momentum: Vec<Vec3>,
+}
+
+impl Grid {
+    pub fn new(res: [u32; 3]) -> Grid {
+        let shape = GridShape {
+            res: UVec3::from(res),
+        };
+        Grid {
+            shape,
+            mass: vec![0.0; shape.num_nodes()],
+            momentum: vec![Vec3::ZERO; shape.num_nodes()],
+        }
+    }
+}
+
+pub struct CpuSolver {
+    pub particles: Particles,
+    pub grid: Grid,
+    extremes: StepExtremes,
+    timings: PhaseTimings,
+}
+
+impl CpuSolver {
+    pub fn new(particles: Particles, grid_res: [u32; 3]) -> CpuSolver {
+        CpuSolver {
+            particles,
+            grid: Grid::new(grid_res),
+            extremes: StepExtremes::default(),
+            timings: PhaseTimings::default(),
+        }
+    }
+
+    pub fn clear_grid(&mut self) {
+        self.grid.mass.fill(0.0);
+        self.grid.momentum.fill(Vec3::ZERO);
+    }
+
+    /// m_i += w m_p.
+    pub fn p2g_init(&mut self, params: &Params) {
+        let m_p = params.material.particle_mass;
+        let Grid { shape, mass, .. } = &mut self.grid;
+        for &x in &self.particles.x {
+            Stencil::new(x, params.inv_dx).for_each_node(*shape, |i, w, _| mass[i] += w * m_p);
+        }
+    }
+
+    /// Density from grid mass, Tait pressure, viscous stress; then momentum and stress to the grid.
+    pub fn p2g(&mut self, params: &Params) {
+        let mat = &params.material;
+        let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
+        let inv_cell_volume = params.inv_dx * params.inv_dx * params.inv_dx;
+        let Grid {
+            shape,
+            mass,
+            momentum,
+        } = &mut self.grid;
+        let p = &mut self.particles;
+        let mut max_rho = 0.0f32;
+        for n in 0..p.x.len() {
+            let st = Stencil::new(p.x[n], params.inv_dx);
+            let mut grid_mass = 0.0;
+            st.for_each_node(*shape, |i, w, _| grid_mass += w * mass[i]);
+            let rho = grid_mass * inv_cell_volume;
+            p.rho[n] = rho;
+            max_rho = max_rho.max(rho);
+
+            let volume = m_p / rho;
+            let pressure = mat.pressure(rho);
+            let c = p.c[n];
+            let stress = Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * mat.viscosity;
+            // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
+            let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
+            let mv = p.v[n] * m_p;
+            st.for_each_node(*shape, |i, w, d| momentum[i] += w * (mv + affine * d));
+        }
+        self.extremes.max_density = self.extremes.max_density.max(max_rho);
+    }
+
+    /// Momentum to velocity, gravity, free-slip walls in the boundary band.
+    pub fn grid_update(&mut self, params: &Params) {
+        let gravity = Vec3::from(params.gravity) * params.dt;
+        let band = params.boundary_band;
+        let Grid {
+            shape,
+            mass,
+            momentum,
+        } = &mut self.grid;
+        let res = shape.res;
+        for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
+            if m <= 0.0 {
+                continue;
+            }
+            let mut v = *mv / m + gravity;
+            let node = shape.node(i);
+            for a in 0..3 {
+                if node[a] < band || node[a] >= res[a] - band {
+                    v[a] = 0.0;
+                }
+            }
+            *mv = v;
+        }
+    }
+
+    /// Velocity and C from the grid, then advection, soft wall and clamp.
+    pub fn g2p(&mut self, params: &Params) {
+        let (dx, dt, inv_dx) = (params.dx, params.dt, params.inv_dx);
+        let Grid {
+            shape,
+            momentum: velocity,
+            ..
+        } = &self.grid;
+        let res = shape.res.as_vec3();
+        let (lo, hi) = (Vec3::splat(dx), (res - 2.0) * dx);
+        let wall_lo = Vec3::splat((params.boundary_band + 1) as f32 * dx);
+        let wall_hi = (res - (params.boundary_band + 2) as f32) * dx;
+        let tau = params.soft_wall_tau;
+        let p = &mut self.particles;
+        let mut max_speed = 0.0f32;
+        for n in 0..p.x.len() {
+            let mut v = Vec3::ZERO;
+            let mut b = Mat3::ZERO;
+            Stencil::new(p.x[n], inv_dx).for_each_node(*shape, |i, w, d| {
+                let wv = w * velocity[i];
+                v += wv;
+                b += Mat3::from_cols(wv * d.x, wv * d.y, wv * d.z); // w v_i d^T
+            });
+            if tau > 0.0 {
+                let predicted = p.x[n] + v * tau;
+                v += (wall_lo - predicted).max(Vec3::ZERO) / tau;
+                v -= (predicted - wall_hi).max(Vec3::ZERO) / tau;
+            }
+            p.c[n] = b * (4.0 * inv_dx);
+            p.v[n] = v;
+            p.x[n] = (p.x[n] + v * dt).clamp(lo, hi);
+            max_speed = max_speed.max(v.length());
+        }
+        self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
+    }
+}
+
+impl Solver for CpuSolver {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn step(&mut self, params: &Params) -> anyhow::Result<()> {
+        let mut t = Instant::now();
+        let mut lap = |slot: &mut f64| {
+            let now = Instant::now();
+            *slot += (now - t).as_secs_f64() * 1e3;
+            t = now;
+        };
+        let mut times = PhaseTimings::default();
+        self.clear_grid();
+        lap(&mut times.grid_clear);
+        self.p2g_init(params);
+        lap(&mut times.p2g_init);
+        self.p2g(params);
+        lap(&mut times.p2g);
+        self.grid_update(params);
+        lap(&mut times.grid_update);
+        self.g2p(params);
+        lap(&mut times.g2p);
+        times.steps = 1;
+        self.timings.accumulate(&times);
+        Ok(())
+    }
+
+    fn take_extremes(&mut self) -> anyhow::Result<StepExtremes> {
+        Ok(std::mem::take(&mut self.extremes))
+    }
+
+    fn take_timings(&mut self) -> anyhow::Result<Option<PhaseTimings>> {
+        Ok(Some(std::mem::take(&mut self.timings)))
+    }
+
+    fn read_particles(&mut self) -> anyhow::Result<Particles> {
+        Ok(self.particles.clone())
+    }
+}

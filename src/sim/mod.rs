@@ -1,0 +1,12 @@
+//! The simulation core: parameters, scenes, the CPU reference and the step API.
+//! It knows nothing of windows, GL or files beyond scene text.
+
+pub mod cpu;
+pub mod params;
+pub mod presets;
+pub mod scene;
+pub mod solver;
+
+pub use params::{Material, Params, ScatterMode, FRAME_DT};
+pub use scene::{Particles, Scene, SceneError};
+pub use solver::{FrameStats, PhaseTimings, Simulation, Solver, StepExtremes, Summary};

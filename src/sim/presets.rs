@@ -1,0 +1,21 @@
+//! Built-in scenes. Each is an ordinary scene file under `scenes/`, embedded in the binary, so
+//! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
+
+/// Preset names, the default first.
+pub const NAMES: [&str; 5] = ["dam-break", "double-dam-break", "drop", "bench-65k", "bench-655k"];
+
+const FILES: [&str; 5] = [
+    include_str!("../../scenes/dam-break.toml"),
+    include_str!("../../scenes/double-dam-break.toml"),
+    include_str!("../../scenes/drop.toml"),
+    include_str!("../../scenes/bench-65k.toml"),
+    include_str!("../../scenes/bench-655k.toml"),
+];
+
+/// The default scene of the runner and the viewer.
+pub const DEFAULT: &str = NAMES[0];
+
+/// The TOML text of a preset.
+pub fn get(name: &str) -> Option<&'static str> {
+    NAMES.iter().position(|&n| n == name).map(|i| FILES[i])
+}

@@ -1,0 +1,848 @@
+//! Scenes: the TOML format, its validation, and the particle lattice a scene spawns.
+//!
+//! A scene file is parsed into the `*Spec` structs (what the user wrote, every key optional where a
+//! default makes sense), then validated into a [`Scene`] (what the solver runs, every value checked).
+//! Every refusal names the file, the key and the fix.
+
+use super::params::{Material, Params, ScatterMode, FRAME_DT};
+use super::presets;
+use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::Path;
+
+/// The largest CFL number the solver is stable at (physics.md: "C about 0.3-0.5").
+pub const MAX_CFL: f32 = 0.5;
+
+/// A scene that could not be loaded: where, which key, what is wrong, and how to fix it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    /// The file path or `preset NAME`.
+    pub source: String,
+    /// The offending key, in TOML path form (`material.rest_density`, `block[1].max`); empty for the file.
+    pub key: String,
+    pub problem: String,
+    pub fix: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "scene {}: {}", self.source, self.problem)?;
+        } else {
+            write!(f, "scene {}: `{}` {}", self.source, self.key, self.problem)?;
+        }
+        if !self.fix.is_empty() {
+            write!(f, "\n  fix: {}", self.fix)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+// ---------------------------------------------------------------------------------------------
+// The file format.
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    pub name: Option<String>,
+    pub description: Option<String>,
+    pub domain: DomainSpec,
+    pub material: MaterialSpec,
+    #[serde(default)]
+    pub solver: SolverSpec,
+    #[serde(default)]
+    pub time_step: TimeStepSpec,
+    #[serde(default, rename = "block")]
+    pub blocks: Vec<BlockSpec>,
+    #[serde(default, rename = "sphere")]
+    pub spheres: Vec<SphereSpec>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSpec {
+    /// Tank size per axis, m.
+    pub size: [f64; 3],
+    /// Grid nodes per axis.
+    pub resolution: [u32; 3],
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub rest_density: f32,
+    /// Give either the sound speed (m/s) or the EOS stiffness (Pa); the other follows.
+    pub sound_speed: Option<f32>,
+    pub eos_stiffness: Option<f32>,
+    #[serde(default = "default_eos_power")]
+    pub eos_power: f32,
+    #[serde(default = "default_viscosity")]
+    pub viscosity: f32,
+    #[serde(default)]
+    pub pressure_floor: f32,
+}
+
+fn default_eos_power() -> f32 {
+    7.0
+}
+fn default_viscosity() -> f32 {
+    1.0e-3
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    #[serde(default = "default_gravity")]
+    pub gravity: [f32; 3],
+    #[serde(default = "default_band")]
+    pub boundary_band: u32,
+    /// nialltl's soft wall: pushes particles back before they reach the band.
+    #[serde(default)]
+    pub soft_wall: bool,
+    #[serde(default)]
+    pub scatter: ScatterMode,
+}
+
+fn default_gravity() -> [f32; 3] {
+    [0.0, -9.81, 0.0]
+}
+fn default_band() -> u32 {
+    2
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        SolverSpec {
+            gravity: default_gravity(),
+            boundary_band: default_band(),
+            soft_wall: false,
+            scatter: ScatterMode::default(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeStepSpec {
+    /// Choose substeps so that (c + |v|max) dt / dx stays at this number.
+    pub cfl: Option<f32>,
+    /// Or use this fixed substep, s.
+    pub dt: Option<f32>,
+    /// The CFL policy gives up (the fluid is blowing up) past this many substeps per frame.
+    pub max_substeps: Option<u32>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlockSpec {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    #[serde(default = "default_ppc")]
+    pub particles_per_cell: u32,
+    #[serde(default)]
+    pub velocity: [f32; 3],
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    pub center: [f64; 3],
+    pub radius: f64,
+    #[serde(default = "default_ppc")]
+    pub particles_per_cell: u32,
+    #[serde(default)]
+    pub velocity: [f32; 3],
+}
+
+fn default_ppc() -> u32 {
+    8
+}
+
+// ---------------------------------------------------------------------------------------------
+// The validated scene.
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeStepPolicy {
+    /// Substeps per frame from the acoustic and advective limits, at this CFL number.
+    Cfl { cfl: f32, max_substeps: u32 },
+    /// A fixed substep; a frame is the whole number of substeps nearest to 1/60 s.
+    Fixed { dt: f32 },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// Lattice points with `min <= x < max`.
+    Block { min: DVec3, max: DVec3 },
+    /// Lattice points with `|x - center| <= radius`.
+    Sphere { center: DVec3, radius: f64 },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Body {
+    pub shape: Shape,
+    pub velocity: Vec3,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    pub name: String,
+    pub description: String,
+    /// Where it came from (`preset dam-break` or a path), for messages.
+    pub source: String,
+    pub grid_res: [u32; 3],
+    pub dx: f32,
+    pub material: Material,
+    pub gravity: Vec3,
+    pub boundary_band: u32,
+    pub soft_wall: bool,
+    pub scatter: ScatterMode,
+    pub time_step: TimeStepPolicy,
+    /// Particles per cell along one axis (the lattice is `n^3` per cell).
+    pub particles_per_axis: u32,
+    pub bodies: Vec<Body>,
+    /// Exact number of particles [`Scene::spawn`] makes.
+    pub num_particles: usize,
+}
+
+/// Particle arrays on the host (SoA), as spawned or as read back from a backend.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particles {
+    pub x: Vec<Vec3>,
+    pub v: Vec<Vec3>,
+    /// The APIC affine matrix C, 1/s.
+    pub c: Vec<glam::Mat3>,
+    /// Density estimated in the last p2g, kg/m^3 (rest density before the first step).
+    pub rho: Vec<f32>,
+}
+
+impl Particles {
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+}
+
+/// Bytes the CPU backend holds per particle (x, v, C, rho) and per grid node (mass, momentum).
+pub const CPU_BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1);
+pub const CPU_BYTES_PER_NODE: usize = 4 * (1 + 3);
+
+impl Scene {
+    /// A preset name (see [`presets::NAMES`]) or a path to a `.toml` file.
+    pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+        if let Some(text) = presets::get(name_or_path) {
+            return Scene::from_toml(text, &format!("preset {name_or_path}"));
+        }
+        let path = Path::new(name_or_path);
+        let looks_like_file = path.extension().is_some() || name_or_path.contains('/');
+        if !looks_like_file {
+            return Err(SceneError {
+                source: name_or_path.to_string(),
+                key: String::new(),
+                problem: "is neither a preset nor a scene file".into(),
+                fix: format!(
+                    "use one of the presets ({}) or the path of a .toml scene file",
+                    presets::NAMES.join(", ")
+                ),
+            });
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            source: name_or_path.to_string(),
+            key: String::new(),
+            problem: format!("cannot be read: {e}"),
+            fix: "check the path; `mpm scenes` lists the built-in presets".into(),
+        })?;
+        Scene::from_toml(&text, name_or_path)
+    }
+
+    pub fn from_toml(text: &str, source: &str) -> Result<Scene, SceneError> {
+        let spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError {
+            source: source.to_string(),
+            key: String::new(),
+            problem: format!("is not a valid scene file:\n{}", e.to_string().trim_end()),
+            fix: "see the scene file reference in README.md; `mpm scenes --show dam-break` prints a complete example".into(),
+        })?;
+        Scene::from_spec(&spec, source)
+    }
+
+    pub fn from_spec(spec: &SceneSpec, source: &str) -> Result<Scene, SceneError> {
+        Validator { source }.scene(spec)
+    }
+
+    /// The parameters a step needs, with `dt` still to be set by the time-step policy.
+    pub fn params(&self) -> Params {
+        Params {
+            material: self.material,
+            gravity: self.gravity.to_array(),
+            dt: 0.0,
+            grid_res: self.grid_res,
+            dx: self.dx,
+            inv_dx: 1.0 / self.dx,
+            boundary_band: self.boundary_band,
+            soft_wall_tau: if self.soft_wall { FRAME_DT } else { 0.0 },
+            num_particles: self.num_particles as u32,
+            scatter_mode: self.scatter.code(),
+            fixed_mass_scale: 0.0,
+            fixed_momentum_scale: 0.0,
+            _pad: 0,
+        }
+    }
+
+    pub fn lattice(&self) -> Lattice {
+        Lattice {
+            spacing: f64::from(self.dx) / f64::from(self.particles_per_axis),
+        }
+    }
+
+    /// The lowest and highest coordinate a fluid body may reach on each axis: inside the boundary band.
+    pub fn fluid_region(&self) -> (DVec3, DVec3) {
+        fluid_region(self.grid_res, f64::from(self.dx), self.boundary_band)
+    }
+
+    /// The particles, in body order, each body's lattice points in x-fastest order, skipping points
+    /// that an earlier body already covers.
+    pub fn spawn(&self) -> Particles {
+        let lattice = self.lattice();
+        let mut particles = Particles {
+            x: Vec::with_capacity(self.num_particles),
+            v: Vec::with_capacity(self.num_particles),
+            c: vec![glam::Mat3::ZERO; self.num_particles],
+            rho: vec![self.material.rest_density; self.num_particles],
+        };
+        for (k, body) in self.bodies.iter().enumerate() {
+            for p in lattice.points(&body.shape) {
+                if !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)) {
+                    particles.x.push(p.as_vec3());
+                    particles.v.push(body.velocity);
+                }
+            }
+        }
+        debug_assert_eq!(particles.x.len(), self.num_particles);
+        particles
+    }
+
+    /// Total particle mass, kg.
+    pub fn total_mass(&self) -> f64 {
+        self.num_particles as f64 * f64::from(self.material.particle_mass)
+    }
+}
+
+fn fluid_region(res: [u32; 3], dx: f64, band: u32) -> (DVec3, DVec3) {
+    let lo = DVec3::splat(f64::from(band) * dx);
+    let hi = DVec3::new(
+        f64::from(res[0] - 1 - band),
+        f64::from(res[1] - 1 - band),
+        f64::from(res[2] - 1 - band),
+    ) * dx;
+    (lo, hi)
+}
+
+/// The particle lattice: points at (j + 1/2) h on every axis, h = dx / particles-per-axis, so a
+/// whole cell holds exactly n^3 points and the initial packing is exactly at rest density.
+#[derive(Debug, Clone, Copy)]
+pub struct Lattice {
+    pub spacing: f64,
+}
+
+impl Lattice {
+    fn point(&self, j: [i64; 3]) -> DVec3 {
+        DVec3::new(j[0] as f64 + 0.5, j[1] as f64 + 0.5, j[2] as f64 + 0.5) * self.spacing
+    }
+
+    /// Lattice index range `[lo, hi)` of the points with `min <= x < max` on each axis.
+    /// Bounds and points never coincide (points sit at half-integers), so rounding cannot flip a point.
+    fn index_range(&self, min: DVec3, max: DVec3) -> ([i64; 3], [i64; 3]) {
+        let first = |v: f64| (v / self.spacing - 0.5).ceil() as i64;
+        (
+            [first(min.x), first(min.y), first(min.z)],
+            [first(max.x), first(max.y), first(max.z)],
+        )
+    }
+
+    fn bounds(shape: &Shape) -> (DVec3, DVec3) {
+        match *shape {
+            Shape::Block { min, max } => (min, max),
+            Shape::Sphere { center, radius } => (center - radius, center + radius),
+        }
+    }
+
+    pub fn contains(&self, shape: &Shape, p: DVec3) -> bool {
+        match *shape {
+            Shape::Block { min, max } => {
+                let (lo, hi) = self.index_range(min, max);
+                let j = |v: f64| (v / self.spacing - 0.5).round() as i64;
+                let idx = [j(p.x), j(p.y), j(p.z)];
+                (0..3).all(|a| lo[a] <= idx[a] && idx[a] < hi[a])
+            }
+            Shape::Sphere { center, radius } => (p - center).length_squared() <= radius * radius,
+        }
+    }
+
+    /// The lattice points of a shape, x fastest.
+    pub fn points(&self, shape: &Shape) -> impl Iterator<Item = DVec3> + '_ {
+        let (min, max) = Self::bounds(shape);
+        // A sphere's bounding box is closed; widen by half a spacing so boundary points are visited.
+        let pad = if matches!(shape, Shape::Sphere { .. }) {
+            self.spacing
+        } else {
+            0.0
+        };
+        let (lo, hi) = self.index_range(min - pad, max + pad);
+        let shape = *shape;
+        (lo[2]..hi[2]).flat_map(move |k| {
+            (lo[1]..hi[1]).flat_map(move |j| {
+                (lo[0]..hi[0])
+                    .map(move |i| self.point([i, j, k]))
+                    .filter(move |p| self.contains(&shape, *p))
+            })
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation.
+
+struct Validator<'a> {
+    source: &'a str,
+}
+
+impl Validator<'_> {
+    fn err(&self, key: impl Into<String>, problem: impl Into<String>, fix: impl Into<String>) -> SceneError {
+        SceneError {
+            source: self.source.to_string(),
+            key: key.into(),
+            problem: problem.into(),
+            fix: fix.into(),
+        }
+    }
+
+    fn positive(&self, key: &str, value: f32, fix: &str) -> Result<f32, SceneError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.err(key, format!("must be a positive number, got {value}"), fix))
+        }
+    }
+
+    fn finite3(&self, key: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        if v.iter().all(|c| c.is_finite()) {
+            Ok(Vec3::from(v))
+        } else {
+            Err(self.err(
+                key,
+                format!("must be finite, got {v:?}"),
+                "give three finite numbers",
+            ))
+        }
+    }
+
+    fn scene(&self, spec: &SceneSpec) -> Result<Scene, SceneError> {
+        let (grid_res, dx) = self.domain(&spec.domain)?;
+        let band = spec.solver.boundary_band;
+        if band < 1 || 2 * band + 4 > grid_res.iter().copied().min().unwrap_or(0) {
+            return Err(self.err(
+                "solver.boundary_band",
+                format!("= {band} leaves no room for fluid in a grid of {grid_res:?} nodes"),
+                "use 2 (the default); it must be at least 1 and leave 4 free nodes on every axis",
+            ));
+        }
+        let particles_per_axis = self.particles_per_axis(spec)?;
+        let material = self.material(&spec.material, dx, particles_per_axis)?;
+        let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
+        let bodies = self.bodies(spec, grid_res, dx, band)?;
+        let max_body_speed = bodies.iter().map(|b| b.velocity.length()).fold(0.0, f32::max);
+        let time_step = self.time_step(&spec.time_step, &material, dx, max_body_speed)?;
+
+        let mut scene = Scene {
+            name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
+            description: spec.description.clone().unwrap_or_default(),
+            source: self.source.to_string(),
+            grid_res,
+            dx: dx as f32,
+            material,
+            gravity,
+            boundary_band: band,
+            soft_wall: spec.solver.soft_wall,
+            scatter: spec.solver.scatter,
+            time_step,
+            particles_per_axis,
+            bodies,
+            num_particles: 0,
+        };
+        scene.num_particles = self.count_particles(&scene)?;
+        self.fits_in_memory(&scene)?;
+        Ok(scene)
+    }
+
+    fn domain(&self, d: &DomainSpec) -> Result<([u32; 3], f64), SceneError> {
+        for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+            if !(d.size[a].is_finite() && d.size[a] > 0.0) {
+                return Err(self.err(
+                    "domain.size",
+                    format!("{axis} = {} must be a positive length in metres", d.size[a]),
+                    "give the tank size per axis, e.g. size = [1.0, 0.5, 0.5]",
+                ));
+            }
+            if d.resolution[a] < 8 {
+                return Err(self.err(
+                    "domain.resolution",
+                    format!("{axis} = {} is under 8 grid nodes", d.resolution[a]),
+                    "use at least 8 nodes per axis (the boundary band and stencil need room)",
+                ));
+            }
+        }
+        let dxs: Vec<f64> = (0..3).map(|a| d.size[a] / f64::from(d.resolution[a])).collect();
+        let dx = dxs[0];
+        if dxs.iter().any(|&h| ((h - dx) / dx).abs() > 1e-4) {
+            return Err(self.err(
+                "domain.resolution",
+                format!(
+                    "gives different cell sizes per axis (size / resolution = {:.6}, {:.6}, {:.6} m)",
+                    dxs[0], dxs[1], dxs[2]
+                ),
+                format!(
+                    "cells must be cubes: keep size / resolution equal, e.g. resolution = [{}, {}, {}]",
+                    d.resolution[0],
+                    (d.size[1] / dx).round(),
+                    (d.size[2] / dx).round()
+                ),
+            ));
+        }
+        Ok((d.resolution, dx))
+    }
+
+    fn particles_per_axis(&self, spec: &SceneSpec) -> Result<u32, SceneError> {
+        let ppcs = spec
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("block[{i}].particles_per_cell"), b.particles_per_cell))
+            .chain(
+                spec.spheres
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (format!("sphere[{i}].particles_per_cell"), s.particles_per_cell)),
+            );
+        let mut chosen: Option<(String, u32)> = None;
+        for (key, ppc) in ppcs {
+            let n = (1..=4).find(|n| n * n * n == ppc).ok_or_else(|| {
+                self.err(
+                    &key,
+                    format!("= {ppc} is not a cube lattice"),
+                    "use 1, 8, 27 or 64 particles per cell (1 to 4 per axis); 8 is the usual choice",
+                )
+            })?;
+            match &chosen {
+                Some((first, m)) if *m != n => {
+                    return Err(self.err(
+                        &key,
+                        format!("= {ppc} differs from `{first}` = {}", m * m * m),
+                        "give every body the same particles_per_cell: the particle mass \
+                         m_p = rho0 dx^3 / ppc is one material constant",
+                    ))
+                }
+                Some(_) => {}
+                None => chosen = Some((key, n)),
+            }
+        }
+        chosen.map(|(_, n)| n).ok_or_else(|| {
+            self.err(
+                "block",
+                "the scene has no fluid bodies, so it has zero particles",
+                "add at least one [[block]] (min, max) or [[sphere]] (center, radius)",
+            )
+        })
+    }
+
+    fn material(&self, m: &MaterialSpec, dx: f64, n: u32) -> Result<Material, SceneError> {
+        let rho0 = self.positive(
+            "material.rest_density",
+            m.rest_density,
+            "give the rest density in kg/m^3, e.g. 1000 for water",
+        )?;
+        let gamma = self.positive("material.eos_power", m.eos_power, "use 7 (Tait, water)")?;
+        let stiffness = match (m.sound_speed, m.eos_stiffness) {
+            (Some(c0), None) => {
+                let c0 = self.positive(
+                    "material.sound_speed",
+                    c0,
+                    "give the sound speed in m/s; 10-20 for real-time water",
+                )?;
+                rho0 * c0 * c0 / gamma
+            }
+            (None, Some(k)) => self.positive("material.eos_stiffness", k, "give k in Pa")?,
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    "material.sound_speed",
+                    "and `material.eos_stiffness` are both given",
+                    "give one: the sound speed fixes the stiffness (k = rho0 c0^2 / gamma) and back",
+                ))
+            }
+            (None, None) => {
+                return Err(self.err(
+                    "material.sound_speed",
+                    "is missing",
+                    "give sound_speed (m/s) or eos_stiffness (Pa), e.g. sound_speed = 20.0",
+                ))
+            }
+        };
+        if !(m.viscosity.is_finite() && m.viscosity >= 0.0) {
+            return Err(self.err(
+                "material.viscosity",
+                format!("= {} must be zero or positive", m.viscosity),
+                "give the dynamic viscosity in Pa s, 1e-3 for water",
+            ));
+        }
+        if !(m.pressure_floor.is_finite() && m.pressure_floor <= 0.0) {
+            return Err(self.err(
+                "material.pressure_floor",
+                format!("= {} must be zero or negative", m.pressure_floor),
+                "use 0 (no tension) or a small negative pressure in Pa for surface cohesion",
+            ));
+        }
+        let ppc = f64::from(n * n * n);
+        Ok(Material {
+            rest_density: rho0,
+            eos_stiffness: stiffness,
+            eos_power: gamma,
+            viscosity: m.viscosity,
+            pressure_floor: m.pressure_floor,
+            particle_mass: (f64::from(rho0) * dx * dx * dx / ppc) as f32,
+            _pad: [0; 2],
+        })
+    }
+
+    fn bodies(&self, spec: &SceneSpec, res: [u32; 3], dx: f64, band: u32) -> Result<Vec<Body>, SceneError> {
+        let (lo, hi) = fluid_region(res, dx, band);
+        let region = format!(
+            "[{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}] m",
+            lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
+        );
+        let fix = format!(
+            "keep bodies inside the fluid region {region} (the domain less the {band}-node boundary band)"
+        );
+        let mut bodies = Vec::new();
+        for (i, b) in spec.blocks.iter().enumerate() {
+            let (min, max) = (DVec3::from(b.min), DVec3::from(b.max));
+            if !(min.is_finite() && max.is_finite()) || min.cmpge(max).any() {
+                return Err(self.err(
+                    format!("block[{i}]"),
+                    format!("has min {:?} not below max {:?} on every axis", b.min, b.max),
+                    "give min < max on x, y and z",
+                ));
+            }
+            let eps = 1e-9 * dx;
+            if min.cmplt(lo - eps).any() || max.cmpgt(hi + eps).any() {
+                let key = if min.cmplt(lo - eps).any() { "min" } else { "max" };
+                return Err(self.err(
+                    format!("block[{i}].{key}"),
+                    "lies outside the domain's fluid region",
+                    fix.clone(),
+                ));
+            }
+            bodies.push(Body {
+                shape: Shape::Block { min, max },
+                velocity: self.finite3(&format!("block[{i}].velocity"), b.velocity)?,
+            });
+        }
+        for (i, s) in spec.spheres.iter().enumerate() {
+            let center = DVec3::from(s.center);
+            if !(s.radius.is_finite() && s.radius > 0.0) {
+                return Err(self.err(
+                    format!("sphere[{i}].radius"),
+                    format!("= {} must be positive", s.radius),
+                    "give the radius in metres",
+                ));
+            }
+            if !center.is_finite()
+                || (center - s.radius).cmplt(lo).any()
+                || (center + s.radius).cmpgt(hi).any()
+            {
+                return Err(self.err(
+                    format!("sphere[{i}]"),
+                    "reaches outside the domain's fluid region",
+                    fix.clone(),
+                ));
+            }
+            bodies.push(Body {
+                shape: Shape::Sphere {
+                    center,
+                    radius: s.radius,
+                },
+                velocity: self.finite3(&format!("sphere[{i}].velocity"), s.velocity)?,
+            });
+        }
+        Ok(bodies)
+    }
+
+    fn time_step(
+        &self,
+        t: &TimeStepSpec,
+        material: &Material,
+        dx: f64,
+        max_body_speed: f32,
+    ) -> Result<TimeStepPolicy, SceneError> {
+        let signal = material.sound_speed() + max_body_speed;
+        let dt_limit = MAX_CFL * dx as f32 / signal;
+        match (t.cfl, t.dt) {
+            (Some(_), Some(_)) => Err(self.err(
+                "time_step.dt",
+                "and `time_step.cfl` are both given",
+                "give cfl (substeps chosen from the stability limits) or a fixed dt, not both",
+            )),
+            (_, Some(dt)) => {
+                let dt = self.positive("time_step.dt", dt, "give the substep in seconds")?;
+                if dt > dt_limit {
+                    return Err(self.err(
+                        "time_step.dt",
+                        format!(
+                            "= {dt:.3e} s is above the stability limit {dt_limit:.3e} s \
+                             ({MAX_CFL} dx / (c0 + |v|max) with c0 = {:.2} m/s)",
+                            material.sound_speed()
+                        ),
+                        format!(
+                            "use dt <= {dt_limit:.3e}, or drop dt and set cfl = 0.4 to let the solver choose"
+                        ),
+                    ));
+                }
+                Ok(TimeStepPolicy::Fixed { dt })
+            }
+            (cfl, None) => {
+                let cfl = cfl.unwrap_or(0.4);
+                if !(cfl.is_finite() && cfl > 0.0 && cfl <= MAX_CFL) {
+                    return Err(self.err(
+                        "time_step.cfl",
+                        format!("= {cfl} is outside (0, {MAX_CFL}]"),
+                        "use 0.3 to 0.5; 0.4 is the default",
+                    ));
+                }
+                let max_substeps = t.max_substeps.unwrap_or(2000);
+                if max_substeps == 0 {
+                    return Err(self.err(
+                        "time_step.max_substeps",
+                        "must be at least 1",
+                        "drop it (default 2000)",
+                    ));
+                }
+                Ok(TimeStepPolicy::Cfl { cfl, max_substeps })
+            }
+        }
+    }
+
+    fn count_particles(&self, scene: &Scene) -> Result<usize, SceneError> {
+        let lattice = scene.lattice();
+        let mut total = 0usize;
+        for (k, body) in scene.bodies.iter().enumerate() {
+            let own = lattice
+                .points(&body.shape)
+                .filter(|&p| !scene.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
+                .count();
+            if own == 0 {
+                let blocks = scene.bodies[..k]
+                    .iter()
+                    .filter(|b| matches!(b.shape, Shape::Block { .. }))
+                    .count();
+                let key = match body.shape {
+                    Shape::Block { .. } => format!("block[{blocks}]"),
+                    Shape::Sphere { .. } => format!("sphere[{}]", k - blocks),
+                };
+                return Err(self.err(
+                    key,
+                    format!(
+                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body)",
+                        lattice.spacing
+                    ),
+                    "make it larger than one cell, or move it out of the bodies listed before it",
+                ));
+            }
+            total += own;
+        }
+        if total > u32::MAX as usize {
+            return Err(self.err(
+                "block",
+                format!("the scene spawns {total} particles, above the 2^32 limit of particle indices"),
+                "use fewer particles per cell or smaller bodies",
+            ));
+        }
+        Ok(total)
+    }
+
+    fn fits_in_memory(&self, scene: &Scene) -> Result<(), SceneError> {
+        let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        let needed = scene.num_particles * CPU_BYTES_PER_PARTICLE + nodes * CPU_BYTES_PER_NODE;
+        if nodes > u32::MAX as usize {
+            return Err(self.err(
+                "domain.resolution",
+                format!("gives {nodes} grid nodes, above the 2^32 limit of node indices"),
+                "use a coarser grid",
+            ));
+        }
+        if let Some(available) = available_host_memory() {
+            if needed as u64 > available {
+                return Err(self.err(
+                    "",
+                    format!(
+                        "needs {:.1} GiB ({} particles, {} grid nodes) but this machine has {:.1} GiB available",
+                        gib(needed as u64),
+                        scene.num_particles,
+                        nodes,
+                        gib(available)
+                    ),
+                    "use a coarser domain.resolution, fewer particles_per_cell or smaller bodies",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn gib(bytes: u64) -> f64 {
+    bytes as f64 / (1u64 << 30) as f64
+}
+
+/// `MemAvailable` from /proc/meminfo; `None` where that is not there (the check is then skipped).
+fn available_host_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+fn default_name(source: &str) -> String {
+    let source = source.strip_prefix("preset ").unwrap_or(source);
+    Path::new(source)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| source.to_string())
+}
+
+/// Substeps per frame and the substep, for a fastest signal speed (c + |v|) in m/s.
+impl TimeStepPolicy {
+    pub fn substeps(&self, signal_speed: f32, dx: f32) -> Result<(u32, f32), String> {
+        match *self {
+            TimeStepPolicy::Fixed { dt } => {
+                let n = (FRAME_DT / dt).round().max(1.0) as u32;
+                Ok((n, dt))
+            }
+            TimeStepPolicy::Cfl { cfl, max_substeps } => {
+                if !signal_speed.is_finite() {
+                    return Err("the fluid diverged: its speed is no longer finite".into());
+                }
+                let dt_max = cfl * dx / signal_speed;
+                let n = (FRAME_DT / dt_max).ceil().max(1.0);
+                if n > max_substeps as f32 {
+                    return Err(format!(
+                        "the fluid is blowing up: a signal speed of {signal_speed:.1} m/s needs {n} substeps \
+                         per frame, over time_step.max_substeps = {max_substeps}"
+                    ));
+                }
+                let n = n as u32;
+                Ok((n, FRAME_DT / n as f32))
+            }
+        }
+    }
+}

@@ -1,0 +1,267 @@
+//! The step API that the runner, the viewer, the tests and the benches all drive.
+//!
+//! A [`Solver`] is a backend (CPU reference or CUDA) that knows how to take one substep.
+//! A [`Simulation`] owns one, and advances it frame by frame under the scene's time-step policy.
+
+use super::params::{Material, Params, FRAME_DT};
+use super::scene::{Particles, Scene};
+use anyhow::{bail, Result};
+use glam::{DVec3, Vec3};
+use serde::Serialize;
+
+/// The largest density and speed any particle reached over the substeps since they were last taken.
+/// They bound the CFL number of those substeps (c grows with density), and set the next frame's step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepExtremes {
+    pub max_density: f32,
+    pub max_speed: f32,
+}
+
+/// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
+/// runner, the viewer's HUD and the benches read. The CPU measures with a host clock (its phases are
+/// synchronous); the CUDA backend with events.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct PhaseTimings {
+    pub steps: u32,
+    pub grid_clear: f64,
+    pub p2g_init: f64,
+    pub p2g: f64,
+    pub grid_update: f64,
+    pub g2p: f64,
+}
+
+impl PhaseTimings {
+    pub const PHASES: [&'static str; 5] = ["grid_clear", "p2g_init", "p2g", "grid_update", "g2p"];
+
+    pub fn accumulate(&mut self, other: &PhaseTimings) {
+        self.steps += other.steps;
+        for (a, b) in self.phases_mut().into_iter().zip(other.phases()) {
+            *a += b;
+        }
+    }
+
+    /// Per-phase sums in the order of [`Self::PHASES`].
+    pub fn phases(&self) -> [f64; 5] {
+        [
+            self.grid_clear,
+            self.p2g_init,
+            self.p2g,
+            self.grid_update,
+            self.g2p,
+        ]
+    }
+
+    fn phases_mut(&mut self) -> [&mut f64; 5] {
+        [
+            &mut self.grid_clear,
+            &mut self.p2g_init,
+            &mut self.p2g,
+            &mut self.grid_update,
+            &mut self.g2p,
+        ]
+    }
+
+    pub fn total(&self) -> f64 {
+        self.phases().iter().sum()
+    }
+
+    /// Milliseconds per substep of the whole step.
+    pub fn per_step(&self) -> f64 {
+        if self.steps == 0 {
+            0.0
+        } else {
+            self.total() / f64::from(self.steps)
+        }
+    }
+}
+
+/// A backend that advances the particles by one substep.
+pub trait Solver {
+    fn name(&self) -> &'static str;
+    /// One substep of `params.dt`: grid clear, p2g_init, p2g, grid_update, g2p.
+    fn step(&mut self, params: &Params) -> Result<()>;
+    /// The extremes since the last call, then reset.
+    fn take_extremes(&mut self) -> Result<StepExtremes>;
+    /// The phase timings since the last call, then reset; `None` where they are not measured.
+    fn take_timings(&mut self) -> Result<Option<PhaseTimings>>;
+    /// A host copy of the particle state.
+    fn read_particles(&mut self) -> Result<Particles>;
+    /// Statistics of the current state. Backends that can reduce in place override this copy.
+    fn summary(&mut self, material: &Material) -> Result<Summary> {
+        let particles = self.read_particles()?;
+        Ok(Summary::of(
+            &particles,
+            material.particle_mass,
+            material.rest_density,
+        ))
+    }
+}
+
+/// Particle statistics of one state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Summary {
+    pub particles: usize,
+    /// m/s.
+    pub max_speed: f32,
+    /// rho / rho0 over the particles.
+    pub density_ratio_min: f32,
+    pub density_ratio_mean: f32,
+    pub density_ratio_max: f32,
+    /// J.
+    pub kinetic_energy: f64,
+    /// m.
+    pub centre_of_mass: [f64; 3],
+}
+
+impl Summary {
+    pub fn of(particles: &Particles, particle_mass: f32, rest_density: f32) -> Summary {
+        let n = particles.len();
+        let m = f64::from(particle_mass);
+        let mut com = DVec3::ZERO;
+        let mut ke = 0.0f64;
+        let mut max_speed = 0.0f32;
+        let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f64);
+        for i in 0..n {
+            com += particles.x[i].as_dvec3();
+            let v2 = particles.v[i].length_squared();
+            ke += 0.5 * m * f64::from(v2);
+            max_speed = max_speed.max(v2.sqrt());
+            let r = particles.rho[i] / rest_density;
+            rmin = rmin.min(r);
+            rmax = rmax.max(r);
+            rsum += f64::from(r);
+        }
+        let inv_n = 1.0 / n.max(1) as f64;
+        Summary {
+            particles: n,
+            max_speed,
+            density_ratio_min: rmin,
+            density_ratio_mean: (rsum * inv_n) as f32,
+            density_ratio_max: rmax,
+            kinetic_energy: ke,
+            centre_of_mass: (com * inv_n).to_array(),
+        }
+    }
+
+    /// False where a NaN or infinity has crept into the state.
+    pub fn is_finite(&self) -> bool {
+        self.max_speed.is_finite()
+            && self.density_ratio_max.is_finite()
+            && self.density_ratio_min.is_finite()
+            && self.kinetic_energy.is_finite()
+            && self.centre_of_mass.iter().all(|c| c.is_finite())
+    }
+}
+
+/// One line of the runner's output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameStats {
+    pub frame: u64,
+    /// Simulated seconds at the end of the frame.
+    pub time: f64,
+    pub substeps: u32,
+    /// The substep, s.
+    pub dt: f32,
+    /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
+    pub max_cfl: f32,
+    #[serde(flatten)]
+    pub summary: Summary,
+    /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
+    pub timings: Option<PhaseTimings>,
+}
+
+pub struct Simulation {
+    scene: Scene,
+    params: Params,
+    solver: Box<dyn Solver>,
+    frame: u64,
+    time: f64,
+    /// c(rho) + |v| at the last frame's extremes, m/s: what the next frame's substep is chosen from.
+    signal_speed: f32,
+}
+
+impl Simulation {
+    pub fn new(scene: Scene, solver: Box<dyn Solver>) -> Simulation {
+        let params = scene.params();
+        let initial_speed = scene
+            .bodies
+            .iter()
+            .map(|b| b.velocity.length())
+            .fold(0.0, f32::max);
+        let signal_speed = scene.material.sound_speed() + initial_speed;
+        Simulation {
+            scene,
+            params,
+            solver,
+            frame: 0,
+            time: 0.0,
+            signal_speed,
+        }
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+    pub fn backend(&self) -> &'static str {
+        self.solver.name()
+    }
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    pub fn solver_mut(&mut self) -> &mut dyn Solver {
+        self.solver.as_mut()
+    }
+
+    /// Substeps and substep for the next frame. Gravity can add up to |g| / 60 s of speed within the
+    /// frame, so that is added to the last frame's signal speed: the step is safe for the whole frame.
+    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
+        let gravity_gain = Vec3::from(self.params.gravity).length() * FRAME_DT;
+        match self
+            .scene
+            .time_step
+            .substeps(self.signal_speed + gravity_gain, self.params.dx)
+        {
+            Ok(steps) => Ok(steps),
+            Err(why) => bail!("frame {}: {why}", self.frame + 1),
+        }
+    }
+
+    /// Advance one 60 Hz frame and return its statistics.
+    pub fn advance_frame(&mut self) -> Result<FrameStats> {
+        let (substeps, dt) = self.next_frame_steps()?;
+        self.params.dt = dt;
+        for _ in 0..substeps {
+            self.solver.step(&self.params)?;
+        }
+        self.frame += 1;
+        self.time += f64::from(substeps) * f64::from(dt);
+
+        let extremes = self.solver.take_extremes()?;
+        let material = &self.params.material;
+        self.signal_speed = material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+        let summary = self.solver.summary(material)?;
+        let stats = FrameStats {
+            frame: self.frame,
+            time: self.time,
+            substeps,
+            dt,
+            max_cfl: self.signal_speed * dt / self.params.dx,
+            summary,
+            timings: self.solver.take_timings()?,
+        };
+        if !summary.is_finite() || !self.signal_speed.is_finite() {
+            bail!(
+                "the simulation diverged in frame {} (a NaN or infinity appeared); \
+                 lower time_step.cfl or time_step.dt, or raise material.sound_speed",
+                self.frame
+            );
+        }
+        Ok(stats)
+    }
+}
