@@ -1,20 +1,35 @@
 //! Choosing and creating a backend.
 
+use crate::cuda::{CudaOptions, CudaSolver};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::{Scene, Solver};
 use anyhow::Result;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
-    /// The best backend this machine has.
+    /// The best backend this machine has: CUDA when a device works, else the CPU.
     Auto,
     /// The single-thread CPU reference.
     Cpu,
+    /// The CUDA kernels (an NVIDIA GPU and driver needed).
+    Cuda,
 }
 
-/// Spawns the scene's particles on the chosen backend.
+/// Spawns the scene's particles on the chosen backend. `Auto` falls back to the CPU with a one-line
+/// notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
+    let cpu = || -> Box<dyn Solver> { Box::new(CpuSolver::new(scene.spawn(), scene.grid_res)) };
     match kind {
-        BackendKind::Auto | BackendKind::Cpu => Ok(Box::new(CpuSolver::new(scene.spawn(), scene.grid_res))),
+        BackendKind::Cpu => Ok(cpu()),
+        BackendKind::Cuda => Ok(Box::new(CudaSolver::new(scene, CudaOptions::from_env()?)?)),
+        BackendKind::Auto => match CudaOptions::from_env().and_then(|o| CudaSolver::new(scene, o)) {
+            Ok(solver) => Ok(Box::new(solver)),
+            Err(why) => {
+                let why = format!("{why:#}");
+                let first_line = why.lines().next().unwrap_or_default();
+                eprintln!("note: CUDA backend unavailable ({first_line}); using the CPU backend");
+                Ok(cpu())
+            }
+        },
     }
 }

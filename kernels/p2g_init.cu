@@ -1,0 +1,30 @@
+// p2g_init: scatter particle mass to the grid, m_i += w m_p (physics.md step 1).
+// One thread per particle, in cell order (kernels/sort.cu); float or fixed-point atomics per Params.scatter_mode.
+#include "common.cuh"
+
+extern "C" __global__ void p2g_init(const Params params,
+                                    const float4* __restrict__ x,
+                                    const u32* __restrict__ order,    // particles sorted by cell
+                                    float4* __restrict__ grid_acc,    // .w = mass (float scatter)
+                                    u64* __restrict__ fixed_mass,     // fixed-point scatter
+                                    StepCounters* __restrict__ counters) {
+    const float m_p = params.material.particle_mass;
+    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
+    // Converged loop: the float scatter aggregates per warp. Lanes past the end take the stencil of
+    // the block's first particle and add nothing.
+    FOR_EACH_INDEX_CONVERGED(i, live, first, params.num_particles) {
+        const Stencil s = make_stencil(x[order[live ? i : first]], params);
+        FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+            const float mass = w * m_p;
+            if (fixed) {
+                // Not aggregated: summing floats before rounding would tie the result to the warps.
+                if (live) fixed_point_add(&fixed_mass[node], mass * params.fixed_mass_scale, counters);
+            } else {
+                const WarpGroup group = warp_group(node);
+                float sum[1] = {live ? mass : 0.0f};
+                warp_group_sum(group, sum);
+                if (group.leader && live) atomicAdd(&grid_acc[node].w, sum[0]);
+            }
+        })
+    }
+}

@@ -1,0 +1,107 @@
+//! Finding the CUDA driver library and NVRTC before cudarc touches them: cudarc's dynamic loading
+//! panics when a library is missing, so absence is checked here first and becomes an error that says
+//! what to install.
+
+use anyhow::{bail, Result};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// libcuda (the driver) can be opened; otherwise an error naming the fix.
+pub fn ensure_driver() -> Result<()> {
+    // SAFETY: only tries to open the library by its usual names.
+    if unsafe { cudarc::driver::sys::is_culib_present() } {
+        Ok(())
+    } else {
+        bail!(
+            "the NVIDIA driver library (libcuda.so) was not found: this machine has no NVIDIA driver, \
+             or it is not on the loader path. Install the NVIDIA driver, or use --backend cpu"
+        )
+    }
+}
+
+/// NVRTC can be opened, looking where build.rs looks: `NVRTC_LIB`, `CUDA_HOME`/`CUDA_PATH`,
+/// /usr/local/cuda, then the loader path. Checked once per process.
+pub fn ensure_nvrtc() -> Result<()> {
+    static FOUND: OnceLock<Result<(), String>> = OnceLock::new();
+    match FOUND.get_or_init(find_nvrtc) {
+        Ok(()) => Ok(()),
+        Err(why) => bail!("{why}"),
+    }
+}
+
+fn find_nvrtc() -> Result<(), String> {
+    let mut folders: Vec<PathBuf> = Vec::new();
+    if let Some(lib) = std::env::var_os("NVRTC_LIB").map(PathBuf::from) {
+        preload(lib.parent().unwrap_or(Path::new(".")), Some(&lib));
+    } else {
+        for var in ["CUDA_HOME", "CUDA_PATH"] {
+            if let Some(root) = std::env::var_os(var) {
+                folders.push(PathBuf::from(root).join("lib64"));
+            }
+        }
+        folders.push(PathBuf::from("/usr/local/cuda/lib64"));
+        for folder in &folders {
+            if preload(folder, None) {
+                break;
+            }
+        }
+    }
+    // SAFETY: only tries to open the library by its usual names (or finds the one preloaded above).
+    if unsafe { cudarc::nvrtc::sys::is_culib_present() } {
+        Ok(())
+    } else {
+        Err(
+            "NVRTC (libnvrtc.so) was not found, and the kernels must be compiled at run time. \
+             Install the CUDA toolkit (or only NVRTC: `pip install nvidia-cuda-nvrtc==13.0.88`) and set \
+             NVRTC_LIB to its libnvrtc.so.*, or rebuild with NVRTC present (see .ci/install-nvrtc) so \
+             the kernels are compiled into the binary"
+                .to_string(),
+        )
+    }
+}
+
+/// Opens the builtins library and libnvrtc of `folder` (or `nvrtc`) globally and keeps them open, so
+/// that cudarc's open by bare name, and libnvrtc's own open of its builtins, find them.
+fn preload(folder: &Path, nvrtc: Option<&Path>) -> bool {
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return false;
+    };
+    let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+    names.sort();
+    let is_lib = |p: &PathBuf, prefix: &str| {
+        p.file_name()
+            .and_then(|f| f.to_str())
+            .is_some_and(|f| f.starts_with(prefix) && !f.contains(".alt."))
+    };
+    let builtins = names.iter().find(|p| is_lib(p, "libnvrtc-builtins.so")).cloned();
+    let Some(nvrtc) = nvrtc
+        .map(Path::to_path_buf)
+        .or_else(|| names.iter().find(|p| is_lib(p, "libnvrtc.so")).cloned())
+    else {
+        return false;
+    };
+    let mut loaded = false;
+    for library in builtins.iter().chain(std::iter::once(&nvrtc)) {
+        use libloading::os::unix::{Library, RTLD_GLOBAL, RTLD_NOW};
+        // SAFETY: NVIDIA's libraries have no unusual initialisers; leaked so they stay loaded.
+        if let Ok(handle) = unsafe { Library::open(Some(library), RTLD_NOW | RTLD_GLOBAL) } {
+            std::mem::forget(handle);
+            loaded = library == &nvrtc;
+        }
+    }
+    loaded
+}
+
+/// Whether a CUDA device can be used here: the driver library loads, initialises and reports a
+/// device. The reason where not (for tests that skip, and for `--backend auto`'s notice).
+pub fn device_available() -> Result<()> {
+    ensure_driver()?;
+    cudarc::driver::result::init()
+        .map_err(|e| anyhow::anyhow!("the CUDA driver does not initialise: {e}"))?;
+    let count = cudarc::driver::result::device::get_count()
+        .map_err(|e| anyhow::anyhow!("cannot count CUDA devices: {e}"))?;
+    if count < 1 {
+        bail!("the CUDA driver reports no device");
+    }
+    Ok(())
+}

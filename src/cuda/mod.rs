@@ -1,0 +1,16 @@
+//! The CUDA backend: NVRTC-built kernels (kernels/*.cu) launched through cudarc on one stream.
+//!
+//! - [`library`]: finding libcuda and NVRTC before cudarc touches them (missing = error, not panic).
+//! - [`modules`]: the PTX that build.rs embedded, or a run-time NVRTC compile where needed.
+//! - [`solver`]: [`CudaSolver`], the device particle state and the substep's kernel launches.
+//! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
+//! - [`timing`]: per-phase CUDA events, read back without stalling.
+
+pub mod library;
+pub mod modules;
+pub mod solver;
+pub mod spawn;
+pub mod timing;
+
+pub use modules::Origin as ModuleOrigin;
+pub use solver::{fixed_point_scales, CudaOptions, CudaSolver, NvtxRange};

@@ -1,0 +1,160 @@
+//! The kernel modules: PTX embedded by build.rs, loaded into the context; or, where the build had no
+//! NVRTC or the driver refuses the PTX, the embedded source compiled at run time by NVRTC straight to
+//! a cubin for this GPU (a cubin carries no PTX version, so a newer NVRTC than the driver still works).
+
+use super::library;
+use anyhow::{anyhow, bail, Context, Result};
+use cudarc::driver::{sys::CUresult, CudaContext, CudaFunction, CudaModule, DriverError};
+use cudarc::nvrtc::{result as nvrtc, sys as nvrtc_sys, Ptx};
+use std::ffi::{CStr, CString};
+use std::sync::Arc;
+
+/// One `kernels/*.cu` file as build.rs embedded it.
+#[derive(Debug, Clone, Copy)]
+pub struct KernelModule {
+    /// The file stem, e.g. `p2g`.
+    pub name: &'static str,
+    /// The source with `common.cuh` pasted in.
+    pub source: &'static str,
+    /// `compute_75` PTX, or `None` where the build had no NVRTC.
+    pub ptx_compute_75: Option<&'static str>,
+    /// `compute_90` PTX (Hopper and newer), or `None` where the build had no NVRTC.
+    pub ptx_compute_90: Option<&'static str>,
+}
+
+#[allow(dead_code)] // every module is listed in `ALL`; not each constant is named elsewhere
+mod embedded {
+    use super::KernelModule;
+    include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
+}
+pub use embedded::ALL as MODULES;
+
+/// Options of the run-time compile, in step with `OPTIONS` in build.rs.
+const COMPILE_OPTIONS: [&str; 2] = ["-lineinfo", "--std=c++17"];
+
+/// How a module came to be loaded, for messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Origin {
+    /// Build-time PTX, JIT-compiled by the driver.
+    EmbeddedPtx,
+    /// Run-time NVRTC, because the build had no NVRTC.
+    RuntimeNoPtx,
+    /// Run-time NVRTC, because the driver refused the embedded PTX.
+    RuntimeRefusedPtx,
+}
+
+/// Every kernel module, loaded.
+pub struct LoadedModules {
+    modules: Vec<(&'static str, Arc<CudaModule>)>,
+    pub origin: Origin,
+}
+
+impl LoadedModules {
+    pub fn load(ctx: &Arc<CudaContext>) -> Result<LoadedModules> {
+        let mut modules = Vec::new();
+        let mut origin = Origin::EmbeddedPtx;
+        for module in MODULES {
+            let (loaded, how) = load_module(ctx, module)?;
+            if how != Origin::EmbeddedPtx {
+                origin = how;
+            }
+            modules.push((module.name, loaded));
+        }
+        Ok(LoadedModules { modules, origin })
+    }
+
+    /// Kernel `function` of module `module`.
+    pub fn function(&self, module: &str, function: &str) -> Result<CudaFunction> {
+        let (_, loaded) = self
+            .modules
+            .iter()
+            .find(|(name, _)| *name == module)
+            .ok_or_else(|| anyhow!("no kernel module `{module}` was embedded (kernels/{module}.cu)"))?;
+        loaded
+            .load_function(function)
+            .with_context(|| format!("kernel `{function}` not found in kernels/{module}.cu"))
+    }
+}
+
+fn load_module(ctx: &Arc<CudaContext>, module: &KernelModule) -> Result<(Arc<CudaModule>, Origin)> {
+    let (major, minor) = ctx
+        .compute_capability()
+        .context("reading the compute capability")?;
+    let ptx = if major >= 9 {
+        module.ptx_compute_90
+    } else {
+        module.ptx_compute_75
+    };
+    let why_runtime = match ptx {
+        Some(ptx) => match ctx.load_module(Ptx::from_src(ptx)) {
+            Ok(loaded) => return Ok((loaded, Origin::EmbeddedPtx)),
+            Err(DriverError(
+                CUresult::CUDA_ERROR_UNSUPPORTED_PTX_VERSION | CUresult::CUDA_ERROR_INVALID_PTX,
+            )) => Origin::RuntimeRefusedPtx,
+            Err(e) => {
+                return Err(e).with_context(|| format!("loading the PTX of kernels/{}.cu", module.name))
+            }
+        },
+        None => Origin::RuntimeNoPtx,
+    };
+    let reason = match why_runtime {
+        Origin::RuntimeNoPtx => "this binary was built without NVRTC, so it carries no PTX",
+        _ => "the driver refused the embedded PTX (built by an NVRTC newer than the driver)",
+    };
+    let cubin = compile_cubin(module, major, minor).with_context(|| {
+        format!(
+            "kernels/{}.cu must be compiled at run time: {reason}",
+            module.name
+        )
+    })?;
+    let loaded = ctx
+        .load_module(Ptx::from_binary(cubin))
+        .with_context(|| format!("loading the run-time compiled kernels/{}.cu", module.name))?;
+    Ok((loaded, why_runtime))
+}
+
+/// NVRTC the embedded source to a cubin for `sm_{major}{minor}`.
+fn compile_cubin(module: &KernelModule, major: i32, minor: i32) -> Result<Vec<u8>> {
+    library::ensure_nvrtc()?;
+    let file_name = CString::new(format!("{}.cu", module.name))?;
+    let source = CString::new(module.source)?;
+    let program = nvrtc::create_program(&source, Some(file_name.as_c_str()))
+        .map_err(|e| anyhow!("nvrtcCreateProgram: {e:?}"))?;
+    let mut options: Vec<String> = COMPILE_OPTIONS.iter().map(|s| s.to_string()).collect();
+    options.push(format!("--gpu-architecture=sm_{major}{minor}"));
+    // SAFETY: `program` is live until destroy_program below.
+    let compiled = unsafe { nvrtc::compile_program(program, &options) };
+    let result = match compiled {
+        Ok(()) => cubin_of(program),
+        Err(e) => {
+            // SAFETY: as above; the log is NUL-terminated.
+            let log = unsafe { nvrtc::get_program_log(program) }
+                .map(|raw| {
+                    unsafe { CStr::from_ptr(raw.as_ptr()) }
+                        .to_string_lossy()
+                        .into_owned()
+                })
+                .unwrap_or_default();
+            Err(anyhow!("NVRTC failed ({e:?}, options {options:?}):\n{log}"))
+        }
+    };
+    // SAFETY: destroyed exactly once.
+    let _ = unsafe { nvrtc::destroy_program(program) };
+    result
+}
+
+fn cubin_of(program: nvrtc_sys::nvrtcProgram) -> Result<Vec<u8>> {
+    let mut size = 0usize;
+    // SAFETY: `program` compiled successfully; the buffer has the size NVRTC asked for.
+    unsafe { nvrtc_sys::nvrtcGetCUBINSize(program, &mut size) }
+        .result()
+        .map_err(|e| anyhow!("nvrtcGetCUBINSize: {e:?}"))?;
+    if size == 0 {
+        bail!("NVRTC produced an empty cubin");
+    }
+    let mut cubin = vec![0u8; size];
+    unsafe { nvrtc_sys::nvrtcGetCUBIN(program, cubin.as_mut_ptr().cast()) }
+        .result()
+        .map_err(|e| anyhow!("nvrtcGetCUBIN: {e:?}"))?;
+    Ok(cubin)
+}

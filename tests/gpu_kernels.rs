@@ -1,0 +1,477 @@
+//! The CUDA kernels against the CPU reference, headless. Every test prints `skipped: <reason>` and
+//! passes where no CUDA device and driver are usable.
+//!
+//! Why the tolerances are what they are: the kernels compute the CPU reference's expressions in the
+//! same order, but (a) float atomics add a node's contributions in whatever order threads arrive, so a
+//! node sum of k terms differs by up to ~k ulps of its largest term, and (b) NVRTC contracts a*b+c into
+//! fused multiply-adds, which round once instead of twice. Both are relative errors near 1e-7 per
+//! operation; the bounds below allow 1e-5..1e-4 of the quantity's own scale, well above that noise
+//! and far below any real bug (a wrong weight, index or sign is an O(1) error).
+
+use glam::{Mat3, Vec3};
+use mpm::cuda::{library, CudaOptions, CudaSolver};
+use mpm::sim::cpu::{CpuSolver, Stencil};
+use mpm::sim::params::ScatterMode;
+use mpm::sim::{presets, Params, Particles, Scene, Solver};
+
+/// Returns false (after printing why) where there is no usable CUDA device.
+fn cuda_here(test: &str) -> bool {
+    match library::device_available() {
+        Ok(()) => true,
+        Err(why) => {
+            println!("{test}: skipped: {why:#}");
+            false
+        }
+    }
+}
+
+/// A small closed tank, 32 x 24 x 24 nodes, dx = 1/32 m, water at c0 = 10 m/s.
+const SMALL_TANK: &str = r#"
+name = "small-tank"
+[domain]
+size = [1.0, 0.75, 0.75]
+resolution = [32, 24, 24]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[solver]
+scatter = "float"
+[time_step]
+cfl = 0.4
+[[block]]
+min = [0.1, 0.1, 0.1]
+max = [0.6, 0.5, 0.5]
+"#;
+
+fn small_tank(scatter: ScatterMode) -> Scene {
+    let mut scene = Scene::from_toml(SMALL_TANK, "small-tank").expect("the test scene is valid");
+    scene.scatter = scatter;
+    scene
+}
+
+fn step_params(scene: &Scene) -> Params {
+    let mut params = scene.params();
+    let (_, dt) = scene
+        .time_step
+        .substeps(scene.material.sound_speed() + 2.0, scene.dx)
+        .expect("a step");
+    params.dt = dt;
+    params
+}
+
+/// A deterministic generator (no dependency needed for test noise): xorshift64*.
+struct Noise(u64);
+impl Noise {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40;
+        bits as f32 / (1u64 << 24) as f32 * 2.0 - 1.0 // [-1, 1)
+    }
+    fn vec3(&mut self, scale: f32) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next()) * scale
+    }
+}
+
+/// The scene's lattice, each particle jittered by up to 0.2 of the particle spacing, with random
+/// velocities (|v| up to 1 m/s per axis) and affine matrices (up to 5 1/s per entry): every term
+/// of every kernel is exercised, and the density stays within tens of percent of rest.
+fn random_particles(scene: &Scene, seed: u64) -> Particles {
+    let mut noise = Noise(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
+    let spacing = scene.lattice().spacing as f32;
+    let mut p = scene.spawn();
+    for i in 0..p.len() {
+        p.x[i] += noise.vec3(0.2 * spacing);
+        p.v[i] = noise.vec3(1.0);
+        p.c[i] = Mat3::from_cols(noise.vec3(5.0), noise.vec3(5.0), noise.vec3(5.0));
+    }
+    p
+}
+
+fn max_abs(values: impl Iterator<Item = f32>) -> f32 {
+    values.fold(0.0, |m, v| m.max(v.abs()))
+}
+
+fn max_diff_vec3(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max)
+}
+
+fn max_diff_mat3(a: &[Mat3], b: &[Mat3]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (*x - *y)
+                .to_cols_array()
+                .iter()
+                .fold(0.0f32, |m, v| m.max(v.abs()))
+        })
+        .fold(0.0, f32::max)
+}
+
+fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
+    let cpu = CpuSolver::new(particles.clone(), scene.grid_res);
+    let gpu = CudaSolver::from_particles(scene, particles, CudaOptions::default()).expect("CUDA solver");
+    (cpu, gpu)
+}
+
+#[test]
+fn p2g_init_matches_cpu() {
+    if !cuda_here("p2g_init_matches_cpu") {
+        return;
+    }
+    for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
+        let scene = small_tank(scatter);
+        let particles = random_particles(&scene, 1);
+        let params = step_params(&scene);
+        let (mut cpu, mut gpu) = pair(&scene, &particles);
+        cpu.clear_grid();
+        cpu.p2g_init(&params);
+        gpu.p2g_init(&params).unwrap();
+        let (mass, _) = gpu.read_grid_accumulators(&params).unwrap();
+        let scale = max_abs(cpu.grid.mass.iter().copied());
+        let err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
+        println!(
+            "p2g_init {scatter:?}: max |mass error| = {:.2e} of the largest node mass",
+            err / scale
+        );
+        assert!(
+            err <= 1e-5 * scale,
+            "{scatter:?}: mass error {err} vs node mass {scale}"
+        );
+    }
+}
+
+#[test]
+fn p2g_matches_cpu() {
+    if !cuda_here("p2g_matches_cpu") {
+        return;
+    }
+    for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
+        let scene = small_tank(scatter);
+        let particles = random_particles(&scene, 2);
+        let params = step_params(&scene);
+        let (mut cpu, mut gpu) = pair(&scene, &particles);
+        cpu.clear_grid();
+        cpu.p2g_init(&params);
+        cpu.p2g(&params);
+        gpu.p2g_init(&params).unwrap();
+        gpu.p2g(&params).unwrap();
+        let (_, momentum) = gpu.read_grid_accumulators(&params).unwrap();
+        let rho = gpu.read_particles().unwrap().rho;
+        let rho_err = max_abs(rho.iter().zip(&cpu.particles.rho).map(|(a, b)| (a - b) / b));
+        // The momentum sums large, cancelling stress impulses, so the error is judged against the
+        // largest node momentum rather than each node's own (possibly near-zero) value.
+        let scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
+        let err = max_diff_vec3(&momentum, &cpu.grid.momentum);
+        println!(
+            "p2g {scatter:?}: max relative rho error {rho_err:.2e}, max momentum error {:.2e} of the largest",
+            err / scale
+        );
+        assert!(rho_err <= 1e-5, "{scatter:?}: density error {rho_err}");
+        assert!(
+            err <= 1e-4 * scale,
+            "{scatter:?}: momentum error {err} vs {scale}"
+        );
+    }
+}
+
+#[test]
+fn grid_update_and_g2p_match_cpu() {
+    if !cuda_here("grid_update_and_g2p_match_cpu") {
+        return;
+    }
+    for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
+        let scene = small_tank(scatter);
+        let particles = random_particles(&scene, 3);
+        let params = step_params(&scene);
+        let (mut cpu, mut gpu) = pair(&scene, &particles);
+        cpu.clear_grid();
+        cpu.p2g_init(&params);
+        cpu.p2g(&params);
+        cpu.grid_update(&params);
+        gpu.p2g_init(&params).unwrap();
+        gpu.p2g(&params).unwrap();
+        gpu.grid_update(&params).unwrap();
+        let (_, velocity) = gpu.read_grid_velocity().unwrap();
+        // v = mv / m: at a node that only a stencil's edge touches, m is a tiny weight and the ratio
+        // amplifies the momentum's rounding; nodes under 1 % of a particle's mass are left out.
+        let m_min = 0.01 * scene.material.particle_mass;
+        let vmax = max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
+        let mut err = 0.0f32;
+        for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
+            if m > m_min {
+                err = err.max((*v - *cpu_v).abs().max_element());
+            }
+        }
+        println!(
+            "grid_update {scatter:?}: max velocity error {:.2e} of the largest",
+            err / vmax
+        );
+        assert!(
+            err <= 1e-4 * vmax,
+            "{scatter:?}: grid velocity error {err} vs {vmax}"
+        );
+
+        cpu.g2p(&params);
+        gpu.g2p(&params).unwrap();
+        let p = gpu.read_particles().unwrap();
+        let dv = max_diff_vec3(&p.v, &cpu.particles.v);
+        let dc = max_diff_mat3(&p.c, &cpu.particles.c);
+        let dxp = max_diff_vec3(&p.x, &cpu.particles.x) / scene.dx;
+        let cmax = max_abs(cpu.particles.c.iter().flat_map(|m| m.to_cols_array()));
+        println!(
+            "g2p {scatter:?}: max |dv| {dv:.2e} m/s, max |dC| {:.2e} of the largest, max |dx| {dxp:.2e} dx",
+            dc / cmax
+        );
+        assert!(dv <= 1e-4 * vmax, "{scatter:?}: particle velocity error {dv}");
+        assert!(dc <= 1e-3 * cmax, "{scatter:?}: C error {dc} vs {cmax}");
+        assert!(dxp <= 1e-5, "{scatter:?}: position error {dxp} dx");
+    }
+}
+
+#[test]
+fn transfers_conserve_mass_and_momentum() {
+    if !cuda_here("transfers_conserve_mass_and_momentum") {
+        return;
+    }
+    let scene = small_tank(ScatterMode::Float);
+    let particles = random_particles(&scene, 4);
+    let params = step_params(&scene);
+    let (_, mut gpu) = pair(&scene, &particles);
+    gpu.p2g_init(&params).unwrap();
+    gpu.p2g(&params).unwrap();
+    let (mass, momentum) = gpu.read_grid_accumulators(&params).unwrap();
+    let m_p = f64::from(scene.material.particle_mass);
+    let grid_mass: f64 = mass.iter().map(|&m| f64::from(m)).sum();
+    let particle_mass = particles.len() as f64 * m_p;
+    let grid_p = momentum.iter().fold(glam::DVec3::ZERO, |s, m| s + m.as_dvec3());
+    let particle_p = particles
+        .v
+        .iter()
+        .fold(glam::DVec3::ZERO, |s, v| s + v.as_dvec3() * m_p);
+    // sum_i w = 1 and sum_i w d = 0 per particle, so both totals are exact up to rounding; the scale
+    // of the momentum rounding is the particles' summed |m v|.
+    let p_scale: f64 = particles.v.iter().map(|v| f64::from(v.length()) * m_p).sum();
+    let mass_err = (grid_mass - particle_mass).abs() / particle_mass;
+    let p_err = (grid_p - particle_p).abs().max_element() / p_scale;
+    println!("mass error {mass_err:.2e}, momentum error {p_err:.2e} of sum |m v|");
+    assert!(
+        mass_err <= 1e-5,
+        "grid mass {grid_mass} vs particle mass {particle_mass}"
+    );
+    assert!(
+        p_err <= 1e-4,
+        "grid momentum {grid_p} vs particle momentum {particle_p}"
+    );
+}
+
+/// A few hundred steps of the small tank's dam break on both backends, in units of dx.
+#[test]
+fn dam_break_follows_cpu_trajectory() {
+    if !cuda_here("dam_break_follows_cpu_trajectory") {
+        return;
+    }
+    const STEPS: usize = 300;
+    let scene = small_tank(ScatterMode::FixedPoint);
+    let params = step_params(&scene);
+    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
+    for step in 1..=STEPS {
+        cpu.step(&params).unwrap();
+        gpu.step(&params).unwrap();
+        if step % 100 == 0 {
+            let p = gpu.read_particles().unwrap();
+            let errors: Vec<f32> =
+                p.x.iter()
+                    .zip(&cpu.particles.x)
+                    .map(|(a, b)| (*a - *b).length() / scene.dx)
+                    .collect();
+            let max = errors.iter().copied().fold(0.0, f32::max);
+            let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+            println!("step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
+            // Rounding differences (see the top of the file) grow along the trajectory; a wrong term
+            // would move particles by whole cells within these steps.
+            assert!(
+                max <= 0.1 && rms <= 0.01,
+                "step {step}: max {max} dx, rms {rms} dx"
+            );
+        }
+    }
+    let extremes = gpu.take_extremes().unwrap();
+    assert!(extremes.max_density > scene.material.rest_density * 0.9 && extremes.max_speed > 0.0);
+}
+
+fn run_steps(scene: &Scene, steps: usize) -> Particles {
+    let params = step_params(scene);
+    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+    for _ in 0..steps {
+        gpu.step(&params).unwrap();
+    }
+    gpu.take_extremes().unwrap();
+    gpu.read_particles().unwrap()
+}
+
+fn particle_bytes(p: &Particles) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    bytes.extend_from_slice(bytemuck::cast_slice(&p.x));
+    bytes.extend_from_slice(bytemuck::cast_slice(&p.v));
+    bytes.extend_from_slice(bytemuck::cast_slice(&p.c));
+    bytes.extend_from_slice(bytemuck::cast_slice(&p.rho));
+    bytes
+}
+
+#[test]
+fn fixed_point_is_byte_identical_and_float_is_close() {
+    if !cuda_here("fixed_point_is_byte_identical_and_float_is_close") {
+        return;
+    }
+    const STEPS: usize = 200;
+    let fixed = small_tank(ScatterMode::FixedPoint);
+    let first = run_steps(&fixed, STEPS);
+    let second = run_steps(&fixed, STEPS);
+    assert!(
+        particle_bytes(&first) == particle_bytes(&second),
+        "two fixed-point runs differ"
+    );
+    let float = run_steps(&small_tank(ScatterMode::Float), STEPS);
+    let max = max_diff_vec3(&float.x, &first.x) / fixed.dx;
+    println!("after {STEPS} steps: fixed-point runs identical; float vs fixed-point max |dx| {max:.3e} dx");
+    assert!(
+        max <= 0.05,
+        "float and fixed-point scatter drifted {max} dx apart"
+    );
+}
+
+#[test]
+fn fixed_point_overflow_is_reported() {
+    if !cuda_here("fixed_point_overflow_is_reported") {
+        return;
+    }
+    let scene = small_tank(ScatterMode::FixedPoint);
+    let mut particles = scene.spawn();
+    particles.v[0] = Vec3::new(1e9, 0.0, 0.0); // far past any speed the scales allow for
+    let params = step_params(&scene);
+    let mut gpu = CudaSolver::from_particles(&scene, &particles, CudaOptions::default()).unwrap();
+    gpu.step(&params).unwrap();
+    let err = gpu.take_extremes().expect_err("the overflow must be reported");
+    println!("reported: {err:#}");
+    assert!(format!("{err:#}").contains("overflowed"));
+}
+
+#[test]
+fn device_spawn_matches_scene_spawn() {
+    if !cuda_here("device_spawn_matches_scene_spawn") {
+        return;
+    }
+    // Overlapping bodies: the sphere must skip what the blocks cover, the second block what the
+    // first covers.
+    const OVERLAPS: &str = r#"
+[domain]
+size = [1.0, 1.0, 1.0]
+resolution = [40, 40, 40]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[[block]]
+min = [0.1, 0.1, 0.1]
+max = [0.5, 0.4, 0.5]
+velocity = [1.0, 0.0, 0.0]
+[[block]]
+min = [0.3, 0.2, 0.3]
+max = [0.7, 0.6, 0.9]
+particles_per_cell = 8
+[[sphere]]
+center = [0.5, 0.6, 0.5]
+radius = 0.2
+velocity = [0.0, -2.0, 0.0]
+"#;
+    let mut scenes = vec![Scene::from_toml(OVERLAPS, "overlaps").unwrap()];
+    for name in presets::NAMES {
+        scenes.push(Scene::load(name).unwrap());
+    }
+    for scene in &scenes {
+        let host = scene.spawn();
+        let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+        let device = gpu.read_particles().unwrap();
+        assert_eq!(device.len(), host.len(), "{}: particle count", scene.name);
+        let first_diff = (0..host.len()).find(|&i| device.x[i] != host.x[i] || device.v[i] != host.v[i]);
+        assert!(
+            first_diff.is_none(),
+            "{}: particle {:?} differs",
+            scene.name,
+            first_diff.map(|i| (i, device.x[i], host.x[i]))
+        );
+        assert!(
+            device.c.iter().all(|c| *c == Mat3::ZERO) && device.rho == host.rho,
+            "{}",
+            scene.name
+        );
+        println!(
+            "{}: {} particles spawned on the device, identical to Scene::spawn()",
+            scene.name,
+            host.len()
+        );
+    }
+}
+
+#[test]
+fn phase_timings_are_measured() {
+    if !cuda_here("phase_timings_are_measured") {
+        return;
+    }
+    let scene = small_tank(ScatterMode::Float);
+    let params = step_params(&scene);
+    let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
+    for _ in 0..10 {
+        gpu.step(&params).unwrap();
+    }
+    gpu.take_extremes().unwrap(); // waits for the device, so all ten steps are complete
+    let timings = gpu.take_timings().unwrap().expect("CUDA measures timings");
+    println!("{timings:?}");
+    assert_eq!(timings.steps, 10);
+    assert!(timings.p2g > 0.0 && timings.p2g_init > 0.0 && timings.grid_update > 0.0 && timings.g2p > 0.0);
+    let again = gpu.take_timings().unwrap().expect("timings");
+    assert_eq!(again.steps, 0, "timings are taken once");
+}
+
+/// The sort's order is a permutation with the particles' cells non-decreasing, on a grid whose scan
+/// needs two levels (block 128) and three (block 32).
+#[test]
+fn sort_orders_particles_by_cell() {
+    if !cuda_here("sort_orders_particles_by_cell") {
+        return;
+    }
+    let scene = Scene::load("bench-655k").unwrap();
+    let particles = random_particles(&scene, 5);
+    let params = step_params(&scene);
+    let shape = mpm::sim::cpu::GridShape {
+        res: glam::UVec3::from(scene.grid_res),
+    };
+    let cell = |i: u32| shape.index(Stencil::new(particles.x[i as usize], params.inv_dx).base);
+    for block_size in [128, 32] {
+        let options = CudaOptions {
+            block_size,
+            ..CudaOptions::default()
+        };
+        let mut gpu = CudaSolver::from_particles(&scene, &particles, options).unwrap();
+        gpu.sort_particles(&params).unwrap();
+        let order = gpu.read_order().unwrap();
+        let mut seen = vec![false; order.len()];
+        for &p in &order {
+            assert!(
+                !std::mem::replace(&mut seen[p as usize], true),
+                "particle {p} twice"
+            );
+        }
+        let unsorted = order.windows(2).filter(|w| cell(w[0]) > cell(w[1])).count();
+        println!(
+            "block {block_size}: {} particles sorted, {unsorted} out of cell order",
+            order.len()
+        );
+        assert_eq!(unsorted, 0);
+    }
+}
