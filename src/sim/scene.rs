@@ -300,7 +300,12 @@ impl Scene {
 
     /// The lowest and highest coordinate a fluid body may reach on each axis: inside the boundary band.
     pub fn fluid_region(&self) -> (DVec3, DVec3) {
-        fluid_region(self.grid_res, f64::from(self.dx), self.boundary_band)
+        fluid_region(
+            self.grid_res,
+            f64::from(self.dx),
+            self.boundary_band,
+            self.soft_wall,
+        )
     }
 
     /// The particles, in body order, each body's lattice points in x-fastest order, skipping points
@@ -331,14 +336,23 @@ impl Scene {
     }
 }
 
-fn fluid_region(res: [u32; 3], dx: f64, band: u32) -> (DVec3, DVec3) {
-    let lo = DVec3::splat(f64::from(band) * dx);
+/// Where particles can be. Nodes below `band` (and from `res - band` up) have no wall-normal velocity,
+/// so fluid settles against the wall between node `band - 1` and `band`; for the usual band of 2 this
+/// is exactly the clamp range [1, R-2] dx of g2p. The soft wall pushes particles back from
+/// (band + 1) dx and (R - band - 2) dx instead. Bodies spawned inside start against the walls rather
+/// than slumping into a gap or being squeezed.
+fn fluid_region(res: [u32; 3], dx: f64, band: u32, soft_wall: bool) -> (DVec3, DVec3) {
+    let (lo, hi_margin) = if soft_wall {
+        (band + 1, band + 2)
+    } else {
+        ((band - 1).max(1), band.max(2))
+    };
     let hi = DVec3::new(
-        f64::from(res[0] - 1 - band),
-        f64::from(res[1] - 1 - band),
-        f64::from(res[2] - 1 - band),
-    ) * dx;
-    (lo, hi)
+        f64::from(res[0] - hi_margin),
+        f64::from(res[1] - hi_margin),
+        f64::from(res[2] - hi_margin),
+    );
+    (DVec3::splat(f64::from(lo) * dx), hi * dx)
 }
 
 /// The particle lattice: points at (j + 1/2) h on every axis, h = dx / particles-per-axis, so a
@@ -453,7 +467,7 @@ impl Validator<'_> {
         let particles_per_axis = self.particles_per_axis(spec)?;
         let material = self.material(&spec.material, dx, particles_per_axis)?;
         let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
-        let bodies = self.bodies(spec, grid_res, dx, band)?;
+        let bodies = self.bodies(spec, grid_res, dx, band, spec.solver.soft_wall)?;
         let max_body_speed = bodies.iter().map(|b| b.velocity.length()).fold(0.0, f32::max);
         let time_step = self.time_step(&spec.time_step, &material, dx, max_body_speed)?;
 
@@ -473,8 +487,10 @@ impl Validator<'_> {
             bodies,
             num_particles: 0,
         };
+        // The exact count walks every lattice point: refuse absurd sizes from the volume estimate first.
+        self.fits_in_memory(&scene, self.estimate_particles(&scene))?;
         scene.num_particles = self.count_particles(&scene)?;
-        self.fits_in_memory(&scene)?;
+        self.fits_in_memory(&scene, scene.num_particles)?;
         Ok(scene)
     }
 
@@ -616,14 +632,22 @@ impl Validator<'_> {
         })
     }
 
-    fn bodies(&self, spec: &SceneSpec, res: [u32; 3], dx: f64, band: u32) -> Result<Vec<Body>, SceneError> {
-        let (lo, hi) = fluid_region(res, dx, band);
+    fn bodies(
+        &self,
+        spec: &SceneSpec,
+        res: [u32; 3],
+        dx: f64,
+        band: u32,
+        soft_wall: bool,
+    ) -> Result<Vec<Body>, SceneError> {
+        let (lo, hi) = fluid_region(res, dx, band, soft_wall);
         let region = format!(
             "[{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}] m",
             lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
         );
         let fix = format!(
-            "keep bodies inside the fluid region {region} (the domain less the {band}-node boundary band)"
+            "keep bodies inside the fluid region {region} (the domain less the {band}-node boundary band{})",
+            if soft_wall { " and the soft wall" } else { "" }
         );
         let mut bodies = Vec::new();
         for (i, b) in spec.blocks.iter().enumerate() {
@@ -771,9 +795,24 @@ impl Validator<'_> {
         Ok(total)
     }
 
-    fn fits_in_memory(&self, scene: &Scene) -> Result<(), SceneError> {
+    /// Body volumes over the lattice cell volume, overlaps counted twice: cheap, and close enough to
+    /// refuse a scene that could never fit before counting its points one by one.
+    fn estimate_particles(&self, scene: &Scene) -> usize {
+        let cell = scene.lattice().spacing.powi(3);
+        let volume: f64 = scene
+            .bodies
+            .iter()
+            .map(|b| match b.shape {
+                Shape::Block { min, max } => (max - min).element_product(),
+                Shape::Sphere { radius, .. } => 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
+            })
+            .sum();
+        (volume / cell) as usize
+    }
+
+    fn fits_in_memory(&self, scene: &Scene, particles: usize) -> Result<(), SceneError> {
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
-        let needed = scene.num_particles * CPU_BYTES_PER_PARTICLE + nodes * CPU_BYTES_PER_NODE;
+        let needed = particles.saturating_mul(CPU_BYTES_PER_PARTICLE) + nodes * CPU_BYTES_PER_NODE;
         if nodes > u32::MAX as usize {
             return Err(self.err(
                 "domain.resolution",
@@ -788,7 +827,7 @@ impl Validator<'_> {
                     format!(
                         "needs {:.1} GiB ({} particles, {} grid nodes) but this machine has {:.1} GiB available",
                         gib(needed as u64),
-                        scene.num_particles,
+                        particles,
                         nodes,
                         gib(available)
                     ),

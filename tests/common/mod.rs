@@ -1,0 +1,60 @@
+//! Helpers shared by the CPU test files.
+#![allow(dead_code)]
+
+use mpm::sim::cpu::CpuSolver;
+use mpm::sim::{Params, Particles, Scene};
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+/// A scene from inline TOML; panics with the validation message if the test wrote a bad one.
+pub fn scene(toml: &str) -> Scene {
+    Scene::from_toml(toml, "test scene").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The CPU solver of a scene and its parameters with `dt` set.
+pub fn cpu(scene: &Scene, dt: f32) -> (CpuSolver, Params) {
+    let mut params = scene.params();
+    params.dt = dt;
+    (CpuSolver::new(scene.spawn(), scene.grid_res), params)
+}
+
+/// `n` particles with random positions in `[lo, hi)` (m), velocities up to `speed` per component and
+/// C entries up to `shear` (1/s).
+pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed: u64) -> Particles {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    let mut r = |a: f32, b: f32| if a < b { rng.random_range(a..b) } else { a };
+    let mut p = Particles::default();
+    for _ in 0..n {
+        p.x.push(glam::Vec3::new(r(lo, hi), r(lo, hi), r(lo, hi)));
+        p.v.push(glam::Vec3::new(
+            r(-speed, speed),
+            r(-speed, speed),
+            r(-speed, speed),
+        ));
+        let cols: [f32; 9] = std::array::from_fn(|_| r(-shear, shear));
+        p.c.push(glam::Mat3::from_cols_array(&cols));
+        p.rho.push(0.0);
+    }
+    p
+}
+
+/// A water scene in a cube of `res` nodes at dx = 1 cm, with the given bodies and solver tables
+/// appended (TOML).
+pub fn water_box(res: u32, extra: &str) -> String {
+    format!(
+        r#"
+[domain]
+size = [{size}, {size}, {size}]
+resolution = [{res}, {res}, {res}]
+
+[material]
+rest_density = 1000.0
+sound_speed = 20.0
+eos_power = 7.0
+viscosity = 1.0e-3
+pressure_floor = 0.0
+{extra}
+"#,
+        size = f64::from(res) * 0.01
+    )
+}

