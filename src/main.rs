@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::export::PlyExporter;
 use mpm::runner::{self, RunOptions, StatsFile};
-use mpm::sim::{presets, Scene, Simulation};
+use mpm::sim::{presets, ScatterMode, Scene, Simulation};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -43,6 +43,9 @@ struct RunArgs {
     frames: u64,
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
+    /// GPU scatter mode, overriding the scene's `solver.scatter`.
+    #[arg(long, value_enum)]
+    scatter: Option<ScatterMode>,
     /// Write one binary PLY per exported frame (frame 0 is the initial state) into this directory.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
@@ -58,7 +61,10 @@ struct RunArgs {
 }
 
 fn run(args: RunArgs) -> Result<()> {
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some(scatter) = args.scatter {
+        scene.scatter = scatter;
+    }
     // Open every output before the first step, so a bad path fails at once, not after a long run.
     let export = args
         .export

@@ -46,7 +46,9 @@ impl Material {
 }
 
 /// How p2g accumulates into the grid on the GPU. The CPU reference is sequential and ignores it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum ScatterMode {
     /// Float atomics, as in the report: fastest, but the summation order (and so the last bits) varies.
