@@ -2,6 +2,7 @@
 //! panics when a library is missing, so absence is checked here first and becomes an error that says
 //! what to install.
 
+use super::nvrtc_preload::preload_folder_libraries;
 use anyhow::{bail, Result};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -32,7 +33,8 @@ pub fn ensure_nvrtc() -> Result<()> {
 fn find_nvrtc() -> Result<(), String> {
     let mut folders: Vec<PathBuf> = Vec::new();
     if let Some(lib) = std::env::var_os("NVRTC_LIB").map(PathBuf::from) {
-        preload(lib.parent().unwrap_or(Path::new(".")), Some(&lib));
+        // A library that does not load is reported below, by the presence check.
+        let _ = preload_folder_libraries(lib.parent().unwrap_or(Path::new(".")), Some(&lib));
     } else {
         for var in ["CUDA_HOME", "CUDA_PATH"] {
             if let Some(root) = std::env::var_os(var) {
@@ -41,7 +43,7 @@ fn find_nvrtc() -> Result<(), String> {
         }
         folders.push(PathBuf::from("/usr/local/cuda/lib64"));
         for folder in &folders {
-            if preload(folder, None) {
+            if preload_folder_libraries(folder, None).unwrap_or(false) {
                 break;
             }
         }
@@ -58,38 +60,6 @@ fn find_nvrtc() -> Result<(), String> {
                 .to_string(),
         )
     }
-}
-
-/// Opens the builtins library and libnvrtc of `folder` (or `nvrtc`) globally and keeps them open, so
-/// that cudarc's open by bare name, and libnvrtc's own open of its builtins, find them.
-fn preload(folder: &Path, nvrtc: Option<&Path>) -> bool {
-    let Ok(entries) = std::fs::read_dir(folder) else {
-        return false;
-    };
-    let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
-    names.sort();
-    let is_lib = |p: &PathBuf, prefix: &str| {
-        p.file_name()
-            .and_then(|f| f.to_str())
-            .is_some_and(|f| f.starts_with(prefix) && !f.contains(".alt."))
-    };
-    let builtins = names.iter().find(|p| is_lib(p, "libnvrtc-builtins.so")).cloned();
-    let Some(nvrtc) = nvrtc
-        .map(Path::to_path_buf)
-        .or_else(|| names.iter().find(|p| is_lib(p, "libnvrtc.so")).cloned())
-    else {
-        return false;
-    };
-    let mut loaded = false;
-    for library in builtins.iter().chain(std::iter::once(&nvrtc)) {
-        use libloading::os::unix::{Library, RTLD_GLOBAL, RTLD_NOW};
-        // SAFETY: NVIDIA's libraries have no unusual initialisers; leaked so they stay loaded.
-        if let Ok(handle) = unsafe { Library::open(Some(library), RTLD_NOW | RTLD_GLOBAL) } {
-            std::mem::forget(handle);
-            loaded = library == &nvrtc;
-        }
-    }
-    loaded
 }
 
 /// Whether a CUDA device can be used here: the driver library loads, initialises and reports a

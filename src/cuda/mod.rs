@@ -8,6 +8,7 @@
 
 pub mod library;
 pub mod modules;
+mod nvrtc_preload;
 pub mod solver;
 pub mod spawn;
 pub mod timing;
