@@ -102,6 +102,13 @@ struct SortBuffers {
     top: CudaSlice<u32>,
 }
 
+/// What `mirror_walls` mirrors: the codes of kernels/mirror_walls.cu.
+#[derive(Clone, Copy)]
+enum MirrorQuantity {
+    Mass = 0,
+    Momentum = 1,
+}
+
 struct Kernels {
     sort_count: CudaFunction,
     scan_tiles: CudaFunction,
@@ -111,6 +118,7 @@ struct Kernels {
     p2g: CudaFunction,
     grid_update: CudaFunction,
     g2p: CudaFunction,
+    mirror_walls: CudaFunction,
     spawn_count: CudaFunction,
     spawn_write: CudaFunction,
 }
@@ -126,6 +134,7 @@ impl Kernels {
             p2g: modules.function("p2g", "p2g")?,
             grid_update: modules.function("grid_update", "grid_update")?,
             g2p: modules.function("g2p", "g2p")?,
+            mirror_walls: modules.function("mirror_walls", "mirror_walls")?,
             spawn_count: modules.function("spawn", "spawn_count")?,
             spawn_write: modules.function("spawn", "spawn_write")?,
         })
@@ -450,6 +459,46 @@ impl CudaSolver {
         self.after_launch("p2g_init", launched)
     }
 
+    /// The walls' image mass, between p2g_init and p2g (kernels/mirror_walls.cu).
+    pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
+        self.mirror_walls(params, MirrorQuantity::Mass)
+    }
+
+    /// The walls' image momentum, wall-normal component reflected, between p2g and grid_update.
+    pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
+        self.mirror_walls(params, MirrorQuantity::Momentum)
+    }
+
+    /// One launch per axis, x, y, z in turn: each axis's images must include the previous axes'.
+    fn mirror_walls(&mut self, params: &Params, quantity: MirrorQuantity) -> Result<()> {
+        if params.wall_mirror_lo == 0 {
+            return Ok(());
+        }
+        let params = self.device_params(params)?;
+        let _range = NvtxRange::new("mirror_walls");
+        let (fixed_mass, fixed_momentum) = match &self.fixed {
+            Some(f) => (&f.mass, &f.momentum),
+            None => (&self.unused_fixed, &self.unused_fixed),
+        };
+        let res = self.grid_res.map(|r| r as usize);
+        for axis in 0..3u32 {
+            let lines = res[(axis as usize + 1) % 3] * res[(axis as usize + 2) % 3];
+            let quantity_code = quantity as u32;
+            let mut launch = self.stream.launch_builder(&self.kernels.mirror_walls);
+            launch
+                .arg(&params)
+                .arg(&axis)
+                .arg(&quantity_code)
+                .arg(&self.grid_acc)
+                .arg(fixed_mass)
+                .arg(fixed_momentum);
+            // SAFETY: as in p2g_init.
+            let launched = unsafe { launch.launch(self.launch_config(lines)) }.map(drop);
+            self.after_launch("mirror_walls", launched)?;
+        }
+        Ok(())
+    }
+
     /// Density from the grid mass, pressure and stress, momentum scatter.
     pub fn p2g(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
@@ -689,9 +738,11 @@ impl Solver for CudaSolver {
         }
         self.steps_since_sort = (self.steps_since_sort + 1) % SORT_INTERVAL;
         self.p2g_init(params)?;
+        self.mirror_mass(params)?;
         self.timing.mark(&self.stream, 1)?;
         self.p2g(params)?;
         self.timing.mark(&self.stream, 2)?;
+        self.mirror_momentum(params)?;
         self.grid_update(params)?;
         self.timing.mark(&self.stream, 3)?;
         self.g2p(params)?;

@@ -160,7 +160,7 @@ pub struct FrameStats {
     /// Simulated seconds at the end of the frame.
     pub time: f64,
     pub substeps: u32,
-    /// The substep, s.
+    /// The smallest substep of the frame, s.
     pub dt: f32,
     /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
     pub max_cfl: f32,
@@ -218,40 +218,58 @@ impl Simulation {
         self.solver.as_mut()
     }
 
-    /// Substeps and substep for the next frame. Gravity can add up to |g| / 60 s of speed within the
-    /// frame, so that is added to the last frame's signal speed: the step is safe for the whole frame.
-    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
-        let gravity_gain = Vec3::from(self.params.gravity).length() * FRAME_DT;
+    /// Substeps and substep for the next stretch of `span` seconds. Gravity can add up to |g| span of
+    /// speed within it, so that is added to the last signal speed: the step is safe for the whole span.
+    fn steps_for(&self, span: f32) -> Result<(u32, f32)> {
+        let gravity_gain = Vec3::from(self.params.gravity).length() * span;
         match self
             .scene
             .time_step
-            .substeps(self.signal_speed + gravity_gain, self.params.dx)
+            .substeps(span, self.signal_speed + gravity_gain, self.params.dx)
         {
             Ok(steps) => Ok(steps),
             Err(why) => bail!("frame {}: {why}", self.frame + 1),
         }
     }
 
-    /// Advance one 60 Hz frame and return its statistics.
+    /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
+    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
+        let choices = self.scene.time_step.choices_per_frame();
+        let (n, dt) = self.steps_for(FRAME_DT / choices as f32)?;
+        Ok((n * choices, dt))
+    }
+
+    /// Advance one 60 Hz frame and return its statistics. The substep is chosen anew
+    /// `choices_per_frame` times in the frame, each time from the extremes of the substeps before.
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
-        let (substeps, dt) = self.next_frame_steps()?;
-        self.params.dt = dt;
-        for _ in 0..substeps {
-            self.solver.step(&self.params)?;
+        let choices = self.scene.time_step.choices_per_frame();
+        let span = FRAME_DT / choices as f32;
+        let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
+        for _ in 0..choices {
+            let (n, dt) = self.steps_for(span)?;
+            self.params.dt = dt;
+            for _ in 0..n {
+                self.solver.step(&self.params)?;
+            }
+            let extremes = self.solver.take_extremes()?;
+            self.signal_speed =
+                self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+            max_cfl = max_cfl.max(self.signal_speed * dt / self.params.dx);
+            substeps += n;
+            smallest_dt = smallest_dt.min(dt);
+            simulated += f64::from(n) * f64::from(dt);
         }
         self.frame += 1;
-        self.time += f64::from(substeps) * f64::from(dt);
+        self.time += simulated;
 
-        let extremes = self.solver.take_extremes()?;
         let material = &self.params.material;
-        self.signal_speed = material.sound_speed_at(extremes.max_density) + extremes.max_speed;
         let summary = self.solver.summary(material)?;
         let stats = FrameStats {
             frame: self.frame,
             time: self.time,
             substeps,
-            dt,
-            max_cfl: self.signal_speed * dt / self.params.dx,
+            dt: smallest_dt,
+            max_cfl,
             summary,
             timings: self.solver.take_timings()?,
         };
