@@ -452,6 +452,8 @@ pub struct SweepReport {
     pub largest_one_step_per_frame: Option<usize>,
     /// The largest measured count that runs real time (a frame's substeps within the frame).
     pub largest_real_time: Option<usize>,
+    /// Where the sweep stopped early, and why (the device could not hold the next size).
+    pub stopped: Option<String>,
 }
 
 /// Steps each size of `particles` (columns in grids grown to keep the fill) on the GPU.
@@ -471,6 +473,7 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
     let mut points = Vec::with_capacity(particles.len());
     let mut device = String::new();
     let mut scatter = ScatterMode::Float;
+    let mut stopped = None;
     for &count in particles {
         let mut scene = column_scene(count, sweep_grid(count))?;
         if let Some(mode) = options.scatter {
@@ -478,8 +481,15 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
         }
         scatter = scene.scatter;
         let free_before = probe.free_bytes()?;
-        let solver = CudaSolver::new(&scene, cuda_options)
-            .with_context(|| format!("the sweep's {} particles", scene.num_particles))?;
+        let solver = match CudaSolver::new(&scene, cuda_options) {
+            Ok(solver) => solver,
+            // A GPU smaller than the sweep's largest size: keep the sizes measured so far.
+            Err(why) if !points.is_empty() => {
+                stopped = Some(format!("{} particles: {why:#}", scene.num_particles));
+                break;
+            }
+            Err(why) => return Err(why.context(format!("the sweep's {} particles", scene.num_particles))),
+        };
         device = solver.device_name();
         let mut sim = Simulation::new(scene.clone(), Box::new(solver));
         let (substeps_per_frame, dt) = sim.next_frame_steps()?;
@@ -548,6 +558,7 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
         ),
         largest_one_step_per_frame: largest(|p| p.one_step_per_frame),
         largest_real_time: largest(|p| p.real_time),
+        stopped,
         points,
     })
 }
@@ -587,6 +598,9 @@ pub fn sweep_table(report: &SweepReport) -> String {
         limit(report.largest_one_step_per_frame),
         limit(report.largest_real_time)
     );
+    if let Some(why) = &report.stopped {
+        let _ = writeln!(out, "The sweep stopped before {why}");
+    }
     out
 }
 
