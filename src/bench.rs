@@ -19,7 +19,7 @@
 use crate::backend::{self, BackendKind};
 use crate::cuda::{self, CudaOptions, CudaSolver};
 use crate::sim::scene::{BlockSpec, DomainSpec, SceneSpec};
-use crate::sim::{presets, PhaseTimings, ScatterMode, Scene, Simulation, Solver};
+use crate::sim::{presets, PhaseTimings, ScatterMode, Scene, Simulation, Solver, MAX_PENDING_STEP_TIMINGS};
 use anyhow::{bail, ensure, Context, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -41,6 +41,8 @@ pub const SWEEP_PARTICLES: [u64; 10] = [
     1 << 25,
     1 << 26,
 ];
+/// The most substeps one phase table measures: each keeps a 56-byte record, so a million is 56 MB.
+pub const MAX_MEASURED_STEPS: usize = 1_000_000;
 /// Substeps dropped before each sweep point is measured.
 pub const SWEEP_WARMUP_STEPS: usize = 20;
 /// Milliseconds of one 60 Hz frame: the budget of the real-time limits.
@@ -203,12 +205,28 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
     }
 }
 
+fn check_steps(flag: &str, steps: usize) -> Result<()> {
+    ensure!(
+        (1..=MAX_MEASURED_STEPS).contains(&steps),
+        "{flag} {steps} is outside 1..={MAX_MEASURED_STEPS}; the report's figure is 5000"
+    );
+    Ok(())
+}
+
+fn check_sweep_steps(steps: usize) -> Result<()> {
+    // The solver keeps at most MAX_PENDING_STEP_TIMINGS unread records, and the sweep reads them
+    // once per size.
+    let max_steps = MAX_PENDING_STEP_TIMINGS - SWEEP_WARMUP_STEPS;
+    ensure!(
+        (1..=max_steps).contains(&steps),
+        "--sweep-steps {steps} is outside 1..={max_steps}; 100 is the default"
+    );
+    Ok(())
+}
+
 /// Per-phase step times of `scene` (see the module's notes for the state measured).
 pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseReport> {
-    ensure!(
-        options.steps >= 1,
-        "the benchmark needs at least one measured step; use --steps 1000 (or more)"
-    );
+    check_steps("--steps", options.steps)?;
     let mut scene = scene.clone();
     if let Some(scatter) = options.scatter {
         scene.scatter = scatter;
@@ -462,7 +480,7 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
         options.backend == BackendKind::Cuda,
         "the scaling sweep measures the GPU; use --backend cuda"
     );
-    ensure!(steps >= 1, "the sweep needs at least one measured step per size");
+    check_sweep_steps(steps)?;
     let mut cuda_options = CudaOptions::from_env()?;
     if let Some(block) = options.block_size {
         cuda_options.block_size = block;
@@ -661,6 +679,14 @@ pub struct BenchPlan {
 
 /// Runs `plan`, printing each markdown table to `out` as it completes.
 pub fn run(plan: &BenchPlan, out: &mut dyn std::io::Write) -> Result<BenchReport> {
+    // Refuse bad counts before minutes of measuring, not after.
+    check_steps("--steps", plan.options.steps)?;
+    if let Some(steps) = plan.cpu_baseline_steps {
+        check_steps("--cpu-steps", steps)?;
+    }
+    if let Some((_, steps)) = &plan.sweep {
+        check_sweep_steps(*steps)?;
+    }
     let started_unix_s = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())
