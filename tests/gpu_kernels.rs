@@ -445,6 +445,10 @@ fn phase_timings_are_measured() {
     println!("{timings:?}");
     assert_eq!(timings.steps, 10);
     assert!(timings.p2g > 0.0 && timings.p2g_init > 0.0 && timings.grid_update > 0.0 && timings.g2p > 0.0);
+    assert!(
+        timings.sort > 0.0,
+        "the first substep sorts, and the sort has its own slot"
+    );
     let again = gpu.take_timings().unwrap().expect("timings");
     assert_eq!(again.steps, 0, "timings are taken once");
 }

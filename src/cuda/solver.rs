@@ -4,7 +4,7 @@
 //!   [sort, every SORT_INTERVAL substeps] -> p2g_init -> p2g -> grid_update (also the grid clear:
 //!   consume-and-zero) -> g2p
 //! The sort (kernels/sort.cu) only rewrites an index buffer, `order`, that the scatter kernels walk;
-//! its time is counted in p2g_init's, as `PhaseTimings` has no slot for it.
+//! its time has its own slot, `PhaseTimings::sort` (near 0 on the substeps it does not run).
 //! The grid clear has no launch of its own: grid_update zeroes each accumulator after reading it, so
 //! `PhaseTimings::grid_clear` stays 0 and its cost is inside grid_update.
 
@@ -87,7 +87,7 @@ struct FixedGrid {
 
 /// Substeps between particle sorts. Particles move well under a cell per substep, so an order a few
 /// substeps old is nearly as good as a fresh one, and the sort's cost (a few small launches) is shared.
-const SORT_INTERVAL: u32 = 8;
+pub const SORT_INTERVAL: u32 = 8;
 /// Values each thread of `scan_tiles` scans (SCAN_ITEMS_PER_THREAD in kernels/sort.cu).
 const SCAN_ITEMS_PER_THREAD: usize = 8;
 
@@ -177,9 +177,10 @@ pub struct CudaSolver {
 
 /// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, sort key and rank)
 /// and per node (two float4, the sort's cell count).
-const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
-const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
-const FIXED_BYTES_PER_NODE: usize = 8 * 4;
+pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
+pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
+/// Added per node by the fixed-point scatter: mass and three momentum components as u64.
+pub const FIXED_BYTES_PER_NODE: usize = 8 * 4;
 
 impl CudaSolver {
     /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`.
@@ -737,16 +738,17 @@ impl Solver for CudaSolver {
             self.sort_particles(params)?;
         }
         self.steps_since_sort = (self.steps_since_sort + 1) % SORT_INTERVAL;
+        self.timing.mark(&self.stream, 1)?;
         self.p2g_init(params)?;
         self.mirror_mass(params)?;
-        self.timing.mark(&self.stream, 1)?;
-        self.p2g(params)?;
         self.timing.mark(&self.stream, 2)?;
+        self.p2g(params)?;
+        self.timing.mark(&self.stream, 3)?;
         self.mirror_momentum(params)?;
         self.grid_update(params)?;
-        self.timing.mark(&self.stream, 3)?;
-        self.g2p(params)?;
         self.timing.mark(&self.stream, 4)?;
+        self.g2p(params)?;
+        self.timing.mark(&self.stream, 5)?;
         Ok(())
     }
 
@@ -772,7 +774,7 @@ impl Solver for CudaSolver {
         })
     }
 
-    fn take_timings(&mut self) -> Result<Option<PhaseTimings>> {
+    fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
         self.timing.take_completed().map(Some)
     }
 

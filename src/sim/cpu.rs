@@ -4,7 +4,7 @@
 
 use super::params::Params;
 use super::scene::Particles;
-use super::solver::{PhaseTimings, Solver, StepExtremes};
+use super::solver::{PhaseTimings, Solver, StepExtremes, MAX_PENDING_STEP_TIMINGS};
 use glam::{IVec3, Mat3, UVec3, Vec3};
 use std::time::Instant;
 
@@ -152,7 +152,8 @@ pub struct CpuSolver {
     pub particles: Particles,
     pub grid: Grid,
     extremes: StepExtremes,
-    timings: PhaseTimings,
+    /// One record per substep, until taken.
+    timings: Vec<PhaseTimings>,
 }
 
 impl CpuSolver {
@@ -161,7 +162,7 @@ impl CpuSolver {
             particles,
             grid: Grid::new(grid_res),
             extremes: StepExtremes::default(),
-            timings: PhaseTimings::default(),
+            timings: Vec::new(),
         }
     }
 
@@ -317,7 +318,10 @@ impl Solver for CpuSolver {
         self.g2p(params);
         lap(&mut times.g2p);
         times.steps = 1;
-        self.timings.accumulate(&times);
+        if self.timings.len() >= MAX_PENDING_STEP_TIMINGS {
+            self.timings.remove(0);
+        }
+        self.timings.push(times);
         Ok(())
     }
 
@@ -325,7 +329,7 @@ impl Solver for CpuSolver {
         Ok(std::mem::take(&mut self.extremes))
     }
 
-    fn take_timings(&mut self) -> anyhow::Result<Option<PhaseTimings>> {
+    fn take_step_timings(&mut self) -> anyhow::Result<Option<Vec<PhaseTimings>>> {
         Ok(Some(std::mem::take(&mut self.timings)))
     }
 

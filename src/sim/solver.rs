@@ -20,10 +20,15 @@ pub struct StepExtremes {
 /// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
 /// runner, the viewer's HUD and the benches read. The CPU measures with a host clock (its phases are
 /// synchronous); the CUDA backend with events.
+///
+/// `sort` is the GPU's counting sort of the particle order, which runs every few substeps (0 on the
+/// substeps between, and always 0 on the CPU, which has no sort). `grid_clear` is 0 on the GPU, whose
+/// grid_update zeroes the accumulators it reads.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct PhaseTimings {
     pub steps: u32,
     pub grid_clear: f64,
+    pub sort: f64,
     pub p2g_init: f64,
     pub p2g: f64,
     pub grid_update: f64,
@@ -31,7 +36,8 @@ pub struct PhaseTimings {
 }
 
 impl PhaseTimings {
-    pub const PHASES: [&'static str; 5] = ["grid_clear", "p2g_init", "p2g", "grid_update", "g2p"];
+    /// The phases in step order, as [`Self::phases`] returns them.
+    pub const PHASES: [&'static str; 6] = ["grid_clear", "sort", "p2g_init", "p2g", "grid_update", "g2p"];
 
     pub fn accumulate(&mut self, other: &PhaseTimings) {
         self.steps += other.steps;
@@ -41,9 +47,10 @@ impl PhaseTimings {
     }
 
     /// Per-phase sums in the order of [`Self::PHASES`].
-    pub fn phases(&self) -> [f64; 5] {
+    pub fn phases(&self) -> [f64; 6] {
         [
             self.grid_clear,
+            self.sort,
             self.p2g_init,
             self.p2g,
             self.grid_update,
@@ -51,9 +58,10 @@ impl PhaseTimings {
         ]
     }
 
-    fn phases_mut(&mut self) -> [&mut f64; 5] {
+    fn phases_mut(&mut self) -> [&mut f64; 6] {
         [
             &mut self.grid_clear,
+            &mut self.sort,
             &mut self.p2g_init,
             &mut self.p2g,
             &mut self.grid_update,
@@ -73,7 +81,20 @@ impl PhaseTimings {
             self.total() / f64::from(self.steps)
         }
     }
+
+    /// The sum of per-substep records.
+    pub fn sum(records: &[PhaseTimings]) -> PhaseTimings {
+        let mut total = PhaseTimings::default();
+        for record in records {
+            total.accumulate(record);
+        }
+        total
+    }
 }
+
+/// Per-substep timing records a backend keeps until they are taken; beyond that the oldest are
+/// dropped (a caller that never takes timings must not grow memory without bound).
+pub const MAX_PENDING_STEP_TIMINGS: usize = 1 << 14;
 
 /// A backend that advances the particles by one substep.
 pub trait Solver {
@@ -82,8 +103,14 @@ pub trait Solver {
     fn step(&mut self, params: &Params) -> Result<()>;
     /// The extremes since the last call, then reset.
     fn take_extremes(&mut self) -> Result<StepExtremes>;
-    /// The phase timings since the last call, then reset; `None` where they are not measured.
-    fn take_timings(&mut self) -> Result<Option<PhaseTimings>>;
+    /// One record per substep completed since the last call (each with `steps == 1`), oldest first,
+    /// then reset; `None` where timings are not measured. The benches take medians of these.
+    fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>>;
+    /// The phase timings since the last call summed, then reset (drains the same records as
+    /// [`Self::take_step_timings`]).
+    fn take_timings(&mut self) -> Result<Option<PhaseTimings>> {
+        Ok(self.take_step_timings()?.map(|steps| PhaseTimings::sum(&steps)))
+    }
     /// A host copy of the particle state.
     fn read_particles(&mut self) -> Result<Particles>;
     /// Statistics of the current state. Backends that can reduce in place override this copy.
@@ -178,6 +205,8 @@ pub struct Simulation {
     time: f64,
     /// c(rho) + |v| at the last frame's extremes, m/s: what the next frame's substep is chosen from.
     signal_speed: f32,
+    /// The last frame's per-substep timings, for the benches' medians.
+    last_step_timings: Vec<PhaseTimings>,
 }
 
 impl Simulation {
@@ -196,6 +225,7 @@ impl Simulation {
             frame: 0,
             time: 0.0,
             signal_speed,
+            last_step_timings: Vec::new(),
         }
     }
 
@@ -213,6 +243,10 @@ impl Simulation {
     }
     pub fn time(&self) -> f64 {
         self.time
+    }
+    /// One timing record per substep of the last frame (empty where the backend measures none).
+    pub fn last_step_timings(&self) -> &[PhaseTimings] {
+        &self.last_step_timings
     }
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
         self.solver.as_mut()
@@ -264,6 +298,9 @@ impl Simulation {
 
         let material = &self.params.material;
         let summary = self.solver.summary(material)?;
+        let step_timings = self.solver.take_step_timings()?;
+        let timings = step_timings.as_deref().map(PhaseTimings::sum);
+        self.last_step_timings = step_timings.unwrap_or_default();
         let stats = FrameStats {
             frame: self.frame,
             time: self.time,
@@ -271,7 +308,7 @@ impl Simulation {
             dt: smallest_dt,
             max_cfl,
             summary,
-            timings: self.solver.take_timings()?,
+            timings,
         };
         if !summary.is_finite() || !self.signal_speed.is_finite() {
             bail!(
