@@ -54,11 +54,13 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 axis, con
     if (params.wall_mirror_lo == 0) return;
     const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
     const size_t stride[3] = {1, res[0], (size_t)res[0] * res[1]};
-    const u32 across_1 = (axis + 1) % 3, across_2 = (axis + 2) % 3;
+    // The two axes across the lines; consecutive threads take neighbouring lines along the smaller
+    // stride (x before y before z), so their accesses coalesce where the layout allows.
+    const u32 inner = axis == 0 ? 1 : 0, outer = axis == 2 ? 1 : 2;
     const u32 walls[2] = {params.wall_mirror_lo, params.wall_mirror_hi[axis]};
 
-    FOR_EACH_INDEX(line_index, res[across_1] * res[across_2]) {
-        const size_t line = (line_index % res[across_1]) * stride[across_1] + (line_index / res[across_1]) * stride[across_2];
+    FOR_EACH_INDEX(line_index, res[inner] * res[outer]) {
+        const size_t line = (line_index % res[inner]) * stride[inner] + (line_index / res[inner]) * stride[outer];
         for (int k = 0; k < 2; ++k) {
             const u32 wall = walls[k];
             const u32 reach = min(wall, res[axis] - 1 - wall);

@@ -127,12 +127,17 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     let res = shape.res;
     let stride = [1, res.x as usize, (res.x * res.y) as usize];
     for a in 0..3 {
-        let (others_1, others_2) = ((a + 1) % 3, (a + 2) % 3);
+        // The two axes across the lines, the smaller stride innermost (x before y before z).
+        let (outer, inner) = match a {
+            0 => (2, 1),
+            1 => (2, 0),
+            _ => (1, 0),
+        };
         for wall in [params.wall_mirror_lo, params.wall_mirror_hi[a]] {
             let reach = wall.min(res[a] - 1 - wall);
-            for u in 0..res[others_1] as usize {
-                for v in 0..res[others_2] as usize {
-                    let line = u * stride[others_1] + v * stride[others_2];
+            for u in 0..res[outer] as usize {
+                for v in 0..res[inner] as usize {
+                    let line = u * stride[outer] + v * stride[inner];
                     let at = |i: u32| line + i as usize * stride[a];
                     let on_plane = at(wall);
                     values[on_plane] = values[on_plane] + reflect(values[on_plane], a);
