@@ -3,5 +3,6 @@
 pub mod backend;
 pub mod cuda;
 pub mod export;
+pub mod render;
 pub mod runner;
 pub mod sim;
