@@ -1,12 +1,15 @@
 //! The viewer's GPU paths on an NVIDIA machine, headless: CUDA-OpenGL interop through an EGL device
-//! context, and the push kernel against the CPU formula. Every test prints `skipped: <reason>` and
+//! context, the push kernel against the CPU formula, and a headless render against a stored frame. Every test prints `skipped: <reason>` and
 //! passes where there is no CUDA device or no EGL device with OpenGL.
 
 use glam::Vec3;
+use mpm::backend::BackendKind;
 use mpm::cuda::interop::GlBufferResource;
 use mpm::cuda::{library, CudaOptions, CudaSolver};
+use mpm::render::capture::Image;
 use mpm::render::headless::HeadlessGl;
-use mpm::render::Renderer;
+use mpm::render::offline::{render, RenderOptions};
+use mpm::render::{Colouring, DrawMode, Renderer, Transfer};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::{ColourBy, Push, Scene, Simulation, Solver};
 
@@ -124,4 +127,57 @@ fn push_agrees_between_cpu_and_cuda() {
         "push: {pushed} of {} particles pushed; CPU and CUDA agree",
         a.len()
     );
+}
+
+/// Frame 30 of `mpm render --scene dam-break --frames 30 --size 320x180 --backend cuda --out DIR`
+/// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21. Embedded, so the test
+/// binary runs anywhere.
+const REFERENCE_FRAME: &[u8] = include_bytes!("reference/dam-break-30-320x180.png");
+
+#[test]
+fn headless_render_matches_reference() {
+    let Some(probe) = cuda_and_gl("headless_render_matches_reference") else {
+        return;
+    };
+    drop(probe);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let options = RenderOptions {
+        scene: Scene::load("dam-break").expect("preset"),
+        backend: BackendKind::Cuda,
+        frames: 30,
+        out: Some(dir.path().to_path_buf()),
+        size: [320, 180],
+        mode: DrawMode::Spheres,
+        colouring: Colouring::Speed,
+        transfer: Transfer::Interop,
+        video: None,
+    };
+    let mut log = Vec::new();
+    let report = render(options, &mut log).expect("render");
+    println!("{}", String::from_utf8_lossy(&log));
+    assert_eq!(
+        report.path, "CUDA-GL interop",
+        "the CUDA backend must draw through interop"
+    );
+    let frame = std::fs::read(dir.path().join("frame-00030.png")).expect("frame 30 written");
+    let got = Image::read_png(&frame).expect("PNG").stats();
+    let want = Image::read_png(REFERENCE_FRAME).expect("reference PNG").stats();
+    println!("rendered  {got:?}\nreference {want:?}");
+    // The float scatter sums in a varying order, so the splash differs in detail from run to run;
+    // the statistics of the frame (how much is covered, where, in what colours) barely move. A wrong
+    // camera, colour scale, depth test or an empty buffer moves them far past these bounds.
+    assert!(want.covered_fraction > 0.05, "the reference shows no fluid");
+    let covered = (got.covered_fraction - want.covered_fraction).abs();
+    assert!(
+        covered < 0.1 * want.covered_fraction + 0.005,
+        "covered fraction off by {covered}"
+    );
+    for k in 0..2 {
+        let d = (got.centroid[k] - want.centroid[k]).abs();
+        assert!(d < 0.02, "centroid axis {k} off by {d}");
+    }
+    for k in 0..3 {
+        let d = (got.mean_rgb[k] - want.mean_rgb[k]).abs();
+        assert!(d < 3.0, "mean channel {k} off by {d}");
+    }
 }

@@ -168,6 +168,8 @@ pub struct CudaSolver {
     fixed_mass_scale: f32,
     fixed_momentum_scale: f32,
     timing: PhaseEvents,
+    /// Device scratch of the host-copy render path (allocated on first use, kept).
+    render_scratch: Option<CudaSlice<f32>>,
     /// `MPM_CUDA_SYNC=1`: wait after every launch, so an asynchronous fault names its kernel.
     sync_each_launch: bool,
 }
@@ -287,6 +289,7 @@ impl CudaSolver {
             grid_res: scene.grid_res,
             fixed_mass_scale,
             fixed_momentum_scale,
+            render_scratch: None,
             sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
         };
         if fixed_scatter {
@@ -814,12 +817,17 @@ impl Solver for CudaSolver {
         rest_density: f32,
         out: &mut Vec<[f32; 4]>,
     ) -> Result<()> {
-        let mut scratch = self
-            .stream
-            .alloc_zeros::<f32>(4 * self.num_particles)
-            .context("allocating render attributes")?;
-        self.write_render_attributes(&mut scratch, colour_by, rest_density)?;
-        let flat = self.download(&scratch)?;
+        let mut scratch = match self.render_scratch.take() {
+            Some(scratch) => scratch,
+            None => self
+                .stream
+                .alloc_zeros::<f32>(4 * self.num_particles)
+                .context("allocating render attributes")?,
+        };
+        let written = self.write_render_attributes(&mut scratch, colour_by, rest_density);
+        let flat = written.and_then(|()| self.download(&scratch));
+        self.render_scratch = Some(scratch);
+        let flat = flat?;
         out.clear();
         out.extend(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
         Ok(())

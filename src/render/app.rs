@@ -651,10 +651,10 @@ impl ApplicationHandler for ViewerApp {
                 }
             }
             WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),
-            WindowEvent::KeyboardInput { event, .. } if !consumed => {
-                if event.state == ElementState::Pressed && !event.repeat {
-                    self.handle_key(&event.logical_key, event_loop);
-                }
+            WindowEvent::KeyboardInput { event, .. }
+                if !consumed && event.state == ElementState::Pressed && !event.repeat =>
+            {
+                self.handle_key(&event.logical_key, event_loop);
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let pressed = state == ElementState::Pressed;
