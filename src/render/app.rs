@@ -567,6 +567,7 @@ impl ViewerApp {
             }
         }
         let mut timings: Option<PhaseTimings> = None;
+        let started = Instant::now();
         for _ in 0..frames {
             match sim.step_frame() {
                 Ok(steps) => {
@@ -582,6 +583,7 @@ impl ViewerApp {
                 }
             }
         }
+        self.clock.record_cost(frames, started.elapsed().as_secs_f64());
         if let Some(t) = timings.filter(|t| t.steps > 0) {
             self.last_timings = Some(t);
         }

@@ -1,8 +1,9 @@
 //! How many 60 Hz simulation frames to step per drawn frame.
 //!
 //! Real time: simulated time follows wall time, but at most `max_frames_per_draw` frames are stepped
-//! per draw; wall time beyond that is dropped, so a slow machine shows slow motion rather than
-//! falling ever further behind (and freezing). Fixed: a set number per draw (for recording, where each
+//! per draw, and no more than fit in a draw budget at the measured cost of a frame; wall time beyond
+//! that is dropped, so a slow machine shows slow motion rather than falling ever further behind (and
+//! freezing: a CPU that takes a second per frame still redraws once a frame is done). Fixed: a set number per draw (for recording, where each
 //! image must be the same simulated time apart).
 
 use crate::sim::FRAME_DT;
@@ -22,7 +23,12 @@ pub struct SimClock {
     /// even when draws alternate between stepping 0 and 2 frames.
     sim_sum: f64,
     wall_sum: f64,
+    /// Smoothed wall seconds that stepping one 60 Hz frame takes here (0 until measured).
+    frame_cost: f64,
 }
+
+/// Wall seconds of stepping a draw may take before it steps fewer frames (about 20 draws/s).
+const STEP_BUDGET: f64 = 0.05;
 
 impl SimClock {
     pub fn new(pacing: Pacing) -> SimClock {
@@ -31,6 +37,19 @@ impl SimClock {
             debt: 0.0,
             sim_sum: 0.0,
             wall_sum: 0.0,
+            frame_cost: 0.0,
+        }
+    }
+
+    /// Tells the clock how long the last `frames` frames took to step.
+    pub fn record_cost(&mut self, frames: u32, seconds: f64) {
+        if frames > 0 {
+            let per_frame = seconds / f64::from(frames);
+            self.frame_cost = if self.frame_cost == 0.0 {
+                per_frame
+            } else {
+                0.8 * self.frame_cost + 0.2 * per_frame
+            };
         }
     }
 
@@ -42,7 +61,12 @@ impl SimClock {
             Pacing::RealTime { max_frames_per_draw } => {
                 self.debt += wall_dt;
                 let due = (self.debt / frame_dt).floor().max(0.0) as u32;
-                let frames = due.min(max_frames_per_draw);
+                let affordable = if self.frame_cost > 0.0 {
+                    ((STEP_BUDGET / self.frame_cost).floor() as u32).max(1)
+                } else {
+                    1
+                };
+                let frames = due.min(max_frames_per_draw).min(affordable);
                 self.debt -= f64::from(frames) * frame_dt;
                 // Behind by more than the cap: forget it (slow motion instead of catching up).
                 self.debt = self.debt.min(frame_dt);
@@ -84,6 +108,10 @@ mod tests {
         let total: u32 = (0..600).map(|_| clock.frames_for(1.0 / 120.0)).sum();
         assert!((299..=301).contains(&total), "{total} frames in 5 s");
         assert!((clock.speed() - 1.0).abs() < 0.05);
+        // Drawing at 30 Hz with cheap steps: two frames per draw.
+        clock.record_cost(1, 0.002);
+        let total: u32 = (0..150).map(|_| clock.frames_for(1.0 / 30.0)).sum();
+        assert!((299..=301).contains(&total), "{total} frames in 5 s at 30 Hz");
     }
 
     #[test]
@@ -95,6 +123,15 @@ mod tests {
             assert!(clock.frames_for(0.5) <= 2);
         }
         assert!(clock.speed() < 0.1, "speed {}", clock.speed());
+        // Stepping costs a second per frame: one frame per draw, never a backlog.
+        let mut clock = SimClock::new(Pacing::RealTime {
+            max_frames_per_draw: 4,
+        });
+        for _ in 0..20 {
+            let frames = clock.frames_for(1.0);
+            assert_eq!(frames, 1);
+            clock.record_cost(frames, 1.0);
+        }
     }
 
     #[test]
