@@ -7,7 +7,7 @@ use super::capture::{next_free_screenshot, FrameSequence, Image};
 use super::clock::{Pacing, SimClock};
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
-use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer};
+use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use crate::backend::{self, BackendKind};
 use crate::sim::{PhaseTimings, Push, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
@@ -112,6 +112,8 @@ struct ViewerApp {
     step_requested: bool,
     screenshot_requested: bool,
     recording: Option<Recording>,
+    /// Where the scene is drawn: the window right of the panel (GL convention, bottom-left origin).
+    scene_viewport: Viewport,
     /// The last error or notice, shown in the panel (a bad scene file, a refused value...).
     message: Option<String>,
     /// An error that ends the viewer (no GL context, no backend).
@@ -151,6 +153,7 @@ impl ViewerApp {
             step_requested: false,
             screenshot_requested: false,
             recording: None,
+            scene_viewport: Viewport::full(options.size),
             message: None,
             fatal: None,
             started: Instant::now(),
@@ -465,38 +468,9 @@ impl ViewerApp {
             let (lo, hi) = self.scene.fluid_region();
             (lo.as_vec3(), hi.as_vec3())
         };
-        gpu.renderer
-            .draw(size, &self.camera, &self.controls.render, count, domain);
-
-        let last_frame = self
-            .options
-            .quit_after
-            .is_some_and(|n| self.frames_drawn + 1 >= n);
-        let want_image = self.screenshot_requested
-            || self.recording.is_some()
-            || (last_frame && self.options.final_screenshot.is_some());
-        if want_image {
-            let image = read_back_buffer(&gpu.gl, size);
-            if std::mem::take(&mut self.screenshot_requested) {
-                let path = next_free_screenshot(&self.options.capture_dir);
-                match image.write_png_new(&path) {
-                    Ok(()) => self.message = Some(format!("saved {}", path.display())),
-                    Err(e) => self.message = Some(format!("{e:#}")),
-                }
-            }
-            if let Some(recording) = &mut self.recording {
-                if let Err(e) = recording.sequence.write(&image) {
-                    self.message = Some(format!("recording stopped: {e:#}"));
-                    self.recording = None;
-                }
-            }
-            if last_frame {
-                if let Some(path) = &self.options.final_screenshot {
-                    image.write_png_new(path)?;
-                }
-            }
-        }
-
+        // The panel first: it decides how much of the window the scene gets.
+        let mut actions = Vec::new();
+        let mut scene_rect = None;
         if self.show_panel {
             let info = HudInfo {
                 scene: &self.scene.name,
@@ -521,13 +495,69 @@ impl ViewerApp {
                 message: self.message.as_deref(),
             };
             let controls = &mut self.controls;
-            let mut actions = Vec::new();
-            gpu.egui
-                .run(&gpu.window, |ctx| actions = hud::panel(ctx, controls, &info));
-            gpu.egui.paint(&gpu.window);
-            for action in actions {
-                self.act(action, event_loop);
+            gpu.egui.run(&gpu.window, |ctx| {
+                actions = hud::panel(ctx, controls, &info);
+                scene_rect = Some((ctx.available_rect(), ctx.pixels_per_point()));
+            });
+        }
+        self.scene_viewport = match scene_rect {
+            Some((rect, ppp)) => {
+                let left = (rect.min.x * ppp).round().clamp(0.0, size[0] as f32 - 1.0) as u32;
+                let top = (rect.min.y * ppp).round().clamp(0.0, size[1] as f32 - 1.0) as u32;
+                let right = ((rect.max.x * ppp).round() as u32).clamp(left + 1, size[0]);
+                let bottom = ((rect.max.y * ppp).round() as u32).clamp(top + 1, size[1]);
+                Viewport {
+                    x: left as i32,
+                    y: (size[1] - bottom) as i32,
+                    width: right - left,
+                    height: bottom - top,
+                }
             }
+            None => Viewport::full(size),
+        };
+        gpu.renderer.draw(
+            self.scene_viewport,
+            &self.camera,
+            &self.controls.render,
+            count,
+            domain,
+        );
+
+        let last_frame = self
+            .options
+            .quit_after
+            .is_some_and(|n| self.frames_drawn + 1 >= n);
+        let want_image = self.screenshot_requested
+            || self.recording.is_some()
+            || (last_frame && self.options.final_screenshot.is_some());
+        if want_image {
+            // The scene alone, before the panel is painted over the frame.
+            let image = read_back_buffer(&gpu.gl, self.scene_viewport);
+            if std::mem::take(&mut self.screenshot_requested) {
+                let path = next_free_screenshot(&self.options.capture_dir);
+                match image.write_png_new(&path) {
+                    Ok(()) => self.message = Some(format!("saved {}", path.display())),
+                    Err(e) => self.message = Some(format!("{e:#}")),
+                }
+            }
+            if let Some(recording) = &mut self.recording {
+                if let Err(e) = recording.sequence.write(&image) {
+                    self.message = Some(format!("recording stopped: {e:#}"));
+                    self.recording = None;
+                }
+            }
+            if last_frame {
+                if let Some(path) = &self.options.final_screenshot {
+                    image.write_png_new(path)?;
+                }
+            }
+        }
+
+        if self.show_panel {
+            gpu.egui.paint(&gpu.window);
+        }
+        for action in actions {
+            self.act(action, event_loop);
         }
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
@@ -550,9 +580,13 @@ impl ViewerApp {
         let drag = std::mem::take(&mut self.mouse.push_drag);
         if drag != Vec2::ZERO && frames > 0 {
             if let Some(gpu) = &self.gpu {
-                let size = gpu.window.inner_size();
-                let size = Vec2::new(size.width as f32, size.height as f32);
-                let (origin, direction) = self.camera.ray(self.mouse.position, size);
+                // The cursor relative to the scene's viewport (window y runs down, GL's up).
+                let window_height = gpu.window.inner_size().height as f32;
+                let vp = self.scene_viewport;
+                let size = Vec2::new(vp.width as f32, vp.height as f32);
+                let top = window_height - (vp.y as f32 + vp.height as f32);
+                let cursor = self.mouse.position - Vec2::new(vp.x as f32, top);
+                let (origin, direction) = self.camera.ray(cursor, size);
                 // The drag in world units, along the camera's right and up axes.
                 let view = self.camera.view();
                 let right = view.row(0).truncate();
@@ -591,15 +625,16 @@ impl ViewerApp {
     }
 }
 
-/// The back buffer as an image (before the panel is drawn, so captures show the scene alone).
-fn read_back_buffer(gl: &glow::Context, [w, h]: [u32; 2]) -> Image {
+/// A region of the back buffer as an image.
+fn read_back_buffer(gl: &glow::Context, viewport: Viewport) -> Image {
+    let (w, h) = (viewport.width, viewport.height);
     let mut pixels = vec![0u8; 4 * w as usize * h as usize];
     // SAFETY: the context is current; the buffer has room for w x h RGBA8.
     unsafe {
         gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
         gl.read_pixels(
-            0,
-            0,
+            viewport.x,
+            viewport.y,
             w as i32,
             h as i32,
             glow::RGBA,
@@ -676,7 +711,7 @@ impl ApplicationHandler for ViewerApp {
                 if consumed {
                     return;
                 }
-                let height = gpu.window.inner_size().height as f32;
+                let height = self.scene_viewport.height as f32;
                 if self.mouse.left && self.modifiers.shift_key() {
                     self.mouse.push_drag += delta;
                 } else if self.mouse.left {

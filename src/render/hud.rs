@@ -136,6 +136,7 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
         row("sim / wall", speed);
         row("transfer", info.transfer.to_string());
         if let Some(t) = &info.timings {
+            row("per drawn frame", format!("{} substeps", t.steps));
             for (name, ms) in PhaseTimings::PHASES.iter().zip(t.phases()) {
                 row(name, format!("{ms:.3} ms"));
             }

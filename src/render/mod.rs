@@ -22,4 +22,4 @@ pub mod renderer;
 
 pub use camera::OrbitCamera;
 pub use feed::{ParticleFeed, Transfer};
-pub use renderer::{Colouring, DrawMode, RenderSettings, Renderer};
+pub use renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};

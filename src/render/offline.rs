@@ -6,7 +6,7 @@ use super::camera::OrbitCamera;
 use super::capture::FrameSequence;
 use super::feed::{ParticleFeed, Transfer};
 use super::headless::HeadlessGl;
-use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer};
+use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use crate::backend::{self, BackendKind};
 use crate::sim::{Scene, Simulation};
 use anyhow::{bail, Context, Result};
@@ -102,7 +102,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         }
         let stepped = Instant::now();
         let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
-        renderer.draw(headless.size(), &camera, &settings, count, domain);
+        renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain);
         headless.finish();
         let drawn = Instant::now();
         if frame > WARM_UP_FRAMES {

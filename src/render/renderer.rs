@@ -74,6 +74,27 @@ impl RenderSettings {
     }
 }
 
+/// A rectangle of the framebuffer in GL's convention: pixels from the bottom-left corner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Viewport {
+    pub x: i32,
+    pub y: i32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Viewport {
+    /// The whole of a `size` framebuffer.
+    pub fn full(size: [u32; 2]) -> Viewport {
+        Viewport {
+            x: 0,
+            y: 0,
+            width: size[0].max(1),
+            height: size[1].max(1),
+        }
+    }
+}
+
 /// The colour scale, as stops from low to high (the GLSL `scale_colour` and the panel's legend share
 /// this table).
 pub const SCALE_STOPS: [[f32; 3]; 5] = [
@@ -333,23 +354,24 @@ impl Renderer {
             .collect()
     }
 
-    /// Draws `count` particles, the box [lo, hi] and the colour bar into the bound framebuffer of
-    /// `size` pixels.
+    /// Clears the bound framebuffer and draws `count` particles, the box [lo, hi] and the colour bar
+    /// into `viewport` of it (the window leaves room for the panel; headless uses all of it).
     pub fn draw(
         &self,
-        size: [u32; 2],
+        viewport: Viewport,
         camera: &OrbitCamera,
         settings: &RenderSettings,
         count: usize,
         domain: (Vec3, Vec3),
     ) {
         let gl = &self.gl;
-        let (w, h) = (size[0].max(1) as i32, size[1].max(1) as i32);
+        let (x0, y0) = (viewport.x, viewport.y);
+        let (w, h) = (viewport.width.max(1) as i32, viewport.height.max(1) as i32);
         let view = camera.view();
         let proj = camera.projection(w as f32 / h as f32);
         // SAFETY: every object used is this renderer's; the context is current.
         unsafe {
-            gl.viewport(0, 0, w, h);
+            gl.viewport(x0, y0, w, h);
             gl.clear_color(BACKGROUND[0], BACKGROUND[1], BACKGROUND[2], 1.0);
             gl.clear_depth_f32(1.0);
             gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
@@ -406,12 +428,12 @@ impl Renderer {
                 let bar_w = (w / 50).max(6);
                 let bar_h = h * 3 / 5;
                 gl.disable(glow::DEPTH_TEST);
-                gl.viewport(w - 2 * bar_w, (h - bar_h) / 2, bar_w, bar_h);
+                gl.viewport(x0 + w - 2 * bar_w, y0 + (h - bar_h) / 2, bar_w, bar_h);
                 gl.use_program(Some(self.programs.bar));
                 gl.bind_vertex_array(Some(self.bar_vao));
                 gl.draw_arrays(glow::TRIANGLE_STRIP, 0, 4);
                 gl.bind_vertex_array(None);
-                gl.viewport(0, 0, w, h);
+                gl.viewport(x0, y0, w, h);
             }
             gl.use_program(None);
             gl.disable(glow::PROGRAM_POINT_SIZE);
