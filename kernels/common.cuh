@@ -35,11 +35,13 @@ struct Params {
     u32 scatter_mode;            // SCATTER_FLOAT or SCATTER_FIXED_POINT
     float fixed_mass_scale;      // fixed-point units per kg
     float fixed_momentum_scale;  // fixed-point units per kg m/s
+    u32 wall_mirror_lo;          // node plane of the low walls' mirror (mirror_walls.cu); 0 = off
+    u32 wall_mirror_hi[3];       // node planes of the high walls' mirror, per axis
     u32 _pad;
 };
 
 static_assert(sizeof(Material) == 32, "Material must match src/sim/params.rs");
-static_assert(sizeof(Params) == 96, "Params must match src/sim/params.rs");
+static_assert(sizeof(Params) == 112, "Params must match src/sim/params.rs");
 // NVRTC has no offsetof (no <cstddef>, no __builtin_offsetof), so offsets are checked on a constexpr
 // instance: the field's address must equal the first word's address plus the offset in words.
 #define ASSERT_FIELD_AT(object, first_word, field, byte_offset)                               \
@@ -58,6 +60,8 @@ ASSERT_FIELD_AT(params_layout_probe, material.rest_density, num_particles, 76);
 ASSERT_FIELD_AT(params_layout_probe, material.rest_density, scatter_mode, 80);
 ASSERT_FIELD_AT(params_layout_probe, material.rest_density, fixed_mass_scale, 84);
 ASSERT_FIELD_AT(params_layout_probe, material.rest_density, fixed_momentum_scale, 88);
+ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_lo, 92);
+ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_hi, 96);
 
 #define SCATTER_FLOAT 0u
 #define SCATTER_FIXED_POINT 1u

@@ -30,7 +30,7 @@ extern "C" __global__ void p2g(const Params params,
     FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
         const u32 p = order[live ? i : first];
         const Stencil s = make_stencil(x[p], params);
-        float grid_mass = 0.0f;
+        float grid_mass = 0.0f;  // with the walls' image mass, which mirror_walls added after p2g_init
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             const float m_i = fixed ? fixed_point_value(fixed_mass[node], inv_mass_scale)
                                     : grid_mass_words[4 * (size_t)node];

@@ -1,6 +1,7 @@
 //! A real-time MLS-MPM fluid: a single-thread CPU reference and CUDA kernels behind one step API.
 
 pub mod backend;
+pub mod bench;
 pub mod cuda;
 pub mod export;
 pub mod render;

@@ -3,6 +3,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
+use mpm::bench;
 use mpm::export::PlyExporter;
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
@@ -34,6 +35,9 @@ enum Command {
     Render(RenderArgs),
     /// Step a scene headless, printing one line of statistics per 60 Hz frame.
     Run(RunArgs),
+    /// Time the step per phase (CUDA events), the CPU baseline and the scaling sweep; markdown tables
+    /// on stdout, everything as JSON with --json.
+    Bench(BenchArgs),
     /// List the built-in scenes, or print one as a TOML file to start your own from.
     Scenes {
         /// Print this preset's scene file.
@@ -203,6 +207,124 @@ fn render_frames(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Presets or scene files to time (repeatable); default: the report's bench-65k and bench-655k.
+    #[arg(long = "scene", value_name = "PRESET|FILE")]
+    scenes: Vec<String>,
+    /// Instead of scenes: a column of this many particles (repeatable) in a --grid^3 grid.
+    #[arg(long, value_name = "N", conflicts_with = "scenes")]
+    particles: Vec<u64>,
+    /// Nodes per axis of the --particles columns' grid.
+    #[arg(long, value_name = "NODES", default_value_t = 100, requires = "particles")]
+    grid: u32,
+    /// Substeps measured per scene (the report averaged 5000 frames: --steps 5000).
+    #[arg(long, default_value_t = 1000)]
+    steps: usize,
+    /// Substeps run and dropped before measuring.
+    #[arg(long, default_value_t = 200)]
+    warmup: usize,
+    #[arg(long, value_enum, default_value_t = BackendKind::Cuda)]
+    backend: BackendKind,
+    /// CUDA threads per block (a multiple of 32); default MPM_CUDA_BLOCK_SIZE or 128.
+    #[arg(long, value_name = "THREADS")]
+    block_size: Option<u32>,
+    /// GPU scatter mode, overriding the scenes'.
+    #[arg(long, value_enum)]
+    scatter: Option<ScatterMode>,
+    /// Also time the single-thread CPU reference at bench-65k and print the GPU/CPU speed-up.
+    #[arg(long)]
+    cpu_baseline: bool,
+    /// Substeps measured for the CPU baseline.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    cpu_steps: usize,
+    /// Also run the scaling sweep: 65,536 particles up to --sweep-max, grid grown to keep the fill.
+    #[arg(long)]
+    sweep: bool,
+    /// The sweep's largest particle count.
+    #[arg(long, value_name = "N", default_value_t = 1 << 26)]
+    sweep_max: u64,
+    /// Substeps measured per sweep size.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    sweep_steps: usize,
+    /// Device memory bandwidth for the traffic floor, GB/s (default: the H200's HBM3e).
+    #[arg(long, value_name = "GBS", default_value_t = bench::H200_PEAK_GBS)]
+    peak_gbs: f64,
+    /// Frame time with CUDA-OpenGL interop vs a host copy: reserved, needs the viewer (not built).
+    #[arg(long)]
+    frame_times: bool,
+    /// Write every measurement as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Replace an existing --json file instead of refusing.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    if args.frame_times {
+        let scene = Scene::load(bench::REPORT_SCENES[1])?;
+        bench::frame_time_bench(&scene, args.steps)?;
+    }
+    anyhow::ensure!(
+        args.peak_gbs.is_finite() && args.peak_gbs > 0.0,
+        "--peak-gbs {} must be a positive bandwidth in GB/s (4800 for an H200)",
+        args.peak_gbs
+    );
+    if let Some(path) = &args.json {
+        anyhow::ensure!(
+            args.overwrite || !path.exists(),
+            "{} exists; pass --overwrite to replace it, or choose another --json file",
+            path.display()
+        );
+    }
+    let scenes = if !args.particles.is_empty() {
+        args.particles
+            .iter()
+            .map(|&n| bench::column_scene(n, args.grid))
+            .collect::<Result<Vec<_>>>()?
+    } else if args.scenes.is_empty() {
+        bench::REPORT_SCENES
+            .iter()
+            .map(|name| Scene::load(name).map_err(Into::into))
+            .collect::<Result<Vec<_>>>()?
+    } else {
+        args.scenes
+            .iter()
+            .map(|name| Scene::load(name).map_err(Into::into))
+            .collect::<Result<Vec<_>>>()?
+    };
+    let sweep = args.sweep.then(|| {
+        let sizes: Vec<u64> = bench::SWEEP_PARTICLES
+            .iter()
+            .copied()
+            .filter(|&n| n <= args.sweep_max)
+            .collect();
+        (sizes, args.sweep_steps)
+    });
+    let plan = bench::BenchPlan {
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        scenes,
+        options: bench::PhaseBenchOptions {
+            backend: args.backend,
+            warmup_steps: args.warmup,
+            steps: args.steps,
+            block_size: args.block_size,
+            scatter: args.scatter,
+            peak_gbs: args.peak_gbs,
+        },
+        cpu_baseline_steps: args.cpu_baseline.then_some(args.cpu_steps),
+        sweep,
+    };
+    let report = bench::run(&plan, &mut std::io::stdout().lock())?;
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn run(args: RunArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(scatter) = args.scatter {
@@ -272,6 +394,7 @@ fn main() -> ExitCode {
         Some(Command::View(args)) => view(args),
         Some(Command::Render(args)) => render_frames(args),
         Some(Command::Run(args)) => run(args),
+        Some(Command::Bench(args)) => bench(args),
         Some(Command::Scenes { show }) => scenes(show),
     };
     match result {

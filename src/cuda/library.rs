@@ -75,3 +75,30 @@ pub fn device_available() -> Result<()> {
     }
     Ok(())
 }
+
+/// Free device memory as cuMemGetInfo reports it, from a context held for the probe's lifetime (so
+/// that a reading before a solver exists already counts the context itself).
+pub struct MemoryProbe {
+    ctx: std::sync::Arc<cudarc::driver::CudaContext>,
+}
+
+impl MemoryProbe {
+    pub fn new(device: usize) -> Result<MemoryProbe> {
+        ensure_driver()?;
+        let ctx = cudarc::driver::CudaContext::new(device).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot open CUDA device {device}: {e} (no NVIDIA GPU, or the driver is not working)"
+            )
+        })?;
+        Ok(MemoryProbe { ctx })
+    }
+
+    /// Free bytes on the device now.
+    pub fn free_bytes(&self) -> Result<u64> {
+        let (free, _total) = self
+            .ctx
+            .mem_get_info()
+            .map_err(|e| anyhow::anyhow!("cuMemGetInfo: {e}"))?;
+        Ok(free as u64)
+    }
+}

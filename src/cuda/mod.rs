@@ -16,4 +16,7 @@ pub mod spawn;
 pub mod timing;
 
 pub use modules::Origin as ModuleOrigin;
-pub use solver::{fixed_point_scales, CudaOptions, CudaSolver, NvtxRange};
+pub use solver::{
+    fixed_point_scales, CudaOptions, CudaSolver, NvtxRange, BYTES_PER_NODE, BYTES_PER_PARTICLE,
+    FIXED_BYTES_PER_NODE, SORT_INTERVAL,
+};

@@ -4,7 +4,7 @@
 //!   [sort, every SORT_INTERVAL substeps] -> p2g_init -> p2g -> grid_update (also the grid clear:
 //!   consume-and-zero) -> g2p
 //! The sort (kernels/sort.cu) only rewrites an index buffer, `order`, that the scatter kernels walk;
-//! its time is counted in p2g_init's, as `PhaseTimings` has no slot for it.
+//! its time has its own slot, `PhaseTimings::sort` (near 0 on the substeps it does not run).
 //! The grid clear has no launch of its own: grid_update zeroes each accumulator after reading it, so
 //! `PhaseTimings::grid_clear` stays 0 and its cost is inside grid_update.
 
@@ -89,7 +89,7 @@ struct FixedGrid {
 
 /// Substeps between particle sorts. Particles move well under a cell per substep, so an order a few
 /// substeps old is nearly as good as a fresh one, and the sort's cost (a few small launches) is shared.
-const SORT_INTERVAL: u32 = 8;
+pub const SORT_INTERVAL: u32 = 8;
 /// Values each thread of `scan_tiles` scans (SCAN_ITEMS_PER_THREAD in kernels/sort.cu).
 const SCAN_ITEMS_PER_THREAD: usize = 8;
 
@@ -104,6 +104,13 @@ struct SortBuffers {
     top: CudaSlice<u32>,
 }
 
+/// What `mirror_walls` mirrors: the codes of kernels/mirror_walls.cu.
+#[derive(Clone, Copy)]
+enum MirrorQuantity {
+    Mass = 0,
+    Momentum = 1,
+}
+
 struct Kernels {
     sort_count: CudaFunction,
     scan_tiles: CudaFunction,
@@ -113,6 +120,7 @@ struct Kernels {
     p2g: CudaFunction,
     grid_update: CudaFunction,
     g2p: CudaFunction,
+    mirror_walls: CudaFunction,
     spawn_count: CudaFunction,
     spawn_write: CudaFunction,
     render_attributes: CudaFunction,
@@ -130,6 +138,7 @@ impl Kernels {
             p2g: modules.function("p2g", "p2g")?,
             grid_update: modules.function("grid_update", "grid_update")?,
             g2p: modules.function("g2p", "g2p")?,
+            mirror_walls: modules.function("mirror_walls", "mirror_walls")?,
             spawn_count: modules.function("spawn", "spawn_count")?,
             spawn_write: modules.function("spawn", "spawn_write")?,
             render_attributes: modules.function("render", "render_attributes")?,
@@ -176,9 +185,10 @@ pub struct CudaSolver {
 
 /// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, sort key and rank)
 /// and per node (two float4, the sort's cell count).
-const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
-const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
-const FIXED_BYTES_PER_NODE: usize = 8 * 4;
+pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
+pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
+/// Added per node by the fixed-point scatter: mass and three momentum components as u64.
+pub const FIXED_BYTES_PER_NODE: usize = 8 * 4;
 
 impl CudaSolver {
     /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`.
@@ -457,6 +467,46 @@ impl CudaSolver {
         // SAFETY: the arguments match the kernel's signature; buffers are sized for params.
         let launched = unsafe { launch.launch(cfg) }.map(drop);
         self.after_launch("p2g_init", launched)
+    }
+
+    /// The walls' image mass, between p2g_init and p2g (kernels/mirror_walls.cu).
+    pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
+        self.mirror_walls(params, MirrorQuantity::Mass)
+    }
+
+    /// The walls' image momentum, wall-normal component reflected, between p2g and grid_update.
+    pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
+        self.mirror_walls(params, MirrorQuantity::Momentum)
+    }
+
+    /// One launch per axis, x, y, z in turn: each axis's images must include the previous axes'.
+    fn mirror_walls(&mut self, params: &Params, quantity: MirrorQuantity) -> Result<()> {
+        if params.wall_mirror_lo == 0 {
+            return Ok(());
+        }
+        let params = self.device_params(params)?;
+        let _range = NvtxRange::new("mirror_walls");
+        let (fixed_mass, fixed_momentum) = match &self.fixed {
+            Some(f) => (&f.mass, &f.momentum),
+            None => (&self.unused_fixed, &self.unused_fixed),
+        };
+        let res = self.grid_res.map(|r| r as usize);
+        for axis in 0..3u32 {
+            let lines = res[(axis as usize + 1) % 3] * res[(axis as usize + 2) % 3];
+            let quantity_code = quantity as u32;
+            let mut launch = self.stream.launch_builder(&self.kernels.mirror_walls);
+            launch
+                .arg(&params)
+                .arg(&axis)
+                .arg(&quantity_code)
+                .arg(&self.grid_acc)
+                .arg(fixed_mass)
+                .arg(fixed_momentum);
+            // SAFETY: as in p2g_init.
+            let launched = unsafe { launch.launch(self.launch_config(lines)) }.map(drop);
+            self.after_launch("mirror_walls", launched)?;
+        }
+        Ok(())
     }
 
     /// Density from the grid mass, pressure and stress, momentum scatter.
@@ -762,14 +812,17 @@ impl Solver for CudaSolver {
             self.sort_particles(params)?;
         }
         self.steps_since_sort = (self.steps_since_sort + 1) % SORT_INTERVAL;
-        self.p2g_init(params)?;
         self.timing.mark(&self.stream, 1)?;
-        self.p2g(params)?;
+        self.p2g_init(params)?;
+        self.mirror_mass(params)?;
         self.timing.mark(&self.stream, 2)?;
-        self.grid_update(params)?;
+        self.p2g(params)?;
         self.timing.mark(&self.stream, 3)?;
-        self.g2p(params)?;
+        self.mirror_momentum(params)?;
+        self.grid_update(params)?;
         self.timing.mark(&self.stream, 4)?;
+        self.g2p(params)?;
+        self.timing.mark(&self.stream, 5)?;
         Ok(())
     }
 
@@ -795,7 +848,7 @@ impl Solver for CudaSolver {
         })
     }
 
-    fn take_timings(&mut self) -> Result<Option<PhaseTimings>> {
+    fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
         self.timing.take_completed().map(Some)
     }
 

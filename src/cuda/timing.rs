@@ -1,18 +1,16 @@
 //! Per-phase GPU time from CUDA events, read back without stalling the pipeline: each substep records
-//! five events on the stream (before p2g_init and after each of the four phases), and
-//! `take_completed` sums only the substeps whose last event has already completed (in practice, the
-//! frames the host has already waited for), leaving the rest for a later call.
+//! six events on the stream (at its start and after each of the five phases: sort, p2g_init, p2g,
+//! grid_update, g2p; the sort's pair is recorded back to back on substeps without a sort), and
+//! `take_completed` returns only the substeps whose last event has already completed (in practice,
+//! the frames the host has already waited for), leaving the rest for a later call.
 
-use crate::sim::PhaseTimings;
+use crate::sim::{PhaseTimings, MAX_PENDING_STEP_TIMINGS};
 use anyhow::{Context, Result};
 use cudarc::driver::{sys::CUevent_flags, CudaContext, CudaEvent, CudaStream};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-const EVENTS_PER_STEP: usize = 5;
-/// Substeps whose events may wait to be read; beyond that the oldest are dropped (a caller that never
-/// takes timings must not grow memory without bound).
-const MAX_PENDING_STEPS: usize = 1 << 14;
+const EVENTS_PER_STEP: usize = 6;
 
 type StepEvents = [CudaEvent; EVENTS_PER_STEP];
 
@@ -42,18 +40,18 @@ impl PhaseEvents {
                         .new_event(Some(CUevent_flags::CU_EVENT_DEFAULT))
                         .context("creating a timing event")
                 };
-                [new()?, new()?, new()?, new()?, new()?]
+                [new()?, new()?, new()?, new()?, new()?, new()?]
             }
         };
         events[0].record(stream).context("recording a timing event")?;
-        if self.pending.len() >= MAX_PENDING_STEPS {
+        if self.pending.len() >= MAX_PENDING_STEP_TIMINGS {
             self.pending.pop_front();
         }
         self.pending.push_back(events);
         Ok(())
     }
 
-    /// Records the end of phase `phase` (1..=4) of the current substep.
+    /// Records the end of phase `phase` (1..=5, step order) of the current substep.
     pub fn mark(&mut self, stream: &CudaStream, phase: usize) -> Result<()> {
         let events = self
             .pending
@@ -62,9 +60,9 @@ impl PhaseEvents {
         events[phase].record(stream).context("recording a timing event")
     }
 
-    /// Sums the phases of every completed substep, oldest first, stopping at the first incomplete one.
-    pub fn take_completed(&mut self) -> Result<PhaseTimings> {
-        let mut timings = PhaseTimings::default();
+    /// One record per completed substep, oldest first, stopping at the first incomplete one.
+    pub fn take_completed(&mut self) -> Result<Vec<PhaseTimings>> {
+        let mut records = Vec::new();
         while let Some(events) = self.pending.front() {
             if !events[EVENTS_PER_STEP - 1]
                 .try_is_complete()
@@ -80,15 +78,19 @@ impl PhaseEvents {
                 ))
             };
             // grid_clear stays 0: grid_update clears the accumulators it reads (consume-and-zero).
-            timings.p2g_init += ms(0)?;
-            timings.p2g += ms(1)?;
-            timings.grid_update += ms(2)?;
-            timings.g2p += ms(3)?;
-            timings.steps += 1;
+            records.push(PhaseTimings {
+                steps: 1,
+                grid_clear: 0.0,
+                sort: ms(0)?,
+                p2g_init: ms(1)?,
+                p2g: ms(2)?,
+                grid_update: ms(3)?,
+                g2p: ms(4)?,
+            });
             if let Some(done) = self.pending.pop_front() {
                 self.free.push(done);
             }
         }
-        Ok(timings)
+        Ok(records)
     }
 }

@@ -11,4 +11,6 @@ pub mod solver;
 pub use params::{Material, Params, ScatterMode, FRAME_DT};
 pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
-pub use solver::{FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary};
+pub use solver::{
+    FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary, MAX_PENDING_STEP_TIMINGS,
+};

@@ -93,6 +93,12 @@ pub struct Params {
     pub fixed_mass_scale: f32,
     /// Fixed-point units per kg m/s of grid momentum (fixed-point scatter only).
     pub fixed_momentum_scale: f32,
+    /// Mirror planes of the walls, in nodes: where fluid rests against the low walls (the same on every
+    /// axis) and the high walls. The grid gains the mass and momentum of a mirror-image fluid beyond
+    /// each wall (`cpu::mirror_walls`, kernels/mirror_walls.cu), so particles at a wall are not read as
+    /// a free surface. 0 turns the mirror off (never 0 when on: the fluid region starts at node 1).
+    pub wall_mirror_lo: u32,
+    pub wall_mirror_hi: [u32; 3],
     pub _pad: u32,
 }
 
@@ -104,7 +110,7 @@ impl Params {
 
 const _: () = {
     assert!(size_of::<Material>() == 32);
-    assert!(size_of::<Params>() == 96);
+    assert!(size_of::<Params>() == 112);
     assert!(offset_of!(Params, material) == 0);
     assert!(offset_of!(Params, gravity) == 32);
     assert!(offset_of!(Params, dt) == 44);
@@ -117,4 +123,6 @@ const _: () = {
     assert!(offset_of!(Params, scatter_mode) == 80);
     assert!(offset_of!(Params, fixed_mass_scale) == 84);
     assert!(offset_of!(Params, fixed_momentum_scale) == 88);
+    assert!(offset_of!(Params, wall_mirror_lo) == 92);
+    assert!(offset_of!(Params, wall_mirror_hi) == 96);
 };

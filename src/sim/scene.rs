@@ -102,8 +102,17 @@ pub struct SolverSpec {
     /// nialltl's soft wall: pushes particles back before they reach the band.
     #[serde(default)]
     pub soft_wall: bool,
+    /// Add a mirror-image fluid beyond the walls to the grid (mass and reflected momentum), so fluid at
+    /// a wall has the density and pressure support it has inside; off, wall particles read low and the
+    /// fluid sinks along the walls and circulates (the report's scheme).
+    #[serde(default = "default_true")]
+    pub mirror_wall_mass: bool,
     #[serde(default)]
     pub scatter: ScatterMode,
+}
+
+fn default_true() -> bool {
+    true
 }
 
 fn default_gravity() -> [f32; 3] {
@@ -119,6 +128,7 @@ impl Default for SolverSpec {
             gravity: default_gravity(),
             boundary_band: default_band(),
             soft_wall: false,
+            mirror_wall_mass: true,
             scatter: ScatterMode::default(),
         }
     }
@@ -198,6 +208,8 @@ pub struct Scene {
     pub gravity: Vec3,
     pub boundary_band: u32,
     pub soft_wall: bool,
+    /// Mirror the fluid beyond the walls onto the grid (see `Params::wall_mirror_lo`).
+    pub mirror_wall_mass: bool,
     pub scatter: ScatterMode,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
@@ -275,6 +287,7 @@ impl Scene {
 
     /// The parameters a step needs, with `dt` still to be set by the time-step policy.
     pub fn params(&self) -> Params {
+        let (mirror_lo, mirror_hi) = fluid_region_nodes(self.grid_res, self.boundary_band, self.soft_wall);
         Params {
             material: self.material,
             gravity: self.gravity.to_array(),
@@ -288,6 +301,8 @@ impl Scene {
             scatter_mode: self.scatter.code(),
             fixed_mass_scale: 0.0,
             fixed_momentum_scale: 0.0,
+            wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
+            wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             _pad: 0,
         }
     }
@@ -336,23 +351,27 @@ impl Scene {
     }
 }
 
-/// Where particles can be. Nodes below `band` (and from `res - band` up) have no wall-normal velocity,
-/// so fluid settles against the wall between node `band - 1` and `band`; for the usual band of 2 this
-/// is exactly the clamp range [1, R-2] dx of g2p. The soft wall pushes particles back from
-/// (band + 1) dx and (R - band - 2) dx instead. Bodies spawned inside start against the walls rather
-/// than slumping into a gap or being squeezed.
-fn fluid_region(res: [u32; 3], dx: f64, band: u32, soft_wall: bool) -> (DVec3, DVec3) {
+/// Where particles can be, in nodes per axis: `[lo, hi[a]]`. Nodes below `band` (and from `res - band`
+/// up) have no wall-normal velocity, so fluid settles against the wall between node `band - 1` and
+/// `band`; for the usual band of 2 this is exactly the clamp range [1, R-2] dx of g2p. The soft wall
+/// pushes particles back from (band + 1) dx and (R - band - 2) dx instead. Bodies spawned inside start
+/// against the walls rather than slumping into a gap or being squeezed, and these are the planes the
+/// wall mass is mirrored about.
+fn fluid_region_nodes(res: [u32; 3], band: u32, soft_wall: bool) -> (u32, [u32; 3]) {
     let (lo, hi_margin) = if soft_wall {
         (band + 1, band + 2)
     } else {
         ((band - 1).max(1), band.max(2))
     };
-    let hi = DVec3::new(
-        f64::from(res[0] - hi_margin),
-        f64::from(res[1] - hi_margin),
-        f64::from(res[2] - hi_margin),
-    );
-    (DVec3::splat(f64::from(lo) * dx), hi * dx)
+    (lo, res.map(|r| r - hi_margin))
+}
+
+fn fluid_region(res: [u32; 3], dx: f64, band: u32, soft_wall: bool) -> (DVec3, DVec3) {
+    let (lo, hi) = fluid_region_nodes(res, band, soft_wall);
+    (
+        DVec3::splat(f64::from(lo) * dx),
+        DVec3::from(hi.map(f64::from)) * dx,
+    )
 }
 
 /// The particle lattice: points at (j + 1/2) h on every axis, h = dx / particles-per-axis, so a
@@ -481,6 +500,7 @@ impl Validator<'_> {
             gravity,
             boundary_band: band,
             soft_wall: spec.solver.soft_wall,
+            mirror_wall_mass: spec.solver.mirror_wall_mass,
             scatter: spec.solver.scatter,
             time_step,
             particles_per_axis,
@@ -859,28 +879,34 @@ fn default_name(source: &str) -> String {
         .unwrap_or_else(|| source.to_string())
 }
 
-/// Substeps per frame and the substep, for a fastest signal speed (c + |v|) in m/s.
 impl TimeStepPolicy {
-    pub fn substeps(&self, signal_speed: f32, dx: f32) -> Result<(u32, f32), String> {
+    /// How many times per frame the substep is chosen anew: an impact can raise the density (and the
+    /// sound speed, as rho^3 for water) within one frame faster than a choice per frame follows. A
+    /// fixed dt needs no second look.
+    pub fn choices_per_frame(&self) -> u32 {
+        match self {
+            TimeStepPolicy::Fixed { .. } => 1,
+            TimeStepPolicy::Cfl { .. } => 4,
+        }
+    }
+
+    /// Substeps and the substep to cover `span` seconds, for a fastest signal speed (c + |v|) in m/s.
+    pub fn substeps(&self, span: f32, signal_speed: f32, dx: f32) -> Result<(u32, f32), String> {
         match *self {
-            TimeStepPolicy::Fixed { dt } => {
-                let n = (FRAME_DT / dt).round().max(1.0) as u32;
-                Ok((n, dt))
-            }
+            TimeStepPolicy::Fixed { dt } => Ok(((span / dt).round().max(1.0) as u32, dt)),
             TimeStepPolicy::Cfl { cfl, max_substeps } => {
                 if !signal_speed.is_finite() {
                     return Err("the fluid diverged: its speed is no longer finite".into());
                 }
-                let dt_max = cfl * dx / signal_speed;
-                let n = (FRAME_DT / dt_max).ceil().max(1.0);
-                if n > max_substeps as f32 {
+                let n = (span * signal_speed / (cfl * dx)).ceil().max(1.0);
+                let per_frame = n * FRAME_DT / span;
+                if per_frame > max_substeps as f32 {
                     return Err(format!(
-                        "the fluid is blowing up: a signal speed of {signal_speed:.1} m/s needs {n} substeps \
-                         per frame, over time_step.max_substeps = {max_substeps}"
+                        "the fluid is blowing up: a signal speed of {signal_speed:.1} m/s needs {per_frame:.0} \
+                         substeps per frame, over time_step.max_substeps = {max_substeps}"
                     ));
                 }
-                let n = n as u32;
-                Ok((n, FRAME_DT / n as f32))
+                Ok((n as u32, span / n))
             }
         }
     }

@@ -21,10 +21,15 @@ pub struct StepExtremes {
 /// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
 /// runner, the viewer's HUD and the benches read. The CPU measures with a host clock (its phases are
 /// synchronous); the CUDA backend with events.
+///
+/// `sort` is the GPU's counting sort of the particle order, which runs every few substeps (0 on the
+/// substeps between, and always 0 on the CPU, which has no sort). `grid_clear` is 0 on the GPU, whose
+/// grid_update zeroes the accumulators it reads.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct PhaseTimings {
     pub steps: u32,
     pub grid_clear: f64,
+    pub sort: f64,
     pub p2g_init: f64,
     pub p2g: f64,
     pub grid_update: f64,
@@ -32,7 +37,8 @@ pub struct PhaseTimings {
 }
 
 impl PhaseTimings {
-    pub const PHASES: [&'static str; 5] = ["grid_clear", "p2g_init", "p2g", "grid_update", "g2p"];
+    /// The phases in step order, as [`Self::phases`] returns them.
+    pub const PHASES: [&'static str; 6] = ["grid_clear", "sort", "p2g_init", "p2g", "grid_update", "g2p"];
 
     pub fn accumulate(&mut self, other: &PhaseTimings) {
         self.steps += other.steps;
@@ -42,9 +48,10 @@ impl PhaseTimings {
     }
 
     /// Per-phase sums in the order of [`Self::PHASES`].
-    pub fn phases(&self) -> [f64; 5] {
+    pub fn phases(&self) -> [f64; 6] {
         [
             self.grid_clear,
+            self.sort,
             self.p2g_init,
             self.p2g,
             self.grid_update,
@@ -52,9 +59,10 @@ impl PhaseTimings {
         ]
     }
 
-    fn phases_mut(&mut self) -> [&mut f64; 5] {
+    fn phases_mut(&mut self) -> [&mut f64; 6] {
         [
             &mut self.grid_clear,
+            &mut self.sort,
             &mut self.p2g_init,
             &mut self.p2g,
             &mut self.grid_update,
@@ -74,7 +82,20 @@ impl PhaseTimings {
             self.total() / f64::from(self.steps)
         }
     }
+
+    /// The sum of per-substep records.
+    pub fn sum(records: &[PhaseTimings]) -> PhaseTimings {
+        let mut total = PhaseTimings::default();
+        for record in records {
+            total.accumulate(record);
+        }
+        total
+    }
 }
+
+/// Per-substep timing records a backend keeps until they are taken; beyond that the oldest are
+/// dropped (a caller that never takes timings must not grow memory without bound).
+pub const MAX_PENDING_STEP_TIMINGS: usize = 1 << 14;
 
 /// A backend that advances the particles by one substep.
 pub trait Solver {
@@ -83,8 +104,14 @@ pub trait Solver {
     fn step(&mut self, params: &Params) -> Result<()>;
     /// The extremes since the last call, then reset.
     fn take_extremes(&mut self) -> Result<StepExtremes>;
-    /// The phase timings since the last call, then reset; `None` where they are not measured.
-    fn take_timings(&mut self) -> Result<Option<PhaseTimings>>;
+    /// One record per substep completed since the last call (each with `steps == 1`), oldest first,
+    /// then reset; `None` where timings are not measured. The benches take medians of these.
+    fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>>;
+    /// The phase timings since the last call summed, then reset (drains the same records as
+    /// [`Self::take_step_timings`]).
+    fn take_timings(&mut self) -> Result<Option<PhaseTimings>> {
+        Ok(self.take_step_timings()?.map(|steps| PhaseTimings::sum(&steps)))
+    }
     /// A host copy of the particle state.
     fn read_particles(&mut self) -> Result<Particles>;
     /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
@@ -181,7 +208,7 @@ pub struct FrameStats {
     /// Simulated seconds at the end of the frame.
     pub time: f64,
     pub substeps: u32,
-    /// The substep, s.
+    /// The smallest substep of the frame, s.
     pub dt: f32,
     /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
     pub max_cfl: f32,
@@ -195,6 +222,7 @@ pub struct FrameStats {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameSteps {
     pub substeps: u32,
+    /// The smallest substep of the frame, s.
     pub dt: f32,
     pub max_cfl: f32,
     pub timings: Option<PhaseTimings>,
@@ -208,6 +236,8 @@ pub struct Simulation {
     time: f64,
     /// c(rho) + |v| at the last frame's extremes, m/s: what the next frame's substep is chosen from.
     signal_speed: f32,
+    /// The last frame's per-substep timings, for the benches' medians.
+    last_step_timings: Vec<PhaseTimings>,
 }
 
 impl Simulation {
@@ -226,6 +256,7 @@ impl Simulation {
             frame: 0,
             time: 0.0,
             signal_speed,
+            last_step_timings: Vec::new(),
         }
     }
 
@@ -244,22 +275,33 @@ impl Simulation {
     pub fn time(&self) -> f64 {
         self.time
     }
+    /// One timing record per substep of the last frame (empty where the backend measures none).
+    pub fn last_step_timings(&self) -> &[PhaseTimings] {
+        &self.last_step_timings
+    }
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
         self.solver.as_mut()
     }
 
-    /// Substeps and substep for the next frame. Gravity can add up to |g| / 60 s of speed within the
-    /// frame, so that is added to the last frame's signal speed: the step is safe for the whole frame.
-    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
-        let gravity_gain = Vec3::from(self.params.gravity).length() * FRAME_DT;
+    /// Substeps and substep for the next stretch of `span` seconds. Gravity can add up to |g| span of
+    /// speed within it, so that is added to the last signal speed: the step is safe for the whole span.
+    fn steps_for(&self, span: f32) -> Result<(u32, f32)> {
+        let gravity_gain = Vec3::from(self.params.gravity).length() * span;
         match self
             .scene
             .time_step
-            .substeps(self.signal_speed + gravity_gain, self.params.dx)
+            .substeps(span, self.signal_speed + gravity_gain, self.params.dx)
         {
             Ok(steps) => Ok(steps),
             Err(why) => bail!("frame {}: {why}", self.frame + 1),
         }
+    }
+
+    /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
+    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
+        let choices = self.scene.time_step.choices_per_frame();
+        let (n, dt) = self.steps_for(FRAME_DT / choices as f32)?;
+        Ok((n * choices, dt))
     }
 
     /// Advance one 60 Hz frame and return its statistics.
@@ -284,19 +326,33 @@ impl Simulation {
         })
     }
 
-    /// Advance one 60 Hz frame without the statistics pass: what the viewer calls every frame.
+    /// Advance one 60 Hz frame without the statistics pass (which copies every particle to the host):
+    /// what the viewer calls every frame. The substep is chosen anew `choices_per_frame` times in the
+    /// frame, each time from the extremes of the substeps before.
     pub fn step_frame(&mut self) -> Result<FrameSteps> {
-        let (substeps, dt) = self.next_frame_steps()?;
-        self.params.dt = dt;
-        for _ in 0..substeps {
-            self.solver.step(&self.params)?;
+        let choices = self.scene.time_step.choices_per_frame();
+        let span = FRAME_DT / choices as f32;
+        let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
+        for _ in 0..choices {
+            let (n, dt) = self.steps_for(span)?;
+            self.params.dt = dt;
+            for _ in 0..n {
+                self.solver.step(&self.params)?;
+            }
+            let extremes = self.solver.take_extremes()?;
+            self.signal_speed =
+                self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+            max_cfl = max_cfl.max(self.signal_speed * dt / self.params.dx);
+            substeps += n;
+            smallest_dt = smallest_dt.min(dt);
+            simulated += f64::from(n) * f64::from(dt);
         }
         self.frame += 1;
-        self.time += f64::from(substeps) * f64::from(dt);
+        self.time += simulated;
 
-        let extremes = self.solver.take_extremes()?;
-        let material = &self.params.material;
-        self.signal_speed = material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+        let step_timings = self.solver.take_step_timings()?;
+        let timings = step_timings.as_deref().map(PhaseTimings::sum);
+        self.last_step_timings = step_timings.unwrap_or_default();
         if !self.signal_speed.is_finite() {
             bail!(
                 "the simulation diverged in frame {} (a NaN or infinity appeared); \
@@ -306,9 +362,9 @@ impl Simulation {
         }
         Ok(FrameSteps {
             substeps,
-            dt,
-            max_cfl: self.signal_speed * dt / self.params.dx,
-            timings: self.solver.take_timings()?,
+            dt: smallest_dt,
+            max_cfl,
+            timings,
         })
     }
 
