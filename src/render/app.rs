@@ -182,10 +182,10 @@ impl ViewerApp {
             gravity: scene.gravity,
             fixed_pacing: options.fixed_frames.is_some(),
             frames_per_draw: options.fixed_frames.unwrap_or(1).max(1),
+            // A preset's source reads "preset NAME"; a scene file does not pre-select one.
             preset: crate::sim::presets::NAMES
                 .iter()
-                .position(|&n| n == scene.name)
-                .unwrap_or(0),
+                .position(|&n| scene.source == format!("preset {n}")),
             scene_path: String::new(),
             push_strength: 0.02,
             push_radius: 0.1,

@@ -37,7 +37,8 @@ pub struct Controls {
     /// Step a fixed number of 60 Hz frames per drawn frame instead of following wall time.
     pub fixed_pacing: bool,
     pub frames_per_draw: u32,
-    pub preset: usize,
+    /// The preset chosen in the picker; `None` until one is (e.g. a scene file is running).
+    pub preset: Option<usize>,
     pub scene_path: String,
     /// Push: velocity change at the cursor ray per drag pixel, and radius as a fraction of the domain.
     pub push_strength: f32,
@@ -306,17 +307,17 @@ fn physics_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Actio
 
 fn scene_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
     ui.horizontal(|ui| {
+        let chosen = c.preset.and_then(|i| presets::NAMES.get(i).copied());
         egui::ComboBox::from_label("")
-            .selected_text(presets::NAMES[c.preset.min(presets::NAMES.len() - 1)])
+            .selected_text(chosen.unwrap_or("preset..."))
             .show_ui(ui, |ui| {
                 for (i, name) in presets::NAMES.iter().enumerate() {
-                    ui.selectable_value(&mut c.preset, i, *name);
+                    ui.selectable_value(&mut c.preset, Some(i), *name);
                 }
             });
-        if ui.button("Load preset").clicked() {
-            actions.push(Action::LoadPreset(
-                presets::NAMES[c.preset.min(presets::NAMES.len() - 1)],
-            ));
+        let load = ui.add_enabled(chosen.is_some(), egui::Button::new("Load preset"));
+        if let (true, Some(name)) = (load.clicked(), chosen) {
+            actions.push(Action::LoadPreset(name));
         }
     });
     ui.horizontal(|ui| {
