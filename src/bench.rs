@@ -281,9 +281,11 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         sim_time_end: sim.time(),
         state: format!(
             "stepping from the spawned state under the scene's time-step policy (substep re-chosen \
-             every 60 Hz frame, as `mpm run` does); {} warm-up substeps dropped, then {} substeps \
-             measured",
-            options.warmup_steps, options.steps
+             {} times per 60 Hz frame, as `mpm run` does); {} warm-up substeps dropped, then {} \
+             substeps measured",
+            scene.time_step.choices_per_frame(),
+            options.warmup_steps,
+            options.steps
         ),
         rows,
         total,

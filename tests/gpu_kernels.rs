@@ -113,6 +113,33 @@ fn max_diff_mat3(a: &[Mat3], b: &[Mat3]) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// How far into a substep [`run_phases`] goes. Each phase includes the wall mirror pass after it.
+#[derive(Clone, Copy, PartialEq, PartialOrd)]
+enum Through {
+    P2gInit,
+    P2g,
+    GridUpdate,
+}
+
+/// The substep's phases, from a clear grid through `last`, on both backends.
+fn run_phases(cpu: &mut CpuSolver, gpu: &mut CudaSolver, params: &Params, last: Through) {
+    cpu.clear_grid();
+    cpu.p2g_init(params);
+    cpu.mirror_mass(params);
+    gpu.p2g_init(params).unwrap();
+    gpu.mirror_mass(params).unwrap();
+    if last >= Through::P2g {
+        cpu.p2g(params);
+        cpu.mirror_momentum(params);
+        gpu.p2g(params).unwrap();
+        gpu.mirror_momentum(params).unwrap();
+    }
+    if last >= Through::GridUpdate {
+        cpu.grid_update(params);
+        gpu.grid_update(params).unwrap();
+    }
+}
+
 fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
     let cpu = CpuSolver::new(particles.clone(), scene.grid_res);
     let gpu = CudaSolver::from_particles(scene, particles, CudaOptions::default()).expect("CUDA solver");
@@ -129,11 +156,7 @@ fn p2g_init_matches_cpu() {
         let particles = random_particles(&scene, 1);
         let params = step_params(&scene);
         let (mut cpu, mut gpu) = pair(&scene, &particles);
-        cpu.clear_grid();
-        cpu.p2g_init(&params);
-        cpu.mirror_mass(&params);
-        gpu.p2g_init(&params).unwrap();
-        gpu.mirror_mass(&params).unwrap();
+        run_phases(&mut cpu, &mut gpu, &params, Through::P2gInit);
         let (mass, _) = gpu.read_grid_accumulators(&params).unwrap();
         let scale = max_abs(cpu.grid.mass.iter().copied());
         let err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
@@ -158,15 +181,7 @@ fn p2g_matches_cpu() {
         let particles = random_particles(&scene, 2);
         let params = step_params(&scene);
         let (mut cpu, mut gpu) = pair(&scene, &particles);
-        cpu.clear_grid();
-        cpu.p2g_init(&params);
-        cpu.mirror_mass(&params);
-        cpu.p2g(&params);
-        cpu.mirror_momentum(&params);
-        gpu.p2g_init(&params).unwrap();
-        gpu.mirror_mass(&params).unwrap();
-        gpu.p2g(&params).unwrap();
-        gpu.mirror_momentum(&params).unwrap();
+        run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
         let (_, momentum) = gpu.read_grid_accumulators(&params).unwrap();
         let rho = gpu.read_particles().unwrap().rho;
         let rho_err = max_abs(rho.iter().zip(&cpu.particles.rho).map(|(a, b)| (a - b) / b));
@@ -196,17 +211,7 @@ fn grid_update_and_g2p_match_cpu() {
         let particles = random_particles(&scene, 3);
         let params = step_params(&scene);
         let (mut cpu, mut gpu) = pair(&scene, &particles);
-        cpu.clear_grid();
-        cpu.p2g_init(&params);
-        cpu.mirror_mass(&params);
-        cpu.p2g(&params);
-        cpu.mirror_momentum(&params);
-        cpu.grid_update(&params);
-        gpu.p2g_init(&params).unwrap();
-        gpu.mirror_mass(&params).unwrap();
-        gpu.p2g(&params).unwrap();
-        gpu.mirror_momentum(&params).unwrap();
-        gpu.grid_update(&params).unwrap();
+        run_phases(&mut cpu, &mut gpu, &params, Through::GridUpdate);
         let (_, velocity) = gpu.read_grid_velocity().unwrap();
         // v = mv / m: at a node that only a stencil's edge touches, m is a tiny weight and the ratio
         // amplifies the momentum's rounding; nodes under 1 % of a particle's mass are left out.

@@ -886,7 +886,7 @@ impl TimeStepPolicy {
     pub fn choices_per_frame(&self) -> u32 {
         match self {
             TimeStepPolicy::Fixed { .. } => 1,
-            TimeStepPolicy::Cfl { .. } => 4,
+            TimeStepPolicy::Cfl { .. } => 8,
         }
     }
 

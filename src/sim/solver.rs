@@ -234,8 +234,10 @@ pub struct Simulation {
     solver: Box<dyn Solver>,
     frame: u64,
     time: f64,
-    /// c(rho) + |v| at the last frame's extremes, m/s: what the next frame's substep is chosen from.
+    /// c(rho) + |v| at the extremes of the last stretch of substeps, m/s.
     signal_speed: f32,
+    /// How much it rose over that stretch (0 if it fell): a rising trend is extrapolated one stretch on.
+    signal_rise: f32,
     /// The last frame's per-substep timings, for the benches' medians.
     last_step_timings: Vec<PhaseTimings>,
 }
@@ -256,6 +258,7 @@ impl Simulation {
             frame: 0,
             time: 0.0,
             signal_speed,
+            signal_rise: 0.0,
             last_step_timings: Vec::new(),
         }
     }
@@ -283,15 +286,13 @@ impl Simulation {
         self.solver.as_mut()
     }
 
-    /// Substeps and substep for the next stretch of `span` seconds. Gravity can add up to |g| span of
-    /// speed within it, so that is added to the last signal speed: the step is safe for the whole span.
+    /// Substeps and substep for the next stretch of `span` seconds. The signal speed can grow within
+    /// it: by up to |g| span from gravity, and, where it was rising (an impact compressing the fluid),
+    /// by as much again as it rose over the last stretch. Both are added, so the step stays safe.
     fn steps_for(&self, span: f32) -> Result<(u32, f32)> {
         let gravity_gain = Vec3::from(self.params.gravity).length() * span;
-        match self
-            .scene
-            .time_step
-            .substeps(span, self.signal_speed + gravity_gain, self.params.dx)
-        {
+        let expected = self.signal_speed + self.signal_rise + gravity_gain;
+        match self.scene.time_step.substeps(span, expected, self.params.dx) {
             Ok(steps) => Ok(steps),
             Err(why) => bail!("frame {}: {why}", self.frame + 1),
         }
@@ -340,8 +341,9 @@ impl Simulation {
                 self.solver.step(&self.params)?;
             }
             let extremes = self.solver.take_extremes()?;
-            self.signal_speed =
-                self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+            let signal = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+            self.signal_rise = (signal - self.signal_speed).max(0.0);
+            self.signal_speed = signal;
             max_cfl = max_cfl.max(self.signal_speed * dt / self.params.dx);
             substeps += n;
             smallest_dt = smallest_dt.min(dt);
