@@ -4,5 +4,6 @@ pub mod backend;
 pub mod bench;
 pub mod cuda;
 pub mod export;
+pub mod render;
 pub mod runner;
 pub mod sim;

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::bench;
 use mpm::export::PlyExporter;
+use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
 use mpm::sim::{presets, ScatterMode, Scene, Simulation};
 use std::io::IsTerminal;
@@ -17,13 +18,21 @@ use std::process::ExitCode;
     version,
     about = "Real-time MLS-MPM fluid: CUDA kernels, a CPU reference, headless runs"
 )]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
+    /// What to do; without one, `mpm` opens the viewer (with the viewer's options below).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    view: ViewArgs,
 }
 
 #[derive(Subcommand)]
 enum Command {
+    /// Open the viewer window (the default): the fluid live, with a control panel.
+    View(ViewArgs),
+    /// Draw frames headless (EGL device, no X server) into PNG files, optionally an MP4.
+    Render(RenderArgs),
     /// Step a scene headless, printing one line of statistics per 60 Hz frame.
     Run(RunArgs),
     /// Time the step per phase (CUDA events), the CPU baseline and the scaling sweep; markdown tables
@@ -62,6 +71,140 @@ struct RunArgs {
     /// Replace existing exported frames or stats file instead of refusing.
     #[arg(long)]
     overwrite: bool,
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
+    #[arg(long, default_value = presets::DEFAULT)]
+    scene: String,
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
+    backend: BackendKind,
+    /// Turn vsync off (draw as fast as possible).
+    #[arg(long)]
+    no_vsync: bool,
+    /// Window size in physical pixels, WxH.
+    #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
+    size: [u32; 2],
+    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
+    draw: DrawMode,
+    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
+    colour: Colouring,
+    /// How particle data reaches OpenGL with the CUDA backend.
+    #[arg(long, value_enum, default_value_t = Transfer::Interop)]
+    transfer: Transfer,
+    /// Step this many 60 Hz frames per drawn frame (for recording) instead of following wall time.
+    #[arg(long, value_name = "N")]
+    fixed_frames: Option<u32>,
+    /// Directory for screenshots (P) and recordings (V).
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    capture_dir: PathBuf,
+    /// Quit after this many drawn frames (scripted runs, tests).
+    #[arg(long, value_name = "N")]
+    quit_after: Option<u64>,
+    /// On quitting, write the last frame to this PNG (must not exist).
+    #[arg(long, value_name = "FILE")]
+    final_screenshot: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
+    #[arg(long, default_value = presets::DEFAULT)]
+    scene: String,
+    /// Number of 60 Hz frames after the initial state (frame-00000.png is the initial state).
+    #[arg(long, default_value_t = 120)]
+    frames: u64,
+    /// Directory for frame-NNNNN.png (created; existing frames are never overwritten).
+    #[arg(long, value_name = "DIR", required_unless_present = "no_images")]
+    out: Option<PathBuf>,
+    /// Render and time the frames without writing images.
+    #[arg(long, conflicts_with_all = ["out", "video"])]
+    no_images: bool,
+    /// Image size, WxH.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
+    size: [u32; 2],
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
+    backend: BackendKind,
+    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
+    draw: DrawMode,
+    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
+    colour: Colouring,
+    /// How particle data reaches OpenGL with the CUDA backend (host-copy: for comparison).
+    #[arg(long, value_enum, default_value_t = Transfer::Interop)]
+    transfer: Transfer,
+    /// Also encode the frames into this MP4 (needs ffmpeg on PATH).
+    #[arg(long, value_name = "FILE")]
+    video: Option<PathBuf>,
+    /// Write the timings as JSON to this file as well.
+    #[arg(long, value_name = "FILE")]
+    timings: Option<PathBuf>,
+}
+
+fn parse_size(text: &str) -> Result<[u32; 2], String> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{text}` is not a size; write WIDTHxHEIGHT, e.g. 1280x720"))?;
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&v| (1..=16384).contains(&v));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok([w, h]),
+        _ => Err(format!(
+            "`{text}`: width and height must be whole numbers from 1 to 16384"
+        )),
+    }
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    render::app::run(ViewerOptions {
+        scene,
+        backend: args.backend,
+        vsync: !args.no_vsync,
+        size: args.size,
+        mode: args.draw,
+        colouring: args.colour,
+        transfer: args.transfer,
+        fixed_frames: args.fixed_frames,
+        capture_dir: args.capture_dir,
+        quit_after: args.quit_after,
+        final_screenshot: args.final_screenshot,
+    })
+}
+
+fn render_frames(args: RenderArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    if let Some(path) = &args.timings {
+        anyhow::ensure!(
+            !path.exists(),
+            "{} exists already; not overwriting it",
+            path.display()
+        );
+    }
+    let report = render::offline::render(
+        RenderOptions {
+            scene,
+            backend: args.backend,
+            frames: args.frames,
+            out: args.out,
+            size: args.size,
+            mode: args.draw,
+            colouring: args.colour,
+            transfer: args.transfer,
+            video: args.video,
+        },
+        &mut std::io::stdout().lock(),
+    )?;
+    if let Some(path) = &args.timings {
+        let json = serde_json::json!({
+            "timings": report.timings,
+            "transfer": report.path,
+            "opengl": report.gl,
+            "size": args.size,
+            "draw": format!("{:?}", args.draw),
+        });
+        std::fs::write(path, format!("{json}\n")).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
 }
 
 #[derive(clap::Args)]
@@ -247,9 +390,12 @@ fn scenes(show: Option<String>) -> Result<()> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run(args) => run(args),
-        Command::Bench(args) => bench(args),
-        Command::Scenes { show } => scenes(show),
+        None => view(cli.view),
+        Some(Command::View(args)) => view(args),
+        Some(Command::Render(args)) => render_frames(args),
+        Some(Command::Run(args)) => run(args),
+        Some(Command::Bench(args)) => bench(args),
+        Some(Command::Scenes { show }) => scenes(show),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,8 +4,10 @@
 //! - [`modules`]: the PTX that build.rs embedded, or a run-time NVRTC compile where needed.
 //! - [`solver`]: [`CudaSolver`], the device particle state and the substep's kernel launches.
 //! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
+//! - [`interop`]: OpenGL buffers registered with CUDA, mapped for the render kernel each frame.
 //! - [`timing`]: per-phase CUDA events, read back without stalling.
 
+pub mod interop;
 pub mod library;
 pub mod modules;
 mod nvrtc_preload;

@@ -13,7 +13,7 @@ use super::modules::{LoadedModules, Origin};
 use super::spawn::{self, SpawnBody};
 use super::timing::PhaseEvents;
 use crate::sim::params::ScatterMode;
-use crate::sim::{Params, Particles, PhaseTimings, Scene, Solver, StepExtremes};
+use crate::sim::{ColourBy, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use cudarc::driver::{
     CudaContext, CudaFunction, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PushKernelArg,
@@ -23,6 +23,8 @@ use std::sync::Arc;
 
 // SAFETY: `Params` is `#[repr(C)]` and Pod; kernels/common.cuh mirrors it with static_asserts.
 unsafe impl DeviceRepr for Params {}
+// SAFETY: `Push` is `#[repr(C)]` and Pod; kernels/render.cu mirrors it with a static_assert.
+unsafe impl DeviceRepr for Push {}
 
 /// Where and how to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -121,6 +123,8 @@ struct Kernels {
     mirror_walls: CudaFunction,
     spawn_count: CudaFunction,
     spawn_write: CudaFunction,
+    render_attributes: CudaFunction,
+    push_particles: CudaFunction,
 }
 
 impl Kernels {
@@ -137,6 +141,8 @@ impl Kernels {
             mirror_walls: modules.function("mirror_walls", "mirror_walls")?,
             spawn_count: modules.function("spawn", "spawn_count")?,
             spawn_write: modules.function("spawn", "spawn_write")?,
+            render_attributes: modules.function("render", "render_attributes")?,
+            push_particles: modules.function("render", "push_particles")?,
         })
     }
 }
@@ -171,6 +177,8 @@ pub struct CudaSolver {
     fixed_mass_scale: f32,
     fixed_momentum_scale: f32,
     timing: PhaseEvents,
+    /// Device scratch of the host-copy render path (allocated on first use, kept).
+    render_scratch: Option<CudaSlice<f32>>,
     /// `MPM_CUDA_SYNC=1`: wait after every launch, so an asynchronous fault names its kernel.
     sync_each_launch: bool,
 }
@@ -291,6 +299,7 @@ impl CudaSolver {
             grid_res: scene.grid_res,
             fixed_mass_scale,
             fixed_momentum_scale,
+            render_scratch: None,
             sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
         };
         if fixed_scatter {
@@ -619,6 +628,71 @@ impl CudaSolver {
         Ok(host)
     }
 
+    /// The CUDA context, for registering GL buffers with it (src/cuda/interop.rs).
+    pub fn context(&self) -> &Arc<CudaContext> {
+        &self.ctx
+    }
+
+    /// The stream every launch of this solver goes to; interop maps and unmaps on it, so a mapped
+    /// buffer is written after the step's kernels and drawn after the write.
+    pub fn stream(&self) -> &Arc<CudaStream> {
+        &self.stream
+    }
+
+    pub fn num_particles(&self) -> usize {
+        self.num_particles
+    }
+
+    /// Writes one float4 per particle (position, `colour_by` value) to device memory at `out`, which
+    /// must hold `16 * num_particles()` bytes: a mapped GL buffer (`interop::MappedBuffer`), so the
+    /// renderer draws the state without a host round trip. Asynchronous on `stream()`.
+    ///
+    /// # Safety
+    /// `out` must be a live device allocation of at least `16 * num_particles()` bytes in this context.
+    pub unsafe fn write_render_attributes_raw(
+        &mut self,
+        out: cudarc::driver::sys::CUdeviceptr,
+        colour_by: ColourBy,
+        rest_density: f32,
+    ) -> Result<()> {
+        let _range = NvtxRange::new("render_attributes");
+        let cfg = self.launch_config(self.num_particles);
+        let n = self.num_particles as u32;
+        let code = colour_by.code();
+        let inv_rest_density = 1.0 / rest_density;
+        let mut launch = self.stream.launch_builder(&self.kernels.render_attributes);
+        launch
+            .arg(&self.x)
+            .arg(&self.v)
+            .arg(&self.rho)
+            .arg(&n)
+            .arg(&code)
+            .arg(&inv_rest_density)
+            .arg(&out);
+        // SAFETY: the arguments match kernels/render.cu; the caller vouches for `out`.
+        let launched = unsafe { launch.launch(cfg) }.map(drop);
+        self.after_launch("render_attributes", launched)
+    }
+
+    /// The same attributes into a device buffer of this solver's (the host-copy path copies it out).
+    pub fn write_render_attributes(
+        &mut self,
+        out: &mut CudaSlice<f32>,
+        colour_by: ColourBy,
+        rest_density: f32,
+    ) -> Result<()> {
+        ensure!(
+            out.len() >= 4 * self.num_particles,
+            "render attribute buffer holds {} floats, needs {}",
+            out.len(),
+            4 * self.num_particles
+        );
+        let stream = self.stream.clone();
+        let (ptr, _guard) = cudarc::driver::DevicePtrMut::device_ptr_mut(out, &stream);
+        // SAFETY: `out` is a live allocation of this context, large enough (checked above).
+        unsafe { self.write_render_attributes_raw(ptr, colour_by, rest_density) }
+    }
+
     fn upload(&mut self, particles: &Particles) -> Result<()> {
         let n = particles.len();
         ensure!(
@@ -776,6 +850,44 @@ impl Solver for CudaSolver {
 
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
         self.timing.take_completed().map(Some)
+    }
+
+    fn apply_push(&mut self, push: &Push) -> Result<()> {
+        let _range = NvtxRange::new("push");
+        let cfg = self.launch_config(self.num_particles);
+        let n = self.num_particles as u32;
+        let mut launch = self.stream.launch_builder(&self.kernels.push_particles);
+        launch.arg(push).arg(&n).arg(&self.x).arg(&self.v);
+        // SAFETY: the arguments match kernels/render.cu; x and v hold n float4.
+        let launched = unsafe { launch.launch(cfg) }.map(drop);
+        self.after_launch("push_particles", launched)
+    }
+
+    /// Launches the attribute kernel into a scratch buffer and copies that to the host.
+    fn render_attributes(
+        &mut self,
+        colour_by: ColourBy,
+        rest_density: f32,
+        out: &mut Vec<[f32; 4]>,
+    ) -> Result<()> {
+        let mut scratch = match self.render_scratch.take() {
+            Some(scratch) => scratch,
+            None => self
+                .stream
+                .alloc_zeros::<f32>(4 * self.num_particles)
+                .context("allocating render attributes")?,
+        };
+        let written = self.write_render_attributes(&mut scratch, colour_by, rest_density);
+        let flat = written.and_then(|()| self.download(&scratch));
+        self.render_scratch = Some(scratch);
+        let flat = flat?;
+        out.clear();
+        out.extend(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
+        Ok(())
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
     }
 
     fn read_particles(&mut self) -> Result<Particles> {

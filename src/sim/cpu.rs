@@ -3,6 +3,7 @@
 //! phase is a public method that a test can run on its own.
 
 use super::params::Params;
+use super::push::{ColourBy, Push};
 use super::scene::Particles;
 use super::solver::{PhaseTimings, Solver, StepExtremes, MAX_PENDING_STEP_TIMINGS};
 use glam::{IVec3, Mat3, UVec3, Vec3};
@@ -340,5 +341,33 @@ impl Solver for CpuSolver {
 
     fn read_particles(&mut self) -> anyhow::Result<Particles> {
         Ok(self.particles.clone())
+    }
+
+    fn apply_push(&mut self, push: &Push) -> anyhow::Result<()> {
+        let p = &mut self.particles;
+        for (x, v) in p.x.iter().zip(p.v.iter_mut()) {
+            *v += push.velocity_change(*x);
+        }
+        Ok(())
+    }
+
+    /// Reads the particles in place (the trait's default would clone them first).
+    fn render_attributes(
+        &mut self,
+        colour_by: ColourBy,
+        rest_density: f32,
+        out: &mut Vec<[f32; 4]>,
+    ) -> anyhow::Result<()> {
+        let p = &self.particles;
+        out.clear();
+        out.extend((0..p.len()).map(|i| {
+            let value = colour_by.value(p.v[i], p.rho[i], rest_density);
+            [p.x[i].x, p.x[i].y, p.x[i].z, value]
+        }));
+        Ok(())
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
     }
 }

@@ -4,11 +4,13 @@
 pub mod cpu;
 pub mod params;
 pub mod presets;
+pub mod push;
 pub mod scene;
 pub mod solver;
 
 pub use params::{Material, Params, ScatterMode, FRAME_DT};
+pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
-    FrameStats, PhaseTimings, Simulation, Solver, StepExtremes, Summary, MAX_PENDING_STEP_TIMINGS,
+    FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary, MAX_PENDING_STEP_TIMINGS,
 };

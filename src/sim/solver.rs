@@ -4,8 +4,9 @@
 //! A [`Simulation`] owns one, and advances it frame by frame under the scene's time-step policy.
 
 use super::params::{Material, Params, FRAME_DT};
+use super::push::{ColourBy, Push};
 use super::scene::{Particles, Scene};
-use anyhow::{bail, Result};
+use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
@@ -113,6 +114,26 @@ pub trait Solver {
     }
     /// A host copy of the particle state.
     fn read_particles(&mut self) -> Result<Particles>;
+    /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
+    fn apply_push(&mut self, push: &Push) -> Result<()>;
+    /// One `[x, y, z, value]` per particle, `value` as `colour_by` says: what the renderer draws,
+    /// for backends without GL interop (and the CUDA host-copy comparison).
+    fn render_attributes(
+        &mut self,
+        colour_by: ColourBy,
+        rest_density: f32,
+        out: &mut Vec<[f32; 4]>,
+    ) -> Result<()> {
+        let p = self.read_particles()?;
+        out.clear();
+        out.extend((0..p.len()).map(|i| {
+            let value = colour_by.value(p.v[i], p.rho[i], rest_density);
+            [p.x[i].x, p.x[i].y, p.x[i].z, value]
+        }));
+        Ok(())
+    }
+    /// For reaching backend-specific features (the CUDA solver's GL interop) through `dyn Solver`.
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
     /// Statistics of the current state. Backends that can reduce in place override this copy.
     fn summary(&mut self, material: &Material) -> Result<Summary> {
         let particles = self.read_particles()?;
@@ -197,6 +218,16 @@ pub struct FrameStats {
     pub timings: Option<PhaseTimings>,
 }
 
+/// What one frame's substeps did, without the statistics pass (which copies every particle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameSteps {
+    pub substeps: u32,
+    /// The smallest substep of the frame, s.
+    pub dt: f32,
+    pub max_cfl: f32,
+    pub timings: Option<PhaseTimings>,
+}
+
 pub struct Simulation {
     scene: Scene,
     params: Params,
@@ -274,9 +305,32 @@ impl Simulation {
         Ok((n * choices, dt))
     }
 
-    /// Advance one 60 Hz frame and return its statistics. The substep is chosen anew
-    /// `choices_per_frame` times in the frame, each time from the extremes of the substeps before.
+    /// Advance one 60 Hz frame and return its statistics.
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
+        let steps = self.step_frame()?;
+        let summary = self.solver.summary(&self.params.material)?;
+        if !summary.is_finite() {
+            bail!(
+                "the simulation diverged in frame {} (a NaN or infinity appeared); \
+                 lower time_step.cfl or time_step.dt, or raise material.sound_speed",
+                self.frame
+            );
+        }
+        Ok(FrameStats {
+            frame: self.frame,
+            time: self.time,
+            substeps: steps.substeps,
+            dt: steps.dt,
+            max_cfl: steps.max_cfl,
+            summary,
+            timings: steps.timings,
+        })
+    }
+
+    /// Advance one 60 Hz frame without the statistics pass (which copies every particle to the host):
+    /// what the viewer calls every frame. The substep is chosen anew `choices_per_frame` times in the
+    /// frame, each time from the extremes of the substeps before.
+    pub fn step_frame(&mut self) -> Result<FrameSteps> {
         let choices = self.scene.time_step.choices_per_frame();
         let span = FRAME_DT / choices as f32;
         let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
@@ -298,27 +352,62 @@ impl Simulation {
         self.frame += 1;
         self.time += simulated;
 
-        let material = &self.params.material;
-        let summary = self.solver.summary(material)?;
         let step_timings = self.solver.take_step_timings()?;
         let timings = step_timings.as_deref().map(PhaseTimings::sum);
         self.last_step_timings = step_timings.unwrap_or_default();
-        let stats = FrameStats {
-            frame: self.frame,
-            time: self.time,
-            substeps,
-            dt: smallest_dt,
-            max_cfl,
-            summary,
-            timings,
-        };
-        if !summary.is_finite() || !self.signal_speed.is_finite() {
+        if !self.signal_speed.is_finite() {
             bail!(
                 "the simulation diverged in frame {} (a NaN or infinity appeared); \
                  lower time_step.cfl or time_step.dt, or raise material.sound_speed",
                 self.frame
             );
         }
-        Ok(stats)
+        Ok(FrameSteps {
+            substeps,
+            dt: smallest_dt,
+            max_cfl,
+            timings,
+        })
+    }
+
+    /// Gives the particles near a ray a velocity change (the viewer's mouse push). The next frame's
+    /// step accounts for the speed it adds.
+    pub fn apply_push(&mut self, push: &Push) -> Result<()> {
+        self.solver.apply_push(push)?;
+        self.signal_speed += push.max_speed_gain();
+        Ok(())
+    }
+
+    /// Dynamic viscosity mu, Pa s (live control). Must be finite and non-negative.
+    pub fn set_viscosity(&mut self, viscosity: f32) -> Result<()> {
+        ensure!(
+            viscosity.is_finite() && viscosity >= 0.0,
+            "viscosity must be a finite number >= 0 Pa s, not {viscosity}"
+        );
+        self.params.material.viscosity = viscosity;
+        Ok(())
+    }
+
+    /// Sound speed at rest c0, m/s (live control): sets the Tait stiffness k = rho0 c0^2 / gamma, the
+    /// one quantity c0 derives from. The next frame's substep follows the new speed.
+    pub fn set_sound_speed(&mut self, sound_speed: f32) -> Result<()> {
+        ensure!(
+            sound_speed.is_finite() && sound_speed > 0.0,
+            "sound speed must be a finite number > 0 m/s, not {sound_speed}"
+        );
+        let material = &mut self.params.material;
+        let old = material.sound_speed();
+        material.eos_stiffness = material.rest_density * sound_speed * sound_speed / material.eos_power;
+        // The signal speed scales with c0 (its density factor stays the same).
+        self.signal_speed += material.sound_speed() - old;
+        self.signal_speed = self.signal_speed.max(material.sound_speed());
+        Ok(())
+    }
+
+    /// Gravity, m/s^2 (live control). Every component must be finite.
+    pub fn set_gravity(&mut self, gravity: Vec3) -> Result<()> {
+        ensure!(gravity.is_finite(), "gravity must be finite, not {gravity:?}");
+        self.params.gravity = gravity.to_array();
+        Ok(())
     }
 }

@@ -1,0 +1,750 @@
+//! The viewer window: winit's `ApplicationHandler` drives one redraw after another; each steps the
+//! simulation as the clock says, feeds the particles to the renderer (interop or host copy), draws
+//! them, captures images if asked, and draws the egui panel on top.
+
+use super::camera::OrbitCamera;
+use super::capture::{next_free_screenshot, FrameSequence, Image};
+use super::clock::{Pacing, SimClock};
+use super::feed::{ParticleFeed, Transfer};
+use super::hud::{self, Action, Controls, HudInfo};
+use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+use crate::backend::{self, BackendKind};
+use crate::sim::{PhaseTimings, Push, Scene, Simulation};
+use anyhow::{anyhow, Context, Result};
+use glam::{Vec2, Vec3};
+use glow::HasContext;
+use glutin::config::ConfigTemplateBuilder;
+use glutin::context::{ContextApi, ContextAttributesBuilder, GlProfile, PossiblyCurrentContext, Version};
+use glutin::display::GetGlDisplay;
+use glutin::prelude::*;
+use glutin::surface::{Surface, SwapInterval, WindowSurface};
+use glutin_winit::GlWindow;
+use std::num::NonZeroU32;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, ModifiersState, NamedKey};
+use winit::raw_window_handle::HasWindowHandle;
+use winit::window::{Window, WindowId};
+
+pub struct ViewerOptions {
+    pub scene: Scene,
+    pub backend: BackendKind,
+    pub vsync: bool,
+    pub size: [u32; 2],
+    pub mode: DrawMode,
+    pub colouring: Colouring,
+    pub transfer: Transfer,
+    /// Step this many 60 Hz frames per drawn frame instead of following wall time.
+    pub fixed_frames: Option<u32>,
+    /// Where screenshots and recordings go.
+    pub capture_dir: PathBuf,
+    /// Quit after this many drawn frames (scripted runs and tests).
+    pub quit_after: Option<u64>,
+    /// Write the last drawn frame here on quitting (scripted runs and tests); must not exist.
+    pub final_screenshot: Option<PathBuf>,
+}
+
+/// Opens the window and runs until it is closed.
+pub fn run(options: ViewerOptions) -> Result<()> {
+    if let Some(path) = &options.final_screenshot {
+        anyhow::ensure!(
+            !path.exists(),
+            "{} exists already; not overwriting it",
+            path.display()
+        );
+    }
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow!(
+            "cannot open a window: {e}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
+             WAYLAND_DISPLAY set?); without one, `mpm render` draws frames to PNG files headless"
+        )
+    })?;
+    let mut app = ViewerApp::new(options);
+    event_loop
+        .run_app(&mut app)
+        .context("the window's event loop failed")?;
+    match app.fatal.take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// The window and everything tied to its GL context.
+struct Gpu {
+    // Field order is drop order: GL users first, then the surface and context, then the window.
+    egui: egui_glow::EguiGlow,
+    renderer: Renderer,
+    gl: Arc<glow::Context>,
+    surface: Surface<WindowSurface>,
+    context: PossiblyCurrentContext,
+    window: Window,
+}
+
+#[derive(Default)]
+struct Mouse {
+    position: Vec2,
+    left: bool,
+    right: bool,
+    /// Drag movement since the last frame, for the push.
+    push_drag: Vec2,
+}
+
+struct Recording {
+    sequence: FrameSequence,
+}
+
+struct ViewerApp {
+    options: ViewerOptions,
+    gpu: Option<Gpu>,
+    sim: Option<Simulation>,
+    scene: Scene,
+    feed: ParticleFeed,
+    camera: OrbitCamera,
+    controls: Controls,
+    clock: SimClock,
+    mouse: Mouse,
+    modifiers: ModifiersState,
+    show_panel: bool,
+    step_requested: bool,
+    screenshot_requested: bool,
+    recording: Option<Recording>,
+    /// Where the scene is drawn: the window right of the panel (GL convention, bottom-left origin).
+    scene_viewport: Viewport,
+    /// The last error or notice, shown in the panel (a bad scene file, a refused value...).
+    message: Option<String>,
+    /// An error that ends the viewer (no GL context, no backend).
+    fatal: Option<anyhow::Error>,
+    started: Instant,
+    last_frame: Instant,
+    frames_drawn: u64,
+    fps: f64,
+    frame_ms: f64,
+    last_timings: Option<PhaseTimings>,
+    last_steps: (u32, f32, f32),
+}
+
+impl ViewerApp {
+    fn new(options: ViewerOptions) -> ViewerApp {
+        let scene = options.scene.clone();
+        let (camera, controls) = Self::scene_defaults(&scene, &options);
+        let pacing = match options.fixed_frames {
+            Some(n) => Pacing::Fixed {
+                frames_per_draw: n.max(1),
+            },
+            None => Pacing::RealTime {
+                max_frames_per_draw: 4,
+            },
+        };
+        ViewerApp {
+            feed: ParticleFeed::new(options.transfer),
+            gpu: None,
+            sim: None,
+            scene,
+            camera,
+            controls,
+            clock: SimClock::new(pacing),
+            mouse: Mouse::default(),
+            modifiers: ModifiersState::empty(),
+            show_panel: true,
+            step_requested: false,
+            screenshot_requested: false,
+            recording: None,
+            scene_viewport: Viewport::full(options.size),
+            message: None,
+            fatal: None,
+            started: Instant::now(),
+            last_frame: Instant::now(),
+            frames_drawn: 0,
+            fps: 0.0,
+            frame_ms: 0.0,
+            last_timings: None,
+            last_steps: (0, 0.0, 0.0),
+            options,
+        }
+    }
+
+    fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> (OrbitCamera, Controls) {
+        let (lo, hi) = scene.fluid_region();
+        let camera = OrbitCamera::framing(lo.as_vec3(), hi.as_vec3());
+        let mut render = RenderSettings::for_spacing(scene.lattice().spacing as f32);
+        render.mode = options.mode;
+        render.colouring = options.colouring;
+        render.scale_range = RenderSettings::default_range(options.colouring);
+        let controls = Controls {
+            paused: false,
+            render,
+            viscosity: scene.material.viscosity,
+            sound_speed: scene.material.sound_speed(),
+            gravity: scene.gravity,
+            fixed_pacing: options.fixed_frames.is_some(),
+            frames_per_draw: options.fixed_frames.unwrap_or(1).max(1),
+            // A preset's source reads "preset NAME"; a scene file does not pre-select one.
+            preset: crate::sim::presets::NAMES
+                .iter()
+                .position(|&n| scene.source == format!("preset {n}")),
+            scene_path: String::new(),
+            push_strength: 0.02,
+            push_radius: 0.1,
+        };
+        (camera, controls)
+    }
+
+    fn domain(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = self.scene.fluid_region();
+        (lo.as_vec3(), hi.as_vec3())
+    }
+
+    /// Starts `scene` afresh on the chosen backend; on failure the old simulation keeps running.
+    fn start_scene(&mut self, scene: Scene, reframe: bool) -> Result<()> {
+        // The registration refers to the old solver's context and buffer size: release it first.
+        self.feed.release();
+        self.sim = None;
+        let solver = backend::create(self.options.backend, &scene)?;
+        if reframe {
+            let (camera, mut controls) = Self::scene_defaults(&scene, &self.options);
+            controls.render.mode = self.controls.render.mode;
+            controls.render.colouring = self.controls.render.colouring;
+            controls.render.scale_range = self.controls.render.scale_range;
+            controls.paused = self.controls.paused;
+            self.camera = camera;
+            self.controls = controls;
+        } else {
+            self.controls.viscosity = scene.material.viscosity;
+            self.controls.sound_speed = scene.material.sound_speed();
+            self.controls.gravity = scene.gravity;
+        }
+        self.sim = Some(Simulation::new(scene.clone(), solver));
+        self.scene = scene;
+        self.clock.reset();
+        Ok(())
+    }
+
+    fn create_gpu(&mut self, event_loop: &ActiveEventLoop) -> Result<Gpu> {
+        let attributes = Window::default_attributes()
+            .with_title(format!("mpm — {}", self.scene.name))
+            .with_inner_size(winit::dpi::PhysicalSize::new(
+                self.options.size[0],
+                self.options.size[1],
+            ))
+            .with_resizable(true);
+        let template = ConfigTemplateBuilder::new()
+            .with_depth_size(24)
+            .with_alpha_size(8);
+        let (window, config) = glutin_winit::DisplayBuilder::new()
+            .with_window_attributes(Some(attributes.clone()))
+            .build(event_loop, template, |configs| {
+                // A depth buffer (the impostors write depth) and the fewest samples. glutin-winit
+                // reports an error before calling this when there is no config at all.
+                configs
+                    .max_by_key(|c| (c.depth_size() >= 24, std::cmp::Reverse(c.num_samples())))
+                    .expect("glutin-winit passes a non-empty config list")
+            })
+            .map_err(|e| anyhow!("no OpenGL config for a window: {e}"))?;
+        let display = config.display();
+        let window = match window {
+            Some(window) => window,
+            None => glutin_winit::finalize_window(event_loop, attributes, &config)
+                .context("creating the window")?,
+        };
+        let handle = window
+            .window_handle()
+            .context("the window has no handle")?
+            .as_raw();
+        let mut context = None;
+        let mut failures = Vec::new();
+        // OpenGL 4.5 core first, then 3.3 core (every shader here is GLSL 3.30).
+        for version in [Version::new(4, 5), Version::new(3, 3)] {
+            let attributes = ContextAttributesBuilder::new()
+                .with_context_api(ContextApi::OpenGl(Some(version)))
+                .with_profile(GlProfile::Core)
+                .build(Some(handle));
+            // SAFETY: config and handle come from this display and window.
+            match unsafe { display.create_context(&config, &attributes) } {
+                Ok(c) => {
+                    context = Some(c);
+                    break;
+                }
+                Err(e) => failures.push(format!("{version:?}: {e}")),
+            }
+        }
+        let context = context.ok_or_else(|| {
+            anyhow!(
+                "the driver gives no OpenGL 3.3+ core context ({})",
+                failures.join("; ")
+            )
+        })?;
+        let surface_attributes = window
+            .build_surface_attributes(Default::default())
+            .context("the window has no usable size or handle")?;
+        // SAFETY: as above.
+        let surface = unsafe { display.create_window_surface(&config, &surface_attributes) }
+            .context("creating the window surface")?;
+        let context = context
+            .make_current(&surface)
+            .context("making the GL context current")?;
+        let interval = if self.options.vsync {
+            SwapInterval::Wait(NonZeroU32::MIN)
+        } else {
+            SwapInterval::DontWait
+        };
+        if let Err(e) = surface.set_swap_interval(&context, interval) {
+            eprintln!(
+                "note: cannot set vsync {}: {e}",
+                if self.options.vsync { "on" } else { "off" }
+            );
+        }
+        // SAFETY: the context is current; the loader is its display's.
+        let gl =
+            Arc::new(unsafe { glow::Context::from_loader_function_cstr(|s| display.get_proc_address(s)) });
+        // SAFETY: the context is current.
+        let description = unsafe {
+            format!(
+                "{} / OpenGL {}",
+                gl.get_parameter_string(glow::RENDERER),
+                gl.get_parameter_string(glow::VERSION)
+            )
+        };
+        eprintln!("OpenGL: {description}");
+        let renderer = Renderer::new(gl.clone())?;
+        let egui = egui_glow::EguiGlow::new(
+            event_loop,
+            gl.clone(),
+            None,
+            Some(window.scale_factor() as f32),
+            true,
+        );
+        Ok(Gpu {
+            egui,
+            renderer,
+            gl,
+            surface,
+            context,
+            window,
+        })
+    }
+
+    fn handle_key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
+        match key {
+            Key::Named(NamedKey::Space) => self.controls.paused = !self.controls.paused,
+            Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Character(c) => match c.to_lowercase().as_str() {
+                "n" => self.step_requested = true,
+                "r" => self.act(Action::Reset, event_loop),
+                "m" => {
+                    let r = &mut self.controls.render;
+                    r.mode = match r.mode {
+                        DrawMode::Points => DrawMode::Spheres,
+                        DrawMode::Spheres => DrawMode::Points,
+                    };
+                }
+                "c" => {
+                    let r = &mut self.controls.render;
+                    r.colouring = match r.colouring {
+                        Colouring::Solid => Colouring::Speed,
+                        Colouring::Speed => Colouring::Density,
+                        Colouring::Density => Colouring::Solid,
+                    };
+                    r.scale_range = RenderSettings::default_range(r.colouring);
+                }
+                "f" => self.act(Action::FrameCamera, event_loop),
+                "p" => self.screenshot_requested = true,
+                "v" => self.act(Action::ToggleRecording, event_loop),
+                "h" => self.show_panel = !self.show_panel,
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+
+    fn act(&mut self, action: Action, event_loop: &ActiveEventLoop) {
+        let result = match action {
+            Action::Step => {
+                self.step_requested = true;
+                Ok(())
+            }
+            Action::Reset => self.start_scene(self.scene.clone(), false),
+            Action::LoadPreset(name) => Scene::load(name)
+                .map_err(anyhow::Error::from)
+                .and_then(|scene| self.start_scene(scene, true)),
+            Action::LoadFile(path) => Scene::load(path.trim())
+                .map_err(anyhow::Error::from)
+                .and_then(|scene| self.start_scene(scene, true)),
+            Action::Screenshot => {
+                self.screenshot_requested = true;
+                Ok(())
+            }
+            Action::ToggleRecording => self.toggle_recording(),
+            Action::FrameCamera => {
+                let (lo, hi) = self.domain();
+                self.camera = OrbitCamera::framing(lo, hi);
+                Ok(())
+            }
+            Action::SetViscosity(mu) => self.with_sim(|sim| sim.set_viscosity(mu)),
+            Action::SetSoundSpeed(c) => self.with_sim(|sim| sim.set_sound_speed(c)),
+            Action::SetGravity(g) => self.with_sim(|sim| sim.set_gravity(g)),
+            Action::Quit => {
+                event_loop.exit();
+                Ok(())
+            }
+        };
+        if let Err(e) = result {
+            self.message = Some(format!("{e:#}"));
+        }
+    }
+
+    fn with_sim(&mut self, f: impl FnOnce(&mut Simulation) -> Result<()>) -> Result<()> {
+        match &mut self.sim {
+            Some(sim) => f(sim),
+            None => Ok(()),
+        }
+    }
+
+    fn toggle_recording(&mut self) -> Result<()> {
+        if let Some(recording) = self.recording.take() {
+            self.message = Some(format!(
+                "recorded {} frames to {}",
+                recording.sequence.frames_written(),
+                recording.sequence.dir().display()
+            ));
+            return Ok(());
+        }
+        // A new numbered folder each time, so no earlier recording is touched.
+        let dir = (0..)
+            .map(|i| self.options.capture_dir.join(format!("recording-{i:03}")))
+            .find(|d| !d.exists())
+            .unwrap_or_else(|| self.options.capture_dir.join("recording"));
+        let sequence = FrameSequence::create(&dir, 1)?;
+        self.recording = Some(Recording { sequence });
+        Ok(())
+    }
+
+    /// One frame: step, feed, draw, capture, panel, swap.
+    fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
+        let now = Instant::now();
+        let wall_dt = (now - self.last_frame).as_secs_f64();
+        self.last_frame = now;
+        if self.frames_drawn > 0 {
+            self.frame_ms = 0.9 * self.frame_ms + 0.1 * wall_dt * 1e3;
+            self.fps = 1e3 / self.frame_ms.max(1e-3);
+        }
+
+        // Recording fixes one 60 Hz frame per image, so the sequence plays back at real speed.
+        self.clock.pacing = if self.recording.is_some() {
+            Pacing::Fixed { frames_per_draw: 1 }
+        } else if self.controls.fixed_pacing {
+            Pacing::Fixed {
+                frames_per_draw: self.controls.frames_per_draw.max(1),
+            }
+        } else {
+            Pacing::RealTime {
+                max_frames_per_draw: 4,
+            }
+        };
+        let frames = if self.controls.paused {
+            self.clock.frames_for(0.0);
+            u32::from(std::mem::take(&mut self.step_requested))
+        } else {
+            self.step_requested = false;
+            self.clock.frames_for(wall_dt)
+        };
+        self.step(frames)?;
+
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(());
+        };
+        let size = gpu.window.inner_size();
+        let size = [size.width.max(1), size.height.max(1)];
+        let count = match &mut self.sim {
+            Some(sim) => self
+                .feed
+                .update(sim, &mut gpu.renderer, self.controls.render.colouring)?,
+            None => 0,
+        };
+        let domain = {
+            let (lo, hi) = self.scene.fluid_region();
+            (lo.as_vec3(), hi.as_vec3())
+        };
+        // The panel first: it decides how much of the window the scene gets.
+        let mut actions = Vec::new();
+        let mut scene_rect = None;
+        if self.show_panel {
+            let info = HudInfo {
+                scene: &self.scene.name,
+                backend: self.sim.as_ref().map_or("none", |s| s.backend()),
+                particles: count,
+                fps: self.fps,
+                frame_ms: self.frame_ms,
+                timings: self.last_timings,
+                substeps: self.last_steps.0,
+                dt: self.last_steps.1,
+                max_cfl: self.last_steps.2,
+                sim_time: self.sim.as_ref().map_or(0.0, |s| s.time()),
+                wall_time: self.started.elapsed().as_secs_f64(),
+                speed: self.clock.speed(),
+                transfer: self.feed.path(),
+                recording: self.recording.as_ref().map(|r| {
+                    (
+                        r.sequence.dir().display().to_string(),
+                        r.sequence.frames_written(),
+                    )
+                }),
+                message: self.message.as_deref(),
+            };
+            let controls = &mut self.controls;
+            gpu.egui.run(&gpu.window, |ctx| {
+                actions = hud::panel(ctx, controls, &info);
+                scene_rect = Some((ctx.available_rect(), ctx.pixels_per_point()));
+            });
+        }
+        self.scene_viewport = match scene_rect {
+            Some((rect, ppp)) => {
+                let left = (rect.min.x * ppp).round().clamp(0.0, size[0] as f32 - 1.0) as u32;
+                let top = (rect.min.y * ppp).round().clamp(0.0, size[1] as f32 - 1.0) as u32;
+                let right = ((rect.max.x * ppp).round() as u32).clamp(left + 1, size[0]);
+                let bottom = ((rect.max.y * ppp).round() as u32).clamp(top + 1, size[1]);
+                Viewport {
+                    x: left as i32,
+                    y: (size[1] - bottom) as i32,
+                    width: right - left,
+                    height: bottom - top,
+                }
+            }
+            None => Viewport::full(size),
+        };
+        gpu.renderer.draw(
+            self.scene_viewport,
+            &self.camera,
+            &self.controls.render,
+            count,
+            domain,
+        );
+
+        let last_frame = self
+            .options
+            .quit_after
+            .is_some_and(|n| self.frames_drawn + 1 >= n);
+        let want_image = self.screenshot_requested
+            || self.recording.is_some()
+            || (last_frame && self.options.final_screenshot.is_some());
+        if want_image {
+            // The scene alone, before the panel is painted over the frame.
+            let image = read_back_buffer(&gpu.gl, self.scene_viewport);
+            if std::mem::take(&mut self.screenshot_requested) {
+                let path = next_free_screenshot(&self.options.capture_dir);
+                match image.write_png_new(&path) {
+                    Ok(()) => self.message = Some(format!("saved {}", path.display())),
+                    Err(e) => self.message = Some(format!("{e:#}")),
+                }
+            }
+            if let Some(recording) = &mut self.recording {
+                if let Err(e) = recording.sequence.write(&image) {
+                    self.message = Some(format!("recording stopped: {e:#}"));
+                    self.recording = None;
+                }
+            }
+            if last_frame {
+                if let Some(path) = &self.options.final_screenshot {
+                    image.write_png_new(path)?;
+                }
+            }
+        }
+
+        if self.show_panel {
+            gpu.egui.paint(&gpu.window);
+        }
+        for action in actions {
+            self.act(action, event_loop);
+        }
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(());
+        };
+        gpu.surface
+            .swap_buffers(&gpu.context)
+            .context("presenting the frame (swap buffers)")?;
+        self.frames_drawn += 1;
+        if last_frame {
+            event_loop.exit();
+        }
+        gpu.window.request_redraw();
+        Ok(())
+    }
+
+    /// Steps `frames` 60 Hz frames, applying the pending push first. A failed step pauses the viewer
+    /// with the reason shown, rather than closing it.
+    fn step(&mut self, frames: u32) -> Result<()> {
+        let Some(sim) = &mut self.sim else { return Ok(()) };
+        let drag = std::mem::take(&mut self.mouse.push_drag);
+        if drag != Vec2::ZERO && frames > 0 {
+            if let Some(gpu) = &self.gpu {
+                // The cursor relative to the scene's viewport (window y runs down, GL's up).
+                let window_height = gpu.window.inner_size().height as f32;
+                let vp = self.scene_viewport;
+                let size = Vec2::new(vp.width as f32, vp.height as f32);
+                let top = window_height - (vp.y as f32 + vp.height as f32);
+                let cursor = self.mouse.position - Vec2::new(vp.x as f32, top);
+                let (origin, direction) = self.camera.ray(cursor, size);
+                // The drag in world units, along the camera's right and up axes.
+                let view = self.camera.view();
+                let right = view.row(0).truncate();
+                let up = view.row(1).truncate();
+                let delta_v = (drag.x * right - drag.y * up) * self.controls.push_strength;
+                let (lo, hi) = self.scene.fluid_region();
+                let radius = self.controls.push_radius * (hi - lo).as_vec3().max_element();
+                let push = Push::new(origin, direction, radius, delta_v.clamp_length_max(10.0));
+                if let Err(e) = sim.apply_push(&push) {
+                    self.message = Some(format!("push failed: {e:#}"));
+                }
+            }
+        }
+        let mut timings: Option<PhaseTimings> = None;
+        let started = Instant::now();
+        for _ in 0..frames {
+            match sim.step_frame() {
+                Ok(steps) => {
+                    self.last_steps = (steps.substeps, steps.dt, steps.max_cfl);
+                    if let Some(t) = steps.timings {
+                        timings.get_or_insert_with(PhaseTimings::default).accumulate(&t);
+                    }
+                }
+                Err(e) => {
+                    self.controls.paused = true;
+                    self.message = Some(format!("{e:#} (press R to reset)"));
+                    break;
+                }
+            }
+        }
+        self.clock.record_cost(frames, started.elapsed().as_secs_f64());
+        if let Some(t) = timings.filter(|t| t.steps > 0) {
+            self.last_timings = Some(t);
+        }
+        Ok(())
+    }
+}
+
+/// A region of the back buffer as an image.
+fn read_back_buffer(gl: &glow::Context, viewport: Viewport) -> Image {
+    let (w, h) = (viewport.width, viewport.height);
+    let mut pixels = vec![0u8; 4 * w as usize * h as usize];
+    // SAFETY: the context is current; the buffer has room for w x h RGBA8.
+    unsafe {
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            viewport.x,
+            viewport.y,
+            w as i32,
+            h as i32,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut pixels)),
+        );
+    }
+    let mut image = Image::from_gl_rows(w, h, pixels);
+    for px in image.rgba.chunks_exact_mut(4) {
+        px[3] = 255;
+    }
+    image
+}
+
+impl ApplicationHandler for ViewerApp {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gpu.is_some() {
+            return;
+        }
+        let started = self.create_gpu(event_loop).and_then(|gpu| {
+            self.gpu = Some(gpu);
+            self.start_scene(self.scene.clone(), false)
+        });
+        if let Err(e) = started {
+            self.fatal = Some(e);
+            event_loop.exit();
+            return;
+        }
+        if let Some(gpu) = &self.gpu {
+            gpu.window.request_redraw();
+        }
+        self.last_frame = Instant::now();
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(gpu) = self.gpu.as_mut() else { return };
+        let consumed = self.show_panel && gpu.egui.on_window_event(&gpu.window, &event).consumed;
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                if let (Some(w), Some(h)) = (NonZeroU32::new(size.width), NonZeroU32::new(size.height)) {
+                    gpu.surface.resize(&gpu.context, w, h);
+                    // Re-register after a surface change: cheap, and some drivers move GL objects then.
+                    self.feed.release();
+                }
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.redraw(event_loop) {
+                    self.fatal = Some(e);
+                    event_loop.exit();
+                }
+            }
+            WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),
+            WindowEvent::KeyboardInput { event, .. }
+                if !consumed && event.state == ElementState::Pressed && !event.repeat =>
+            {
+                self.handle_key(&event.logical_key, event_loop);
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let pressed = state == ElementState::Pressed;
+                if pressed && consumed {
+                    return;
+                }
+                match button {
+                    MouseButton::Left => self.mouse.left = pressed,
+                    MouseButton::Right | MouseButton::Middle => self.mouse.right = pressed,
+                    _ => {}
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let position = Vec2::new(position.x as f32, position.y as f32);
+                let delta = position - self.mouse.position;
+                self.mouse.position = position;
+                if consumed {
+                    return;
+                }
+                let height = self.scene_viewport.height as f32;
+                if self.mouse.left && self.modifiers.shift_key() {
+                    self.mouse.push_drag += delta;
+                } else if self.mouse.left {
+                    self.camera.orbit(delta);
+                } else if self.mouse.right {
+                    self.camera.pan(delta, height);
+                }
+            }
+            WindowEvent::MouseWheel { delta, .. } if !consumed => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.camera.zoom(steps);
+            }
+            _ => {}
+        }
+    }
+
+    fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
+        // Release in dependency order: the CUDA registration, the solver, then GL objects.
+        self.feed.release();
+        self.sim = None;
+        if let Some(mut gpu) = self.gpu.take() {
+            gpu.renderer.destroy();
+            gpu.egui.destroy();
+        }
+        if let Some(recording) = self.recording.take() {
+            eprintln!(
+                "recorded {} frames to {}",
+                recording.sequence.frames_written(),
+                recording.sequence.dir().display()
+            );
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! How many 60 Hz simulation frames to step per drawn frame.
+//!
+//! Real time: simulated time follows wall time, but at most `max_frames_per_draw` frames are stepped
+//! per draw, and no more than fit in a draw budget at the measured cost of a frame; wall time beyond
+//! that is dropped, so a slow machine shows slow motion rather than falling ever further behind (and
+//! freezing: a CPU that takes a second per frame still redraws once a frame is done). Fixed: a set number per draw (for recording, where each
+//! image must be the same simulated time apart).
+
+use crate::sim::FRAME_DT;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pacing {
+    RealTime { max_frames_per_draw: u32 },
+    Fixed { frames_per_draw: u32 },
+}
+
+#[derive(Debug, Clone)]
+pub struct SimClock {
+    pub pacing: Pacing,
+    /// Wall seconds not yet simulated.
+    debt: f64,
+    /// Exponentially decayed sums of simulated and wall seconds: their ratio is the speed, smooth
+    /// even when draws alternate between stepping 0 and 2 frames.
+    sim_sum: f64,
+    wall_sum: f64,
+    /// Smoothed wall seconds that stepping one 60 Hz frame takes here (0 until measured).
+    frame_cost: f64,
+}
+
+/// Wall seconds of stepping a draw may take before it steps fewer frames (about 20 draws/s).
+const STEP_BUDGET: f64 = 0.05;
+
+impl SimClock {
+    pub fn new(pacing: Pacing) -> SimClock {
+        SimClock {
+            pacing,
+            debt: 0.0,
+            sim_sum: 0.0,
+            wall_sum: 0.0,
+            frame_cost: 0.0,
+        }
+    }
+
+    /// Tells the clock how long the last `frames` frames took to step.
+    pub fn record_cost(&mut self, frames: u32, seconds: f64) {
+        if frames > 0 {
+            let per_frame = seconds / f64::from(frames);
+            self.frame_cost = if self.frame_cost == 0.0 {
+                per_frame
+            } else {
+                0.8 * self.frame_cost + 0.2 * per_frame
+            };
+        }
+    }
+
+    /// Frames to step for a draw `wall_dt` seconds after the last one.
+    pub fn frames_for(&mut self, wall_dt: f64) -> u32 {
+        let frame_dt = f64::from(FRAME_DT);
+        let frames = match self.pacing {
+            Pacing::Fixed { frames_per_draw } => frames_per_draw,
+            Pacing::RealTime { max_frames_per_draw } => {
+                self.debt += wall_dt;
+                let due = (self.debt / frame_dt).floor().max(0.0) as u32;
+                let affordable = if self.frame_cost > 0.0 {
+                    ((STEP_BUDGET / self.frame_cost).floor() as u32).max(1)
+                } else {
+                    1
+                };
+                let frames = due.min(max_frames_per_draw).min(affordable);
+                self.debt -= f64::from(frames) * frame_dt;
+                // Behind by more than the cap: forget it (slow motion instead of catching up).
+                self.debt = self.debt.min(frame_dt);
+                frames
+            }
+        };
+        if wall_dt > 0.0 {
+            self.sim_sum = 0.97 * self.sim_sum + f64::from(frames) * frame_dt;
+            self.wall_sum = 0.97 * self.wall_sum + wall_dt;
+        }
+        frames
+    }
+
+    /// Simulated seconds per wall second, smoothed: below 1 means slow motion.
+    pub fn speed(&self) -> f64 {
+        if self.wall_sum > 0.0 {
+            self.sim_sum / self.wall_sum
+        } else {
+            1.0
+        }
+    }
+
+    pub fn reset(&mut self) {
+        self.debt = 0.0;
+        self.sim_sum = 0.0;
+        self.wall_sum = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn real_time_keeps_up_on_a_fast_machine() {
+        let mut clock = SimClock::new(Pacing::RealTime {
+            max_frames_per_draw: 4,
+        });
+        let total: u32 = (0..600).map(|_| clock.frames_for(1.0 / 120.0)).sum();
+        assert!((299..=301).contains(&total), "{total} frames in 5 s");
+        assert!((clock.speed() - 1.0).abs() < 0.05);
+        // Drawing at 30 Hz with cheap steps: two frames per draw.
+        clock.record_cost(1, 0.002);
+        let total: u32 = (0..150).map(|_| clock.frames_for(1.0 / 30.0)).sum();
+        assert!((299..=301).contains(&total), "{total} frames in 5 s at 30 Hz");
+    }
+
+    #[test]
+    fn a_slow_machine_degrades_to_slow_motion() {
+        let mut clock = SimClock::new(Pacing::RealTime {
+            max_frames_per_draw: 2,
+        });
+        for _ in 0..100 {
+            assert!(clock.frames_for(0.5) <= 2);
+        }
+        assert!(clock.speed() < 0.1, "speed {}", clock.speed());
+        // Stepping costs a second per frame: one frame per draw, never a backlog.
+        let mut clock = SimClock::new(Pacing::RealTime {
+            max_frames_per_draw: 4,
+        });
+        for _ in 0..20 {
+            let frames = clock.frames_for(1.0);
+            assert_eq!(frames, 1);
+            clock.record_cost(frames, 1.0);
+        }
+    }
+
+    #[test]
+    fn fixed_pacing_ignores_wall_time() {
+        let mut clock = SimClock::new(Pacing::Fixed { frames_per_draw: 1 });
+        assert_eq!(clock.frames_for(0.001), 1);
+        assert_eq!(clock.frames_for(3.0), 1);
+    }
+}

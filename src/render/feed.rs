@@ -1,0 +1,132 @@
+//! Getting the particle state into the renderer's vertex buffer each frame, by one of two paths:
+//! - interop (CUDA backend): the GL buffer is registered with CUDA, mapped, written by the
+//!   `render_attributes` kernel, and unmapped: the data never leaves the GPU;
+//! - host copy (CPU backend, or CUDA when asked for the comparison or when interop is refused):
+//!   the attributes are copied to the host and uploaded with glBufferSubData.
+
+use super::renderer::{Colouring, Renderer};
+use crate::cuda::interop::GlBufferResource;
+use crate::cuda::CudaSolver;
+use crate::sim::Simulation;
+use anyhow::{ensure, Result};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Transfer {
+    /// CUDA-OpenGL interop where the backend is CUDA, else a host copy.
+    #[default]
+    Interop,
+    /// Always copy through the host (to measure what interop saves).
+    HostCopy,
+}
+
+pub struct ParticleFeed {
+    transfer: Transfer,
+    registration: Option<GlBufferResource>,
+    /// Set once interop failed here (e.g. GL runs on another GPU than CUDA): host copies from then on.
+    interop_refused: Option<String>,
+    host: Vec<[f32; 4]>,
+}
+
+impl ParticleFeed {
+    pub fn new(transfer: Transfer) -> ParticleFeed {
+        ParticleFeed {
+            transfer,
+            registration: None,
+            interop_refused: None,
+            host: Vec::new(),
+        }
+    }
+
+    /// The path the last update took, for the HUD.
+    pub fn path(&self) -> &'static str {
+        if self.registration.is_some() {
+            "CUDA-GL interop"
+        } else {
+            "host copy + glBufferSubData"
+        }
+    }
+
+    /// Why interop is off, where it was tried and failed.
+    pub fn interop_refused(&self) -> Option<&str> {
+        self.interop_refused.as_deref()
+    }
+
+    /// Drops the CUDA registration (before the GL buffer is reallocated or deleted, or the solver
+    /// replaced). The next update registers again.
+    pub fn release(&mut self) {
+        self.registration = None;
+    }
+
+    /// Writes the simulation's current particles into the renderer's buffer.
+    pub fn update(
+        &mut self,
+        sim: &mut Simulation,
+        renderer: &mut Renderer,
+        colouring: Colouring,
+    ) -> Result<usize> {
+        let n = sim.scene().num_particles;
+        let rest_density = sim.params().material.rest_density;
+        let quantity = colouring.quantity();
+        if renderer.capacity() != n {
+            self.release();
+            renderer.ensure_capacity(n);
+        }
+        let want_interop = self.transfer == Transfer::Interop && self.interop_refused.is_none();
+        if want_interop {
+            if let Some(cuda) = sim.solver_mut().as_any_mut().downcast_mut::<CudaSolver>() {
+                match self.write_through_interop(cuda, renderer, quantity, rest_density) {
+                    Ok(()) => return Ok(n),
+                    Err(why) => {
+                        let why = format!("{why:#}");
+                        eprintln!("note: CUDA-OpenGL interop unavailable ({why}); copying through the host");
+                        self.interop_refused = Some(why);
+                        self.release();
+                    }
+                }
+            }
+        }
+        sim.solver_mut()
+            .render_attributes(quantity, rest_density, &mut self.host)?;
+        renderer.upload(&self.host);
+        Ok(n)
+    }
+
+    fn write_through_interop(
+        &mut self,
+        cuda: &mut CudaSolver,
+        renderer: &Renderer,
+        quantity: crate::sim::ColourBy,
+        rest_density: f32,
+    ) -> Result<()> {
+        let registration = match &mut self.registration {
+            Some(registration) => registration,
+            None => {
+                // SAFETY: the renderer's context is current on this thread, its buffer has storage
+                // for every particle, and `release` drops this before the buffer changes.
+                let registered =
+                    unsafe { GlBufferResource::register(cuda.context(), renderer.particle_buffer_name())? };
+                self.registration.insert(registered)
+            }
+        };
+        let stream = cuda.stream().clone();
+        let mapped = registration.map(&stream)?;
+        let needed = 16 * cuda.num_particles();
+        let written = if mapped.bytes >= needed {
+            // SAFETY: the mapped buffer is a device allocation of `mapped.bytes` >= needed bytes.
+            unsafe { cuda.write_render_attributes_raw(mapped.ptr, quantity, rest_density) }
+        } else {
+            Err(anyhow::anyhow!(
+                "the mapped GL buffer holds {} bytes, {needed} needed",
+                mapped.bytes
+            ))
+        };
+        let unmapped = registration.unmap(&stream);
+        written?;
+        unmapped?;
+        ensure!(
+            renderer.capacity() == cuda.num_particles(),
+            "renderer and solver disagree on the particle count"
+        );
+        Ok(())
+    }
+}

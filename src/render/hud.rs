@@ -1,0 +1,336 @@
+//! The egui side panel: what the viewer shows (rates, timings, time) and the controls it offers. It
+//! returns the user's requests as [`Action`]s; the app carries them out (and reports errors back).
+
+use super::renderer::{scale_colour, Colouring, DrawMode, RenderSettings};
+use crate::sim::{presets, PhaseTimings};
+use egui::{Color32, RichText};
+use glam::Vec3;
+
+/// Values the panel displays, gathered by the app each frame.
+pub struct HudInfo<'a> {
+    pub scene: &'a str,
+    pub backend: &'a str,
+    pub particles: usize,
+    pub fps: f64,
+    pub frame_ms: f64,
+    /// Per-phase GPU (or CPU) milliseconds per drawn frame, where measured.
+    pub timings: Option<PhaseTimings>,
+    pub substeps: u32,
+    pub dt: f32,
+    pub max_cfl: f32,
+    pub sim_time: f64,
+    pub wall_time: f64,
+    /// Simulated / wall seconds (slow-motion factor below 1).
+    pub speed: f64,
+    pub transfer: &'a str,
+    pub recording: Option<(String, u64)>,
+    pub message: Option<&'a str>,
+}
+
+/// What the panel lets the user change, kept between frames.
+pub struct Controls {
+    pub paused: bool,
+    pub render: RenderSettings,
+    pub viscosity: f32,
+    pub sound_speed: f32,
+    pub gravity: Vec3,
+    /// Step a fixed number of 60 Hz frames per drawn frame instead of following wall time.
+    pub fixed_pacing: bool,
+    pub frames_per_draw: u32,
+    /// The preset chosen in the picker; `None` until one is (e.g. a scene file is running).
+    pub preset: Option<usize>,
+    pub scene_path: String,
+    /// Push: velocity change at the cursor ray per drag pixel, and radius as a fraction of the domain.
+    pub push_strength: f32,
+    pub push_radius: f32,
+}
+
+pub enum Action {
+    Step,
+    Reset,
+    LoadPreset(&'static str),
+    LoadFile(String),
+    Screenshot,
+    ToggleRecording,
+    FrameCamera,
+    SetViscosity(f32),
+    SetSoundSpeed(f32),
+    SetGravity(Vec3),
+    Quit,
+}
+
+pub const KEYS: &[(&str, &str)] = &[
+    ("Space", "pause / resume"),
+    ("N", "single step (one 60 Hz frame)"),
+    ("R", "reset the scene"),
+    ("M", "points / spheres"),
+    ("C", "colour: solid / speed / density"),
+    ("F", "frame the domain"),
+    ("P", "screenshot (PNG)"),
+    ("V", "start / stop PNG recording"),
+    ("H", "hide / show this panel"),
+    ("Esc", "quit"),
+    ("left drag", "orbit"),
+    ("right drag", "pan"),
+    ("wheel", "zoom"),
+    ("Shift + left drag", "push the fluid"),
+];
+
+pub fn panel(ctx: &egui::Context, controls: &mut Controls, info: &HudInfo) -> Vec<Action> {
+    let mut actions = Vec::new();
+    egui::SidePanel::left("hud")
+        .resizable(false)
+        .default_width(290.0)
+        .show(ctx, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.heading("MLS-MPM fluid");
+                ui.label(format!(
+                    "{} — {} particles on {}",
+                    info.scene, info.particles, info.backend
+                ));
+                if let Some(message) = info.message {
+                    ui.colored_label(Color32::from_rgb(255, 140, 90), message);
+                }
+                ui.separator();
+                stats(ui, info);
+                ui.separator();
+                run_controls(ui, controls, info, &mut actions);
+                ui.separator();
+                view_controls(ui, controls, &mut actions);
+                ui.separator();
+                physics_controls(ui, controls, &mut actions);
+                ui.separator();
+                scene_controls(ui, controls, &mut actions);
+                ui.separator();
+                ui.collapsing("Keys and mouse", |ui| {
+                    egui::Grid::new("keys").striped(true).show(ui, |ui| {
+                        for (key, what) in KEYS {
+                            ui.label(RichText::new(*key).monospace());
+                            ui.label(*what);
+                            ui.end_row();
+                        }
+                    });
+                });
+            });
+        });
+    actions
+}
+
+fn stats(ui: &mut egui::Ui, info: &HudInfo) {
+    egui::Grid::new("stats").num_columns(2).show(ui, |ui| {
+        let mut row = |name: &str, value: String| {
+            ui.label(name);
+            ui.label(RichText::new(value).monospace());
+            ui.end_row();
+        };
+        row("FPS", format!("{:.1}", info.fps));
+        row("frame", format!("{:.2} ms", info.frame_ms));
+        row("substeps", format!("{} x dt {:.3e} s", info.substeps, info.dt));
+        row("CFL", format!("{:.2}", info.max_cfl));
+        row("sim time", format!("{:.3} s", info.sim_time));
+        row("wall time", format!("{:.3} s", info.wall_time));
+        let speed = if info.speed < 0.98 {
+            format!("{:.2}x (slow motion)", info.speed)
+        } else {
+            format!("{:.2}x", info.speed)
+        };
+        row("sim / wall", speed);
+        row("transfer", info.transfer.to_string());
+        if let Some(t) = &info.timings {
+            row("per drawn frame", format!("{} substeps", t.steps));
+            for (name, ms) in PhaseTimings::PHASES.iter().zip(t.phases()) {
+                row(name, format!("{ms:.3} ms"));
+            }
+            row("step total", format!("{:.3} ms", t.total()));
+        }
+        if let Some((dir, frames)) = &info.recording {
+            row("recording", format!("{frames} frames -> {dir}"));
+        }
+    });
+}
+
+fn run_controls(ui: &mut egui::Ui, c: &mut Controls, info: &HudInfo, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        if ui
+            .button(if c.paused {
+                "Resume (Space)"
+            } else {
+                "Pause (Space)"
+            })
+            .clicked()
+        {
+            c.paused = !c.paused;
+        }
+        if ui.button("Step (N)").clicked() {
+            actions.push(Action::Step);
+        }
+        if ui.button("Reset (R)").clicked() {
+            actions.push(Action::Reset);
+        }
+    });
+    ui.horizontal(|ui| {
+        if ui.button("Screenshot (P)").clicked() {
+            actions.push(Action::Screenshot);
+        }
+        let record = if info.recording.is_some() {
+            "Stop recording (V)"
+        } else {
+            "Record (V)"
+        };
+        if ui.button(record).clicked() {
+            actions.push(Action::ToggleRecording);
+        }
+    });
+    ui.checkbox(
+        &mut c.fixed_pacing,
+        "fixed frames per draw (else follow wall time)",
+    );
+    if c.fixed_pacing {
+        ui.add(egui::Slider::new(&mut c.frames_per_draw, 1..=8).text("60 Hz frames per draw"));
+    }
+}
+
+fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+    let r = &mut c.render;
+    ui.horizontal(|ui| {
+        ui.label("draw");
+        ui.selectable_value(&mut r.mode, DrawMode::Points, "points");
+        ui.selectable_value(&mut r.mode, DrawMode::Spheres, "spheres");
+    });
+    ui.horizontal(|ui| {
+        ui.label("colour");
+        let before = r.colouring;
+        ui.selectable_value(&mut r.colouring, Colouring::Solid, "solid");
+        ui.selectable_value(&mut r.colouring, Colouring::Speed, "speed");
+        ui.selectable_value(&mut r.colouring, Colouring::Density, "density");
+        if r.colouring != before {
+            r.scale_range = RenderSettings::default_range(r.colouring);
+        }
+    });
+    match r.mode {
+        DrawMode::Points => {
+            ui.add(egui::Slider::new(&mut r.point_size, 1.0..=8.0).text("point size (px)"));
+        }
+        DrawMode::Spheres => {
+            ui.add(
+                egui::Slider::new(&mut r.sphere_radius, 0.0005..=0.02)
+                    .logarithmic(true)
+                    .text("sphere radius (m)"),
+            );
+        }
+    }
+    if r.colouring != Colouring::Solid {
+        let unit = if r.colouring == Colouring::Speed {
+            "m/s"
+        } else {
+            "rho/rho0"
+        };
+        ui.horizontal(|ui| {
+            ui.label(format!("scale ({unit})"));
+            ui.add(egui::DragValue::new(&mut r.scale_range[0]).speed(0.01));
+            ui.add(egui::DragValue::new(&mut r.scale_range[1]).speed(0.01));
+        });
+        legend(ui, r.scale_range);
+    }
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut r.show_box, "domain box");
+        if ui.button("Frame (F)").clicked() {
+            actions.push(Action::FrameCamera);
+        }
+    });
+}
+
+/// The colour scale with its end values, as the particles use it.
+fn legend(ui: &mut egui::Ui, range: [f32; 2]) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 14.0), egui::Sense::hover());
+    let steps = 48;
+    for i in 0..steps {
+        let t = (i as f32 + 0.5) / steps as f32;
+        let [r, g, b] = scale_colour(t).map(|c| (c * 255.0) as u8);
+        let x0 = rect.left() + rect.width() * i as f32 / steps as f32;
+        let x1 = rect.left() + rect.width() * (i + 1) as f32 / steps as f32;
+        ui.painter().rect_filled(
+            egui::Rect::from_min_max(egui::pos2(x0, rect.top()), egui::pos2(x1 + 0.5, rect.bottom())),
+            0.0,
+            Color32::from_rgb(r, g, b),
+        );
+    }
+    ui.horizontal(|ui| {
+        ui.label(format!("{:.2}", range[0]));
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.label(format!("{:.2}", range[1]));
+        });
+    });
+}
+
+fn physics_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+    ui.label("physics (applies at once)");
+    if ui
+        .add(
+            egui::Slider::new(&mut c.viscosity, 0.0..=1.0)
+                .logarithmic(true)
+                .text("viscosity (Pa s)"),
+        )
+        .changed()
+    {
+        actions.push(Action::SetViscosity(c.viscosity));
+    }
+    if ui
+        .add(
+            egui::Slider::new(&mut c.sound_speed, 1.0..=200.0)
+                .logarithmic(true)
+                .text("sound speed (m/s)"),
+        )
+        .changed()
+    {
+        actions.push(Action::SetSoundSpeed(c.sound_speed));
+    }
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        ui.label("gravity (m/s²)");
+        for k in 0..3 {
+            changed |= ui
+                .add(
+                    egui::DragValue::new(&mut c.gravity[k])
+                        .speed(0.1)
+                        .range(-100.0..=100.0),
+                )
+                .changed();
+        }
+    });
+    if changed {
+        actions.push(Action::SetGravity(c.gravity));
+    }
+    ui.add(egui::Slider::new(&mut c.push_strength, 0.0..=0.2).text("push (m/s per pixel)"));
+    ui.add(egui::Slider::new(&mut c.push_radius, 0.02..=0.3).text("push radius (domain)"));
+}
+
+fn scene_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        let chosen = c.preset.and_then(|i| presets::NAMES.get(i).copied());
+        egui::ComboBox::from_label("")
+            .selected_text(chosen.unwrap_or("preset..."))
+            .show_ui(ui, |ui| {
+                for (i, name) in presets::NAMES.iter().enumerate() {
+                    ui.selectable_value(&mut c.preset, Some(i), *name);
+                }
+            });
+        let load = ui.add_enabled(chosen.is_some(), egui::Button::new("Load preset"));
+        if let (true, Some(name)) = (load.clicked(), chosen) {
+            actions.push(Action::LoadPreset(name));
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.add(
+            egui::TextEdit::singleline(&mut c.scene_path)
+                .hint_text("scene.toml")
+                .desired_width(170.0),
+        );
+        if ui.button("Load file").clicked() {
+            actions.push(Action::LoadFile(c.scene_path.clone()));
+        }
+    });
+    if ui.button("Quit (Esc)").clicked() {
+        actions.push(Action::Quit);
+    }
+}

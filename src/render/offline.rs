@@ -1,0 +1,164 @@
+//! `mpm render`: the scene stepped one 60 Hz frame per image, drawn by the same renderer as the
+//! window into an EGL device framebuffer, written as numbered PNGs (and optionally an MP4 by ffmpeg).
+//! Every output is checked before the first step, so a bad path fails at once.
+
+use super::camera::OrbitCamera;
+use super::capture::FrameSequence;
+use super::feed::{ParticleFeed, Transfer};
+use super::headless::HeadlessGl;
+use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+use crate::backend::{self, BackendKind};
+use crate::sim::{Scene, Simulation};
+use anyhow::{bail, Context, Result};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Instant;
+
+pub struct RenderOptions {
+    pub scene: Scene,
+    pub backend: BackendKind,
+    pub frames: u64,
+    /// Where the PNGs go; `None` renders without writing (for timing).
+    pub out: Option<PathBuf>,
+    pub size: [u32; 2],
+    pub mode: DrawMode,
+    pub colouring: Colouring,
+    pub transfer: Transfer,
+    pub video: Option<PathBuf>,
+}
+
+/// Mean wall milliseconds per frame, over the frames after the first few (warm-up).
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct RenderTimings {
+    pub frames_measured: u64,
+    /// Stepping one 60 Hz frame (all its substeps; the host waits for the step's counters).
+    pub sim_ms: f64,
+    /// Particle data into the GL buffer, drawing, and glFinish.
+    pub render_ms: f64,
+    /// sim + render (PNG encoding and writing excluded).
+    pub frame_ms: f64,
+}
+
+pub struct RenderReport {
+    pub timings: RenderTimings,
+    pub frames_written: u64,
+    pub path: &'static str,
+    pub gl: String,
+}
+
+const WARM_UP_FRAMES: u64 = 3;
+
+pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderReport> {
+    let mut sequence = options
+        .out
+        .as_deref()
+        .map(|dir| FrameSequence::create(dir, options.frames + 1))
+        .transpose()?;
+    if let Some(video) = &options.video {
+        if sequence.is_none() {
+            bail!("--video needs the PNG frames: give --out DIR");
+        }
+        if video.exists() {
+            bail!("{} exists already; not overwriting it", video.display());
+        }
+        Command::new("ffmpeg")
+            .arg("-version")
+            .output()
+            .context("--video needs ffmpeg on PATH (e.g. `apt-get install ffmpeg`); it was not found")?;
+    }
+
+    // GL first: CUDA then shares the GPU that GL renders on.
+    let headless = HeadlessGl::new(options.size[0], options.size[1])?;
+    writeln!(log, "OpenGL: {}", headless.description)?;
+    let mut renderer = Renderer::new(headless.gl().clone())?;
+    let scene = options.scene;
+    let solver = backend::create(options.backend, &scene)?;
+    writeln!(
+        log,
+        "scene {}: {} particles, backend {}, {}x{} {:?}",
+        scene.name,
+        scene.num_particles,
+        solver.name(),
+        options.size[0],
+        options.size[1],
+        options.mode
+    )?;
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let mut settings = RenderSettings::for_spacing(scene.lattice().spacing as f32);
+    settings.mode = options.mode;
+    settings.colouring = options.colouring;
+    settings.scale_range = RenderSettings::default_range(options.colouring);
+    let mut sim = Simulation::new(scene, solver);
+    let mut feed = ParticleFeed::new(options.transfer);
+
+    let mut sums = RenderTimings::default();
+    for frame in 0..=options.frames {
+        let start = Instant::now();
+        if frame > 0 {
+            sim.step_frame()?;
+        }
+        let stepped = Instant::now();
+        let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
+        renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain);
+        headless.finish();
+        let drawn = Instant::now();
+        if frame > WARM_UP_FRAMES {
+            sums.frames_measured += 1;
+            sums.sim_ms += (stepped - start).as_secs_f64() * 1e3;
+            sums.render_ms += (drawn - stepped).as_secs_f64() * 1e3;
+        }
+        if let Some(sequence) = &mut sequence {
+            sequence.write(&headless.read_image())?;
+        }
+    }
+    let n = sums.frames_measured.max(1) as f64;
+    let timings = RenderTimings {
+        frames_measured: sums.frames_measured,
+        sim_ms: sums.sim_ms / n,
+        render_ms: sums.render_ms / n,
+        frame_ms: (sums.sim_ms + sums.render_ms) / n,
+    };
+    writeln!(
+        log,
+        "{} frames via {}: sim {:.3} ms, render {:.3} ms, frame {:.3} ms (mean of {} after {} warm-up)",
+        options.frames + 1,
+        feed.path(),
+        timings.sim_ms,
+        timings.render_ms,
+        timings.frame_ms,
+        timings.frames_measured,
+        WARM_UP_FRAMES + 1
+    )?;
+    let frames_written = sequence.as_ref().map_or(0, |s| s.frames_written());
+    if let Some(sequence) = &sequence {
+        writeln!(log, "wrote {frames_written} PNGs to {}", sequence.dir().display())?;
+    }
+    if let (Some(video), Some(sequence)) = (&options.video, &sequence) {
+        let status = Command::new("ffmpeg")
+            .args(["-loglevel", "error", "-n", "-framerate", "60", "-i"])
+            .arg(sequence.dir().join("frame-%05d.png"))
+            .args(["-c:v", "libx264", "-pix_fmt", "yuv420p"])
+            .arg(video)
+            .status()
+            .context("running ffmpeg")?;
+        if !status.success() {
+            bail!(
+                "ffmpeg failed ({status}); the PNG frames are kept in {}",
+                sequence.dir().display()
+            );
+        }
+        writeln!(log, "wrote {}", video.display())?;
+    }
+    let path = feed.path();
+    feed.release();
+    renderer.destroy();
+    Ok(RenderReport {
+        timings,
+        frames_written,
+        path,
+        gl: headless.description.clone(),
+    })
+}

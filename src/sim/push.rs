@@ -1,0 +1,105 @@
+//! The viewer's mouse push: a velocity change given to the particles near a ray (the line under the
+//! cursor). Both backends apply the same formula: [`Push::velocity_change`] here, and `push_particles`
+//! in kernels/render.cu, field for field.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use std::mem::size_of;
+
+/// One push, applied once (an impulse), between frames.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Push {
+    /// A point on the ray (the camera eye), m.
+    pub origin: [f32; 3],
+    /// Particles closer than this to the ray are pushed, m.
+    pub radius: f32,
+    /// Unit direction of the ray.
+    pub direction: [f32; 3],
+    pub _pad0: f32,
+    /// Velocity change at the ray itself, m/s; it falls off smoothly to zero at `radius`.
+    pub delta_v: [f32; 3],
+    pub _pad1: f32,
+}
+
+const _: () = assert!(size_of::<Push>() == 48);
+
+impl Push {
+    pub fn new(origin: Vec3, direction: Vec3, radius: f32, delta_v: Vec3) -> Push {
+        Push {
+            origin: origin.to_array(),
+            radius,
+            direction: direction.normalize_or_zero().to_array(),
+            _pad0: 0.0,
+            delta_v: delta_v.to_array(),
+            _pad1: 0.0,
+        }
+    }
+
+    /// The velocity change of a particle at `x`: `delta_v (1 - d^2/r^2)^2` within distance `r` of
+    /// the ray (in front of its origin), zero elsewhere.
+    pub fn velocity_change(&self, x: Vec3) -> Vec3 {
+        let direction = Vec3::from(self.direction);
+        let offset = x - Vec3::from(self.origin);
+        let along = offset.dot(direction).max(0.0);
+        let dist_sq = (offset - direction * along).length_squared();
+        let radius_sq = self.radius * self.radius;
+        if dist_sq >= radius_sq {
+            return Vec3::ZERO;
+        }
+        let falloff = 1.0 - dist_sq / radius_sq;
+        Vec3::from(self.delta_v) * (falloff * falloff)
+    }
+
+    /// The largest speed the push can add, m/s (it raises the next step's signal speed).
+    pub fn max_speed_gain(&self) -> f32 {
+        Vec3::from(self.delta_v).length()
+    }
+}
+
+/// What the renderer colours particles by; the value a render kernel writes into each vertex's w.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ColourBy {
+    /// |v|, m/s.
+    #[default]
+    Speed,
+    /// rho / rho0.
+    Density,
+}
+
+impl ColourBy {
+    /// The switch value of kernels/render.cu.
+    pub fn code(self) -> u32 {
+        match self {
+            ColourBy::Speed => 0,
+            ColourBy::Density => 1,
+        }
+    }
+
+    /// The value written for one particle.
+    pub fn value(self, v: Vec3, rho: f32, rest_density: f32) -> f32 {
+        match self {
+            ColourBy::Speed => v.length(),
+            ColourBy::Density => rho / rest_density,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_is_strongest_on_the_ray_and_zero_outside_its_radius() {
+        let push = Push::new(Vec3::ZERO, Vec3::X, 0.1, Vec3::new(0.0, 2.0, 0.0));
+        assert_eq!(
+            push.velocity_change(Vec3::new(0.5, 0.0, 0.0)),
+            Vec3::new(0.0, 2.0, 0.0)
+        );
+        let half = push.velocity_change(Vec3::new(0.5, 0.05, 0.0));
+        assert!((half.y - 2.0 * 0.75 * 0.75).abs() < 1e-5, "{half}");
+        assert_eq!(push.velocity_change(Vec3::new(0.5, 0.1, 0.0)), Vec3::ZERO);
+        // Behind the eye: measured from the origin itself.
+        assert_eq!(push.velocity_change(Vec3::new(-0.5, 0.0, 0.0)), Vec3::ZERO);
+    }
+}

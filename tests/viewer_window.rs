@@ -1,0 +1,122 @@
+//! The windowed viewer, end to end: `mpm view` on the CPU backend under an X server (Xvfb with
+//! Mesa's software OpenGL in CI) for a few frames, then its last frame must show particles.
+//! Prints `skipped: <reason>` and passes where neither a display nor Xvfb is available.
+
+use mpm::render::capture::Image;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Kills the Xvfb this test started, however the test ends.
+struct Xvfb(Child);
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A display to draw on: `$DISPLAY` if the caller has one, else a fresh Xvfb.
+fn display() -> Result<(String, Option<Xvfb>), String> {
+    if let Ok(display) = std::env::var("DISPLAY") {
+        if !display.is_empty() {
+            return Ok((display, None));
+        }
+    }
+    let number = (90..200)
+        .find(|n| !Path::new(&format!("/tmp/.X{n}-lock")).exists())
+        .ok_or("no free X display number")?;
+    let display = format!(":{number}");
+    let child = Command::new("Xvfb")
+        .args([
+            display.as_str(),
+            "-screen",
+            "0",
+            "1024x768x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("no DISPLAY and no Xvfb ({e}); .ci/run installs xvfb"))?;
+    let xvfb = Xvfb(child);
+    let socket = format!("/tmp/.X11-unix/X{number}");
+    let start = Instant::now();
+    while !Path::new(&socket).exists() {
+        if start.elapsed() > Duration::from_secs(10) {
+            return Err("Xvfb did not come up within 10 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok((display, Some(xvfb)))
+}
+
+#[test]
+fn viewer_window_shows_particles() {
+    let (display, _xvfb) = match display() {
+        Ok(d) => d,
+        Err(why) => {
+            println!("viewer_window_shows_particles: skipped: {why}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let shot = dir.path().join("last-frame.png");
+    // A small tank (about 5,600 particles), so the CPU backend steps it quickly under software GL.
+    let scene = dir.path().join("small.toml");
+    std::fs::write(
+        &scene,
+        "name = \"small\"\n[domain]\nsize = [0.4, 0.4, 0.4]\nresolution = [20, 20, 20]\n\
+         [material]\nrest_density = 1000.0\nsound_speed = 10.0\n\
+         [[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.2, 0.3, 0.2]\n",
+    )
+    .expect("writing the scene");
+    let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args([
+            "view",
+            "--backend",
+            "cpu",
+            "--size",
+            "800x500",
+            "--no-vsync",
+            "--scene",
+        ])
+        .arg(&scene)
+        .args(["--quit-after", "6", "--final-screenshot"])
+        .arg(&shot)
+        .arg("--capture-dir")
+        .arg(dir.path())
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm view");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("mpm view stderr:\n{stderr}");
+    assert!(output.status.success(), "mpm view failed: {}", output.status);
+    let bytes = std::fs::read(&shot).expect("the viewer wrote its last frame");
+    let image = Image::read_png(&bytes).expect("a PNG");
+    // The final screenshot is the scene's part of the window: its height, and the width right of
+    // the panel.
+    assert_eq!(image.height, 500);
+    assert!((300..800).contains(&image.width), "scene width {}", image.width);
+    let stats = image.stats();
+    // Particles at rest are drawn in the low (blue) end of the speed scale, lit.
+    let blue = image
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[2] > 60 && i32::from(p[2]) > i32::from(p[0]) + 30)
+        .count() as f64
+        / f64::from(image.width * image.height);
+    println!("stats {stats:?}, blue particle pixels {:.1}%", 100.0 * blue);
+    assert!(
+        blue > 0.01,
+        "no particles visible: {:.3}% blue pixels",
+        100.0 * blue
+    );
+    assert!(
+        stats.covered_fraction < 0.9,
+        "the frame is filled, not drawn: {stats:?}"
+    );
+}
