@@ -71,7 +71,7 @@ struct StepCounters {
     u32 max_density_bits;  // bits of the largest rho (non-negative floats order like their bits)
     u32 max_speed_bits;    // bits of the largest |v|
     u32 fixed_overflows;   // fixed-point contributions or sums out of range (must stay 0)
-    u32 _pad;
+    u32 max_signal_bits;   // bits of the largest c(rho_p) + |v_p| of one particle
 };
 static_assert(sizeof(StepCounters) == 16, "StepCounters must match src/cuda/buffers.rs");
 

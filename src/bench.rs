@@ -280,10 +280,12 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         sim_time_start: sim_time_start.unwrap_or(0.0),
         sim_time_end: sim.time(),
         state: format!(
-            "stepping from the spawned state under the scene's time-step policy (substep re-chosen \
-             {} times per 60 Hz frame, as `mpm run` does); {} warm-up substeps dropped, then {} \
-             substeps measured",
-            scene.time_step.choices_per_frame(),
+            "stepping from the spawned state under the scene's time-step policy (substep {}, as \
+             `mpm run` does); {} warm-up substeps dropped, then {} substeps measured",
+            match scene.time_step.substeps_per_choice() {
+                Some(k) => format!("re-chosen every {k} substeps"),
+                None => "fixed".to_string(),
+            },
             options.warmup_steps,
             options.steps
         ),

@@ -246,6 +246,26 @@ fn grid_update_and_g2p_match_cpu() {
         assert!(dv <= 1e-4 * vmax, "{scatter:?}: particle velocity error {dv}");
         assert!(dc <= 1e-3 * cmax, "{scatter:?}: C error {dc} vs {cmax}");
         assert!(dxp <= 1e-5, "{scatter:?}: position error {dxp} dx");
+
+        // The extremes the time step is chosen from: each particle's own c(rho) + |v|, and the rest.
+        // powf on the device and the host may differ in the last bits, hence relative 1e-5.
+        let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
+        println!("g2p {scatter:?}: extremes CPU {e_cpu:?}, GPU {e_gpu:?}");
+        for (what, a, b) in [
+            ("max signal speed", e_cpu.max_signal_speed, e_gpu.max_signal_speed),
+            ("max speed", e_cpu.max_speed, e_gpu.max_speed),
+            ("max density", e_cpu.max_density, e_gpu.max_density),
+        ] {
+            assert!(
+                a > 0.0 && (a - b).abs() <= 1e-5 * a,
+                "{scatter:?}: {what} CPU {a} vs GPU {b}"
+            );
+        }
+        assert!(
+            e_cpu.max_signal_speed
+                <= scene.material.sound_speed_at(e_cpu.max_density) + e_cpu.max_speed * (1.0 + 1e-6),
+            "each particle's signal speed is bounded by the paired maxima"
+        );
     }
 }
 

@@ -79,6 +79,7 @@ const COUNTERS: usize = 4;
 const COUNTER_MAX_DENSITY: usize = 0;
 const COUNTER_MAX_SPEED: usize = 1;
 const COUNTER_FIXED_OVERFLOWS: usize = 2;
+const COUNTER_MAX_SIGNAL: usize = 3;
 
 /// Fixed-point accumulators, allocated on first use of the fixed-point scatter.
 struct FixedGrid {
@@ -569,6 +570,7 @@ impl CudaSolver {
             .arg(&self.v)
             .arg(&self.c)
             .arg(&self.grid_vel)
+            .arg(&self.rho)
             .arg(&self.counters);
         // SAFETY: as in p2g_init.
         let launched = unsafe { launch.launch(cfg) }.map(drop);
@@ -845,6 +847,7 @@ impl Solver for CudaSolver {
         Ok(StepExtremes {
             max_density: f32::from_bits(counters[COUNTER_MAX_DENSITY]),
             max_speed: f32::from_bits(counters[COUNTER_MAX_SPEED]),
+            max_signal_speed: f32::from_bits(counters[COUNTER_MAX_SIGNAL]),
         })
     }
 

@@ -261,7 +261,8 @@ impl CpuSolver {
         }
     }
 
-    /// Velocity and C from the grid, then advection, soft wall and clamp.
+    /// Velocity and C from the grid, then advection, soft wall and clamp; and the extremes the next
+    /// substep is chosen from (each particle's own signal speed c(rho_p) + |v_p|).
     pub fn g2p(&mut self, params: &Params) {
         let (dx, dt, inv_dx) = (params.dx, params.dt, params.inv_dx);
         let Grid {
@@ -275,7 +276,7 @@ impl CpuSolver {
         let wall_hi = (res - (params.boundary_band + 2) as f32) * dx;
         let tau = params.soft_wall_tau;
         let p = &mut self.particles;
-        let mut max_speed = 0.0f32;
+        let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
         for n in 0..p.x.len() {
             let mut v = Vec3::ZERO;
             let mut b = Mat3::ZERO;
@@ -292,9 +293,12 @@ impl CpuSolver {
             p.c[n] = b * (4.0 * inv_dx);
             p.v[n] = v;
             p.x[n] = (p.x[n] + v * dt).clamp(lo, hi);
-            max_speed = max_speed.max(v.length());
+            let speed = v.length();
+            max_speed = max_speed.max(speed);
+            max_signal = max_signal.max(params.material.sound_speed_at(p.rho[n]) + speed);
         }
         self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
+        self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);
     }
 }
 

@@ -10,12 +10,15 @@ use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
-/// The largest density and speed any particle reached over the substeps since they were last taken.
-/// They bound the CFL number of those substeps (c grows with density), and set the next frame's step.
+/// The largest values any particle reached over the substeps since they were last taken.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepExtremes {
     pub max_density: f32,
     pub max_speed: f32,
+    /// max_p (c(rho_p) + |v_p|), m/s: physics.md's CFL number is this times dt / dx. The substep is
+    /// chosen from c(max density) + max speed instead, an upper bound of it: at an impact the densest
+    /// particles are the ones that just stopped, so the bound leaves headroom for the next impact.
+    pub max_signal_speed: f32,
 }
 
 /// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
@@ -234,7 +237,8 @@ pub struct Simulation {
     solver: Box<dyn Solver>,
     frame: u64,
     time: f64,
-    /// c(rho) + |v| at the extremes of the last stretch of substeps, m/s.
+    /// c(max density) + max speed over the last stretch of substeps, m/s: an upper bound of every
+    /// particle's signal speed, which the next substep is chosen from.
     signal_speed: f32,
     /// How much it rose over that stretch (0 if it fell): a rising trend is extrapolated one stretch on.
     signal_rise: f32,
@@ -286,9 +290,9 @@ impl Simulation {
         self.solver.as_mut()
     }
 
-    /// Substeps and substep for the next stretch of `span` seconds. The signal speed can grow within
-    /// it: by up to |g| span from gravity, and, where it was rising (an impact compressing the fluid),
-    /// by as much again as it rose over the last stretch. Both are added, so the step stays safe.
+    /// Substeps and substep to cover the next `span` seconds. The signal speed can grow meanwhile: by up
+    /// to |g| span from gravity, and, where it was rising (an impact compressing the fluid), by as much
+    /// again as it rose over the last substeps. Both are added, so the step stays safe.
     fn steps_for(&self, span: f32) -> Result<(u32, f32)> {
         let gravity_gain = Vec3::from(self.params.gravity).length() * span;
         let expected = self.signal_speed + self.signal_rise + gravity_gain;
@@ -300,9 +304,7 @@ impl Simulation {
 
     /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
     pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
-        let choices = self.scene.time_step.choices_per_frame();
-        let (n, dt) = self.steps_for(FRAME_DT / choices as f32)?;
-        Ok((n * choices, dt))
+        self.steps_for(FRAME_DT)
     }
 
     /// Advance one 60 Hz frame and return its statistics.
@@ -328,26 +330,33 @@ impl Simulation {
     }
 
     /// Advance one 60 Hz frame without the statistics pass (which copies every particle to the host):
-    /// what the viewer calls every frame. The substep is chosen anew `choices_per_frame` times in the
-    /// frame, each time from the extremes of the substeps before.
+    /// what the viewer calls every frame. The substep is chosen anew every `substeps_per_choice`
+    /// substeps from the extremes of the ones before, always to cover what is left of the frame, so
+    /// the last choice ends exactly on it.
     pub fn step_frame(&mut self) -> Result<FrameSteps> {
-        let choices = self.scene.time_step.choices_per_frame();
-        let span = FRAME_DT / choices as f32;
+        let per_choice = self.scene.time_step.substeps_per_choice();
         let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
-        for _ in 0..choices {
-            let (n, dt) = self.steps_for(span)?;
+        loop {
+            let left = f64::from(FRAME_DT) - simulated;
+            let (to_frame_end, dt) = self.steps_for(left as f32)?;
+            let n = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
             for _ in 0..n {
                 self.solver.step(&self.params)?;
             }
             let extremes = self.solver.take_extremes()?;
-            let signal = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
-            self.signal_rise = (signal - self.signal_speed).max(0.0);
-            self.signal_speed = signal;
-            max_cfl = max_cfl.max(self.signal_speed * dt / self.params.dx);
+            // The step is chosen from the pairing of the largest density with the largest speed; the
+            // CFL number reported is physics.md's, each particle's own (see StepExtremes).
+            let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+            self.signal_rise = (bound - self.signal_speed).max(0.0);
+            self.signal_speed = bound;
+            max_cfl = max_cfl.max(extremes.max_signal_speed * dt / self.params.dx);
             substeps += n;
             smallest_dt = smallest_dt.min(dt);
             simulated += f64::from(n) * f64::from(dt);
+            if n == to_frame_end {
+                break;
+            }
         }
         self.frame += 1;
         self.time += simulated;
