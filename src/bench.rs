@@ -642,19 +642,6 @@ pub fn speedup_line(cpu: &PhaseReport, gpu: &PhaseReport) -> String {
     )
 }
 
-/// Frame time with CUDA-OpenGL interop against a host copy (issue 5, item 3).
-///
-/// HOOK, not built: it needs the headless EGL renderer and the interop path that the viewer
-/// (src/render/) is building. Once that lands, time `frames` headless frames of `scene` both ways
-/// (map the registered GL buffer vs `cuMemcpyDtoH` + `glBufferData`) here and add the rows to
-/// [`BenchReport`]; `mpm bench --frame-times` is reserved for it.
-pub fn frame_time_bench(_scene: &Scene, _frames: usize) -> Result<()> {
-    bail!(
-        "frame times (interop vs host copy) need the OpenGL viewer, which is not in this build yet; \
-         see the hook in src/bench.rs"
-    )
-}
-
 /// Everything one `mpm bench` run measured, as written to --json.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct BenchReport {

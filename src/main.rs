@@ -250,9 +250,6 @@ struct BenchArgs {
     /// Device memory bandwidth for the traffic floor, GB/s (default: the H200's HBM3e).
     #[arg(long, value_name = "GBS", default_value_t = bench::H200_PEAK_GBS)]
     peak_gbs: f64,
-    /// Frame time with CUDA-OpenGL interop vs a host copy: reserved, needs the viewer (not built).
-    #[arg(long)]
-    frame_times: bool,
     /// Write every measurement as JSON to this file.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -262,10 +259,6 @@ struct BenchArgs {
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
-    if args.frame_times {
-        let scene = Scene::load(bench::REPORT_SCENES[1])?;
-        bench::frame_time_bench(&scene, args.steps)?;
-    }
     anyhow::ensure!(
         args.peak_gbs.is_finite() && args.peak_gbs > 0.0,
         "--peak-gbs {} must be a positive bandwidth in GB/s (4800 for an H200)",

@@ -19,6 +19,11 @@ echo "=== variants"; date -u
   $mpm bench --scatter fixed-point --steps 1000 --warmup 200
   for b in 64 256; do $mpm bench --scene bench-655k --block-size $b --steps 1000 --warmup 200; done
 } >$OUT/variants.md 2>&1
+echo "=== frame times: interop vs host copy"; date -u
+for s in bench-65k bench-655k; do for d in points spheres; do for t in interop host-copy; do
+  printf '%s %s %s: ' $s $d $t
+  $mpm render --scene $s --frames 60 --size 1920x1080 --backend cuda --no-images --draw $d --transfer $t 2>&1 | grep "frames via"
+done; done; done >$OUT/frame-times.md
 echo "=== ncu"; date -u
 ncu --clock-control none -k 'regex:^(p2g|g2p)$' --launch-skip 200 --launch-count 2 --set full \
   -o $OUT/ncu-655k $mpm bench --scene bench-655k --steps 200 --warmup 0 >$OUT/ncu.log 2>&1
