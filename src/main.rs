@@ -73,6 +73,18 @@ struct RunArgs {
     overwrite: bool,
 }
 
+/// How the particles are drawn, and how their data reaches OpenGL: the same for `view` and `render`.
+#[derive(clap::Args)]
+struct LookArgs {
+    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
+    draw: DrawMode,
+    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
+    colour: Colouring,
+    /// How particle data reaches OpenGL with the CUDA backend (host-copy: for comparison).
+    #[arg(long, value_enum, default_value_t = Transfer::Interop)]
+    transfer: Transfer,
+}
+
 #[derive(clap::Args)]
 struct ViewArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
@@ -86,13 +98,8 @@ struct ViewArgs {
     /// Window size in physical pixels, WxH.
     #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
     size: [u32; 2],
-    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
-    draw: DrawMode,
-    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
-    colour: Colouring,
-    /// How particle data reaches OpenGL with the CUDA backend.
-    #[arg(long, value_enum, default_value_t = Transfer::Interop)]
-    transfer: Transfer,
+    #[command(flatten)]
+    look: LookArgs,
     /// Step this many 60 Hz frames per drawn frame (for recording) instead of following wall time.
     #[arg(long, value_name = "N")]
     fixed_frames: Option<u32>,
@@ -126,13 +133,8 @@ struct RenderArgs {
     size: [u32; 2],
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
-    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
-    draw: DrawMode,
-    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
-    colour: Colouring,
-    /// How particle data reaches OpenGL with the CUDA backend (host-copy: for comparison).
-    #[arg(long, value_enum, default_value_t = Transfer::Interop)]
-    transfer: Transfer,
+    #[command(flatten)]
+    look: LookArgs,
     /// Also encode the frames into this MP4 (needs ffmpeg on PATH).
     #[arg(long, value_name = "FILE")]
     video: Option<PathBuf>,
@@ -161,9 +163,9 @@ fn view(args: ViewArgs) -> Result<()> {
         backend: args.backend,
         vsync: !args.no_vsync,
         size: args.size,
-        mode: args.draw,
-        colouring: args.colour,
-        transfer: args.transfer,
+        mode: args.look.draw,
+        colouring: args.look.colour,
+        transfer: args.look.transfer,
         fixed_frames: args.fixed_frames,
         capture_dir: args.capture_dir,
         quit_after: args.quit_after,
@@ -187,9 +189,9 @@ fn render_frames(args: RenderArgs) -> Result<()> {
             frames: args.frames,
             out: args.out,
             size: args.size,
-            mode: args.draw,
-            colouring: args.colour,
-            transfer: args.transfer,
+            mode: args.look.draw,
+            colouring: args.look.colour,
+            transfer: args.look.transfer,
             video: args.video,
         },
         &mut std::io::stdout().lock(),
@@ -200,7 +202,7 @@ fn render_frames(args: RenderArgs) -> Result<()> {
             "transfer": report.path,
             "opengl": report.gl,
             "size": args.size,
-            "draw": format!("{:?}", args.draw),
+            "draw": format!("{:?}", args.look.draw),
         });
         std::fs::write(path, format!("{json}\n")).with_context(|| format!("writing {}", path.display()))?;
     }
