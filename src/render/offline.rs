@@ -121,17 +121,28 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         render_ms: sums.render_ms / n,
         frame_ms: (sums.sim_ms + sums.render_ms) / n,
     };
-    writeln!(
-        log,
-        "{} frames via {}: sim {:.3} ms, render {:.3} ms, frame {:.3} ms (mean of {} after {} warm-up)",
-        options.frames + 1,
-        feed.path(),
-        timings.sim_ms,
-        timings.render_ms,
-        timings.frame_ms,
-        timings.frames_measured,
-        WARM_UP_FRAMES + 1
-    )?;
+    if timings.frames_measured == 0 {
+        // Zeros here would read like a measurement.
+        writeln!(
+            log,
+            "{} frames via {}: too few to time (the first {} are warm-up; ask for more --frames)",
+            options.frames + 1,
+            feed.path(),
+            WARM_UP_FRAMES + 1
+        )?;
+    } else {
+        writeln!(
+            log,
+            "{} frames via {}: sim {:.3} ms, render {:.3} ms, frame {:.3} ms (mean of {} after {} warm-up)",
+            options.frames + 1,
+            feed.path(),
+            timings.sim_ms,
+            timings.render_ms,
+            timings.frame_ms,
+            timings.frames_measured,
+            WARM_UP_FRAMES + 1
+        )?;
+    }
     let frames_written = sequence.as_ref().map_or(0, |s| s.frames_written());
     if let Some(sequence) = &sequence {
         writeln!(log, "wrote {frames_written} PNGs to {}", sequence.dir().display())?;
