@@ -334,15 +334,20 @@ impl Scene {
             rho: vec![self.material.rest_density; self.num_particles],
         };
         for (k, body) in self.bodies.iter().enumerate() {
-            for p in lattice.points(&body.shape) {
-                if !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)) {
-                    particles.x.push(p.as_vec3());
-                    particles.v.push(body.velocity);
-                }
+            for p in self.own_points(&lattice, k) {
+                particles.x.push(p.as_vec3());
+                particles.v.push(body.velocity);
             }
         }
         debug_assert_eq!(particles.x.len(), self.num_particles);
         particles
+    }
+
+    /// The lattice points of body `k` that no earlier body covers: where its particles go.
+    fn own_points<'a>(&'a self, lattice: &'a Lattice, k: usize) -> impl Iterator<Item = DVec3> + 'a {
+        lattice
+            .points(&self.bodies[k].shape)
+            .filter(move |&p| !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
     }
 
     /// Total particle mass, kg.
@@ -781,10 +786,7 @@ impl Validator<'_> {
         let lattice = scene.lattice();
         let mut total = 0usize;
         for (k, body) in scene.bodies.iter().enumerate() {
-            let own = lattice
-                .points(&body.shape)
-                .filter(|&p| !scene.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
-                .count();
+            let own = scene.own_points(&lattice, k).count();
             if own == 0 {
                 let blocks = scene.bodies[..k]
                     .iter()

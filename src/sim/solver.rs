@@ -204,6 +204,14 @@ impl Summary {
     }
 }
 
+/// A NaN or infinity in the state: what to tell the user.
+fn diverged(frame: u64) -> anyhow::Error {
+    anyhow::anyhow!(
+        "the simulation diverged in frame {frame} (a NaN or infinity appeared); \
+         lower time_step.cfl or time_step.dt, or raise material.sound_speed"
+    )
+}
+
 /// One line of the runner's output.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FrameStats {
@@ -312,11 +320,7 @@ impl Simulation {
         let steps = self.step_frame()?;
         let summary = self.solver.summary(&self.params.material)?;
         if !summary.is_finite() {
-            bail!(
-                "the simulation diverged in frame {} (a NaN or infinity appeared); \
-                 lower time_step.cfl or time_step.dt, or raise material.sound_speed",
-                self.frame
-            );
+            return Err(diverged(self.frame));
         }
         Ok(FrameStats {
             frame: self.frame,
@@ -365,11 +369,7 @@ impl Simulation {
         let timings = step_timings.as_deref().map(PhaseTimings::sum);
         self.last_step_timings = step_timings.unwrap_or_default();
         if !self.signal_speed.is_finite() {
-            bail!(
-                "the simulation diverged in frame {} (a NaN or infinity appeared); \
-                 lower time_step.cfl or time_step.dt, or raise material.sound_speed",
-                self.frame
-            );
+            return Err(diverged(self.frame));
         }
         Ok(FrameSteps {
             substeps,
