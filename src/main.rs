@@ -8,7 +8,7 @@ use mpm::export::PlyExporter;
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
 use mpm::sim::{presets, ScatterMode, Scene, Simulation};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -315,7 +315,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
+        writeln!(std::io::stdout(), "wrote {}", path.display())?;
     }
     Ok(())
 }
@@ -337,7 +337,8 @@ fn run(args: RunArgs) -> Result<()> {
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
     let solver = backend::create(args.backend, &scene)?;
-    println!(
+    writeln!(
+        std::io::stdout(),
         "scene {} ({}): {} particles, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
         scene.name,
         scene.source,
@@ -348,7 +349,7 @@ fn run(args: RunArgs) -> Result<()> {
         scene.dx,
         scene.material.sound_speed(),
         solver.name()
-    );
+    )?;
     let mut sim = Simulation::new(scene, solver);
     let opts = RunOptions {
         frames: args.frames,
@@ -363,7 +364,7 @@ fn run(args: RunArgs) -> Result<()> {
 fn scenes(show: Option<String>) -> Result<()> {
     match show {
         Some(name) => match presets::get(&name) {
-            Some(text) => print!("{text}"),
+            Some(text) => write!(std::io::stdout(), "{text}")?,
             None => anyhow::bail!(
                 "no preset named `{name}`; the presets are {}",
                 presets::NAMES.join(", ")
@@ -372,14 +373,22 @@ fn scenes(show: Option<String>) -> Result<()> {
         None => {
             for name in presets::NAMES {
                 let scene = Scene::load(name)?;
-                println!(
+                writeln!(
+                    std::io::stdout(),
                     "{name:<18} {:>9} particles  {}",
-                    scene.num_particles, scene.description
-                );
+                    scene.num_particles,
+                    scene.description
+                )?;
             }
         }
     }
     Ok(())
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain()
+        .filter_map(|cause| cause.downcast_ref::<std::io::Error>())
+        .any(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
 }
 
 fn main() -> ExitCode {
@@ -394,6 +403,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // `mpm run | head`: the reader has all it wanted; stop quietly, as other tools do.
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
