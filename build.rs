@@ -155,15 +155,23 @@ fn read_modules(dir: &Path) -> Result<Vec<Module>, String> {
 }
 
 /// Replaces each `#include "file"` (a file in the kernel folder) with that file, between `#line`
-/// markers. NVRTC would take include paths at build time, but the run-time compile has only the
-/// embedded text, so both compile the same single pasted source.
+/// markers, recursively and once per file (as `#pragma once` would). NVRTC would take include paths at
+/// build time, but the run-time compile has only the embedded text, so both compile the same single
+/// pasted source.
 fn paste_includes(dir: &Path, path: &Path) -> Result<String, String> {
+    let mut out = String::new();
+    paste_file(dir, path, &mut Vec::new(), &mut out)?;
+    Ok(out)
+}
+
+fn paste_file(dir: &Path, path: &Path, pasted: &mut Vec<PathBuf>, out: &mut String) -> Result<(), String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    pasted.push(path.to_path_buf());
     let file_name = path
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let mut out = format!("#line 1 \"{file_name}\"\n");
+    let _ = writeln!(out, "#line 1 \"{file_name}\"");
     for (number, line) in text.lines().enumerate() {
         let included = line
             .trim()
@@ -174,10 +182,12 @@ fn paste_includes(dir: &Path, path: &Path) -> Result<String, String> {
         match included {
             Some(header) => {
                 let header_path = dir.join(header);
-                let header_text = std::fs::read_to_string(&header_path)
-                    .map_err(|e| format!("{}:{}: cannot read {header}: {e}", path.display(), number + 1))?;
-                let _ = writeln!(out, "#line 1 \"{header}\"");
-                out.push_str(&header_text);
+                if !header_path.is_file() {
+                    return Err(format!("{}:{}: cannot read {header}", path.display(), number + 1));
+                }
+                if !pasted.contains(&header_path) {
+                    paste_file(dir, &header_path, pasted, out)?;
+                }
                 let _ = writeln!(out, "\n#line {} \"{file_name}\"", number + 2);
             }
             None => {
@@ -186,7 +196,7 @@ fn paste_includes(dir: &Path, path: &Path) -> Result<String, String> {
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Makes libnvrtc loadable by cudarc (which opens it by bare name) and says where it came from.

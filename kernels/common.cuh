@@ -66,14 +66,17 @@ ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_hi, 96);
 #define SCATTER_FLOAT 0u
 #define SCATTER_FIXED_POINT 1u
 
-// Mirror of `StepCounters` in src/cuda/buffers.rs: what the host reads back once per frame.
+// Mirror of `StepCounters` in src/cuda/solver.rs: what the host reads back once per substep choice.
 struct StepCounters {
     u32 max_density_bits;  // bits of the largest rho (non-negative floats order like their bits)
     u32 max_speed_bits;    // bits of the largest |v|
     u32 fixed_overflows;   // fixed-point contributions or sums out of range (must stay 0)
     u32 max_signal_bits;   // bits of the largest c(rho_p) + |v_p| of one particle
+    u32 rebin_needed;      // binned pipeline: a particle's stencil left its bin's reach (bins.cu)
+    u32 tile_misses;       // binned pipeline: particles scattered past their tile, by global atomics
+    u32 _pad[2];
 };
-static_assert(sizeof(StepCounters) == 16, "StepCounters must match src/cuda/buffers.rs");
+static_assert(sizeof(StepCounters) == 32, "StepCounters must match src/cuda/solver.rs");
 
 // ---------------------------------------------------------------------------------------------
 // Grid-stride loops: any launch size covers any count, so launches need no 2D/3D grid tricks.
@@ -95,7 +98,8 @@ static_assert(sizeof(StepCounters) == 16, "StepCounters must match src/cuda/buff
 // src/sim/cpu.rs, so that the CPU reference and the kernels round alike wherever they can.
 
 struct Stencil {
-    u32 base_index;  // node index of base = floor(X - 0.5)
+    u32 base[3];     // base = floor(X - 0.5), the lowest stencil node
+    u32 base_index;  // its node index
     float fx[3];     // X - base, each in [0.5, 1.5)
     float w[3][3];   // w[o][axis]: weight of node base + o along axis
 };
@@ -103,32 +107,32 @@ struct Stencil {
 __device__ __forceinline__ Stencil make_stencil(float4 x, const Params& params) {
     Stencil s;
     float xg[3] = {x.x * params.inv_dx, x.y * params.inv_dx, x.z * params.inv_dx};
-    u32 base[3];
     for (int a = 0; a < 3; ++a) {
         float b = floorf(xg[a] - 0.5f);
-        base[a] = (u32)(int)b;
+        s.base[a] = (u32)(int)b;
         float f = xg[a] - b;
         s.fx[a] = f;
         s.w[0][a] = 0.5f * (1.5f - f) * (1.5f - f);
         s.w[1][a] = 0.75f - (f - 1.0f) * (f - 1.0f);
         s.w[2][a] = 0.5f * (f - 0.5f) * (f - 0.5f);
     }
-    s.base_index = base[0] + params.grid_res[0] * (base[1] + params.grid_res[1] * base[2]);
+    s.base_index = s.base[0] + params.grid_res[0] * (s.base[1] + params.grid_res[1] * s.base[2]);
     return s;
 }
 
-// Calls body(node_index, w, dx_, dy_, dz_) for the 27 nodes, z outermost, x innermost (cpu.rs order).
-#define FOR_EACH_STENCIL_NODE(s, params, node, weight, d0, d1, d2, ...)                          \
+// Calls body(node, w, d0, d1, d2) for the 27 nodes, z outermost, x innermost (cpu.rs order), with
+// node = first + ox + oy row_stride + oz plane_stride: grid indices, or a shared tile's (tiles.cuh).
+#define FOR_EACH_STENCIL_NODE_AT(s, first, row_stride, plane_stride, node, weight, d0, d1, d2, ...)  \
     {                                                                                              \
-        const u32 _sx = (params).grid_res[0];                                                      \
-        const u32 _sxy = _sx * (params).grid_res[1];                                               \
+        const u32 _sx = (row_stride);                                                              \
+        const u32 _sxy = (plane_stride);                                                           \
         _Pragma("unroll") for (int _oz = 0; _oz < 3; ++_oz) {                                      \
             const float _wz = (s).w[_oz][2];                                                       \
             const float d2 = (float)_oz - (s).fx[2];                                               \
             _Pragma("unroll") for (int _oy = 0; _oy < 3; ++_oy) {                                  \
                 const float _wyz = (s).w[_oy][1] * _wz;                                            \
                 const float d1 = (float)_oy - (s).fx[1];                                           \
-                const u32 _row = (s).base_index + _oy * _sx + _oz * _sxy;                          \
+                const u32 _row = (first) + _oy * _sx + _oz * _sxy;                                 \
                 _Pragma("unroll") for (int _ox = 0; _ox < 3; ++_ox) {                              \
                     const float d0 = (float)_ox - (s).fx[0];                                       \
                     const u32 node = _row + _ox;                                                   \
@@ -139,6 +143,11 @@ __device__ __forceinline__ Stencil make_stencil(float4 x, const Params& params) 
             }                                                                                      \
         }                                                                                          \
     }
+
+// The same over the grid's own node indices.
+#define FOR_EACH_STENCIL_NODE(s, params, node, weight, d0, d1, d2, ...)                            \
+    FOR_EACH_STENCIL_NODE_AT(s, (s).base_index, (params).grid_res[0],                              \
+                             (params).grid_res[0] * (params).grid_res[1], node, weight, d0, d1, d2, __VA_ARGS__)
 
 // ---------------------------------------------------------------------------------------------
 // Fixed-point scatter. Each contribution is scaled and rounded to the nearest integer (not truncated:
@@ -225,4 +234,160 @@ __device__ __forceinline__ void atomic_max_nonnegative(u32* target, float value)
         bits = max(bits, __shfl_xor_sync(0xffffffffu, bits, offset));
     }
     if ((threadIdx.x & 31u) == 0 && bits != 0) atomicMax(target, bits);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The per-particle and per-node physics that both pipelines run (the report's four kernels and the
+// binned, tiled passes), so the two cannot drift apart. Operation order follows src/sim/cpu.rs.
+
+// Grid mass at the stencil, as a density: rho_p = sum_i w m_i / dx^3 (physics.md step 2).
+__device__ __forceinline__ float gather_density(const Stencil& s, const Params& params, const float4* grid_acc,
+                                                const u64* fixed_mass) {
+    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
+    const float inv_mass_scale = fixed ? 1.0f / params.fixed_mass_scale : 0.0f;
+    const float* grid_mass_words = reinterpret_cast<const float*>(grid_acc) + 3;  // stride 4
+    float grid_mass = 0.0f;  // with the walls' image mass, which mirror_walls added after the mass scatter
+#ifdef EXPERIMENT_NO_GATHER
+    return params.material.rest_density + 1e-3f * s.fx[0];
+#endif
+    FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+        const float m_i = fixed ? fixed_point_value(fixed_mass[node], inv_mass_scale) : grid_mass_words[4 * (size_t)node];
+        grid_mass += w * m_i;
+    })
+    return grid_mass * params.inv_dx * params.inv_dx * params.inv_dx;
+}
+
+// What a particle scatters to node d (in cells from it): w (mv + affine d), with
+//   affine = m_p dx C - (4 dt V_p / dx) sigma,  sigma = -p I + mu (C + C^T),  V_p = m_p / rho.
+struct ParticleImpulse {
+    float mv[3];
+    float affine[3][3];  // [column][row]
+};
+
+__device__ __forceinline__ ParticleImpulse particle_impulse(const Params& params, float rho, float4 vp, float4 c0,
+                                                            float4 c1, float4 c2) {
+    const Material mat = params.material;
+    const float m_p = mat.particle_mass;
+    const float dx = params.dx;
+    const float volume = m_p / rho;
+    const float pressure =
+        fmaxf(mat.eos_stiffness * (powf(rho / mat.rest_density, mat.eos_power) - 1.0f), mat.pressure_floor);
+    const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};  // C as cm[column][row]
+    const float stress_factor = 4.0f * params.dt * volume / dx;
+    ParticleImpulse out;
+    for (int col = 0; col < 3; ++col) {
+        for (int row = 0; row < 3; ++row) {
+            float stress = (cm[col][row] + cm[row][col]) * mat.viscosity;
+            if (row == col) stress += -pressure;
+            out.affine[col][row] = cm[col][row] * (m_p * dx) - stress * stress_factor;
+        }
+    }
+    out.mv[0] = vp.x * m_p;
+    out.mv[1] = vp.y * m_p;
+    out.mv[2] = vp.z * m_p;
+    return out;
+}
+
+__device__ __forceinline__ void impulse_at(const ParticleImpulse& q, float w, float d0, float d1, float d2,
+                                           float (&impulse)[3]) {
+    for (int row = 0; row < 3; ++row) {
+        const float ad = q.affine[0][row] * d0 + q.affine[1][row] * d1 + q.affine[2][row] * d2;
+        impulse[row] = w * (q.mv[row] + ad);
+    }
+}
+
+// g2p for one particle (physics.md step 4): gather v and C = (4/dx) sum w v_i d^T from the node
+// velocities, the optional soft wall, advection and the clamp to [1, R-2] dx; also the particle's
+// speed and signal speed c(rho) + |v| for the time-step extremes.
+struct G2pResult {
+    float4 x, v, c[3];
+    float speed, signal;
+};
+
+__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float rho, const float4* grid_vel) {
+    const float dx = params.dx, dt = params.dt, tau = params.soft_wall_tau;
+    const float res[3] = {(float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]};
+    const float wall_lo = (float)(params.boundary_band + 1) * dx;
+    const float wall_offset = (float)(params.boundary_band + 2);
+    const Material mat = params.material;
+    const Stencil s = make_stencil(xp, params);
+    float vel[3] = {0.0f, 0.0f, 0.0f};
+    float b[3][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // b[column][row]
+    FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+        const float4 vi = grid_vel[node];
+        const float wv[3] = {w * vi.x, w * vi.y, w * vi.z};
+        const float d[3] = {d0, d1, d2};
+        for (int row = 0; row < 3; ++row) {
+            vel[row] += wv[row];
+            for (int col = 0; col < 3; ++col) b[col][row] += wv[row] * d[col];
+        }
+    })
+    const float pos[3] = {xp.x, xp.y, xp.z};
+    float next[3];
+    float speed_sq = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        if (tau > 0.0f) {
+            const float predicted = pos[a] + vel[a] * tau;
+            const float wall_hi = (res[a] - wall_offset) * dx;
+            vel[a] += fmaxf(wall_lo - predicted, 0.0f) / tau;
+            vel[a] -= fmaxf(predicted - wall_hi, 0.0f) / tau;
+        }
+        next[a] = fminf(fmaxf(pos[a] + vel[a] * dt, dx), (res[a] - 2.0f) * dx);
+        speed_sq += vel[a] * vel[a];
+    }
+    G2pResult r;
+    const float scale = 4.0f * params.inv_dx;
+    for (int col = 0; col < 3; ++col) {
+        r.c[col] = make_float4(b[col][0] * scale, b[col][1] * scale, b[col][2] * scale, 0.0f);
+    }
+    r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
+    r.x = make_float4(next[0], next[1], next[2], 0.0f);
+    r.speed = sqrtf(speed_sq);
+    const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
+    const float ratio = fmaxf(rho / mat.rest_density, 0.0f);
+    r.signal = sound_speed * powf(ratio, 0.5f * (mat.eos_power - 1.0f)) + r.speed;
+    return r;
+}
+
+// grid_update for node i (physics.md step 3): momentum to velocity, gravity, free slip in the boundary
+// band. Consume-and-zero: the accumulators are zeroed as they are read, which is the grid clear.
+__device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
+                                            u64* fixed_mass, u64* fixed_momentum, StepCounters* counters) {
+    const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
+    const u32 band = params.boundary_band;
+    float m, mv[3];
+    if (params.scatter_mode == SCATTER_FIXED_POINT) {
+        const u64 qm = fixed_mass[i];
+        const u64 q[3] = {fixed_momentum[3 * (size_t)i], fixed_momentum[3 * (size_t)i + 1],
+                          fixed_momentum[3 * (size_t)i + 2]};
+        fixed_mass[i] = 0;
+        fixed_momentum[3 * (size_t)i] = 0;
+        fixed_momentum[3 * (size_t)i + 1] = 0;
+        fixed_momentum[3 * (size_t)i + 2] = 0;
+        bool out_of_range = (i64)qm >= FIXED_SUM_LIMIT || (i64)qm <= -FIXED_SUM_LIMIT;
+        for (int a = 0; a < 3; ++a) {
+            out_of_range |= (i64)q[a] >= FIXED_SUM_LIMIT || (i64)q[a] <= -FIXED_SUM_LIMIT;
+        }
+        if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
+        m = fixed_point_value(qm, 1.0f / params.fixed_mass_scale);
+        const float inv_momentum_scale = 1.0f / params.fixed_momentum_scale;
+        for (int a = 0; a < 3; ++a) mv[a] = fixed_point_value(q[a], inv_momentum_scale);
+    } else {
+        const float4 acc = grid_acc[i];
+        grid_acc[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+        m = acc.w;
+        mv[0] = acc.x;
+        mv[1] = acc.y;
+        mv[2] = acc.z;
+    }
+    float vel[3] = {0.0f, 0.0f, 0.0f};
+    if (m > 0.0f) {
+        const u32 node[3] = {i % rx, (i / rx) % ry, i / (rx * ry)};
+        const u32 res[3] = {rx, ry, rz};
+        for (int a = 0; a < 3; ++a) {
+            vel[a] = mv[a] / m + params.gravity[a] * params.dt;
+            if (node[a] < band || node[a] >= res[a] - band) vel[a] = 0.0f;
+        }
+    }
+    grid_vel[i] = make_float4(vel[0], vel[1], vel[2], m);
 }

@@ -1,5 +1,5 @@
 // p2g_init: scatter particle mass to the grid, m_i += w m_p (physics.md step 1).
-// One thread per particle, in cell order (kernels/sort.cu); float or fixed-point atomics per Params.scatter_mode.
+// One thread per particle, in cell order (kernels/bins.cu); float or fixed-point atomics per Params.scatter_mode.
 #include "common.cuh"
 
 extern "C" __global__ void p2g_init(const Params params,

@@ -19,7 +19,9 @@
 use crate::backend::{self, BackendKind};
 use crate::cuda::{self, CudaOptions, CudaSolver};
 use crate::sim::scene::{BlockSpec, DomainSpec, SceneSpec};
-use crate::sim::{presets, PhaseTimings, ScatterMode, Scene, Simulation, Solver, MAX_PENDING_STEP_TIMINGS};
+use crate::sim::{
+    presets, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, MAX_PENDING_STEP_TIMINGS,
+};
 use anyhow::{bail, ensure, Context, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -62,6 +64,8 @@ pub struct PhaseBenchOptions {
     pub block_size: Option<u32>,
     /// Overrides the scene's scatter mode.
     pub scatter: Option<ScatterMode>,
+    /// Overrides the scene's GPU pipeline.
+    pub pipeline: Option<Pipeline>,
     /// Memory bandwidth for the traffic floor, GB/s.
     pub peak_gbs: f64,
 }
@@ -74,6 +78,7 @@ impl Default for PhaseBenchOptions {
             steps: 1000,
             block_size: None,
             scatter: None,
+            pipeline: None,
             peak_gbs: H200_PEAK_GBS,
         }
     }
@@ -102,6 +107,7 @@ pub struct PhaseReport {
     pub backend: String,
     pub device: String,
     pub scatter: ScatterMode,
+    pub pipeline: Pipeline,
     pub block_size: Option<u32>,
     pub warmup_steps: usize,
     pub steps: usize,
@@ -144,6 +150,7 @@ fn row(phase: &str, mut samples: Vec<f64>, floor_bytes: Option<f64>, peak_gbs: f
 /// report's sizes the touched part of the grid stays in L2 (the float4 accumulators of a 100^3 grid
 /// are 16 MB; the H200's L2 holds 50 MB). Hence a floor, not an estimate of the traffic.
 ///
+/// The report's pipeline:
 /// - sort (every `SORT_INTERVAL` substeps, amortised): key from x (16 B) -> key, rank (8 B);
 ///   scatter (key, rank 8 B -> order 4 B); per node: clear, count scan read + write, start read (16 B).
 /// - p2g_init: order (4 B) and x (16 B) per particle.
@@ -151,21 +158,74 @@ fn row(phase: &str, mut samples: Vec<f64>, floor_bytes: Option<f64>, peak_gbs: f
 /// - grid_update: accumulators read and zeroed, velocities written: 3 x 16 B per node (float scatter;
 ///   fixed point reads and zeroes 32 B and writes 16 B: 80 B).
 /// - g2p: x read and written, v and C written: 16 + 16 + 16 + 48 = 96 B per particle.
-pub fn traffic_bytes(particles: usize, nodes: usize, scatter: ScatterMode) -> [f64; 6] {
+///
+/// The binned pipeline walks only the nodes the fluid covers, at least one per 8 particles (rest
+/// density); the grid update's per-node bytes are as above, over those nodes:
+/// - sort (rebinning, when a particle moved about a cell): its cadence depends on the flow, so no
+///   floor is claimed for it.
+/// - p2g_init (the mirror passes over the wall slabs only): no floor claimed.
+/// - p2g (p2g_tiled): as the report's, 88 B per particle.
+/// - g2p (g2p2g): order, x and rho read, x, v, C written: 4 + 16 + 4 + 16 + 16 + 48 = 104 B per particle.
+pub fn traffic_bytes(particles: usize, nodes: usize, scatter: ScatterMode, pipeline: Pipeline) -> [f64; 6] {
     let (n, g) = (particles as f64, nodes as f64);
-    let sort_every = f64::from(cuda::SORT_INTERVAL);
     let grid_update_per_node = match scatter {
         ScatterMode::Float => 48.0,
         ScatterMode::FixedPoint => 80.0,
     };
-    [
-        0.0,
-        (36.0 * n + 16.0 * g) / sort_every,
-        20.0 * n,
-        88.0 * n,
-        grid_update_per_node * g,
-        96.0 * n,
-    ]
+    match pipeline {
+        Pipeline::Report => {
+            let sort_every = f64::from(cuda::SORT_INTERVAL);
+            [
+                0.0,
+                (36.0 * n + 16.0 * g) / sort_every,
+                20.0 * n,
+                88.0 * n,
+                grid_update_per_node * g,
+                96.0 * n,
+            ]
+        }
+        Pipeline::Binned => {
+            let covered_nodes = (n / 8.0).min(g);
+            [
+                0.0,
+                0.0,
+                0.0,
+                88.0 * n,
+                grid_update_per_node * covered_nodes,
+                104.0 * n,
+            ]
+        }
+    }
+}
+
+/// What each `PhaseTimings` slot holds in `pipeline`, for the tables (src/cuda/solver.rs lists the
+/// phases).
+pub fn phase_label(pipeline: Pipeline, slot: &str) -> String {
+    match (pipeline, slot) {
+        (Pipeline::Report, "sort") => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
+        (Pipeline::Report, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
+        (Pipeline::Binned, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
+        (Pipeline::Binned, "sort") => "rebin (when a particle moved a cell)".into(),
+        (Pipeline::Binned, "p2g_init") => "mirror mass (mass scattered by g2p2g)".into(),
+        (Pipeline::Binned, "p2g") => "p2g_tiled".into(),
+        (Pipeline::Binned, "grid_update") => "grid_update_blocks (+ mirror momentum)".into(),
+        (Pipeline::Binned, "g2p") => "g2p2g (g2p + next mass scatter)".into(),
+        (Pipeline::Report, "p2g_init") => "p2g_init (+ mirror mass)".into(),
+        (Pipeline::Report, "grid_update") => "grid_update (+ mirror momentum)".into(),
+        (_, slot) => slot.to_string(),
+    }
+}
+
+/// The scene with the options' overrides.
+fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
+    let mut scene = scene.clone();
+    if let Some(scatter) = options.scatter {
+        scene.scatter = scatter;
+    }
+    if let Some(pipeline) = options.pipeline {
+        scene.pipeline = pipeline;
+    }
+    scene
 }
 
 fn phase_rows(samples: &[PhaseTimings], floor: Option<[f64; 6]>, peak_gbs: f64) -> (Vec<PhaseRow>, PhaseRow) {
@@ -227,10 +287,7 @@ fn check_sweep_steps(steps: usize) -> Result<()> {
 /// Per-phase step times of `scene` (see the module's notes for the state measured).
 pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseReport> {
     check_steps("--steps", options.steps)?;
-    let mut scene = scene.clone();
-    if let Some(scatter) = options.scatter {
-        scene.scatter = scatter;
-    }
+    let scene = with_overrides(scene, options);
     let (solver, device) = create_solver(&scene, options)?;
     let mut sim = Simulation::new(scene.clone(), solver);
     let mut samples: Vec<PhaseTimings> = Vec::with_capacity(options.steps);
@@ -259,8 +316,14 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             }
         }
     }
-    let floor = (options.backend == BackendKind::Cuda)
-        .then(|| traffic_bytes(scene.num_particles, grid_nodes(scene.grid_res), scene.scatter));
+    let floor = (options.backend == BackendKind::Cuda).then(|| {
+        traffic_bytes(
+            scene.num_particles,
+            grid_nodes(scene.grid_res),
+            scene.scatter,
+            scene.pipeline,
+        )
+    });
     let (rows, total) = phase_rows(&samples, floor, options.peak_gbs);
     Ok(PhaseReport {
         scene: scene.name.clone(),
@@ -269,6 +332,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         backend: sim.backend().to_string(),
         device,
         scatter: scene.scatter,
+        pipeline: scene.pipeline,
         block_size: match options.backend {
             BackendKind::Cuda => Some(options.block_size.unwrap_or(CudaOptions::from_env()?.block_size)),
             _ => None,
@@ -316,7 +380,8 @@ pub fn phase_table(report: &PhaseReport) -> String {
         report
             .block_size
             .map(|b| format!(
-                ", {} scatter, {b} threads per block",
+                ", {} pipeline, {} scatter, {b} threads per block",
+                report.pipeline.name(),
                 scatter_name(report.scatter)
             ))
             .unwrap_or_default()
@@ -342,9 +407,8 @@ pub fn phase_table(report: &PhaseReport) -> String {
         .chain([(&report.total, true)])
     {
         let name = match (r.phase.as_str(), bold) {
-            ("sort", _) => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
-            ("grid_clear", _) if with_floor => "grid_clear (inside grid_update on the GPU)".to_string(),
             (name, true) => format!("**{name}**"),
+            (name, false) if with_floor => phase_label(report.pipeline, name),
             (name, false) => name.to_string(),
         };
         let mut line = format!(
@@ -466,6 +530,7 @@ pub struct SweepPoint {
 pub struct SweepReport {
     pub device: String,
     pub scatter: ScatterMode,
+    pub pipeline: Pipeline,
     pub warmup_steps: usize,
     pub steps: usize,
     pub state: String,
@@ -495,13 +560,12 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
     let mut points = Vec::with_capacity(particles.len());
     let mut device = String::new();
     let mut scatter = ScatterMode::Float;
+    let mut pipeline = Pipeline::default();
     let mut stopped = None;
     for &count in particles {
-        let mut scene = column_scene(count, sweep_grid(count))?;
-        if let Some(mode) = options.scatter {
-            scene.scatter = mode;
-        }
+        let scene = with_overrides(&column_scene(count, sweep_grid(count))?, options);
         scatter = scene.scatter;
+        pipeline = scene.pipeline;
         let free_before = probe.free_bytes()?;
         let solver = match CudaSolver::new(&scene, cuda_options) {
             Ok(solver) => solver,
@@ -571,6 +635,7 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
     Ok(SweepReport {
         device,
         scatter,
+        pipeline,
         warmup_steps: SWEEP_WARMUP_STEPS,
         steps,
         state: format!(
@@ -588,12 +653,13 @@ pub fn scaling_sweep(particles: &[u64], steps: usize, options: &PhaseBenchOption
 /// The sweep as a markdown table, with its two limits.
 pub fn sweep_table(report: &SweepReport) -> String {
     let mut out = format!(
-        "### Scaling sweep: {} ({} scatter)\n\nState: {}. Columns of bench-655k's shape in grids grown \
+        "### Scaling sweep: {} ({} pipeline, {} scatter)\n\nState: {}. Columns of bench-655k's shape in grids grown \
          to keep its fill (0.66 particles per node); 1 m tank, so dx = 1 m / grid and the substeps \
          per frame grow with the grid (c0 = 20 m/s, CFL 0.4).\n\n\
          | particles | grid | median (ms/step) | p95 (ms/step) | ns per particle-step | device memory (MiB) | substeps per frame | GPU ms per frame |\n\
          |---:|---:|---:|---:|---:|---:|---:|---:|\n",
         report.device,
+        report.pipeline.name(),
         scatter_name(report.scatter),
         report.state
     );

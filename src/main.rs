@@ -7,7 +7,7 @@ use mpm::bench;
 use mpm::export::PlyExporter;
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
-use mpm::sim::{presets, ScatterMode, Scene, Simulation};
+use mpm::sim::{presets, Pipeline, ScatterMode, Scene, Simulation};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -56,9 +56,8 @@ struct RunArgs {
     frames: u64,
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
-    /// GPU scatter mode, overriding the scene's `solver.scatter`.
-    #[arg(long, value_enum)]
-    scatter: Option<ScatterMode>,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Write one binary PLY per exported frame (frame 0 is the initial state) into this directory.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
@@ -71,6 +70,28 @@ struct RunArgs {
     /// Replace existing exported frames or stats file instead of refusing.
     #[arg(long)]
     overwrite: bool,
+}
+
+/// How the GPU steps: overrides of the scene's `solver.scatter` and `solver.pipeline`.
+#[derive(clap::Args)]
+struct SolverArgs {
+    /// GPU scatter mode, overriding the scene's `solver.scatter`.
+    #[arg(long, value_enum)]
+    scatter: Option<ScatterMode>,
+    /// GPU kernel sequence, overriding the scene's `solver.pipeline`: binned (default) or report.
+    #[arg(long, value_enum)]
+    pipeline: Option<Pipeline>,
+}
+
+impl SolverArgs {
+    fn apply(&self, scene: &mut Scene) {
+        if let Some(scatter) = self.scatter {
+            scene.scatter = scatter;
+        }
+        if let Some(pipeline) = self.pipeline {
+            scene.pipeline = pipeline;
+        }
+    }
 }
 
 /// How the particles are drawn, and how their data reaches OpenGL: the same for `view` and `render`.
@@ -92,6 +113,8 @@ struct ViewArgs {
     scene: String,
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Turn vsync off (draw as fast as possible).
     #[arg(long)]
     no_vsync: bool,
@@ -134,6 +157,8 @@ struct RenderArgs {
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
     #[command(flatten)]
+    solver: SolverArgs,
+    #[command(flatten)]
     look: LookArgs,
     /// Also encode the frames into this MP4 (needs ffmpeg on PATH).
     #[arg(long, value_name = "FILE")]
@@ -157,7 +182,8 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 }
 
 fn view(args: ViewArgs) -> Result<()> {
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    args.solver.apply(&mut scene);
     render::app::run(ViewerOptions {
         scene,
         backend: args.backend,
@@ -174,7 +200,8 @@ fn view(args: ViewArgs) -> Result<()> {
 }
 
 fn render_frames(args: RenderArgs) -> Result<()> {
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    args.solver.apply(&mut scene);
     if let Some(path) = &args.timings {
         anyhow::ensure!(
             !path.exists(),
@@ -231,9 +258,8 @@ struct BenchArgs {
     /// CUDA threads per block (a multiple of 32); default MPM_CUDA_BLOCK_SIZE or 128.
     #[arg(long, value_name = "THREADS")]
     block_size: Option<u32>,
-    /// GPU scatter mode, overriding the scenes'.
-    #[arg(long, value_enum)]
-    scatter: Option<ScatterMode>,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Also time the single-thread CPU reference at bench-65k and print the GPU/CPU speed-up.
     #[arg(long)]
     cpu_baseline: bool,
@@ -305,7 +331,8 @@ fn bench(args: BenchArgs) -> Result<()> {
             warmup_steps: args.warmup,
             steps: args.steps,
             block_size: args.block_size,
-            scatter: args.scatter,
+            scatter: args.solver.scatter,
+            pipeline: args.solver.pipeline,
             peak_gbs: args.peak_gbs,
         },
         cpu_baseline_steps: args.cpu_baseline.then_some(args.cpu_steps),
@@ -322,9 +349,7 @@ fn bench(args: BenchArgs) -> Result<()> {
 
 fn run(args: RunArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
-    if let Some(scatter) = args.scatter {
-        scene.scatter = scatter;
-    }
+    args.solver.apply(&mut scene);
     // Open every output before the first step, so a bad path fails at once, not after a long run.
     let export = args
         .export

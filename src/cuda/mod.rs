@@ -2,21 +2,28 @@
 //!
 //! - [`library`]: finding libcuda and NVRTC before cudarc touches them (missing = error, not panic).
 //! - [`modules`]: the PTX that build.rs embedded, or a run-time NVRTC compile where needed.
-//! - [`solver`]: [`CudaSolver`], the device particle state and the substep's kernel launches.
+//! - [`launch`]: the one launch helper (kernel name, NVTX range, errors naming the kernel).
+//! - [`solver`]: [`CudaSolver`], the device particle state and the substep, in either pipeline.
+//! - [`bins`]: particles binned by cell or node block (kernels/bins.cu), and the bin list.
+//! - [`stats`]: the per-frame statistics as a device reduction (kernels/stats.cu).
 //! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
 //! - [`interop`]: OpenGL buffers registered with CUDA, mapped for the render kernel each frame.
 //! - [`timing`]: per-phase CUDA events, read back without stalling.
 
+pub mod bins;
 pub mod interop;
+pub mod launch;
 pub mod library;
 pub mod modules;
 mod nvrtc_preload;
 pub mod solver;
 pub mod spawn;
+pub mod stats;
 pub mod timing;
 
+pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
 pub use solver::{
-    fixed_point_scales, CudaOptions, CudaSolver, NvtxRange, BYTES_PER_NODE, BYTES_PER_PARTICLE,
-    FIXED_BYTES_PER_NODE, SORT_INTERVAL,
+    fixed_point_scales, CudaOptions, CudaSolver, BYTES_PER_NODE, BYTES_PER_PARTICLE, FIXED_BYTES_PER_NODE,
+    REBIN_BACKSTOP, SORT_INTERVAL,
 };

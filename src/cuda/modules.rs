@@ -41,6 +41,8 @@ pub enum Origin {
     RuntimeNoPtx,
     /// Run-time NVRTC, because the driver refused the embedded PTX.
     RuntimeRefusedPtx,
+    /// PTX files from `MPM_PTX_DIR` (kernel development: time a variant without rebuilding).
+    OverridePtx,
 }
 
 /// Every kernel module, loaded.
@@ -80,6 +82,18 @@ fn load_module(ctx: &Arc<CudaContext>, module: &KernelModule) -> Result<(Arc<Cud
     let (major, minor) = ctx
         .compute_capability()
         .context("reading the compute capability")?;
+    let arch = if major >= 9 { "compute_90" } else { "compute_75" };
+    if let Some(dir) = std::env::var_os("MPM_PTX_DIR") {
+        let path = std::path::Path::new(&dir).join(format!("{}.{arch}.ptx", module.name));
+        if path.is_file() {
+            let text = std::fs::read_to_string(&path)
+                .with_context(|| format!("reading {} (MPM_PTX_DIR)", path.display()))?;
+            let loaded = ctx
+                .load_module(Ptx::from_src(text))
+                .with_context(|| format!("loading {} (MPM_PTX_DIR)", path.display()))?;
+            return Ok((loaded, Origin::OverridePtx));
+        }
+    }
     let ptx = if major >= 9 {
         module.ptx_compute_90
     } else {

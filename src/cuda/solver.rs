@@ -1,23 +1,31 @@
-//! `CudaSolver`: the particle state on the device and one substep as four kernel launches.
+//! `CudaSolver`: the particle state on the device and one substep as its phases, in either pipeline
+//! (`Pipeline`). The substep reads top to bottom in [`CudaSolver::step`]:
 //!
-//! Phases, in step order (each an NVTX range and a pair of CUDA events):
-//!   [sort, every SORT_INTERVAL substeps] -> p2g_init -> p2g -> grid_update (also the grid clear:
-//!   consume-and-zero) -> g2p
-//! The sort (kernels/sort.cu) only rewrites an index buffer, `order`, that the scatter kernels walk;
-//! its time has its own slot, `PhaseTimings::sort` (near 0 on the substeps it does not run).
-//! The grid clear has no launch of its own: grid_update zeroes each accumulator after reading it, so
-//! `PhaseTimings::grid_clear` stays 0 and its cost is inside grid_update.
+//! | slot (`PhaseTimings`) | report pipeline                         | binned pipeline (default)                    |
+//! |---|---|---|
+//! | sort                  | sort by cell, every SORT_INTERVAL steps | rebin by node block, when a particle moved a cell |
+//! | p2g_init              | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)       |
+//! | p2g                   | p2g                                     | p2g_tiled                                    |
+//! | grid_update           | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) |
+//! | g2p                   | g2p                                     | g2p2g (g2p + the next substep's mass scatter) |
+//!
+//! Each phase is an NVTX range and a pair of CUDA events. Both pipelines run the same per-particle
+//! and per-node code (kernels/common.cuh). Neither has a grid-clear launch: the grid update zeroes
+//! each accumulator it reads, so `PhaseTimings::grid_clear` stays 0 on the GPU.
 
+use super::bins::{self, BinKernels, Bins, NODE_BLOCK_EDGE, WORK_COUNTS, WORK_NODE_BLOCKS};
+use super::launch::{Kernel, Launcher, NvtxRange};
 use super::library;
 use super::modules::{LoadedModules, Origin};
 use super::spawn::{self, SpawnBody};
+use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
-use crate::sim::params::ScatterMode;
-use crate::sim::{ColourBy, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes};
-use anyhow::{anyhow, bail, ensure, Context, Result};
-use cudarc::driver::{
-    CudaContext, CudaFunction, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PushKernelArg,
+use crate::sim::params::{Pipeline, ScatterMode};
+use crate::sim::{
+    ColourBy, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes, Summary,
 };
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PushKernelArg};
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
 
@@ -74,12 +82,15 @@ impl CudaOptions {
     }
 }
 
-/// What the kernels count and reduce during a frame; mirrors `StepCounters` in kernels/common.cuh.
-const COUNTERS: usize = 4;
+/// What the kernels count and reduce between substep choices; mirrors `StepCounters` in
+/// kernels/common.cuh.
+const COUNTERS: usize = 8;
 const COUNTER_MAX_DENSITY: usize = 0;
 const COUNTER_MAX_SPEED: usize = 1;
 const COUNTER_FIXED_OVERFLOWS: usize = 2;
 const COUNTER_MAX_SIGNAL: usize = 3;
+const COUNTER_REBIN_NEEDED: usize = 4;
+const COUNTER_TILE_MISSES: usize = 5;
 
 /// Fixed-point accumulators, allocated on first use of the fixed-point scatter.
 struct FixedGrid {
@@ -88,22 +99,16 @@ struct FixedGrid {
     momentum: CudaSlice<u64>,
 }
 
-/// Substeps between particle sorts. Particles move well under a cell per substep, so an order a few
-/// substeps old is nearly as good as a fresh one, and the sort's cost (a few small launches) is shared.
+/// Substeps between the report pipeline's particle sorts. Particles move well under a cell per
+/// substep, so an order a few substeps old is nearly as good as a fresh one.
 pub const SORT_INTERVAL: u32 = 8;
-/// Values each thread of `scan_tiles` scans (SCAN_ITEMS_PER_THREAD in kernels/sort.cu).
-const SCAN_ITEMS_PER_THREAD: usize = 8;
-
-/// The counting sort's scratch: per-particle key and rank, and the per-cell counts with the tile
-/// sums of each level of the scan above them.
-struct SortBuffers {
-    key: CudaSlice<u32>,
-    rank: CudaSlice<u32>,
-    /// levels[0]: one count (then start) per node; levels[i + 1]: the tile sums of levels[i]. The
-    /// last level fits one tile; `top` takes its (unused) total.
-    levels: Vec<CudaSlice<u32>>,
-    top: CudaSlice<u32>,
-}
+/// The binned pipeline rebins when the kernels flag a particle that moved about a cell, which the host
+/// learns at each substep choice; a caller that steps without choosing (tests, a fixed dt) still gets
+/// fresh bins this often. Stale bins are never wrong, only slower (tiles.cuh).
+pub const REBIN_BACKSTOP: u32 = 64;
+/// Tile nodes (TILE_NODES in kernels/tiles.cuh) and threads per node block (NODE_BLOCK_NODES).
+const TILE_NODES: u32 = 1000;
+const NODE_BLOCK_NODES: u32 = 64;
 
 /// What `mirror_walls` mirrors: the codes of kernels/mirror_walls.cu.
 #[derive(Clone, Copy)]
@@ -113,47 +118,58 @@ enum MirrorQuantity {
 }
 
 struct Kernels {
-    sort_count: CudaFunction,
-    scan_tiles: CudaFunction,
-    scan_add: CudaFunction,
-    sort_scatter: CudaFunction,
-    p2g_init: CudaFunction,
-    p2g: CudaFunction,
-    grid_update: CudaFunction,
-    g2p: CudaFunction,
-    mirror_walls: CudaFunction,
-    spawn_count: CudaFunction,
-    spawn_write: CudaFunction,
-    render_attributes: CudaFunction,
-    push_particles: CudaFunction,
+    bins: BinKernels,
+    p2g_init: Kernel,
+    p2g: Kernel,
+    grid_update: Kernel,
+    g2p: Kernel,
+    p2g_mass: Kernel,
+    p2g_tiled: Kernel,
+    grid_update_blocks: Kernel,
+    g2p2g: Kernel,
+    mirror_walls: Kernel,
+    spawn_count: Kernel,
+    spawn_write: Kernel,
+    render_attributes: Kernel,
+    push_particles: Kernel,
 }
 
 impl Kernels {
     fn load(modules: &LoadedModules) -> Result<Kernels> {
+        let k = |module: &str, name: &'static str| Kernel::load(modules, module, name);
         Ok(Kernels {
-            sort_count: modules.function("sort", "sort_count")?,
-            scan_tiles: modules.function("sort", "scan_tiles")?,
-            scan_add: modules.function("sort", "scan_add")?,
-            sort_scatter: modules.function("sort", "sort_scatter")?,
-            p2g_init: modules.function("p2g_init", "p2g_init")?,
-            p2g: modules.function("p2g", "p2g")?,
-            grid_update: modules.function("grid_update", "grid_update")?,
-            g2p: modules.function("g2p", "g2p")?,
-            mirror_walls: modules.function("mirror_walls", "mirror_walls")?,
-            spawn_count: modules.function("spawn", "spawn_count")?,
-            spawn_write: modules.function("spawn", "spawn_write")?,
-            render_attributes: modules.function("render", "render_attributes")?,
-            push_particles: modules.function("render", "push_particles")?,
+            bins: BinKernels::load(modules)?,
+            p2g_init: k("p2g_init", "p2g_init")?,
+            p2g: k("p2g", "p2g")?,
+            grid_update: k("grid_update", "grid_update")?,
+            g2p: k("g2p", "g2p")?,
+            p2g_mass: k("g2p2g", "p2g_mass")?,
+            p2g_tiled: k("p2g_tiled", "p2g_tiled")?,
+            grid_update_blocks: k("grid_update", "grid_update_blocks")?,
+            g2p2g: k("g2p2g", "g2p2g")?,
+            mirror_walls: k("mirror_walls", "mirror_walls")?,
+            spawn_count: k("spawn", "spawn_count")?,
+            spawn_write: k("spawn", "spawn_write")?,
+            render_attributes: k("render", "render_attributes")?,
+            push_particles: k("render", "push_particles")?,
         })
     }
 }
 
+/// The binned pipeline's list of touched node blocks (kernels/tiles.cuh): a mark per block and the
+/// list the scatters append to; its length is `work_counts[WORK_NODE_BLOCKS]`.
+struct NodeBlockList {
+    marks: CudaSlice<u32>,
+    list: CudaSlice<u32>,
+}
+
 pub struct CudaSolver {
     ctx: Arc<CudaContext>,
-    stream: Arc<CudaStream>,
+    launcher: Launcher,
     kernels: Kernels,
     module_origin: Origin,
     options: CudaOptions,
+    pipeline: Pipeline,
     num_particles: usize,
     grid_res: [u32; 3],
     /// x, y, z, unused: one float4 per particle (a layout a GL vertex buffer can share).
@@ -163,29 +179,43 @@ pub struct CudaSolver {
     /// C as three float4 arrays of N (columns 0, 1, 2).
     c: CudaSlice<f32>,
     rho: CudaSlice<f32>,
-    /// Particle indices in cell order: p2g_init and p2g walk particles through it.
-    order: CudaSlice<u32>,
-    sort: SortBuffers,
-    steps_since_sort: u32,
-    /// Scatter accumulators, float4 per node: momentum xyz, mass w. Zeroed by grid_update.
+    /// Particle indices by cell (report) or node block (binned): the order the scatters walk.
+    bins: Bins,
+    bins_built: bool,
+    /// Binnings since the solver was made.
+    binnings: u64,
+    steps_since_binning: u32,
+    /// The kernels flagged a particle that moved past its bin's reach (read at a substep choice).
+    rebin_requested: bool,
+    /// Device-side list lengths (WORK_BINS, WORK_NODE_BLOCKS in kernels/tiles.cuh).
+    work_counts: CudaSlice<u32>,
+    node_blocks: NodeBlockList,
+    /// Binned pipeline: the grid already holds the mass of the particles' current positions (g2p2g
+    /// scattered it), with this scatter mode.
+    mass_scattered: Option<u32>,
+    /// Scatter accumulators, float4 per node: momentum xyz, mass w. Zeroed by the grid update.
     grid_acc: CudaSlice<f32>,
-    /// Node velocity xyz and mass w, written by grid_update, read by g2p.
+    /// Node velocity xyz and mass w, written by the grid update, read by g2p.
     grid_vel: CudaSlice<f32>,
     fixed: Option<FixedGrid>,
     /// Passed for the fixed-point pointers when the float scatter runs (never dereferenced).
     unused_fixed: CudaSlice<u64>,
     counters: CudaSlice<u32>,
+    /// Particles scattered outside their tile since the solver was made (binned pipeline).
+    tile_misses: u64,
     fixed_mass_scale: f32,
     fixed_momentum_scale: f32,
     timing: PhaseEvents,
+    stats: ParticleStats,
     /// Device scratch of the host-copy render path (allocated on first use, kept).
     render_scratch: Option<CudaSlice<f32>>,
-    /// `MPM_CUDA_SYNC=1`: wait after every launch, so an asynchronous fault names its kernel.
-    sync_each_launch: bool,
+    /// Experiment knob (MPM_TILE_STRIDE): lanes step through a bin with this stride.
+    lane_stride: u32,
 }
 
-/// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, sort key and rank)
-/// and per node (two float4, the sort's cell count).
+/// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, bin key and rank)
+/// and per node (two float4, the report sort's cell count; the binned pipeline's per-block lists
+/// are far smaller).
 pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
 pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
 /// Added per node by the fixed-point scatter: mass and three momentum components as u64.
@@ -200,7 +230,7 @@ impl CudaSolver {
     }
 
     /// Uploads `particles` (for tests: any state, not only a spawned one) into a solver for `scene`'s
-    /// grid and material.
+    /// grid, material and pipeline.
     pub fn from_particles(scene: &Scene, particles: &Particles, options: CudaOptions) -> Result<CudaSolver> {
         let mut scene = scene.clone();
         scene.num_particles = particles.len();
@@ -224,6 +254,9 @@ impl CudaSolver {
         let stream = ctx.new_stream().context("creating a CUDA stream")?;
         let modules = LoadedModules::load(&ctx)?;
         let kernels = Kernels::load(&modules)?;
+        let multiprocessors = ctx
+            .attribute(cudarc::driver::sys::CUdevice_attribute::CU_DEVICE_ATTRIBUTE_MULTIPROCESSOR_COUNT)
+            .context("reading the multiprocessor count")?;
 
         let n = scene.num_particles;
         ensure!(n > 0, "scene {}: no particles", scene.source);
@@ -249,36 +282,51 @@ impl CudaSolver {
             );
         }
 
+        let launcher = Launcher {
+            stream,
+            block_size: options.block_size,
+            multiprocessors: multiprocessors.max(1) as u32,
+            sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
+        };
+        let stream = &launcher.stream;
         let alloc_f32 = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<f32>(len)
                 .with_context(|| format!("allocating {what} ({len} floats)"))
         };
-        let (fixed_mass_scale, fixed_momentum_scale) = fixed_point_scales(scene);
         let alloc_u32 = |len: usize, what: &str| {
             stream
-                .alloc_zeros::<u32>(len)
+                .alloc_zeros::<u32>(len.max(1))
                 .with_context(|| format!("allocating {what} ({len} values)"))
         };
-        let tile = options.block_size as usize * SCAN_ITEMS_PER_THREAD;
-        let mut levels = vec![alloc_u32(nodes, "the sort's cell counts")?];
-        let mut level_len = nodes;
-        while level_len > tile {
-            level_len = level_len.div_ceil(tile);
-            levels.push(alloc_u32(level_len, "the sort's scan")?);
-        }
-        let identity: Vec<u32> = (0..n as u32).collect();
+        let (fixed_mass_scale, fixed_momentum_scale) = fixed_point_scales(scene);
+        let bin_edge = match scene.pipeline {
+            Pipeline::Report => 1,
+            Pipeline::Binned => NODE_BLOCK_EDGE,
+        };
+        let bins = Bins::new(
+            &launcher,
+            scene.grid_res,
+            n,
+            bin_edge,
+            scene.pipeline == Pipeline::Binned,
+        )?;
+        let num_node_blocks = match scene.pipeline {
+            Pipeline::Report => 0,
+            Pipeline::Binned => bins.num_bins(),
+        };
         let mut solver = CudaSolver {
-            order: stream
-                .clone_htod(&identity)
-                .context("allocating the particle order")?,
-            sort: SortBuffers {
-                key: alloc_u32(n, "sort keys")?,
-                rank: alloc_u32(n, "sort ranks")?,
-                levels,
-                top: alloc_u32(1, "the sort's scan")?,
+            bins,
+            bins_built: false,
+            binnings: 0,
+            steps_since_binning: 0,
+            rebin_requested: false,
+            work_counts: alloc_u32(WORK_COUNTS, "work counts")?,
+            node_blocks: NodeBlockList {
+                marks: alloc_u32(num_node_blocks, "node block marks")?,
+                list: alloc_u32(num_node_blocks, "the node block list")?,
             },
-            steps_since_sort: 0,
+            mass_scattered: None,
             x: alloc_f32(4 * n, "particle positions")?,
             v: alloc_f32(4 * n, "particle velocities")?,
             c: alloc_f32(12 * n, "particle affine matrices")?,
@@ -287,21 +335,25 @@ impl CudaSolver {
             grid_vel: alloc_f32(4 * nodes, "grid velocities")?,
             fixed: None,
             unused_fixed: stream.alloc_zeros::<u64>(1).context("allocating a placeholder")?,
-            counters: stream
-                .alloc_zeros::<u32>(COUNTERS)
-                .context("allocating step counters")?,
+            counters: alloc_u32(COUNTERS, "step counters")?,
+            tile_misses: 0,
             timing: PhaseEvents::new(ctx.clone()),
+            stats: ParticleStats::new(Kernel::load(&modules, "stats", "particle_stats")?, &launcher)?,
             ctx,
-            stream,
+            launcher,
             kernels,
             module_origin: modules.origin,
             options,
+            pipeline: scene.pipeline,
             num_particles: n,
             grid_res: scene.grid_res,
             fixed_mass_scale,
             fixed_momentum_scale,
             render_scratch: None,
-            sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
+            lane_stride: std::env::var("MPM_TILE_STRIDE")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(1),
         };
         if fixed_scatter {
             solver.ensure_fixed_grid()?;
@@ -319,21 +371,36 @@ impl CudaSolver {
         self.ctx.name().unwrap_or_else(|_| "unknown CUDA device".into())
     }
 
+    /// The kernel sequence this solver runs.
+    pub fn pipeline(&self) -> Pipeline {
+        self.pipeline
+    }
+
     /// The fixed-point scales this solver fills into `Params` (units per kg, units per kg m/s).
     pub fn fixed_point_scales(&self) -> (f32, f32) {
         (self.fixed_mass_scale, self.fixed_momentum_scale)
     }
 
+    /// Particles the binned pipeline scattered past their tile (by global atomics) since the solver
+    /// was made, as of the last `take_extremes`.
+    pub fn tile_misses(&self) -> u64 {
+        self.tile_misses
+    }
+
+    /// How often the particles were binned (sorted) since the solver was made.
+    pub fn binnings(&self) -> u64 {
+        self.binnings
+    }
+
     fn ensure_fixed_grid(&mut self) -> Result<()> {
         if self.fixed.is_none() {
             let nodes = self.num_nodes();
+            let stream = &self.launcher.stream;
             self.fixed = Some(FixedGrid {
-                mass: self
-                    .stream
+                mass: stream
                     .alloc_zeros::<u64>(nodes)
                     .context("allocating fixed-point mass")?,
-                momentum: self
-                    .stream
+                momentum: stream
                     .alloc_zeros::<u64>(3 * nodes)
                     .context("allocating fixed-point momentum")?,
             });
@@ -343,26 +410,6 @@ impl CudaSolver {
 
     fn num_nodes(&self) -> usize {
         self.grid_res.iter().map(|&r| r as usize).product()
-    }
-
-    /// 1D launch covering `count` items (the kernels loop grid-stride, so any count fits).
-    fn launch_config(&self, count: usize) -> LaunchConfig {
-        let blocks = count.div_ceil(self.options.block_size as usize).clamp(1, 1 << 20) as u32;
-        LaunchConfig {
-            grid_dim: (blocks, 1, 1),
-            block_dim: (self.options.block_size, 1, 1),
-            shared_mem_bytes: 0,
-        }
-    }
-
-    fn after_launch(&self, kernel: &str, launched: Result<(), cudarc::driver::DriverError>) -> Result<()> {
-        launched.with_context(|| format!("launching kernel `{kernel}`"))?;
-        if self.sync_each_launch {
-            self.stream
-                .synchronize()
-                .with_context(|| format!("kernel `{kernel}` failed while running"))?;
-        }
-        Ok(())
     }
 
     /// The Params the kernels get: the caller's, with this solver's fixed-point scales.
@@ -380,102 +427,129 @@ impl CudaSolver {
             "unknown scatter mode {}",
             params.scatter_mode
         );
+        if let Some(mode) = self.mass_scattered {
+            ensure!(
+                mode == params.scatter_mode,
+                "the scatter mode cannot change in the middle of a binned-pipeline run (the grid \
+                 already holds the next substep's mass in the other mode)"
+            );
+        }
         let mut device = *params;
         if params.scatter_mode == ScatterMode::FixedPoint.code() {
             self.ensure_fixed_grid()?;
+        }
+        // The binned pipeline's tiles accumulate fixed point in either scatter mode (tiles.cuh).
+        if params.scatter_mode == ScatterMode::FixedPoint.code() || self.pipeline == Pipeline::Binned {
             device.fixed_mass_scale = self.fixed_mass_scale;
             device.fixed_momentum_scale = self.fixed_momentum_scale;
         }
         Ok(device)
     }
 
-    /// Rewrites `order` so that particles of one cell are consecutive (kernels/sort.cu).
+    /// Whether the next substep rebuilds the bins.
+    fn binning_due(&self) -> bool {
+        match self.pipeline {
+            Pipeline::Report => self.steps_since_binning % SORT_INTERVAL == 0,
+            Pipeline::Binned => {
+                !self.bins_built || self.rebin_requested || self.steps_since_binning >= REBIN_BACKSTOP
+            }
+        }
+    }
+
+    /// Rebuilds the particle order by bin (kernels/bins.cu): by cell for the report's pipeline, by
+    /// node block (with the list of bins that hold particles) for the binned one.
     pub fn sort_particles(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("sort");
-        self.stream
-            .memset_zeros(&mut self.sort.levels[0])
-            .context("clearing the sort's cell counts")?;
-        let sort = &self.sort;
-        let cfg = self.launch_config(self.num_particles);
-        let mut launch = self.stream.launch_builder(&self.kernels.sort_count);
-        launch
-            .arg(&params)
-            .arg(&self.x)
-            .arg(&sort.levels[0])
-            .arg(&sort.key)
-            .arg(&sort.rank);
-        // SAFETY: arguments match kernels/sort.cu; levels[0] has one count per node.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("sort_count", launched)?;
-
-        // Exclusive scan of the counts: scan each level's tiles (their totals go one level up), then
-        // add the scanned totals back down.
-        let block = self.options.block_size;
-        let tile = block as usize * SCAN_ITEMS_PER_THREAD;
-        let tiles_of = |len: usize| LaunchConfig {
-            grid_dim: (len.div_ceil(tile) as u32, 1, 1),
-            block_dim: (block, 1, 1),
-            shared_mem_bytes: block * 4,
-        };
-        let lens: Vec<u32> = sort.levels.iter().map(|l| l.len() as u32).collect();
-        for (level, (counts, &len)) in sort.levels.iter().zip(&lens).enumerate() {
-            let sums = sort.levels.get(level + 1).unwrap_or(&sort.top);
-            let mut launch = self.stream.launch_builder(&self.kernels.scan_tiles);
-            launch.arg(counts).arg(&len).arg(sums);
-            // SAFETY: as above; `sums` has one slot per tile of this level.
-            let launched = unsafe { launch.launch(tiles_of(len as usize)) }.map(drop);
-            self.after_launch("scan_tiles", launched)?;
-        }
-        for level in (0..sort.levels.len() - 1).rev() {
-            let mut launch = self.stream.launch_builder(&self.kernels.scan_add);
-            launch
-                .arg(&sort.levels[level])
-                .arg(&lens[level])
-                .arg(&sort.levels[level + 1]);
-            // SAFETY: as above.
-            let launched = unsafe { launch.launch(tiles_of(lens[level] as usize)) }.map(drop);
-            self.after_launch("scan_add", launched)?;
-        }
-
-        let n = self.num_particles as u32;
-        let mut launch = self.stream.launch_builder(&self.kernels.sort_scatter);
-        launch
-            .arg(&n)
-            .arg(&sort.key)
-            .arg(&sort.rank)
-            .arg(&sort.levels[0])
-            .arg(&self.order);
-        // SAFETY: as above; every start + rank is below n.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("sort_scatter", launched)
+        self.bins.rebuild(
+            &self.kernels.bins,
+            &self.launcher,
+            &params,
+            &self.x,
+            &mut self.work_counts,
+        )?;
+        self.bins_built = true;
+        self.binnings += 1;
+        self.rebin_requested = false;
+        self.steps_since_binning = 0;
+        Ok(())
     }
 
-    /// Mass scatter: m_i += w m_p.
+    fn fixed_grid(&self) -> (&CudaSlice<u64>, &CudaSlice<u64>) {
+        match &self.fixed {
+            Some(f) => (&f.mass, &f.momentum),
+            None => (&self.unused_fixed, &self.unused_fixed),
+        }
+    }
+
+    /// Tile accumulator bytes of a tiled pass with `channels` values per node: a 64-bit fixed-point
+    /// accumulator (two 32-bit words) per channel and node, in either scatter mode (tiles.cuh).
+    fn tile_shared_bytes(channels: u32) -> u32 {
+        channels * TILE_NODES * 8
+    }
+
+    /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
+    /// (which g2p2g does as its second half on every substep after the first).
     pub fn p2g_init(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("p2g_init");
-        let cfg = self.launch_config(self.num_particles);
-        let fixed_mass = self.fixed.as_ref().map_or(&self.unused_fixed, |f| &f.mass);
-        let mut launch = self.stream.launch_builder(&self.kernels.p2g_init);
-        launch
-            .arg(&params)
-            .arg(&self.x)
-            .arg(&self.order)
-            .arg(&self.grid_acc)
-            .arg(fixed_mass)
-            .arg(&self.counters);
-        // SAFETY: the arguments match the kernel's signature; buffers are sized for params.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("p2g_init", launched)
+        let (fixed_mass, _) = self.fixed_grid();
+        let (l, k) = (&self.launcher, &self.kernels);
+        match self.pipeline {
+            Pipeline::Report => {
+                // SAFETY: the arguments match p2g_init in kernels/p2g_init.cu; buffers are sized for params.
+                unsafe {
+                    k.p2g_init.launch(l, l.cover(self.num_particles), |a| {
+                        a.arg(&params)
+                            .arg(&self.x)
+                            .arg(&self.bins.order)
+                            .arg(&self.grid_acc)
+                            .arg(fixed_mass)
+                            .arg(&self.counters);
+                    })
+                }
+            }
+            Pipeline::Binned => {
+                if !self.bins_built {
+                    self.sort_particles(&params)?;
+                }
+                let (fixed_mass, _) = self.fixed_grid();
+                let (l, k) = (&self.launcher, &self.kernels);
+                let list = self
+                    .bins
+                    .list
+                    .as_ref()
+                    .context("the binned pipeline lists its bins")?;
+                let config = l.over_list(self.bins.num_bins(), l.block_size, Self::tile_shared_bytes(1));
+                // SAFETY: the arguments match p2g_mass in kernels/g2p2g.cu; the bin list, order and
+                // node-block list are sized for this grid and these particles.
+                unsafe {
+                    k.p2g_mass.launch(l, config, |a| {
+                        a.arg(&params)
+                            .arg(list)
+                            .arg(&self.bins.order)
+                            .arg(&self.x)
+                            .arg(&self.grid_acc)
+                            .arg(fixed_mass)
+                            .arg(&self.node_blocks.marks)
+                            .arg(&self.node_blocks.list)
+                            .arg(&self.work_counts)
+                            .arg(&self.counters)
+                            .arg(&self.lane_stride);
+                    })?;
+                }
+                self.mass_scattered = Some(params.scatter_mode);
+                Ok(())
+            }
+        }
     }
 
-    /// The walls' image mass, between p2g_init and p2g (kernels/mirror_walls.cu).
+    /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
     pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
         self.mirror_walls(params, MirrorQuantity::Mass)
     }
 
-    /// The walls' image momentum, wall-normal component reflected, between p2g and grid_update.
+    /// The walls' image momentum, wall-normal component reflected, between p2g and the grid update.
     pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
         self.mirror_walls(params, MirrorQuantity::Momentum)
     }
@@ -487,94 +561,188 @@ impl CudaSolver {
         }
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("mirror_walls");
-        let (fixed_mass, fixed_momentum) = match &self.fixed {
-            Some(f) => (&f.mass, &f.momentum),
-            None => (&self.unused_fixed, &self.unused_fixed),
-        };
+        let (fixed_mass, fixed_momentum) = self.fixed_grid();
+        let (l, k) = (&self.launcher, &self.kernels);
+        // The report's pipeline walks every line (null marks); the binned one skips untouched blocks.
+        let null: u64 = 0;
+        let binned = self.pipeline == Pipeline::Binned;
         let res = self.grid_res.map(|r| r as usize);
         for axis in 0..3u32 {
             let lines = res[(axis as usize + 1) % 3] * res[(axis as usize + 2) % 3];
             let quantity_code = quantity as u32;
-            let mut launch = self.stream.launch_builder(&self.kernels.mirror_walls);
-            launch
-                .arg(&params)
-                .arg(&axis)
-                .arg(&quantity_code)
-                .arg(&self.grid_acc)
-                .arg(fixed_mass)
-                .arg(fixed_momentum);
-            // SAFETY: as in p2g_init.
-            let launched = unsafe { launch.launch(self.launch_config(lines)) }.map(drop);
-            self.after_launch("mirror_walls", launched)?;
+            // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's
+            // (or null pointers, which the kernel checks, for the report's pipeline).
+            unsafe {
+                k.mirror_walls.launch(l, l.cover(lines), |a| {
+                    a.arg(&params)
+                        .arg(&axis)
+                        .arg(&quantity_code)
+                        .arg(&self.grid_acc)
+                        .arg(fixed_mass)
+                        .arg(fixed_momentum);
+                    if binned {
+                        a.arg(&self.node_blocks.marks)
+                            .arg(&self.node_blocks.list)
+                            .arg(&self.work_counts);
+                    } else {
+                        a.arg(&null).arg(&null).arg(&null);
+                    }
+                })?;
+            }
         }
         Ok(())
     }
 
-    /// Density from the grid mass, pressure and stress, momentum scatter.
+    /// Density from the grid mass, pressure and stress, momentum scatter: the report's p2g, or the
+    /// binned pipeline's p2g_tiled.
     pub fn p2g(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("p2g");
-        let cfg = self.launch_config(self.num_particles);
-        let (fixed_mass, fixed_momentum) = match &self.fixed {
-            Some(f) => (&f.mass, &f.momentum),
-            None => (&self.unused_fixed, &self.unused_fixed),
-        };
-        let mut launch = self.stream.launch_builder(&self.kernels.p2g);
-        launch
-            .arg(&params)
-            .arg(&self.x)
-            .arg(&self.order)
-            .arg(&self.v)
-            .arg(&self.c)
-            .arg(&self.rho)
-            .arg(&self.grid_acc)
-            .arg(fixed_mass)
-            .arg(fixed_momentum)
-            .arg(&self.counters);
-        // SAFETY: as in p2g_init.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("p2g", launched)
+        let (fixed_mass, fixed_momentum) = self.fixed_grid();
+        let (l, k) = (&self.launcher, &self.kernels);
+        match self.pipeline {
+            // SAFETY: the arguments match p2g in kernels/p2g.cu; buffers are sized for params.
+            Pipeline::Report => unsafe {
+                k.p2g.launch(l, l.cover(self.num_particles), |a| {
+                    a.arg(&params)
+                        .arg(&self.x)
+                        .arg(&self.bins.order)
+                        .arg(&self.v)
+                        .arg(&self.c)
+                        .arg(&self.rho)
+                        .arg(&self.grid_acc)
+                        .arg(fixed_mass)
+                        .arg(fixed_momentum)
+                        .arg(&self.counters);
+                })
+            },
+            Pipeline::Binned => {
+                let list = self
+                    .bins
+                    .list
+                    .as_ref()
+                    .context("the binned pipeline lists its bins")?;
+                let config = l.over_list(self.bins.num_bins(), l.block_size, Self::tile_shared_bytes(3));
+                // SAFETY: the arguments match p2g_tiled in kernels/p2g_tiled.cu; as in p2g_init.
+                unsafe {
+                    k.p2g_tiled.launch(l, config, |a| {
+                        a.arg(&params)
+                            .arg(list)
+                            .arg(&self.bins.order)
+                            .arg(&self.x)
+                            .arg(&self.v)
+                            .arg(&self.c)
+                            .arg(&self.rho)
+                            .arg(&self.grid_acc)
+                            .arg(fixed_mass)
+                            .arg(fixed_momentum)
+                            .arg(&self.node_blocks.marks)
+                            .arg(&self.node_blocks.list)
+                            .arg(&self.work_counts)
+                            .arg(&self.counters)
+                            .arg(&self.lane_stride);
+                    })
+                }
+            }
+        }
     }
 
-    /// Momentum to velocity, gravity, boundary band; zeroes the accumulators.
+    /// Momentum to velocity, gravity, boundary band; zeroes the accumulators. The report's pipeline
+    /// walks the whole grid; the binned one the node blocks this substep touched.
     pub fn grid_update(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("grid_update");
-        let cfg = self.launch_config(self.num_nodes());
-        let (fixed_mass, fixed_momentum) = match &self.fixed {
-            Some(f) => (&f.mass, &f.momentum),
-            None => (&self.unused_fixed, &self.unused_fixed),
-        };
-        let mut launch = self.stream.launch_builder(&self.kernels.grid_update);
-        launch
-            .arg(&params)
-            .arg(&self.grid_acc)
-            .arg(&self.grid_vel)
-            .arg(fixed_mass)
-            .arg(fixed_momentum)
-            .arg(&self.counters);
-        // SAFETY: as in p2g_init.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("grid_update", launched)
+        let (fixed_mass, fixed_momentum) = self.fixed_grid();
+        let (l, k) = (&self.launcher, &self.kernels);
+        match self.pipeline {
+            // SAFETY: the arguments match grid_update in kernels/grid_update.cu.
+            Pipeline::Report => unsafe {
+                k.grid_update.launch(l, l.cover(self.num_nodes()), |a| {
+                    a.arg(&params)
+                        .arg(&self.grid_acc)
+                        .arg(&self.grid_vel)
+                        .arg(fixed_mass)
+                        .arg(fixed_momentum)
+                        .arg(&self.counters);
+                })
+            },
+            Pipeline::Binned => {
+                let config = l.over_list(self.bins.num_bins(), NODE_BLOCK_NODES, 0);
+                // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
+                unsafe {
+                    k.grid_update_blocks.launch(l, config, |a| {
+                        a.arg(&params)
+                            .arg(&self.node_blocks.list)
+                            .arg(&self.work_counts)
+                            .arg(&self.node_blocks.marks)
+                            .arg(&self.grid_acc)
+                            .arg(&self.grid_vel)
+                            .arg(fixed_mass)
+                            .arg(fixed_momentum)
+                            .arg(&self.counters);
+                    })?;
+                }
+                // Every listed block was visited and unmarked: the list starts empty again.
+                self.launcher
+                    .stream
+                    .memset_zeros(&mut self.work_counts.slice_mut(WORK_NODE_BLOCKS..WORK_NODE_BLOCKS + 1))
+                    .context("clearing the node block list")?;
+                Ok(())
+            }
+        }
     }
 
-    /// Velocity and C from the grid, soft wall, advection, clamp.
+    /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned
+    /// pipeline's g2p2g, which also scatters the mass of the new positions for the next substep.
     pub fn g2p(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("g2p");
-        let cfg = self.launch_config(self.num_particles);
-        let mut launch = self.stream.launch_builder(&self.kernels.g2p);
-        launch
-            .arg(&params)
-            .arg(&self.x)
-            .arg(&self.v)
-            .arg(&self.c)
-            .arg(&self.grid_vel)
-            .arg(&self.rho)
-            .arg(&self.counters);
-        // SAFETY: as in p2g_init.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("g2p", launched)
+        let (fixed_mass, _) = self.fixed_grid();
+        let (l, k) = (&self.launcher, &self.kernels);
+        match self.pipeline {
+            // SAFETY: the arguments match g2p in kernels/g2p.cu.
+            Pipeline::Report => unsafe {
+                k.g2p.launch(l, l.cover(self.num_particles), |a| {
+                    a.arg(&params)
+                        .arg(&self.x)
+                        .arg(&self.v)
+                        .arg(&self.c)
+                        .arg(&self.grid_vel)
+                        .arg(&self.rho)
+                        .arg(&self.counters);
+                })
+            },
+            Pipeline::Binned => {
+                let list = self
+                    .bins
+                    .list
+                    .as_ref()
+                    .context("the binned pipeline lists its bins")?;
+                let config = l.over_list(self.bins.num_bins(), l.block_size, Self::tile_shared_bytes(1));
+                // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; as in p2g_init.
+                unsafe {
+                    k.g2p2g.launch(l, config, |a| {
+                        a.arg(&params)
+                            .arg(list)
+                            .arg(&self.bins.order)
+                            .arg(&self.x)
+                            .arg(&self.v)
+                            .arg(&self.c)
+                            .arg(&self.grid_vel)
+                            .arg(&self.rho)
+                            .arg(&self.grid_acc)
+                            .arg(fixed_mass)
+                            .arg(&self.node_blocks.marks)
+                            .arg(&self.node_blocks.list)
+                            .arg(&self.work_counts)
+                            .arg(&self.counters)
+                            .arg(&self.lane_stride);
+                    })?;
+                }
+                self.mass_scattered = Some(params.scatter_mode);
+                Ok(())
+            }
+        }
     }
 
     /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum
@@ -608,12 +776,29 @@ impl CudaSolver {
         }
     }
 
-    /// The particle order of the last sort (identity before the first). Waits for the device.
+    /// The particle order of the last binning (identity before the first). Waits for the device.
     pub fn read_order(&mut self) -> Result<Vec<u32>> {
-        self.download(&self.order)
+        self.download(&self.bins.order)
     }
 
-    /// Node mass and velocity as grid_update left them. Waits for the device.
+    /// The binned pipeline's bin list: (bin, start, count) per bin that holds particles, in the order
+    /// the last binning listed them. Waits for the device.
+    pub fn read_bin_list(&mut self) -> Result<Vec<[u32; 3]>> {
+        let list = self
+            .bins
+            .list
+            .as_ref()
+            .context("only the binned pipeline lists its bins")?;
+        let counts = self.download(&self.work_counts)?;
+        let entries = self.download(list)?;
+        Ok(entries
+            .chunks_exact(bins::BIN_ENTRY_WORDS)
+            .take(counts[bins::WORK_BINS] as usize)
+            .map(|e| [e[0], e[1], e[2]])
+            .collect())
+    }
+
+    /// Node mass and velocity as the grid update left them. Waits for the device.
     pub fn read_grid_velocity(&mut self) -> Result<(Vec<f32>, Vec<Vec3>)> {
         let vel = self.download(&self.grid_vel)?;
         Ok(split_float4(&vel))
@@ -621,10 +806,11 @@ impl CudaSolver {
 
     fn download<T: DeviceRepr + Default + Clone>(&self, buffer: &CudaSlice<T>) -> Result<Vec<T>> {
         let mut host = vec![T::default(); buffer.len()];
-        self.stream
+        let stream = &self.launcher.stream;
+        stream
             .memcpy_dtoh(buffer, &mut host)
             .context("copying from the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        self.stream
+        stream
             .synchronize()
             .context("waiting for the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
         Ok(host)
@@ -638,7 +824,7 @@ impl CudaSolver {
     /// The stream every launch of this solver goes to; interop maps and unmaps on it, so a mapped
     /// buffer is written after the step's kernels and drawn after the write.
     pub fn stream(&self) -> &Arc<CudaStream> {
-        &self.stream
+        &self.launcher.stream
     }
 
     pub fn num_particles(&self) -> usize {
@@ -657,23 +843,24 @@ impl CudaSolver {
         colour_by: ColourBy,
         rest_density: f32,
     ) -> Result<()> {
-        let _range = NvtxRange::new("render_attributes");
-        let cfg = self.launch_config(self.num_particles);
         let n = self.num_particles as u32;
         let code = colour_by.code();
         let inv_rest_density = 1.0 / rest_density;
-        let mut launch = self.stream.launch_builder(&self.kernels.render_attributes);
-        launch
-            .arg(&self.x)
-            .arg(&self.v)
-            .arg(&self.rho)
-            .arg(&n)
-            .arg(&code)
-            .arg(&inv_rest_density)
-            .arg(&out);
+        let l = &self.launcher;
         // SAFETY: the arguments match kernels/render.cu; the caller vouches for `out`.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("render_attributes", launched)
+        unsafe {
+            self.kernels
+                .render_attributes
+                .launch(l, l.cover(self.num_particles), |a| {
+                    a.arg(&self.x)
+                        .arg(&self.v)
+                        .arg(&self.rho)
+                        .arg(&n)
+                        .arg(&code)
+                        .arg(&inv_rest_density)
+                        .arg(&out);
+                })
+        }
     }
 
     /// The same attributes into a device buffer of this solver's (the host-copy path copies it out).
@@ -689,7 +876,7 @@ impl CudaSolver {
             out.len(),
             4 * self.num_particles
         );
-        let stream = self.stream.clone();
+        let stream = self.launcher.stream.clone();
         let (ptr, _guard) = cudarc::driver::DevicePtrMut::device_ptr_mut(out, &stream);
         // SAFETY: `out` is a live allocation of this context, large enough (checked above).
         unsafe { self.write_render_attributes_raw(ptr, colour_by, rest_density) }
@@ -710,17 +897,18 @@ impl CudaSolver {
                 [v.x, v.y, v.z, 0.0]
             }));
         }
-        self.stream
+        let stream = &self.launcher.stream;
+        stream
             .memcpy_htod(&float4(&particles.x), &mut self.x)
             .context("uploading positions")?;
-        self.stream
+        stream
             .memcpy_htod(&float4(&particles.v), &mut self.v)
             .context("uploading velocities")?;
-        self.stream.memcpy_htod(&c, &mut self.c).context("uploading C")?;
-        self.stream
+        stream.memcpy_htod(&c, &mut self.c).context("uploading C")?;
+        stream
             .memcpy_htod(&particles.rho, &mut self.rho)
             .context("uploading densities")?;
-        self.stream.synchronize().context("uploading particles")?;
+        stream.synchronize().context("uploading particles")?;
         Ok(())
     }
 
@@ -736,29 +924,29 @@ impl CudaSolver {
             scene.source
         );
         let blocks = blocks_u64 as u32;
-        let cfg = LaunchConfig {
+        let config = LaunchConfig {
             grid_dim: (blocks, 1, 1),
             block_dim: (block, 1, 1),
             shared_mem_bytes: 0,
         };
-        let bodies: CudaSlice<SpawnBody> = self.stream.clone_htod(&table).context("uploading bodies")?;
+        let stream = self.launcher.stream.clone();
+        let bodies: CudaSlice<SpawnBody> = stream.clone_htod(&table).context("uploading bodies")?;
         let num_bodies = table.len() as u32;
         let spacing = scene.lattice().spacing;
-        let mut counts = self
-            .stream
+        let counts = stream
             .alloc_zeros::<u32>(blocks as usize)
             .context("spawn counts")?;
-
-        let mut launch = self.stream.launch_builder(&self.kernels.spawn_count);
-        launch
-            .arg(&bodies)
-            .arg(&num_bodies)
-            .arg(&spacing)
-            .arg(&candidates)
-            .arg(&mut counts);
-        // SAFETY: arguments match kernels/spawn.cu; `counts` has one slot per block.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("spawn_count", launched)?;
+        let l = &self.launcher;
+        // SAFETY: arguments match spawn_count in kernels/spawn.cu; `counts` has one slot per block.
+        unsafe {
+            self.kernels.spawn_count.launch(l, config, |a| {
+                a.arg(&bodies)
+                    .arg(&num_bodies)
+                    .arg(&spacing)
+                    .arg(&candidates)
+                    .arg(&counts);
+            })?;
+        }
 
         let block_counts = self.download(&counts)?;
         let mut offsets = Vec::with_capacity(block_counts.len());
@@ -773,31 +961,27 @@ impl CudaSolver {
             scene.source,
             self.num_particles
         );
-        let offsets = self
-            .stream
-            .clone_htod(&offsets)
-            .context("uploading spawn offsets")?;
+        let offsets = stream.clone_htod(&offsets).context("uploading spawn offsets")?;
         let rest_density = scene.material.rest_density;
         let n = self.num_particles as u32;
-        let mut launch = self.stream.launch_builder(&self.kernels.spawn_write);
-        launch
-            .arg(&bodies)
-            .arg(&num_bodies)
-            .arg(&spacing)
-            .arg(&candidates)
-            .arg(&offsets)
-            .arg(&rest_density)
-            .arg(&n)
-            .arg(&mut self.x)
-            .arg(&mut self.v)
-            .arg(&mut self.c)
-            .arg(&mut self.rho);
+        let l = &self.launcher;
         // SAFETY: as above; every output holds `n` particles.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("spawn_write", launched)?;
-        self.stream
-            .synchronize()
-            .context("spawning particles on the GPU")?;
+        unsafe {
+            self.kernels.spawn_write.launch(l, config, |a| {
+                a.arg(&bodies)
+                    .arg(&num_bodies)
+                    .arg(&spacing)
+                    .arg(&candidates)
+                    .arg(&offsets)
+                    .arg(&rest_density)
+                    .arg(&n)
+                    .arg(&self.x)
+                    .arg(&self.v)
+                    .arg(&self.c)
+                    .arg(&self.rho);
+            })?;
+        }
+        stream.synchronize().context("spawning particles on the GPU")?;
         Ok(())
     }
 }
@@ -807,30 +991,35 @@ impl Solver for CudaSolver {
         "cuda"
     }
 
+    /// One substep, as the table at the top of this file lists its phases.
     fn step(&mut self, params: &Params) -> Result<()> {
         let _range = NvtxRange::new("substep");
-        self.timing.begin_step(&self.stream)?;
-        if self.steps_since_sort == 0 {
+        let stream = self.launcher.stream.clone();
+        self.timing.begin_step(&stream)?;
+        if self.binning_due() {
             self.sort_particles(params)?;
         }
-        self.steps_since_sort = (self.steps_since_sort + 1) % SORT_INTERVAL;
-        self.timing.mark(&self.stream, 1)?;
-        self.p2g_init(params)?;
+        self.steps_since_binning += 1;
+        self.timing.mark(&stream, 1)?;
+        if self.mass_scattered.is_none() {
+            self.p2g_init(params)?;
+        }
         self.mirror_mass(params)?;
-        self.timing.mark(&self.stream, 2)?;
+        self.timing.mark(&stream, 2)?;
         self.p2g(params)?;
-        self.timing.mark(&self.stream, 3)?;
+        self.timing.mark(&stream, 3)?;
         self.mirror_momentum(params)?;
         self.grid_update(params)?;
-        self.timing.mark(&self.stream, 4)?;
+        self.timing.mark(&stream, 4)?;
         self.g2p(params)?;
-        self.timing.mark(&self.stream, 5)?;
+        self.timing.mark(&stream, 5)?;
         Ok(())
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
         let counters = self.download(&self.counters)?;
-        self.stream
+        self.launcher
+            .stream
             .memset_zeros(&mut self.counters)
             .context("resetting the step counters")?;
         let overflows = counters[COUNTER_FIXED_OVERFLOWS];
@@ -838,12 +1027,15 @@ impl Solver for CudaSolver {
             bail!(
                 "the fixed-point scatter overflowed {overflows} times since the last frame (a grid \
                  contribution or sum left the 64-bit range at {:.3e} units/kg, {:.3e} units/(kg m/s)); \
-                 the fluid is moving far faster than expected, or blowing up. Use solver.scatter = \"float\", \
-                 or lower the CFL number",
+                 the fluid is moving far faster than expected, or blowing up. Lower the CFL number; \
+                 the report pipeline's float scatter (solver.pipeline = \"report\", solver.scatter = \
+                 \"float\") has no such bound",
                 self.fixed_mass_scale,
                 self.fixed_momentum_scale
             );
         }
+        self.rebin_requested |= counters[COUNTER_REBIN_NEEDED] != 0;
+        self.tile_misses += u64::from(counters[COUNTER_TILE_MISSES]);
         Ok(StepExtremes {
             max_density: f32::from_bits(counters[COUNTER_MAX_DENSITY]),
             max_speed: f32::from_bits(counters[COUNTER_MAX_SPEED]),
@@ -856,14 +1048,16 @@ impl Solver for CudaSolver {
     }
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {
-        let _range = NvtxRange::new("push");
-        let cfg = self.launch_config(self.num_particles);
         let n = self.num_particles as u32;
-        let mut launch = self.stream.launch_builder(&self.kernels.push_particles);
-        launch.arg(push).arg(&n).arg(&self.x).arg(&self.v);
+        let l = &self.launcher;
         // SAFETY: the arguments match kernels/render.cu; x and v hold n float4.
-        let launched = unsafe { launch.launch(cfg) }.map(drop);
-        self.after_launch("push_particles", launched)
+        unsafe {
+            self.kernels
+                .push_particles
+                .launch(l, l.cover(self.num_particles), |a| {
+                    a.arg(push).arg(&n).arg(&self.x).arg(&self.v);
+                })
+        }
     }
 
     /// Launches the attribute kernel into a scratch buffer and copies that to the host.
@@ -876,6 +1070,7 @@ impl Solver for CudaSolver {
         let mut scratch = match self.render_scratch.take() {
             Some(scratch) => scratch,
             None => self
+                .launcher
                 .stream
                 .alloc_zeros::<f32>(4 * self.num_particles)
                 .context("allocating render attributes")?,
@@ -908,6 +1103,18 @@ impl Solver for CudaSolver {
                 .collect(),
             rho,
         })
+    }
+
+    /// A device reduction (kernels/stats.cu): the host reads a few KiB, never the particles.
+    fn summary(&mut self, material: &Material) -> Result<Summary> {
+        let params = Params {
+            material: *material,
+            grid_res: self.grid_res,
+            num_particles: self.num_particles as u32,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        self.stats
+            .summary(&self.launcher, &params, &self.x, &self.v, &self.rho)
     }
 }
 
@@ -944,21 +1151,4 @@ fn split_float4(values: &[f32]) -> (Vec<f32>, Vec<Vec3>) {
 
 fn gib(bytes: usize) -> f64 {
     bytes as f64 / (1u64 << 30) as f64
-}
-
-/// An NVTX range for the lifetime of the value: shows as a named span in Nsight Systems, and costs
-/// almost nothing when no profiler is attached.
-pub struct NvtxRange(());
-
-impl NvtxRange {
-    pub fn new(name: &str) -> NvtxRange {
-        nvtx::range_push!("{name}");
-        NvtxRange(())
-    }
-}
-
-impl Drop for NvtxRange {
-    fn drop(&mut self) {
-        nvtx::range_pop!();
-    }
 }

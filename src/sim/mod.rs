@@ -8,7 +8,7 @@ pub mod push;
 pub mod scene;
 pub mod solver;
 
-pub use params::{Material, Params, ScatterMode, FRAME_DT};
+pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{

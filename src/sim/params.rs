@@ -68,6 +68,30 @@ impl ScatterMode {
     }
 }
 
+/// Which sequence of GPU kernels takes a substep. The CPU reference always runs the report's phases.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Pipeline {
+    /// Particles binned by 4x4x4-node block, scatters through shared-memory tiles, g2p fused with the
+    /// next substep's mass scatter, grid update over the touched blocks only (the default).
+    #[default]
+    Binned,
+    /// The report's four kernels, p2g_init, p2g, grid_update (whole grid), g2p, with global atomics:
+    /// the baseline the benchmark tables compare with.
+    Report,
+}
+
+impl Pipeline {
+    pub fn name(self) -> &'static str {
+        match self {
+            Pipeline::Binned => "binned",
+            Pipeline::Report => "report",
+        }
+    }
+}
+
 /// Everything one substep needs: material, solver settings, grid shape and the step size.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]

@@ -4,7 +4,7 @@
 //! default makes sense), then validated into a [`Scene`] (what the solver runs, every value checked).
 //! Every refusal names the file, the key and the fix.
 
-use super::params::{Material, Params, ScatterMode, FRAME_DT};
+use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
@@ -109,6 +109,9 @@ pub struct SolverSpec {
     pub mirror_wall_mass: bool,
     #[serde(default)]
     pub scatter: ScatterMode,
+    /// The GPU's kernel sequence: "binned" (default) or "report".
+    #[serde(default)]
+    pub pipeline: Pipeline,
 }
 
 fn default_true() -> bool {
@@ -130,6 +133,7 @@ impl Default for SolverSpec {
             soft_wall: false,
             mirror_wall_mass: true,
             scatter: ScatterMode::default(),
+            pipeline: Pipeline::default(),
         }
     }
 }
@@ -211,6 +215,8 @@ pub struct Scene {
     /// Mirror the fluid beyond the walls onto the grid (see `Params::wall_mirror_lo`).
     pub mirror_wall_mass: bool,
     pub scatter: ScatterMode,
+    /// The GPU's kernel sequence (the CPU reference ignores it).
+    pub pipeline: Pipeline,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,
@@ -507,6 +513,7 @@ impl Validator<'_> {
             soft_wall: spec.solver.soft_wall,
             mirror_wall_mass: spec.solver.mirror_wall_mass,
             scatter: spec.solver.scatter,
+            pipeline: spec.solver.pipeline,
             time_step,
             particles_per_axis,
             bodies,

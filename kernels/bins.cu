@@ -1,0 +1,121 @@
+// Particles binned by the node block of their stencil base, into an index buffer `order` (the
+// particle arrays stay index-stable, as the design asks), by a counting sort:
+// - bin_count ranks each particle within its bin; scan_tiles/scan_add turn the per-bin counts into
+//   starts; sort_scatter writes each particle's index at start + rank.
+// - bin_list lists the bins that hold particles, with their ranges (tiles.cuh's BinEntry), for the
+//   binned pipeline's passes; the report's pipeline bins by cell (edge 1) and walks `order` whole.
+//
+// The rank comes from one atomic per warp and bin: lanes with the same bin find each other
+// (match_any), the lowest adds the group's size, and each takes the leader's start plus the number of
+// its peers below it. Consecutive particles of one bin thus stay consecutive in `order` (the spawn
+// lattice's rows), so the passes that walk it read and write the particle arrays in runs. Which
+// warp comes first varies from run to run; no result depends on it (the fixed-point scatter sums
+// integers, and every other kernel is per particle).
+//
+// The report's pipeline sorts by cell (edge 1): the 32 lanes of a warp then hold particles of a few
+// neighbouring cells, so their warp-aggregated atomics merge many contributions (bench-655k after the
+// column collapses: p2g_init + p2g 0.55 ms per step unsorted, 0.29 sorted).
+#include "tiles.cuh"
+
+// Key = the bin (node block of `edge` nodes per axis) of the stencil's base node.
+extern "C" __global__ void bin_count(const Params params,
+                                    const u32 edge,
+                                    const float4* __restrict__ x,
+                                    u32* __restrict__ bin_counts,  // zeroed, one per bin
+                                    u32* __restrict__ key,
+                                    u32* __restrict__ rank) {
+    u32 bins[2];
+    for (int a = 0; a < 2; ++a) bins[a] = (params.grid_res[a] + edge - 1) / edge;
+    FOR_EACH_INDEX_CONVERGED(p, live, first, params.num_particles) {
+        u32 k = 0xffffffffu;  // lanes past the end form a group of their own and add nothing
+        if (live) {
+            const Stencil s = make_stencil(x[p], params);
+            k = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));
+        }
+        const u32 lane = threadIdx.x & 31u;
+        const u32 peers = __match_any_sync(0xffffffffu, k);
+        const u32 leader = (u32)__ffs(peers) - 1u;
+        u32 start = 0;
+        if (live && lane == leader) start = atomicAdd(&bin_counts[k], (u32)__popc(peers));
+        start = __shfl_sync(0xffffffffu, start, leader);
+        if (live) {
+            key[p] = k;
+            rank[p] = start + (u32)__popc(peers & ((1u << lane) - 1u));
+        }
+    }
+}
+
+#define SCAN_ITEMS_PER_THREAD 8
+
+// In-place exclusive scan of each tile of blockDim.x * SCAN_ITEMS_PER_THREAD values; tile_sums gets
+// each tile's total. Needs blockDim.x * sizeof(u32) bytes of dynamic shared memory.
+extern "C" __global__ void scan_tiles(u32* __restrict__ data, u32 count, u32* __restrict__ tile_sums) {
+    extern __shared__ u32 thread_sums[];
+    const u32 tile_start = blockIdx.x * blockDim.x * SCAN_ITEMS_PER_THREAD;
+    const u32 mine = tile_start + threadIdx.x * SCAN_ITEMS_PER_THREAD;
+    u32 items[SCAN_ITEMS_PER_THREAD];
+    u32 sum = 0;
+    for (int k = 0; k < SCAN_ITEMS_PER_THREAD; ++k) {
+        const u32 i = mine + k;
+        items[k] = i < count ? data[i] : 0u;
+        sum += items[k];
+    }
+    thread_sums[threadIdx.x] = sum;
+    __syncthreads();
+    // Hillis-Steele inclusive scan of the per-thread sums (blockDim.x is at most 1024).
+    for (u32 offset = 1; offset < blockDim.x; offset <<= 1) {
+        const u32 add = threadIdx.x >= offset ? thread_sums[threadIdx.x - offset] : 0u;
+        __syncthreads();
+        thread_sums[threadIdx.x] += add;
+        __syncthreads();
+    }
+    u32 running = thread_sums[threadIdx.x] - sum;  // exclusive prefix of this thread
+    for (int k = 0; k < SCAN_ITEMS_PER_THREAD; ++k) {
+        const u32 i = mine + k;
+        if (i < count) data[i] = running;
+        running += items[k];
+    }
+    if (threadIdx.x == blockDim.x - 1) tile_sums[blockIdx.x] = thread_sums[threadIdx.x];
+}
+
+// Adds each tile's offset (the scanned tile_sums) to its values.
+extern "C" __global__ void scan_add(u32* __restrict__ data, u32 count, const u32* __restrict__ tile_offsets) {
+    const u32 tile_start = blockIdx.x * blockDim.x * SCAN_ITEMS_PER_THREAD;
+    const u32 offset = tile_offsets[blockIdx.x];
+    for (int k = 0; k < SCAN_ITEMS_PER_THREAD; ++k) {
+        const u32 i = tile_start + k * blockDim.x + threadIdx.x;
+        if (i < count) data[i] += offset;
+    }
+}
+
+extern "C" __global__ void sort_scatter(u32 num_particles,
+                                       const u32* __restrict__ key,
+                                       const u32* __restrict__ rank,
+                                       const u32* __restrict__ cell_start,
+                                       u32* __restrict__ order) {
+    FOR_EACH_INDEX(p, num_particles) {
+        order[cell_start[key[p]] + rank[p]] = p;
+    }
+}
+
+// The bins that hold particles, each once, with the start and length of its run in `order`; the
+// list's length goes to work_counts[WORK_BINS] (zeroed before). Its order varies from run to run.
+extern "C" __global__ void bin_list(const u32 num_bins,
+                                   const u32 num_particles,
+                                   const u32* __restrict__ bin_starts,
+                                   BinEntry* __restrict__ list,
+                                   u32* __restrict__ work_counts) {
+    FOR_EACH_INDEX_CONVERGED(b, live, first, num_bins) {
+        u32 count = 0, start = 0;
+        if (live) {
+            start = bin_starts[b];
+            count = (b + 1 < num_bins ? bin_starts[b + 1] : num_particles) - start;
+        }
+        const u32 lane = threadIdx.x & 31u;
+        const u32 listed = __ballot_sync(0xffffffffu, count > 0);
+        u32 slot = 0;
+        if (lane == 0 && listed) slot = atomicAdd(&work_counts[WORK_BINS], (u32)__popc(listed));
+        slot = __shfl_sync(0xffffffffu, slot, 0) + (u32)__popc(listed & ((1u << lane) - 1u));
+        if (count > 0) list[slot] = BinEntry{b, start, count, 0u};
+    }
+}

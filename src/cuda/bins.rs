@@ -1,0 +1,203 @@
+//! Particle bins (kernels/bins.cu): a counting sort of particle indices by the bin of their stencil
+//! base node into `order`, and, for the binned pipeline, the list of bins that hold particles.
+//! The report's pipeline bins by cell (edge 1); the binned pipeline by node block (edge 4,
+//! `NODE_BLOCK_EDGE`), one tile per bin (kernels/tiles.cuh).
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use crate::sim::Params;
+use anyhow::{Context, Result};
+use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
+
+/// Nodes per axis of a node block: a bin of the binned pipeline (NODE_BLOCK_EDGE in tiles.cuh).
+pub const NODE_BLOCK_EDGE: u32 = 4;
+/// Values each thread of `scan_tiles` scans (SCAN_ITEMS_PER_THREAD in kernels/bins.cu).
+const SCAN_ITEMS_PER_THREAD: usize = 8;
+/// Slots of the work-count buffer (WORK_BINS, WORK_NODE_BLOCKS in tiles.cuh).
+pub const WORK_BINS: usize = 0;
+pub const WORK_NODE_BLOCKS: usize = 1;
+pub const WORK_COUNTS: usize = 2;
+/// u32 words of one listed bin (BinEntry in tiles.cuh: bin, start, count, pad).
+pub const BIN_ENTRY_WORDS: usize = 4;
+
+pub struct BinKernels {
+    count: Kernel,
+    scan_tiles: Kernel,
+    scan_add: Kernel,
+    scatter: Kernel,
+    list: Kernel,
+}
+
+impl BinKernels {
+    pub fn load(modules: &LoadedModules) -> Result<BinKernels> {
+        Ok(BinKernels {
+            count: Kernel::load(modules, "bins", "bin_count")?,
+            scan_tiles: Kernel::load(modules, "bins", "scan_tiles")?,
+            scan_add: Kernel::load(modules, "bins", "scan_add")?,
+            scatter: Kernel::load(modules, "bins", "sort_scatter")?,
+            list: Kernel::load(modules, "bins", "bin_list")?,
+        })
+    }
+}
+
+/// Bins per axis for bins of `edge` nodes.
+pub fn bins_per_axis(grid_res: [u32; 3], edge: u32) -> [u32; 3] {
+    grid_res.map(|r| r.div_ceil(edge))
+}
+
+pub struct Bins {
+    edge: u32,
+    num_bins: usize,
+    num_particles: usize,
+    key: CudaSlice<u32>,
+    rank: CudaSlice<u32>,
+    /// levels[0]: one count (then start) per bin; levels[i + 1]: the tile sums of levels[i]. The last
+    /// level fits one tile; `top` takes its (unused) total.
+    levels: Vec<CudaSlice<u32>>,
+    top: CudaSlice<u32>,
+    /// Particle indices by bin (identity before the first rebuild).
+    pub order: CudaSlice<u32>,
+    /// The bins that hold particles (BIN_ENTRY_WORDS each), where listed.
+    pub list: Option<CudaSlice<u32>>,
+}
+
+impl Bins {
+    /// Buffers for `num_particles` particles on `grid_res`, bins of `edge` nodes; `with_list` for the
+    /// binned pipeline's bin list.
+    pub fn new(
+        launcher: &Launcher,
+        grid_res: [u32; 3],
+        num_particles: usize,
+        edge: u32,
+        with_list: bool,
+    ) -> Result<Bins> {
+        let stream = &launcher.stream;
+        let num_bins: usize = bins_per_axis(grid_res, edge)
+            .iter()
+            .map(|&b| b as usize)
+            .product();
+        let alloc = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<u32>(len.max(1))
+                .with_context(|| format!("allocating {what} ({len} values)"))
+        };
+        let tile = launcher.block_size as usize * SCAN_ITEMS_PER_THREAD;
+        let mut levels = vec![alloc(num_bins, "the bins' counts")?];
+        let mut level_len = num_bins;
+        while level_len > tile {
+            level_len = level_len.div_ceil(tile);
+            levels.push(alloc(level_len, "the bins' scan")?);
+        }
+        let identity: Vec<u32> = (0..num_particles as u32).collect();
+        Ok(Bins {
+            edge,
+            num_bins,
+            num_particles,
+            key: alloc(num_particles, "bin keys")?,
+            rank: alloc(num_particles, "bin ranks")?,
+            levels,
+            top: alloc(1, "the bins' scan")?,
+            order: stream
+                .clone_htod(&identity)
+                .context("allocating the particle order")?,
+            list: if with_list {
+                Some(alloc(BIN_ENTRY_WORDS * num_bins, "the bin list")?)
+            } else {
+                None
+            },
+        })
+    }
+
+    pub fn num_bins(&self) -> usize {
+        self.num_bins
+    }
+
+    /// Rewrites `order` so that particles of one bin are consecutive, and (where listed) the bin
+    /// list with its length in `work_counts[WORK_BINS]`.
+    pub fn rebuild(
+        &mut self,
+        k: &BinKernels,
+        launcher: &Launcher,
+        params: &Params,
+        x: &CudaSlice<f32>,
+        work_counts: &mut CudaSlice<u32>,
+    ) -> Result<()> {
+        let stream = &launcher.stream;
+        stream
+            .memset_zeros(&mut self.levels[0])
+            .context("clearing the bins' counts")?;
+        let particles = launcher.cover(self.num_particles);
+        // SAFETY: arguments match bin_count in kernels/bins.cu; levels[0] has one count per bin,
+        // key and rank one value per particle.
+        unsafe {
+            k.count.launch(launcher, particles, |a| {
+                a.arg(params)
+                    .arg(&self.edge)
+                    .arg(x)
+                    .arg(&self.levels[0])
+                    .arg(&self.key)
+                    .arg(&self.rank);
+            })?;
+        }
+
+        // Exclusive scan of the counts: scan each level's tiles (their totals go one level up), then
+        // add the scanned totals back down.
+        let block = launcher.block_size;
+        let tile = block as usize * SCAN_ITEMS_PER_THREAD;
+        let tiles_of = |len: usize| LaunchConfig {
+            grid_dim: (len.div_ceil(tile) as u32, 1, 1),
+            block_dim: (block, 1, 1),
+            shared_mem_bytes: block * 4,
+        };
+        let lens: Vec<u32> = self.levels.iter().map(|l| l.len() as u32).collect();
+        for (level, (counts, len)) in self.levels.iter().zip(&lens).enumerate() {
+            let sums = self.levels.get(level + 1).unwrap_or(&self.top);
+            // SAFETY: as above; `sums` has one slot per tile of this level.
+            unsafe {
+                k.scan_tiles.launch(launcher, tiles_of(*len as usize), |a| {
+                    a.arg(counts).arg(len).arg(sums);
+                })?;
+            }
+        }
+        for level in (0..self.levels.len() - 1).rev() {
+            // SAFETY: as above.
+            unsafe {
+                k.scan_add.launch(launcher, tiles_of(lens[level] as usize), |a| {
+                    a.arg(&self.levels[level])
+                        .arg(&lens[level])
+                        .arg(&self.levels[level + 1]);
+                })?;
+            }
+        }
+
+        let n = self.num_particles as u32;
+        // SAFETY: as above; every start + rank is below n.
+        unsafe {
+            k.scatter.launch(launcher, particles, |a| {
+                a.arg(&n)
+                    .arg(&self.key)
+                    .arg(&self.rank)
+                    .arg(&self.levels[0])
+                    .arg(&self.order);
+            })?;
+        }
+
+        if let Some(list) = &self.list {
+            stream
+                .memset_zeros(&mut work_counts.slice_mut(WORK_BINS..WORK_BINS + 1))
+                .context("clearing the bin list's length")?;
+            let num_bins = self.num_bins as u32;
+            // SAFETY: arguments match bin_list; the list has room for every bin.
+            unsafe {
+                k.list.launch(launcher, launcher.cover(self.num_bins), |a| {
+                    a.arg(&num_bins)
+                        .arg(&n)
+                        .arg(&self.levels[0])
+                        .arg(list)
+                        .arg(&*work_counts);
+                })?;
+            }
+        }
+        Ok(())
+    }
+}

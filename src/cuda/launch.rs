@@ -1,0 +1,101 @@
+//! The one way a kernel is launched: the kernel named once (for NVTX, errors and the module it came
+//! from), its arguments, the launch error with the kernel's name, and `MPM_CUDA_SYNC=1`'s wait after
+//! every launch, so an asynchronous fault names its kernel.
+
+use super::modules::LoadedModules;
+use anyhow::{Context, Result};
+use cudarc::driver::{CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
+use std::sync::Arc;
+
+/// A loaded kernel and its name.
+pub struct Kernel {
+    name: &'static str,
+    function: CudaFunction,
+}
+
+impl Kernel {
+    /// Kernel `name` of `kernels/{module}.cu`.
+    pub fn load(modules: &LoadedModules, module: &str, name: &'static str) -> Result<Kernel> {
+        Ok(Kernel {
+            name,
+            function: modules.function(module, name)?,
+        })
+    }
+
+    /// Launches the kernel on `launcher`'s stream with the arguments `args` pushes, inside an NVTX
+    /// range of the kernel's name.
+    ///
+    /// # Safety
+    /// `args` must push exactly the kernel's parameters, in order and of matching types, and every
+    /// buffer must be large enough for what the kernel reads and writes at `config`.
+    pub unsafe fn launch<'a>(
+        &'a self,
+        launcher: &'a Launcher,
+        config: LaunchConfig,
+        args: impl FnOnce(&mut LaunchArgs<'a>),
+    ) -> Result<()> {
+        let _range = NvtxRange::new(self.name);
+        let mut builder = launcher.stream.launch_builder(&self.function);
+        args(&mut builder);
+        // SAFETY: the caller vouches for the arguments and sizes.
+        unsafe { builder.launch(config) }.with_context(|| format!("launching kernel `{}`", self.name))?;
+        if launcher.sync_each_launch {
+            launcher
+                .stream
+                .synchronize()
+                .with_context(|| format!("kernel `{}` failed while running", self.name))?;
+        }
+        Ok(())
+    }
+}
+
+/// The stream every launch goes to, and how launches are sized.
+pub struct Launcher {
+    pub stream: Arc<CudaStream>,
+    /// Threads per block of the particle and grid kernels.
+    pub block_size: u32,
+    /// Streaming multiprocessors of the device: sizes the passes that loop over device-side lists.
+    pub multiprocessors: u32,
+    /// `MPM_CUDA_SYNC=1`: wait after every launch.
+    pub sync_each_launch: bool,
+}
+
+impl Launcher {
+    /// 1D launch covering `count` items (the kernels loop grid-stride, so any count fits).
+    pub fn cover(&self, count: usize) -> LaunchConfig {
+        let blocks = count.div_ceil(self.block_size as usize).clamp(1, 1 << 20) as u32;
+        LaunchConfig {
+            grid_dim: (blocks, 1, 1),
+            block_dim: (self.block_size, 1, 1),
+            shared_mem_bytes: 0,
+        }
+    }
+
+    /// A launch for a pass over a device-side list of at most `capacity` entries, one block per entry
+    /// at a time: enough blocks to fill the device several times over, never more than entries.
+    pub fn over_list(&self, capacity: usize, block_size: u32, shared_mem_bytes: u32) -> LaunchConfig {
+        let blocks = capacity.clamp(1, 32 * self.multiprocessors.max(1) as usize) as u32;
+        LaunchConfig {
+            grid_dim: (blocks, 1, 1),
+            block_dim: (block_size, 1, 1),
+            shared_mem_bytes,
+        }
+    }
+}
+
+/// An NVTX range for the lifetime of the value: shows as a named span in Nsight Systems, and costs
+/// almost nothing when no profiler is attached.
+pub struct NvtxRange(());
+
+impl NvtxRange {
+    pub fn new(name: &str) -> NvtxRange {
+        nvtx::range_push!("{name}");
+        NvtxRange(())
+    }
+}
+
+impl Drop for NvtxRange {
+    fn drop(&mut self) {
+        nvtx::range_pop!();
+    }
+}

@@ -1,0 +1,115 @@
+//! Per-frame statistics as a device reduction (kernels/stats.cu): the host reads `STATS_BLOCKS`
+//! partial records (14 KiB) instead of every particle, and sums them in a fixed order, so the
+//! figures are the same on every run.
+
+use super::launch::{Kernel, Launcher};
+use crate::sim::{Params, Summary};
+use anyhow::{Context, Result};
+use bytemuck::{Pod, Zeroable};
+use cudarc::driver::{CudaSlice, DeviceRepr, LaunchConfig, PushKernelArg, ValidAsZeroBits};
+use std::mem::size_of;
+
+/// Blocks of the reduction (a fixed count: the partials do not depend on the device).
+pub const STATS_BLOCKS: usize = 256;
+/// Threads per block (STATS_THREADS in kernels/stats.cu).
+const STATS_THREADS: u32 = 256;
+
+/// One block's partial statistics; mirrors `StatsPartial` in kernels/stats.cu.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct StatsPartial {
+    kinetic_energy: f64,
+    position_sum: [f64; 3],
+    density_ratio_sum: f64,
+    max_speed: f32,
+    density_ratio_min: f32,
+    density_ratio_max: f32,
+    count: u32,
+}
+const _: () = assert!(size_of::<StatsPartial>() == 56);
+// SAFETY: `StatsPartial` is `#[repr(C)]` and Pod; kernels/stats.cu mirrors it with a static_assert.
+unsafe impl DeviceRepr for StatsPartial {}
+// SAFETY: all-zero bits are a valid StatsPartial (Pod).
+unsafe impl ValidAsZeroBits for StatsPartial {}
+
+pub struct ParticleStats {
+    kernel: Kernel,
+    partials: CudaSlice<StatsPartial>,
+}
+
+impl ParticleStats {
+    pub fn new(kernel: Kernel, launcher: &Launcher) -> Result<ParticleStats> {
+        Ok(ParticleStats {
+            kernel,
+            partials: launcher
+                .stream
+                .alloc_zeros::<StatsPartial>(STATS_BLOCKS)
+                .context("allocating the statistics partials")?,
+        })
+    }
+
+    /// Reduces the state on the device and reads the partials back (waits for the device).
+    pub fn summary(
+        &mut self,
+        launcher: &Launcher,
+        params: &Params,
+        x: &CudaSlice<f32>,
+        v: &CudaSlice<f32>,
+        rho: &CudaSlice<f32>,
+    ) -> Result<Summary> {
+        let config = LaunchConfig {
+            grid_dim: (STATS_BLOCKS as u32, 1, 1),
+            block_dim: (STATS_THREADS, 1, 1),
+            shared_mem_bytes: 0,
+        };
+        // SAFETY: arguments match particle_stats; x, v hold float4 and rho a float per particle of
+        // params.num_particles; partials has STATS_BLOCKS records.
+        unsafe {
+            self.kernel.launch(launcher, config, |a| {
+                a.arg(params).arg(x).arg(v).arg(rho).arg(&self.partials);
+            })?;
+        }
+        let mut partials = vec![StatsPartial::default(); STATS_BLOCKS];
+        launcher
+            .stream
+            .memcpy_dtoh(&self.partials, &mut partials)
+            .context(
+                "copying the statistics from the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)",
+            )?;
+        launcher
+            .stream
+            .synchronize()
+            .context("waiting for the statistics (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        Ok(combine(&partials))
+    }
+}
+
+/// The partials summed in block order, as `Summary::of` would give for the whole state.
+fn combine(partials: &[StatsPartial]) -> Summary {
+    let mut ke = 0.0f64;
+    let mut position = [0.0f64; 3];
+    let mut density_sum = 0.0f64;
+    let (mut max_speed, mut rmin, mut rmax) = (0.0f32, f32::INFINITY, f32::NEG_INFINITY);
+    let mut count = 0u64;
+    for p in partials {
+        ke += p.kinetic_energy;
+        for (sum, part) in position.iter_mut().zip(p.position_sum) {
+            *sum += part;
+        }
+        density_sum += p.density_ratio_sum;
+        max_speed = max_speed.max(p.max_speed);
+        rmin = rmin.min(p.density_ratio_min);
+        rmax = rmax.max(p.density_ratio_max);
+        count += u64::from(p.count);
+    }
+    let inv_n = 1.0 / count.max(1) as f64;
+    Summary {
+        particles: count as usize,
+        max_speed,
+        density_ratio_min: rmin,
+        density_ratio_mean: (density_sum * inv_n) as f32,
+        density_ratio_max: rmax,
+        kinetic_energy: ke,
+        centre_of_mass: position.map(|p| p * inv_n),
+    }
+}
