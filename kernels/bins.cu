@@ -1,9 +1,11 @@
-// Particles binned by the node block of their stencil base, into an index buffer `order` (the
-// particle arrays stay index-stable, as the design asks), by a counting sort:
-// - bin_count ranks each particle within its bin; scan_tiles/scan_add turn the per-bin counts into
-//   starts; sort_scatter writes each particle's index at start + rank.
+// Particles sorted by the cell of their stencil base into an index buffer `order` (the particle
+// arrays stay index-stable, as the design asks), with the cells of one bin (a block of `edge`^3
+// cells) consecutive: key = bin * edge^3 + the cell's place in the bin. A counting sort:
+// - bin_count ranks each particle within its cell; scan_tiles/scan_add turn the per-cell counts into
+//   starts (`cell_starts`); sort_scatter writes each particle's index at start + rank.
 // - bin_list lists the bins that hold particles, with their ranges (tiles.cuh's BinEntry), for the
-//   binned pipeline's passes; the report's pipeline bins by cell (edge 1) and walks `order` whole.
+//   binned pipeline's passes (edge 4: one thread per cell of a bin). The report's pipeline sorts by
+//   plain cell (edge 1) and walks `order` whole.
 //
 // The rank comes from one atomic per warp and bin: lanes with the same bin find each other
 // (match_any), the lowest adds the group's size, and each takes the leader's start plus the number of
@@ -17,11 +19,11 @@
 // column collapses: p2g_init + p2g 0.55 ms per step unsorted, 0.29 sorted).
 #include "tiles.cuh"
 
-// Key = the bin (node block of `edge` nodes per axis) of the stencil's base node.
+// Key = the bin of the stencil's base node times edge^3, plus the base's cell within the bin.
 extern "C" __global__ void bin_count(const Params params,
                                     const u32 edge,
                                     const float4* __restrict__ x,
-                                    u32* __restrict__ bin_counts,  // zeroed, one per bin
+                                    u32* __restrict__ cell_counts,  // zeroed, one per key
                                     u32* __restrict__ key,
                                     u32* __restrict__ rank) {
     u32 bins[2];
@@ -30,13 +32,15 @@ extern "C" __global__ void bin_count(const Params params,
         u32 k = 0xffffffffu;  // lanes past the end form a group of their own and add nothing
         if (live) {
             const Stencil s = make_stencil(x[p], params);
-            k = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));
+            const u32 bin = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));
+            const u32 cell = s.base[0] % edge + edge * (s.base[1] % edge + edge * (s.base[2] % edge));
+            k = bin * edge * edge * edge + cell;
         }
         const u32 lane = threadIdx.x & 31u;
         const u32 peers = __match_any_sync(0xffffffffu, k);
         const u32 leader = (u32)__ffs(peers) - 1u;
         u32 start = 0;
-        if (live && lane == leader) start = atomicAdd(&bin_counts[k], (u32)__popc(peers));
+        if (live && lane == leader) start = atomicAdd(&cell_counts[k], (u32)__popc(peers));
         start = __shfl_sync(0xffffffffu, start, leader);
         if (live) {
             key[p] = k;
@@ -102,14 +106,14 @@ extern "C" __global__ void sort_scatter(u32 num_particles,
 // list's length goes to work_counts[WORK_BINS] (zeroed before). Its order varies from run to run.
 extern "C" __global__ void bin_list(const u32 num_bins,
                                    const u32 num_particles,
-                                   const u32* __restrict__ bin_starts,
+                                   const u32* __restrict__ cell_starts,  // BIN_CELLS per bin
                                    BinEntry* __restrict__ list,
                                    u32* __restrict__ work_counts) {
     FOR_EACH_INDEX_CONVERGED(b, live, first, num_bins) {
         u32 count = 0, start = 0;
         if (live) {
-            start = bin_starts[b];
-            count = (b + 1 < num_bins ? bin_starts[b + 1] : num_particles) - start;
+            start = cell_starts[b * BIN_CELLS];
+            count = (b + 1 < num_bins ? cell_starts[(b + 1) * BIN_CELLS] : num_particles) - start;
         }
         const u32 lane = threadIdx.x & 31u;
         const u32 listed = __ballot_sync(0xffffffffu, count > 0);

@@ -247,9 +247,6 @@ __device__ __forceinline__ float gather_density(const Stencil& s, const Params& 
     const float inv_mass_scale = fixed ? 1.0f / params.fixed_mass_scale : 0.0f;
     const float* grid_mass_words = reinterpret_cast<const float*>(grid_acc) + 3;  // stride 4
     float grid_mass = 0.0f;  // with the walls' image mass, which mirror_walls added after the mass scatter
-#ifdef EXPERIMENT_NO_GATHER
-    return params.material.rest_density + 1e-3f * s.fx[0];
-#endif
     FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
         const float m_i = fixed ? fixed_point_value(fixed_mass[node], inv_mass_scale) : grid_mass_words[4 * (size_t)node];
         grid_mass += w * m_i;

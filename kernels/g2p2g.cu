@@ -1,7 +1,7 @@
 // g2p2g: the binned pipeline's particle pass that ends one substep and begins the next (G2P2G):
 // g2p of substep n (g2p_particle in common.cuh, the same math as g2p.cu: gather, soft wall, advect,
 // clamp), then the mass scatter of substep n + 1 at the new position (physics.md step 1), through a
-// shared tile per bin (tiles.cuh). So each substep reads and writes the particle state twice (here
+// shared fixed-point tile per bin (tiles.cuh), a thread per particle. So each substep reads and writes the particle state twice (here
 // and in p2g_tiled) instead of three times, and the stencil is built once for both halves.
 // p2g_mass is the mass half alone: the first substep's, and after the particles were replaced.
 // Also flags `rebin_needed` where a particle moved about a cell since binning.
@@ -13,11 +13,11 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   float4* __restrict__ v, float4* __restrict__ c,
                                                   const float4* __restrict__ grid_vel, const float* __restrict__ rho,
                                                   float4* grid_acc, u64* fixed_mass, const BlockMarks& marks,
-                                                  u32* work_counts, StepCounters* __restrict__ counters,
-                                                  const u32 lane_stride) {
+                                                  u32* work_counts, StepCounters* __restrict__ counters) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float scale = params.fixed_mass_scale, inv_scale = 1.0f / params.fixed_mass_scale;
+    const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float inv_scale = 1.0f / params.fixed_mass_scale;
     const float m_p = params.material.particle_mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
@@ -29,11 +29,10 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
-        const TileAccumulators<1> tile = tile_clear<1>(tile_marks);
+        int* tile = tile_clear<1>(tile_marks);
 
-        const u32 stride = coprime_stride(lane_stride, bin.count);
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
-            const u32 p = order[bin.start + bin_slot(j, bin.count, stride)];
+            const u32 p = order[bin.start + j];
             float4 xp = x[p];
             if (ADVECT) {
                 const G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
@@ -46,23 +45,24 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             }
             const Stencil s = make_stencil(xp, params);
             u32 first;
-            if (tile_stencil(t, s, first, far)) {
+            const bool in_tile = tile_stencil(t, s, first, far);
+            if (in_tile) {
                 tile_mark_stencil(tile_marks, first);
-                FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                    tile_add(tile, k, w * m_p * scale, counters);
-                })
             } else {
                 ++misses;
                 mark_stencil_blocks(marks, blocks, s);
-                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                    if (fixed) fixed_point_add(&fixed_mass[node], w * m_p * params.fixed_mass_scale, counters);
-                    else atomicAdd(&grid_acc[node].w, w * m_p);
-                })
             }
+            FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+                const float mass = w * m_p;
+                const float scaled = mass * tile_scale;
+                if (in_tile && tile_add(&tile[k], scaled, counters)) continue;
+                const u32 node = stencil_node(s, params, k - first);
+                grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, scaled, mass, counters);
+            })
         }
 
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u64 units = tile_units(tile, k);
+            const u64 units = tile_global_units(tile[k]);
             if (units != 0) {
                 if (fixed) atomicAdd(&fixed_mass[node], units);
                 else atomicAdd(&grid_acc[node].w, fixed_point_value(units, inv_scale));
@@ -77,20 +77,19 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     if (far) counters->rebin_needed = 1u;
 }
 
-extern "C" __global__ void TILE_LAUNCH_BOUNDS g2p2g(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) g2p2g(const Params params, const BinEntry* __restrict__ bins,
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                  const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
-                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
-                                 const u32 lane_stride) {
+                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
-                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters, lane_stride);
+                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
 }
 
-extern "C" __global__ void p2g_mass(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
                                     const u32* __restrict__ order, float4* __restrict__ x, float4* grid_acc,
                                     u64* fixed_mass, u32* block_marks, u32* block_list, u32* work_counts,
-                                    StepCounters* __restrict__ counters, const u32 lane_stride) {
+                                    StepCounters* __restrict__ counters) {
     scatter_bins_mass<false>(params, bins, order, x, nullptr, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
-                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters, lane_stride);
+                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
 }

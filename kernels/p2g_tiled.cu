@@ -1,10 +1,13 @@
 // p2g_tiled: the binned pipeline's p2g (physics.md step 2, the same per-particle math as p2g.cu:
-// gather_density, particle_impulse), one CUDA block per listed bin, momentum accumulated in a shared
-// fixed-point tile and flushed once per tile node (tiles.cuh). The density is gathered from the global grid mass,
+// gather_density, particle_impulse), one CUDA block per listed bin and a thread per particle,
+// momentum accumulated in a shared fixed-point tile and flushed once per tile node (tiles.cuh).
+// The binned pipeline runs it for the fixed-point scatter, where it is 4x faster than p2g.cu's 64-bit
+// global atomics; float momentum goes through p2g.cu's warp-aggregated float atomics, which beat the
+// tile on the H200 (src/cuda/solver.rs, `CudaSolver::p2g`, has the figures). The density is gathered from the global grid mass,
 // which the previous substep's g2p2g (or p2g_mass) scattered and mirror_walls completed.
 #include "tiles.cuh"
 
-extern "C" __global__ void TILE_LAUNCH_BOUNDS p2g_tiled(const Params params,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_tiled(const Params params,
                                      const BinEntry* __restrict__ bins,
                                      const u32* __restrict__ order,  // particles by bin
                                      const float4* __restrict__ x,
@@ -15,10 +18,11 @@ extern "C" __global__ void TILE_LAUNCH_BOUNDS p2g_tiled(const Params params,
                                      const u64* fixed_mass,  // fixed-point scatter
                                      u64* fixed_momentum,    // 3 per node, interleaved
                                      u32* block_marks, u32* block_list, u32* work_counts,
-                                     StepCounters* __restrict__ counters, const u32 lane_stride) {
+                                     StepCounters* __restrict__ counters) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float scale = params.fixed_momentum_scale, inv_scale = 1.0f / params.fixed_momentum_scale;
+    const float tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float inv_scale = 1.0f / params.fixed_momentum_scale;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -29,11 +33,10 @@ extern "C" __global__ void TILE_LAUNCH_BOUNDS p2g_tiled(const Params params,
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
-        const TileAccumulators<3> tile = tile_clear<3>(tile_marks);
+        int* tile = tile_clear<3>(tile_marks);
 
-        const u32 stride = coprime_stride(lane_stride, bin.count);
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
-            const u32 p = order[bin.start + bin_slot(j, bin.count, stride)];
+            const u32 p = order[bin.start + j];
             const Stencil s = make_stencil(x[p], params);
             const float rho = gather_density(s, params, grid_acc, fixed_mass);
             rho_out[p] = rho;
@@ -41,31 +44,29 @@ extern "C" __global__ void TILE_LAUNCH_BOUNDS p2g_tiled(const Params params,
             const ParticleImpulse q = particle_impulse(params, rho, v[p], c[p], c[n + p], c[2 * (size_t)n + p]);
             u32 first;
             bool far = false;
-            if (tile_stencil(t, s, first, far)) {
+            const bool in_tile = tile_stencil(t, s, first, far);
+            if (in_tile) {
                 tile_mark_stencil(tile_marks, first);
-                FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                    float impulse[3];
-                    impulse_at(q, w, d0, d1, d2, impulse);
-                    for (int a = 0; a < 3; ++a) tile_add(tile, a * TILE_NODES + k, impulse[a] * scale, counters);
-                })
             } else {
                 ++misses;
                 mark_stencil_blocks(marks, blocks, s);
-                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                    float impulse[3];
-                    impulse_at(q, w, d0, d1, d2, impulse);
-                    if (fixed) {
-                        for (int a = 0; a < 3; ++a)
-                            fixed_point_add(&fixed_momentum[3 * (size_t)node + a], impulse[a] * params.fixed_momentum_scale, counters);
-                    } else {
-                        atomic_add_momentum(&grid_acc[node], impulse[0], impulse[1], impulse[2]);
-                    }
-                })
             }
+            FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+                float impulse[3];
+                impulse_at(q, w, d0, d1, d2, impulse);
+                for (int a = 0; a < 3; ++a) {
+                    const float scaled = impulse[a] * tile_scale;
+                    if (in_tile && tile_add(&tile[a * TILE_NODES + k], scaled, counters)) continue;
+                    const u32 node = stencil_node(s, params, k - first);
+                    grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed, scaled, impulse[a],
+                             counters);
+                }
+            })
         }
 
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u64 units[3] = {tile_units(tile, k), tile_units(tile, TILE_NODES + k), tile_units(tile, 2 * TILE_NODES + k)};
+            const u64 units[3] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),
+                                  tile_global_units(tile[2 * TILE_NODES + k])};
             if (fixed) {
                 for (int a = 0; a < 3; ++a) {
                     if (units[a] != 0) atomicAdd(&fixed_momentum[3 * (size_t)node + a], units[a]);

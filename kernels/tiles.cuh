@@ -8,20 +8,26 @@
 // binning), then flushes each non-zero tile node to the global grid with one atomic per channel.
 // Neighbouring tiles overlap, which is why the flush still adds atomically.
 //
+// A thread per particle adds each of its contributions to the tile. Why integers: on sm_90,
+// atomicAdd on a shared float, or a shared 64-bit integer, compiles to a compare-and-swap loop
+// (ATOMS.CAST.SPIN) that the lanes sharing a cell retry in turn, while a 32-bit integer add is one
+// native ATOMS.ADD. Each contribution is rounded to tile units (the fixed-point scale of
+// `fixed_point_scales`, 2^TILE_UNIT_SHIFT coarser) on its own, in both scatter modes, so no sum
+// depends on the particles' order or on the tile partition (a particle outside its tile is rounded
+// the same way); the flush adds a node's sum to the global grid as an integer (fixed-point scatter)
+// or a float (float scatter). Measured at bench-655k on the H200 (ncu), the float-CAS tile took
+// 0.53 ms for p2g, two 32-bit words per 64-bit sum 0.25 ms, one word 0.20 ms, and one word with the
+// registers capped for occupancy 0.16 ms. (A thread per cell summing its particles in registers first
+// needed 242 registers and took 1.19 ms.)
+//
 // - A particle whose base has left [4b - 1, 4b + 4] (moved about a cell since binning) sets
 //   `rebin_needed`; the host rebins before the next substep choice's steps.
-// - One whose stencil has left the tile altogether (only possible past the CFL bound) is scattered
-//   with global atomics instead, and counted in `tile_misses`: nothing is dropped.
+// - One whose stencil has left the tile altogether (only possible past the CFL bound, or when bins are
+//   stale) is scattered with global atomics instead, and counted in `tile_misses`; so is a single
+//   contribution too large for the tile's 32-bit units (several times the scale's reference speed).
+//   Nothing is dropped.
 // - Every node block that a scatter covers is marked and listed once per substep (`mark_node_block`),
 //   so grid_update_blocks visits only those: empty space costs nothing.
-//
-// Tiles accumulate 64-bit fixed point in both scatter modes (the scales of `fixed_point_scales`),
-// each contribution rounded on its own: integer adds commute, so neither the bin order nor the tile
-// partition changes a tile's sums. The flush adds them to the global grid as integers (fixed-point
-// scatter) or as floats (float scatter). Why not float tiles: on sm_90, atomicAdd on a shared float,
-// and on a shared 64-bit integer, compiles to a compare-and-swap loop (ATOMS.CAST.SPIN), which the
-// lanes of a warp that share a cell retry in turn; a 32-bit integer add is one native ATOMS.ADD. So
-// each 64-bit accumulator is two 32-bit words (tile_add).
 #include "common.cuh"
 
 #define NODE_BLOCK_EDGE 4u
@@ -31,6 +37,18 @@
 #define TILE_NODES (TILE_EDGE * TILE_EDGE * TILE_EDGE)
 #define TILE_SPAN 3  // node blocks a tile overlaps per axis: b - 1, b, b + 1
 #define TILE_SPAN_BLOCKS (TILE_SPAN * TILE_SPAN * TILE_SPAN)
+#define BIN_CELLS 64     // cells of a bin (the sort keys of a bin, bins.cu)
+#define TILE_THREADS 128  // threads of a tiled pass's block (__launch_bounds__ below)
+// Blocks per multiprocessor the tiled passes are compiled for: caps p2g_tiled's registers at 80
+// (from 130; a few spill), which doubles the warps that hide its latencies.
+#define TILE_MIN_BLOCKS 6
+
+// Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
+// (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
+// 16 cells' mass, or the momentum of a cell's mass at 16 times the reference speed.
+#define TILE_UNIT_SHIFT 13
+// Largest contribution a tile takes, in tile units; larger ones go to the grid (and are counted).
+#define TILE_CONTRIBUTION_LIMIT 67108864.0f /* 2^26 */
 
 // Slots of the work-count buffer (src/cuda/bins.rs): list lengths the passes read on the device, so
 // no launch waits for the host to learn them.
@@ -125,67 +143,62 @@ __device__ __forceinline__ void tile_mark_stencil(u32* tile_marks, u32 first) {
                 tile_marks[bx + TILE_SPAN * (by + TILE_SPAN * bz)] = 1u;
 }
 
-// CHANNELS 64-bit fixed-point accumulators per tile node, each as a low and a high 32-bit word, in
-// the dynamic shared memory (the host sizes it: 8 CHANNELS TILE_NODES bytes).
-template <int CHANNELS>
-struct TileAccumulators {
-    u32* lo;  // [CHANNELS][TILE_NODES]
-    u32* hi;  // [CHANNELS][TILE_NODES]
-};
-
-extern __shared__ __align__(16) u32 tile_memory[];
+// CHANNELS 32-bit accumulators (tile units) per tile node in dynamic shared memory, channel-major:
+// the host sizes it at 4 CHANNELS TILE_NODES bytes.
+extern __shared__ __align__(16) int tile_memory[];
 
 // Zeroes the accumulators and the tile's marks. Ends with a barrier.
 template <int CHANNELS>
-__device__ __forceinline__ TileAccumulators<CHANNELS> tile_clear(u32* tile_marks) {
-    for (u32 k = threadIdx.x; k < 2 * CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0u;
+__device__ __forceinline__ int* tile_clear(u32* tile_marks) {
+    for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
     for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
     __syncthreads();
-    return TileAccumulators<CHANNELS>{tile_memory, tile_memory + CHANNELS * TILE_NODES};
+    return tile_memory;
 }
 
-// Adds `scaled` (fixed-point units, rounded here) to accumulator k: the low word natively, and the
-// high word plus the low word's carry. The carries add up to the same total in any order, so the
-// 64-bit sum is exact. Out-of-range contributions are counted, as fixed_point_add does.
-template <int CHANNELS>
-__device__ __forceinline__ void tile_add(const TileAccumulators<CHANNELS>& t, u32 k, float scaled,
-                                         StepCounters* counters) {
-    if (!(fabsf(scaled) < FIXED_CONTRIBUTION_LIMIT)) {  // also catches NaN
-        atomicAdd(&counters->fixed_overflows, 1u);
-        return;
-    }
-#ifdef TILE_WORDS32
-    const int units = __float2int_rn(scaled * (1.0f / (float)(1 << TILE_WORDS32)));
-#ifdef EXPERIMENT_PLAIN_STORES
-    t.lo[k] += (u32)units;
-    return;
-#endif
-    const int before = (int)atomicAdd(&t.lo[k], (u32)units);
+// A contribution rounded to tile units: the one rounding both the tile and the global fallback use.
+__device__ __forceinline__ i64 tile_round(float tile_scaled) {
+    return __float2ll_rn(tile_scaled);
+}
+
+// A tile node's sum (or a rounded contribution) in global fixed-point units.
+__device__ __forceinline__ u64 tile_global_units(i64 units) {
+    return (u64)(units << TILE_UNIT_SHIFT);
+}
+
+// Adds a contribution (in tile units, before rounding) to tile accumulator `slot`; false where it is
+// too large for the tile, for the caller to add to the grid. A sum that overflows 32 bits is counted
+// (the host reports it).
+__device__ __forceinline__ bool tile_add(int* slot, float tile_scaled, StepCounters* counters) {
+    if (!(fabsf(tile_scaled) < TILE_CONTRIBUTION_LIMIT)) return false;  // also NaN
+    const int units = (int)tile_round(tile_scaled);
+    const int before = atomicAdd(slot, units);
     const int after = (int)((u32)before + (u32)units);
-    if ((units > 0 && after < before) || (units < 0 && after > before)) atomicAdd(&counters->fixed_overflows, 1u);
-#else
-    const u64 units = (u64)__float2ll_rn(scaled);
-    const u32 lo = (u32)units, hi = (u32)(units >> 32);
-    const u32 before = lo ? atomicAdd(&t.lo[k], lo) : 0u;
-    const u32 carry = before + lo < before ? 1u : 0u;
-    if (hi + carry) atomicAdd(&t.hi[k], hi + carry);
-#endif
+    if ((units > 0) ? after < before : after > before) atomicAdd(&counters->fixed_overflows, 1u);
+    return true;
 }
 
-template <int CHANNELS>
-__device__ __forceinline__ u64 tile_units(const TileAccumulators<CHANNELS>& t, u32 k) {
-#ifdef TILE_WORDS32
-    return (u64)((i64)(int)t.lo[k] << TILE_WORDS32);
-#else
-    return ((u64)t.hi[k] << 32) | t.lo[k];
-#endif
+// The grid node of a stencil node given as its tile offset from the stencil's base (a constant in the
+// unrolled stencil loops, so this folds to one multiply-add).
+__device__ __forceinline__ u32 stencil_node(const Stencil& s, const Params& params, u32 offset) {
+    const u32 o[3] = {offset % TILE_EDGE, (offset / TILE_EDGE) % TILE_EDGE, offset / (TILE_EDGE * TILE_EDGE)};
+    return s.base_index + o[0] + params.grid_res[0] * (o[1] + params.grid_res[1] * o[2]);
 }
 
-#ifdef TILE_MIN_BLOCKS
-#define TILE_LAUNCH_BOUNDS __launch_bounds__(128, TILE_MIN_BLOCKS)
-#else
-#define TILE_LAUNCH_BOUNDS
-#endif
+// A contribution the tile did not take, to the global grid: fixed point rounded as the tile rounds
+// (so sums do not depend on which particles a tile held), or a float.
+__device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, bool fixed, float tile_scaled,
+                                         float value, StepCounters* counters) {
+    if (!fixed) {
+        atomicAdd(grid_float, value);
+    } else if (fabsf(tile_scaled) < FIXED_CONTRIBUTION_LIMIT) {
+        atomicAdd(grid_fixed, tile_global_units(tile_round(tile_scaled)));
+    } else {
+        atomicAdd(&counters->fixed_overflows, 1u);
+    }
+}
+
+
 
 // Calls body(k, node) for each tile node k inside the grid, `node` its grid index; then lists the
 // marked node blocks. Starts and ends with a barrier, so the tile can be cleared for the next bin.
@@ -211,18 +224,3 @@ __device__ __forceinline__ u64 tile_units(const TileAccumulators<CHANNELS>& t, u
         __syncthreads();                                                                                         \
     }
 
-// The bin's j-th particle for a pass: consecutive j (the lanes of a warp) step through the bin's run
-// of `order` with a stride coprime to its length, so that lanes rarely share a cell and so rarely
-// add to the same tile node at once (same-address shared atomics serialise). 1: in order.
-__device__ __forceinline__ u32 bin_slot(u32 j, u32 count, u32 stride) {
-    return stride > 1 ? (u32)(((unsigned long long)j * stride) % count) : j;
-}
-
-__device__ __forceinline__ u32 coprime_stride(u32 stride, u32 count) {
-    if (stride <= 1) return 1;
-    for (;; ++stride) {
-        u32 a = stride, b = count;
-        while (b) { const u32 t = a % b; a = b; b = t; }
-        if (a == 1) return stride;
-    }
-}

@@ -207,7 +207,7 @@ pub fn phase_label(pipeline: Pipeline, slot: &str) -> String {
         (Pipeline::Binned, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
         (Pipeline::Binned, "sort") => "rebin (when a particle moved a cell)".into(),
         (Pipeline::Binned, "p2g_init") => "mirror mass (mass scattered by g2p2g)".into(),
-        (Pipeline::Binned, "p2g") => "p2g_tiled".into(),
+        (Pipeline::Binned, "p2g") => "p2g (fixed point: p2g_tiled)".into(),
         (Pipeline::Binned, "grid_update") => "grid_update_blocks (+ mirror momentum)".into(),
         (Pipeline::Binned, "g2p") => "g2p2g (g2p + next mass scatter)".into(),
         (Pipeline::Report, "p2g_init") => "p2g_init (+ mirror mass)".into(),

@@ -1,7 +1,8 @@
-//! Particle bins (kernels/bins.cu): a counting sort of particle indices by the bin of their stencil
-//! base node into `order`, and, for the binned pipeline, the list of bins that hold particles.
-//! The report's pipeline bins by cell (edge 1); the binned pipeline by node block (edge 4,
-//! `NODE_BLOCK_EDGE`), one tile per bin (kernels/tiles.cuh).
+//! Particle bins (kernels/bins.cu): a counting sort of particle indices by the cell of their stencil
+//! base node into `order`, the cells of a bin consecutive, and, for the binned pipeline, the list of
+//! bins that hold particles. The report's pipeline sorts by plain cell (bins of edge 1); the binned
+//! pipeline bins by node block (edge 4, `NODE_BLOCK_EDGE`), one tile per bin and one thread per cell
+//! (kernels/tiles.cuh).
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
@@ -76,14 +77,15 @@ impl Bins {
             .iter()
             .map(|&b| b as usize)
             .product();
+        let num_keys = num_bins * (edge as usize).pow(3);
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<u32>(len.max(1))
                 .with_context(|| format!("allocating {what} ({len} values)"))
         };
         let tile = launcher.block_size as usize * SCAN_ITEMS_PER_THREAD;
-        let mut levels = vec![alloc(num_bins, "the bins' counts")?];
-        let mut level_len = num_bins;
+        let mut levels = vec![alloc(num_keys, "the cells' counts")?];
+        let mut level_len = num_keys;
         while level_len > tile {
             level_len = level_len.div_ceil(tile);
             levels.push(alloc(level_len, "the bins' scan")?);
@@ -112,8 +114,8 @@ impl Bins {
         self.num_bins
     }
 
-    /// Rewrites `order` so that particles of one bin are consecutive, and (where listed) the bin
-    /// list with its length in `work_counts[WORK_BINS]`.
+    /// Rewrites `order` so that particles of one cell, and the cells of one bin, are consecutive, and
+    /// (where listed) the bin list with its length in `work_counts[WORK_BINS]`.
     pub fn rebuild(
         &mut self,
         k: &BinKernels,
@@ -125,9 +127,9 @@ impl Bins {
         let stream = &launcher.stream;
         stream
             .memset_zeros(&mut self.levels[0])
-            .context("clearing the bins' counts")?;
+            .context("clearing the cells' counts")?;
         let particles = launcher.cover(self.num_particles);
-        // SAFETY: arguments match bin_count in kernels/bins.cu; levels[0] has one count per bin,
+        // SAFETY: arguments match bin_count in kernels/bins.cu; levels[0] has one count per key,
         // key and rank one value per particle.
         unsafe {
             k.count.launch(launcher, particles, |a| {
