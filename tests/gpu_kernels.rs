@@ -1,5 +1,5 @@
-//! The CUDA kernels against the CPU reference, headless. Every test prints `skipped: <reason>` and
-//! passes where no CUDA device and driver are usable.
+//! The CUDA kernels against the CPU reference, headless. Where no CUDA device and driver are usable,
+//! every test is reported as ignored, with the reason (tests/harness: `harness = false`).
 //!
 //! Why the tolerances are what they are: the kernels compute the CPU reference's expressions in the
 //! same order, but (a) float atomics add a node's contributions in whatever order threads arrive, so a
@@ -9,20 +9,30 @@
 //! and far below any real bug (a wrong weight, index or sign is an O(1) error).
 
 use glam::{Mat3, Vec3};
-use mpm::cuda::{library, CudaOptions, CudaSolver};
+use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::cpu::{CpuSolver, Stencil};
 use mpm::sim::params::ScatterMode;
 use mpm::sim::{presets, Params, Particles, Scene, Solver};
 
-/// Returns false (after printing why) where there is no usable CUDA device.
-fn cuda_here(test: &str) -> bool {
-    match library::device_available() {
-        Ok(()) => true,
-        Err(why) => {
-            println!("{test}: skipped: {why:#}");
-            false
-        }
-    }
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "GPU",
+        harness::cuda_device,
+        harness::tests![
+            p2g_init_matches_cpu,
+            p2g_matches_cpu,
+            grid_update_and_g2p_match_cpu,
+            transfers_conserve_mass_and_momentum,
+            dam_break_follows_cpu_trajectory,
+            fixed_point_is_byte_identical_and_float_is_close,
+            fixed_point_overflow_is_reported,
+            device_spawn_matches_scene_spawn,
+            phase_timings_are_measured,
+            sort_orders_particles_by_cell,
+        ],
+    )
 }
 
 /// A small closed tank, 32 x 24 x 24 nodes, dx = 1/32 m, water at c0 = 10 m/s; the block is flush
@@ -146,11 +156,7 @@ fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
     (cpu, gpu)
 }
 
-#[test]
 fn p2g_init_matches_cpu() {
-    if !cuda_here("p2g_init_matches_cpu") {
-        return;
-    }
     for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
         let scene = small_tank(scatter);
         let particles = random_particles(&scene, 1);
@@ -171,11 +177,7 @@ fn p2g_init_matches_cpu() {
     }
 }
 
-#[test]
 fn p2g_matches_cpu() {
-    if !cuda_here("p2g_matches_cpu") {
-        return;
-    }
     for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
         let scene = small_tank(scatter);
         let particles = random_particles(&scene, 2);
@@ -201,11 +203,7 @@ fn p2g_matches_cpu() {
     }
 }
 
-#[test]
 fn grid_update_and_g2p_match_cpu() {
-    if !cuda_here("grid_update_and_g2p_match_cpu") {
-        return;
-    }
     for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
         let scene = small_tank(scatter);
         let particles = random_particles(&scene, 3);
@@ -269,11 +267,7 @@ fn grid_update_and_g2p_match_cpu() {
     }
 }
 
-#[test]
 fn transfers_conserve_mass_and_momentum() {
-    if !cuda_here("transfers_conserve_mass_and_momentum") {
-        return;
-    }
     let scene = small_tank(ScatterMode::Float);
     let particles = random_particles(&scene, 4);
     let params = step_params(&scene);
@@ -306,11 +300,7 @@ fn transfers_conserve_mass_and_momentum() {
 }
 
 /// A few hundred steps of the small tank's dam break on both backends, in units of dx.
-#[test]
 fn dam_break_follows_cpu_trajectory() {
-    if !cuda_here("dam_break_follows_cpu_trajectory") {
-        return;
-    }
     const STEPS: usize = 300;
     let scene = small_tank(ScatterMode::FixedPoint);
     let params = step_params(&scene);
@@ -360,11 +350,7 @@ fn particle_bytes(p: &Particles) -> Vec<u8> {
     bytes
 }
 
-#[test]
 fn fixed_point_is_byte_identical_and_float_is_close() {
-    if !cuda_here("fixed_point_is_byte_identical_and_float_is_close") {
-        return;
-    }
     const STEPS: usize = 200;
     let fixed = small_tank(ScatterMode::FixedPoint);
     let first = run_steps(&fixed, STEPS);
@@ -382,11 +368,7 @@ fn fixed_point_is_byte_identical_and_float_is_close() {
     );
 }
 
-#[test]
 fn fixed_point_overflow_is_reported() {
-    if !cuda_here("fixed_point_overflow_is_reported") {
-        return;
-    }
     let scene = small_tank(ScatterMode::FixedPoint);
     let mut particles = scene.spawn();
     particles.v[0] = Vec3::new(1e9, 0.0, 0.0); // far past any speed the scales allow for
@@ -398,11 +380,7 @@ fn fixed_point_overflow_is_reported() {
     assert!(format!("{err:#}").contains("overflowed"));
 }
 
-#[test]
 fn device_spawn_matches_scene_spawn() {
-    if !cuda_here("device_spawn_matches_scene_spawn") {
-        return;
-    }
     // Overlapping bodies: the sphere must skip what the blocks cover, the second block what the
     // first covers.
     const OVERLAPS: &str = r#"
@@ -454,11 +432,7 @@ velocity = [0.0, -2.0, 0.0]
     }
 }
 
-#[test]
 fn phase_timings_are_measured() {
-    if !cuda_here("phase_timings_are_measured") {
-        return;
-    }
     let scene = small_tank(ScatterMode::Float);
     let params = step_params(&scene);
     let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
@@ -480,11 +454,7 @@ fn phase_timings_are_measured() {
 
 /// The sort's order is a permutation with the particles' cells non-decreasing, on a grid whose scan
 /// needs two levels (block 128) and three (block 32).
-#[test]
 fn sort_orders_particles_by_cell() {
-    if !cuda_here("sort_orders_particles_by_cell") {
-        return;
-    }
     let scene = Scene::load("bench-655k").unwrap();
     let particles = random_particles(&scene, 5);
     let params = step_params(&scene);

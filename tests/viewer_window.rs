@@ -1,19 +1,64 @@
 //! The windowed viewer, end to end: `mpm view` on the CPU backend under an X server (Xvfb with
 //! Mesa's software OpenGL in CI) for a few frames, then its last frame must show particles.
-//! Prints `skipped: <reason>` and passes where neither a display nor Xvfb is available.
+//! Reported as ignored, with the reason, where neither a display nor Xvfb is available
+//! (tests/harness: `harness = false`). An Xvfb it starts is stopped with SIGTERM, so that it removes
+//! its lock file and socket; the test checks that it did.
 
 use mpm::render::capture::Image;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Kills the Xvfb this test started, however the test ends.
-struct Xvfb(Child);
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "viewer",
+        display_or_xvfb,
+        harness::tests![viewer_window_shows_particles],
+    )
+}
+
+/// What the test needs: a `DISPLAY`, or an `Xvfb` on `PATH` to start one.
+fn display_or_xvfb() -> Result<(), String> {
+    if std::env::var("DISPLAY").is_ok_and(|d| !d.is_empty()) {
+        return Ok(());
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    if std::env::split_paths(&path).any(|dir| dir.join("Xvfb").is_file()) {
+        return Ok(());
+    }
+    Err("no DISPLAY and no Xvfb on PATH (.ci/run installs xvfb)".into())
+}
+
+/// Stops the Xvfb this test started, however the test ends: SIGTERM, so that it removes its
+/// `/tmp/.X<n>-lock` and socket (SIGKILL leaves both behind), and SIGKILL only if it has not gone
+/// within 5 s.
+struct Xvfb {
+    child: Child,
+    number: u32,
+}
+
+impl Xvfb {
+    fn lock_file(&self) -> String {
+        format!("/tmp/.X{}-lock", self.number)
+    }
+}
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
     }
 }
 
@@ -41,7 +86,7 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
         .stderr(Stdio::null())
         .spawn()
         .map_err(|e| format!("no DISPLAY and no Xvfb ({e}); .ci/run installs xvfb"))?;
-    let xvfb = Xvfb(child);
+    let xvfb = Xvfb { child, number };
     let socket = format!("/tmp/.X11-unix/X{number}");
     let start = Instant::now();
     while !Path::new(&socket).exists() {
@@ -53,15 +98,8 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
     Ok((display, Some(xvfb)))
 }
 
-#[test]
 fn viewer_window_shows_particles() {
-    let (display, _xvfb) = match display() {
-        Ok(d) => d,
-        Err(why) => {
-            println!("viewer_window_shows_particles: skipped: {why}");
-            return;
-        }
-    };
+    let (display, xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
     let dir = tempfile::tempdir().expect("temp dir");
     let shot = dir.path().join("last-frame.png");
     // A small tank (about 5,600 particles), so the CPU backend steps it quickly under software GL.
@@ -119,4 +157,9 @@ fn viewer_window_shows_particles() {
         stats.covered_fraction < 0.9,
         "the frame is filled, not drawn: {stats:?}"
     );
+    if let Some(xvfb) = xvfb {
+        let lock = xvfb.lock_file();
+        drop(xvfb);
+        assert!(!Path::new(&lock).exists(), "Xvfb left {lock} behind");
+    }
 }
