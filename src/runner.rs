@@ -32,8 +32,16 @@ impl StatsFile {
                 path.display()
             );
         }
-        let file =
-            File::create(path).with_context(|| format!("cannot create the stats file {}", path.display()))?;
+        if path.is_dir() {
+            anyhow::bail!("--stats {} is a directory; give a file name", path.display());
+        }
+        let file = File::create(path).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot create the stats file {}: {}",
+                path.display(),
+                crate::text::io_reason(&e)
+            )
+        })?;
         Ok(StatsFile {
             file: BufWriter::new(file),
             path: path.to_path_buf(),
@@ -119,7 +127,8 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     } else {
         None
     };
-    let mut all = Vec::with_capacity(frames as usize);
+    // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
+    let mut all = Vec::new();
     for _ in 0..frames {
         let frame_stats = sim.advance_frame()?;
         let line = format_frame(&frame_stats);
