@@ -50,16 +50,17 @@ pub struct ViewerOptions {
 
 /// Opens the window and runs until it is closed.
 pub fn run(options: ViewerOptions) -> Result<()> {
-    if let Some(path) = &options.final_screenshot {
-        anyhow::ensure!(
-            !path.exists(),
-            "{} exists already; not overwriting it",
-            path.display()
-        );
-    }
+    check_paths(&options)?;
     let event_loop = EventLoop::new().map_err(|e| {
+        // winit's message starts with the path of its own source file; the user needs the rest.
+        let text = e.to_string();
+        let reason = text
+            .split_once(".rs:")
+            .and_then(|(_, rest)| rest.split_once(": "))
+            .map_or(text.as_str(), |(_, reason)| reason)
+            .trim_end_matches('.');
         anyhow!(
-            "cannot open a window: {e}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
+            "cannot open a window: {reason}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
              WAYLAND_DISPLAY set?); without one, `mpm render` draws frames to PNG files headless"
         )
     })?;
@@ -71,6 +72,60 @@ pub fn run(options: ViewerOptions) -> Result<()> {
         Some(e) => Err(e),
         None => Ok(()),
     }
+}
+
+/// Every path the viewer may write, checked before the window opens and the first step runs: a
+/// mistyped folder must not surface only when the user quits or presses P.
+pub fn check_paths(options: &ViewerOptions) -> Result<()> {
+    let dir = &options.capture_dir;
+    anyhow::ensure!(
+        dir.is_dir(),
+        "--capture-dir {}: {}",
+        dir.display(),
+        if dir.exists() {
+            "is a file, not a directory"
+        } else {
+            "no such directory; create it first"
+        }
+    );
+    let probe = dir.join(".mpm-write-test");
+    std::fs::File::create(&probe)
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| {
+            anyhow!(
+                "--capture-dir {} is not writable: {}",
+                dir.display(),
+                crate::text::io_reason(&e)
+            )
+        })?;
+    if let Some(path) = &options.final_screenshot {
+        anyhow::ensure!(
+            !path.exists(),
+            "{} exists already; not overwriting it",
+            path.display()
+        );
+        let parent = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => std::path::Path::new("."),
+        };
+        anyhow::ensure!(
+            parent.is_dir(),
+            "--final-screenshot {}: the folder {} does not exist; create it first",
+            path.display(),
+            parent.display()
+        );
+        // Create and remove the file itself: a folder that refuses it fails now, not after the run.
+        std::fs::File::create_new(path)
+            .and_then(|_| std::fs::remove_file(path))
+            .map_err(|e| {
+                anyhow!(
+                    "--final-screenshot {}: cannot write it: {}",
+                    path.display(),
+                    crate::text::io_reason(&e)
+                )
+            })?;
+    }
+    Ok(())
 }
 
 /// The window and everything tied to its GL context.
@@ -406,8 +461,8 @@ impl ViewerApp {
     fn toggle_recording(&mut self) -> Result<()> {
         if let Some(recording) = self.recording.take() {
             self.message = Some(format!(
-                "recorded {} frames to {}",
-                recording.sequence.frames_written(),
+                "recorded {} to {}",
+                crate::text::count(recording.sequence.frames_written(), "frame", "frames"),
                 recording.sequence.dir().display()
             ));
             return Ok(());
@@ -741,8 +796,8 @@ impl ApplicationHandler for ViewerApp {
         }
         if let Some(recording) = self.recording.take() {
             eprintln!(
-                "recorded {} frames to {}",
-                recording.sequence.frames_written(),
+                "recorded {} to {}",
+                crate::text::count(recording.sequence.frames_written(), "frame", "frames"),
                 recording.sequence.dir().display()
             );
         }

@@ -144,7 +144,10 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             row("step total", format!("{:.3} ms", t.total()));
         }
         if let Some((dir, frames)) = &info.recording {
-            row("recording", format!("{frames} frames -> {dir}"));
+            row(
+                "recording",
+                format!("{} -> {dir}", crate::text::count(*frames, "frame", "frames")),
+            );
         }
     });
 }
