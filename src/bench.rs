@@ -233,7 +233,8 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     }
     let (solver, device) = create_solver(&scene, options)?;
     let mut sim = Simulation::new(scene.clone(), solver);
-    let mut samples: Vec<PhaseTimings> = Vec::with_capacity(options.steps);
+    // Not `with_capacity(steps)`: a huge --steps must run (long), not abort reserving memory.
+    let mut samples: Vec<PhaseTimings> = Vec::with_capacity(options.steps.min(1 << 16));
     let mut skipped = 0usize;
     let (mut dt_min, mut dt_max) = (f32::INFINITY, 0.0f32);
     let mut sim_time_start = None;
