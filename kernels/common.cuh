@@ -91,7 +91,7 @@ static_assert(sizeof(StepCounters) == 16, "StepCounters must match src/cuda/buff
             if (const bool live = index < (count); true)
 
 // ---------------------------------------------------------------------------------------------
-// The quadratic B-spline stencil of physics.md, in the same operation order as `Stencil` in
+// The quadratic B-spline stencil of docs/physics.md, in the same operation order as `Stencil` in
 // src/sim/cpu.rs, so that the CPU reference and the kernels round alike wherever they can.
 
 struct Stencil {

@@ -1,7 +1,7 @@
-// g2p (fused, physics.md step 4): gather velocity and C = (4/dx) sum w v_i d^T, then the optional soft
+// g2p (fused, docs/physics.md step 4): gather velocity and C = (4/dx) sum w v_i d^T, then the optional soft
 // wall (nialltl), advection and the clamp to [1, R-2] dx that keeps every stencil inside the grid.
 // Also the extremes the time step is chosen from: the largest speed, and the largest signal speed
-// c(rho_p) + |v_p| of one particle (physics.md's CFL check: the densest particles at an impact have
+// c(rho_p) + |v_p| of one particle (docs/physics.md's CFL check: the densest particles at an impact have
 // just stopped, so pairing the largest density with the largest speed would overstate it).
 #include "common.cuh"
 

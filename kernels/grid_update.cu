@@ -1,4 +1,4 @@
-// grid_update (physics.md step 3): momentum to velocity, gravity, free slip in the boundary band.
+// grid_update (docs/physics.md step 3): momentum to velocity, gravity, free slip in the boundary band.
 // It is also the grid clear: each accumulator has exactly one reader here (its node's thread), so the
 // thread zeroes what it read (consume-and-zero) and the next step's scatter finds a clean grid.
 // Writes every node's velocity (zero where there is no mass), so g2p never reads a stale one.

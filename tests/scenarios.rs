@@ -1,4 +1,4 @@
-//! Whole-step checks on the CPU reference: the closed-form cases of physics.md and every preset.
+//! Whole-step checks on the CPU reference: the closed-form cases of docs/physics.md and every preset.
 
 mod common;
 
@@ -38,7 +38,7 @@ fn block_at_rest_has_exact_interior_density_and_stays_at_rest() {
     s.p2g(&params);
     // Density of the outermost three particle layers along one line through the block. With nodes at
     // X = i and particles at X = i + 1/4, i + 3/4 the 1D sums give exactly 159/256, 869/1024 and
-    // 997/1024 of rest density (physics.md rounds them to 0.65, 0.85, 0.96).
+    // 997/1024 of rest density (docs/physics.md, "Rest").
     let rho0 = params.material.rest_density;
     let line: Vec<(f32, f32)> = (0..s.particles.len())
         .filter(|&n| (s.particles.x[n].y - 0.1225).abs() < 1e-4 && (s.particles.x[n].z - 0.1225).abs() < 1e-4)
@@ -120,7 +120,7 @@ fn free_fall_is_exact_and_keeps_the_shape() {
     );
 }
 
-/// A narrow column 0.5 m high at dx = 2 cm must hold the hydrostatic pressure profile of physics.md
+/// A narrow column 0.5 m high at dx = 2 cm must hold the hydrostatic pressure profile of docs/physics.md
 /// and be still.
 ///
 /// Gravity is ramped in over 0.5 s (five acoustic periods, 4 h / c0 = 0.1 s) and then held for 1 s:
@@ -193,7 +193,7 @@ max = [0.18, 0.52, 0.18]
     };
     assert!(
         tait(h) > 1.011 && tait(h) < 1.013,
-        "analytic bottom ratio {}, physics.md says 1.012",
+        "analytic bottom ratio {}, docs/physics.md says 1.012",
         tait(h)
     );
     let near_floor: Vec<f32> = (0..p.len())

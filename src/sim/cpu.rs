@@ -1,4 +1,4 @@
-//! The single-thread CPU reference: physics.md step for step, with the names of the paper
+//! The single-thread CPU reference: docs/physics.md step for step, with the names of the paper
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
 
-/// The largest CFL number the solver is stable at (physics.md: "C about 0.3-0.5").
+/// The largest CFL number the solver is stable at (docs/physics.md, "The time step").
 pub const MAX_CFL: f32 = 0.5;
 
 /// A scene that could not be loaded: where, which key, what is wrong, and how to fix it.

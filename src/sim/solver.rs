@@ -15,7 +15,7 @@ use serde::Serialize;
 pub struct StepExtremes {
     pub max_density: f32,
     pub max_speed: f32,
-    /// max_p (c(rho_p) + |v_p|), m/s: physics.md's CFL number is this times dt / dx. The substep is
+    /// max_p (c(rho_p) + |v_p|), m/s: docs/physics.md's CFL number is this times dt / dx. The substep is
     /// chosen from c(max density) + max speed instead, an upper bound of it: at an impact the densest
     /// particles are the ones that just stopped, so the bound leaves headroom for the next impact.
     pub max_signal_speed: f32,
@@ -350,7 +350,7 @@ impl Simulation {
             }
             let extremes = self.solver.take_extremes()?;
             // The step is chosen from the pairing of the largest density with the largest speed; the
-            // CFL number reported is physics.md's, each particle's own (see StepExtremes).
+            // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
             let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
             self.signal_rise = (bound - self.signal_speed).max(0.0);
             self.signal_speed = bound;
