@@ -332,3 +332,52 @@ fn every_preset_loads_and_steps_without_nan_inside_the_domain() {
         }
     }
 }
+
+/// A body at 50 m/s (Mach 5 at c0 = 10 m/s) hits the wall faster than the substep can follow: the
+/// CFL number goes above 0.5 in the first frame. That may happen, but never unreported: every frame
+/// whose CFL number is above the bound counts its substeps there, and the run ends with a warning.
+#[test]
+fn every_substep_above_the_cfl_bound_is_counted() {
+    use mpm::sim::scene::MAX_CFL;
+    let scene = common::scene(
+        r#"
+[domain]
+size = [0.4, 0.2, 0.2]
+resolution = [40, 20, 20]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[solver]
+gravity = [0.0, 0.0, 0.0]
+[[sphere]]
+center = [0.2, 0.1, 0.1]
+radius = 0.05
+velocity = [50.0, 0.0, 0.0]
+"#,
+    );
+    let solver = mpm::backend::create(mpm::backend::BackendKind::Cpu, &scene).unwrap();
+    let mut sim = Simulation::new(scene, solver);
+    let opts = mpm::runner::RunOptions {
+        frames: 3,
+        export: None,
+        stats: None,
+        progress: false,
+    };
+    let mut out = Vec::new();
+    let all = mpm::runner::run(&mut sim, opts, &mut out).unwrap();
+    for stats in &all {
+        assert!(
+            stats.max_cfl <= MAX_CFL || stats.substeps_over_cfl > 0,
+            "frame {}: CFL {} above {MAX_CFL} uncounted",
+            stats.frame,
+            stats.max_cfl
+        );
+        assert!(stats.substeps_over_cfl <= stats.substeps);
+    }
+    let text = String::from_utf8(out).unwrap();
+    if all.iter().any(|s| s.max_cfl > MAX_CFL) {
+        assert!(text.contains("CFL>0.5 in") && text.contains("warning: the CFL number"), "{text}");
+    } else {
+        assert!(!text.contains("warning"), "{text}");
+    }
+}

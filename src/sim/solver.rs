@@ -5,7 +5,7 @@
 
 use super::params::{Material, Params, FRAME_DT};
 use super::push::{ColourBy, Push};
-use super::scene::{Particles, Scene};
+use super::scene::{Particles, Scene, MAX_CFL};
 use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -223,6 +223,9 @@ pub struct FrameStats {
     pub dt: f32,
     /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
     pub max_cfl: f32,
+    /// Substeps of the frame run in a stretch whose CFL number went above [`MAX_CFL`] (0 when the
+    /// bound held). The step cannot be taken back, so these are counted and reported instead.
+    pub substeps_over_cfl: u32,
     #[serde(flatten)]
     pub summary: Summary,
     /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
@@ -236,6 +239,8 @@ pub struct FrameSteps {
     /// The smallest substep of the frame, s.
     pub dt: f32,
     pub max_cfl: f32,
+    /// See [`FrameStats::substeps_over_cfl`].
+    pub substeps_over_cfl: u32,
     pub timings: Option<PhaseTimings>,
 }
 
@@ -328,6 +333,7 @@ impl Simulation {
             substeps: steps.substeps,
             dt: steps.dt,
             max_cfl: steps.max_cfl,
+            substeps_over_cfl: steps.substeps_over_cfl,
             summary,
             timings: steps.timings,
         })
@@ -340,6 +346,7 @@ impl Simulation {
     pub fn step_frame(&mut self) -> Result<FrameSteps> {
         let per_choice = self.scene.time_step.substeps_per_choice();
         let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
+        let mut over_cfl = 0;
         loop {
             let left = f64::from(FRAME_DT) - simulated;
             let (to_frame_end, dt) = self.steps_for(left as f32)?;
@@ -354,7 +361,11 @@ impl Simulation {
             let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
             self.signal_rise = (bound - self.signal_speed).max(0.0);
             self.signal_speed = bound;
-            max_cfl = max_cfl.max(extremes.max_signal_speed * dt / self.params.dx);
+            let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
+            max_cfl = max_cfl.max(stretch_cfl);
+            if stretch_cfl > MAX_CFL {
+                over_cfl += n; // the stretch's extremes are all there is: count all its substeps
+            }
             substeps += n;
             smallest_dt = smallest_dt.min(dt);
             simulated += f64::from(n) * f64::from(dt);
@@ -375,6 +386,7 @@ impl Simulation {
             substeps,
             dt: smallest_dt,
             max_cfl,
+            substeps_over_cfl: over_cfl,
             timings,
         })
     }
