@@ -201,7 +201,14 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
             backend::create(BackendKind::Cpu, scene)?,
             "CPU, single thread".to_string(),
         )),
-        BackendKind::Auto => bail!("choose the benchmark's backend: --backend cuda or --backend cpu"),
+        BackendKind::CpuParallel => Ok((
+            backend::create(BackendKind::CpuParallel, scene)?,
+            format!(
+                "CPU, {} threads (cpu-parallel)",
+                crate::sim::cpu_parallel::ParallelCpuSolver::threads()
+            ),
+        )),
+        BackendKind::Auto => bail!("choose the benchmark's backend: --backend cuda, cpu or cpu-parallel"),
     }
 }
 
