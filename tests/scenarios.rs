@@ -376,8 +376,42 @@ velocity = [50.0, 0.0, 0.0]
     }
     let text = String::from_utf8(out).unwrap();
     if all.iter().any(|s| s.max_cfl > MAX_CFL) {
-        assert!(text.contains("CFL>0.5 in") && text.contains("warning: the CFL number"), "{text}");
+        assert!(
+            text.contains("CFL>0.5 in") && text.contains("warning: the CFL number"),
+            "{text}"
+        );
     } else {
         assert!(!text.contains("warning"), "{text}");
     }
+}
+
+/// The viewer's way of stepping a slow frame: a piece at a time, each stopped by a deadline (here
+/// one that has passed, so every call takes one substep), ending exactly where one call would.
+#[test]
+fn a_frame_can_be_stepped_a_substep_at_a_time() {
+    let scene = common::scene(&common::water_box(
+        16,
+        "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.08, 0.1, 0.08]",
+    ));
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let mut calls = 0;
+    let steps = loop {
+        calls += 1;
+        match sim.step_frame_until(Some(std::time::Instant::now())).unwrap() {
+            Some(steps) => break steps,
+            None => {
+                assert_eq!(sim.frame(), 0, "the frame is not complete yet");
+                assert!(sim.time_stepped() > sim.time());
+            }
+        }
+    };
+    assert!(steps.substeps > 1);
+    assert_eq!(calls, steps.substeps, "one substep per call");
+    assert_eq!(sim.frame(), 1);
+    assert!(
+        (sim.time() - f64::from(mpm::sim::FRAME_DT)).abs() < 1e-9,
+        "{}",
+        sim.time()
+    );
+    assert_eq!(sim.time_stepped(), sim.time());
 }

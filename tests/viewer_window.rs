@@ -15,7 +15,10 @@ fn main() -> std::process::ExitCode {
     harness::run(
         "viewer",
         display_or_xvfb,
-        harness::tests![viewer_window_shows_particles],
+        harness::tests![
+            viewer_window_shows_particles,
+            viewer_splits_slow_frames_across_draws
+        ],
     )
 }
 
@@ -62,6 +65,9 @@ impl Drop for Xvfb {
     }
 }
 
+/// The tests take turns: two Xvfb servers started at once would pick the same free display number.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// A display to draw on: `$DISPLAY` if the caller has one, else a fresh Xvfb.
 fn display() -> Result<(String, Option<Xvfb>), String> {
     if let Ok(display) = std::env::var("DISPLAY") {
@@ -99,6 +105,7 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
 }
 
 fn viewer_window_shows_particles() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (display, xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
     let dir = tempfile::tempdir().expect("temp dir");
     let shot = dir.path().join("last-frame.png");
@@ -162,4 +169,39 @@ fn viewer_window_shows_particles() {
         drop(xvfb);
         assert!(!Path::new(&lock).exists(), "Xvfb left {lock} behind");
     }
+}
+
+/// bench-65k on the single-thread CPU takes most of a second per 60 Hz frame; the viewer splits it
+/// over draws, so no draw spends much more than its 50 ms stepping budget (plus one substep) on it.
+fn viewer_splits_slow_frames_across_draws() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args([
+            "view",
+            "--backend",
+            "cpu",
+            "--scene",
+            "bench-65k",
+            "--size",
+            "400x300",
+            "--draw",
+            "points",
+        ])
+        .args(["--no-vsync", "--quit-after", "10", "--capture-dir"])
+        .arg(dir.path())
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm view");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("mpm view stderr:\n{stderr}");
+    assert!(output.status.success(), "mpm view failed: {}", output.status);
+    let longest: f64 = stderr
+        .lines()
+        .find_map(|l| l.split("the longest stepping in one draw took ").nth(1))
+        .and_then(|rest| rest.trim_end_matches(" ms").parse().ok())
+        .expect("the viewer reports its longest step");
+    assert!(longest < 300.0, "one draw spent {longest} ms stepping");
 }

@@ -9,6 +9,7 @@ use super::scene::{Particles, Scene, MAX_CFL};
 use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
+use std::time::Instant;
 
 /// The largest values any particle reached over the substeps since they were last taken.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -257,6 +258,29 @@ pub struct Simulation {
     signal_rise: f32,
     /// The last frame's per-substep timings, for the benches' medians.
     last_step_timings: Vec<PhaseTimings>,
+    /// A frame begun by [`Simulation::step_frame_until`] and not finished yet.
+    in_progress: Option<FramePart>,
+}
+
+/// What a frame's substeps have done so far.
+#[derive(Debug, Clone, Copy)]
+struct FramePart {
+    substeps: u32,
+    smallest_dt: f32,
+    max_cfl: f32,
+    over_cfl: u32,
+    /// Simulated seconds of the frame so far.
+    simulated: f64,
+}
+
+impl FramePart {
+    const START: FramePart = FramePart {
+        substeps: 0,
+        smallest_dt: f32::INFINITY,
+        max_cfl: 0.0,
+        over_cfl: 0,
+        simulated: 0.0,
+    };
 }
 
 impl Simulation {
@@ -277,6 +301,7 @@ impl Simulation {
             signal_speed,
             signal_rise: 0.0,
             last_step_timings: Vec::new(),
+            in_progress: None,
         }
     }
 
@@ -294,6 +319,10 @@ impl Simulation {
     }
     pub fn time(&self) -> f64 {
         self.time
+    }
+    /// Simulated seconds including the part of a frame begun by [`Self::step_frame_until`].
+    pub fn time_stepped(&self) -> f64 {
+        self.time + self.in_progress.map_or(0.0, |part| part.simulated)
     }
     /// One timing record per substep of the last frame (empty where the backend measures none).
     pub fn last_step_timings(&self) -> &[PhaseTimings] {
@@ -344,16 +373,38 @@ impl Simulation {
     /// substeps from the extremes of the ones before, always to cover what is left of the frame, so
     /// the last choice ends exactly on it.
     pub fn step_frame(&mut self) -> Result<FrameSteps> {
+        loop {
+            if let Some(steps) = self.step_frame_until(None)? {
+                return Ok(steps);
+            }
+        }
+    }
+
+    /// [`Self::step_frame`] that stops once `deadline` has passed (checked after every substep) and
+    /// returns `None`; the next call goes on with the same frame. The viewer uses it so that a frame
+    /// that takes seconds on a CPU never stops the window from answering for longer than a substep.
+    pub fn step_frame_until(&mut self, deadline: Option<Instant>) -> Result<Option<FrameSteps>> {
         let per_choice = self.scene.time_step.substeps_per_choice();
-        let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
-        let mut over_cfl = 0;
+        let FramePart {
+            mut substeps,
+            mut smallest_dt,
+            mut max_cfl,
+            mut over_cfl,
+            mut simulated,
+        } = self.in_progress.take().unwrap_or(FramePart::START);
+        let late = || deadline.is_some_and(|d| Instant::now() >= d);
         loop {
             let left = f64::from(FRAME_DT) - simulated;
             let (to_frame_end, dt) = self.steps_for(left as f32)?;
-            let n = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
+            let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
-            for _ in 0..n {
+            let mut n = 0;
+            while n < planned {
                 self.solver.step(&self.params)?;
+                n += 1;
+                if late() {
+                    break;
+                }
             }
             let extremes = self.solver.take_extremes()?;
             // The step is chosen from the pairing of the largest density with the largest speed; the
@@ -372,6 +423,16 @@ impl Simulation {
             if n == to_frame_end {
                 break;
             }
+            if late() {
+                self.in_progress = Some(FramePart {
+                    substeps,
+                    smallest_dt,
+                    max_cfl,
+                    over_cfl,
+                    simulated,
+                });
+                return Ok(None);
+            }
         }
         self.frame += 1;
         self.time += simulated;
@@ -382,13 +443,13 @@ impl Simulation {
         if !self.signal_speed.is_finite() {
             return Err(diverged(self.frame));
         }
-        Ok(FrameSteps {
+        Ok(Some(FrameSteps {
             substeps,
             dt: smallest_dt,
             max_cfl,
             substeps_over_cfl: over_cfl,
             timings,
-        })
+        }))
     }
 
     /// Gives the particles near a ray a velocity change (the viewer's mouse push). The next frame's
