@@ -78,6 +78,10 @@ fn each_phase_matches_the_reference() {
     let particles = jittered(&scene, 7);
     let mut reference = CpuSolver::new(particles.clone(), scene.grid_res);
     let mut parallel = ParallelCpuSolver::new(particles, scene.grid_res);
+    assert!(
+        !parallel.sequential(),
+        "the tank is large enough for the parallel path"
+    );
 
     reference.clear_grid();
     reference.p2g_init(&params);
@@ -91,7 +95,7 @@ fn each_phase_matches_the_reference() {
             .grid
             .mass
             .iter()
-            .zip(&parallel.grid.mass)
+            .zip(&parallel.grid().mass)
             .map(|(a, b)| a - b),
     );
     assert!(
@@ -106,12 +110,12 @@ fn each_phase_matches_the_reference() {
             .particles
             .rho
             .iter()
-            .zip(&parallel.particles.rho)
+            .zip(&parallel.particles().rho)
             .map(|(a, b)| a - b),
     );
     assert!(rho_err <= 1e-5 * 1000.0, "density {rho_err}");
     let mv_scale = max_abs(reference.grid.momentum.iter().map(|v| v.abs().max_element()));
-    let mv_err = max_diff_vec3(&reference.grid.momentum, &parallel.grid.momentum);
+    let mv_err = max_diff_vec3(&reference.grid.momentum, &parallel.grid().momentum);
     assert!(mv_err <= 1e-5 * mv_scale, "momentum {mv_err} of {mv_scale}");
 
     reference.mirror_momentum(&params);
@@ -119,7 +123,7 @@ fn each_phase_matches_the_reference() {
     reference.g2p(&params);
     parallel.grid_update(&params);
     parallel.g2p(&params);
-    let (a, b) = (&reference.particles, &parallel.particles);
+    let (a, b) = (&reference.particles, parallel.particles());
     let x_err = max_diff_vec3(&a.x, &b.x) / scene.dx;
     let v_scale = max_abs(a.v.iter().map(|v| v.abs().max_element()));
     let v_err = max_diff_vec3(&a.v, &b.v);
@@ -154,7 +158,7 @@ fn a_dam_break_follows_the_reference() {
         reference.step(&params).unwrap();
         parallel.step(&params).unwrap();
     }
-    let err = max_diff_vec3(&reference.particles.x, &parallel.particles.x) / scene.dx;
+    let err = max_diff_vec3(&reference.particles.x, &parallel.particles().x) / scene.dx;
     let moved = max_diff_vec3(&reference.particles.x, &scene.spawn().x) / scene.dx;
     println!("after 200 substeps: moved up to {moved:.2} dx, apart by {err:.2e} dx");
     assert!(moved > 0.5, "the dam break did not move");
@@ -176,7 +180,7 @@ fn the_result_does_not_depend_on_the_thread_count() {
             for _ in 0..20 {
                 solver.step(&params).unwrap();
             }
-            let p = &solver.particles;
+            let p = &solver.particles();
             let mut bits = Vec::new();
             for i in 0..p.len() {
                 bits.extend(p.x[i].to_array().map(f32::to_bits));
@@ -202,4 +206,25 @@ fn auto_picks_cuda_or_else_the_parallel_cpu_backend() {
         Err(_) => "cpu-parallel",
     };
     assert_eq!(solver.name(), expected);
+}
+
+/// Below SEQUENTIAL_BELOW particles the backend is the reference itself: bit-identical states.
+#[test]
+fn a_small_scene_runs_the_reference_on_one_thread() {
+    let scene = common::scene(&common::water_box(
+        16,
+        "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.08, 0.1, 0.08]",
+    ));
+    assert!(scene.num_particles < mpm::sim::cpu_parallel::SEQUENTIAL_BELOW);
+    let params = params(&scene);
+    let mut reference = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut parallel = ParallelCpuSolver::new(scene.spawn(), scene.grid_res);
+    assert!(parallel.sequential());
+    for _ in 0..20 {
+        reference.step(&params).unwrap();
+        parallel.step(&params).unwrap();
+    }
+    assert!(
+        reference.particles.x == parallel.particles().x && reference.particles.v == parallel.particles().v
+    );
 }

@@ -17,6 +17,8 @@
 //!    in its own tile layer and the one below (whose 2-node overhang reaches into it). Each slab is
 //!    a disjoint `&mut` part of the grid.
 //!
+//! Scenes under [`SEQUENTIAL_BELOW`] particles are stepped on one thread by the reference itself.
+//!
 //! Only the z slabs that hold particles' nodes (or the z walls' mirror) are written in a substep;
 //! the next substep clears and updates just those, where the reference walks the whole grid.
 //!
@@ -25,7 +27,9 @@
 //! count. The order differs from the reference's (particle index order), so results agree with the
 //! reference to float rounding (tests/cpu_parallel.rs), not bit for bit.
 
-use super::cpu::{g2p_particle, mirror_walls, node_velocity, p2g_particle, Grid, GridShape, Stencil};
+use super::cpu::{
+    g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
+};
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;
@@ -192,9 +196,14 @@ fn in_block(st: &Stencil, origin: IVec3) -> Stencil {
     }
 }
 
+/// Below this many particles the backend steps on one thread, as the reference does: waking the
+/// threads and the tile blocks cost more than they save (3,264 particles: 1.2 ms a substep on two
+/// threads, 0.8 ms on one; 26,112: 5 on two, 7 on one).
+pub const SEQUENTIAL_BELOW: usize = 10_000;
+
 pub struct ParallelCpuSolver {
-    pub particles: Particles,
-    pub grid: Grid,
+    /// The particles and grid; also the single-thread path for small scenes.
+    inner: CpuSolver,
     bins: Bins,
     block_mass: Vec<f32>,
     block_momentum: Vec<Vec3>,
@@ -207,8 +216,7 @@ pub struct ParallelCpuSolver {
 impl ParallelCpuSolver {
     pub fn new(particles: Particles, grid_res: [u32; 3]) -> ParallelCpuSolver {
         ParallelCpuSolver {
-            particles,
-            grid: Grid::new(grid_res),
+            inner: CpuSolver::new(particles, grid_res),
             bins: Bins::default(),
             block_mass: Vec::new(),
             block_momentum: Vec::new(),
@@ -223,11 +231,24 @@ impl ParallelCpuSolver {
         rayon::current_num_threads()
     }
 
+    pub fn particles(&self) -> &Particles {
+        &self.inner.particles
+    }
+
+    pub fn grid(&self) -> &Grid {
+        &self.inner.grid
+    }
+
+    /// Whether this scene is stepped on one thread (fewer than [`SEQUENTIAL_BELOW`] particles).
+    pub fn sequential(&self) -> bool {
+        self.inner.particles.len() < SEQUENTIAL_BELOW
+    }
+
     /// Zeroes the slabs the last substep wrote (the rest of the grid is zero already).
     pub fn clear_grid(&mut self) {
         let slab = self.slab_nodes();
         let dirty = &self.bins.dirty;
-        let Grid { mass, momentum, .. } = &mut self.grid;
+        let Grid { mass, momentum, .. } = &mut self.inner.grid;
         mass.par_chunks_mut(slab)
             .zip(momentum.par_chunks_mut(slab))
             .zip(dirty.par_iter())
@@ -239,19 +260,20 @@ impl ParallelCpuSolver {
     }
 
     fn slab_nodes(&self) -> usize {
-        let res = self.grid.shape.res;
+        let res = self.inner.grid.shape.res;
         (res.x * res.y * TILE) as usize
     }
 
     /// The particles in tile order (the `sort` slot of the timings).
     pub fn bin(&mut self, params: &Params) {
-        self.bins.build(&self.particles.x, params, self.grid.shape.res);
+        self.bins
+            .build(&self.inner.particles.x, params, self.inner.grid.shape.res);
     }
 
     /// m_i += w m_p, per tile block, then merged; then the walls' mirror mass.
     pub fn p2g_init(&mut self, params: &Params) {
         let m_p = params.material.particle_mass;
-        let (bins, x) = (&self.bins, &self.particles.x);
+        let (bins, x) = (&self.bins, &self.inner.particles.x);
         self.block_mass.resize(bins.active.len() * BLOCK_NODES, 0.0);
         self.block_mass
             .par_chunks_mut(BLOCK_NODES)
@@ -264,15 +286,20 @@ impl ParallelCpuSolver {
                     in_block(&st, origin).for_each_node(BLOCK_SHAPE, |i, w, _| block[i] += w * m_p);
                 }
             });
-        merge(&self.bins, self.grid.shape, &self.block_mass, &mut self.grid.mass);
-        mirror_walls(self.grid.shape, params, &mut self.grid.mass, |m, _| m);
+        merge(
+            &self.bins,
+            self.inner.grid.shape,
+            &self.block_mass,
+            &mut self.inner.grid.mass,
+        );
+        mirror_walls(self.inner.grid.shape, params, &mut self.inner.grid.mass, |m, _| m);
     }
 
     /// Density from grid mass, pressure and stress (`p2g_particle`), momentum per tile block, merged.
     pub fn p2g(&mut self, params: &Params) {
         let bins = &self.bins;
-        let Grid { shape, mass, .. } = &self.grid;
-        let p = &self.particles;
+        let Grid { shape, mass, .. } = &self.inner.grid;
+        let p = &self.inner.particles;
         self.block_momentum
             .resize(bins.active.len() * BLOCK_NODES, Vec3::ZERO);
         self.rho_binned.resize(p.len(), 0.0);
@@ -306,7 +333,8 @@ impl ParallelCpuSolver {
             })
             .reduce(|| 0.0, f32::max);
         let (rank, binned) = (&self.bins.rank, &self.rho_binned);
-        self.particles
+        self.inner
+            .particles
             .rho
             .par_iter_mut()
             .with_min_len(MIN_PER_TASK)
@@ -314,9 +342,9 @@ impl ParallelCpuSolver {
             .for_each(|(rho, &r)| *rho = binned[r as usize]);
         merge(
             &self.bins,
-            self.grid.shape,
+            self.inner.grid.shape,
             &self.block_momentum,
-            &mut self.grid.momentum,
+            &mut self.inner.grid.momentum,
         );
         self.extremes.max_density = self.extremes.max_density.max(max_rho);
     }
@@ -324,9 +352,9 @@ impl ParallelCpuSolver {
     /// The walls' mirror momentum, then momentum to velocity per node (`node_velocity`).
     pub fn grid_update(&mut self, params: &Params) {
         mirror_walls(
-            self.grid.shape,
+            self.inner.grid.shape,
             params,
-            &mut self.grid.momentum,
+            &mut self.inner.grid.momentum,
             |mut mv, axis| {
                 mv[axis] = -mv[axis];
                 mv
@@ -338,7 +366,7 @@ impl ParallelCpuSolver {
             shape,
             mass,
             momentum,
-        } = &mut self.grid;
+        } = &mut self.inner.grid;
         let shape = *shape;
         momentum
             .par_chunks_mut(slab)
@@ -361,8 +389,8 @@ impl ParallelCpuSolver {
             shape,
             momentum: velocity,
             ..
-        } = &self.grid;
-        let p = &mut self.particles;
+        } = &self.inner.grid;
+        let p = &mut self.inner.particles;
         let material = &params.material;
         let (max_speed, max_signal) =
             p.x.par_iter_mut()
@@ -387,6 +415,9 @@ impl Solver for ParallelCpuSolver {
     }
 
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
+        if self.sequential() {
+            return self.inner.step(params);
+        }
         let mut t = Instant::now();
         let mut lap = |slot: &mut f64| {
             let now = Instant::now();
@@ -415,19 +446,25 @@ impl Solver for ParallelCpuSolver {
     }
 
     fn take_extremes(&mut self) -> anyhow::Result<StepExtremes> {
+        if self.sequential() {
+            return self.inner.take_extremes();
+        }
         Ok(std::mem::take(&mut self.extremes))
     }
 
     fn take_step_timings(&mut self) -> anyhow::Result<Option<Vec<PhaseTimings>>> {
+        if self.sequential() {
+            return self.inner.take_step_timings();
+        }
         Ok(Some(std::mem::take(&mut self.timings)))
     }
 
     fn read_particles(&mut self) -> anyhow::Result<Particles> {
-        Ok(self.particles.clone())
+        Ok(self.inner.particles.clone())
     }
 
     fn apply_push(&mut self, push: &Push) -> anyhow::Result<()> {
-        let p = &mut self.particles;
+        let p = &mut self.inner.particles;
         p.x.par_iter()
             .with_min_len(MIN_PER_TASK)
             .zip(p.v.par_iter_mut())
@@ -441,7 +478,7 @@ impl Solver for ParallelCpuSolver {
         rest_density: f32,
         out: &mut Vec<[f32; 4]>,
     ) -> anyhow::Result<()> {
-        let p = &self.particles;
+        let p = &self.inner.particles;
         (0..p.len())
             .into_par_iter()
             .with_min_len(MIN_PER_TASK)
