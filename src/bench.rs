@@ -350,7 +350,8 @@ pub fn phase_table(report: &PhaseReport) -> String {
         .chain([(&report.total, true)])
     {
         let name = match (r.phase.as_str(), bold) {
-            ("sort", _) => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
+            ("sort", _) if with_floor => format!("sort (every {} substeps)", cuda::SORT_INTERVAL),
+            ("sort", _) => "sort (cpu-parallel's binning; none in the reference)".to_string(),
             ("grid_clear", _) if with_floor => "grid_clear (inside grid_update on the GPU)".to_string(),
             (name, true) => format!("**{name}**"),
             (name, false) => name.to_string(),
