@@ -89,15 +89,21 @@ pub fn check_paths(options: &ViewerOptions) -> Result<()> {
         }
     );
     let probe = dir.join(".mpm-write-test");
-    std::fs::File::create(&probe)
-        .and_then(|_| std::fs::remove_file(&probe))
-        .map_err(|e| {
-            anyhow!(
-                "--capture-dir {} is not writable: {}",
-                dir.display(),
-                crate::text::io_reason(&e)
-            )
-        })?;
+    if let Err(e) = std::fs::File::create(&probe).and_then(|_| std::fs::remove_file(&probe)) {
+        let why = format!(
+            "--capture-dir {} is not writable: {}",
+            dir.display(),
+            crate::text::io_reason(&e)
+        );
+        // The default (the working directory) only matters once P or V is pressed: say so and go on.
+        if dir.as_os_str() == "." {
+            eprintln!(
+                "note: {why}; screenshots (P) and recordings (V) will fail until you give --capture-dir"
+            );
+        } else {
+            anyhow::bail!(why);
+        }
+    }
     if let Some(path) = &options.final_screenshot {
         anyhow::ensure!(
             !path.exists(),
