@@ -94,7 +94,7 @@ static_assert(sizeof(StepCounters) == 32, "StepCounters must match src/cuda/solv
             if (const bool live = index < (count); true)
 
 // ---------------------------------------------------------------------------------------------
-// The quadratic B-spline stencil of physics.md, in the same operation order as `Stencil` in
+// The quadratic B-spline stencil of docs/physics.md, in the same operation order as `Stencil` in
 // src/sim/cpu.rs, so that the CPU reference and the kernels round alike wherever they can.
 
 struct Stencil {
@@ -240,7 +240,7 @@ __device__ __forceinline__ void atomic_max_nonnegative(u32* target, float value)
 // The per-particle and per-node physics that both pipelines run (the report's four kernels and the
 // binned, tiled passes), so the two cannot drift apart. Operation order follows src/sim/cpu.rs.
 
-// Grid mass at the stencil, as a density: rho_p = sum_i w m_i / dx^3 (physics.md step 2).
+// Grid mass at the stencil, as a density: rho_p = sum_i w m_i / dx^3 (docs/physics.md step 2).
 __device__ __forceinline__ float gather_density(const Stencil& s, const Params& params, const float4* grid_acc,
                                                 const u64* fixed_mass) {
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
@@ -293,7 +293,7 @@ __device__ __forceinline__ void impulse_at(const ParticleImpulse& q, float w, fl
     }
 }
 
-// g2p for one particle (physics.md step 4): gather v and C = (4/dx) sum w v_i d^T from the node
+// g2p for one particle (docs/physics.md step 4): gather v and C = (4/dx) sum w v_i d^T from the node
 // velocities, the optional soft wall, advection and the clamp to [1, R-2] dx; also the particle's
 // speed and signal speed c(rho) + |v| for the time-step extremes.
 struct G2pResult {
@@ -346,7 +346,7 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
     return r;
 }
 
-// grid_update for node i (physics.md step 3): momentum to velocity, gravity, free slip in the boundary
+// grid_update for node i (docs/physics.md step 3): momentum to velocity, gravity, free slip in the boundary
 // band. Consume-and-zero: the accumulators are zeroed as they are read, which is the grid clear.
 __device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
                                             u64* fixed_mass, u64* fixed_momentum, StepCounters* counters) {

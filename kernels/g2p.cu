@@ -1,4 +1,4 @@
-// g2p (fused, physics.md step 4): gather velocity and C = (4/dx) sum w v_i d^T, then the optional soft
+// g2p (fused, docs/physics.md step 4): gather velocity and C = (4/dx) sum w v_i d^T, then the optional soft
 // wall (nialltl), advection and the clamp to [1, R-2] dx that keeps every stencil inside the grid
 // (g2p_particle in common.cuh, shared with the binned pipeline's g2p2g.cu).
 // Also the extremes the time step is chosen from: the largest speed, and the largest signal speed

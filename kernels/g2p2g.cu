@@ -1,6 +1,6 @@
 // g2p2g: the binned pipeline's particle pass that ends one substep and begins the next (G2P2G):
 // g2p of substep n (g2p_particle in common.cuh, the same math as g2p.cu: gather, soft wall, advect,
-// clamp), then the mass scatter of substep n + 1 at the new position (physics.md step 1), through a
+// clamp), then the mass scatter of substep n + 1 at the new position (docs/physics.md step 1), through a
 // shared fixed-point tile per bin (tiles.cuh), a thread per particle. So each substep reads and writes the particle state twice (here
 // and in p2g_tiled) instead of three times, and the stencil is built once for both halves.
 // p2g_mass is the mass half alone: the first substep's, and after the particles were replaced.

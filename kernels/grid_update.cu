@@ -1,4 +1,4 @@
-// grid_update (physics.md step 3): momentum to velocity, gravity, free slip in the boundary band
+// grid_update (docs/physics.md step 3): momentum to velocity, gravity, free slip in the boundary band
 // (update_node in common.cuh). It is also the grid clear: each accumulator has exactly one reader
 // here (its node's thread), so the thread zeroes what it read (consume-and-zero) and the next step's
 // scatter finds a clean grid.

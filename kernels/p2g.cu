@@ -1,4 +1,4 @@
-// p2g (fused, physics.md step 2): gather the density from the grid mass, Tait pressure and viscous
+// p2g (fused, docs/physics.md step 2): gather the density from the grid mass, Tait pressure and viscous
 // stress, then scatter momentum plus the stress impulse:
 //   rho_p = sum w m_i / dx^3,  V_p = m_p / rho_p,  p = max(p_min, k ((rho_p/rho0)^gamma - 1)),
 //   sigma = -p I + mu (C + C^T),  (mv)_i += w [m_p v_p + (m_p dx C - 4 dt V_p / dx sigma) d].

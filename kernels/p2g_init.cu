@@ -1,4 +1,4 @@
-// p2g_init: scatter particle mass to the grid, m_i += w m_p (physics.md step 1).
+// p2g_init: scatter particle mass to the grid, m_i += w m_p (docs/physics.md step 1).
 // One thread per particle, in cell order (kernels/bins.cu); float or fixed-point atomics per Params.scatter_mode.
 #include "common.cuh"
 

@@ -1,4 +1,4 @@
-// p2g_tiled: the binned pipeline's p2g (physics.md step 2, the same per-particle math as p2g.cu:
+// p2g_tiled: the binned pipeline's p2g (docs/physics.md step 2, the same per-particle math as p2g.cu:
 // gather_density, particle_impulse), one CUDA block per listed bin and a thread per particle,
 // momentum accumulated in a shared fixed-point tile and flushed once per tile node (tiles.cuh).
 // The binned pipeline runs it for the fixed-point scatter, where it is 4x faster than p2g.cu's 64-bit

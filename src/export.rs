@@ -2,6 +2,7 @@
 //! ParaView, Blender, Open3D and meshio open as they are. Names sort in frame order.
 
 use crate::sim::Particles;
+use crate::text::{io_reason, plural};
 use anyhow::{bail, Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -11,34 +12,92 @@ use std::path::{Path, PathBuf};
 pub struct PlyExporter {
     dir: PathBuf,
     every: u64,
+    /// The frames of an earlier run that `--overwrite` removed, in name order.
+    removed: Vec<PathBuf>,
 }
 
 impl PlyExporter {
-    /// Creates `dir` if needed. Refuses a directory that already holds frames, unless `overwrite`:
-    /// frames a user saved from an earlier run are never replaced silently.
+    /// Creates `dir` if needed and checks that a file can be written there. Refuses a directory that
+    /// already holds frames, unless `overwrite`: frames a user saved from an earlier run are never
+    /// replaced silently. With `overwrite` the earlier frames are all removed (see [`Self::removed`]),
+    /// so that the directory holds one run only, not the new frames mixed with a longer run's tail.
     pub fn new(dir: &Path, every: u64, overwrite: bool) -> Result<PlyExporter> {
         if every == 0 {
             bail!("--every must be at least 1 (export every K-th frame)");
         }
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the export directory {}", dir.display()))?;
-        if !overwrite {
-            let existing = std::fs::read_dir(dir)
-                .with_context(|| format!("cannot read the export directory {}", dir.display()))?
-                .filter_map(|e| e.ok())
-                .filter(|e| is_frame_file(&e.file_name().to_string_lossy()))
-                .count();
-            if existing > 0 {
-                bail!(
-                    "{} already holds {existing} exported frame(s); pick another --export directory, \
-                     or pass --overwrite to replace them",
-                    dir.display()
-                );
-            }
+        if dir.exists() && !dir.is_dir() {
+            bail!(
+                "--export {} is a file, not a directory; give a directory for the frames",
+                dir.display()
+            );
+        }
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot create the export directory {}: {}",
+                dir.display(),
+                io_reason(&e)
+            )
+        })?;
+        let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("cannot read the export directory {}", dir.display()))?
+            .filter_map(|e| e.ok())
+            .filter(|e| is_frame_file(&e.file_name().to_string_lossy()))
+            .map(|e| e.path())
+            .collect();
+        existing.sort();
+        if !existing.is_empty() && !overwrite {
+            bail!(
+                "{} already holds {} exported {}; pick another --export directory, or pass \
+                 --overwrite to replace them",
+                dir.display(),
+                existing.len(),
+                plural(existing.len(), "frame", "frames")
+            );
+        }
+        // Before the first step: a directory that cannot take a file fails now, not after a long run.
+        let probe = dir.join(".mpm-write-check");
+        File::create(&probe)
+            .and_then(|_| std::fs::remove_file(&probe))
+            .map_err(|e| anyhow::anyhow!("cannot write into {}: {}", dir.display(), io_reason(&e)))?;
+        for path in &existing {
+            std::fs::remove_file(path).map_err(|e| {
+                anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
+            })?;
         }
         Ok(PlyExporter {
             dir: dir.to_path_buf(),
             every,
+            removed: existing,
+        })
+    }
+
+    /// The frames of an earlier run that `--overwrite` removed, in name order.
+    pub fn removed(&self) -> &[PathBuf] {
+        &self.removed
+    }
+
+    /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
+    pub fn removed_note(&self) -> Option<String> {
+        let (first, last) = (self.removed.first()?, self.removed.last()?);
+        let name = |p: &PathBuf| {
+            p.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        Some(if self.removed.len() == 1 {
+            format!(
+                "--overwrite: removed {} of an earlier run from {}",
+                name(first),
+                self.dir.display()
+            )
+        } else {
+            format!(
+                "--overwrite: removed {} frames of an earlier run from {} ({} .. {})",
+                self.removed.len(),
+                self.dir.display(),
+                name(first),
+                name(last)
+            )
         })
     }
 
@@ -60,17 +119,18 @@ impl PlyExporter {
             .and_then(|f| write_ply(BufWriter::new(f), comment, particles));
         if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, &path).map_err(Into::into)) {
             let _ = std::fs::remove_file(&tmp);
-            bail!(
-                "cannot write {}: {e:#}; free some space or choose a writable --export directory",
-                path.display()
-            );
+            let reason = e
+                .chain()
+                .find_map(|cause| cause.downcast_ref::<std::io::Error>())
+                .map_or_else(|| format!("{e:#}"), io_reason);
+            bail!("cannot write {}: {reason}", path.display());
         }
         Ok(path)
     }
 }
 
 fn is_frame_file(name: &str) -> bool {
-    name.starts_with("frame_") && name.ends_with(".ply")
+    name.starts_with("frame_") && (name.ends_with(".ply") || name.ends_with(".ply.partial"))
 }
 
 /// The vertex properties, in file order.

@@ -18,18 +18,54 @@ use std::process::ExitCode;
     version,
     about = "Real-time MLS-MPM fluid: CUDA kernels, a CPU reference, headless runs"
 )]
-#[command(args_conflicts_with_subcommands = true)]
+#[command(
+    after_help = "Without a command, `mpm [OPTIONS]` is `mpm view [OPTIONS]`: the viewer \
+    (`mpm view --help` lists its options). A command's options follow the command: `mpm run --scene drop`."
+)]
 struct Cli {
-    /// What to do; without one, `mpm` opens the viewer (with the viewer's options below).
     #[command(subcommand)]
-    command: Option<Command>,
-    #[command(flatten)]
-    view: ViewArgs,
+    command: Command,
+}
+
+/// The command names, for reading `mpm [OPTIONS]` as `mpm view [OPTIONS]`.
+const COMMANDS: [&str; 6] = ["view", "render", "run", "bench", "scenes", "help"];
+
+/// The arguments with `view` put in where the user gave options but no command (`mpm --scene drop`
+/// opens the viewer). Options before a command (`mpm --scene x run`) are an error that says where
+/// they go.
+fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
+    let mut args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let first = args.get(1).and_then(|a| a.to_str()).unwrap_or("");
+    let top_level_flag = matches!(first, "-h" | "--help" | "-V" | "--version");
+    if COMMANDS.contains(&first) || top_level_flag {
+        return Ok(args);
+    }
+    // A command name counts as a misplaced command unless it is an option's value (`--scene bench`).
+    let words: Vec<&str> = args[1..].iter().map(|a| a.to_str().unwrap_or("")).collect();
+    let takes_value =
+        |option: &str| option.starts_with('-') && !option.contains('=') && option != "--no-vsync";
+    let misplaced = (0..words.len()).find(|&i| {
+        COMMANDS.contains(&words[i]) && words[i] != "help" && (i == 0 || !takes_value(words[i - 1]))
+    });
+    if let Some(command) = misplaced.map(|i| words[i]) {
+        let options: Vec<String> = args[1..]
+            .iter()
+            .map(|a| a.to_string_lossy().into_owned())
+            .take_while(|a| a != command)
+            .collect();
+        return Err(format!(
+            "options go after the command: write `mpm {command} {}` (options before a command are \
+             the viewer's)",
+            options.join(" ")
+        ));
+    }
+    args.insert(1.min(args.len()), "view".into());
+    Ok(args)
 }
 
 #[derive(Subcommand)]
 enum Command {
-    /// Open the viewer window (the default): the fluid live, with a control panel.
+    /// Open the viewer window (the default: `mpm` alone): the fluid live, with a control panel.
     View(ViewArgs),
     /// Draw frames headless (EGL device, no X server) into PNG files, optionally an MP4.
     Render(RenderArgs),
@@ -40,9 +76,9 @@ enum Command {
     Bench(BenchArgs),
     /// List the built-in scenes, or print one as a TOML file to start your own from.
     Scenes {
-        /// Print this preset's scene file.
-        #[arg(long, value_name = "PRESET")]
-        show: Option<String>,
+        /// Print this preset's scene file (without a name: list the presets).
+        #[arg(long, value_name = "PRESET", num_args = 0..=1)]
+        show: Option<Option<String>>,
     },
 }
 
@@ -52,7 +88,7 @@ struct RunArgs {
     #[arg(long, default_value = presets::DEFAULT)]
     scene: String,
     /// Number of 60 Hz frames to simulate.
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = 60, allow_negative_numbers = true, value_parser = count::<0>)]
     frames: u64,
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
@@ -62,7 +98,8 @@ struct RunArgs {
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
     /// Export every K-th frame.
-    #[arg(long, value_name = "K", default_value_t = 1, requires = "export")]
+    #[arg(long, value_name = "K", default_value_t = 1, requires = "export", allow_negative_numbers = true,
+          value_parser = count::<1>)]
     every: u64,
     /// Also write the per-frame statistics as JSON lines to this file.
     #[arg(long, value_name = "FILE")]
@@ -123,14 +160,15 @@ struct ViewArgs {
     size: [u32; 2],
     #[command(flatten)]
     look: LookArgs,
-    /// Step this many 60 Hz frames per drawn frame (for recording) instead of following wall time.
-    #[arg(long, value_name = "N")]
+    /// Step this many 60 Hz frames per drawn frame (1 to 60; for recording) instead of following wall
+    /// time.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = fixed_frames)]
     fixed_frames: Option<u32>,
     /// Directory for screenshots (P) and recordings (V).
     #[arg(long, value_name = "DIR", default_value = ".")]
     capture_dir: PathBuf,
     /// Quit after this many drawn frames (scripted runs, tests).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>)]
     quit_after: Option<u64>,
     /// On quitting, write the last frame to this PNG (must not exist).
     #[arg(long, value_name = "FILE")]
@@ -142,8 +180,9 @@ struct RenderArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT)]
     scene: String,
-    /// Number of 60 Hz frames after the initial state (frame-00000.png is the initial state).
-    #[arg(long, default_value_t = 120)]
+    /// Number of 60 Hz frames after the initial state (frame-00000.png is the initial state; at most
+    /// 99999, the five digits of the names).
+    #[arg(long, default_value_t = 120, allow_negative_numbers = true, value_parser = render_frames_count)]
     frames: u64,
     /// Directory for frame-NNNNN.png (created; existing frames are never overwritten).
     #[arg(long, value_name = "DIR", required_unless_present = "no_images")]
@@ -166,6 +205,41 @@ struct RenderArgs {
     /// Write the timings as JSON to this file as well.
     #[arg(long, value_name = "FILE")]
     timings: Option<PathBuf>,
+}
+
+/// A whole number of at least `MIN` (frames, steps), with a message that names the number: without
+/// this, clap reads `--frames -1` as an unknown option `-1`.
+fn count<const MIN: u64>(text: &str) -> Result<u64, String> {
+    match text.trim().parse::<i128>() {
+        Ok(n) if n >= i128::from(MIN) && n <= i128::from(u64::MAX) => Ok(n as u64),
+        Ok(n) if n < i128::from(MIN) => Err(format!("{n} is too small: give a whole number from {MIN} up")),
+        _ => Err(format!("`{text}` is not a whole number from {MIN} up")),
+    }
+}
+
+/// `render --frames`: the PNG names have five digits.
+fn render_frames_count(text: &str) -> Result<u64, String> {
+    let n = count::<0>(text)?;
+    if n > 99_999 {
+        return Err(format!(
+            "{n} frames: `mpm render` writes at most 99999 after the initial state (frame-NNNNN.png)"
+        ));
+    }
+    Ok(n)
+}
+
+/// `view --fixed-frames`: 60 Hz frames per drawn frame, 1 to 60 (a second of simulation per redraw).
+fn fixed_frames(text: &str) -> Result<u32, String> {
+    let n = count::<1>(text)?;
+    if n > 60 {
+        return Err(format!("{n} is too many: give 1 to 60 frames per drawn frame"));
+    }
+    Ok(n as u32)
+}
+
+/// Bench step counts arrive as u64 (so that any number typed parses) and are used as usize.
+fn steps(n: u64, flag: &str) -> Result<usize> {
+    usize::try_from(n).map_err(|_| anyhow::anyhow!("--{flag} {n} is more than this machine can count"))
 }
 
 fn parse_size(text: &str) -> Result<[u32; 2], String> {
@@ -248,11 +322,11 @@ struct BenchArgs {
     #[arg(long, value_name = "NODES", default_value_t = 100, requires = "particles")]
     grid: u32,
     /// Substeps measured per scene (the report averaged 5000 frames: --steps 5000).
-    #[arg(long, default_value_t = 1000)]
-    steps: usize,
+    #[arg(long, default_value_t = 1000, allow_negative_numbers = true, value_parser = count::<1>)]
+    steps: u64,
     /// Substeps run and dropped before measuring.
-    #[arg(long, default_value_t = 200)]
-    warmup: usize,
+    #[arg(long, default_value_t = 200, allow_negative_numbers = true, value_parser = count::<0>)]
+    warmup: u64,
     #[arg(long, value_enum, default_value_t = BackendKind::Cuda)]
     backend: BackendKind,
     /// CUDA threads per block (a multiple of 32); default MPM_CUDA_BLOCK_SIZE or 128.
@@ -264,8 +338,9 @@ struct BenchArgs {
     #[arg(long)]
     cpu_baseline: bool,
     /// Substeps measured for the CPU baseline.
-    #[arg(long, value_name = "N", default_value_t = 1000)]
-    cpu_steps: usize,
+    #[arg(long, value_name = "N", default_value_t = 1000, allow_negative_numbers = true,
+          value_parser = count::<1>)]
+    cpu_steps: u64,
     /// Also run the scaling sweep: 65,536 particles up to --sweep-max, grid grown to keep the fill.
     #[arg(long)]
     sweep: bool,
@@ -273,8 +348,9 @@ struct BenchArgs {
     #[arg(long, value_name = "N", default_value_t = 1 << 26)]
     sweep_max: u64,
     /// Substeps measured per sweep size.
-    #[arg(long, value_name = "N", default_value_t = 100)]
-    sweep_steps: usize,
+    #[arg(long, value_name = "N", default_value_t = 100, allow_negative_numbers = true,
+          value_parser = count::<1>)]
+    sweep_steps: u64,
     /// Device memory bandwidth for the traffic floor, GB/s (default: the H200's HBM3e).
     #[arg(long, value_name = "GBS", default_value_t = bench::H200_PEAK_GBS)]
     peak_gbs: f64,
@@ -323,19 +399,22 @@ fn bench(args: BenchArgs) -> Result<()> {
             .collect();
         (sizes, args.sweep_steps)
     });
+    let sweep = sweep
+        .map(|(sizes, n)| steps(n, "sweep-steps").map(|n| (sizes, n)))
+        .transpose()?;
     let plan = bench::BenchPlan {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         scenes,
         options: bench::PhaseBenchOptions {
             backend: args.backend,
-            warmup_steps: args.warmup,
-            steps: args.steps,
+            warmup_steps: steps(args.warmup, "warmup")?,
+            steps: steps(args.steps, "steps")?,
             block_size: args.block_size,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
             peak_gbs: args.peak_gbs,
         },
-        cpu_baseline_steps: args.cpu_baseline.then_some(args.cpu_steps),
+        cpu_baseline_steps: args.cpu_baseline.then_some(steps(args.cpu_steps, "cpu-steps")?),
         sweep,
     };
     let report = bench::run(&plan, &mut std::io::stdout().lock())?;
@@ -361,6 +440,9 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
+    if let Some(note) = export.as_ref().and_then(PlyExporter::removed_note) {
+        writeln!(std::io::stdout(), "{note}")?;
+    }
     let solver = backend::create(args.backend, &scene)?;
     writeln!(
         std::io::stdout(),
@@ -386,8 +468,8 @@ fn run(args: RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn scenes(show: Option<String>) -> Result<()> {
-    match show {
+fn scenes(show: Option<Option<String>>) -> Result<()> {
+    match show.flatten() {
         Some(name) => match presets::get(&name) {
             Some(text) => write!(std::io::stdout(), "{text}")?,
             None => anyhow::bail!(
@@ -417,14 +499,19 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match arguments() {
+        Ok(args) => Cli::parse_from(args),
+        Err(message) => {
+            eprintln!("error: {message}");
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
-        None => view(cli.view),
-        Some(Command::View(args)) => view(args),
-        Some(Command::Render(args)) => render_frames(args),
-        Some(Command::Run(args)) => run(args),
-        Some(Command::Bench(args)) => bench(args),
-        Some(Command::Scenes { show }) => scenes(show),
+        Command::View(args) => view(args),
+        Command::Render(args) => render_frames(args),
+        Command::Run(args) => run(args),
+        Command::Bench(args) => bench(args),
+        Command::Scenes { show } => scenes(show),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,6 +2,7 @@
 //! and optionally writes them as JSON lines and exports PLY frames.
 
 use crate::export::PlyExporter;
+use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
 use anyhow::{Context, Result};
 use std::fs::File;
@@ -32,8 +33,16 @@ impl StatsFile {
                 path.display()
             );
         }
-        let file =
-            File::create(path).with_context(|| format!("cannot create the stats file {}", path.display()))?;
+        if path.is_dir() {
+            anyhow::bail!("--stats {} is a directory; give a file name", path.display());
+        }
+        let file = File::create(path).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot create the stats file {}: {}",
+                path.display(),
+                crate::text::io_reason(&e)
+            )
+        })?;
         Ok(StatsFile {
             file: BufWriter::new(file),
             path: path.to_path_buf(),
@@ -73,7 +82,29 @@ pub fn format_frame(s: &FrameStats) -> String {
     if let Some(t) = &s.timings {
         line += &format!("  step={:.3} ms", t.per_step());
     }
+    if s.substeps_over_cfl > 0 {
+        line += &format!(
+            "  CFL>{MAX_CFL} in {}",
+            crate::text::count(s.substeps_over_cfl, "substep", "substeps")
+        );
+    }
     line
+}
+
+/// The closing warning of a run whose CFL number went above the stability bound, or `None`.
+pub fn cfl_warning(all: &[FrameStats]) -> Option<String> {
+    let substeps: u64 = all.iter().map(|s| u64::from(s.substeps_over_cfl)).sum();
+    if substeps == 0 {
+        return None;
+    }
+    let frames = all.iter().filter(|s| s.substeps_over_cfl > 0).count();
+    let worst = all.iter().map(|s| s.max_cfl).fold(0.0f32, f32::max);
+    Some(format!(
+        "warning: the CFL number went above {MAX_CFL} (the stability bound) in {} of {}, up to {worst:.3}; \
+         the fluid may be unstable there: lower time_step.cfl (or time_step.dt)",
+        crate::text::count(substeps, "substep", "substeps"),
+        crate::text::count(frames, "frame", "frames"),
+    ))
 }
 
 fn export_frame(sim: &mut Simulation, exporter: &PlyExporter) -> Result<()> {
@@ -119,7 +150,8 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     } else {
         None
     };
-    let mut all = Vec::with_capacity(frames as usize);
+    // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
+    let mut all = Vec::new();
     for _ in 0..frames {
         let frame_stats = sim.advance_frame()?;
         let line = format_frame(&frame_stats);
@@ -142,6 +174,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     }
     if let Some(bar) = bar {
         bar.finish_and_clear();
+    }
+    if let Some(warning) = cfl_warning(&all) {
+        writeln!(out, "{warning}")?;
     }
     Ok(all)
 }

@@ -131,3 +131,84 @@ fn an_unwritable_export_directory_is_a_clear_error() {
         "--every 0 is refused"
     );
 }
+
+/// `--overwrite` into a folder from a longer earlier run: the earlier run's frames are removed (and
+/// named), so the folder holds the new run only.
+#[test]
+fn overwrite_leaves_one_run_in_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let scene = small_scene();
+    let run = |count: u64, overwrite: bool| -> anyhow::Result<Option<String>> {
+        let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene)?);
+        let exporter = PlyExporter::new(&frames, 1, overwrite)?;
+        let note = exporter.removed_note();
+        let opts = RunOptions {
+            frames: count,
+            export: Some(exporter),
+            stats: None,
+            progress: false,
+        };
+        runner::run(&mut sim, opts, &mut std::io::sink())?;
+        Ok(note)
+    };
+    assert_eq!(run(5, false).unwrap(), None);
+    let note = run(2, true).unwrap().expect("the earlier frames are reported");
+    assert!(
+        note.contains("removed 6 frames") && note.contains("frame_000000.ply .. frame_000005.ply"),
+        "{note}"
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&frames)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["frame_000000.ply", "frame_000001.ply", "frame_000002.ply"]
+    );
+}
+
+/// `--export` onto a file says it is a file; a refused permission is not called a full disk.
+#[test]
+fn export_errors_name_the_real_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let e = PlyExporter::new(&file, 1, false).err().unwrap();
+    assert!(format!("{e:#}").contains("is a file, not a directory"), "{e:#}");
+
+    use std::io::{Error, ErrorKind};
+    let denied = mpm::text::io_reason(&Error::from(ErrorKind::PermissionDenied));
+    assert!(
+        denied.contains("not writable") && !denied.contains("space"),
+        "{denied}"
+    );
+    let full = mpm::text::io_reason(&Error::from(ErrorKind::StorageFull));
+    assert!(full.contains("free some space"), "{full}");
+}
+
+/// A huge --frames is a long run, not an abort: nothing is reserved up front for it.
+#[test]
+fn a_huge_frame_count_does_not_abort() {
+    let scene = small_scene();
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    // The runner stops at the first error; a closed output is one, after the first frame.
+    struct Closed;
+    impl std::io::Write for Closed {
+        fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+            Err(std::io::ErrorKind::BrokenPipe.into())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let opts = RunOptions {
+        frames: 99_999_999_999,
+        export: None,
+        stats: None,
+        progress: false,
+    };
+    let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();
+    assert!(format!("{e:#}").to_lowercase().contains("pipe"), "{e:#}");
+}

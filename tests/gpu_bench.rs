@@ -1,17 +1,22 @@
 //! The benchmark code on the GPU, briefly: a phase table of bench-65k and one sweep size, from CUDA
 //! events. Asserts that every GPU phase was measured and the tables print (timings vary by GPU; the
-//! figures themselves come from `mpm bench`). Prints `skipped: <reason>` where no CUDA device is usable.
+//! figures themselves come from `mpm bench`). Reported as ignored, with the reason, where no CUDA
+//! device is usable (tests/harness: `harness = false`).
 
 use mpm::bench::{self, PhaseBenchOptions};
-use mpm::cuda::library;
 use mpm::sim::Scene;
 
-#[test]
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "GPU",
+        harness::cuda_device,
+        harness::tests![bench_code_measures_every_gpu_phase],
+    )
+}
+
 fn bench_code_measures_every_gpu_phase() {
-    if let Err(why) = library::device_available() {
-        println!("bench_code_measures_every_gpu_phase: skipped: {why:#}");
-        return;
-    }
     let options = PhaseBenchOptions {
         warmup_steps: 10,
         steps: 50,

@@ -1,5 +1,6 @@
-//! The CUDA kernels against the CPU reference, headless. Every test prints `skipped: <reason>` and
-//! passes where no CUDA device and driver are usable.
+//! The CUDA kernels against the CPU reference, headless, for both GPU pipelines. Where no CUDA device
+//! and driver are usable, every test is reported as ignored, with the reason (tests/harness:
+//! `harness = false`).
 //!
 //! Why the tolerances are what they are: the kernels compute the CPU reference's expressions in the
 //! same order, but (a) float atomics add a node's contributions in whatever order threads arrive, so a
@@ -9,20 +10,34 @@
 //! and far below any real bug (a wrong weight, index or sign is an O(1) error).
 
 use glam::{Mat3, Vec3};
-use mpm::cuda::{library, CudaOptions, CudaSolver};
+use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::cpu::{CpuSolver, Stencil};
 use mpm::sim::params::{Pipeline, ScatterMode};
 use mpm::sim::{presets, Params, Particles, Scene, Solver};
 
-/// Returns false (after printing why) where there is no usable CUDA device.
-fn cuda_here(test: &str) -> bool {
-    match library::device_available() {
-        Ok(()) => true,
-        Err(why) => {
-            println!("{test}: skipped: {why:#}");
-            false
-        }
-    }
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "GPU",
+        harness::cuda_device,
+        harness::tests![
+            p2g_init_matches_cpu,
+            p2g_matches_cpu,
+            grid_update_and_g2p_match_cpu,
+            transfers_conserve_mass_and_momentum,
+            dam_break_follows_cpu_trajectory,
+            fixed_point_is_byte_identical_and_float_is_close,
+            fixed_point_overflow_is_reported,
+            device_spawn_matches_scene_spawn,
+            phase_timings_are_measured,
+            sort_orders_particles_by_cell,
+            binned_bins_hold_each_particle_once_and_follow_the_flow,
+            binned_fixed_point_is_byte_identical_across_rebins,
+            binned_pipeline_follows_the_report_pipeline,
+            device_statistics_match_a_host_reduction,
+        ],
+    )
 }
 
 /// A small closed tank, 32 x 24 x 24 nodes, dx = 1/32 m, water at c0 = 10 m/s; the block is flush
@@ -156,11 +171,7 @@ fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
     (cpu, gpu)
 }
 
-#[test]
 fn p2g_init_matches_cpu() {
-    if !cuda_here("p2g_init_matches_cpu") {
-        return;
-    }
     for (pipeline, scatter) in VARIANTS {
         let scene = small_tank_in(pipeline, scatter);
         let particles = random_particles(&scene, 1);
@@ -181,11 +192,7 @@ fn p2g_init_matches_cpu() {
     }
 }
 
-#[test]
 fn p2g_matches_cpu() {
-    if !cuda_here("p2g_matches_cpu") {
-        return;
-    }
     for (pipeline, scatter) in VARIANTS {
         let scene = small_tank_in(pipeline, scatter);
         let particles = random_particles(&scene, 2);
@@ -214,11 +221,7 @@ fn p2g_matches_cpu() {
     }
 }
 
-#[test]
 fn grid_update_and_g2p_match_cpu() {
-    if !cuda_here("grid_update_and_g2p_match_cpu") {
-        return;
-    }
     for (pipeline, scatter) in VARIANTS {
         let scene = small_tank_in(pipeline, scatter);
         let particles = random_particles(&scene, 3);
@@ -288,11 +291,7 @@ fn grid_update_and_g2p_match_cpu() {
     }
 }
 
-#[test]
 fn transfers_conserve_mass_and_momentum() {
-    if !cuda_here("transfers_conserve_mass_and_momentum") {
-        return;
-    }
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let scene = small_tank_in(pipeline, ScatterMode::Float);
         let particles = random_particles(&scene, 4);
@@ -327,11 +326,7 @@ fn transfers_conserve_mass_and_momentum() {
 }
 
 /// A few hundred steps of the small tank's dam break on both backends, in units of dx.
-#[test]
 fn dam_break_follows_cpu_trajectory() {
-    if !cuda_here("dam_break_follows_cpu_trajectory") {
-        return;
-    }
     const STEPS: usize = 300;
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
@@ -383,11 +378,7 @@ fn particle_bytes(p: &Particles) -> Vec<u8> {
     bytes
 }
 
-#[test]
 fn fixed_point_is_byte_identical_and_float_is_close() {
-    if !cuda_here("fixed_point_is_byte_identical_and_float_is_close") {
-        return;
-    }
     const STEPS: usize = 200;
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let fixed = small_tank_in(pipeline, ScatterMode::FixedPoint);
@@ -407,11 +398,7 @@ fn fixed_point_is_byte_identical_and_float_is_close() {
     }
 }
 
-#[test]
 fn fixed_point_overflow_is_reported() {
-    if !cuda_here("fixed_point_overflow_is_reported") {
-        return;
-    }
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
         let mut particles = scene.spawn();
@@ -425,11 +412,7 @@ fn fixed_point_overflow_is_reported() {
     }
 }
 
-#[test]
 fn device_spawn_matches_scene_spawn() {
-    if !cuda_here("device_spawn_matches_scene_spawn") {
-        return;
-    }
     // Overlapping bodies: the sphere must skip what the blocks cover, the second block what the
     // first covers.
     const OVERLAPS: &str = r#"
@@ -481,11 +464,7 @@ velocity = [0.0, -2.0, 0.0]
     }
 }
 
-#[test]
 fn phase_timings_are_measured() {
-    if !cuda_here("phase_timings_are_measured") {
-        return;
-    }
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let scene = small_tank_in(pipeline, ScatterMode::Float);
         let params = step_params(&scene);
@@ -511,11 +490,7 @@ fn phase_timings_are_measured() {
 
 /// The sort's order is a permutation with the particles' cells non-decreasing, on a grid whose scan
 /// needs two levels (block 128) and three (block 32).
-#[test]
 fn sort_orders_particles_by_cell() {
-    if !cuda_here("sort_orders_particles_by_cell") {
-        return;
-    }
     let mut scene = Scene::load("bench-655k").unwrap();
     scene.pipeline = Pipeline::Report;
     let particles = random_particles(&scene, 5);
@@ -551,11 +526,7 @@ fn sort_orders_particles_by_cell() {
 /// The binned pipeline's bins (kernels/bins.cu) after a violent stretch of the dam break: `order` is
 /// a permutation, the bin list covers it exactly once in runs, every particle sits within its bin's
 /// tile, and the bins were rebuilt as particles moved (choices every 4 substeps, as `mpm run` makes).
-#[test]
 fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
-    if !cuda_here("binned_bins_hold_each_particle_once_and_follow_the_flow") {
-        return;
-    }
     let scene = small_tank_in(Pipeline::Binned, ScatterMode::Float);
     let params = step_params(&scene);
     let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
@@ -617,11 +588,7 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
 /// cell, as `mpm run` does; the other only every REBIN_BACKSTOP substeps, so particles stray further
 /// and some leave their tiles) stay byte-identical: every sum is the same integer whatever the bin
 /// order and tile partition.
-#[test]
 fn binned_fixed_point_is_byte_identical_across_rebins() {
-    if !cuda_here("binned_fixed_point_is_byte_identical_across_rebins") {
-        return;
-    }
     const STEPS: usize = 600;
     let scene = small_tank_in(Pipeline::Binned, ScatterMode::FixedPoint);
     let mut runs = Vec::new();
@@ -659,11 +626,7 @@ fn binned_fixed_point_is_byte_identical_across_rebins() {
 /// kernels its float rounding may differ in the last bit (contracted multiply-adds), and the flow
 /// amplifies that; so particles are held to the CPU comparison's bounds over the first 300 substeps,
 /// and the flow as a whole (centre of mass, kinetic energy) after 1200.
-#[test]
 fn binned_pipeline_follows_the_report_pipeline() {
-    if !cuda_here("binned_pipeline_follows_the_report_pipeline") {
-        return;
-    }
     const STEPS: usize = 1200;
     let mut runs = Vec::new();
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
@@ -720,11 +683,7 @@ fn binned_pipeline_follows_the_report_pipeline() {
 }
 
 /// The per-frame statistics reduced on the device against `Summary::of` on a host copy.
-#[test]
 fn device_statistics_match_a_host_reduction() {
-    if !cuda_here("device_statistics_match_a_host_reduction") {
-        return;
-    }
     let scene = small_tank_in(Pipeline::Binned, ScatterMode::Float);
     let params = step_params(&scene);
     let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();

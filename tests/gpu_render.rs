@@ -1,11 +1,12 @@
 //! The viewer's GPU paths on an NVIDIA machine, headless: CUDA-OpenGL interop through an EGL device
-//! context, the push kernel against the CPU formula, and a headless render against a stored frame. Every test prints `skipped: <reason>` and
-//! passes where there is no CUDA device or no EGL device with OpenGL.
+//! context, the push kernel against the CPU formula, and a headless render against a stored frame.
+//! Where there is no CUDA device or no EGL device with OpenGL, every test is reported as ignored, with
+//! the reason (tests/harness: `harness = false`).
 
 use glam::Vec3;
 use mpm::backend::BackendKind;
 use mpm::cuda::interop::GlBufferResource;
-use mpm::cuda::{library, CudaOptions, CudaSolver};
+use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::render::capture::Image;
 use mpm::render::headless::HeadlessGl;
 use mpm::render::offline::{render, RenderOptions};
@@ -13,26 +14,22 @@ use mpm::render::{Colouring, DrawMode, Renderer, Transfer};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::{ColourBy, Push, Scene, Simulation, Solver};
 
-/// A CUDA device and a headless GL context, or `None` after printing why not.
-fn cuda_and_gl(test: &str) -> Option<HeadlessGl> {
-    if let Err(why) = library::device_available() {
-        println!("{test}: skipped: {why:#}");
-        return None;
-    }
-    match HeadlessGl::new(64, 64) {
-        Ok(gl) => Some(gl),
-        Err(why) => {
-            println!("{test}: skipped: no headless OpenGL: {why:#}");
-            None
-        }
-    }
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "GPU",
+        harness::cuda_device_and_headless_gl,
+        harness::tests![
+            interop_round_trip_through_gl,
+            push_agrees_between_cpu_and_cuda,
+            headless_render_matches_reference,
+        ],
+    )
 }
 
-#[test]
 fn interop_round_trip_through_gl() {
-    let Some(headless) = cuda_and_gl("interop_round_trip_through_gl") else {
-        return;
-    };
+    let headless = HeadlessGl::new(64, 64).expect("headless OpenGL");
     println!("OpenGL: {}", headless.description);
     let scene = Scene::load("drop").expect("preset");
     let n = scene.num_particles;
@@ -90,12 +87,7 @@ fn interop_round_trip_through_gl() {
     renderer.destroy();
 }
 
-#[test]
 fn push_agrees_between_cpu_and_cuda() {
-    if let Err(why) = library::device_available() {
-        println!("push_agrees_between_cpu_and_cuda: skipped: {why:#}");
-        return;
-    }
     let scene = Scene::load("drop").expect("preset");
     let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
     let mut cuda = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
@@ -134,12 +126,7 @@ fn push_agrees_between_cpu_and_cuda() {
 /// binary runs anywhere.
 const REFERENCE_FRAME: &[u8] = include_bytes!("reference/dam-break-30-320x180.png");
 
-#[test]
 fn headless_render_matches_reference() {
-    let Some(probe) = cuda_and_gl("headless_render_matches_reference") else {
-        return;
-    };
-    drop(probe);
     let dir = tempfile::tempdir().expect("temp dir");
     let options = RenderOptions {
         scene: Scene::load("dam-break").expect("preset"),

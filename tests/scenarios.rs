@@ -1,4 +1,4 @@
-//! Whole-step checks on the CPU reference: the closed-form cases of physics.md and every preset.
+//! Whole-step checks on the CPU reference: the closed-form cases of docs/physics.md and every preset.
 
 mod common;
 
@@ -38,7 +38,7 @@ fn block_at_rest_has_exact_interior_density_and_stays_at_rest() {
     s.p2g(&params);
     // Density of the outermost three particle layers along one line through the block. With nodes at
     // X = i and particles at X = i + 1/4, i + 3/4 the 1D sums give exactly 159/256, 869/1024 and
-    // 997/1024 of rest density (physics.md rounds them to 0.65, 0.85, 0.96).
+    // 997/1024 of rest density (docs/physics.md, "Rest").
     let rho0 = params.material.rest_density;
     let line: Vec<(f32, f32)> = (0..s.particles.len())
         .filter(|&n| (s.particles.x[n].y - 0.1225).abs() < 1e-4 && (s.particles.x[n].z - 0.1225).abs() < 1e-4)
@@ -120,7 +120,7 @@ fn free_fall_is_exact_and_keeps_the_shape() {
     );
 }
 
-/// A narrow column 0.5 m high at dx = 2 cm must hold the hydrostatic pressure profile of physics.md
+/// A narrow column 0.5 m high at dx = 2 cm must hold the hydrostatic pressure profile of docs/physics.md
 /// and be still.
 ///
 /// Gravity is ramped in over 0.5 s (five acoustic periods, 4 h / c0 = 0.1 s) and then held for 1 s:
@@ -193,7 +193,7 @@ max = [0.18, 0.52, 0.18]
     };
     assert!(
         tait(h) > 1.011 && tait(h) < 1.013,
-        "analytic bottom ratio {}, physics.md says 1.012",
+        "analytic bottom ratio {}, docs/physics.md says 1.012",
         tait(h)
     );
     let near_floor: Vec<f32> = (0..p.len())
@@ -331,4 +331,87 @@ fn every_preset_loads_and_steps_without_nan_inside_the_domain() {
             );
         }
     }
+}
+
+/// A body at 50 m/s (Mach 5 at c0 = 10 m/s) hits the wall faster than the substep can follow: the
+/// CFL number goes above 0.5 in the first frame. That may happen, but never unreported: every frame
+/// whose CFL number is above the bound counts its substeps there, and the run ends with a warning.
+#[test]
+fn every_substep_above_the_cfl_bound_is_counted() {
+    use mpm::sim::scene::MAX_CFL;
+    let scene = common::scene(
+        r#"
+[domain]
+size = [0.4, 0.2, 0.2]
+resolution = [40, 20, 20]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[solver]
+gravity = [0.0, 0.0, 0.0]
+[[sphere]]
+center = [0.2, 0.1, 0.1]
+radius = 0.05
+velocity = [50.0, 0.0, 0.0]
+"#,
+    );
+    let solver = mpm::backend::create(mpm::backend::BackendKind::Cpu, &scene).unwrap();
+    let mut sim = Simulation::new(scene, solver);
+    let opts = mpm::runner::RunOptions {
+        frames: 3,
+        export: None,
+        stats: None,
+        progress: false,
+    };
+    let mut out = Vec::new();
+    let all = mpm::runner::run(&mut sim, opts, &mut out).unwrap();
+    for stats in &all {
+        assert!(
+            stats.max_cfl <= MAX_CFL || stats.substeps_over_cfl > 0,
+            "frame {}: CFL {} above {MAX_CFL} uncounted",
+            stats.frame,
+            stats.max_cfl
+        );
+        assert!(stats.substeps_over_cfl <= stats.substeps);
+    }
+    let text = String::from_utf8(out).unwrap();
+    if all.iter().any(|s| s.max_cfl > MAX_CFL) {
+        assert!(
+            text.contains("CFL>0.5 in") && text.contains("warning: the CFL number"),
+            "{text}"
+        );
+    } else {
+        assert!(!text.contains("warning"), "{text}");
+    }
+}
+
+/// The viewer's way of stepping a slow frame: a piece at a time, each stopped by a deadline (here
+/// one that has passed, so every call takes one substep), ending exactly where one call would.
+#[test]
+fn a_frame_can_be_stepped_a_substep_at_a_time() {
+    let scene = common::scene(&common::water_box(
+        16,
+        "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.08, 0.1, 0.08]",
+    ));
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let mut calls = 0;
+    let steps = loop {
+        calls += 1;
+        match sim.step_frame_until(Some(std::time::Instant::now())).unwrap() {
+            Some(steps) => break steps,
+            None => {
+                assert_eq!(sim.frame(), 0, "the frame is not complete yet");
+                assert!(sim.time_stepped() > sim.time());
+            }
+        }
+    };
+    assert!(steps.substeps > 1);
+    assert_eq!(calls, steps.substeps, "one substep per call");
+    assert_eq!(sim.frame(), 1);
+    assert!(
+        (sim.time() - f64::from(mpm::sim::FRAME_DT)).abs() < 1e-9,
+        "{}",
+        sim.time()
+    );
+    assert_eq!(sim.time_stepped(), sim.time());
 }

@@ -132,9 +132,24 @@ fn bad_scenes_name_the_file_the_key_and_the_fix() {
 #[test]
 fn a_missing_file_and_an_unknown_preset_say_what_exists() {
     let e = Scene::load("/nonexistent/scene.toml").unwrap_err();
-    assert!(e.to_string().contains("cannot be read"), "{e}");
+    assert!(e.to_string().contains("does not exist"), "{e}");
     let e = Scene::load("dambreak").unwrap_err();
     assert!(e.to_string().contains("dam-break"), "the presets are listed: {e}");
+}
+
+/// A binary file given as a scene is called what it is, not a wrong path.
+#[test]
+fn a_binary_file_is_not_a_scene_and_not_a_bad_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("noise.toml");
+    std::fs::write(&path, [0xffu8, 0xfe, 0x00, 0x9c, 0x80, 0x01]).unwrap();
+    let e = Scene::load(path.to_str().unwrap()).unwrap_err().to_string();
+    assert!(
+        e.contains("not a text file") && !e.contains("check the path"),
+        "{e}"
+    );
+    let e = Scene::load(dir.path().to_str().unwrap()).unwrap_err().to_string();
+    assert!(e.contains("is a directory"), "{e}");
 }
 
 #[test]
@@ -155,4 +170,28 @@ fn a_good_scene_reports_the_exact_particle_count_it_spawns() {
             "duplicate particle at {x}"
         );
     }
+}
+
+/// A scene whose `max_substeps` is merely lower than it needs is told to raise it; "blowing up" is
+/// kept for speeds past what the default allows.
+#[test]
+fn a_low_max_substeps_is_not_called_a_blow_up() {
+    use mpm::sim::scene::{TimeStepPolicy, DEFAULT_MAX_SUBSTEPS};
+    use mpm::sim::FRAME_DT;
+    let low = TimeStepPolicy::Cfl {
+        cfl: 0.4,
+        max_substeps: 10,
+    };
+    // 20 m/s at dx = 1 cm: about 84 substeps per frame.
+    let e = low.substeps(FRAME_DT, 20.0, 0.01).unwrap_err();
+    assert!(
+        e.contains("raise max_substeps") && !e.contains("blowing up"),
+        "{e}"
+    );
+    let default = TimeStepPolicy::Cfl {
+        cfl: 0.4,
+        max_substeps: DEFAULT_MAX_SUBSTEPS,
+    };
+    let e = default.substeps(FRAME_DT, 1.0e5, 0.01).unwrap_err();
+    assert!(e.contains("blowing up"), "{e}");
 }

@@ -1,4 +1,4 @@
-//! The transfer identities of physics.md ("Checks that physics gives you for free"), on random particles.
+//! The transfer identities of docs/physics.md ("The checks physics gives for free"), on random particles.
 
 mod common;
 

@@ -1,21 +1,72 @@
 //! The windowed viewer, end to end: `mpm view` on the CPU backend under an X server (Xvfb with
 //! Mesa's software OpenGL in CI) for a few frames, then its last frame must show particles.
-//! Prints `skipped: <reason>` and passes where neither a display nor Xvfb is available.
+//! Reported as ignored, with the reason, where neither a display nor Xvfb is available
+//! (tests/harness: `harness = false`). An Xvfb it starts is stopped with SIGTERM, so that it removes
+//! its lock file and socket; the test checks that it did.
 
 use mpm::render::capture::Image;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Kills the Xvfb this test started, however the test ends.
-struct Xvfb(Child);
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "viewer",
+        display_or_xvfb,
+        harness::tests![
+            viewer_window_shows_particles,
+            viewer_splits_slow_frames_across_draws
+        ],
+    )
+}
+
+/// What the test needs: a `DISPLAY`, or an `Xvfb` on `PATH` to start one.
+fn display_or_xvfb() -> Result<(), String> {
+    if std::env::var("DISPLAY").is_ok_and(|d| !d.is_empty()) {
+        return Ok(());
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    if std::env::split_paths(&path).any(|dir| dir.join("Xvfb").is_file()) {
+        return Ok(());
+    }
+    Err("no DISPLAY and no Xvfb on PATH (.ci/run installs xvfb)".into())
+}
+
+/// Stops the Xvfb this test started, however the test ends: SIGTERM, so that it removes its
+/// `/tmp/.X<n>-lock` and socket (SIGKILL leaves both behind), and SIGKILL only if it has not gone
+/// within 5 s.
+struct Xvfb {
+    child: Child,
+    number: u32,
+}
+
+impl Xvfb {
+    fn lock_file(&self) -> String {
+        format!("/tmp/.X{}-lock", self.number)
+    }
+}
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
     }
 }
+
+/// The tests take turns: two Xvfb servers started at once would pick the same free display number.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// A display to draw on: `$DISPLAY` if the caller has one, else a fresh Xvfb.
 fn display() -> Result<(String, Option<Xvfb>), String> {
@@ -41,7 +92,7 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
         .stderr(Stdio::null())
         .spawn()
         .map_err(|e| format!("no DISPLAY and no Xvfb ({e}); .ci/run installs xvfb"))?;
-    let xvfb = Xvfb(child);
+    let xvfb = Xvfb { child, number };
     let socket = format!("/tmp/.X11-unix/X{number}");
     let start = Instant::now();
     while !Path::new(&socket).exists() {
@@ -53,15 +104,9 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
     Ok((display, Some(xvfb)))
 }
 
-#[test]
 fn viewer_window_shows_particles() {
-    let (display, _xvfb) = match display() {
-        Ok(d) => d,
-        Err(why) => {
-            println!("viewer_window_shows_particles: skipped: {why}");
-            return;
-        }
-    };
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (display, xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
     let dir = tempfile::tempdir().expect("temp dir");
     let shot = dir.path().join("last-frame.png");
     // A small tank (about 5,600 particles), so the CPU backend steps it quickly under software GL.
@@ -119,4 +164,44 @@ fn viewer_window_shows_particles() {
         stats.covered_fraction < 0.9,
         "the frame is filled, not drawn: {stats:?}"
     );
+    if let Some(xvfb) = xvfb {
+        let lock = xvfb.lock_file();
+        drop(xvfb);
+        assert!(!Path::new(&lock).exists(), "Xvfb left {lock} behind");
+    }
+}
+
+/// bench-65k on the single-thread CPU takes most of a second per 60 Hz frame; the viewer splits it
+/// over draws, so no draw spends much more than its 50 ms stepping budget (plus one substep) on it.
+fn viewer_splits_slow_frames_across_draws() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args([
+            "view",
+            "--backend",
+            "cpu",
+            "--scene",
+            "bench-65k",
+            "--size",
+            "400x300",
+            "--draw",
+            "points",
+        ])
+        .args(["--no-vsync", "--quit-after", "10", "--capture-dir"])
+        .arg(dir.path())
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm view");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("mpm view stderr:\n{stderr}");
+    assert!(output.status.success(), "mpm view failed: {}", output.status);
+    let longest: f64 = stderr
+        .lines()
+        .find_map(|l| l.split("the longest stepping in one draw took ").nth(1))
+        .and_then(|rest| rest.trim_end_matches(" ms").parse().ok())
+        .expect("the viewer reports its longest step");
+    assert!(longest < 300.0, "one draw spent {longest} ms stepping");
 }

@@ -50,16 +50,17 @@ pub struct ViewerOptions {
 
 /// Opens the window and runs until it is closed.
 pub fn run(options: ViewerOptions) -> Result<()> {
-    if let Some(path) = &options.final_screenshot {
-        anyhow::ensure!(
-            !path.exists(),
-            "{} exists already; not overwriting it",
-            path.display()
-        );
-    }
+    check_paths(&options)?;
     let event_loop = EventLoop::new().map_err(|e| {
+        // winit's message starts with the path of its own source file; the user needs the rest.
+        let text = e.to_string();
+        let reason = text
+            .split_once(".rs:")
+            .and_then(|(_, rest)| rest.split_once(": "))
+            .map_or(text.as_str(), |(_, reason)| reason)
+            .trim_end_matches('.');
         anyhow!(
-            "cannot open a window: {e}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
+            "cannot open a window: {reason}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
              WAYLAND_DISPLAY set?); without one, `mpm render` draws frames to PNG files headless"
         )
     })?;
@@ -71,6 +72,66 @@ pub fn run(options: ViewerOptions) -> Result<()> {
         Some(e) => Err(e),
         None => Ok(()),
     }
+}
+
+/// Every path the viewer may write, checked before the window opens and the first step runs: a
+/// mistyped folder must not surface only when the user quits or presses P.
+pub fn check_paths(options: &ViewerOptions) -> Result<()> {
+    let dir = &options.capture_dir;
+    anyhow::ensure!(
+        dir.is_dir(),
+        "--capture-dir {}: {}",
+        dir.display(),
+        if dir.exists() {
+            "is a file, not a directory"
+        } else {
+            "no such directory; create it first"
+        }
+    );
+    let probe = dir.join(".mpm-write-test");
+    if let Err(e) = std::fs::File::create(&probe).and_then(|_| std::fs::remove_file(&probe)) {
+        let why = format!(
+            "--capture-dir {} is not writable: {}",
+            dir.display(),
+            crate::text::io_reason(&e)
+        );
+        // The default (the working directory) only matters once P or V is pressed: say so and go on.
+        if dir.as_os_str() == "." {
+            eprintln!(
+                "note: {why}; screenshots (P) and recordings (V) will fail until you give --capture-dir"
+            );
+        } else {
+            anyhow::bail!(why);
+        }
+    }
+    if let Some(path) = &options.final_screenshot {
+        anyhow::ensure!(
+            !path.exists(),
+            "{} exists already; not overwriting it",
+            path.display()
+        );
+        let parent = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => std::path::Path::new("."),
+        };
+        anyhow::ensure!(
+            parent.is_dir(),
+            "--final-screenshot {}: the folder {} does not exist; create it first",
+            path.display(),
+            parent.display()
+        );
+        // Create and remove the file itself: a folder that refuses it fails now, not after the run.
+        std::fs::File::create_new(path)
+            .and_then(|_| std::fs::remove_file(path))
+            .map_err(|e| {
+                anyhow!(
+                    "--final-screenshot {}: cannot write it: {}",
+                    path.display(),
+                    crate::text::io_reason(&e)
+                )
+            })?;
+    }
+    Ok(())
 }
 
 /// The window and everything tied to its GL context.
@@ -123,9 +184,22 @@ struct ViewerApp {
     frames_drawn: u64,
     fps: f64,
     frame_ms: f64,
+    /// The last completed 60 Hz frame's phase timings.
     last_timings: Option<PhaseTimings>,
     last_steps: (u32, f32, f32),
+    /// Substeps since the scene (re)started whose CFL number went above the bound.
+    over_cfl: u64,
+    /// N was pressed while paused and that frame is not complete yet (it may take several draws).
+    step_owed: bool,
+    /// Frames of the current fixed-pacing batch not complete yet.
+    fixed_owed: u32,
+    /// The longest wall time one draw spent stepping (reported on exit).
+    longest_step: std::time::Duration,
 }
+
+/// Wall time a draw may spend stepping before it draws what it has: a frame that costs more is
+/// split over several draws (the simulation keeps its place), so the window keeps answering.
+const STEP_DEADLINE: std::time::Duration = std::time::Duration::from_millis(50);
 
 impl ViewerApp {
     fn new(options: ViewerOptions) -> ViewerApp {
@@ -163,6 +237,10 @@ impl ViewerApp {
             frame_ms: 0.0,
             last_timings: None,
             last_steps: (0, 0.0, 0.0),
+            over_cfl: 0,
+            step_owed: false,
+            fixed_owed: 0,
+            longest_step: std::time::Duration::ZERO,
             options,
         }
     }
@@ -220,6 +298,9 @@ impl ViewerApp {
         self.sim = Some(Simulation::new(scene.clone(), solver));
         self.scene = scene;
         self.clock.reset();
+        self.over_cfl = 0;
+        self.step_owed = false;
+        self.fixed_owed = 0;
         Ok(())
     }
 
@@ -406,8 +487,8 @@ impl ViewerApp {
     fn toggle_recording(&mut self) -> Result<()> {
         if let Some(recording) = self.recording.take() {
             self.message = Some(format!(
-                "recorded {} frames to {}",
-                recording.sequence.frames_written(),
+                "recorded {} to {}",
+                crate::text::count(recording.sequence.frames_written(), "frame", "frames"),
                 recording.sequence.dir().display()
             ));
             return Ok(());
@@ -428,7 +509,12 @@ impl ViewerApp {
         let wall_dt = (now - self.last_frame).as_secs_f64();
         self.last_frame = now;
         if self.frames_drawn > 0 {
-            self.frame_ms = 0.9 * self.frame_ms + 0.1 * wall_dt * 1e3;
+            // The first interval seeds the average (from zero it would read low for dozens of draws).
+            self.frame_ms = if self.frame_ms == 0.0 {
+                wall_dt * 1e3
+            } else {
+                0.9 * self.frame_ms + 0.1 * wall_dt * 1e3
+            };
             self.fps = 1e3 / self.frame_ms.max(1e-3);
         }
 
@@ -444,14 +530,41 @@ impl ViewerApp {
                 max_frames_per_draw: 4,
             }
         };
+        // Frames to complete in this draw; a frame that outlasts STEP_DEADLINE goes on in the next.
+        let fixed = matches!(self.clock.pacing, Pacing::Fixed { .. });
         let frames = if self.controls.paused {
-            self.clock.frames_for(0.0);
-            u32::from(std::mem::take(&mut self.step_requested))
+            self.step_owed |= std::mem::take(&mut self.step_requested);
+            u32::from(self.step_owed)
         } else {
             self.step_requested = false;
-            self.clock.frames_for(wall_dt)
+            self.step_owed = false;
+            match self.clock.pacing {
+                Pacing::Fixed { frames_per_draw } => {
+                    if self.fixed_owed == 0 {
+                        self.fixed_owed = frames_per_draw;
+                    }
+                    self.fixed_owed
+                }
+                Pacing::RealTime { .. } => self.clock.frames_for(wall_dt),
+            }
         };
-        self.step(frames)?;
+        let time_before = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
+        let completed = self.step(frames)?;
+        let time_after = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
+        if !self.controls.paused {
+            self.clock.record(time_after - time_before, wall_dt);
+        }
+        if completed > 0 {
+            self.step_owed = false;
+        }
+        // With fixed pacing (and recording) an image is taken only when the batch is complete, so the
+        // images stay exactly frames_per_draw 60 Hz frames apart.
+        let batch_complete = if fixed && !self.controls.paused {
+            self.fixed_owed = self.fixed_owed.saturating_sub(completed);
+            self.fixed_owed == 0
+        } else {
+            true
+        };
 
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
@@ -482,6 +595,8 @@ impl ViewerApp {
                 substeps: self.last_steps.0,
                 dt: self.last_steps.1,
                 max_cfl: self.last_steps.2,
+                substeps_over_cfl: self.over_cfl,
+                frame_in_progress: self.sim.as_ref().is_some_and(|s| s.time_stepped() > s.time()),
                 sim_time: self.sim.as_ref().map_or(0.0, |s| s.time()),
                 wall_time: self.started.elapsed().as_secs_f64(),
                 speed: self.clock.speed(),
@@ -527,9 +642,9 @@ impl ViewerApp {
             .options
             .quit_after
             .is_some_and(|n| self.frames_drawn + 1 >= n);
-        let want_image = self.screenshot_requested
-            || self.recording.is_some()
-            || (last_frame && self.options.final_screenshot.is_some());
+        let record = self.recording.is_some() && batch_complete && completed > 0;
+        let want_image =
+            self.screenshot_requested || record || (last_frame && self.options.final_screenshot.is_some());
         if want_image {
             // The scene alone, before the panel is painted over the frame.
             let image = read_back_buffer(&gpu.gl, self.scene_viewport);
@@ -540,7 +655,7 @@ impl ViewerApp {
                     Err(e) => self.message = Some(format!("{e:#}")),
                 }
             }
-            if let Some(recording) = &mut self.recording {
+            if let Some(recording) = self.recording.as_mut().filter(|_| record) {
                 if let Err(e) = recording.sequence.write(&image) {
                     self.message = Some(format!("recording stopped: {e:#}"));
                     self.recording = None;
@@ -573,10 +688,11 @@ impl ViewerApp {
         Ok(())
     }
 
-    /// Steps `frames` 60 Hz frames, applying the pending push first. A failed step pauses the viewer
-    /// with the reason shown, rather than closing it.
-    fn step(&mut self, frames: u32) -> Result<()> {
-        let Some(sim) = &mut self.sim else { return Ok(()) };
+    /// Completes up to `frames` 60 Hz frames, applying the pending push first, and returns how many it
+    /// completed. It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next
+    /// draw. A failed step pauses the viewer with the reason shown, rather than closing it.
+    fn step(&mut self, frames: u32) -> Result<u32> {
+        let Some(sim) = &mut self.sim else { return Ok(0) };
         let drag = std::mem::take(&mut self.mouse.push_drag);
         if drag != Vec2::ZERO && frames > 0 {
             if let Some(gpu) = &self.gpu {
@@ -600,28 +716,33 @@ impl ViewerApp {
                 }
             }
         }
-        let mut timings: Option<PhaseTimings> = None;
         let started = Instant::now();
-        for _ in 0..frames {
-            match sim.step_frame() {
-                Ok(steps) => {
+        let deadline = started + STEP_DEADLINE;
+        let mut completed = 0;
+        while completed < frames {
+            match sim.step_frame_until(Some(deadline)) {
+                Ok(Some(steps)) => {
+                    completed += 1;
                     self.last_steps = (steps.substeps, steps.dt, steps.max_cfl);
-                    if let Some(t) = steps.timings {
-                        timings.get_or_insert_with(PhaseTimings::default).accumulate(&t);
+                    self.over_cfl += u64::from(steps.substeps_over_cfl);
+                    if let Some(t) = steps.timings.filter(|t| t.steps > 0) {
+                        self.last_timings = Some(t);
                     }
                 }
+                Ok(None) => break, // the deadline passed; the frame goes on next draw
                 Err(e) => {
                     self.controls.paused = true;
                     self.message = Some(format!("{e:#} (press R to reset)"));
                     break;
                 }
             }
+            if Instant::now() >= deadline {
+                break;
+            }
         }
-        self.clock.record_cost(frames, started.elapsed().as_secs_f64());
-        if let Some(t) = timings.filter(|t| t.steps > 0) {
-            self.last_timings = Some(t);
-        }
-        Ok(())
+        self.clock.record_cost(completed, started.elapsed().as_secs_f64());
+        self.longest_step = self.longest_step.max(started.elapsed());
+        Ok(completed)
     }
 }
 
@@ -732,6 +853,11 @@ impl ApplicationHandler for ViewerApp {
     }
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
+        eprintln!(
+            "viewer: {} drawn; the longest stepping in one draw took {:.0} ms",
+            crate::text::count(self.frames_drawn, "frame", "frames"),
+            self.longest_step.as_secs_f64() * 1e3
+        );
         // Release in dependency order: the CUDA registration, the solver, then GL objects.
         self.feed.release();
         self.sim = None;
@@ -741,8 +867,8 @@ impl ApplicationHandler for ViewerApp {
         }
         if let Some(recording) = self.recording.take() {
             eprintln!(
-                "recorded {} frames to {}",
-                recording.sequence.frames_written(),
+                "recorded {} to {}",
+                crate::text::count(recording.sequence.frames_written(), "frame", "frames"),
                 recording.sequence.dir().display()
             );
         }

@@ -119,25 +119,51 @@ pub struct ImageStats {
 }
 
 /// Numbered frame files `frame-00000.png`, ... in a directory, none of which may exist yet.
+/// Dropped before its first frame (the run failed before it began: no GPU, no EGL), it removes the
+/// directories it created, so a failure leaves nothing behind.
 pub struct FrameSequence {
     dir: PathBuf,
     next: u64,
+    /// The directories `create` made, deepest first.
+    created: Vec<PathBuf>,
 }
 
 impl FrameSequence {
     /// Creates `dir` if needed and checks that it is writable and holds no frames this run would
     /// overwrite (the first `frames` names).
     pub fn create(dir: &Path, frames: u64) -> Result<FrameSequence> {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the output directory {}", dir.display()))?;
-        let probe = dir.join(".mpm-write-test");
-        File::create(&probe)
-            .with_context(|| format!("the output directory {} is not writable", dir.display()))?;
-        let _ = std::fs::remove_file(&probe);
+        if dir.exists() && !dir.is_dir() {
+            bail!(
+                "{} is a file, not a directory; give a directory for the frames",
+                dir.display()
+            );
+        }
+        let created: Vec<PathBuf> = dir
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .map(Path::to_path_buf)
+            .collect();
         let sequence = FrameSequence {
             dir: dir.to_path_buf(),
             next: 0,
+            created,
         };
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot create the output directory {}: {}",
+                dir.display(),
+                crate::text::io_reason(&e)
+            )
+        })?;
+        let probe = dir.join(".mpm-write-test");
+        File::create(&probe).map_err(|e| {
+            anyhow::anyhow!(
+                "the output directory {} is not writable: {}",
+                dir.display(),
+                crate::text::io_reason(&e)
+            )
+        })?;
+        let _ = std::fs::remove_file(&probe);
         if let Some(existing) = (0..frames).map(|i| sequence.path(i)).find(|p| p.exists()) {
             bail!(
                 "{} exists already; choose an empty --out directory (nothing was overwritten)",
@@ -164,6 +190,20 @@ impl FrameSequence {
         image.write_png_new(&path)?;
         self.next += 1;
         Ok(path)
+    }
+}
+
+impl Drop for FrameSequence {
+    fn drop(&mut self) {
+        if self.next == 0 {
+            // Deepest first; remove_dir refuses a directory that is not empty, so nothing a user
+            // put there can go.
+            for dir in &self.created {
+                if std::fs::remove_dir(dir).is_err() {
+                    break;
+                }
+            }
+        }
     }
 }
 

@@ -2,9 +2,12 @@
 //!
 //! Real time: simulated time follows wall time, but at most `max_frames_per_draw` frames are stepped
 //! per draw, and no more than fit in a draw budget at the measured cost of a frame; wall time beyond
-//! that is dropped, so a slow machine shows slow motion rather than falling ever further behind (and
-//! freezing: a CPU that takes a second per frame still redraws once a frame is done). Fixed: a set number per draw (for recording, where each
-//! image must be the same simulated time apart).
+//! that is dropped, so a slow machine shows slow motion rather than falling ever further behind.
+//! A frame that costs more than a draw's budget is split over several draws by the viewer
+//! (`Simulation::step_frame_until`), so the window keeps answering. Fixed: a set number per draw
+//! (for recording, where each image must be the same simulated time apart).
+//!
+//! The speed (simulated over wall seconds) comes from what was actually stepped ([`SimClock::record`]).
 
 use crate::sim::FRAME_DT;
 
@@ -56,7 +59,7 @@ impl SimClock {
     /// Frames to step for a draw `wall_dt` seconds after the last one.
     pub fn frames_for(&mut self, wall_dt: f64) -> u32 {
         let frame_dt = f64::from(FRAME_DT);
-        let frames = match self.pacing {
+        match self.pacing {
             Pacing::Fixed { frames_per_draw } => frames_per_draw,
             Pacing::RealTime { max_frames_per_draw } => {
                 self.debt += wall_dt;
@@ -72,12 +75,17 @@ impl SimClock {
                 self.debt = self.debt.min(frame_dt);
                 frames
             }
-        };
+        }
+    }
+
+    /// Records a draw: `simulated` seconds were stepped (whole frames or parts of one) over `wall_dt`
+    /// wall seconds. The speed comes from these, not from the frames asked for, so a frame split
+    /// over several draws counts as it goes.
+    pub fn record(&mut self, simulated: f64, wall_dt: f64) {
         if wall_dt > 0.0 {
-            self.sim_sum = 0.97 * self.sim_sum + f64::from(frames) * frame_dt;
+            self.sim_sum = 0.97 * self.sim_sum + simulated;
             self.wall_sum = 0.97 * self.wall_sum + wall_dt;
         }
-        frames
     }
 
     /// Simulated seconds per wall second, smoothed: below 1 means slow motion.
@@ -105,12 +113,17 @@ mod tests {
         let mut clock = SimClock::new(Pacing::RealTime {
             max_frames_per_draw: 4,
         });
-        let total: u32 = (0..600).map(|_| clock.frames_for(1.0 / 120.0)).sum();
+        let draw = |clock: &mut SimClock, wall_dt: f64| {
+            let frames = clock.frames_for(wall_dt);
+            clock.record(f64::from(frames) * f64::from(FRAME_DT), wall_dt);
+            frames
+        };
+        let total: u32 = (0..600).map(|_| draw(&mut clock, 1.0 / 120.0)).sum();
         assert!((299..=301).contains(&total), "{total} frames in 5 s");
         assert!((clock.speed() - 1.0).abs() < 0.05);
         // Drawing at 30 Hz with cheap steps: two frames per draw.
         clock.record_cost(1, 0.002);
-        let total: u32 = (0..150).map(|_| clock.frames_for(1.0 / 30.0)).sum();
+        let total: u32 = (0..150).map(|_| draw(&mut clock, 1.0 / 30.0)).sum();
         assert!((299..=301).contains(&total), "{total} frames in 5 s at 30 Hz");
     }
 
@@ -120,7 +133,9 @@ mod tests {
             max_frames_per_draw: 2,
         });
         for _ in 0..100 {
-            assert!(clock.frames_for(0.5) <= 2);
+            let frames = clock.frames_for(0.5);
+            assert!(frames <= 2);
+            clock.record(f64::from(frames) * f64::from(FRAME_DT), 0.5);
         }
         assert!(clock.speed() < 0.1, "speed {}", clock.speed());
         // Stepping costs a second per frame: one frame per draw, never a backlog.

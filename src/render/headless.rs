@@ -62,7 +62,7 @@ impl HeadlessGl {
     fn on_device(device: &Device, width: u32, height: u32) -> Result<HeadlessGl> {
         // SAFETY: no native display is involved (a device display).
         let display = unsafe { Display::with_device(device, None) }.context("eglGetPlatformDisplay")?;
-        // A device display has no window configs: ask for pbuffer ones (gpu.md).
+        // A device display has no window configs: ask for pbuffer ones (docs/gpu.md).
         let template = ConfigTemplateBuilder::new()
             .with_surface_type(ConfigSurfaceTypes::PBUFFER)
             .with_api(Api::OPENGL)

@@ -2,6 +2,7 @@
 //! returns the user's requests as [`Action`]s; the app carries them out (and reports errors back).
 
 use super::renderer::{scale_colour, Colouring, DrawMode, RenderSettings};
+use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
 use egui::{Color32, RichText};
 use glam::Vec3;
@@ -12,12 +13,17 @@ pub struct HudInfo<'a> {
     pub backend: &'a str,
     pub particles: usize,
     pub fps: f64,
+    /// Wall milliseconds between draws (smoothed).
     pub frame_ms: f64,
-    /// Per-phase GPU (or CPU) milliseconds per drawn frame, where measured.
+    /// Per-phase GPU (or CPU) milliseconds of the last completed 60 Hz frame, where measured.
     pub timings: Option<PhaseTimings>,
     pub substeps: u32,
     pub dt: f32,
     pub max_cfl: f32,
+    /// Substeps since the scene started whose CFL number went above the bound.
+    pub substeps_over_cfl: u64,
+    /// A 60 Hz frame is being stepped over several draws.
+    pub frame_in_progress: bool,
     pub sim_time: f64,
     pub wall_time: f64,
     /// Simulated / wall seconds (slow-motion factor below 1).
@@ -124,29 +130,58 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             ui.end_row();
         };
         row("FPS", format!("{:.1}", info.fps));
-        row("frame", format!("{:.2} ms", info.frame_ms));
+        row("draw interval", format!("{:.1} ms", info.frame_ms));
         row("substeps", format!("{} x dt {:.3e} s", info.substeps, info.dt));
-        row("CFL", format!("{:.2}", info.max_cfl));
+        if info.substeps_over_cfl > 0 {
+            let over = crate::text::count(info.substeps_over_cfl, "substep", "substeps");
+            row("CFL", format!("{:.2} (> {MAX_CFL} in {over})", info.max_cfl));
+        } else {
+            row("CFL", format!("{:.2}", info.max_cfl));
+        }
         row("sim time", format!("{:.3} s", info.sim_time));
         row("wall time", format!("{:.3} s", info.wall_time));
-        let speed = if info.speed < 0.98 {
-            format!("{:.2}x (slow motion)", info.speed)
-        } else {
-            format!("{:.2}x", info.speed)
-        };
-        row("sim / wall", speed);
+        row("sim / wall", speed_text(info.speed));
+        if info.frame_in_progress {
+            row("", "each 60 Hz frame spans several draws".to_string());
+        }
         row("transfer", info.transfer.to_string());
         if let Some(t) = &info.timings {
-            row("per drawn frame", format!("{} substeps", t.steps));
+            // One completed 60 Hz frame; a phase this backend does not run (0 ms) has no row.
+            row("last 60 Hz frame", format!("{} substeps", t.steps));
             for (name, ms) in PhaseTimings::PHASES.iter().zip(t.phases()) {
-                row(name, format!("{ms:.3} ms"));
+                if ms > 0.0 {
+                    row(name, format!("{ms:.3} ms"));
+                }
             }
             row("step total", format!("{:.3} ms", t.total()));
         }
         if let Some((dir, frames)) = &info.recording {
-            row("recording", format!("{frames} frames -> {dir}"));
+            row(
+                "recording",
+                format!("{} -> {dir}", crate::text::count(*frames, "frame", "frames")),
+            );
         }
     });
+}
+
+/// Simulated seconds per wall second, with enough digits to read when it is small, and what it means.
+pub fn speed_text(speed: f64) -> String {
+    if speed.is_nan() || speed <= 0.0 {
+        return "-".to_string();
+    }
+    if speed >= 0.98 {
+        return format!("{speed:.2}x");
+    }
+    // Two significant digits: 0.50x, 0.050x, 0.0040x.
+    let digits = if speed >= 0.1 {
+        2
+    } else {
+        (-speed.log10().floor()) as usize + 1
+    };
+    format!(
+        "{speed:.digits$}x: slower than real time, 1 s takes {:.0} s",
+        1.0 / speed
+    )
 }
 
 fn run_controls(ui: &mut egui::Ui, c: &mut Controls, info: &HudInfo, actions: &mut Vec<Action>) {
@@ -332,5 +367,21 @@ fn scene_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>
     });
     if ui.button("Quit (Esc)").clicked() {
         actions.push(Action::Quit);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::speed_text;
+
+    #[test]
+    fn a_small_speed_keeps_its_digits() {
+        assert_eq!(speed_text(1.0), "1.00x");
+        assert_eq!(speed_text(0.5), "0.50x: slower than real time, 1 s takes 2 s");
+        assert_eq!(
+            speed_text(0.004),
+            "0.0040x: slower than real time, 1 s takes 250 s"
+        );
+        assert!(!speed_text(0.0004).starts_with("0.00x"));
     }
 }

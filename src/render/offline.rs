@@ -125,8 +125,8 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         // Zeros here would read like a measurement.
         writeln!(
             log,
-            "{} frames via {}: too few to time (the first {} are warm-up; ask for more --frames)",
-            options.frames + 1,
+            "{} via {}: too few to time (the first {} are warm-up; ask for more --frames)",
+            crate::text::count(options.frames + 1, "frame", "frames"),
             feed.path(),
             WARM_UP_FRAMES + 1
         )?;
@@ -145,7 +145,12 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     }
     let frames_written = sequence.as_ref().map_or(0, |s| s.frames_written());
     if let Some(sequence) = &sequence {
-        writeln!(log, "wrote {frames_written} PNGs to {}", sequence.dir().display())?;
+        writeln!(
+            log,
+            "wrote {} to {}",
+            crate::text::count(frames_written, "PNG", "PNGs"),
+            sequence.dir().display()
+        )?;
     }
     if let (Some(video), Some(sequence)) = (&options.video, &sequence) {
         let status = Command::new("ffmpeg")

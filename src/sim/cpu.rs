@@ -1,4 +1,4 @@
-//! The single-thread CPU reference: physics.md step for step, with the names of the paper
+//! The single-thread CPU reference: docs/physics.md step for step, with the names of the paper
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 
@@ -154,6 +154,72 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     }
 }
 
+/// p2g for one particle with stencil `st`: its density gathered from the grid mass, and what it adds
+/// to the grid momentum, `w (mv + affine d)` on each stencil node. Returns `(rho, mv, affine)`.
+/// Shared by the reference and the parallel backend, so both compute the same expressions.
+#[inline(always)]
+pub fn p2g_particle(
+    params: &Params,
+    st: &Stencil,
+    shape: GridShape,
+    mass: &[f32],
+    v: Vec3,
+    c: Mat3,
+) -> (f32, Vec3, Mat3) {
+    let mat = &params.material;
+    let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
+    let inv_cell_volume = params.inv_dx * params.inv_dx * params.inv_dx;
+    let mut grid_mass = 0.0;
+    st.for_each_node(shape, |i, w, _| grid_mass += w * mass[i]);
+    let rho = grid_mass * inv_cell_volume;
+    let volume = m_p / rho;
+    let pressure = mat.pressure(rho);
+    let stress = Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * mat.viscosity;
+    // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
+    let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
+    (rho, v * m_p, affine)
+}
+
+/// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, and free slip
+/// in the boundary band.
+#[inline(always)]
+pub fn node_velocity(params: &Params, shape: GridShape, index: usize, m: f32, mv: Vec3) -> Vec3 {
+    let mut v = mv / m + Vec3::from(params.gravity) * params.dt;
+    let node = shape.node(index);
+    let (band, res) = (params.boundary_band, shape.res);
+    for a in 0..3 {
+        if node[a] < band || node[a] >= res[a] - band {
+            v[a] = 0.0;
+        }
+    }
+    v
+}
+
+/// g2p for one particle at `x`: velocity and C gathered from the grid velocities, the soft wall, then
+/// advection and the clamp. Returns the new `(x, v, C)`.
+#[inline(always)]
+pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec3) -> (Vec3, Vec3, Mat3) {
+    let (dx, dt, inv_dx) = (params.dx, params.dt, params.inv_dx);
+    let res = shape.res.as_vec3();
+    let mut v = Vec3::ZERO;
+    let mut b = Mat3::ZERO;
+    Stencil::new(x, inv_dx).for_each_node(shape, |i, w, d| {
+        let wv = w * velocity[i];
+        v += wv;
+        b += Mat3::from_cols(wv * d.x, wv * d.y, wv * d.z); // w v_i d^T
+    });
+    let tau = params.soft_wall_tau;
+    if tau > 0.0 {
+        let wall_lo = Vec3::splat((params.boundary_band + 1) as f32 * dx);
+        let wall_hi = (res - (params.boundary_band + 2) as f32) * dx;
+        let predicted = x + v * tau;
+        v += (wall_lo - predicted).max(Vec3::ZERO) / tau;
+        v -= (predicted - wall_hi).max(Vec3::ZERO) / tau;
+    }
+    let (lo, hi) = (Vec3::splat(dx), (res - 2.0) * dx);
+    (((x + v * dt).clamp(lo, hi)), v, b * (4.0 * inv_dx))
+}
+
 pub struct CpuSolver {
     pub particles: Particles,
     pub grid: Grid,
@@ -206,9 +272,6 @@ impl CpuSolver {
 
     /// Density from grid mass, Tait pressure, viscous stress; then momentum and stress to the grid.
     pub fn p2g(&mut self, params: &Params) {
-        let mat = &params.material;
-        let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
-        let inv_cell_volume = params.inv_dx * params.inv_dx * params.inv_dx;
         let Grid {
             shape,
             mass,
@@ -218,19 +281,9 @@ impl CpuSolver {
         let mut max_rho = 0.0f32;
         for n in 0..p.x.len() {
             let st = Stencil::new(p.x[n], params.inv_dx);
-            let mut grid_mass = 0.0;
-            st.for_each_node(*shape, |i, w, _| grid_mass += w * mass[i]);
-            let rho = grid_mass * inv_cell_volume;
+            let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.v[n], p.c[n]);
             p.rho[n] = rho;
             max_rho = max_rho.max(rho);
-
-            let volume = m_p / rho;
-            let pressure = mat.pressure(rho);
-            let c = p.c[n];
-            let stress = Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * mat.viscosity;
-            // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
-            let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
-            let mv = p.v[n] * m_p;
             st.for_each_node(*shape, |i, w, d| momentum[i] += w * (mv + affine * d));
         }
         self.extremes.max_density = self.extremes.max_density.max(max_rho);
@@ -238,61 +291,31 @@ impl CpuSolver {
 
     /// Momentum to velocity, gravity, free-slip walls in the boundary band.
     pub fn grid_update(&mut self, params: &Params) {
-        let gravity = Vec3::from(params.gravity) * params.dt;
-        let band = params.boundary_band;
         let Grid {
             shape,
             mass,
             momentum,
         } = &mut self.grid;
-        let res = shape.res;
         for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
-            if m <= 0.0 {
-                continue;
+            if m > 0.0 {
+                *mv = node_velocity(params, *shape, i, m, *mv);
             }
-            let mut v = *mv / m + gravity;
-            let node = shape.node(i);
-            for a in 0..3 {
-                if node[a] < band || node[a] >= res[a] - band {
-                    v[a] = 0.0;
-                }
-            }
-            *mv = v;
         }
     }
 
     /// Velocity and C from the grid, then advection, soft wall and clamp; and the extremes the next
     /// substep is chosen from (each particle's own signal speed c(rho_p) + |v_p|).
     pub fn g2p(&mut self, params: &Params) {
-        let (dx, dt, inv_dx) = (params.dx, params.dt, params.inv_dx);
         let Grid {
             shape,
             momentum: velocity,
             ..
         } = &self.grid;
-        let res = shape.res.as_vec3();
-        let (lo, hi) = (Vec3::splat(dx), (res - 2.0) * dx);
-        let wall_lo = Vec3::splat((params.boundary_band + 1) as f32 * dx);
-        let wall_hi = (res - (params.boundary_band + 2) as f32) * dx;
-        let tau = params.soft_wall_tau;
         let p = &mut self.particles;
         let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
         for n in 0..p.x.len() {
-            let mut v = Vec3::ZERO;
-            let mut b = Mat3::ZERO;
-            Stencil::new(p.x[n], inv_dx).for_each_node(*shape, |i, w, d| {
-                let wv = w * velocity[i];
-                v += wv;
-                b += Mat3::from_cols(wv * d.x, wv * d.y, wv * d.z); // w v_i d^T
-            });
-            if tau > 0.0 {
-                let predicted = p.x[n] + v * tau;
-                v += (wall_lo - predicted).max(Vec3::ZERO) / tau;
-                v -= (predicted - wall_hi).max(Vec3::ZERO) / tau;
-            }
-            p.c[n] = b * (4.0 * inv_dx);
-            p.v[n] = v;
-            p.x[n] = (p.x[n] + v * dt).clamp(lo, hi);
+            let (x, v, c) = g2p_particle(params, *shape, velocity, p.x[n]);
+            (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let speed = v.length();
             max_speed = max_speed.max(speed);
             max_signal = max_signal.max(params.material.sound_speed_at(p.rho[n]) + speed);

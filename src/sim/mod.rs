@@ -2,6 +2,7 @@
 //! It knows nothing of windows, GL or files beyond scene text.
 
 pub mod cpu;
+pub mod cpu_parallel;
 pub mod params;
 pub mod presets;
 pub mod push;

@@ -7,7 +7,7 @@ use std::mem::{offset_of, size_of};
 /// Simulated seconds per displayed frame: the runner and the viewer advance one 60 Hz frame at a time.
 pub const FRAME_DT: f32 = 1.0 / 60.0;
 
-/// The constitutive law of the fluid: the one owner of these values (physics.md, "Material").
+/// The constitutive law of the fluid: the one owner of these values (docs/physics.md, "Parameters").
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Material {

@@ -2,10 +2,18 @@
 //! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 5] = ["dam-break", "double-dam-break", "drop", "bench-65k", "bench-655k"];
+pub const NAMES: [&str; 6] = [
+    "dam-break",
+    "dam-break-coarse",
+    "double-dam-break",
+    "drop",
+    "bench-65k",
+    "bench-655k",
+];
 
-const FILES: [&str; 5] = [
+const FILES: [&str; 6] = [
     include_str!("../../scenes/dam-break.toml"),
+    include_str!("../../scenes/dam-break-coarse.toml"),
     include_str!("../../scenes/double-dam-break.toml"),
     include_str!("../../scenes/drop.toml"),
     include_str!("../../scenes/bench-65k.toml"),

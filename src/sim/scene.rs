@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
 
-/// The largest CFL number the solver is stable at (physics.md: "C about 0.3-0.5").
+/// The largest CFL number the solver is stable at (docs/physics.md, "The time step").
 pub const MAX_CFL: f32 = 0.5;
 
 /// A scene that could not be loaded: where, which key, what is wrong, and how to fix it.
@@ -137,6 +137,10 @@ impl Default for SolverSpec {
         }
     }
 }
+
+/// `time_step.max_substeps` when a scene gives none: past this many substeps per frame the CFL
+/// policy calls the fluid diverged.
+pub const DEFAULT_MAX_SUBSTEPS: u32 = 2000;
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -268,11 +272,37 @@ impl Scene {
                 ),
             });
         }
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-            source: name_or_path.to_string(),
-            key: String::new(),
-            problem: format!("cannot be read: {e}"),
-            fix: "check the path; `mpm scenes` lists the built-in presets".into(),
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            use std::io::ErrorKind;
+            let (problem, fix) = match e.kind() {
+                // Not UTF-8: a binary or random file, not a mistyped path.
+                ErrorKind::InvalidData => (
+                    "is not a text file, so not a scene (a scene is a TOML text file)".to_string(),
+                    "give a .toml scene file; `mpm scenes --show dam-break` prints one to start from",
+                ),
+                ErrorKind::NotFound => (
+                    "does not exist".to_string(),
+                    "check the path; `mpm scenes` lists the built-in presets",
+                ),
+                _ if path.is_dir() => (
+                    "is a directory".to_string(),
+                    "give the path of a .toml scene file inside it",
+                ),
+                ErrorKind::PermissionDenied => (
+                    format!("cannot be read: {e}"),
+                    "the file is not readable by you: check its permissions",
+                ),
+                _ => (
+                    format!("cannot be read: {e}"),
+                    "check the path; `mpm scenes` lists the built-in presets",
+                ),
+            };
+            SceneError {
+                source: name_or_path.to_string(),
+                key: String::new(),
+                problem,
+                fix: fix.into(),
+            }
         })?;
         Scene::from_toml(&text, name_or_path)
     }
@@ -776,12 +806,12 @@ impl Validator<'_> {
                         "use 0.3 to 0.5; 0.4 is the default",
                     ));
                 }
-                let max_substeps = t.max_substeps.unwrap_or(2000);
+                let max_substeps = t.max_substeps.unwrap_or(DEFAULT_MAX_SUBSTEPS);
                 if max_substeps == 0 {
                     return Err(self.err(
                         "time_step.max_substeps",
                         "must be at least 1",
-                        "drop it (default 2000)",
+                        format!("drop it (default {DEFAULT_MAX_SUBSTEPS})"),
                     ));
                 }
                 Ok(TimeStepPolicy::Cfl { cfl, max_substeps })
@@ -912,10 +942,20 @@ impl TimeStepPolicy {
                 let n = (span * signal_speed / (cfl * dx)).ceil().max(1.0);
                 let per_frame = n * FRAME_DT / span;
                 if per_frame > max_substeps as f32 {
-                    return Err(format!(
-                        "the fluid is blowing up: a signal speed of {signal_speed:.1} m/s needs {per_frame:.0} \
-                         substeps per frame, over time_step.max_substeps = {max_substeps}"
-                    ));
+                    // Past the default only a runaway speed gets here; below it, the cap may simply
+                    // be lower than this scene needs.
+                    return Err(if per_frame > DEFAULT_MAX_SUBSTEPS as f32 {
+                        format!(
+                            "the fluid is blowing up: a signal speed of {signal_speed:.1} m/s needs \
+                             {per_frame:.0} substeps per frame, over time_step.max_substeps = {max_substeps}"
+                        )
+                    } else {
+                        format!(
+                            "a signal speed of {signal_speed:.1} m/s needs {per_frame:.0} substeps per frame, \
+                             more than time_step.max_substeps = {max_substeps} allows; raise max_substeps \
+                             (the default is {DEFAULT_MAX_SUBSTEPS}) or lower the scene's speeds"
+                        )
+                    });
                 }
                 Ok((n as u32, span / n))
             }

@@ -5,17 +5,18 @@
 
 use super::params::{Material, Params, FRAME_DT};
 use super::push::{ColourBy, Push};
-use super::scene::{Particles, Scene};
+use super::scene::{Particles, Scene, MAX_CFL};
 use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
+use std::time::Instant;
 
 /// The largest values any particle reached over the substeps since they were last taken.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepExtremes {
     pub max_density: f32,
     pub max_speed: f32,
-    /// max_p (c(rho_p) + |v_p|), m/s: physics.md's CFL number is this times dt / dx. The substep is
+    /// max_p (c(rho_p) + |v_p|), m/s: docs/physics.md's CFL number is this times dt / dx. The substep is
     /// chosen from c(max density) + max speed instead, an upper bound of it: at an impact the densest
     /// particles are the ones that just stopped, so the bound leaves headroom for the next impact.
     pub max_signal_speed: f32,
@@ -223,6 +224,9 @@ pub struct FrameStats {
     pub dt: f32,
     /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
     pub max_cfl: f32,
+    /// Substeps of the frame run in a stretch whose CFL number went above [`MAX_CFL`] (0 when the
+    /// bound held). The step cannot be taken back, so these are counted and reported instead.
+    pub substeps_over_cfl: u32,
     #[serde(flatten)]
     pub summary: Summary,
     /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
@@ -236,6 +240,8 @@ pub struct FrameSteps {
     /// The smallest substep of the frame, s.
     pub dt: f32,
     pub max_cfl: f32,
+    /// See [`FrameStats::substeps_over_cfl`].
+    pub substeps_over_cfl: u32,
     pub timings: Option<PhaseTimings>,
 }
 
@@ -252,6 +258,29 @@ pub struct Simulation {
     signal_rise: f32,
     /// The last frame's per-substep timings, for the benches' medians.
     last_step_timings: Vec<PhaseTimings>,
+    /// A frame begun by [`Simulation::step_frame_until`] and not finished yet.
+    in_progress: Option<FramePart>,
+}
+
+/// What a frame's substeps have done so far.
+#[derive(Debug, Clone, Copy)]
+struct FramePart {
+    substeps: u32,
+    smallest_dt: f32,
+    max_cfl: f32,
+    over_cfl: u32,
+    /// Simulated seconds of the frame so far.
+    simulated: f64,
+}
+
+impl FramePart {
+    const START: FramePart = FramePart {
+        substeps: 0,
+        smallest_dt: f32::INFINITY,
+        max_cfl: 0.0,
+        over_cfl: 0,
+        simulated: 0.0,
+    };
 }
 
 impl Simulation {
@@ -272,6 +301,7 @@ impl Simulation {
             signal_speed,
             signal_rise: 0.0,
             last_step_timings: Vec::new(),
+            in_progress: None,
         }
     }
 
@@ -289,6 +319,10 @@ impl Simulation {
     }
     pub fn time(&self) -> f64 {
         self.time
+    }
+    /// Simulated seconds including the part of a frame begun by [`Self::step_frame_until`].
+    pub fn time_stepped(&self) -> f64 {
+        self.time + self.in_progress.map_or(0.0, |part| part.simulated)
     }
     /// One timing record per substep of the last frame (empty where the backend measures none).
     pub fn last_step_timings(&self) -> &[PhaseTimings] {
@@ -328,6 +362,7 @@ impl Simulation {
             substeps: steps.substeps,
             dt: steps.dt,
             max_cfl: steps.max_cfl,
+            substeps_over_cfl: steps.substeps_over_cfl,
             summary,
             timings: steps.timings,
         })
@@ -338,28 +373,65 @@ impl Simulation {
     /// substeps from the extremes of the ones before, always to cover what is left of the frame, so
     /// the last choice ends exactly on it.
     pub fn step_frame(&mut self) -> Result<FrameSteps> {
+        loop {
+            if let Some(steps) = self.step_frame_until(None)? {
+                return Ok(steps);
+            }
+        }
+    }
+
+    /// [`Self::step_frame`] that stops once `deadline` has passed (checked after every substep) and
+    /// returns `None`; the next call goes on with the same frame. The viewer uses it so that a frame
+    /// that takes seconds on a CPU never stops the window from answering for longer than a substep.
+    pub fn step_frame_until(&mut self, deadline: Option<Instant>) -> Result<Option<FrameSteps>> {
         let per_choice = self.scene.time_step.substeps_per_choice();
-        let (mut substeps, mut smallest_dt, mut max_cfl, mut simulated) = (0, f32::INFINITY, 0.0f32, 0.0f64);
+        let FramePart {
+            mut substeps,
+            mut smallest_dt,
+            mut max_cfl,
+            mut over_cfl,
+            mut simulated,
+        } = self.in_progress.take().unwrap_or(FramePart::START);
+        let late = || deadline.is_some_and(|d| Instant::now() >= d);
         loop {
             let left = f64::from(FRAME_DT) - simulated;
             let (to_frame_end, dt) = self.steps_for(left as f32)?;
-            let n = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
+            let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
-            for _ in 0..n {
+            let mut n = 0;
+            while n < planned {
                 self.solver.step(&self.params)?;
+                n += 1;
+                if late() {
+                    break;
+                }
             }
             let extremes = self.solver.take_extremes()?;
             // The step is chosen from the pairing of the largest density with the largest speed; the
-            // CFL number reported is physics.md's, each particle's own (see StepExtremes).
+            // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
             let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
             self.signal_rise = (bound - self.signal_speed).max(0.0);
             self.signal_speed = bound;
-            max_cfl = max_cfl.max(extremes.max_signal_speed * dt / self.params.dx);
+            let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
+            max_cfl = max_cfl.max(stretch_cfl);
+            if stretch_cfl > MAX_CFL {
+                over_cfl += n; // the stretch's extremes are all there is: count all its substeps
+            }
             substeps += n;
             smallest_dt = smallest_dt.min(dt);
             simulated += f64::from(n) * f64::from(dt);
             if n == to_frame_end {
                 break;
+            }
+            if late() {
+                self.in_progress = Some(FramePart {
+                    substeps,
+                    smallest_dt,
+                    max_cfl,
+                    over_cfl,
+                    simulated,
+                });
+                return Ok(None);
             }
         }
         self.frame += 1;
@@ -371,12 +443,13 @@ impl Simulation {
         if !self.signal_speed.is_finite() {
             return Err(diverged(self.frame));
         }
-        Ok(FrameSteps {
+        Ok(Some(FrameSteps {
             substeps,
             dt: smallest_dt,
             max_cfl,
+            substeps_over_cfl: over_cfl,
             timings,
-        })
+        }))
     }
 
     /// Gives the particles near a ray a velocity change (the viewer's mouse push). The next frame's

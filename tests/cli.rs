@@ -1,0 +1,205 @@
+//! The command line as a user meets it: help, misplaced options, numbers, and paths checked before
+//! the first step. Each case runs the `mpm` binary and reads what it says; none needs a GPU or a
+//! display.
+
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn mpm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn top_level_help_lists_commands_not_viewer_options() {
+    let out = mpm(&["--help"]);
+    assert!(out.status.success());
+    let text = stdout(&out);
+    assert!(text.contains("Commands:") && text.contains("run"), "{text}");
+    assert!(
+        !text.contains("--fixed-frames"),
+        "viewer options at the top level:\n{text}"
+    );
+    assert!(
+        text.contains("mpm view"),
+        "says where the viewer's options are:\n{text}"
+    );
+}
+
+#[test]
+fn options_before_a_command_say_where_they_go() {
+    let out = mpm(&["--scene", "drop", "run"]);
+    assert!(!out.status.success());
+    let text = stderr(&out);
+    assert!(text.contains("mpm run --scene drop"), "{text}");
+}
+
+#[test]
+fn scenes_show_without_a_name_lists_the_presets() {
+    let out = mpm(&["scenes", "--show"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    for preset in mpm::sim::presets::NAMES {
+        assert!(text.contains(preset), "{preset} missing from:\n{text}");
+    }
+}
+
+#[test]
+fn negative_and_zero_numbers_are_named() {
+    for (args, words) in [
+        (&["run", "--frames", "-1"][..], "-1 is too small"),
+        (&["run", "--export", "x", "--every", "0"][..], "0 is too small"),
+        (&["view", "--fixed-frames", "0"][..], "0 is too small"),
+        (&["view", "--fixed-frames", "1000"][..], "1 to 60"),
+        (
+            &["render", "--frames", "100000", "--no-images"][..],
+            "at most 99999",
+        ),
+        (&["bench", "--steps", "-5"][..], "-5 is too small"),
+    ] {
+        let out = mpm(args);
+        assert!(!out.status.success(), "{args:?} accepted");
+        let text = stderr(&out);
+        assert!(
+            text.contains(words) && !text.contains("unexpected argument"),
+            "{args:?}: {text}"
+        );
+    }
+}
+
+/// Every path the viewer writes is checked before the window opens (here there is no display, so a
+/// late check would be reported as the missing display instead).
+#[test]
+fn viewer_paths_are_checked_before_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing");
+    let shot = missing.join("x.png");
+    let out = mpm(&["view", "--final-screenshot", shot.to_str().unwrap()]);
+    let text = stderr(&out);
+    assert!(!out.status.success() && text.contains("does not exist"), "{text}");
+    assert!(!text.contains("window"), "checked only after the window: {text}");
+
+    let out = mpm(&["view", "--capture-dir", missing.to_str().unwrap()]);
+    let text = stderr(&out);
+    assert!(!out.status.success() && text.contains("--capture-dir"), "{text}");
+    assert!(!text.contains("window"), "checked only after the window: {text}");
+    assert!(!shot.exists() && !missing.exists(), "nothing is created");
+}
+
+/// Without a display the viewer says so, without winit's source path.
+#[test]
+fn viewer_without_a_display_says_so_plainly() {
+    let out = mpm(&["view", "--scene", "bench-65k"]);
+    let text = stderr(&out);
+    assert!(!out.status.success());
+    assert!(text.contains("display") && !text.contains(".rs:"), "{text}");
+}
+
+#[test]
+fn export_onto_a_file_says_it_is_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("frames");
+    std::fs::write(&file, "x").unwrap();
+    let out = mpm(&["run", "--frames", "1", "--export", file.to_str().unwrap()]);
+    let text = stderr(&out);
+    assert!(
+        !out.status.success() && text.contains("is a file, not a directory"),
+        "{text}"
+    );
+}
+
+/// A huge --frames is accepted and simply runs (it used to abort reserving memory for every frame).
+#[test]
+fn a_huge_frame_count_starts_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("tiny.toml");
+    std::fs::write(
+        &scene,
+        "[domain]\nsize = [0.1, 0.1, 0.1]\nresolution = [10, 10, 10]\n[material]\nrest_density = 1000.0\n\
+         sound_speed = 10.0\n[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.05, 0.05, 0.05]\n",
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args(["run", "--backend", "cpu", "--frames", "99999999999", "--scene"])
+        .arg(&scene)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let mut first = String::new();
+    {
+        use std::io::BufRead;
+        let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        while start.elapsed() < Duration::from_secs(60) {
+            match lines.next() {
+                Some(Ok(line)) if line.starts_with("frame") => {
+                    first = line;
+                    break;
+                }
+                Some(Ok(_)) => continue,
+                _ => break,
+            }
+        }
+    }
+    let status = child.try_wait().unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(status.is_none(), "mpm ended: {status:?}");
+    assert!(first.starts_with("frame     1"), "no frame line: {first:?}");
+}
+
+/// `mpm render` that fails after checking its --out folder (here: the CUDA backend without a GPU,
+/// or no EGL) leaves no folder behind. On a machine where it succeeds there is nothing to check.
+#[test]
+fn a_failed_render_leaves_no_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("new").join("frames");
+    let out = mpm(&[
+        "render",
+        "--backend",
+        "cuda",
+        "--frames",
+        "1",
+        "--size",
+        "64x64",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    if !out.status.success() {
+        assert!(
+            !dir.path().join("new").exists(),
+            "left {}: {}",
+            out_dir.display(),
+            stderr(&out)
+        );
+    }
+}
+
+/// The folder of a frame sequence that never got a frame is removed with it (the unit behind the
+/// test above, which needs a failing machine).
+#[test]
+fn an_unused_frame_sequence_removes_its_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("a").join("b");
+    let sequence = mpm::render::capture::FrameSequence::create(&out_dir, 3).unwrap();
+    assert!(out_dir.is_dir());
+    drop(sequence);
+    assert!(!dir.path().join("a").exists(), "left the folders behind");
+    // A folder that existed before is left alone.
+    let sequence = mpm::render::capture::FrameSequence::create(dir.path(), 3).unwrap();
+    drop(sequence);
+    assert!(dir.path().is_dir());
+}
