@@ -5,8 +5,10 @@
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
+mod common;
+
 fn mpm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mpm"))
+    Command::new(common::mpm_binary())
         .args(args)
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
@@ -131,7 +133,7 @@ fn a_huge_frame_count_starts_running() {
          sound_speed = 10.0\n[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.05, 0.05, 0.05]\n",
     )
     .unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mpm"))
+    let mut child = Command::new(common::mpm_binary())
         .args(["run", "--backend", "cpu", "--frames", "99999999999", "--scene"])
         .arg(&scene)
         .stdout(std::process::Stdio::piped())

@@ -9,6 +9,8 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
 mod harness;
 
 fn main() -> std::process::ExitCode {
@@ -118,7 +120,7 @@ fn viewer_window_shows_particles() {
          [[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.2, 0.3, 0.2]\n",
     )
     .expect("writing the scene");
-    let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+    let output = Command::new(common::mpm_binary())
         .args([
             "view",
             "--backend",
@@ -177,7 +179,7 @@ fn viewer_splits_slow_frames_across_draws() {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
     let dir = tempfile::tempdir().expect("temp dir");
-    let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+    let output = Command::new(common::mpm_binary())
         .args([
             "view",
             "--backend",

@@ -6,6 +6,12 @@ use mpm::sim::{Params, Particles, Scene};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
+/// The `mpm` binary cargo built beside the tests; where they run elsewhere (the executables copied
+/// to a GPU machine), `MPM_BIN` names it.
+pub fn mpm_binary() -> std::path::PathBuf {
+    std::env::var_os("MPM_BIN").map_or_else(|| env!("CARGO_BIN_EXE_mpm").into(), Into::into)
+}
+
 /// A scene from inline TOML; panics with the validation message if the test wrote a bad one.
 pub fn scene(toml: &str) -> Scene {
     Scene::from_toml(toml, "test scene").unwrap_or_else(|e| panic!("{e}"))
