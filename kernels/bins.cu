@@ -102,8 +102,12 @@ extern "C" __global__ void sort_scatter(u32 num_particles,
     }
 }
 
-// The bins that hold particles, each once, with the start and length of its run in `order`; the
-// list's length goes to work_counts[WORK_BINS] (zeroed before). Its order varies from run to run.
+// The bins that hold particles, as chunks of at most BIN_CHUNK particles each (a bin's run in `order`
+// cut in turn), with the start and length of each chunk; the list's length goes to
+// work_counts[WORK_BINS] (zeroed before). A tiled pass takes a chunk per CUDA block, a thread per
+// particle, so a bin of 512 particles keeps 4 blocks busy rather than one thread on 4 particles; the
+// cells inside a bin are sorted, so a chunk covers a compact slab of them. The list's order varies
+// from run to run.
 extern "C" __global__ void bin_list(const u32 num_bins,
                                    const u32 num_particles,
                                    const u32* __restrict__ cell_starts,  // BIN_CELLS per bin
@@ -115,11 +119,21 @@ extern "C" __global__ void bin_list(const u32 num_bins,
             start = cell_starts[b * BIN_CELLS];
             count = (b + 1 < num_bins ? cell_starts[(b + 1) * BIN_CELLS] : num_particles) - start;
         }
+        const u32 chunks = (count + BIN_CHUNK - 1) / BIN_CHUNK;
+        // An exclusive scan of the warp's chunk counts, then one atomic for the warp's total.
         const u32 lane = threadIdx.x & 31u;
-        const u32 listed = __ballot_sync(0xffffffffu, count > 0);
+        u32 before = chunks;
+        for (u32 offset = 1; offset < 32; offset <<= 1) {
+            const u32 other = __shfl_up_sync(0xffffffffu, before, offset);
+            if (lane >= offset) before += other;
+        }
+        const u32 total = __shfl_sync(0xffffffffu, before, 31);
+        before -= chunks;
         u32 slot = 0;
-        if (lane == 0 && listed) slot = atomicAdd(&work_counts[WORK_BINS], (u32)__popc(listed));
-        slot = __shfl_sync(0xffffffffu, slot, 0) + (u32)__popc(listed & ((1u << lane) - 1u));
-        if (count > 0) list[slot] = BinEntry{b, start, count, 0u};
+        if (lane == 0 && total) slot = atomicAdd(&work_counts[WORK_BINS], total);
+        slot = __shfl_sync(0xffffffffu, slot, 0) + before;
+        for (u32 k = 0; k < chunks; ++k) {
+            list[slot + k] = BinEntry{b, start + k * BIN_CHUNK, min(BIN_CHUNK, count - k * BIN_CHUNK), 0u};
+        }
     }
 }

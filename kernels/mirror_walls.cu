@@ -1,94 +1,174 @@
-// mirror_walls: adds the mirror image of the fluid beyond the two walls of one axis to the grid, in
-// place; the rule and the summation order of `mirror_walls` in src/sim/cpu.rs. For the wall plane at
-// node W, the pair of nodes (W - d, W + d) ends with the sum of both (the image's share), W itself
-// with twice its own; momentum is reflected (its wall-normal component negated), so the normal
-// momentum cancels on the plane. Launched once per axis, x then y then z, which also gives the images
-// at edges and corners: for the mass after p2g_init, for the momentum after p2g.
-// One thread per grid line along the axis: it owns every node it touches, so no atomics are needed.
-// In the binned pipeline (marks given), a pair whose two node blocks no scatter touched holds zeros
-// and is skipped, and a pair written marks its blocks, so grid_update_blocks consumes what the images
-// add; the report's pipeline passes null marks and walks every line.
+// mirror_walls: adds the mirror image of the fluid beyond the walls to the grid, in place, for the
+// mass (after the mass scatter) or the momentum (after p2g); the rule of `mirror_walls` in
+// src/sim/cpu.rs. There, for each axis in turn (x, then y, then z) and each wall plane W of it, the
+// pair of nodes (W - d, W + d), d up to the wall's reach, ends with the sum of both, W itself with
+// twice its own, and momentum is reflected (its wall-normal component negated), so the normal momentum
+// cancels on the plane; doing the axes in turn gives the images at edges and corners.
+//
+// Here in one launch: the three passes are linear and the reflections of different axes commute, so a
+// node n ends with the sum, over the subsets U of the axes on which it lies within a wall's reach, of
+// its reflection R_U(n)'s value reflected on U. The nodes R_T(n) form an orbit of up to 8 nodes, each
+// ending with such a sum over the same orbit: one thread per orbit reads its values, writes the sums,
+// and touches no other thread's nodes. (Floats add in another order than the per-axis passes; fixed
+// point gives the same integers.) The orbit's thread is the one at its representative, the node on
+// the fluid's side of every wall it is near; the launch covers, per axis, the slabs of the fluid's
+// side of that axis's two walls, and a node in several slabs (an edge or corner) is taken by the
+// slab of its lowest such axis.
+//
+// In the binned pipeline (marks given), an orbit whose node blocks no scatter touched holds zeros and
+// is skipped, and one written marks its blocks, so grid_update_blocks consumes what the images add;
+// the report's pipeline passes null marks and visits every orbit.
 #include "tiles.cuh"
 
 #define MIRROR_MASS 0u
 #define MIRROR_MOMENTUM 1u
 
-// out = a + reflect(b) and in = b + reflect(a), for the pair (a at `out`, b at `in`); out == in on the plane.
-__device__ __forceinline__ void mirror_pair(const Params& params, u32 axis, u32 quantity, size_t out, size_t in,
-                                            float4* grid_acc, u64* fixed_mass, u64* fixed_momentum) {
-    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    if (quantity == MIRROR_MASS) {
-        if (fixed) {
-            const u64 a = fixed_mass[out], b = fixed_mass[in];
-            fixed_mass[out] = a + b;
-            fixed_mass[in] = b + a;
-        } else {
-            const float a = grid_acc[out].w, b = grid_acc[in].w;
-            grid_acc[out].w = a + b;
-            grid_acc[in].w = b + a;
-        }
-        return;
-    }
-    if (fixed) {
-        u64 a[3], b[3];
-        for (int c = 0; c < 3; ++c) {
-            a[c] = fixed_momentum[3 * out + c];
-            b[c] = fixed_momentum[3 * in + c];
-        }
-        for (int c = 0; c < 3; ++c) {
-            const bool normal = c == (int)axis;
-            fixed_momentum[3 * out + c] = a[c] + (normal ? (u64)(-(i64)b[c]) : b[c]);
-            fixed_momentum[3 * in + c] = b[c] + (normal ? (u64)(-(i64)a[c]) : a[c]);
-        }
-    } else {
-        const float4 a = grid_acc[out], b = grid_acc[in];
-        float ra[3] = {a.x, a.y, a.z}, rb[3] = {b.x, b.y, b.z};
-        ra[axis] = -ra[axis];
-        rb[axis] = -rb[axis];
-        grid_acc[out] = make_float4(a.x + rb[0], a.y + rb[1], a.z + rb[2], a.w);
-        grid_acc[in] = make_float4(b.x + ra[0], b.y + ra[1], b.z + ra[2], b.w);
-    }
+// One axis's two walls: node planes and reaches (the pairs W +- d stay inside the grid).
+struct MirrorAxis {
+    u32 lo, lo_reach, hi, hi_reach;
+};
+
+__device__ __forceinline__ MirrorAxis mirror_axis(const Params& params, int a) {
+    const u32 r = params.grid_res[a];
+    const u32 lo = params.wall_mirror_lo, hi = params.wall_mirror_hi[a];
+    return MirrorAxis{lo, min(lo, r - 1 - lo), hi, min(hi, r - 1 - hi)};
 }
 
-__device__ __forceinline__ u32 node_block_of(const Params& params, const NodeBlocks& blocks, size_t i) {
-    const u32 rx = params.grid_res[0], ry = params.grid_res[1];
-    return node_block_index(blocks, (u32)(i % rx) / NODE_BLOCK_EDGE, (u32)((i / rx) % ry) / NODE_BLOCK_EDGE,
-                            (u32)(i / ((size_t)rx * ry)) / NODE_BLOCK_EDGE);
+// 1: within the low wall's reach, 2: the high wall's, 0: neither (the host checks they are apart).
+__device__ __forceinline__ int mirror_zone(const MirrorAxis& m, u32 c) {
+    if (c + m.lo_reach >= m.lo && c <= m.lo + m.lo_reach) return 1;
+    if (c + m.hi_reach >= m.hi && c <= m.hi + m.hi_reach) return 2;
+    return 0;
 }
 
-extern "C" __global__ void mirror_walls(const Params params, const u32 axis, const u32 quantity,
+__device__ __forceinline__ bool mirror_fluid_side(const MirrorAxis& m, int zone, u32 c) {
+    return zone == 1 ? c >= m.lo : c <= m.hi;
+}
+
+__device__ __forceinline__ u32 mirror_reflect(const MirrorAxis& m, int zone, u32 c) {
+    return zone == 1 ? 2 * m.lo - c : 2 * m.hi - c;
+}
+
+// Fluid-side coordinates of an axis's two walls: lo..lo + lo_reach, then hi - hi_reach..hi.
+__device__ __forceinline__ u32 mirror_slab_width(const MirrorAxis& m) {
+    return m.lo_reach + 1 + m.hi_reach + 1;
+}
+
+__device__ __forceinline__ u32 mirror_slab_coordinate(const MirrorAxis& m, u32 k) {
+    return k <= m.lo_reach ? m.lo + k : m.hi - m.hi_reach + (k - m.lo_reach - 1);
+}
+
+extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
                                         float4* __restrict__ grid_acc,
                                         u64* __restrict__ fixed_mass,
                                         u64* __restrict__ fixed_momentum,
                                         u32* block_marks, u32* block_list, u32* work_counts) {
     if (params.wall_mirror_lo == 0) return;
+    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
-    const size_t stride[3] = {1, res[0], (size_t)res[0] * res[1]};
-    // The two axes across the lines; consecutive threads take neighbouring lines along the smaller
-    // stride (x before y before z), so their accesses coalesce where the layout allows.
-    const u32 inner = axis == 0 ? 1 : 0, outer = axis == 2 ? 1 : 2;
-    const u32 walls[2] = {params.wall_mirror_lo, params.wall_mirror_hi[axis]};
+    const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
+    // Slab of axis a: its fluid-side coordinates (fastest), then the other two axes in order.
+    u32 slab[3];
+    for (int a = 0; a < 3; ++a) slab[a] = mirror_slab_width(m[a]) * res[(a + 1) % 3] * res[(a + 2) % 3];
     const NodeBlocks blocks = node_blocks(params);
-    const BlockMarks marks{block_marks, block_list, work_counts};
-    // The report's pipeline (no marks) mirrors every pair; the binned one only pairs that hold something.
-    auto mirror = [&](size_t out, size_t in) {
-        if (block_marks) {
-            const u32 bo = node_block_of(params, blocks, out), bi = node_block_of(params, blocks, in);
-            if (!block_marks[bo] && !block_marks[bi]) return;
-            mark_node_block(marks, bo);
-            mark_node_block(marks, bi);
-        }
-        mirror_pair(params, axis, quantity, out, in, grid_acc, fixed_mass, fixed_momentum);
-    };
 
-    FOR_EACH_INDEX(line_index, res[inner] * res[outer]) {
-        const size_t line = (line_index % res[inner]) * stride[inner] + (line_index / res[inner]) * stride[outer];
-        for (int k = 0; k < 2; ++k) {
-            const u32 wall = walls[k];
-            const u32 reach = min(wall, res[axis] - 1 - wall);
-            const size_t plane = line + wall * stride[axis];
-            mirror(plane, plane);
-            for (u32 d = 1; d <= reach; ++d) mirror(line + (wall - d) * stride[axis], line + (wall + d) * stride[axis]);
+    FOR_EACH_INDEX(t, slab[0] + slab[1] + slab[2]) {
+        const int a = t < slab[0] ? 0 : t < slab[0] + slab[1] ? 1 : 2;
+        const u32 i = t - (a > 0 ? slab[0] : 0) - (a > 1 ? slab[1] : 0);
+        const u32 width = mirror_slab_width(m[a]);
+        u32 c[3];
+        c[a] = mirror_slab_coordinate(m[a], i % width);
+        c[(a + 1) % 3] = (i / width) % res[(a + 1) % 3];
+        c[(a + 2) % 3] = i / (width * res[(a + 1) % 3]);
+
+        // The orbit's axes; this node is its representative only on the fluid side of each of them,
+        // and only in the slab of the lowest.
+        int zone[3];
+        u32 axes = 0;
+        bool representative = true;
+        for (int b = 0; b < 3; ++b) {
+            zone[b] = mirror_zone(m[b], c[b]);
+            if (zone[b] == 0) continue;
+            axes |= 1u << b;
+            representative &= b >= a && mirror_fluid_side(m[b], zone[b], c[b]);
+        }
+        if (!representative) continue;
+
+        // The orbit: node[T] = R_T(this node) for T a subset of `axes` (other slots unused), and the
+        // marks of its node blocks, all loaded at once (a chain of dependent loads would be the
+        // kernel's whole cost).
+        size_t node[8];
+        u32 block[8], marked[8];
+        bool touched = block_marks == nullptr;
+#pragma unroll
+        for (u32 T = 0; T < 8; ++T) {
+            if (T & ~axes) continue;
+            u32 r[3];
+            for (int b = 0; b < 3; ++b) r[b] = (T >> b) & 1u ? mirror_reflect(m[b], zone[b], c[b]) : c[b];
+            node[T] = r[0] + (size_t)res[0] * (r[1] + (size_t)res[1] * r[2]);
+            block[T] = node_block_index(blocks, r[0] / NODE_BLOCK_EDGE, r[1] / NODE_BLOCK_EDGE, r[2] / NODE_BLOCK_EDGE);
+            if (block_marks) marked[T] = block_marks[block[T]];
+        }
+        if (block_marks) {
+#pragma unroll
+            for (u32 T = 0; T < 8; ++T) touched |= !(T & ~axes) && marked[T] != 0u;
+        }
+        if (!touched) continue;  // every node of the orbit holds zeros
+
+        // Read the orbit, then write each node the sum over U of its reflection R_U's value, reflected
+        // on U (mass: the orbit's total; momentum: components on U negated).
+        const int channels = quantity == MIRROR_MASS ? 1 : 3;
+        i64 q[8][3];
+        float f[8][3];
+#pragma unroll
+        for (u32 T = 0; T < 8; ++T) {
+            if (T & ~axes) continue;
+#pragma unroll
+            for (int k = 0; k < 3; ++k) {
+                if (k >= channels) break;
+                if (fixed) q[T][k] = (i64)(quantity == MIRROR_MASS ? fixed_mass[node[T]] : fixed_momentum[3 * node[T] + k]);
+                else {
+                    const float4 acc = grid_acc[node[T]];
+                    f[T][k] = quantity == MIRROR_MASS ? acc.w : (k == 0 ? acc.x : k == 1 ? acc.y : acc.z);
+                }
+            }
+        }
+#pragma unroll
+        for (u32 T = 0; T < 8; ++T) {
+            if (T & ~axes) continue;
+            i64 qs[3] = {0, 0, 0};
+            float fs[3] = {0.0f, 0.0f, 0.0f};
+#pragma unroll
+            for (u32 U = 0; U < 8; ++U) {
+                if (U & ~axes) continue;
+#pragma unroll
+                for (int k = 0; k < 3; ++k) {
+                    if (k >= channels) break;
+                    const bool negate = quantity == MIRROR_MOMENTUM && ((U >> k) & 1u);
+                    if (fixed) qs[k] += negate ? -q[T ^ U][k] : q[T ^ U][k];
+                    else fs[k] += negate ? -f[T ^ U][k] : f[T ^ U][k];
+                }
+            }
+#pragma unroll
+            for (int k = 0; k < 3; ++k) {
+                if (k >= channels) break;
+                if (fixed) {
+                    if (quantity == MIRROR_MASS) fixed_mass[node[T]] = (u64)qs[k];
+                    else fixed_momentum[3 * node[T] + k] = (u64)qs[k];
+                }
+            }
+            if (!fixed) {
+                if (quantity == MIRROR_MASS) grid_acc[node[T]].w = fs[0];
+                else {
+                    grid_acc[node[T]].x = fs[0];
+                    grid_acc[node[T]].y = fs[1];
+                    grid_acc[node[T]].z = fs[2];
+                }
+            }
+            // An image written into an unmarked block: list it (mark_node_block, less its plain read).
+            if (block_marks && marked[T] == 0u && atomicExch(&block_marks[block[T]], 1u) == 0u) {
+                block_list[atomicAdd(&work_counts[WORK_NODE_BLOCKS], 1u)] = block[T];
+            }
         }
     }
 }

@@ -545,7 +545,10 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
     let mut covered = 0usize;
     let mut far = 0usize;
     for &[bin, start, count] in &list {
-        assert!(count > 0, "bin {bin} is listed without particles");
+        assert!(
+            count > 0 && count <= 128,
+            "a chunk of bin {bin} lists {count} particles (1 to 128)"
+        );
         let b = [
             bin % blocks[0],
             (bin / blocks[0]) % blocks[1],
@@ -569,7 +572,7 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
         covered += count as usize;
     }
     println!(
-        "{} bins hold {covered} of {n} particles; {} binnings in 400 substeps; {far} particle axes \
+        "{} chunks of bins hold {covered} of {n} particles; {} binnings in 400 substeps; {far} particle axes \
          past the bins' reach awaiting a rebin; {} tile misses",
         list.len(),
         gpu.binnings(),

@@ -18,8 +18,10 @@ const SCAN_ITEMS_PER_THREAD: usize = 8;
 pub const WORK_BINS: usize = 0;
 pub const WORK_NODE_BLOCKS: usize = 1;
 pub const WORK_COUNTS: usize = 2;
-/// u32 words of one listed bin (BinEntry in tiles.cuh: bin, start, count, pad).
+/// u32 words of one listed chunk of a bin (BinEntry in tiles.cuh: bin, start, count, pad).
 pub const BIN_ENTRY_WORDS: usize = 4;
+/// Particles per listed chunk at the most (BIN_CHUNK in tiles.cuh).
+pub const BIN_CHUNK: usize = 128;
 
 pub struct BinKernels {
     count: Kernel,
@@ -58,7 +60,8 @@ pub struct Bins {
     top: CudaSlice<u32>,
     /// Particle indices by bin (identity before the first rebuild).
     pub order: CudaSlice<u32>,
-    /// The bins that hold particles (BIN_ENTRY_WORDS each), where listed.
+    /// The bins that hold particles, in chunks of at most BIN_CHUNK particles (BIN_ENTRY_WORDS
+    /// each), where listed.
     pub list: Option<CudaSlice<u32>>,
 }
 
@@ -103,7 +106,10 @@ impl Bins {
                 .clone_htod(&identity)
                 .context("allocating the particle order")?,
             list: if with_list {
-                Some(alloc(BIN_ENTRY_WORDS * num_bins, "the bin list")?)
+                // A bin of c particles lists ceil(c / BIN_CHUNK) chunks: at most one per bin plus
+                // one per BIN_CHUNK particles.
+                let capacity = num_bins + num_particles / BIN_CHUNK;
+                Some(alloc(BIN_ENTRY_WORDS * capacity, "the bin list")?)
             } else {
                 None
             },
@@ -112,6 +118,11 @@ impl Bins {
 
     pub fn num_bins(&self) -> usize {
         self.num_bins
+    }
+
+    /// The most chunks the bin list can hold.
+    pub fn list_capacity(&self) -> usize {
+        self.list.as_ref().map_or(0, |l| l.len() / BIN_ENTRY_WORDS)
     }
 
     /// Rewrites `order` so that particles of one cell, and the cells of one bin, are consecutive, and

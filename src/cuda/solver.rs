@@ -482,7 +482,7 @@ impl CudaSolver {
     /// 32-bit accumulators per tile node (kernels/tiles.cuh).
     fn tiled_pass(&self, channels: u32) -> LaunchConfig {
         self.launcher
-            .over_list(self.bins.num_bins(), TILE_THREADS, channels * TILE_NODES * 4)
+            .over_list(self.bins.list_capacity(), TILE_THREADS, channels * TILE_NODES * 4)
     }
 
     /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
@@ -550,43 +550,53 @@ impl CudaSolver {
         self.mirror_walls(params, MirrorQuantity::Momentum)
     }
 
-    /// One launch per axis, x, y, z in turn: each axis's images must include the previous axes'.
+    /// All three axes' images in one launch, one thread per reflection orbit (kernels/mirror_walls.cu).
     fn mirror_walls(&mut self, params: &Params, quantity: MirrorQuantity) -> Result<()> {
         if params.wall_mirror_lo == 0 {
             return Ok(());
         }
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("mirror_walls");
+        // Each thread takes the fluid-side nodes of both walls of one axis within their reach, across
+        // the other two axes; the two walls' reaches must not meet (the kernel tells them apart).
+        let res = self.grid_res;
+        let mut threads = 0usize;
+        for a in 0..3 {
+            let (lo, hi) = (params.wall_mirror_lo, params.wall_mirror_hi[a]);
+            let (lo_reach, hi_reach) = (lo.min(res[a] - 1 - lo), hi.min(res[a] - 1 - hi));
+            ensure!(
+                lo + lo_reach < hi - hi_reach,
+                "the grid is too small for the wall mirror: {} nodes along axis {a}; use at least {}",
+                res[a],
+                2 * (lo + lo_reach + 1)
+            );
+            let across = res[(a + 1) % 3] as usize * res[(a + 2) % 3] as usize;
+            threads += (lo_reach + hi_reach + 2) as usize * across;
+        }
         let (fixed_mass, fixed_momentum) = self.fixed_grid();
         let (l, k) = (&self.launcher, &self.kernels);
-        // The report's pipeline walks every line (null marks); the binned one skips untouched blocks.
+        // The report's pipeline visits every orbit (null marks); the binned one skips untouched blocks.
         let null: u64 = 0;
         let binned = self.pipeline == Pipeline::Binned;
-        let res = self.grid_res.map(|r| r as usize);
-        for axis in 0..3u32 {
-            let lines = res[(axis as usize + 1) % 3] * res[(axis as usize + 2) % 3];
-            let quantity_code = quantity as u32;
-            // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's
-            // (or null pointers, which the kernel checks, for the report's pipeline).
-            unsafe {
-                k.mirror_walls.launch(l, l.cover(lines), |a| {
-                    a.arg(&params)
-                        .arg(&axis)
-                        .arg(&quantity_code)
-                        .arg(&self.grid_acc)
-                        .arg(fixed_mass)
-                        .arg(fixed_momentum);
-                    if binned {
-                        a.arg(&self.node_blocks.marks)
-                            .arg(&self.node_blocks.list)
-                            .arg(&self.work_counts);
-                    } else {
-                        a.arg(&null).arg(&null).arg(&null);
-                    }
-                })?;
-            }
+        let quantity_code = quantity as u32;
+        // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
+        // pointers, which the kernel checks, for the report's pipeline).
+        unsafe {
+            k.mirror_walls.launch(l, l.cover(threads), |a| {
+                a.arg(&params)
+                    .arg(&quantity_code)
+                    .arg(&self.grid_acc)
+                    .arg(fixed_mass)
+                    .arg(fixed_momentum);
+                if binned {
+                    a.arg(&self.node_blocks.marks)
+                        .arg(&self.node_blocks.list)
+                        .arg(&self.work_counts);
+                } else {
+                    a.arg(&null).arg(&null).arg(&null);
+                }
+            })
         }
-        Ok(())
     }
 
     /// Density from the grid mass, pressure and stress, momentum scatter. Float momentum goes to the
@@ -780,8 +790,8 @@ impl CudaSolver {
         self.download(&self.bins.order)
     }
 
-    /// The binned pipeline's bin list: (bin, start, count) per bin that holds particles, in the order
-    /// the last binning listed them. Waits for the device.
+    /// The binned pipeline's bin list: (bin, start, count) per chunk of a bin that holds particles,
+    /// in the order the last binning listed them. Waits for the device.
     pub fn read_bin_list(&mut self) -> Result<Vec<[u32; 3]>> {
         let list = self
             .bins
