@@ -102,14 +102,16 @@ extern "C" __global__ void sort_scatter(u32 num_particles,
     }
 }
 
-// The bins that hold particles, as chunks of at most BIN_CHUNK particles each (a bin's run in `order`
+// The bins that hold particles, as chunks of at most `chunk` particles each (a bin's run in `order`
 // cut in turn), with the start and length of each chunk; the list's length goes to
-// work_counts[WORK_BINS] (zeroed before). A tiled pass takes a chunk per CUDA block, a thread per
-// particle, so a bin of 512 particles keeps 4 blocks busy rather than one thread on 4 particles; the
-// cells inside a bin are sorted, so a chunk covers a compact slab of them. The list's order varies
-// from run to run.
+// work_counts[WORK_BINS] (zeroed before). A tiled pass takes a chunk per CUDA block: small chunks
+// (a thread per particle) keep a GPU busy when bins are few, so a bin of 512 particles feeds 4 blocks
+// rather than one thread on 4 particles; where bins are plentiful, whole bins save the tiles' clears
+// and flushes (the host chooses, src/cuda/bins.rs). The cells inside a bin are sorted, so a chunk
+// covers a compact slab of them. The list's order varies from run to run.
 extern "C" __global__ void bin_list(const u32 num_bins,
                                    const u32 num_particles,
+                                   const u32 chunk,
                                    const u32* __restrict__ cell_starts,  // BIN_CELLS per bin
                                    BinEntry* __restrict__ list,
                                    u32* __restrict__ work_counts) {
@@ -119,7 +121,7 @@ extern "C" __global__ void bin_list(const u32 num_bins,
             start = cell_starts[b * BIN_CELLS];
             count = (b + 1 < num_bins ? cell_starts[(b + 1) * BIN_CELLS] : num_particles) - start;
         }
-        const u32 chunks = (count + BIN_CHUNK - 1) / BIN_CHUNK;
+        const u32 chunks = (count + chunk - 1) / chunk;
         // An exclusive scan of the warp's chunk counts, then one atomic for the warp's total.
         const u32 lane = threadIdx.x & 31u;
         u32 before = chunks;
@@ -133,7 +135,7 @@ extern "C" __global__ void bin_list(const u32 num_bins,
         if (lane == 0 && total) slot = atomicAdd(&work_counts[WORK_BINS], total);
         slot = __shfl_sync(0xffffffffu, slot, 0) + before;
         for (u32 k = 0; k < chunks; ++k) {
-            list[slot + k] = BinEntry{b, start + k * BIN_CHUNK, min(BIN_CHUNK, count - k * BIN_CHUNK), 0u};
+            list[slot + k] = BinEntry{b, start + k * chunk, min(chunk, count - k * chunk), 0u};
         }
     }
 }

@@ -39,7 +39,6 @@
 #define TILE_SPAN_BLOCKS (TILE_SPAN * TILE_SPAN * TILE_SPAN)
 #define BIN_CELLS 64     // cells of a bin (the sort keys of a bin, bins.cu)
 #define TILE_THREADS 128  // threads of a tiled pass's block (__launch_bounds__ below)
-#define BIN_CHUNK 128     // particles of a bin-list entry: one per thread (bins.cu, bin_list)
 // Blocks per multiprocessor the tiled passes are compiled for: caps p2g_tiled's registers at 80
 // (from 130; a few spill), which doubles the warps that hide its latencies.
 #define TILE_MIN_BLOCKS 6
@@ -56,8 +55,8 @@
 #define WORK_BINS 0
 #define WORK_NODE_BLOCKS 1
 
-// One listed chunk of a bin: the bin's node block and the chunk's range in the bin order (at most
-// BIN_CHUNK particles). Mirrors `BIN_ENTRY_WORDS` in src/cuda/bins.rs.
+// One listed chunk of a bin: the bin's node block and the chunk's range in the bin order. Mirrors
+// `BIN_ENTRY_WORDS` in src/cuda/bins.rs.
 struct BinEntry {
     u32 bin;
     u32 start;
