@@ -173,39 +173,41 @@ __device__ __forceinline__ float fixed_point_value(u64 units, float inv_scale) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Warp-aggregated float scatter. Particles are stored in spawn (lattice) order, so the 32 particles of
-// a warp are neighbours and each stencil node is hit by several of them: without aggregation every
-// hit is one atomic on the same address, and the atomics serialise. Here the lanes that target the
-// same node find each other (match_any), the lowest lane of each group sums the group's values with
-// shuffles, and it alone issues the atomic: about 5x fewer atomics at 8 particles per cell.
+// Warp-aggregated float scatter. The scatters walk particles sorted by cell (kernels/bins.cu), so the
+// 32 lanes of a warp hold a few runs of consecutive lanes whose particles share a cell, and so all 27
+// stencil nodes: without aggregation each node of a run gets one atomic per lane, and same-address
+// atomics serialise. Each lane finds its run once per particle (warp_run: one ballot), then for every
+// node the run's values are summed towards its first lane in five shuffle steps (warp_run_sum), and
+// that lane alone issues the atomic: about 8x fewer atomics at 8 particles per cell. Lanes with the
+// same cell that are not adjacent form runs of their own: more atomics, never a wrong sum.
+// (Measured at bench-655k on the H200: match_any per node and a serial sum over the group cost
+// 0.12 ms in p2g; see BENCHMARKS.md for the figure with runs.)
 // Every lane of the warp must call these together (they shuffle with a full mask).
 
-struct WarpGroup {
-    u32 others;   // the leader's fellow lanes (the leader itself excluded); 0 for non-leaders
-    bool leader;  // lowest lane of the group: the one that adds the group's sum
+struct WarpRun {
+    u32 last;   // the run's last lane
+    bool head;  // the run's first lane: the one that adds the run's sum
 };
 
-__device__ __forceinline__ WarpGroup warp_group(u32 key) {
+__device__ __forceinline__ WarpRun warp_run(u32 key) {
     const u32 lane = threadIdx.x & 31u;
-    const u32 peers = __match_any_sync(0xffffffffu, key);
-    const bool leader = (u32)(__ffs(peers) - 1) == lane;
-    return WarpGroup{leader ? (peers & (peers - 1u)) : 0u, leader};
+    const u32 before = __shfl_up_sync(0xffffffffu, key, 1);
+    const bool head = lane == 0 || before != key;
+    const u32 heads_after = __ballot_sync(0xffffffffu, head) & ~((2u << lane) - 1u);  // heads past this lane
+    return WarpRun{heads_after ? (u32)__ffs(heads_after) - 2u : 31u, head};
 }
 
-// Sums N values over the group into the leader's `values` (other lanes' values are left as they were).
+// Sums N values over the run into its first lane's `values` (the other lanes keep partial sums).
 template <int N>
-__device__ __forceinline__ void warp_group_sum(WarpGroup group, float (&values)[N]) {
+__device__ __forceinline__ void warp_run_sum(WarpRun run, float (&values)[N]) {
     const u32 lane = threadIdx.x & 31u;
-    float own[N];
-    for (int k = 0; k < N; ++k) own[k] = values[k];
-    u32 others = group.others;
-    while (__any_sync(0xffffffffu, others != 0u)) {
-        const int source = others ? __ffs(others) - 1 : (int)lane;
+#pragma unroll
+    for (u32 offset = 1; offset < 32; offset <<= 1) {
+#pragma unroll
         for (int k = 0; k < N; ++k) {
-            const float x = __shfl_sync(0xffffffffu, own[k], source);
-            if (others) values[k] += x;
+            const float x = __shfl_down_sync(0xffffffffu, values[k], offset);
+            if (lane + offset <= run.last) values[k] += x;
         }
-        if (others) others &= others - 1u;
     }
 }
 

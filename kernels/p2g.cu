@@ -32,6 +32,7 @@ extern "C" __global__ void p2g(const Params params,
             max_rho = fmaxf(max_rho, rho);
         }
         const ParticleImpulse q = particle_impulse(params, rho, v[p], c[p], c[n + p], c[2 * (size_t)n + p]);
+        const WarpRun run = warp_run(s.base_index);
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             float impulse[3];
             impulse_at(q, w, d0, d1, d2, impulse);
@@ -43,9 +44,8 @@ extern "C" __global__ void p2g(const Params params,
                     if (live) fixed_point_add(&acc[a], impulse[a] * params.fixed_momentum_scale, counters);
                 }
             } else {
-                const WarpGroup group = warp_group(node);
-                warp_group_sum(group, impulse);
-                if (group.leader && live) atomic_add_momentum(&grid_acc[node], impulse[0], impulse[1], impulse[2]);
+                warp_run_sum(run, impulse);
+                if (run.head && live) atomic_add_momentum(&grid_acc[node], impulse[0], impulse[1], impulse[2]);
             }
         })
     }

@@ -14,16 +14,16 @@ extern "C" __global__ void p2g_init(const Params params,
     // the block's first particle and add nothing.
     FOR_EACH_INDEX_CONVERGED(i, live, first, params.num_particles) {
         const Stencil s = make_stencil(x[order[live ? i : first]], params);
+        const WarpRun run = warp_run(s.base_index);
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             const float mass = w * m_p;
             if (fixed) {
                 // Not aggregated: summing floats before rounding would tie the result to the warps.
                 if (live) fixed_point_add(&fixed_mass[node], mass * params.fixed_mass_scale, counters);
             } else {
-                const WarpGroup group = warp_group(node);
                 float sum[1] = {live ? mass : 0.0f};
-                warp_group_sum(group, sum);
-                if (group.leader && live) atomicAdd(&grid_acc[node].w, sum[0]);
+                warp_run_sum(run, sum);
+                if (run.head && live) atomicAdd(&grid_acc[node].w, sum[0]);
             }
         })
     }

@@ -205,7 +205,10 @@ pub fn phase_label(pipeline: Pipeline, slot: &str) -> String {
         (Pipeline::Report, "sort") => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
         (Pipeline::Report, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
         (Pipeline::Binned, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
-        (Pipeline::Binned, "sort") => "rebin (when a particle moved a cell)".into(),
+        (Pipeline::Binned, "sort") => format!(
+            "rebin (every {} substeps, or when a particle moved a cell)",
+            cuda::SORT_INTERVAL
+        ),
         (Pipeline::Binned, "p2g_init") => "mirror mass (mass scattered by g2p2g)".into(),
         (Pipeline::Binned, "p2g") => "p2g (fixed point: p2g_tiled)".into(),
         (Pipeline::Binned, "grid_update") => "grid_update_blocks (+ mirror momentum)".into(),

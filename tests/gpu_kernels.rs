@@ -588,7 +588,7 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
 }
 
 /// Fixed-point runs of the binned pipeline whose bins differ (one rebins whenever a particle moved a
-/// cell, as `mpm run` does; the other only every REBIN_BACKSTOP substeps, so particles stray further
+/// cell, as `mpm run` does; the other only every SORT_INTERVAL substeps, so particles stray further
 /// and some leave their tiles) stay byte-identical: every sum is the same integer whatever the bin
 /// order and tile partition.
 fn binned_fixed_point_is_byte_identical_across_rebins() {

@@ -25,5 +25,5 @@ pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
 pub use solver::{
     fixed_point_scales, CudaOptions, CudaSolver, BYTES_PER_NODE, BYTES_PER_PARTICLE, FIXED_BYTES_PER_NODE,
-    REBIN_BACKSTOP, SORT_INTERVAL,
+    SORT_INTERVAL,
 };
