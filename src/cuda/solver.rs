@@ -22,10 +22,13 @@ use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
 use crate::sim::params::{Pipeline, ScatterMode};
 use crate::sim::{
-    ColourBy, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes, Summary,
+    ColourBy, ExtremesTicket, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes,
+    Summary,
 };
 use anyhow::{anyhow, bail, ensure, Context, Result};
-use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PushKernelArg};
+use cudarc::driver::{
+    CudaContext, CudaEvent, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PinnedHostSlice, PushKernelArg,
+};
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
 
@@ -91,6 +94,8 @@ const COUNTER_FIXED_OVERFLOWS: usize = 2;
 const COUNTER_MAX_SIGNAL: usize = 3;
 const COUNTER_REBIN_NEEDED: usize = 4;
 const COUNTER_TILE_MISSES: usize = 5;
+/// Host copies of the counters in the ring: more than the two requests `Solver` allows outstanding.
+const COUNTER_COPIES: usize = 3;
 
 /// Fixed-point accumulators, allocated on first use of the fixed-point scatter.
 struct FixedGrid {
@@ -204,6 +209,12 @@ pub struct CudaSolver {
     /// Passed for the fixed-point pointers when the float scatter runs (never dereferenced).
     unused_fixed: CudaSlice<u64>,
     counters: CudaSlice<u32>,
+    /// Pinned host copies of `counters`, one per outstanding `request_extremes` (a ring), each with
+    /// the event recorded after its copy. (cudarc's pinned slices carry an event of their own, but
+    /// record it only where cudarc tracks events between streams, which this one-stream solver turns
+    /// off: waiting on it returned before the copy had landed.)
+    counter_copies: Vec<(PinnedHostSlice<u32>, CudaEvent)>,
+    next_counter_copy: usize,
     /// Particles scattered outside their tile since the solver was made (binned pipeline).
     tile_misses: u64,
     fixed_mass_scale: f32,
@@ -337,6 +348,15 @@ impl CudaSolver {
             fixed: None,
             unused_fixed: stream.alloc_zeros::<u64>(1).context("allocating a placeholder")?,
             counters: alloc_u32(COUNTERS, "step counters")?,
+            counter_copies: (0..COUNTER_COPIES)
+                .map(|_| {
+                    // SAFETY: each copy is written by a device copy before it is read (wait_extremes).
+                    let copy = unsafe { ctx.alloc_pinned::<u32>(COUNTERS) }?;
+                    Ok((copy, ctx.new_event(None)?))
+                })
+                .collect::<Result<_, cudarc::driver::DriverError>>()
+                .context("allocating pinned memory for the step counters")?,
+            next_counter_copy: 0,
             tile_misses: 0,
             timing: PhaseEvents::new(ctx.clone()),
             stats: ParticleStats::new(Kernel::load(&modules, "stats", "particle_stats")?, &launcher)?,
@@ -1023,11 +1043,41 @@ impl Solver for CudaSolver {
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
-        let counters = self.download(&self.counters)?;
-        self.launcher
-            .stream
+        let ticket = self.request_extremes()?;
+        self.wait_extremes(ticket)
+    }
+
+    /// Copies the counters to a pinned host slot and resets them, both in stream order behind the
+    /// substeps enqueued so far; nothing waits.
+    fn request_extremes(&mut self) -> Result<ExtremesTicket> {
+        let slot = self.next_counter_copy;
+        self.next_counter_copy = (slot + 1) % COUNTER_COPIES;
+        let stream = &self.launcher.stream;
+        let (copy, copied) = &mut self.counter_copies[slot];
+        stream
+            .memcpy_dtoh(&self.counters, copy)
+            .context("copying the step counters (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        copied.record(stream).context("recording the counters' copy")?;
+        stream
             .memset_zeros(&mut self.counters)
             .context("resetting the step counters")?;
+        Ok(ExtremesTicket::Pending(slot))
+    }
+
+    /// Waits for that slot's copy only (its own event), not for the whole stream.
+    fn wait_extremes(&mut self, ticket: ExtremesTicket) -> Result<StepExtremes> {
+        let slot = match ticket {
+            ExtremesTicket::Ready(extremes) => return Ok(extremes),
+            ExtremesTicket::Pending(slot) => slot,
+        };
+        let (copy, copied) = self
+            .counter_copies
+            .get(slot)
+            .context("an extremes ticket of another solver")?;
+        let waited = copied.synchronize().and_then(|()| copy.as_slice());
+        let counters = waited
+            .context("waiting for the step counters (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?
+            .to_vec();
         let overflows = counters[COUNTER_FIXED_OVERFLOWS];
         if overflows > 0 {
             bail!(

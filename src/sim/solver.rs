@@ -101,6 +101,14 @@ impl PhaseTimings {
 /// dropped (a caller that never takes timings must not grow memory without bound).
 pub const MAX_PENDING_STEP_TIMINGS: usize = 1 << 14;
 
+/// A request for the extremes (see [`Solver::request_extremes`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ExtremesTicket {
+    Ready(StepExtremes),
+    /// The backend's own handle of a read still on its way.
+    Pending(usize),
+}
+
 /// A backend that advances the particles by one substep.
 pub trait Solver {
     fn name(&self) -> &'static str;
@@ -108,6 +116,19 @@ pub trait Solver {
     fn step(&mut self, params: &Params) -> Result<()>;
     /// The extremes since the last call, then reset.
     fn take_extremes(&mut self) -> Result<StepExtremes>;
+    /// `take_extremes` without waiting for the device: the extremes of the substeps enqueued so far
+    /// are on their way to the host (and reset), and [`Self::wait_extremes`] gives them. A backend
+    /// whose steps are synchronous answers at once. At most two requests may be outstanding.
+    fn request_extremes(&mut self) -> Result<ExtremesTicket> {
+        Ok(ExtremesTicket::Ready(self.take_extremes()?))
+    }
+    /// The extremes of a request, waiting for them where they are still on their way.
+    fn wait_extremes(&mut self, ticket: ExtremesTicket) -> Result<StepExtremes> {
+        match ticket {
+            ExtremesTicket::Ready(extremes) => Ok(extremes),
+            ExtremesTicket::Pending(_) => bail!("the {} backend issued no pending extremes", self.name()),
+        }
+    }
     /// One record per substep completed since the last call (each with `steps == 1`), oldest first,
     /// then reset; `None` where timings are not measured. The benches take medians of these.
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>>;
@@ -334,10 +355,13 @@ impl Simulation {
 
     /// Substeps and substep to cover the next `span` seconds. The signal speed can grow meanwhile: by up
     /// to |g| span from gravity, and, where it was rising (an impact compressing the fluid), by as much
-    /// again as it rose over the last substeps. Both are added, so the step stays safe.
-    fn steps_for(&self, span: f32) -> Result<(u32, f32)> {
-        let gravity_gain = Vec3::from(self.params.gravity).length() * span;
-        let expected = self.signal_speed + self.signal_rise + gravity_gain;
+    /// again as it rose over the last substeps. Both are added, so the step stays safe. `unknown` is
+    /// the stretch of substeps already enqueued whose extremes are not yet known (its length in
+    /// seconds, or 0): the speed may grow over it too, by gravity and by one more rise.
+    fn steps_for(&self, span: f32, unknown: f32) -> Result<(u32, f32)> {
+        let gravity_gain = Vec3::from(self.params.gravity).length() * (span + unknown);
+        let rises = if unknown > 0.0 { 2.0 } else { 1.0 };
+        let expected = self.signal_speed + rises * self.signal_rise + gravity_gain;
         match self.scene.time_step.substeps(span, expected, self.params.dx) {
             Ok(steps) => Ok(steps),
             Err(why) => bail!("frame {}: {why}", self.frame + 1),
@@ -346,7 +370,30 @@ impl Simulation {
 
     /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
     pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
-        self.steps_for(FRAME_DT)
+        self.steps_for(FRAME_DT, 0.0)
+    }
+
+    /// What a stretch of `n` substeps of `dt` tells the time-step policy once its extremes are in:
+    /// the signal speed and its rise, the frame's CFL number, and the substeps run above the bound.
+    fn account_stretch(
+        &mut self,
+        ticket: ExtremesTicket,
+        n: u32,
+        dt: f32,
+        part: &mut FramePart,
+    ) -> Result<()> {
+        let extremes = self.solver.wait_extremes(ticket)?;
+        // The step is chosen from the pairing of the largest density with the largest speed; the
+        // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
+        let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+        self.signal_rise = (bound - self.signal_speed).max(0.0);
+        self.signal_speed = bound;
+        let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
+        part.max_cfl = part.max_cfl.max(stretch_cfl);
+        if stretch_cfl > MAX_CFL {
+            part.over_cfl += n; // the stretch's extremes are all there is: count all its substeps
+        }
+        Ok(())
     }
 
     /// Advance one 60 Hz frame and return its statistics.
@@ -385,17 +432,17 @@ impl Simulation {
     /// that takes seconds on a CPU never stops the window from answering for longer than a substep.
     pub fn step_frame_until(&mut self, deadline: Option<Instant>) -> Result<Option<FrameSteps>> {
         let per_choice = self.scene.time_step.substeps_per_choice();
-        let FramePart {
-            mut substeps,
-            mut smallest_dt,
-            mut max_cfl,
-            mut over_cfl,
-            mut simulated,
-        } = self.in_progress.take().unwrap_or(FramePart::START);
+        let mut part = self.in_progress.take().unwrap_or(FramePart::START);
         let late = || deadline.is_some_and(|d| Instant::now() >= d);
+        // The stretch enqueued last, whose extremes are still on their way: the next stretch is chosen
+        // without waiting for them (the GPU keeps working meanwhile), from the ones before, allowing
+        // for the speed to grow over it too. Which extremes a choice sees is fixed by the order of
+        // the stretches, never by timing, so runs stay reproducible.
+        let mut in_flight: Option<(ExtremesTicket, u32, f32)> = None;
         loop {
-            let left = f64::from(FRAME_DT) - simulated;
-            let (to_frame_end, dt) = self.steps_for(left as f32)?;
+            let left = f64::from(FRAME_DT) - part.simulated;
+            let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
+            let (to_frame_end, dt) = self.steps_for(left as f32, unknown)?;
             let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
             let mut n = 0;
@@ -406,34 +453,34 @@ impl Simulation {
                     break;
                 }
             }
-            let extremes = self.solver.take_extremes()?;
-            // The step is chosen from the pairing of the largest density with the largest speed; the
-            // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
-            let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
-            self.signal_rise = (bound - self.signal_speed).max(0.0);
-            self.signal_speed = bound;
-            let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
-            max_cfl = max_cfl.max(stretch_cfl);
-            if stretch_cfl > MAX_CFL {
-                over_cfl += n; // the stretch's extremes are all there is: count all its substeps
+            let ticket = self.solver.request_extremes()?;
+            if let Some((earlier, earlier_n, earlier_dt)) = in_flight.replace((ticket, n, dt)) {
+                self.account_stretch(earlier, earlier_n, earlier_dt, &mut part)?;
             }
-            substeps += n;
-            smallest_dt = smallest_dt.min(dt);
-            simulated += f64::from(n) * f64::from(dt);
-            if n == to_frame_end {
+            part.substeps += n;
+            part.smallest_dt = part.smallest_dt.min(dt);
+            part.simulated += f64::from(n) * f64::from(dt);
+            let done = n == to_frame_end;
+            if done || late() {
+                if let Some((ticket, n, dt)) = in_flight.take() {
+                    self.account_stretch(ticket, n, dt, &mut part)?;
+                }
+            }
+            if done {
                 break;
             }
             if late() {
-                self.in_progress = Some(FramePart {
-                    substeps,
-                    smallest_dt,
-                    max_cfl,
-                    over_cfl,
-                    simulated,
-                });
+                self.in_progress = Some(part);
                 return Ok(None);
             }
         }
+        let FramePart {
+            substeps,
+            smallest_dt,
+            max_cfl,
+            over_cfl,
+            simulated,
+        } = part;
         self.frame += 1;
         self.time += simulated;
 
