@@ -151,21 +151,22 @@ __device__ __forceinline__ Stencil make_stencil(float4 x, const Params& params) 
 
 // ---------------------------------------------------------------------------------------------
 // Fixed-point scatter. Each contribution is scaled and rounded to the nearest integer (not truncated:
-// truncation biases every sum towards zero), then added with 64-bit integer atomics, which commute, so
-// the sums do not depend on the order threads arrive in. A contribution above 2^52 units could, summed
-// with a few thousand others, wrap the 64-bit accumulator: it is counted (and reported by the host)
-// instead of added. The host picks the scales so that real contributions stay near 2^40.
+// truncation biases every sum towards zero), then summed as integers (in a warp run, a tile, or by
+// 64-bit atomics), which commute, so the sums do not depend on the order threads arrive in. A
+// contribution above 2^52 units could, summed with a few thousand others, wrap the 64-bit accumulator:
+// it is counted (and reported by the host) instead of added. The host picks the scales so that real
+// contributions stay near 2^40.
 
 #define FIXED_CONTRIBUTION_LIMIT 4503599627370496.0f /* 2^52 */
 #define FIXED_SUM_LIMIT 4611686018427387904LL        /* 2^62 */
 
-__device__ __forceinline__ void fixed_point_add(u64* accumulator, float scaled, StepCounters* counters) {
+// A contribution in fixed-point units, rounded; 0, and counted, where it is out of range.
+__device__ __forceinline__ i64 fixed_point_units(float scaled, StepCounters* counters) {
     if (!(fabsf(scaled) < FIXED_CONTRIBUTION_LIMIT)) {  // also catches NaN
         atomicAdd(&counters->fixed_overflows, 1u);
-        return;
+        return 0;
     }
-    const i64 units = __float2ll_rn(scaled);
-    if (units != 0) atomicAdd(accumulator, (u64)units);  // two's complement: adding u64 adds i64
+    return __float2ll_rn(scaled);
 }
 
 __device__ __forceinline__ float fixed_point_value(u64 units, float inv_scale) {
@@ -198,14 +199,16 @@ __device__ __forceinline__ WarpRun warp_run(u32 key) {
 }
 
 // Sums N values over the run into its first lane's `values` (the other lanes keep partial sums).
-template <int N>
-__device__ __forceinline__ void warp_run_sum(WarpRun run, float (&values)[N]) {
+// Floats for the float scatter; 64-bit integers for the fixed-point one, each lane's contribution
+// rounded before the sum, so the sums stay exact and independent of which lanes share a run.
+template <typename T, int N>
+__device__ __forceinline__ void warp_run_sum(WarpRun run, T (&values)[N]) {
     const u32 lane = threadIdx.x & 31u;
 #pragma unroll
     for (u32 offset = 1; offset < 32; offset <<= 1) {
 #pragma unroll
         for (int k = 0; k < N; ++k) {
-            const float x = __shfl_down_sync(0xffffffffu, values[k], offset);
+            const T x = __shfl_down_sync(0xffffffffu, values[k], offset);
             if (lane + offset <= run.last) values[k] += x;
         }
     }

@@ -38,10 +38,14 @@ extern "C" __global__ void p2g(const Params params,
             impulse_at(q, w, d0, d1, d2, impulse);
             if (!live) impulse[0] = impulse[1] = impulse[2] = 0.0f;
             if (fixed) {
-                // Not aggregated: summing floats before rounding would tie the result to the warps.
-                u64* acc = &fixed_momentum[3 * (size_t)node];
-                for (int a = 0; a < 3; ++a) {
-                    if (live) fixed_point_add(&acc[a], impulse[a] * params.fixed_momentum_scale, counters);
+                // Each lane rounds its own contribution; the run sums integers, exactly.
+                i64 units[3];
+                for (int a = 0; a < 3; ++a) units[a] = live ? fixed_point_units(impulse[a] * params.fixed_momentum_scale, counters) : 0;
+                warp_run_sum(run, units);
+                if (run.head && live) {
+                    for (int a = 0; a < 3; ++a) {
+                        if (units[a] != 0) atomicAdd(&fixed_momentum[3 * (size_t)node + a], (u64)units[a]);
+                    }
                 }
             } else {
                 warp_run_sum(run, impulse);

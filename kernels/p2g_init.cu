@@ -18,8 +18,10 @@ extern "C" __global__ void p2g_init(const Params params,
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             const float mass = w * m_p;
             if (fixed) {
-                // Not aggregated: summing floats before rounding would tie the result to the warps.
-                if (live) fixed_point_add(&fixed_mass[node], mass * params.fixed_mass_scale, counters);
+                // Each lane rounds its own contribution; the run sums integers, exactly.
+                i64 units[1] = {live ? fixed_point_units(mass * params.fixed_mass_scale, counters) : 0};
+                warp_run_sum(run, units);
+                if (run.head && live && units[0] != 0) atomicAdd(&fixed_mass[node], (u64)units[0]);
             } else {
                 float sum[1] = {live ? mass : 0.0f};
                 warp_run_sum(run, sum);

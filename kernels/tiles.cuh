@@ -156,11 +156,6 @@ __device__ __forceinline__ int* tile_clear(u32* tile_marks) {
     return tile_memory;
 }
 
-// A contribution rounded to tile units: the one rounding both the tile and the global fallback use.
-__device__ __forceinline__ i64 tile_round(float tile_scaled) {
-    return __float2ll_rn(tile_scaled);
-}
-
 // A tile node's sum (or a rounded contribution) in global fixed-point units.
 __device__ __forceinline__ u64 tile_global_units(i64 units) {
     return (u64)(units << TILE_UNIT_SHIFT);
@@ -171,7 +166,7 @@ __device__ __forceinline__ u64 tile_global_units(i64 units) {
 // (the host reports it).
 __device__ __forceinline__ bool tile_add(int* slot, float tile_scaled, StepCounters* counters) {
     if (!(fabsf(tile_scaled) < TILE_CONTRIBUTION_LIMIT)) return false;  // also NaN
-    const int units = (int)tile_round(tile_scaled);
+    const int units = (int)__float2ll_rn(tile_scaled);  // rounded as fixed_point_units rounds
     const int before = atomicAdd(slot, units);
     const int after = (int)((u32)before + (u32)units);
     if ((units > 0) ? after < before : after > before) atomicAdd(&counters->fixed_overflows, 1u);
@@ -191,10 +186,8 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
                                          float value, StepCounters* counters) {
     if (!fixed) {
         atomicAdd(grid_float, value);
-    } else if (fabsf(tile_scaled) < FIXED_CONTRIBUTION_LIMIT) {
-        atomicAdd(grid_fixed, tile_global_units(tile_round(tile_scaled)));
-    } else {
-        atomicAdd(&counters->fixed_overflows, 1u);
+    } else if (const i64 units = fixed_point_units(tile_scaled, counters)) {
+        atomicAdd(grid_fixed, tile_global_units(units));
     }
 }
 

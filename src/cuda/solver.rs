@@ -616,12 +616,13 @@ impl CudaSolver {
         }
     }
 
-    /// Density from the grid mass, pressure and stress, momentum scatter. Float momentum goes to the
-    /// grid by warp-aggregated global atomics in both pipelines (p2g.cu, walking the particle order);
-    /// fixed-point momentum in the binned pipeline through a shared tile (p2g_tiled.cu). Each is the
-    /// faster there, measured at bench-655k on the H200 (2026-11-23): float 0.13 ms global against
-    /// 0.17 ms tiled (the H200's L2 adds floats natively; a tile adds integers and must round each
-    /// contribution), fixed point 0.66 ms global (64-bit atomics, no aggregation) against 0.17 tiled.
+    /// Density from the grid mass, pressure and stress, momentum scatter. In the report's pipeline,
+    /// and for float momentum in the binned one, p2g.cu: warp runs of one cell summed before global
+    /// atomics (integers for fixed point). Fixed-point momentum in the binned pipeline goes through a
+    /// shared tile (p2g_tiled.cu). Each is the faster there, measured on the H200 (2026-11-23, mpm
+    /// bench, p2g medians): float at bench-655k 0.097 ms by runs, 0.17 ms tiled (the L2 adds floats
+    /// natively, a tile must round every contribution); fixed point 0.17 ms tiled, 0.20 ms by
+    /// integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48 against 3.86 ms).
     pub fn p2g(&mut self, params: &Params) -> Result<()> {
         let params = self.device_params(params)?;
         let _range = NvtxRange::new("p2g");
