@@ -198,9 +198,9 @@ pub fn traffic_bytes(particles: usize, nodes: usize, scatter: ScatterMode, pipel
     }
 }
 
-/// What each `PhaseTimings` slot holds in `pipeline`, for the tables (src/cuda/solver.rs lists the
-/// phases).
-pub fn phase_label(pipeline: Pipeline, slot: &str) -> String {
+/// What each `PhaseTimings` slot holds in `pipeline` with `scatter`, for the tables
+/// (src/cuda/solver.rs lists the phases).
+pub fn phase_label(pipeline: Pipeline, scatter: ScatterMode, slot: &str) -> String {
     match (pipeline, slot) {
         (Pipeline::Report, "sort") => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
         (Pipeline::Report, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
@@ -210,7 +210,10 @@ pub fn phase_label(pipeline: Pipeline, slot: &str) -> String {
             cuda::SORT_INTERVAL
         ),
         (Pipeline::Binned, "p2g_init") => "mirror mass (mass scattered by g2p2g)".into(),
-        (Pipeline::Binned, "p2g") => "p2g (fixed point: p2g_tiled)".into(),
+        (Pipeline::Binned, "p2g") => match scatter {
+            ScatterMode::Float => "p2g (warp runs, global atomics)".into(),
+            ScatterMode::FixedPoint => "p2g_tiled".into(),
+        },
         (Pipeline::Binned, "grid_update") => "grid_update_blocks (+ mirror momentum)".into(),
         (Pipeline::Binned, "g2p") => "g2p2g (g2p + next mass scatter)".into(),
         (Pipeline::Report, "p2g_init") => "p2g_init (+ mirror mass)".into(),
@@ -419,7 +422,7 @@ pub fn phase_table(report: &PhaseReport) -> String {
     {
         let name = match (r.phase.as_str(), bold) {
             (name, true) => format!("**{name}**"),
-            (name, false) if with_floor => phase_label(report.pipeline, name),
+            (name, false) if with_floor => phase_label(report.pipeline, report.scatter, name),
             ("sort", false) => "sort (cpu-parallel's binning; none in the reference)".to_string(),
             (name, false) => name.to_string(),
         };
