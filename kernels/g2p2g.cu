@@ -45,13 +45,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             }
             const Stencil s = make_stencil(xp, params);
             u32 first;
-            const bool in_tile = tile_stencil(t, s, first, far);
-            if (in_tile) {
-                tile_mark_stencil(tile_marks, first);
-            } else {
-                ++misses;
-                mark_stencil_blocks(marks, blocks, s);
-            }
+            const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
             FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
                 const float mass = w * m_p;
                 const float scaled = mass * tile_scale;

@@ -44,13 +44,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_
             const ParticleImpulse q = particle_impulse(params, rho, v[p], c[p], c[n + p], c[2 * (size_t)n + p]);
             u32 first;
             bool far = false;
-            const bool in_tile = tile_stencil(t, s, first, far);
-            if (in_tile) {
-                tile_mark_stencil(tile_marks, first);
-            } else {
-                ++misses;
-                mark_stencil_blocks(marks, blocks, s);
-            }
+            const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
             FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
                 float impulse[3];
                 impulse_at(q, w, d0, d1, d2, impulse);

@@ -143,6 +143,20 @@ __device__ __forceinline__ void tile_mark_stencil(u32* tile_marks, u32 first) {
                 tile_marks[bx + TILE_SPAN * (by + TILE_SPAN * bz)] = 1u;
 }
 
+// Where a particle's contributions go: true where its stencil fits its bin's tile (`first` is the
+// tile node of its base, its node blocks marked in the tile's marks); false where it is scattered to
+// the grid instead (its node blocks marked there, the miss counted). `far` as in tile_stencil.
+__device__ __forceinline__ bool tile_place(const Tile& t, const Stencil& s, u32& first, bool& far, u32* tile_marks,
+                                           const BlockMarks& marks, const NodeBlocks& blocks, u32& misses) {
+    if (tile_stencil(t, s, first, far)) {
+        tile_mark_stencil(tile_marks, first);
+        return true;
+    }
+    ++misses;
+    mark_stencil_blocks(marks, blocks, s);
+    return false;
+}
+
 // CHANNELS 32-bit accumulators (tile units) per tile node in dynamic shared memory, channel-major:
 // the host sizes it at 4 CHANNELS TILE_NODES bytes.
 extern __shared__ __align__(16) int tile_memory[];

@@ -2,7 +2,7 @@
 
 mod common;
 
-use mpm::sim::{Scene, SceneError};
+use mpm::sim::{Pipeline, Scene, SceneError};
 
 const BLOCK: &str = "[[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.1, 0.1, 0.1]\n";
 
@@ -102,6 +102,12 @@ fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
             "available",
         ),
         (
+            "unknown GPU pipeline",
+            water(&format!("[solver]\npipeline = \"tiled\"\n{BLOCK}")),
+            "",
+            "binned",
+        ),
+        (
             "not TOML at all",
             "this is not = = toml".to_string(),
             "",
@@ -127,6 +133,21 @@ fn bad_scenes_name_the_file_the_key_and_the_fix() {
             "{what}: the file is not named in: {message}"
         );
     }
+}
+
+#[test]
+fn the_gpu_pipeline_is_binned_unless_the_scene_says_report() {
+    let parse =
+        |solver: &str| Scene::from_toml(&common::water_box(20, &format!("{solver}{BLOCK}")), "ok.toml");
+    assert_eq!(parse("").unwrap().pipeline, Pipeline::Binned);
+    assert_eq!(
+        parse("[solver]\npipeline = \"report\"\n").unwrap().pipeline,
+        Pipeline::Report
+    );
+    assert_eq!(
+        parse("[solver]\npipeline = \"binned\"\n").unwrap().pipeline,
+        Pipeline::Binned
+    );
 }
 
 #[test]

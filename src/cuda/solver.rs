@@ -495,6 +495,14 @@ impl CudaSolver {
         }
     }
 
+    /// The binned pipeline's list of bin chunks, which its tiled passes walk.
+    fn bin_list(&self) -> Result<&CudaSlice<u32>> {
+        self.bins
+            .list
+            .as_ref()
+            .context("only the binned pipeline lists its bins")
+    }
+
     /// A tiled pass over the listed bins: a block per bin, a thread per particle, and `channels`
     /// 32-bit accumulators per tile node (kernels/tiles.cuh).
     fn tiled_pass(&self, channels: u32) -> LaunchConfig {
@@ -529,11 +537,7 @@ impl CudaSolver {
                 }
                 let (fixed_mass, _) = self.fixed_grid();
                 let (l, k) = (&self.launcher, &self.kernels);
-                let list = self
-                    .bins
-                    .list
-                    .as_ref()
-                    .context("the binned pipeline lists its bins")?;
+                let list = self.bin_list()?;
                 let config = self.tiled_pass(1);
                 // SAFETY: the arguments match p2g_mass in kernels/g2p2g.cu; the bin list, order and
                 // node-block list are sized for this grid and these particles.
@@ -648,11 +652,7 @@ impl CudaSolver {
                 })
             };
         }
-        let list = self
-            .bins
-            .list
-            .as_ref()
-            .context("the binned pipeline lists its bins")?;
+        let list = self.bin_list()?;
         let config = self.tiled_pass(3);
         // SAFETY: the arguments match p2g_tiled in kernels/p2g_tiled.cu; as in p2g_init.
         unsafe {
@@ -741,11 +741,7 @@ impl CudaSolver {
                 })
             },
             Pipeline::Binned => {
-                let list = self
-                    .bins
-                    .list
-                    .as_ref()
-                    .context("the binned pipeline lists its bins")?;
+                let list = self.bin_list()?;
                 let config = self.tiled_pass(1);
                 // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; as in p2g_init.
                 unsafe {
