@@ -3,9 +3,10 @@
 // cells) consecutive: key = bin * edge^3 + the cell's place in the bin. A counting sort:
 // - bin_count ranks each particle within its cell; scan_tiles/scan_add turn the per-cell counts into
 //   starts (`cell_starts`); sort_scatter writes each particle's index at start + rank.
-// - bin_list lists the bins that hold particles, with their ranges (tiles.cuh's BinEntry), for the
-//   binned pipeline's passes (edge 4: one thread per cell of a bin). The report's pipeline sorts by
-//   plain cell (edge 1) and walks `order` whole.
+// - bin_list lists the bins that hold particles, in chunks with their ranges (tiles.cuh's BinEntry),
+//   for the binned pipeline's tiled passes (edge 4). The report's pipeline sorts by plain cell
+//   (edge 1) and walks `order` whole; so does every warp-aggregated scatter, whose warp runs want
+//   the particles of a cell side by side.
 //
 // The rank comes from one atomic per warp and bin: lanes with the same bin find each other
 // (match_any), the lowest adds the group's size, and each takes the leader's start plus the number of

@@ -1,7 +1,7 @@
 //! Particle bins (kernels/bins.cu): a counting sort of particle indices by the cell of their stencil
 //! base node into `order`, the cells of a bin consecutive, and, for the binned pipeline, the list of
 //! bins that hold particles. The report's pipeline sorts by plain cell (bins of edge 1); the binned
-//! pipeline bins by node block (edge 4, `NODE_BLOCK_EDGE`), one tile per bin and one thread per cell
+//! pipeline bins by node block (edge 4, `NODE_BLOCK_EDGE`), a tile per listed chunk of a bin
 //! (kernels/tiles.cuh).
 
 use super::launch::{Kernel, Launcher};
