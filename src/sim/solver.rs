@@ -460,8 +460,10 @@ impl Simulation {
             part.substeps += n;
             part.smallest_dt = part.smallest_dt.min(dt);
             part.simulated += f64::from(n) * f64::from(dt);
+            // Decided once: a stretch left in flight when the frame pauses would lose its extremes.
             let done = n == to_frame_end;
-            if done || late() {
+            let pause = !done && late();
+            if done || pause {
                 if let Some((ticket, n, dt)) = in_flight.take() {
                     self.account_stretch(ticket, n, dt, &mut part)?;
                 }
@@ -469,7 +471,7 @@ impl Simulation {
             if done {
                 break;
             }
-            if late() {
+            if pause {
                 self.in_progress = Some(part);
                 return Ok(None);
             }
