@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Device side, issue 9 (the binned pipeline): the GPU tests, compute-sanitizer on the new kernels, and
-# every before/after figure of the issue's table in one run, with the previous build (.gpu/bin/mpm-base,
-# main at 14073a2) beside the new one. Run from a checkout where ../shared/gpu/pack's .gpu/ is unpacked
-# (bash .gpu/run benchmarks/h200-2026-11-23/h200-bench.sh); writes to $OUT.
+# GPU machine side, the binned pipeline (BENCHMARKS.md section 0): the GPU tests, compute-sanitizer on
+# the new kernels, and every before/after figure in one run, with the previous build (.gpu/bin/mpm-base:
+# `mpm` built from main at 14073a2) beside the new one. Run from a checkout with the built executables
+# in .gpu/ as docs/gpu.md ("Running the benchmark scripts") describes; set OUT to a folder for the
+# results.
 set -uo pipefail
 export PATH=$PATH:/usr/local/cuda/bin
 mpm=.gpu/bin/mpm
@@ -12,8 +13,12 @@ date -u
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm,clocks.max.mem --format=csv,noheader
 
 echo "=== tests (every test executable)"
-MPM_BIN=$PWD/$mpm bash .gpu/tests/all >"$out/tests.log" 2>&1
-echo "tests exit $?"; grep -E "^test result|not run|FAILED|panicked" "$out/tests.log"
+status=0
+for t in .gpu/tests/*; do
+  [ -f "$t" ] && [ -x "$t" ] && [ "$(basename "$t")" != all ] || continue
+  echo "=== $t"; MPM_BIN=$PWD/$mpm "$t" || status=$?
+done >"$out/tests.log" 2>&1
+echo "tests exit $status"; grep -E "^test result|not run|FAILED|panicked" "$out/tests.log"
 
 echo "=== compute-sanitizer (binned pipeline, both scatters)"
 for sc in float fixed-point; do
