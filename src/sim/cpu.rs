@@ -5,7 +5,7 @@
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;
-use super::solver::{PhaseTimings, Solver, StepExtremes, MAX_PENDING_STEP_TIMINGS};
+use super::solver::{push_step_timing, PhaseTimings, Solver, StepExtremes};
 use glam::{IVec3, Mat3, UVec3, Vec3};
 use std::time::Instant;
 
@@ -351,10 +351,7 @@ impl Solver for CpuSolver {
         self.g2p(params);
         lap(&mut times.g2p);
         times.steps = 1;
-        if self.timings.len() >= MAX_PENDING_STEP_TIMINGS {
-            self.timings.remove(0);
-        }
-        self.timings.push(times);
+        push_step_timing(&mut self.timings, times);
         Ok(())
     }
 

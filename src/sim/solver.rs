@@ -101,6 +101,15 @@ impl PhaseTimings {
 /// dropped (a caller that never takes timings must not grow memory without bound).
 pub const MAX_PENDING_STEP_TIMINGS: usize = 1 << 14;
 
+/// Keeps one more substep's record, dropping the oldest beyond [`MAX_PENDING_STEP_TIMINGS`]: the CPU
+/// backends' pending timings.
+pub fn push_step_timing(pending: &mut Vec<PhaseTimings>, record: PhaseTimings) {
+    if pending.len() >= MAX_PENDING_STEP_TIMINGS {
+        pending.remove(0);
+    }
+    pending.push(record);
+}
+
 /// A request for the extremes (see [`Solver::request_extremes`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ExtremesTicket {
