@@ -34,6 +34,7 @@ fn main() -> std::process::ExitCode {
             sort_orders_particles_by_cell,
             binned_bins_hold_each_particle_once_and_follow_the_flow,
             binned_fixed_point_is_byte_identical_across_rebins,
+            graphed_substeps_match_launched_ones,
             binned_pipeline_follows_the_report_pipeline,
             device_statistics_match_a_host_reduction,
         ],
@@ -624,6 +625,59 @@ fn binned_fixed_point_is_byte_identical_across_rebins() {
     assert_ne!(runs[0].0, runs[1].0, "the two runs must bin differently");
     for (k, (a, b)) in runs[0].1.iter().zip(&runs[1].1).enumerate() {
         assert!(a == b, "the runs differ after {} substeps", 200 * (k + 1));
+    }
+}
+
+/// Substeps replayed as CUDA graphs (the default) do exactly what substeps launched kernel by kernel
+/// do: fixed-point runs byte-identical in both pipelines, through stretches of changing dt (new
+/// captures), sorts and replays, with the same binnings and a timing record for every substep.
+fn graphed_substeps_match_launched_ones() {
+    const STEPS: usize = 300;
+    for pipeline in [Pipeline::Report, Pipeline::Binned] {
+        let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
+        let mut runs = Vec::new();
+        for graphs in [false, true] {
+            let options = CudaOptions {
+                graphs,
+                ..CudaOptions::default()
+            };
+            let mut params = step_params(&scene);
+            let mut gpu = CudaSolver::new(&scene, options).unwrap();
+            let mut snapshots = Vec::new();
+            let mut timed = 0;
+            for step in 1..=STEPS {
+                params.dt = step_params(&scene).dt * if step % 20 < 10 { 1.0 } else { 0.75 };
+                gpu.step(&params).unwrap();
+                if step % 5 == 0 {
+                    gpu.take_extremes().unwrap();
+                    let timings = gpu.take_timings().unwrap().expect("CUDA measures timings");
+                    assert!(timings.p2g > 0.0 && timings.grid_update > 0.0 && timings.g2p > 0.0);
+                    timed += timings.steps;
+                }
+                if step % 100 == 0 {
+                    snapshots.push(particle_bytes(&gpu.read_particles().unwrap()));
+                }
+            }
+            gpu.take_extremes().unwrap();
+            timed += gpu.take_timings().unwrap().expect("timings").steps;
+            assert_eq!(
+                timed as usize, STEPS,
+                "{pipeline:?}, graphs {graphs}: a timing record per substep"
+            );
+            println!("{pipeline:?}, graphs {graphs}: {} binnings", gpu.binnings());
+            runs.push((gpu.binnings(), snapshots));
+        }
+        assert_eq!(
+            runs[0].0, runs[1].0,
+            "{pipeline:?}: graphs changed when the bins were rebuilt"
+        );
+        for (k, (a, b)) in runs[0].1.iter().zip(&runs[1].1).enumerate() {
+            assert!(
+                a == b,
+                "{pipeline:?}: graphed and launched substeps differ after {} substeps",
+                100 * (k + 1)
+            );
+        }
     }
 }
 

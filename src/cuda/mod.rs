@@ -8,9 +8,11 @@
 //! - [`stats`]: the per-frame statistics as a device reduction (kernels/stats.cu).
 //! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
 //! - [`interop`]: OpenGL buffers registered with CUDA, mapped for the render kernel each frame.
+//! - [`graph`]: the substep captured as a CUDA graph and replayed, one launch per substep.
 //! - [`timing`]: per-phase CUDA events, read back without stalling.
 
 pub mod bins;
+pub mod graph;
 pub mod interop;
 pub mod launch;
 pub mod library;

@@ -14,6 +14,7 @@
 //! each accumulator it reads, so `PhaseTimings::grid_clear` stays 0 on the GPU.
 
 use super::bins::{self, BinKernels, Bins, NODE_BLOCK_EDGE, WORK_COUNTS, WORK_NODE_BLOCKS};
+use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::launch::{Kernel, Launcher, NvtxRange};
 use super::library;
 use super::modules::{LoadedModules, Origin};
@@ -45,6 +46,8 @@ pub struct CudaOptions {
     /// Threads per block of the particle and grid kernels: a multiple of 32 (the kernels reduce per
     /// warp with full-mask shuffles), at most 1024.
     pub block_size: u32,
+    /// Each substep as one CUDA graph launch (graph.rs) rather than a launch per kernel.
+    pub graphs: bool,
 }
 
 impl Default for CudaOptions {
@@ -52,12 +55,14 @@ impl Default for CudaOptions {
         CudaOptions {
             device: 0,
             block_size: 128,
+            graphs: true,
         }
     }
 }
 
 impl CudaOptions {
-    /// The defaults, overridden by `MPM_CUDA_DEVICE` and `MPM_CUDA_BLOCK_SIZE` where set.
+    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE` and `MPM_CUDA_GRAPHS` where
+    /// set.
     pub fn from_env() -> Result<CudaOptions> {
         let mut options = CudaOptions::default();
         if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
@@ -70,6 +75,13 @@ impl CudaOptions {
             options.block_size = text.trim().parse().map_err(|_| {
                 anyhow!("MPM_CUDA_BLOCK_SIZE={text:?} is not a number; use 128 (or 64, 256, ...)")
             })?;
+        }
+        if let Ok(text) = std::env::var("MPM_CUDA_GRAPHS") {
+            options.graphs = match text.trim() {
+                "1" => true,
+                "0" => false,
+                _ => bail!("MPM_CUDA_GRAPHS={text:?}: use 1 (substeps as CUDA graphs, the default) or 0"),
+            };
         }
         options.validate()?;
         Ok(options)
@@ -220,6 +232,10 @@ pub struct CudaSolver {
     fixed_mass_scale: f32,
     fixed_momentum_scale: f32,
     timing: PhaseEvents,
+    /// Captured substeps (graph.rs); empty where graphs are off.
+    graphs: SubstepGraphs,
+    /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
+    substeps: u64,
     stats: ParticleStats,
     /// Device scratch of the host-copy render path (allocated on first use, kept).
     render_scratch: Option<CudaSlice<f32>>,
@@ -359,6 +375,8 @@ impl CudaSolver {
             next_counter_copy: 0,
             tile_misses: 0,
             timing: PhaseEvents::new(ctx.clone()),
+            graphs: SubstepGraphs::default(),
+            substeps: 0,
             stats: ParticleStats::new(Kernel::load(&modules, "stats", "particle_stats")?, &launcher)?,
             ctx,
             launcher,
@@ -481,11 +499,15 @@ impl CudaSolver {
             &self.x,
             &mut self.work_counts,
         )?;
+        self.note_binning();
+        Ok(())
+    }
+
+    fn note_binning(&mut self) {
         self.bins_built = true;
         self.binnings += 1;
         self.rebin_requested = false;
         self.steps_since_binning = 0;
-        Ok(())
     }
 
     fn fixed_grid(&self) -> (&CudaSlice<u64>, &CudaSlice<u64>) {
@@ -768,6 +790,42 @@ impl CudaSolver {
         }
     }
 
+    /// The substep's work, kernel by kernel, in stream order.
+    fn enqueue_substep(&mut self, params: &Params, sort: bool) -> Result<()> {
+        let stream = self.launcher.stream.clone();
+        self.timing.begin_step(&stream)?;
+        if sort {
+            self.sort_particles(params)?;
+        }
+        self.steps_since_binning += 1;
+        self.timing.mark(&stream, 1)?;
+        if self.mass_scattered.is_none() {
+            self.p2g_init(params)?;
+        }
+        self.mirror_mass(params)?;
+        self.timing.mark(&stream, 2)?;
+        self.p2g(params)?;
+        self.timing.mark(&stream, 3)?;
+        self.mirror_momentum(params)?;
+        self.grid_update(params)?;
+        self.timing.mark(&stream, 4)?;
+        self.g2p(params)?;
+        self.timing.mark(&stream, 5)?;
+        Ok(())
+    }
+
+    /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
+    /// made once here, as for a substep enqueued directly.
+    fn capture_substep(&mut self, params: &Params, sort: bool) -> Result<SubstepGraph> {
+        // Whatever a first use allocates (the fixed-point grid) must exist before the capture.
+        self.device_params(params)?;
+        let stream = self.launcher.stream.clone();
+        let placeholders = self.timing.begin_capture()?;
+        let graph = SubstepGraph::capture(&stream, &placeholders, || self.enqueue_substep(params, sort));
+        self.timing.end_capture();
+        graph
+    }
+
     /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum
     /// per node (converted from fixed point where that scatter ran). Waits for the device.
     pub fn read_grid_accumulators(&mut self, params: &Params) -> Result<(Vec<f32>, Vec<Vec3>)> {
@@ -1014,31 +1072,40 @@ impl Solver for CudaSolver {
         "cuda"
     }
 
-    /// One substep, as the table at the top of this file lists its phases.
+    /// One substep, as the table at the top of this file lists its phases: enqueued kernel by kernel
+    /// (`enqueue_substep`), or as one launch of a captured graph of exactly that work (graph.rs).
     fn step(&mut self, params: &Params) -> Result<()> {
-        let _range = NvtxRange::new("substep");
-        let stream = self.launcher.stream.clone();
-        self.timing.begin_step(&stream)?;
-        if self.binning_due() {
-            self.sort_particles(params)?;
+        let sort = self.binning_due();
+        let graphs = self.options.graphs && !self.launcher.sync_each_launch && self.substeps > 0;
+        self.substeps += 1;
+        if !graphs {
+            let _range = NvtxRange::new("substep");
+            return self.enqueue_substep(params, sort);
         }
-        self.steps_since_binning += 1;
-        self.timing.mark(&stream, 1)?;
-        if self.mass_scattered.is_none() {
-            self.p2g_init(params)?;
-        }
-        self.mirror_mass(params)?;
-        self.timing.mark(&stream, 2)?;
-        self.p2g(params)?;
-        self.timing.mark(&stream, 3)?;
-        self.mirror_momentum(params)?;
-        self.grid_update(params)?;
-        self.timing.mark(&stream, 4)?;
-        self.g2p(params)?;
-        self.timing.mark(&stream, 5)?;
-        Ok(())
+        let _range = NvtxRange::new("substep (graph)");
+        let key = SubstepKey {
+            params: *params,
+            sort,
+            mass_scattered: self.mass_scattered,
+        };
+        let graph = match self.graphs.take(&key) {
+            Some(graph) => {
+                // What enqueue_substep's calls note on the host, for the work the graph replays.
+                if sort {
+                    self.note_binning();
+                }
+                self.steps_since_binning += 1;
+                graph
+            }
+            None => self.capture_substep(params, sort)?,
+        };
+        let launched = self
+            .timing
+            .begin_graphed_step()
+            .and_then(|events| graph.launch(events));
+        self.graphs.put(key, graph);
+        launched
     }
-
     fn take_extremes(&mut self) -> Result<StepExtremes> {
         let ticket = self.request_extremes()?;
         self.wait_extremes(ticket)

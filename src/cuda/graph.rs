@@ -1,0 +1,171 @@
+//! The substep as a CUDA graph. Launching a substep's ten-odd kernels, memsets and timing events one
+//! by one costs the host more than the GPU takes to run them at small particle counts, so the GPU
+//! waits on the host between kernels. A graph is one launch for the whole substep.
+//!
+//! A substep is captured (stream capture) the first time it is enqueued with a given `Params`, sort
+//! decision and mass-scatter state, and replayed for every later substep with the same key: a stretch
+//! of substeps shares its dt, so a frame captures at most two graphs (with and without the sort) and
+//! replays them. The timing events are external event-record nodes, pointed at a fresh set of events
+//! before each launch, so every substep keeps its per-phase CUDA-event timings.
+
+use crate::sim::Params;
+use anyhow::{bail, Context, Result};
+use cudarc::driver::{sys, CudaEvent, CudaGraph, CudaStream};
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+/// Graphs kept: the current stretch's two (with and without the sort) and the previous stretch's.
+const CACHED_GRAPHS: usize = 4;
+
+/// What decides the work a substep enqueues; equal keys enqueue identical work.
+#[derive(Clone, Copy)]
+pub struct SubstepKey {
+    pub params: Params,
+    pub sort: bool,
+    pub mass_scattered: Option<u32>,
+}
+
+impl PartialEq for SubstepKey {
+    /// Params compared bit for bit: the kernels get exactly these bytes.
+    fn eq(&self, other: &SubstepKey) -> bool {
+        bytemuck::bytes_of(&self.params) == bytemuck::bytes_of(&other.params)
+            && self.sort == other.sort
+            && self.mass_scattered == other.mass_scattered
+    }
+}
+
+/// One captured and instantiated substep.
+pub struct SubstepGraph {
+    graph: CudaGraph,
+    /// The event-record nodes, in the order of the placeholder events the capture recorded.
+    timing_nodes: Vec<sys::CUgraphNode>,
+}
+
+impl SubstepGraph {
+    /// Captures what `enqueue` puts on `stream` into a graph. `timing_events` are the events that
+    /// `enqueue` records as external event-record nodes (`record_external`), in phase order.
+    pub fn capture(
+        stream: &Arc<CudaStream>,
+        timing_events: &[sys::CUevent],
+        enqueue: impl FnOnce() -> Result<()>,
+    ) -> Result<SubstepGraph> {
+        stream
+            .begin_capture(sys::CUstreamCaptureMode::CU_STREAM_CAPTURE_MODE_THREAD_LOCAL)
+            .context("starting to capture the substep as a CUDA graph")?;
+        // The capture must end whatever `enqueue` did, or the stream stays in capture mode.
+        let enqueued = enqueue();
+        let ended = stream.end_capture(sys::CUgraphInstantiate_flags(0));
+        enqueued.context("enqueueing the substep into a CUDA graph capture")?;
+        let graph = ended
+            .context("capturing the substep as a CUDA graph (MPM_CUDA_GRAPHS=0 runs without graphs)")?
+            .context("the substep's CUDA graph capture recorded nothing")?;
+        let nodes = event_record_nodes(graph.cu_graph())?;
+        let timing_nodes = timing_events
+            .iter()
+            .map(|event| {
+                nodes
+                    .iter()
+                    .find(|(_, recorded)| recorded == event)
+                    .map(|&(node, _)| node)
+            })
+            .collect::<Option<Vec<_>>>()
+            .context("the substep's CUDA graph lost a timing event")?;
+        graph.upload().context("uploading the substep's CUDA graph")?;
+        Ok(SubstepGraph { graph, timing_nodes })
+    }
+
+    /// Launches the substep, its timing nodes recording `events` (in phase order).
+    pub fn launch(&self, events: &[CudaEvent]) -> Result<()> {
+        if events.len() != self.timing_nodes.len() {
+            bail!(
+                "{} timing events for a graph with {} timing nodes",
+                events.len(),
+                self.timing_nodes.len()
+            );
+        }
+        for (&node, event) in self.timing_nodes.iter().zip(events) {
+            // SAFETY: the node belongs to the graph this exec was instantiated from, and the event is
+            // live (held by the timing queue until its substep completes). Updates apply to later
+            // launches only, never to one in flight.
+            unsafe {
+                sys::cuGraphExecEventRecordNodeSetEvent(self.graph.cu_graph_exec(), node, event.cu_event())
+            }
+            .result()
+            .context("pointing the substep graph's timing node at its event")?;
+        }
+        self.graph.launch().context("launching the substep's CUDA graph")
+    }
+}
+
+/// The event-record nodes of `graph`, with the event each records.
+fn event_record_nodes(graph: sys::CUgraph) -> Result<Vec<(sys::CUgraphNode, sys::CUevent)>> {
+    let mut count = 0usize;
+    // SAFETY: a null array asks for the count only.
+    unsafe { sys::cuGraphGetNodes(graph, std::ptr::null_mut(), &mut count) }
+        .result()
+        .context("counting the graph's nodes")?;
+    let mut nodes = vec![std::ptr::null_mut(); count];
+    // SAFETY: `nodes` holds `count` entries.
+    unsafe { sys::cuGraphGetNodes(graph, nodes.as_mut_ptr(), &mut count) }
+        .result()
+        .context("listing the graph's nodes")?;
+    let mut records = Vec::new();
+    for node in nodes.into_iter().take(count) {
+        let mut kind = sys::CUgraphNodeType::CU_GRAPH_NODE_TYPE_EMPTY;
+        // SAFETY: `node` is a node of `graph`.
+        unsafe { sys::cuGraphNodeGetType(node, &mut kind) }
+            .result()
+            .context("reading a graph node's type")?;
+        if kind == sys::CUgraphNodeType::CU_GRAPH_NODE_TYPE_EVENT_RECORD {
+            let mut event = std::ptr::null_mut();
+            // SAFETY: `node` is an event-record node.
+            unsafe { sys::cuGraphEventRecordNodeGetEvent(node, &mut event) }
+                .result()
+                .context("reading a graph node's event")?;
+            records.push((node, event));
+        }
+    }
+    Ok(records)
+}
+
+/// Records `event` on `stream` as an external event: during a capture it becomes an event-record node
+/// of the graph (a plain record there would only order the capture), outside one a normal record.
+pub fn record_external(event: &CudaEvent, stream: &CudaStream) -> Result<()> {
+    // SAFETY: the event and the stream are live and of the current context.
+    unsafe {
+        sys::cuEventRecordWithFlags(
+            event.cu_event(),
+            stream.cu_stream(),
+            sys::CUevent_record_flags::CU_EVENT_RECORD_EXTERNAL as u32,
+        )
+    }
+    .result()
+    .context("recording a timing event")
+}
+
+/// The captured substeps, most recently used last.
+#[derive(Default)]
+pub struct SubstepGraphs {
+    entries: VecDeque<(SubstepKey, SubstepGraph)>,
+}
+
+impl SubstepGraphs {
+    /// Takes the graph for `key` out of the cache, if one was captured.
+    pub fn take(&mut self, key: &SubstepKey) -> Option<SubstepGraph> {
+        let at = self.entries.iter().position(|(k, _)| k == key)?;
+        self.entries.remove(at).map(|(_, graph)| graph)
+    }
+
+    /// Puts a graph (back) as the most recently used, dropping the oldest beyond the cache's size. A
+    /// dropped graph still in flight finishes first (the driver frees it when it completes).
+    pub fn put(&mut self, key: SubstepKey, graph: SubstepGraph) {
+        self.entries.push_back((key, graph));
+        while self.entries.len() > CACHED_GRAPHS {
+            self.entries.pop_front();
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.entries.clear();
+    }
+}
