@@ -71,7 +71,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     if (far) counters->rebin_needed = 1u;
 }
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) g2p2g(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p2g(const Params params, const BinEntry* __restrict__ bins,
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                  const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
@@ -80,7 +80,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) g2p2
                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
 }
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
                                     const u32* __restrict__ order, float4* __restrict__ x, float4* grid_acc,
                                     u64* fixed_mass, u32* block_marks, u32* block_list, u32* work_counts,
                                     StepCounters* __restrict__ counters) {

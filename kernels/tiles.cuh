@@ -39,9 +39,12 @@
 #define TILE_SPAN_BLOCKS (TILE_SPAN * TILE_SPAN * TILE_SPAN)
 #define BIN_CELLS 64     // cells of a bin (the sort keys of a bin, bins.cu)
 #define TILE_THREADS 128  // threads of a tiled pass's block (__launch_bounds__ below)
-// Blocks per multiprocessor the tiled passes are compiled for: caps p2g_tiled's registers at 80
-// (from 130; a few spill), which doubles the warps that hide its latencies.
-#define TILE_MIN_BLOCKS 6
+// Blocks per multiprocessor the tiled passes are compiled for (their register caps). Measured on the
+// H200 (2026-11-23, mpm bench --steps 1500, phase means at 6 / 8 blocks): g2p2g at 8 (64 registers)
+// runs bench-655k in 0.090 ms against 0.103 at 6 (80), bench-65k 0.0176 against 0.0169; p2g_tiled
+// at 6 (80, from 130, a few spill) runs bench-655k 0.172 ms against 0.190 at 8, where it spills more.
+#define G2P2G_MIN_BLOCKS 8
+#define P2G_TILED_MIN_BLOCKS 6
 
 // Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
