@@ -24,7 +24,7 @@ use super::timing::PhaseEvents;
 use crate::sim::params::{Pipeline, ScatterMode};
 use crate::sim::{
     ColourBy, ExtremesTicket, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes,
-    Summary,
+    Summary, SummaryTicket,
 };
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use cudarc::driver::{
@@ -1227,6 +1227,11 @@ impl Solver for CudaSolver {
 
     /// A device reduction (kernels/stats.cu): the host reads a few KiB, never the particles.
     fn summary(&mut self, material: &Material) -> Result<Summary> {
+        let ticket = self.request_summary(material)?;
+        self.wait_summary(ticket)
+    }
+
+    fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
         let params = Params {
             material: *material,
             grid_res: self.grid_res,
@@ -1234,7 +1239,15 @@ impl Solver for CudaSolver {
             ..bytemuck::Zeroable::zeroed()
         };
         self.stats
-            .summary(&self.launcher, &params, &self.x, &self.v, &self.rho)
+            .request(&self.launcher, &params, &self.x, &self.v, &self.rho)?;
+        Ok(SummaryTicket::Pending)
+    }
+
+    fn wait_summary(&mut self, ticket: SummaryTicket) -> Result<Summary> {
+        match ticket {
+            SummaryTicket::Ready(summary) => Ok(summary),
+            SummaryTicket::Pending => self.stats.wait(),
+        }
     }
 }
 

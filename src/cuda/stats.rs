@@ -1,12 +1,15 @@
 //! Per-frame statistics as a device reduction (kernels/stats.cu): the host reads `STATS_BLOCKS`
 //! partial records (14 KiB) instead of every particle, and sums them in a fixed order, so the
-//! figures are the same on every run.
+//! figures are the same on every run. The reduction and the copy are enqueued behind a frame's last
+//! substeps (`request`) and arrive with them, so a frame of `mpm run` waits for the GPU once.
 
 use super::launch::{Kernel, Launcher};
 use crate::sim::{Params, Summary};
-use anyhow::{Context, Result};
+use anyhow::{ensure, Context, Result};
 use bytemuck::{Pod, Zeroable};
-use cudarc::driver::{CudaSlice, DeviceRepr, LaunchConfig, PushKernelArg, ValidAsZeroBits};
+use cudarc::driver::{
+    CudaEvent, CudaSlice, DeviceRepr, LaunchConfig, PinnedHostSlice, PushKernelArg, ValidAsZeroBits,
+};
 use std::mem::size_of;
 
 /// Blocks of the reduction (a fixed count: the partials do not depend on the device).
@@ -35,56 +38,75 @@ unsafe impl ValidAsZeroBits for StatsPartial {}
 pub struct ParticleStats {
     kernel: Kernel,
     partials: CudaSlice<StatsPartial>,
+    /// The partials' host copy, written in stream order, and the event recorded after the copy.
+    host: PinnedHostSlice<StatsPartial>,
+    copied: CudaEvent,
+    requested: bool,
 }
 
 impl ParticleStats {
     pub fn new(kernel: Kernel, launcher: &Launcher) -> Result<ParticleStats> {
+        let stream = &launcher.stream;
+        let ctx = stream.context();
         Ok(ParticleStats {
             kernel,
-            partials: launcher
-                .stream
+            partials: stream
                 .alloc_zeros::<StatsPartial>(STATS_BLOCKS)
                 .context("allocating the statistics partials")?,
+            // SAFETY: written by a device copy before it is read (`wait`).
+            host: unsafe { ctx.alloc_pinned::<StatsPartial>(STATS_BLOCKS) }
+                .context("allocating pinned memory for the statistics")?,
+            copied: ctx.new_event(None).context("creating the statistics' event")?,
+            requested: false,
         })
     }
 
-    /// Reduces the state on the device and reads the partials back (waits for the device).
-    pub fn summary(
+    /// Enqueues the reduction of the particles as they are after the work enqueued so far, and the
+    /// copy of its partials to the host; nothing waits.
+    pub fn request(
         &mut self,
         launcher: &Launcher,
         params: &Params,
         x: &CudaSlice<f32>,
         v: &CudaSlice<f32>,
         rho: &CudaSlice<f32>,
-    ) -> Result<Summary> {
+    ) -> Result<()> {
         let config = LaunchConfig {
             grid_dim: (STATS_BLOCKS as u32, 1, 1),
             block_dim: (STATS_THREADS, 1, 1),
             shared_mem_bytes: 0,
         };
-        // SAFETY: arguments match particle_stats; x, v hold float4 and rho a float per particle of
-        // params.num_particles; partials has STATS_BLOCKS records.
+        // SAFETY: the arguments match particle_stats in kernels/stats.cu; `partials` holds one record
+        // per block of this launch.
         unsafe {
             self.kernel.launch(launcher, config, |a| {
                 a.arg(params).arg(x).arg(v).arg(rho).arg(&self.partials);
             })?;
         }
-        let mut partials = vec![StatsPartial::default(); STATS_BLOCKS];
-        launcher
-            .stream
-            .memcpy_dtoh(&self.partials, &mut partials)
-            .context(
-                "copying the statistics from the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)",
-            )?;
-        launcher
-            .stream
+        let stream = &launcher.stream;
+        stream.memcpy_dtoh(&self.partials, &mut self.host).context(
+            "copying the statistics from the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)",
+        )?;
+        self.copied
+            .record(stream)
+            .context("recording the statistics' copy")?;
+        self.requested = true;
+        Ok(())
+    }
+
+    /// Waits for the requested statistics' copy only (its own event), and sums the partials.
+    pub fn wait(&mut self) -> Result<Summary> {
+        ensure!(self.requested, "statistics awaited without a request");
+        self.requested = false;
+        let partials = self
+            .copied
             .synchronize()
+            .and_then(|()| self.host.as_slice())
             .context("waiting for the statistics (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        Ok(combine(&partials))
+        Ok(combine(partials))
     }
 }
 
-/// The partials summed in block order, as `Summary::of` would give for the whole state.
 fn combine(partials: &[StatsPartial]) -> Summary {
     let mut ke = 0.0f64;
     let mut position = [0.0f64; 3];

@@ -14,5 +14,5 @@ pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
     ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary,
-    MAX_PENDING_STEP_TIMINGS,
+    SummaryTicket, MAX_PENDING_STEP_TIMINGS,
 };

@@ -118,6 +118,14 @@ pub enum ExtremesTicket {
     Pending(usize),
 }
 
+/// A request for the statistics (see [`Solver::request_summary`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SummaryTicket {
+    Ready(Summary),
+    /// A device reduction still on its way to the host.
+    Pending,
+}
+
 /// A backend that advances the particles by one substep.
 pub trait Solver {
     fn name(&self) -> &'static str;
@@ -176,6 +184,18 @@ pub trait Solver {
             material.particle_mass,
             material.rest_density,
         ))
+    }
+    /// Starts the statistics of the state after the substeps enqueued so far, in stream order;
+    /// [`Self::wait_summary`] gives them. A backend whose steps are synchronous answers at once. One
+    /// request at a time.
+    fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
+        Ok(SummaryTicket::Ready(self.summary(material)?))
+    }
+    fn wait_summary(&mut self, ticket: SummaryTicket) -> Result<Summary> {
+        match ticket {
+            SummaryTicket::Ready(summary) => Ok(summary),
+            SummaryTicket::Pending => bail!("the {} backend issued no pending statistics", self.name()),
+        }
     }
 }
 
@@ -290,6 +310,10 @@ pub struct Simulation {
     last_step_timings: Vec<PhaseTimings>,
     /// A frame begun by [`Simulation::step_frame_until`] and not finished yet.
     in_progress: Option<FramePart>,
+    /// Set by [`Simulation::advance_frame`]: the frame's last stretch is followed by the statistics
+    /// request, so they arrive with its extremes, in the frame's one wait.
+    summary_wanted: bool,
+    summary_ticket: Option<SummaryTicket>,
 }
 
 /// What a frame's substeps have done so far.
@@ -345,6 +369,8 @@ impl Simulation {
             signal_rise: 0.0,
             last_step_timings: Vec::new(),
             in_progress: None,
+            summary_wanted: false,
+            summary_ticket: None,
         }
     }
 
@@ -420,8 +446,15 @@ impl Simulation {
 
     /// Advance one 60 Hz frame and return its statistics.
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
-        let steps = self.step_frame()?;
-        let summary = self.solver.summary(&self.params.material)?;
+        self.summary_wanted = true;
+        let steps = self.step_frame();
+        self.summary_wanted = false;
+        let steps = steps?;
+        let ticket = match self.summary_ticket.take() {
+            Some(ticket) => ticket,
+            None => self.solver.request_summary(&self.params.material)?,
+        };
+        let summary = self.solver.wait_summary(ticket)?;
         if !summary.is_finite() {
             return Err(diverged(self.frame));
         }
@@ -486,6 +519,9 @@ impl Simulation {
             // Decided once: a stretch left in flight when the frame pauses would lose its extremes.
             let done = n == to_frame_end;
             let pause = !done && late();
+            if done && self.summary_wanted {
+                self.summary_ticket = Some(self.solver.request_summary(&self.params.material)?);
+            }
             if done || pause {
                 if let Some((ticket, n, dt)) = in_flight.take() {
                     self.account_stretch(ticket, n, dt, &mut part)?;
