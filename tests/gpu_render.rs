@@ -136,6 +136,7 @@ fn headless_render_matches_reference() {
         size: [320, 180],
         mode: DrawMode::Spheres,
         colouring: Colouring::Speed,
+        particle_radius: None,
         transfer: Transfer::Interop,
         video: None,
     };

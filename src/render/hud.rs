@@ -2,6 +2,7 @@
 //! returns the user's requests as [`Action`]s; the app carries them out (and reports errors back).
 
 use super::renderer::{scale_colour, Colouring, DrawMode, RenderSettings};
+use super::timer::PassTimes;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
 use egui::{Color32, RichText};
@@ -29,6 +30,8 @@ pub struct HudInfo<'a> {
     /// Simulated / wall seconds (slow-motion factor below 1).
     pub speed: f64,
     pub transfer: &'a str,
+    /// GPU milliseconds per render pass (timer queries of a frame a few draws old).
+    pub render_passes: Option<PassTimes>,
     pub recording: Option<(String, u64)>,
     pub message: Option<&'a str>,
 }
@@ -69,7 +72,7 @@ pub const KEYS: &[(&str, &str)] = &[
     ("Space", "pause / resume"),
     ("N", "single step (one 60 Hz frame)"),
     ("R", "reset the scene"),
-    ("M", "points / spheres"),
+    ("M", "draw: points / spheres / surface"),
     ("C", "colour: solid / speed / density"),
     ("F", "frame the domain"),
     ("P", "screenshot (PNG)"),
@@ -155,6 +158,13 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             }
             row("step total", format!("{:.3} ms", t.total()));
         }
+        if let Some(passes) = info.render_passes.filter(|p| !p.is_empty()) {
+            row("render (GPU)", String::new());
+            for (pass, ms) in passes.iter() {
+                row(pass.name(), format!("{ms:.3} ms"));
+            }
+            row("render total", format!("{:.3} ms", passes.total()));
+        }
         if let Some((dir, frames)) = &info.recording {
             row(
                 "recording",
@@ -231,6 +241,7 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
         ui.label("draw");
         ui.selectable_value(&mut r.mode, DrawMode::Points, "points");
         ui.selectable_value(&mut r.mode, DrawMode::Spheres, "spheres");
+        ui.selectable_value(&mut r.mode, DrawMode::Surface, "surface");
     });
     ui.horizontal(|ui| {
         ui.label("colour");
@@ -252,6 +263,24 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
                     .logarithmic(true)
                     .text("sphere radius (m)"),
             );
+        }
+        DrawMode::Surface => {
+            let s = &mut r.surface;
+            // From a quarter to three particle spacings: below, the spheres part; above, the water swells.
+            ui.add(
+                egui::Slider::new(&mut s.radius, 0.25 * r.spacing..=3.0 * r.spacing)
+                    .logarithmic(true)
+                    .text("particle radius (m)"),
+            );
+            ui.add(egui::Slider::new(&mut s.smoothing, 0.0..=12.0).text("smoothing (radii)"));
+            ui.add(egui::Slider::new(&mut s.iterations, 0..=4).text("smoothing passes"));
+            ui.add(
+                egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"),
+            );
+            ui.add(egui::Slider::new(&mut s.refraction, 0.0..=2.0).text("refraction"));
+            if r.colouring == Colouring::Speed {
+                ui.label("speed: whitewater from the low to the high end of the scale");
+            }
         }
     }
     if r.colouring != Colouring::Solid {

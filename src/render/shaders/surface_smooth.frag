@@ -1,0 +1,62 @@
+// One direction of the narrow-range filter (Truong & Yuksel 2018, "A Narrow-Range Filter for
+// Screen-Space Fluid Rendering"), run horizontally then vertically.
+//
+// A Gaussian over the depth, except that it only averages depths within a narrow range around the
+// pixel's own: a sample farther than the range (the background, or a sheet of water behind) is left
+// out, together with its mirror sample so the kernel stays symmetric; a sample nearer than the range
+// (a sheet in front) counts as lying just in front of the pixel (clamped), so it cannot drag the
+// silhouette forward. Samples inside the range widen it, so the filter follows a surface seen at a
+// grazing angle. The radius is a fixed number of particle radii in pixels at the pixel's depth,
+// capped at u_max_filter_px: the cost per pixel is bounded.
+in vec2 v_uv;
+uniform sampler2D u_depth;
+uniform ivec2 u_direction;
+uniform float u_radius;              // particle radius, m
+uniform float u_pixels_per_metre;    // at unit depth
+uniform float u_filter_radii;        // filter radius in particle radii
+uniform int u_max_filter_px;
+uniform float u_range;               // half-width of the narrow range, m
+out float o_depth;
+
+void narrow(inout float depth, inout float weight, inout float mirror_weight,
+            inout float upper, inout float lower, float lower_clamp) {
+    if (depth > upper) {
+        weight = 0.0;
+        mirror_weight = 0.0;
+    } else if (depth < lower) {
+        depth = lower_clamp;
+    } else {
+        upper = max(upper, depth + u_range);
+        lower = min(lower, depth - u_range);
+    }
+}
+
+void main() {
+    ivec2 size = textureSize(u_depth, 0);
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    float z = texelFetch(u_depth, p, 0).r;
+    if (z >= 0.5 * EMPTY_DEPTH) {
+        o_depth = EMPTY_DEPTH;
+        return;
+    }
+    int n = min(u_max_filter_px, int(ceil(u_filter_radii * u_radius * u_pixels_per_metre / z)));
+    float sigma = max(float(n) / 3.0, 0.5);
+    float two_sigma2 = 2.0 * sigma * sigma;
+    float upper = z + u_range;
+    float lower = z - u_range;
+    float lower_clamp = z - u_radius;
+    float sum = z;
+    float weights = 1.0;
+    for (int i = 1; i <= n; ++i) {
+        float w = exp(-float(i * i) / two_sigma2);
+        float a = texelFetch(u_depth, clamp(p + i * u_direction, ivec2(0), size - 1), 0).r;
+        float b = texelFetch(u_depth, clamp(p - i * u_direction, ivec2(0), size - 1), 0).r;
+        float wa = w;
+        float wb = w;
+        narrow(a, wa, wb, upper, lower, lower_clamp);
+        narrow(b, wb, wa, upper, lower, lower_clamp);
+        sum += a * wa + b * wb;
+        weights += wa + wb;
+    }
+    o_depth = sum / weights;
+}
