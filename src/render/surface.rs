@@ -36,10 +36,13 @@ pub fn glsl_constants() -> String {
 
 pub const FOAM_COLOUR: [f32; 3] = [0.92, 0.95, 1.0];
 /// The colour water takes on as it absorbs what is behind it.
-pub const WATER_COLOUR: [f32; 3] = [0.10, 0.36, 0.56];
+pub const WATER_COLOUR: [f32; 3] = [0.12, 0.42, 0.68];
 /// Absorption per metre of water per channel at `absorption = 1` (red goes first, as in real water,
 /// but far faster, so that a tank of tens of centimetres shows its depth).
-const ABSORPTION: [f32; 3] = [4.5, 1.6, 0.9];
+const ABSORPTION: [f32; 3] = [6.0, 2.5, 1.5];
+/// Per metre at `absorption = 1`: how fast the water's own colour (light scattered in it) replaces
+/// the scene behind.
+const SCATTERING: f32 = 2.5;
 /// The direction towards the sun, world space (up and to the side of the default camera).
 pub const SUN: [f32; 3] = [0.35, 0.85, 0.40];
 
@@ -254,6 +257,7 @@ impl Surface {
             set_vec3(gl, p, "u_sun_world", sun.to_array());
             set_vec3(gl, p, "u_sun_view", (Mat3::from_mat4(frame.view) * sun).to_array());
             set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
+            set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
             set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
             set_f32(gl, p, "u_refraction", s.refraction);
             set_i32(gl, p, "u_tint", frame.tint);

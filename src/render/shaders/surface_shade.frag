@@ -12,6 +12,7 @@ uniform mat3 u_view_to_world;
 uniform vec3 u_sun_view;             // towards the sun, view space
 uniform vec3 u_sun_world;
 uniform vec3 u_absorption;           // 1/m per channel
+uniform float u_scattering;          // 1/m: how fast the water's own colour replaces what is behind
 uniform vec3 u_water_colour;
 uniform float u_refraction;
 uniform int u_tint;                  // 0 clear water, 1 whitewater from speed, 2 the colour scale
@@ -77,12 +78,15 @@ void main() {
     float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
     vec3 reflection = sky(normalize(u_view_to_world * reflect(-v, n)));
 
-    vec2 bent = clamp(v_uv + n.xy * u_refraction * thickness / z, vec2(0.0), vec2(1.0));
+    // The bend grows with the thickness up to a few centimetres, then stays: a long path through
+    // the water (along a crease) must not throw the picture across the screen.
+    vec2 bent = clamp(v_uv + n.xy * u_refraction * min(thickness, 0.05) / z, vec2(0.0), vec2(1.0));
     vec3 behind = texture(u_scene, bent).rgb;
     vec3 transmitted = exp(-u_absorption * thickness);
+    float scattered = 1.0 - exp(-u_scattering * thickness);
     float lit = max(dot(n, u_sun_view), 0.0);
-    vec3 water = u_tint == 2 ? scale_colour(t) * 0.85 : u_water_colour;
-    vec3 body = behind * transmitted + water * (0.55 + 0.45 * lit) * (1.0 - transmitted);
+    vec3 water = u_tint == 2 ? scale_colour(t) : u_water_colour;
+    vec3 body = behind * transmitted + water * (0.6 + 0.4 * lit) * scattered;
     vec3 colour = mix(body, reflection, fresnel);
 
     vec3 h = normalize(u_sun_view + v);
