@@ -227,7 +227,9 @@ fn surface_frame(transfer: Transfer) -> ImageStats {
     println!("blue (water) pixels: {:.1}%", 100.0 * blue);
     assert!(blue > 0.05, "hardly any water visible: {:.2}%", 100.0 * blue);
     if let Some(out) = std::env::var_os("MPM_WRITE_REFERENCE") {
-        let name = std::path::Path::new(SURFACE_REFERENCE).file_name().expect("a file name");
+        let name = std::path::Path::new(SURFACE_REFERENCE)
+            .file_name()
+            .expect("a file name");
         let target = std::path::Path::new(&out).join(name);
         if target.exists() {
             println!("{} exists: not replaced", target.display());

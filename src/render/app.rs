@@ -251,12 +251,8 @@ impl ViewerApp {
     fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> Result<(OrbitCamera, Controls)> {
         let (lo, hi) = scene.fluid_region();
         let camera = OrbitCamera::framing(lo.as_vec3(), hi.as_vec3());
-        let render = RenderSettings::for_scene(
-            scene,
-            options.mode,
-            options.colouring,
-            options.particle_radius,
-        )?;
+        let render =
+            RenderSettings::for_scene(scene, options.mode, options.colouring, options.particle_radius)?;
         let controls = Controls {
             paused: false,
             render,

@@ -274,9 +274,7 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             );
             ui.add(egui::Slider::new(&mut s.smoothing, 0.0..=12.0).text("smoothing (radii)"));
             ui.add(egui::Slider::new(&mut s.iterations, 0..=4).text("smoothing passes"));
-            ui.add(
-                egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"),
-            );
+            ui.add(egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"));
             ui.add(egui::Slider::new(&mut s.refraction, 0.0..=2.0).text("refraction"));
             if r.colouring == Colouring::Speed {
                 ui.label("speed: whitewater from the low to the high end of the scale");

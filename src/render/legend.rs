@@ -154,21 +154,42 @@ impl Legend {
         let gap = bar_w / 2 + 2;
         let label_x = bar_x - gap;
         let placements = [
-            Placement { x: label_x, y: bar_y + bar_h, right_aligned: true },
-            Placement { x: label_x, y: bar_y + bar_h / 2, right_aligned: true },
-            Placement { x: label_x, y: bar_y, right_aligned: true },
-            Placement { x: bar_x + bar_w, y: bar_y + bar_h + gap + px as i32 / 2, right_aligned: true },
+            Placement {
+                x: label_x,
+                y: bar_y + bar_h,
+                right_aligned: true,
+            },
+            Placement {
+                x: label_x,
+                y: bar_y + bar_h / 2,
+                right_aligned: true,
+            },
+            Placement {
+                x: label_x,
+                y: bar_y,
+                right_aligned: true,
+            },
+            Placement {
+                x: bar_x + bar_w,
+                y: bar_y + bar_h + gap + px as i32 / 2,
+                right_aligned: true,
+            },
         ];
         self.ensure_atlas(texts, px)?;
         let atlas = self.atlas.as_ref().expect("just made");
         let mut vertices: Vec<[f32; 4]> = Vec::with_capacity(6 * placements.len());
         for (placement, b) in placements.iter().zip(&atlas.boxes) {
             let [ax, ay, bw, bh] = b.map(|v| v as i32);
-            let left = if placement.right_aligned { placement.x - bw } else { placement.x };
+            let left = if placement.right_aligned {
+                placement.x - bw
+            } else {
+                placement.x
+            };
             // Centred vertically on the reference point, kept inside the viewport.
             let bottom = (placement.y - bh / 2).clamp(0, (h - bh).max(0));
             let to_clip = |x: i32, y: i32| [2.0 * x as f32 / w as f32 - 1.0, 2.0 * y as f32 / h as f32 - 1.0];
-            let to_atlas = |x: i32, y: i32| [x as f32 / atlas.size[0] as f32, y as f32 / atlas.size[1] as f32];
+            let to_atlas =
+                |x: i32, y: i32| [x as f32 / atlas.size[0] as f32, y as f32 / atlas.size[1] as f32];
             // Atlas rows run top to bottom, the viewport's bottom to top.
             let corners = [
                 (left, bottom, ax, ay + bh),
@@ -218,10 +239,17 @@ impl Legend {
 
     /// Rasterises `texts` at `px` into the atlas, unless it holds exactly those already.
     fn ensure_atlas(&mut self, texts: Vec<String>, px: u32) -> Result<()> {
-        if self.atlas.as_ref().is_some_and(|a| a.px == px && a.texts == texts) {
+        if self
+            .atlas
+            .as_ref()
+            .is_some_and(|a| a.px == px && a.texts == texts)
+        {
             return Ok(());
         }
-        let lines: Vec<(u32, u32, Vec<u8>)> = texts.iter().map(|t| rasterise(&self.font, t, px as f32)).collect();
+        let lines: Vec<(u32, u32, Vec<u8>)> = texts
+            .iter()
+            .map(|t| rasterise(&self.font, t, px as f32))
+            .collect();
         let width = lines.iter().map(|l| l.0).max().unwrap_or(1).max(1);
         let height: u32 = lines.iter().map(|l| l.1 + 1).sum::<u32>().max(1);
         let mut pixels = vec![0u8; (width * height) as usize];

@@ -364,7 +364,8 @@ impl Renderer {
 
             let surface = Surface::new(gl.clone(), &prelude)?;
             let legend = Legend::new(gl.clone(), &prelude)?;
-            let timer = GpuTimer::new(gl.clone()).map_err(|e| anyhow!("OpenGL could not create a timer query: {e}"))?;
+            let timer = GpuTimer::new(gl.clone())
+                .map_err(|e| anyhow!("OpenGL could not create a timer query: {e}"))?;
             Ok(Renderer {
                 gl,
                 programs,
@@ -701,4 +702,62 @@ impl Renderer {
 /// so it is height / 2 * proj[1][1].
 fn pixels_per_metre(proj: &Mat4, height: i32) -> f32 {
     0.5 * height as f32 * proj.y_axis.y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::Scene;
+
+    #[test]
+    fn particle_radius_follows_the_scene_or_the_flag() {
+        let scene = Scene::load("dam-break").unwrap();
+        let spacing = scene.lattice().spacing as f32;
+        let derived = RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).unwrap();
+        assert_eq!(derived.spacing, spacing);
+        assert!(derived.surface.radius > 0.5 * spacing && derived.surface.radius < spacing);
+        assert_eq!(derived.mode, DrawMode::Surface);
+        let given =
+            RenderSettings::for_scene(&scene, DrawMode::Spheres, Colouring::Speed, Some(0.004)).unwrap();
+        assert_eq!((given.sphere_radius, given.surface.radius), (0.004, 0.004));
+    }
+
+    #[test]
+    fn a_bad_particle_radius_is_refused_with_the_range() {
+        let scene = Scene::load("dam-break").unwrap();
+        for radius in [0.0, -0.01, f32::NAN, f32::INFINITY, 5.0] {
+            let error = RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, Some(radius))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                error.contains("--particle-radius") && error.contains("above 0 and below"),
+                "{radius}: {error}"
+            );
+        }
+    }
+
+    #[test]
+    fn m_cycles_through_every_mode() {
+        let mut mode = DrawMode::default();
+        assert_eq!(mode, DrawMode::Surface);
+        let mut seen = Vec::new();
+        for _ in 0..3 {
+            mode = mode.next();
+            seen.push(mode);
+        }
+        assert_eq!(seen, [DrawMode::Points, DrawMode::Spheres, DrawMode::Surface]);
+    }
+
+    #[test]
+    fn the_legend_says_what_the_colour_means() {
+        let mut settings = RenderSettings::for_spacing(0.005);
+        settings.colouring = Colouring::Solid;
+        assert_eq!(settings.legend(), None);
+        settings.colouring = Colouring::Speed;
+        assert_eq!(settings.legend().map(|s| (s.kind, s.unit)), Some((1, "m/s")));
+        settings.mode = DrawMode::Spheres;
+        assert_eq!(settings.legend().map(|s| (s.kind, s.unit)), Some((0, "m/s")));
+        settings.colouring = Colouring::Density;
+        assert_eq!(settings.legend().map(|s| s.unit), Some("ρ/ρ0"));
+    }
 }

@@ -14,7 +14,9 @@
 //! The textures follow the viewport's size: reallocated when it changes (a window resize), never per
 //! frame. Nothing is read back to the CPU.
 
-use super::program::{bind_texture, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_vec2, set_vec3, FULLSCREEN_VS};
+use super::program::{
+    bind_texture, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_vec2, set_vec3, FULLSCREEN_VS,
+};
 use super::timer::{GpuTimer, Pass};
 use anyhow::{bail, Result};
 use glam::{Mat3, Mat4, Vec3};
@@ -28,8 +30,9 @@ pub const EMPTY_DEPTH: f32 = 1.0e20;
 pub fn glsl_constants() -> String {
     format!(
         "const float EMPTY_DEPTH = {EMPTY_DEPTH:e};\nconst vec3 FOAM_COLOUR = vec3({:.3}, {:.3}, {:.3});\n\
-         // Whitewater from the quantity's place t on the scale: none at the low end, rising to \
-         most of the colour at the high end.\nfloat foam_amount(float t) {{ t = clamp(t, 0.0, 1.0); return 0.85 * t * t; }}\n",
+         // Whitewater from the quantity's place t on the scale: none at the low end, little below \
+         the middle, three quarters of the colour at the high end.\n\
+         float foam_amount(float t) {{ t = clamp(t, 0.0, 1.0); return 0.75 * t * t * t; }}\n",
         FOAM_COLOUR[0], FOAM_COLOUR[1], FOAM_COLOUR[2]
     )
 }
@@ -128,10 +131,34 @@ impl Surface {
         // SAFETY: the caller's context is current.
         unsafe {
             let programs = Programs {
-                depth: link(&gl, "surface depth", &[PARTICLE_VS], &[include_str!("shaders/surface_depth.frag")], prelude)?,
-                thickness: link(&gl, "surface thickness", &[PARTICLE_VS], &[include_str!("shaders/surface_thickness.frag")], prelude)?,
-                smooth: link(&gl, "surface smoothing", &[FULLSCREEN_VS], &[include_str!("shaders/surface_smooth.frag")], prelude)?,
-                shade: link(&gl, "surface shading", &[FULLSCREEN_VS], &[include_str!("shaders/surface_shade.frag")], prelude)?,
+                depth: link(
+                    &gl,
+                    "surface depth",
+                    &[PARTICLE_VS],
+                    &[include_str!("shaders/surface_depth.frag")],
+                    prelude,
+                )?,
+                thickness: link(
+                    &gl,
+                    "surface thickness",
+                    &[PARTICLE_VS],
+                    &[include_str!("shaders/surface_thickness.frag")],
+                    prelude,
+                )?,
+                smooth: link(
+                    &gl,
+                    "surface smoothing",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_smooth.frag")],
+                    prelude,
+                )?,
+                shade: link(
+                    &gl,
+                    "surface shading",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_shade.frag")],
+                    prelude,
+                )?,
             };
             let empty_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
             Ok(Surface {
@@ -255,7 +282,12 @@ impl Surface {
             set_mat3(gl, p, "u_view_to_world", &view_to_world);
             let sun = Vec3::from(SUN).normalize();
             set_vec3(gl, p, "u_sun_world", sun.to_array());
-            set_vec3(gl, p, "u_sun_view", (Mat3::from_mat4(frame.view) * sun).to_array());
+            set_vec3(
+                gl,
+                p,
+                "u_sun_view",
+                (Mat3::from_mat4(frame.view) * sun).to_array(),
+            );
             set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
             set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
             set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
@@ -277,10 +309,26 @@ impl Surface {
         let [w, h] = size.map(|s| s as i32);
         let (half_w, half_h) = half(size);
         unsafe {
-            let texture = |internal: u32, format: u32, kind: u32, w: i32, h: i32, filter: u32| -> Result<glow::Texture> {
+            let texture = |internal: u32,
+                           format: u32,
+                           kind: u32,
+                           w: i32,
+                           h: i32,
+                           filter: u32|
+             -> Result<glow::Texture> {
                 let t = gl.create_texture().map_err(gl_error("a texture"))?;
                 gl.bind_texture(glow::TEXTURE_2D, Some(t));
-                gl.tex_image_2d(glow::TEXTURE_2D, 0, internal as i32, w, h, 0, format, kind, glow::PixelUnpackData::Slice(None));
+                gl.tex_image_2d(
+                    glow::TEXTURE_2D,
+                    0,
+                    internal as i32,
+                    w,
+                    h,
+                    0,
+                    format,
+                    kind,
+                    glow::PixelUnpackData::Slice(None),
+                );
                 gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MIN_FILTER, filter as i32);
                 gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MAG_FILTER, filter as i32);
                 gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE as i32);
@@ -288,7 +336,14 @@ impl Surface {
                 Ok(t)
             };
             let scene_colour = texture(glow::RGBA8, glow::RGBA, glow::UNSIGNED_BYTE, w, h, glow::LINEAR)?;
-            let scene_depth = texture(glow::DEPTH_COMPONENT24, glow::DEPTH_COMPONENT, glow::UNSIGNED_INT, w, h, glow::NEAREST)?;
+            let scene_depth = texture(
+                glow::DEPTH_COMPONENT24,
+                glow::DEPTH_COMPONENT,
+                glow::UNSIGNED_INT,
+                w,
+                h,
+                glow::NEAREST,
+            )?;
             let depth = [
                 texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
                 texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
@@ -300,19 +355,37 @@ impl Surface {
             gl.renderbuffer_storage(glow::RENDERBUFFER, glow::DEPTH_COMPONENT24, w, h);
             gl.bind_renderbuffer(glow::RENDERBUFFER, None);
 
-            let framebuffer = |colour: glow::Texture, depth: Option<glow::Texture>| -> Result<glow::Framebuffer> {
-                let f = gl.create_framebuffer().map_err(gl_error("a framebuffer"))?;
-                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(f));
-                gl.framebuffer_texture_2d(glow::FRAMEBUFFER, glow::COLOR_ATTACHMENT0, glow::TEXTURE_2D, Some(colour), 0);
-                if let Some(depth) = depth {
-                    gl.framebuffer_texture_2d(glow::FRAMEBUFFER, glow::DEPTH_ATTACHMENT, glow::TEXTURE_2D, Some(depth), 0);
-                }
-                Ok(f)
-            };
+            let framebuffer =
+                |colour: glow::Texture, depth: Option<glow::Texture>| -> Result<glow::Framebuffer> {
+                    let f = gl.create_framebuffer().map_err(gl_error("a framebuffer"))?;
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(f));
+                    gl.framebuffer_texture_2d(
+                        glow::FRAMEBUFFER,
+                        glow::COLOR_ATTACHMENT0,
+                        glow::TEXTURE_2D,
+                        Some(colour),
+                        0,
+                    );
+                    if let Some(depth) = depth {
+                        gl.framebuffer_texture_2d(
+                            glow::FRAMEBUFFER,
+                            glow::DEPTH_ATTACHMENT,
+                            glow::TEXTURE_2D,
+                            Some(depth),
+                            0,
+                        );
+                    }
+                    Ok(f)
+                };
             let scene_fbo = framebuffer(scene_colour, Some(scene_depth))?;
             let depth_fbos = [framebuffer(depth[0], None)?, framebuffer(depth[1], None)?];
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(depth_fbos[0]));
-            gl.framebuffer_renderbuffer(glow::FRAMEBUFFER, glow::DEPTH_ATTACHMENT, glow::RENDERBUFFER, Some(depth_test));
+            gl.framebuffer_renderbuffer(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::RENDERBUFFER,
+                Some(depth_test),
+            );
             let thickness_fbo = framebuffer(thickness, None)?;
             let targets = Targets {
                 size,
@@ -376,7 +449,10 @@ impl Surface {
 
 /// The thickness texture's size: half of `size`, rounded up, at least 1.
 fn half(size: [u32; 2]) -> (i32, i32) {
-    (size[0].div_ceil(2).max(1) as i32, size[1].div_ceil(2).max(1) as i32)
+    (
+        size[0].div_ceil(2).max(1) as i32,
+        size[1].div_ceil(2).max(1) as i32,
+    )
 }
 
 unsafe fn set_particle_uniforms(

@@ -149,7 +149,10 @@ impl GpuTimer {
         let set = &mut self.ring[self.current];
         set.used[pass as usize] = true;
         // SAFETY: a query of this context; no other TIME_ELAPSED query is active (ended above).
-        unsafe { self.gl.begin_query(glow::TIME_ELAPSED, set.queries[pass as usize]) };
+        unsafe {
+            self.gl
+                .begin_query(glow::TIME_ELAPSED, set.queries[pass as usize])
+        };
         self.running = Some(pass);
     }
 
