@@ -1,7 +1,8 @@
 //! The egui side panel: what the viewer shows (rates, timings, time) and the controls it offers. It
 //! returns the user's requests as [`Action`]s; the app carries them out (and reports errors back).
 
-use super::renderer::{scale_colour, Colouring, DrawMode, RenderSettings};
+use super::legend::Scale;
+use super::renderer::{Colouring, DrawMode, RenderSettings};
 use super::timer::PassTimes;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
@@ -292,7 +293,9 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             ui.add(egui::DragValue::new(&mut r.scale_range[0]).speed(0.01));
             ui.add(egui::DragValue::new(&mut r.scale_range[1]).speed(0.01));
         });
-        legend(ui, r.scale_range);
+        if let Some(scale) = r.legend() {
+            legend(ui, &scale);
+        }
     }
     ui.horizontal(|ui| {
         ui.checkbox(&mut r.show_box, "domain box");
@@ -303,12 +306,13 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
 }
 
 /// The colour scale with its end values, as the particles use it.
-fn legend(ui: &mut egui::Ui, range: [f32; 2]) {
+fn legend(ui: &mut egui::Ui, scale: &Scale) {
+    let range = scale.range;
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 14.0), egui::Sense::hover());
     let steps = 48;
     for i in 0..steps {
         let t = (i as f32 + 0.5) / steps as f32;
-        let [r, g, b] = scale_colour(t).map(|c| (c * 255.0) as u8);
+        let [r, g, b] = scale.colour(t).map(|c| (c * 255.0) as u8);
         let x0 = rect.left() + rect.width() * i as f32 / steps as f32;
         let x1 = rect.left() + rect.width() * (i + 1) as f32 / steps as f32;
         ui.painter().rect_filled(
@@ -320,7 +324,7 @@ fn legend(ui: &mut egui::Ui, range: [f32; 2]) {
     ui.horizontal(|ui| {
         ui.label(format!("{:.2}", range[0]));
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-            ui.label(format!("{:.2}", range[1]));
+            ui.label(format!("{:.2} {}", range[1], scale.unit));
         });
     });
 }

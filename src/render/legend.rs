@@ -6,6 +6,8 @@
 //! the text or its size changes; each frame draws a few textured quads.
 
 use super::program::{bind_texture, gl_error, link, set_f32, set_i32, set_vec3};
+use super::renderer::scale_colour;
+use super::surface::{foam_amount, FOAM_COLOUR, WATER_COLOUR};
 use super::Viewport;
 use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
 use anyhow::{anyhow, Result};
@@ -19,6 +21,18 @@ pub struct Scale {
     pub kind: i32,
     pub range: [f32; 2],
     pub unit: &'static str,
+}
+
+impl Scale {
+    /// The bar's colour at `t` in [0, 1] (the panel's copy of the legend draws with it).
+    pub fn colour(&self, t: f32) -> [f32; 3] {
+        if self.kind == 1 {
+            let f = foam_amount(t);
+            [0, 1, 2].map(|k| WATER_COLOUR[k] + (FOAM_COLOUR[k] - WATER_COLOUR[k]) * f)
+        } else {
+            scale_colour(t)
+        }
+    }
 }
 
 const BAR_VS: &str = r#"
@@ -136,7 +150,7 @@ impl Legend {
             gl.viewport(viewport.x + bar_x, viewport.y + bar_y, bar_w, bar_h);
             gl.use_program(Some(self.bar));
             set_i32(gl, self.bar, "u_kind", scale.kind);
-            set_vec3(gl, self.bar, "u_water_colour", super::surface::WATER_COLOUR);
+            set_vec3(gl, self.bar, "u_water_colour", WATER_COLOUR);
             gl.bind_vertex_array(Some(self.bar_vao));
             gl.draw_arrays(glow::TRIANGLE_STRIP, 0, 4);
         }

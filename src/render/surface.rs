@@ -26,13 +26,20 @@ use std::sync::Arc;
 /// The depth texture's value where there is no water (farther than anything drawn).
 pub const EMPTY_DEPTH: f32 = 1.0e20;
 
-/// The GLSL constants the surface's shaders share with the colour bar.
+/// Whitewater at the quantity's place `t` on the scale: none at the low end, little below the middle,
+/// `FOAM_MAX` of the colour at the high end. The shaders run the same formula ([`glsl_constants`]).
+pub fn foam_amount(t: f32) -> f32 {
+    FOAM_MAX * t.clamp(0.0, 1.0).powi(3)
+}
+
+const FOAM_MAX: f32 = 0.75;
+
+/// The GLSL constants and functions the surface's shaders share with the colour bar.
 pub fn glsl_constants() -> String {
     format!(
-        "const float EMPTY_DEPTH = {EMPTY_DEPTH:e};\nconst vec3 FOAM_COLOUR = vec3({:.3}, {:.3}, {:.3});\n\
-         // Whitewater from the quantity's place t on the scale: none at the low end, little below \
-         the middle, three quarters of the colour at the high end.\n\
-         float foam_amount(float t) {{ t = clamp(t, 0.0, 1.0); return 0.75 * t * t * t; }}\n",
+        "const float EMPTY_DEPTH = {EMPTY_DEPTH:e};\n\
+         const vec3 FOAM_COLOUR = vec3({:.3}, {:.3}, {:.3});\n\
+         float foam_amount(float t) {{ t = clamp(t, 0.0, 1.0); return {FOAM_MAX:.3} * t * t * t; }}\n",
         FOAM_COLOUR[0], FOAM_COLOUR[1], FOAM_COLOUR[2]
     )
 }
