@@ -20,7 +20,7 @@ pub mod headless;
 pub mod hud;
 pub mod legend;
 pub mod offline;
-pub mod program;
+mod program;
 pub mod renderer;
 pub mod surface;
 pub mod timer;

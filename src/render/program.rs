@@ -1,5 +1,8 @@
 //! Small OpenGL helpers shared by the renderer's parts: compiling and linking GLSL programs, setting
 //! uniforms by name, and turning glow's string errors into messages that say what was being made.
+//!
+//! Every `unsafe fn` here has one requirement: the context `gl` is current on this thread, and the
+//! objects passed are its own.
 
 use anyhow::{anyhow, Result};
 use glam::{Mat3, Mat4};
