@@ -4,7 +4,7 @@
 // A Gaussian over the depth, except that it only averages depths within a narrow range around the
 // pixel's own: a sample farther than the range (the background, or a sheet of water behind) is left
 // out, together with its mirror sample so the kernel stays symmetric; a sample nearer than the range
-// (a sheet in front) counts as lying just in front of the pixel (clamped), so it cannot drag the
+// (a sheet in front) counts as lying at the range's near end (clamped), so it cannot drag the
 // silhouette forward. Samples inside the range widen it, so the filter follows a surface seen at a
 // grazing angle. The radius is a fixed number of particle radii in pixels at the pixel's depth,
 // capped at u_max_filter_px: the cost per pixel is bounded.
@@ -24,13 +24,18 @@ uniform int u_max_filter_px;
 uniform float u_range;               // half-width of the narrow range, m
 out float o_depth;
 
+// Each sample's part is continuous in its depth: a sample that crosses the range's far end fades out
+// over one range width (with its mirror), and one in front is clamped to the range's near end, so
+// that no pixel's result jumps where a neighbour's depth crosses a threshold (such jumps draw lines
+// at a fixed distance inside every silhouette).
 void narrow(inout float depth, inout float weight, inout float mirror_weight,
-            inout float upper, inout float lower, float lower_clamp) {
+            inout float upper, inout float lower) {
     if (depth > upper) {
-        weight = 0.0;
-        mirror_weight = 0.0;
+        float keep = 1.0 - smoothstep(upper, upper + u_range, depth);
+        weight *= keep;
+        mirror_weight *= keep;
     } else if (depth < lower) {
-        depth = lower_clamp;
+        depth = lower;
     } else {
         upper = max(upper, depth + u_range);
         lower = min(lower, depth - u_range);
@@ -55,7 +60,6 @@ void main() {
     float tail = exp(-reach * reach / two_sigma2);
     float upper = z + u_range;
     float lower = z - u_range;
-    float lower_clamp = z - u_radius;
     float sum = z;
     float weights = 1.0;
     for (int i = 1; i <= n; ++i) {
@@ -64,8 +68,8 @@ void main() {
         float b = texelFetch(u_depth, clamp(p - i * u_direction, ivec2(0), size - 1), 0).r;
         float wa = w;
         float wb = w;
-        narrow(a, wa, wb, upper, lower, lower_clamp);
-        narrow(b, wb, wa, upper, lower, lower_clamp);
+        narrow(a, wa, wb, upper, lower);
+        narrow(b, wb, wa, upper, lower);
         sum += a * wa + b * wb;
         weights += wa + wb;
     }
