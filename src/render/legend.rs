@@ -17,8 +17,8 @@ use std::sync::Arc;
 /// What the bar shows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scale {
-    /// 0: the colour scale; 1: water turning to whitewater (the surface coloured by speed).
-    pub kind: i32,
+    /// Water turning to whitewater (the surface coloured by speed), else the colour scale.
+    pub whitewater: bool,
     pub range: [f32; 2],
     pub unit: &'static str,
 }
@@ -26,7 +26,7 @@ pub struct Scale {
 impl Scale {
     /// The bar's colour at `t` in [0, 1] (the panel's copy of the legend draws with it).
     pub fn colour(&self, t: f32) -> [f32; 3] {
-        if self.kind == 1 {
+        if self.whitewater {
             let f = foam_amount(t);
             [0, 1, 2].map(|k| WATER_COLOUR[k] + (FOAM_COLOUR[k] - WATER_COLOUR[k]) * f)
         } else {
@@ -46,11 +46,11 @@ void main() {
 
 const BAR_FS: &str = r#"
 in float v_t;
-uniform int u_kind;
+uniform bool u_whitewater;
 uniform vec3 u_water_colour;
 out vec4 o_colour;
 void main() {
-    vec3 c = u_kind == 1 ? mix(u_water_colour, FOAM_COLOUR, foam_amount(v_t)) : scale_colour(v_t);
+    vec3 c = u_whitewater ? mix(u_water_colour, FOAM_COLOUR, foam_amount(v_t)) : scale_colour(v_t);
     o_colour = vec4(c, 1.0);
 }
 "#;
@@ -149,7 +149,7 @@ impl Legend {
             gl.disable(glow::BLEND);
             gl.viewport(viewport.x + bar_x, viewport.y + bar_y, bar_w, bar_h);
             gl.use_program(Some(self.bar));
-            set_i32(gl, self.bar, "u_kind", scale.kind);
+            set_i32(gl, self.bar, "u_whitewater", i32::from(scale.whitewater));
             set_vec3(gl, self.bar, "u_water_colour", WATER_COLOUR);
             gl.bind_vertex_array(Some(self.bar_vao));
             gl.draw_arrays(glow::TRIANGLE_STRIP, 0, 4);

@@ -7,7 +7,7 @@
 use super::camera::OrbitCamera;
 use super::legend::{Legend, Scale};
 use super::program::{gl_error, link, set_f32, set_i32, set_mat4};
-use super::surface::{Surface, SurfaceFrame, SurfaceSettings};
+use super::surface::{Surface, SurfaceFrame, SurfaceSettings, Tint};
 use super::timer::{GpuTimer, Pass, PassTimes};
 use anyhow::{anyhow, Result};
 use glam::{Mat4, Vec3};
@@ -130,13 +130,13 @@ impl RenderSettings {
     /// What the colour bar shows, if anything: the scale of the colouring, or for the surface coloured
     /// by speed, water turning to whitewater.
     pub fn legend(&self) -> Option<Scale> {
-        let kind = match (self.mode, self.colouring) {
+        let whitewater = match (self.mode, self.colouring) {
             (_, Colouring::Solid) => return None,
-            (DrawMode::Surface, Colouring::Speed) => 1,
-            _ => 0,
+            (DrawMode::Surface, Colouring::Speed) => true,
+            _ => false,
         };
         Some(Scale {
-            kind,
+            whitewater,
             range: self.scale_range,
             unit: self.colouring.unit(),
         })
@@ -601,9 +601,9 @@ impl Renderer {
             self.draw_stage(&(proj * view), domain, true, settings.show_box);
         }
         let tint = match settings.colouring {
-            Colouring::Solid => 0,
-            Colouring::Speed => 1,
-            Colouring::Density => 2,
+            Colouring::Solid => Tint::Clear,
+            Colouring::Speed => Tint::Whitewater,
+            Colouring::Density => Tint::Scale,
         };
         let frame = SurfaceFrame {
             view,
@@ -754,9 +754,15 @@ mod tests {
         settings.colouring = Colouring::Solid;
         assert_eq!(settings.legend(), None);
         settings.colouring = Colouring::Speed;
-        assert_eq!(settings.legend().map(|s| (s.kind, s.unit)), Some((1, "m/s")));
+        assert_eq!(
+            settings.legend().map(|s| (s.whitewater, s.unit)),
+            Some((true, "m/s"))
+        );
         settings.mode = DrawMode::Spheres;
-        assert_eq!(settings.legend().map(|s| (s.kind, s.unit)), Some((0, "m/s")));
+        assert_eq!(
+            settings.legend().map(|s| (s.whitewater, s.unit)),
+            Some((false, "m/s"))
+        );
         settings.colouring = Colouring::Density;
         assert_eq!(settings.legend().map(|s| s.unit), Some("ρ/ρ0"));
     }

@@ -88,6 +88,17 @@ impl SurfaceSettings {
 /// The filter's radius in pixels never exceeds this, whatever the zoom: a bounded cost per pixel.
 const MAX_FILTER_PX: i32 = 24;
 
+/// How the colour quantity tints the water (the shading's `u_tint`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tint {
+    /// Clear water (solid colouring).
+    Clear = 0,
+    /// Whitewater where the speed nears the top of the scale.
+    Whitewater = 1,
+    /// The water takes the colour scale's colour of the quantity (density).
+    Scale = 2,
+}
+
 /// What the passes need to know about the view and the particles.
 pub struct SurfaceFrame<'a> {
     pub view: Mat4,
@@ -98,8 +109,7 @@ pub struct SurfaceFrame<'a> {
     pub count: usize,
     pub particle_volume: f32,
     pub settings: &'a SurfaceSettings,
-    /// 0 clear water, 1 whitewater from speed, 2 the colour scale.
-    pub tint: i32,
+    pub tint: Tint,
     pub range: [f32; 2],
 }
 
@@ -299,7 +309,7 @@ impl Surface {
             set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
             set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
             set_f32(gl, p, "u_refraction", s.refraction);
-            set_i32(gl, p, "u_tint", frame.tint);
+            set_i32(gl, p, "u_tint", frame.tint as i32);
             set_vec2(gl, p, "u_range", frame.range);
             gl.draw_arrays(glow::TRIANGLES, 0, 3);
             timer.end();
