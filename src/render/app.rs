@@ -279,12 +279,18 @@ impl ViewerApp {
 
     /// Starts `scene` afresh on the chosen backend; on failure the old simulation keeps running.
     fn start_scene(&mut self, scene: Scene, reframe: bool) -> Result<()> {
+        // The new scene's view first: a --particle-radius too large for it is refused before the
+        // running scene is touched.
+        let defaults = if reframe {
+            Some(Self::scene_defaults(&scene, &self.options)?)
+        } else {
+            None
+        };
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
         let solver = backend::create(self.options.backend, &scene)?;
-        if reframe {
-            let (camera, mut controls) = Self::scene_defaults(&scene, &self.options)?;
+        if let Some((camera, mut controls)) = defaults {
             // The look carries over; the radius follows the new scene's particle spacing.
             controls.render.surface = SurfaceSettings {
                 radius: controls.render.surface.radius,
