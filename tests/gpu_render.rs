@@ -124,8 +124,9 @@ fn push_agrees_between_cpu_and_cuda() {
 }
 
 /// Frame 30 of `mpm render --scene dam-break --frames 30 --size 320x180 --backend cuda --out DIR`
-/// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21. Embedded, so the test
-/// binary runs anywhere.
+/// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21, before the colour bar
+/// carried its numbers (a few hundred text pixels at this size, inside the bounds below). Embedded, so
+/// the test binary runs anywhere.
 const REFERENCE_FRAME: &[u8] = include_bytes!("reference/dam-break-30-320x180.png");
 
 fn headless_render_matches_reference() {
