@@ -134,8 +134,12 @@ impl SolverArgs {
 /// How the particles are drawn, and how their data reaches OpenGL: the same for `view` and `render`.
 #[derive(clap::Args)]
 struct LookArgs {
-    #[arg(long, value_enum, default_value_t = DrawMode::Spheres)]
+    #[arg(long, value_enum, default_value_t = DrawMode::Surface)]
     draw: DrawMode,
+    /// Radius of the spheres (spheres) or of the splats the surface is built from (surface), in
+    /// metres; default from the scene: 0.6 (spheres) or 0.75 (surface) particle spacings.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    particle_radius: Option<f32>,
     #[arg(long, value_enum, default_value_t = Colouring::Speed)]
     colour: Colouring,
     /// How particle data reaches OpenGL with the CUDA backend (host-copy: for comparison).
@@ -265,6 +269,7 @@ fn view(args: ViewArgs) -> Result<()> {
         size: args.size,
         mode: args.look.draw,
         colouring: args.look.colour,
+        particle_radius: args.look.particle_radius,
         transfer: args.look.transfer,
         fixed_frames: args.fixed_frames,
         capture_dir: args.capture_dir,
@@ -292,6 +297,7 @@ fn render_frames(args: RenderArgs) -> Result<()> {
             size: args.size,
             mode: args.look.draw,
             colouring: args.look.colour,
+            particle_radius: args.look.particle_radius,
             transfer: args.look.transfer,
             video: args.video,
         },

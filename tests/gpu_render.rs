@@ -7,7 +7,7 @@ use glam::Vec3;
 use mpm::backend::BackendKind;
 use mpm::cuda::interop::GlBufferResource;
 use mpm::cuda::{CudaOptions, CudaSolver};
-use mpm::render::capture::Image;
+use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
 use mpm::render::offline::{render, RenderOptions};
 use mpm::render::{Colouring, DrawMode, Renderer, Transfer};
@@ -24,6 +24,8 @@ fn main() -> std::process::ExitCode {
             interop_round_trip_through_gl,
             push_agrees_between_cpu_and_cuda,
             headless_render_matches_reference,
+            surface_render_matches_reference,
+            surface_render_through_host_copy_matches_reference,
         ],
     )
 }
@@ -122,8 +124,9 @@ fn push_agrees_between_cpu_and_cuda() {
 }
 
 /// Frame 30 of `mpm render --scene dam-break --frames 30 --size 320x180 --backend cuda --out DIR`
-/// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21. Embedded, so the test
-/// binary runs anywhere.
+/// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21, before the colour bar
+/// carried its numbers (a few hundred text pixels at this size, inside the bounds below). Embedded, so
+/// the test binary runs anywhere.
 const REFERENCE_FRAME: &[u8] = include_bytes!("reference/dam-break-30-320x180.png");
 
 fn headless_render_matches_reference() {
@@ -136,6 +139,7 @@ fn headless_render_matches_reference() {
         size: [320, 180],
         mode: DrawMode::Spheres,
         colouring: Colouring::Speed,
+        particle_radius: None,
         transfer: Transfer::Interop,
         video: None,
     };
@@ -150,9 +154,13 @@ fn headless_render_matches_reference() {
     let got = Image::read_png(&frame).expect("PNG").stats();
     let want = Image::read_png(REFERENCE_FRAME).expect("reference PNG").stats();
     println!("rendered  {got:?}\nreference {want:?}");
-    // The float scatter sums in a varying order, so the splash differs in detail from run to run;
-    // the statistics of the frame (how much is covered, where, in what colours) barely move. A wrong
-    // camera, colour scale, depth test or an empty buffer moves them far past these bounds.
+    assert_close_to_reference(&got, &want);
+}
+
+/// The float scatter sums in a varying order, so the splash differs in detail from run to run; the
+/// statistics of the frame (how much is covered, where, in what colours) barely move. A wrong camera,
+/// colour scale, depth test or an empty buffer moves them far past these bounds.
+fn assert_close_to_reference(got: &ImageStats, want: &ImageStats) {
     assert!(want.covered_fraction > 0.05, "the reference shows no fluid");
     let covered = (got.covered_fraction - want.covered_fraction).abs();
     assert!(
@@ -167,4 +175,96 @@ fn headless_render_matches_reference() {
         let d = (got.mean_rgb[k] - want.mean_rgb[k]).abs();
         assert!(d < 3.0, "mean channel {k} off by {d}");
     }
+}
+
+/// The surface's reference frame: frame 30 of `mpm render --scene dam-break --frames 30 --size
+/// 480x270 --backend cuda --draw surface --colour speed`. Read at run time from the working directory
+/// (the repository's root, where `cargo test` and the GPU scripts run), so the test builds before the
+/// reference exists. Made on the GPU machine with `MPM_WRITE_REFERENCE=tests/reference` (see
+/// [`surface_frame`]).
+const SURFACE_REFERENCE: &str = "tests/reference/dam-break-30-surface-480x270.png";
+
+/// Frame 30 of the dam break drawn as a surface through `transfer`, checked for water and for GPU
+/// times per pass. With `MPM_WRITE_REFERENCE=DIR` it is also written to DIR (never over a file).
+fn surface_frame(transfer: Transfer) -> ImageStats {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let options = RenderOptions {
+        scene: Scene::load("dam-break").expect("preset"),
+        backend: BackendKind::Cuda,
+        frames: 30,
+        out: Some(dir.path().to_path_buf()),
+        size: [480, 270],
+        mode: DrawMode::Surface,
+        colouring: Colouring::Speed,
+        particle_radius: None,
+        transfer,
+        video: None,
+    };
+    let mut log = Vec::new();
+    let report = render(options, &mut log).expect("render");
+    println!("{}", String::from_utf8_lossy(&log));
+    let expected_path = match transfer {
+        Transfer::Interop => "CUDA-GL interop",
+        Transfer::HostCopy => "host copy + glBufferSubData",
+    };
+    assert_eq!(report.path, expected_path);
+    for pass in ["scene", "depth", "thickness", "smoothing", "shading", "legend"] {
+        let ms = report.timings.gpu_passes_ms.get(pass).copied();
+        assert!(
+            ms.is_some_and(|ms| ms > 0.0),
+            "no GPU time for the {pass} pass: {:?}",
+            report.timings.gpu_passes_ms
+        );
+    }
+    let path = dir.path().join("frame-00030.png");
+    let image = Image::read_png(&std::fs::read(&path).expect("frame 30 written")).expect("PNG");
+    // Water, whatever the reference says: clearly blue pixels over a good part of the frame.
+    let blue = image
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[2] > 50 && i32::from(p[2]) > i32::from(p[0]) + 25)
+        .count() as f64
+        / f64::from(image.width * image.height);
+    println!("blue (water) pixels: {:.1}%", 100.0 * blue);
+    assert!(blue > 0.05, "hardly any water visible: {:.2}%", 100.0 * blue);
+    if let Some(out) = std::env::var_os("MPM_WRITE_REFERENCE") {
+        let name = std::path::Path::new(SURFACE_REFERENCE)
+            .file_name()
+            .expect("a file name");
+        let target = std::path::Path::new(&out).join(name);
+        if target.exists() {
+            println!("{} exists: not replaced", target.display());
+        } else {
+            std::fs::copy(&path, &target).expect("writing the reference");
+            println!("wrote the reference frame {}", target.display());
+        }
+    }
+    image.stats()
+}
+
+fn surface_reference() -> ImageStats {
+    let bytes = std::fs::read(SURFACE_REFERENCE).unwrap_or_else(|e| {
+        panic!(
+            "the surface's reference frame {SURFACE_REFERENCE} cannot be read ({e}; working directory {}). \
+             Run the tests from the repository's root; if the file is missing, make it on the GPU machine \
+             with MPM_WRITE_REFERENCE=tests/reference, look at it, and commit it",
+            std::env::current_dir().map_or("unknown".into(), |d| d.display().to_string())
+        )
+    });
+    Image::read_png(&bytes).expect("reference PNG").stats()
+}
+
+fn surface_render_matches_reference() {
+    let got = surface_frame(Transfer::Interop);
+    let want = surface_reference();
+    println!("rendered  {got:?}\nreference {want:?}");
+    assert_close_to_reference(&got, &want);
+}
+
+/// The host copy feeds the same surface: the same statistics as the reference (made by interop).
+fn surface_render_through_host_copy_matches_reference() {
+    let got = surface_frame(Transfer::HostCopy);
+    let want = surface_reference();
+    println!("rendered  {got:?}\nreference {want:?}");
+    assert_close_to_reference(&got, &want);
 }

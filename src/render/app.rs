@@ -8,6 +8,7 @@ use super::clock::{Pacing, SimClock};
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
 use crate::sim::{PhaseTimings, Push, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
@@ -37,6 +38,8 @@ pub struct ViewerOptions {
     pub size: [u32; 2],
     pub mode: DrawMode,
     pub colouring: Colouring,
+    /// Replaces the particle radius derived from the scene (spheres and surface), m.
+    pub particle_radius: Option<f32>,
     pub transfer: Transfer,
     /// Step this many 60 Hz frames per drawn frame instead of following wall time.
     pub fixed_frames: Option<u32>,
@@ -51,6 +54,7 @@ pub struct ViewerOptions {
 /// Opens the window and runs until it is closed.
 pub fn run(options: ViewerOptions) -> Result<()> {
     check_paths(&options)?;
+    let mut app = ViewerApp::new(options)?;
     let event_loop = EventLoop::new().map_err(|e| {
         // winit's message starts with the path of its own source file; the user needs the rest.
         let text = e.to_string();
@@ -64,7 +68,6 @@ pub fn run(options: ViewerOptions) -> Result<()> {
              WAYLAND_DISPLAY set?); without one, `mpm render` draws frames to PNG files headless"
         )
     })?;
-    let mut app = ViewerApp::new(options);
     event_loop
         .run_app(&mut app)
         .context("the window's event loop failed")?;
@@ -202,9 +205,9 @@ struct ViewerApp {
 const STEP_DEADLINE: std::time::Duration = std::time::Duration::from_millis(50);
 
 impl ViewerApp {
-    fn new(options: ViewerOptions) -> ViewerApp {
+    fn new(options: ViewerOptions) -> Result<ViewerApp> {
         let scene = options.scene.clone();
-        let (camera, controls) = Self::scene_defaults(&scene, &options);
+        let (camera, controls) = Self::scene_defaults(&scene, &options)?;
         let pacing = match options.fixed_frames {
             Some(n) => Pacing::Fixed {
                 frames_per_draw: n.max(1),
@@ -213,7 +216,7 @@ impl ViewerApp {
                 max_frames_per_draw: 4,
             },
         };
-        ViewerApp {
+        Ok(ViewerApp {
             feed: ParticleFeed::new(options.transfer),
             gpu: None,
             sim: None,
@@ -242,16 +245,14 @@ impl ViewerApp {
             fixed_owed: 0,
             longest_step: std::time::Duration::ZERO,
             options,
-        }
+        })
     }
 
-    fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> (OrbitCamera, Controls) {
+    fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> Result<(OrbitCamera, Controls)> {
         let (lo, hi) = scene.fluid_region();
         let camera = OrbitCamera::framing(lo.as_vec3(), hi.as_vec3());
-        let mut render = RenderSettings::for_spacing(scene.lattice().spacing as f32);
-        render.mode = options.mode;
-        render.colouring = options.colouring;
-        render.scale_range = RenderSettings::default_range(options.colouring);
+        let render =
+            RenderSettings::for_scene(scene, options.mode, options.colouring, options.particle_radius)?;
         let controls = Controls {
             paused: false,
             render,
@@ -268,7 +269,7 @@ impl ViewerApp {
             push_strength: 0.02,
             push_radius: 0.1,
         };
-        (camera, controls)
+        Ok((camera, controls))
     }
 
     fn domain(&self) -> (Vec3, Vec3) {
@@ -278,12 +279,23 @@ impl ViewerApp {
 
     /// Starts `scene` afresh on the chosen backend; on failure the old simulation keeps running.
     fn start_scene(&mut self, scene: Scene, reframe: bool) -> Result<()> {
+        // The new scene's view first: a --particle-radius too large for it is refused before the
+        // running scene is touched.
+        let defaults = if reframe {
+            Some(Self::scene_defaults(&scene, &self.options)?)
+        } else {
+            None
+        };
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
         let solver = backend::create(self.options.backend, &scene)?;
-        if reframe {
-            let (camera, mut controls) = Self::scene_defaults(&scene, &self.options);
+        if let Some((camera, mut controls)) = defaults {
+            // The look carries over; the radius follows the new scene's particle spacing.
+            controls.render.surface = SurfaceSettings {
+                radius: controls.render.surface.radius,
+                ..self.controls.render.surface
+            };
             controls.render.mode = self.controls.render.mode;
             controls.render.colouring = self.controls.render.colouring;
             controls.render.scale_range = self.controls.render.scale_range;
@@ -415,13 +427,7 @@ impl ViewerApp {
             Key::Character(c) => match c.to_lowercase().as_str() {
                 "n" => self.step_requested = true,
                 "r" => self.act(Action::Reset, event_loop),
-                "m" => {
-                    let r = &mut self.controls.render;
-                    r.mode = match r.mode {
-                        DrawMode::Points => DrawMode::Spheres,
-                        DrawMode::Spheres => DrawMode::Points,
-                    };
-                }
+                "m" => self.controls.render.mode = self.controls.render.mode.next(),
                 "c" => {
                     let r = &mut self.controls.render;
                     r.colouring = match r.colouring {
@@ -601,6 +607,7 @@ impl ViewerApp {
                 wall_time: self.started.elapsed().as_secs_f64(),
                 speed: self.clock.speed(),
                 transfer: self.feed.path(),
+                render_passes: gpu.renderer.pass_times(),
                 recording: self.recording.as_ref().map(|r| {
                     (
                         r.sequence.dir().display().to_string(),
@@ -630,13 +637,17 @@ impl ViewerApp {
             }
             None => Viewport::full(size),
         };
-        gpu.renderer.draw(
+        if let Err(e) = gpu.renderer.draw(
             self.scene_viewport,
             &self.camera,
             &self.controls.render,
             count,
             domain,
-        );
+        ) {
+            // The surface needs float render targets; without them the spheres still draw.
+            self.message = Some(format!("{e:#}"));
+            self.controls.render.mode = DrawMode::Spheres;
+        }
 
         let last_frame = self
             .options

@@ -1,7 +1,9 @@
 //! The egui side panel: what the viewer shows (rates, timings, time) and the controls it offers. It
 //! returns the user's requests as [`Action`]s; the app carries them out (and reports errors back).
 
-use super::renderer::{scale_colour, Colouring, DrawMode, RenderSettings};
+use super::legend::Scale;
+use super::renderer::{Colouring, DrawMode, RenderSettings};
+use super::timer::PassTimes;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
 use egui::{Color32, RichText};
@@ -29,6 +31,8 @@ pub struct HudInfo<'a> {
     /// Simulated / wall seconds (slow-motion factor below 1).
     pub speed: f64,
     pub transfer: &'a str,
+    /// GPU milliseconds per render pass (timer queries of a frame a few draws old).
+    pub render_passes: Option<PassTimes>,
     pub recording: Option<(String, u64)>,
     pub message: Option<&'a str>,
 }
@@ -69,7 +73,7 @@ pub const KEYS: &[(&str, &str)] = &[
     ("Space", "pause / resume"),
     ("N", "single step (one 60 Hz frame)"),
     ("R", "reset the scene"),
-    ("M", "points / spheres"),
+    ("M", "draw: points / spheres / surface"),
     ("C", "colour: solid / speed / density"),
     ("F", "frame the domain"),
     ("P", "screenshot (PNG)"),
@@ -155,6 +159,13 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             }
             row("step total", format!("{:.3} ms", t.total()));
         }
+        if let Some(passes) = info.render_passes.filter(|p| !p.is_empty()) {
+            row("render (GPU)", String::new());
+            for (pass, ms) in passes.iter() {
+                row(pass.name(), format!("{ms:.3} ms"));
+            }
+            row("render total", format!("{:.3} ms", passes.total()));
+        }
         if let Some((dir, frames)) = &info.recording {
             row(
                 "recording",
@@ -231,6 +242,7 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
         ui.label("draw");
         ui.selectable_value(&mut r.mode, DrawMode::Points, "points");
         ui.selectable_value(&mut r.mode, DrawMode::Spheres, "spheres");
+        ui.selectable_value(&mut r.mode, DrawMode::Surface, "surface");
     });
     ui.horizontal(|ui| {
         ui.label("colour");
@@ -253,6 +265,22 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
                     .text("sphere radius (m)"),
             );
         }
+        DrawMode::Surface => {
+            let s = &mut r.surface;
+            // From a quarter to three particle spacings: below, the spheres part; above, the water swells.
+            ui.add(
+                egui::Slider::new(&mut s.radius, 0.25 * r.spacing..=3.0 * r.spacing)
+                    .logarithmic(true)
+                    .text("particle radius (m)"),
+            );
+            ui.add(egui::Slider::new(&mut s.smoothing, 0.0..=12.0).text("smoothing (radii)"));
+            ui.add(egui::Slider::new(&mut s.iterations, 0..=4).text("smoothing passes"));
+            ui.add(egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"));
+            ui.add(egui::Slider::new(&mut s.refraction, 0.0..=2.0).text("refraction"));
+            if r.colouring == Colouring::Speed {
+                ui.label("speed: whitewater from the low to the high end of the scale");
+            }
+        }
     }
     if r.colouring != Colouring::Solid {
         let unit = if r.colouring == Colouring::Speed {
@@ -265,7 +293,9 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             ui.add(egui::DragValue::new(&mut r.scale_range[0]).speed(0.01));
             ui.add(egui::DragValue::new(&mut r.scale_range[1]).speed(0.01));
         });
-        legend(ui, r.scale_range);
+        if let Some(scale) = r.legend() {
+            legend(ui, &scale);
+        }
     }
     ui.horizontal(|ui| {
         ui.checkbox(&mut r.show_box, "domain box");
@@ -276,12 +306,13 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
 }
 
 /// The colour scale with its end values, as the particles use it.
-fn legend(ui: &mut egui::Ui, range: [f32; 2]) {
+fn legend(ui: &mut egui::Ui, scale: &Scale) {
+    let range = scale.range;
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 14.0), egui::Sense::hover());
     let steps = 48;
     for i in 0..steps {
         let t = (i as f32 + 0.5) / steps as f32;
-        let [r, g, b] = scale_colour(t).map(|c| (c * 255.0) as u8);
+        let [r, g, b] = scale.colour(t).map(|c| (c * 255.0) as u8);
         let x0 = rect.left() + rect.width() * i as f32 / steps as f32;
         let x1 = rect.left() + rect.width() * (i + 1) as f32 / steps as f32;
         ui.painter().rect_filled(
@@ -293,7 +324,7 @@ fn legend(ui: &mut egui::Ui, range: [f32; 2]) {
     ui.horizontal(|ui| {
         ui.label(format!("{:.2}", range[0]));
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-            ui.label(format!("{:.2}", range[1]));
+            ui.label(format!("{:.2} {}", range[1], scale.unit));
         });
     });
 }

@@ -1,8 +1,9 @@
 //! The viewer: everything that draws. The simulation core (`crate::sim`) knows nothing of this.
 //!
 //! - [`camera`]: orbit/pan/zoom camera (glam) that frames the domain.
-//! - [`renderer`]: points, sphere impostors, domain wireframe, colour bar (glow); shared by the
-//!   window and the headless path.
+//! - [`renderer`]: the draw modes (surface, points, spheres), domain box, floor; shared by the window
+//!   and the headless path. [`surface`]: the screen-space water surface; [`legend`]: the colour bar
+//!   and its numbers; [`timer`]: GPU time per pass; [`program`]: GLSL compiling and uniforms.
 //! - [`feed`]: the particle state into the GL buffer: CUDA-GL interop, or a host copy.
 //! - [`capture`]: PNG screenshots and frame sequences, never overwriting.
 //! - [`headless`]: an EGL device context and framebuffer (no X server).
@@ -17,9 +18,15 @@ pub mod clock;
 pub mod feed;
 pub mod headless;
 pub mod hud;
+pub mod legend;
 pub mod offline;
+mod program;
 pub mod renderer;
+pub mod surface;
+pub mod timer;
 
 pub use camera::OrbitCamera;
 pub use feed::{ParticleFeed, Transfer};
 pub use renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+pub use surface::SurfaceSettings;
+pub use timer::{Pass, PassTimes};

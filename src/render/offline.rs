@@ -24,12 +24,14 @@ pub struct RenderOptions {
     pub size: [u32; 2],
     pub mode: DrawMode,
     pub colouring: Colouring,
+    /// Replaces the particle radius derived from the scene (spheres and surface), m.
+    pub particle_radius: Option<f32>,
     pub transfer: Transfer,
     pub video: Option<PathBuf>,
 }
 
 /// Mean wall milliseconds per frame, over the frames after the first few (warm-up).
-#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+#[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct RenderTimings {
     pub frames_measured: u64,
     /// Stepping one 60 Hz frame (all its substeps; the host waits for the step's counters).
@@ -38,6 +40,11 @@ pub struct RenderTimings {
     pub render_ms: f64,
     /// sim + render (PNG encoding and writing excluded).
     pub frame_ms: f64,
+    /// GPU milliseconds per render pass (OpenGL timer queries), means over the same frames; the
+    /// passes the draw mode has, by name.
+    pub gpu_passes_ms: std::collections::BTreeMap<&'static str, f64>,
+    /// Their sum: the GPU time of drawing one frame (the particle data's transfer is not in it).
+    pub gpu_render_ms: f64,
 }
 
 pub struct RenderReport {
@@ -73,6 +80,8 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     writeln!(log, "OpenGL: {}", headless.description)?;
     let mut renderer = Renderer::new(headless.gl().clone())?;
     let scene = options.scene;
+    let settings =
+        RenderSettings::for_scene(&scene, options.mode, options.colouring, options.particle_radius)?;
     let solver = backend::create(options.backend, &scene)?;
     writeln!(
         log,
@@ -87,10 +96,6 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     let (lo, hi) = scene.fluid_region();
     let domain = (lo.as_vec3(), hi.as_vec3());
     let camera = OrbitCamera::framing(domain.0, domain.1);
-    let mut settings = RenderSettings::for_spacing(scene.lattice().spacing as f32);
-    settings.mode = options.mode;
-    settings.colouring = options.colouring;
-    settings.scale_range = RenderSettings::default_range(options.colouring);
     let mut sim = Simulation::new(scene, solver);
     let mut feed = ParticleFeed::new(options.transfer);
 
@@ -102,9 +107,15 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         }
         let stepped = Instant::now();
         let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
-        renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain);
+        renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain)?;
         headless.finish();
         let drawn = Instant::now();
+        // After glFinish this frame's timer queries are done: read them now, so that each frame's
+        // GPU times count with the same frames as its wall times.
+        renderer.timer_mut().collect();
+        if frame == WARM_UP_FRAMES {
+            renderer.timer_mut().reset_means();
+        }
         if frame > WARM_UP_FRAMES {
             sums.frames_measured += 1;
             sums.sim_ms += (stepped - start).as_secs_f64() * 1e3;
@@ -115,11 +126,14 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         }
     }
     let n = sums.frames_measured.max(1) as f64;
+    let (_, passes) = renderer.timer_mut().means();
     let timings = RenderTimings {
         frames_measured: sums.frames_measured,
         sim_ms: sums.sim_ms / n,
         render_ms: sums.render_ms / n,
         frame_ms: (sums.sim_ms + sums.render_ms) / n,
+        gpu_passes_ms: passes.iter().map(|(pass, ms)| (pass.name(), ms)).collect(),
+        gpu_render_ms: passes.total(),
     };
     if timings.frames_measured == 0 {
         // Zeros here would read like a measurement.
@@ -141,6 +155,16 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
             timings.frame_ms,
             timings.frames_measured,
             WARM_UP_FRAMES + 1
+        )?;
+        let passes: Vec<String> = passes
+            .iter()
+            .map(|(pass, ms)| format!("{} {ms:.3}", pass.name()))
+            .collect();
+        writeln!(
+            log,
+            "GPU ms per pass (timer queries, same frames): {}; total {:.3}",
+            passes.join(", "),
+            timings.gpu_render_ms
         )?;
     }
     let frames_written = sequence.as_ref().map_or(0, |s| s.frames_written());

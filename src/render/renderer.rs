@@ -1,8 +1,14 @@
-//! The particle renderer, shared by the window and the headless path: particles as flat points (the
-//! report's minimal mode) or as lit sphere impostors with true depth, the domain box as a wireframe,
-//! and the colour scale as a bar at the right edge. It draws into whatever framebuffer is bound.
+//! The particle renderer, shared by the window and the headless path: the fluid as a screen-space
+//! water surface (the default; [`super::surface`]), as flat points (the report's minimal mode) or as
+//! lit sphere impostors with true depth; the domain box as a wireframe (and, under the water, a tiled
+//! floor); the colour scale as a bar with its numbers at the right edge ([`super::legend`]). It draws
+//! into whatever framebuffer is bound, and times each pass on the GPU ([`super::timer`]).
 
 use super::camera::OrbitCamera;
+use super::legend::{Legend, Scale};
+use super::program::{gl_error, link, set_f32, set_i32, set_mat4};
+use super::surface::{Surface, SurfaceFrame, SurfaceSettings, Tint};
+use super::timer::{GpuTimer, Pass, PassTimes};
 use anyhow::{anyhow, Result};
 use glam::{Mat4, Vec3};
 use glow::HasContext;
@@ -10,11 +16,24 @@ use std::sync::Arc;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum DrawMode {
-    /// Square points of a fixed pixel size, no lighting.
+    /// Square points of a fixed pixel size, no lighting: every particle, cheapest.
     Points,
-    /// Lit spheres of the particle radius, with correct depth.
-    #[default]
+    /// Lit spheres of the particle radius, with correct depth: the particles as they are.
     Spheres,
+    /// The water's surface, rebuilt on screen from the particles: refracting, reflecting, absorbing.
+    #[default]
+    Surface,
+}
+
+impl DrawMode {
+    /// The next mode for the M key.
+    pub fn next(self) -> DrawMode {
+        match self {
+            DrawMode::Points => DrawMode::Spheres,
+            DrawMode::Spheres => DrawMode::Surface,
+            DrawMode::Surface => DrawMode::Points,
+        }
+    }
 }
 
 /// How particles are coloured.
@@ -37,6 +56,14 @@ impl Colouring {
             Colouring::Solid | Colouring::Speed => crate::sim::ColourBy::Speed,
         }
     }
+
+    /// The unit of the quantity, for the legend.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Colouring::Density => "ρ/ρ0",
+            Colouring::Solid | Colouring::Speed => "m/s",
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,22 +74,72 @@ pub struct RenderSettings {
     pub point_size: f32,
     /// Sphere radius, m (spheres mode).
     pub sphere_radius: f32,
+    /// The surface mode's spheres, filter and water.
+    pub surface: SurfaceSettings,
+    /// The distance between neighbouring particles at rest, m (the scene's dx over the particles per
+    /// axis of a cell): each particle stands for spacing^3 of water.
+    pub spacing: f32,
     /// Values mapped to the two ends of the colour scale.
     pub scale_range: [f32; 2],
     pub show_box: bool,
 }
 
 impl RenderSettings {
-    /// Defaults for a scene of grid spacing `dx`: spheres about the spacing of the particles.
+    /// Defaults for particles `particle_spacing` apart: spheres about the spacing of the particles.
     pub fn for_spacing(particle_spacing: f32) -> RenderSettings {
         RenderSettings {
-            mode: DrawMode::Spheres,
+            mode: DrawMode::default(),
             colouring: Colouring::Speed,
             point_size: 2.0,
             sphere_radius: 0.6 * particle_spacing,
+            surface: SurfaceSettings::for_spacing(particle_spacing),
+            spacing: particle_spacing,
             scale_range: [0.0, 3.0],
             show_box: true,
         }
+    }
+
+    /// The settings `mpm view` and `mpm render` start `scene` with. `particle_radius` (the
+    /// `--particle-radius` flag) replaces the radius derived from the scene, for spheres and surface;
+    /// it must be positive and smaller than the domain.
+    pub fn for_scene(
+        scene: &crate::sim::Scene,
+        mode: DrawMode,
+        colouring: Colouring,
+        particle_radius: Option<f32>,
+    ) -> Result<RenderSettings> {
+        let mut settings = RenderSettings::for_spacing(scene.lattice().spacing as f32);
+        settings.mode = mode;
+        settings.colouring = colouring;
+        settings.scale_range = RenderSettings::default_range(colouring);
+        if let Some(radius) = particle_radius {
+            let (lo, hi) = scene.fluid_region();
+            let extent = (hi - lo).max_element() as f32;
+            anyhow::ensure!(
+                radius.is_finite() && radius > 0.0 && radius < extent,
+                "--particle-radius {radius}: give a radius in metres above 0 and below the domain's \
+                 {extent} m (the scene's particle spacing is {:.4} m)",
+                settings.spacing
+            );
+            settings.sphere_radius = radius;
+            settings.surface.radius = radius;
+        }
+        Ok(settings)
+    }
+
+    /// What the colour bar shows, if anything: the scale of the colouring, or for the surface coloured
+    /// by speed, water turning to whitewater.
+    pub fn legend(&self) -> Option<Scale> {
+        let whitewater = match (self.mode, self.colouring) {
+            (_, Colouring::Solid) => return None,
+            (DrawMode::Surface, Colouring::Speed) => true,
+            _ => false,
+        };
+        Some(Scale {
+            whitewater,
+            range: self.scale_range,
+            unit: self.colouring.unit(),
+        })
     }
 
     /// A sensible scale for the colouring: 0..3 m/s for speed, 0.9..1.1 for density.
@@ -204,28 +281,38 @@ out vec4 o_colour;
 void main() { o_colour = vec4(u_colour, 1.0); }
 "#;
 
-// A quad from gl_VertexID (no buffer), drawn into a small viewport at the right edge.
-const BAR_VS: &str = r#"
-out float v_t;
+// The tank's floor under the water (surface mode): tiles, so refraction has something to bend.
+const FLOOR_VS: &str = r#"
+layout(location = 0) in vec3 a_position;
+uniform mat4 u_view_proj;
+out vec3 v_world;
 void main() {
-    vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1));
-    v_t = corner.y;
-    gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+    v_world = a_position;
+    gl_Position = u_view_proj * vec4(a_position, 1.0);
 }
 "#;
 
-const BAR_FS: &str = r#"
-in float v_t;
+const FLOOR_FS: &str = r#"
+in vec3 v_world;
+uniform float u_tile;
 out vec4 o_colour;
-void main() { o_colour = vec4(scale_colour(v_t), 1.0); }
+void main() {
+    ivec2 cell = ivec2(floor(v_world.xz / u_tile));
+    float odd = float((cell.x + cell.y) & 1);
+    o_colour = vec4(mix(vec3(0.22, 0.23, 0.25), vec3(0.34, 0.35, 0.38), odd), 1.0);
+}
 "#;
 
 struct Programs {
     points: glow::Program,
     spheres: glow::Program,
     lines: glow::Program,
-    bar: glow::Program,
+    floor: glow::Program,
 }
+
+/// The box's 12 edges as 24 line vertices, then the floor as 2 triangles.
+const BOX_VERTICES: usize = 24;
+const FLOOR_VERTICES: usize = 6;
 
 pub struct Renderer {
     gl: Arc<glow::Context>,
@@ -234,25 +321,23 @@ pub struct Renderer {
     particle_vbo: glow::Buffer,
     /// Particles the VBO has room for.
     capacity: usize,
-    box_vao: glow::VertexArray,
-    box_vbo: glow::Buffer,
-    bar_vao: glow::VertexArray,
+    stage_vao: glow::VertexArray,
+    stage_vbo: glow::Buffer,
+    surface: Surface,
+    legend: Legend,
+    timer: GpuTimer,
 }
-
-/// The `#version` line for the context: GLSL 3.30 core runs on every GL 3.3+ core context (and the
-/// 4.x ones this viewer asks for first).
-const GLSL_HEADER: &str = "#version 330 core\n";
 
 impl Renderer {
     pub fn new(gl: Arc<glow::Context>) -> Result<Renderer> {
         // SAFETY: the caller's GL context is current on this thread; every object is created here.
         unsafe {
-            let scale = glsl_scale();
+            let prelude = format!("{}{}", glsl_scale(), super::surface::glsl_constants());
             let programs = Programs {
-                points: link(&gl, "points", &[PARTICLE_VS], &[POINTS_FS], &scale)?,
-                spheres: link(&gl, "spheres", &[PARTICLE_VS], &[SPHERES_FS], &scale)?,
+                points: link(&gl, "points", &[PARTICLE_VS], &[POINTS_FS], &prelude)?,
+                spheres: link(&gl, "spheres", &[PARTICLE_VS], &[SPHERES_FS], &prelude)?,
                 lines: link(&gl, "lines", &[LINES_VS], &[LINES_FS], "")?,
-                bar: link(&gl, "colour bar", &[BAR_VS], &[BAR_FS], &scale)?,
+                floor: link(&gl, "floor", &[FLOOR_VS], &[FLOOR_FS], "")?,
             };
             let particle_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
             let particle_vbo = gl.create_buffer().map_err(gl_error("a buffer"))?;
@@ -263,26 +348,35 @@ impl Renderer {
             gl.enable_vertex_attrib_array(0);
             gl.vertex_attrib_pointer_f32(0, 4, glow::FLOAT, false, 16, 0);
 
-            let box_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
-            let box_vbo = gl.create_buffer().map_err(gl_error("a buffer"))?;
-            gl.bind_vertex_array(Some(box_vao));
-            gl.bind_buffer(glow::ARRAY_BUFFER, Some(box_vbo));
-            gl.buffer_data_size(glow::ARRAY_BUFFER, 24 * 12, glow::DYNAMIC_DRAW);
+            let stage_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
+            let stage_vbo = gl.create_buffer().map_err(gl_error("a buffer"))?;
+            gl.bind_vertex_array(Some(stage_vao));
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(stage_vbo));
+            gl.buffer_data_size(
+                glow::ARRAY_BUFFER,
+                ((BOX_VERTICES + FLOOR_VERTICES) * 12) as i32,
+                glow::DYNAMIC_DRAW,
+            );
             gl.enable_vertex_attrib_array(0);
             gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 12, 0);
-
-            let bar_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
             gl.bind_vertex_array(None);
             gl.bind_buffer(glow::ARRAY_BUFFER, None);
+
+            let surface = Surface::new(gl.clone(), &prelude)?;
+            let legend = Legend::new(gl.clone(), &prelude)?;
+            let timer = GpuTimer::new(gl.clone())
+                .map_err(|e| anyhow!("OpenGL could not create a timer query: {e}"))?;
             Ok(Renderer {
                 gl,
                 programs,
                 particle_vao,
                 particle_vbo,
                 capacity: 1,
-                box_vao,
-                box_vbo,
-                bar_vao,
+                stage_vao,
+                stage_vbo,
+                surface,
+                legend,
+                timer,
             })
         }
     }
@@ -354,10 +448,52 @@ impl Renderer {
             .collect()
     }
 
-    /// Clears the bound framebuffer and draws `count` particles, the box [lo, hi] and the colour bar
-    /// into `viewport` of it (the window leaves room for the panel; headless uses all of it).
+    /// GPU milliseconds per pass of the newest frame whose timer queries have arrived (a few frames
+    /// old: reading them never waits for the GPU).
+    pub fn pass_times(&self) -> Option<PassTimes> {
+        self.timer.latest()
+    }
+
+    /// The timer itself: `mpm render` reads it after glFinish and averages over its frames.
+    pub fn timer_mut(&mut self) -> &mut GpuTimer {
+        &mut self.timer
+    }
+
+    /// Draws `count` particles, the box [lo, hi] and the colour bar into `viewport` of the bound
+    /// framebuffer, replacing what was there (the window leaves room for the panel; headless uses all
+    /// of it). Fails only where the surface's float render targets cannot be made.
     pub fn draw(
-        &self,
+        &mut self,
+        viewport: Viewport,
+        camera: &OrbitCamera,
+        settings: &RenderSettings,
+        count: usize,
+        domain: (Vec3, Vec3),
+    ) -> Result<()> {
+        let count = count.min(self.capacity);
+        // SAFETY: a query of the current context.
+        let target = unsafe { self.gl.get_parameter_framebuffer(glow::DRAW_FRAMEBUFFER_BINDING) };
+        self.timer.begin_frame();
+        let drawn = match settings.mode {
+            DrawMode::Surface => self.draw_surface(target, viewport, camera, settings, count, domain),
+            DrawMode::Points | DrawMode::Spheres => {
+                self.draw_particles(viewport, camera, settings, count, domain);
+                Ok(())
+            }
+        };
+        let legend = match (&drawn, settings.legend()) {
+            (Ok(()), Some(scale)) => {
+                self.timer.begin(Pass::Legend);
+                self.legend.draw(viewport, &scale)
+            }
+            _ => Ok(()),
+        };
+        self.timer.end_frame();
+        drawn.and(legend)
+    }
+
+    fn draw_particles(
+        &mut self,
         viewport: Viewport,
         camera: &OrbitCamera,
         settings: &RenderSettings,
@@ -369,6 +505,7 @@ impl Renderer {
         let (w, h) = (viewport.width.max(1) as i32, viewport.height.max(1) as i32);
         let view = camera.view();
         let proj = camera.projection(w as f32 / h as f32);
+        self.timer.begin(Pass::Scene);
         // SAFETY: every object used is this renderer's; the context is current.
         unsafe {
             gl.viewport(x0, y0, w, h);
@@ -382,13 +519,15 @@ impl Renderer {
             gl.disable(glow::SCISSOR_TEST);
 
             if settings.show_box {
-                self.draw_box(&(proj * view), domain);
+                self.draw_stage(&(proj * view), domain, false, true);
             }
-
-            let count = count.min(self.capacity);
+        }
+        self.timer.begin(Pass::Particles);
+        // SAFETY: as above.
+        unsafe {
             let program = match settings.mode {
                 DrawMode::Points => self.programs.points,
-                DrawMode::Spheres => self.programs.spheres,
+                _ => self.programs.spheres,
             };
             gl.use_program(Some(program));
             gl.enable(glow::PROGRAM_POINT_SIZE);
@@ -402,12 +541,11 @@ impl Renderer {
             );
             set_f32(gl, program, "u_point_size", settings.point_size);
             set_f32(gl, program, "u_radius", settings.sphere_radius);
-            // proj[1][1] = 1 / tan(fov/2): pixels per metre at unit depth = h/2 * proj[1][1].
             set_f32(
                 gl,
                 program,
                 "u_pixels_per_metre_at_unit_depth",
-                0.5 * h as f32 * proj.y_axis.y,
+                pixels_per_metre(&proj, h),
             );
             set_i32(
                 gl,
@@ -422,25 +560,73 @@ impl Renderer {
             gl.bind_vertex_array(Some(self.particle_vao));
             gl.draw_arrays(glow::POINTS, 0, count as i32);
             gl.bind_vertex_array(None);
-
-            if settings.colouring != Colouring::Solid {
-                // A bar 2% wide, the middle 60% of the height, at the right edge.
-                let bar_w = (w / 50).max(6);
-                let bar_h = h * 3 / 5;
-                gl.disable(glow::DEPTH_TEST);
-                gl.viewport(x0 + w - 2 * bar_w, y0 + (h - bar_h) / 2, bar_w, bar_h);
-                gl.use_program(Some(self.programs.bar));
-                gl.bind_vertex_array(Some(self.bar_vao));
-                gl.draw_arrays(glow::TRIANGLE_STRIP, 0, 4);
-                gl.bind_vertex_array(None);
-                gl.viewport(x0, y0, w, h);
-            }
             gl.use_program(None);
             gl.disable(glow::PROGRAM_POINT_SIZE);
         }
+        self.timer.end();
     }
 
-    unsafe fn draw_box(&self, view_proj: &Mat4, (lo, hi): (Vec3, Vec3)) {
+    fn draw_surface(
+        &mut self,
+        target: Option<glow::Framebuffer>,
+        viewport: Viewport,
+        camera: &OrbitCamera,
+        settings: &RenderSettings,
+        count: usize,
+        domain: (Vec3, Vec3),
+    ) -> Result<()> {
+        let (w, h) = (viewport.width.max(1), viewport.height.max(1));
+        let view = camera.view();
+        let proj = camera.projection(w as f32 / h as f32);
+        self.timer.begin(Pass::Scene);
+        let bound = self.surface.bind_scene([w, h]);
+        if bound.is_err() {
+            // SAFETY: the caller's framebuffer, bound back.
+            unsafe { self.gl.bind_framebuffer(glow::FRAMEBUFFER, target) };
+            self.timer.end();
+            return bound;
+        }
+        // SAFETY: the surface's scene framebuffer is bound; every object is ours.
+        unsafe {
+            let gl = &self.gl;
+            gl.clear_color(BACKGROUND[0], BACKGROUND[1], BACKGROUND[2], 1.0);
+            gl.clear_depth_f32(1.0);
+            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+            gl.enable(glow::DEPTH_TEST);
+            gl.depth_func(glow::LESS);
+            gl.disable(glow::BLEND);
+            gl.disable(glow::CULL_FACE);
+            gl.disable(glow::SCISSOR_TEST);
+            // The floor stays without the box: the water refracts it.
+            self.draw_stage(&(proj * view), domain, true, settings.show_box);
+        }
+        let tint = match settings.colouring {
+            Colouring::Solid => Tint::Clear,
+            Colouring::Speed => Tint::Whitewater,
+            Colouring::Density => Tint::Scale,
+        };
+        let frame = SurfaceFrame {
+            view,
+            proj,
+            pixels_per_metre: pixels_per_metre(&proj, h as i32),
+            particles: self.particle_vao,
+            count,
+            particle_volume: settings.spacing.powi(3),
+            settings: &settings.surface,
+            tint,
+            range: settings.scale_range,
+        };
+        self.surface.draw(
+            &frame,
+            &mut self.timer,
+            target,
+            [viewport.x, viewport.y, w as i32, h as i32],
+        );
+        Ok(())
+    }
+
+    /// The tiled floor at the box's bottom and the box's edges, each where asked.
+    unsafe fn draw_stage(&self, view_proj: &Mat4, (lo, hi): (Vec3, Vec3), floor: bool, edges: bool) {
         let gl = &self.gl;
         let corner = |i: usize| {
             Vec3::new(
@@ -449,32 +635,50 @@ impl Renderer {
                 if i & 4 == 0 { lo.z } else { hi.z },
             )
         };
-        // The 12 edges join corners that differ in one bit.
-        let mut lines = Vec::with_capacity(24);
+        // The 12 edges join corners that differ in one bit; the floor is corners 0, 1, 4, 5.
+        let mut vertices = Vec::with_capacity(BOX_VERTICES + FLOOR_VERTICES);
         for a in 0..8usize {
             for bit in [1, 2, 4] {
                 if a & bit == 0 {
-                    lines.push(corner(a).to_array());
-                    lines.push(corner(a | bit).to_array());
+                    vertices.push(corner(a).to_array());
+                    vertices.push(corner(a | bit).to_array());
                 }
             }
         }
+        for i in [0, 1, 5, 0, 5, 4] {
+            vertices.push(corner(i).to_array());
+        }
         unsafe {
-            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.box_vbo));
-            gl.buffer_sub_data_u8_slice(glow::ARRAY_BUFFER, 0, bytemuck::cast_slice(&lines));
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.stage_vbo));
+            gl.buffer_sub_data_u8_slice(glow::ARRAY_BUFFER, 0, bytemuck::cast_slice(&vertices));
             gl.bind_buffer(glow::ARRAY_BUFFER, None);
-            gl.use_program(Some(self.programs.lines));
-            set_mat4(gl, self.programs.lines, "u_view_proj", view_proj);
-            let loc = gl.get_uniform_location(self.programs.lines, "u_colour");
-            gl.uniform_3_f32(loc.as_ref(), 0.6, 0.62, 0.68);
-            gl.bind_vertex_array(Some(self.box_vao));
-            gl.draw_arrays(glow::LINES, 0, lines.len() as i32);
+            gl.bind_vertex_array(Some(self.stage_vao));
+            if floor {
+                let p = self.programs.floor;
+                gl.use_program(Some(p));
+                set_mat4(gl, p, "u_view_proj", view_proj);
+                // About 16 tiles along the longest side.
+                set_f32(gl, p, "u_tile", (hi - lo).max_element() / 16.0);
+                gl.draw_arrays(glow::TRIANGLES, BOX_VERTICES as i32, FLOOR_VERTICES as i32);
+            }
+            if edges {
+                let p = self.programs.lines;
+                gl.use_program(Some(p));
+                set_mat4(gl, p, "u_view_proj", view_proj);
+                let loc = gl.get_uniform_location(p, "u_colour");
+                gl.uniform_3_f32(loc.as_ref(), 0.6, 0.62, 0.68);
+                gl.draw_arrays(glow::LINES, 0, BOX_VERTICES as i32);
+            }
             gl.bind_vertex_array(None);
+            gl.use_program(None);
         }
     }
 
     /// Deletes the GL objects (the context must be current). Drop any CUDA registration first.
     pub fn destroy(&mut self) {
+        self.surface.destroy();
+        self.legend.destroy();
+        self.timer.destroy();
         // SAFETY: our objects, deleted once (the renderer is not used afterwards).
         unsafe {
             let gl = &self.gl;
@@ -482,81 +686,84 @@ impl Renderer {
                 self.programs.points,
                 self.programs.spheres,
                 self.programs.lines,
-                self.programs.bar,
+                self.programs.floor,
             ] {
                 gl.delete_program(program);
             }
             gl.delete_vertex_array(self.particle_vao);
-            gl.delete_vertex_array(self.box_vao);
-            gl.delete_vertex_array(self.bar_vao);
+            gl.delete_vertex_array(self.stage_vao);
             gl.delete_buffer(self.particle_vbo);
-            gl.delete_buffer(self.box_vbo);
+            gl.delete_buffer(self.stage_vbo);
         }
     }
 }
 
-fn gl_error(what: &'static str) -> impl Fn(String) -> anyhow::Error {
-    move |e| anyhow!("OpenGL could not create {what}: {e}")
+/// Pixels per metre at unit depth in a viewport `height` pixels high: proj[1][1] = 1 / tan(fov/2),
+/// so it is height / 2 * proj[1][1].
+fn pixels_per_metre(proj: &Mat4, height: i32) -> f32 {
+    0.5 * height as f32 * proj.y_axis.y
 }
 
-unsafe fn set_mat4(gl: &glow::Context, program: glow::Program, name: &str, m: &Mat4) {
-    unsafe {
-        let loc = gl.get_uniform_location(program, name);
-        gl.uniform_matrix_4_f32_slice(loc.as_ref(), false, &m.to_cols_array());
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::Scene;
+
+    #[test]
+    fn particle_radius_follows_the_scene_or_the_flag() {
+        let scene = Scene::load("dam-break").unwrap();
+        let spacing = scene.lattice().spacing as f32;
+        let derived = RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).unwrap();
+        assert_eq!(derived.spacing, spacing);
+        assert!(derived.surface.radius > 0.5 * spacing && derived.surface.radius < spacing);
+        assert_eq!(derived.mode, DrawMode::Surface);
+        let given =
+            RenderSettings::for_scene(&scene, DrawMode::Spheres, Colouring::Speed, Some(0.004)).unwrap();
+        assert_eq!((given.sphere_radius, given.surface.radius), (0.004, 0.004));
     }
-}
 
-unsafe fn set_f32(gl: &glow::Context, program: glow::Program, name: &str, value: f32) {
-    unsafe {
-        let loc = gl.get_uniform_location(program, name);
-        gl.uniform_1_f32(loc.as_ref(), value);
+    #[test]
+    fn a_bad_particle_radius_is_refused_with_the_range() {
+        let scene = Scene::load("dam-break").unwrap();
+        for radius in [0.0, -0.01, f32::NAN, f32::INFINITY, 5.0] {
+            let error = RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, Some(radius))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                error.contains("--particle-radius") && error.contains("above 0 and below"),
+                "{radius}: {error}"
+            );
+        }
     }
-}
 
-unsafe fn set_i32(gl: &glow::Context, program: glow::Program, name: &str, value: i32) {
-    unsafe {
-        let loc = gl.get_uniform_location(program, name);
-        gl.uniform_1_i32(loc.as_ref(), value);
+    #[test]
+    fn m_cycles_through_every_mode() {
+        let mut mode = DrawMode::default();
+        assert_eq!(mode, DrawMode::Surface);
+        let mut seen = Vec::new();
+        for _ in 0..3 {
+            mode = mode.next();
+            seen.push(mode);
+        }
+        assert_eq!(seen, [DrawMode::Points, DrawMode::Spheres, DrawMode::Surface]);
     }
-}
 
-/// Compiles and links one program; `prelude` (shared GLSL functions) follows the version line.
-unsafe fn link(
-    gl: &glow::Context,
-    name: &str,
-    vertex: &[&str],
-    fragment: &[&str],
-    prelude: &str,
-) -> Result<glow::Program> {
-    unsafe {
-        let program = gl.create_program().map_err(gl_error("a program"))?;
-        let mut shaders = Vec::new();
-        for (kind, parts, stage) in [
-            (glow::VERTEX_SHADER, vertex, "vertex"),
-            (glow::FRAGMENT_SHADER, fragment, "fragment"),
-        ] {
-            let shader = gl.create_shader(kind).map_err(gl_error("a shader"))?;
-            let source = format!("{GLSL_HEADER}{prelude}{}", parts.concat());
-            gl.shader_source(shader, &source);
-            gl.compile_shader(shader);
-            if !gl.get_shader_compile_status(shader) {
-                let log = gl.get_shader_info_log(shader);
-                return Err(anyhow!("the {name} {stage} shader does not compile:\n{log}"));
-            }
-            gl.attach_shader(program, shader);
-            shaders.push(shader);
-        }
-        gl.link_program(program);
-        for shader in shaders {
-            gl.detach_shader(program, shader);
-            gl.delete_shader(shader);
-        }
-        if !gl.get_program_link_status(program) {
-            return Err(anyhow!(
-                "the {name} program does not link:\n{}",
-                gl.get_program_info_log(program)
-            ));
-        }
-        Ok(program)
+    #[test]
+    fn the_legend_says_what_the_colour_means() {
+        let mut settings = RenderSettings::for_spacing(0.005);
+        settings.colouring = Colouring::Solid;
+        assert_eq!(settings.legend(), None);
+        settings.colouring = Colouring::Speed;
+        assert_eq!(
+            settings.legend().map(|s| (s.whitewater, s.unit)),
+            Some((true, "m/s"))
+        );
+        settings.mode = DrawMode::Spheres;
+        assert_eq!(
+            settings.legend().map(|s| (s.whitewater, s.unit)),
+            Some((false, "m/s"))
+        );
+        settings.colouring = Colouring::Density;
+        assert_eq!(settings.legend().map(|s| s.unit), Some("ρ/ρ0"));
     }
 }

@@ -91,6 +91,11 @@ pub fn cuda_device() -> Result<(), String> {
 /// A CUDA device and a headless OpenGL context on an EGL device.
 pub fn cuda_device_and_headless_gl() -> Result<(), String> {
     cuda_device()?;
+    headless_gl()
+}
+
+/// A headless OpenGL context on an EGL device: a GPU driver's, or Mesa's software one.
+pub fn headless_gl() -> Result<(), String> {
     mpm::render::headless::HeadlessGl::new(64, 64)
         .map(drop)
         .map_err(|why| format!("no headless OpenGL: {why:#}"))

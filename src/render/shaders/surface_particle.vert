@@ -1,0 +1,21 @@
+// Sphere impostors for the surface's depth and thickness passes: a point sprite per particle, its
+// size the sphere's projection (or at least u_min_splat_px in radius, for the thickness splats).
+layout(location = 0) in vec4 a_particle; // xyz position, w the colour quantity
+uniform mat4 u_view;
+uniform mat4 u_proj;
+uniform float u_radius;              // the sphere's radius, m
+uniform float u_pixels_per_metre;    // pixels per metre at unit depth, in this pass's target
+uniform float u_min_splat_px;        // smallest splat radius, pixels
+out vec3 v_centre;                   // view space, m
+out float v_splat;                   // the splat's radius, m (>= u_radius)
+out float v_quantity;
+void main() {
+    vec4 view = u_view * vec4(a_particle.xyz, 1.0);
+    gl_Position = u_proj * view;
+    float depth = max(-view.z, 1e-4);
+    float splat_px = max(u_radius * u_pixels_per_metre / depth, u_min_splat_px);
+    gl_PointSize = 2.0 * splat_px;
+    v_splat = splat_px * depth / u_pixels_per_metre;
+    v_centre = view.xyz;
+    v_quantity = a_particle.w;
+}

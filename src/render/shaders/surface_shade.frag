@@ -1,0 +1,100 @@
+// The water: normals from the smoothed depth, Fresnel (Schlick) between a reflected sky and the
+// refracted scene behind, that scene absorbed by the thickness (Beer-Lambert) and replaced by the
+// water's own colour as it is absorbed, a sun highlight, and optionally whitewater from speed. Where
+// there is no water, or the scene is in front of it, the scene shows as it is.
+in vec2 v_uv;
+uniform sampler2D u_scene;           // colour of what is behind the water
+uniform sampler2D u_scene_depth;     // its depth buffer
+uniform sampler2D u_depth;           // smoothed water depth: view distance, m
+uniform sampler2D u_thickness;       // half resolution: thickness (m), thickness x quantity
+uniform mat4 u_proj;
+uniform mat3 u_view_to_world;
+uniform vec3 u_sun_view;             // towards the sun, view space
+uniform vec3 u_sun_world;
+uniform vec3 u_absorption;           // 1/m per channel
+uniform float u_scattering;          // 1/m: how fast the water's own colour replaces what is behind
+uniform vec3 u_water_colour;
+uniform float u_refraction;
+uniform int u_tint;                  // 0 clear water, 1 whitewater from speed, 2 the colour scale
+uniform vec2 u_range;
+out vec4 o_colour;
+
+// A studio sky: a bright horizon, a blue zenith, a dark floor below, and the sun.
+vec3 sky(vec3 d) {
+    vec3 horizon = vec3(0.70, 0.76, 0.82);
+    vec3 zenith = vec3(0.20, 0.40, 0.72);
+    vec3 ground = vec3(0.08, 0.09, 0.10);
+    vec3 c = d.y >= 0.0 ? mix(horizon, zenith, sqrt(d.y)) : mix(horizon * 0.6, ground, sqrt(-d.y));
+    return c + vec3(1.0, 0.95, 0.85) * 6.0 * pow(max(dot(d, u_sun_world), 0.0), 600.0);
+}
+
+// View distance from a depth-buffer value, for this projection.
+float view_distance(float depth_buffer) {
+    float ndc = 2.0 * depth_buffer - 1.0;
+    return u_proj[3][2] / (ndc + u_proj[2][2]);
+}
+
+vec3 view_position(ivec2 pixel, ivec2 size, float z) {
+    vec2 ndc = (vec2(pixel) + 0.5) / vec2(size) * 2.0 - 1.0;
+    return vec3(ndc.x * z / u_proj[0][0], ndc.y * z / u_proj[1][1], -z);
+}
+
+float depth_at(ivec2 pixel, ivec2 size) {
+    return texelFetch(u_depth, clamp(pixel, ivec2(0), size - 1), 0).r;
+}
+
+// The difference to the neighbour on the side whose depth changes less (a silhouette's other side
+// belongs to another surface), in view space.
+vec3 tangent(ivec2 pixel, ivec2 size, vec3 centre, ivec2 step) {
+    float zf = depth_at(pixel + step, size);
+    float zb = depth_at(pixel - step, size);
+    vec3 forward = view_position(pixel + step, size, zf) - centre;
+    vec3 backward = centre - view_position(pixel - step, size, zb);
+    bool use_backward = zf >= 0.5 * EMPTY_DEPTH
+        || (zb < 0.5 * EMPTY_DEPTH && abs(backward.z) < abs(forward.z));
+    return use_backward ? backward : forward;
+}
+
+void main() {
+    ivec2 size = textureSize(u_depth, 0);
+    ivec2 pixel = clamp(ivec2(v_uv * vec2(size)), ivec2(0), size - 1);
+    vec3 scene = texture(u_scene, v_uv).rgb;
+    float z = texelFetch(u_depth, pixel, 0).r;
+    if (z >= 0.5 * EMPTY_DEPTH || z > view_distance(texture(u_scene_depth, v_uv).r)) {
+        o_colour = vec4(scene, 1.0);
+        return;
+    }
+    vec3 position = view_position(pixel, size, z);
+    vec3 n = normalize(cross(tangent(pixel, size, position, ivec2(1, 0)),
+                             tangent(pixel, size, position, ivec2(0, 1))));
+    vec3 v = normalize(-position);
+    if (dot(n, v) < 0.0) n = -n;
+
+    vec2 th = texture(u_thickness, v_uv).rg;
+    float thickness = max(th.x, 0.0);
+    float quantity = th.x > 1e-6 ? th.y / th.x : u_range.x;
+    float t = (quantity - u_range.x) / max(u_range.y - u_range.x, 1e-6);
+
+    float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+    vec3 reflection = sky(normalize(u_view_to_world * reflect(-v, n)));
+
+    // The bend grows with the thickness up to a few centimetres, then stays: a long path through
+    // the water (along a crease) must not throw the picture across the screen.
+    vec2 bent = clamp(v_uv + n.xy * u_refraction * min(thickness, 0.05) / z, vec2(0.0), vec2(1.0));
+    vec3 behind = texture(u_scene, bent).rgb;
+    vec3 transmitted = exp(-u_absorption * thickness);
+    float scattered = 1.0 - exp(-u_scattering * thickness);
+    float lit = max(dot(n, u_sun_view), 0.0);
+    vec3 water = u_tint == 2 ? scale_colour(t) : u_water_colour;
+    vec3 body = behind * transmitted + water * (0.6 + 0.4 * lit) * scattered;
+    vec3 colour = mix(body, reflection, fresnel);
+
+    vec3 h = normalize(u_sun_view + v);
+    float specular = 1.5 * pow(max(dot(n, h), 0.0), 300.0);
+    if (u_tint == 1) {
+        float foam = foam_amount(t);
+        colour = mix(colour, FOAM_COLOUR * (0.7 + 0.3 * lit), foam);
+        specular *= 1.0 - foam;
+    }
+    o_colour = vec4(colour + vec3(specular), 1.0);
+}

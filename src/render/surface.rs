@@ -1,0 +1,489 @@
+//! The `surface` draw mode: screen-space fluid rendering. The particles are never shown as such; the
+//! water's surface is rebuilt per pixel each frame from them:
+//!
+//! 1. **scene**: the floor and the domain box into a colour and a depth texture (what the water
+//!    refracts), drawn by the renderer into [`Surface::bind_scene`];
+//! 2. **depth**: every particle as a sphere impostor; the nearest sphere's view distance per pixel;
+//! 3. **thickness**: additive splats at half resolution: how much water each pixel looks through,
+//!    and the colour quantity averaged along the way;
+//! 4. **smoothing**: the narrow-range filter (`shaders/surface_smooth.frag` says why that filter)
+//!    flattens the spheres into one surface, horizontally then vertically;
+//! 5. **shading**: normals from the smoothed depth, Fresnel reflection of a sky, refraction of the
+//!    scene absorbed by the thickness, a highlight, whitewater; into the caller's framebuffer.
+//!
+//! The textures follow the viewport's size: reallocated when it changes (a window resize), never per
+//! frame. Nothing is read back to the CPU.
+
+use super::program::{
+    bind_texture, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_vec2, set_vec3, FULLSCREEN_VS,
+};
+use super::timer::{GpuTimer, Pass};
+use anyhow::{bail, Result};
+use glam::{Mat3, Mat4, Vec3};
+use glow::HasContext;
+use std::sync::Arc;
+
+/// The depth texture's value where there is no water (farther than anything drawn).
+pub const EMPTY_DEPTH: f32 = 1.0e20;
+
+/// Whitewater at the quantity's place `t` on the scale: none at the low end, little below the middle,
+/// `FOAM_MAX` of the colour at the high end. The shaders run the same formula ([`glsl_constants`]).
+pub fn foam_amount(t: f32) -> f32 {
+    FOAM_MAX * t.clamp(0.0, 1.0).powi(3)
+}
+
+const FOAM_MAX: f32 = 0.75;
+
+/// The GLSL constants and functions the surface's shaders share with the colour bar.
+pub fn glsl_constants() -> String {
+    format!(
+        "const float EMPTY_DEPTH = {EMPTY_DEPTH:e};\n\
+         const vec3 FOAM_COLOUR = vec3({:.3}, {:.3}, {:.3});\n\
+         float foam_amount(float t) {{ t = clamp(t, 0.0, 1.0); return {FOAM_MAX:.3} * t * t * t; }}\n",
+        FOAM_COLOUR[0], FOAM_COLOUR[1], FOAM_COLOUR[2]
+    )
+}
+
+pub const FOAM_COLOUR: [f32; 3] = [0.92, 0.95, 1.0];
+/// The colour water takes on as it absorbs what is behind it.
+pub const WATER_COLOUR: [f32; 3] = [0.12, 0.42, 0.68];
+/// Absorption per metre of water per channel at `absorption = 1` (red goes first, as in real water,
+/// but far faster, so that a tank of tens of centimetres shows its depth).
+const ABSORPTION: [f32; 3] = [6.0, 2.5, 1.5];
+/// Per metre at `absorption = 1`: how fast the water's own colour (light scattered in it) replaces
+/// the scene behind.
+const SCATTERING: f32 = 2.5;
+/// The direction towards the sun, world space (up and to the side of the default camera).
+pub const SUN: [f32; 3] = [0.35, 0.85, 0.40];
+
+/// What shapes the surface; the panel adjusts these.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceSettings {
+    /// The spheres splatted per particle, m.
+    pub radius: f32,
+    /// The smoothing filter's radius, in particle radii (at the pixel's depth).
+    pub smoothing: f32,
+    /// Horizontal-then-vertical passes of the filter.
+    pub iterations: u32,
+    /// Multiplies the absorption per metre: more is deeper-looking water.
+    pub absorption: f32,
+    /// How far the scene behind is displaced by the surface's slope and the water's thickness.
+    pub refraction: f32,
+}
+
+impl SurfaceSettings {
+    /// For particles `spacing` apart: spheres a little larger than half the spacing, so neighbours
+    /// overlap and the filter has a connected surface to smooth.
+    pub fn for_spacing(spacing: f32) -> SurfaceSettings {
+        SurfaceSettings {
+            radius: 0.75 * spacing,
+            smoothing: 5.0,
+            iterations: 2,
+            absorption: 1.0,
+            refraction: 0.6,
+        }
+    }
+}
+
+/// The filter's radius in pixels never exceeds this, whatever the zoom: a bounded cost per pixel.
+const MAX_FILTER_PX: i32 = 24;
+
+/// How the colour quantity tints the water (the shading's `u_tint`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tint {
+    /// Clear water (solid colouring).
+    Clear = 0,
+    /// Whitewater where the speed nears the top of the scale.
+    Whitewater = 1,
+    /// The water takes the colour scale's colour of the quantity (density).
+    Scale = 2,
+}
+
+/// What the passes need to know about the view and the particles.
+pub struct SurfaceFrame<'a> {
+    pub view: Mat4,
+    pub proj: Mat4,
+    /// Pixels per metre at unit depth at full resolution.
+    pub pixels_per_metre: f32,
+    pub particles: glow::VertexArray,
+    pub count: usize,
+    pub particle_volume: f32,
+    pub settings: &'a SurfaceSettings,
+    pub tint: Tint,
+    pub range: [f32; 2],
+}
+
+struct Programs {
+    depth: glow::Program,
+    thickness: glow::Program,
+    smooth: glow::Program,
+    shade: glow::Program,
+}
+
+/// The off-screen textures for one viewport size.
+struct Targets {
+    size: [u32; 2],
+    scene_fbo: glow::Framebuffer,
+    scene_colour: glow::Texture,
+    scene_depth: glow::Texture,
+    /// Ping-pong pair for the depth and its smoothing; [0] has the depth buffer of the depth pass.
+    depth_fbos: [glow::Framebuffer; 2],
+    depth: [glow::Texture; 2],
+    depth_test: glow::Renderbuffer,
+    thickness_fbo: glow::Framebuffer,
+    thickness: glow::Texture,
+}
+
+pub struct Surface {
+    gl: Arc<glow::Context>,
+    programs: Programs,
+    empty_vao: glow::VertexArray,
+    targets: Option<Targets>,
+}
+
+impl Surface {
+    /// `prelude`: the shared GLSL (the colour scale and [`glsl_constants`]).
+    pub fn new(gl: Arc<glow::Context>, prelude: &str) -> Result<Surface> {
+        const PARTICLE_VS: &str = include_str!("shaders/surface_particle.vert");
+        // SAFETY: the caller's context is current.
+        unsafe {
+            let programs = Programs {
+                depth: link(
+                    &gl,
+                    "surface depth",
+                    &[PARTICLE_VS],
+                    &[include_str!("shaders/surface_depth.frag")],
+                    prelude,
+                )?,
+                thickness: link(
+                    &gl,
+                    "surface thickness",
+                    &[PARTICLE_VS],
+                    &[include_str!("shaders/surface_thickness.frag")],
+                    prelude,
+                )?,
+                smooth: link(
+                    &gl,
+                    "surface smoothing",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_smooth.frag")],
+                    prelude,
+                )?,
+                shade: link(
+                    &gl,
+                    "surface shading",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_shade.frag")],
+                    prelude,
+                )?,
+            };
+            let empty_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
+            Ok(Surface {
+                gl,
+                programs,
+                empty_vao,
+                targets: None,
+            })
+        }
+    }
+
+    /// Makes the textures `size` (reallocating only when the size changed) and binds the scene's
+    /// framebuffer for drawing, with a viewport of that size.
+    pub fn bind_scene(&mut self, size: [u32; 2]) -> Result<()> {
+        if self.targets.as_ref().map(|t| t.size) != Some(size) {
+            if let Some(old) = self.targets.take() {
+                // SAFETY: our objects, not used after this.
+                unsafe { self.delete_targets(&old) };
+            }
+            // SAFETY: the context is current.
+            self.targets = Some(unsafe { self.create_targets(size)? });
+        }
+        let targets = self.targets.as_ref().expect("just made");
+        // SAFETY: our framebuffer.
+        unsafe {
+            self.gl
+                .bind_framebuffer(glow::FRAMEBUFFER, Some(targets.scene_fbo));
+            self.gl.viewport(0, 0, size[0] as i32, size[1] as i32);
+        }
+        Ok(())
+    }
+
+    /// The depth, thickness and smoothing passes (after [`bind_scene`](Self::bind_scene) and the
+    /// scene), each timed; then the shading into `target` at `viewport` (x, y, w, h).
+    pub fn draw(
+        &mut self,
+        frame: &SurfaceFrame,
+        timer: &mut GpuTimer,
+        target: Option<glow::Framebuffer>,
+        viewport: [i32; 4],
+    ) {
+        let Some(targets) = &self.targets else { return };
+        let gl = &self.gl;
+        let [w, h] = targets.size.map(|s| s as i32);
+        let (half_w, half_h) = half(targets.size);
+        let s = frame.settings;
+        let count = frame.count as i32;
+        // SAFETY: every object is ours or the caller's (the VAO, the target), on the current context.
+        unsafe {
+            gl.disable(glow::BLEND);
+            gl.disable(glow::SCISSOR_TEST);
+            gl.disable(glow::CULL_FACE);
+            gl.enable(glow::PROGRAM_POINT_SIZE);
+
+            timer.begin(Pass::Depth);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.depth_fbos[0]));
+            gl.viewport(0, 0, w, h);
+            gl.clear_color(EMPTY_DEPTH, 0.0, 0.0, 0.0);
+            gl.clear_depth_f32(1.0);
+            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+            gl.enable(glow::DEPTH_TEST);
+            gl.depth_func(glow::LESS);
+            let p = self.programs.depth;
+            gl.use_program(Some(p));
+            set_particle_uniforms(gl, p, frame, frame.pixels_per_metre, 0.5);
+            gl.bind_vertex_array(Some(frame.particles));
+            gl.draw_arrays(glow::POINTS, 0, count);
+
+            timer.begin(Pass::Thickness);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
+            gl.viewport(0, 0, half_w, half_h);
+            gl.clear_color(0.0, 0.0, 0.0, 0.0);
+            gl.clear(glow::COLOR_BUFFER_BIT);
+            gl.disable(glow::DEPTH_TEST);
+            gl.enable(glow::BLEND);
+            gl.blend_equation(glow::FUNC_ADD);
+            gl.blend_func(glow::ONE, glow::ONE);
+            let p = self.programs.thickness;
+            gl.use_program(Some(p));
+            // Half resolution: half the pixels per metre; splats of at least 1.5 px radius, so a far
+            // particle still lands on pixels rather than between them.
+            set_particle_uniforms(gl, p, frame, 0.5 * frame.pixels_per_metre, 1.5);
+            set_f32(gl, p, "u_particle_volume", frame.particle_volume);
+            gl.draw_arrays(glow::POINTS, 0, count);
+            gl.disable(glow::BLEND);
+            gl.bind_vertex_array(None);
+            gl.disable(glow::PROGRAM_POINT_SIZE);
+
+            timer.begin(Pass::Smoothing);
+            let p = self.programs.smooth;
+            gl.use_program(Some(p));
+            gl.bind_vertex_array(Some(self.empty_vao));
+            gl.viewport(0, 0, w, h);
+            set_f32(gl, p, "u_radius", s.radius);
+            set_f32(gl, p, "u_pixels_per_metre", frame.pixels_per_metre);
+            set_f32(gl, p, "u_filter_radii", s.smoothing);
+            set_i32(gl, p, "u_max_filter_px", MAX_FILTER_PX);
+            // Depths within a few particle radii of each other belong to one surface.
+            set_f32(gl, p, "u_range", 4.0 * s.radius);
+            for _ in 0..s.iterations {
+                for (from, to, direction) in [(0, 1, (1, 0)), (1, 0, (0, 1))] {
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.depth_fbos[to]));
+                    bind_texture(gl, p, "u_depth", 0, targets.depth[from]);
+                    let loc = gl.get_uniform_location(p, "u_direction");
+                    gl.uniform_2_i32(loc.as_ref(), direction.0, direction.1);
+                    gl.draw_arrays(glow::TRIANGLES, 0, 3);
+                }
+            }
+
+            timer.begin(Pass::Shading);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, target);
+            gl.viewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+            let p = self.programs.shade;
+            gl.use_program(Some(p));
+            bind_texture(gl, p, "u_scene", 0, targets.scene_colour);
+            bind_texture(gl, p, "u_scene_depth", 1, targets.scene_depth);
+            bind_texture(gl, p, "u_depth", 2, targets.depth[0]);
+            bind_texture(gl, p, "u_thickness", 3, targets.thickness);
+            set_mat4(gl, p, "u_proj", &frame.proj);
+            let view_to_world = Mat3::from_mat4(frame.view).transpose();
+            set_mat3(gl, p, "u_view_to_world", &view_to_world);
+            let sun = Vec3::from(SUN).normalize();
+            set_vec3(gl, p, "u_sun_world", sun.to_array());
+            set_vec3(
+                gl,
+                p,
+                "u_sun_view",
+                (Mat3::from_mat4(frame.view) * sun).to_array(),
+            );
+            set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
+            set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
+            set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
+            set_f32(gl, p, "u_refraction", s.refraction);
+            set_i32(gl, p, "u_tint", frame.tint as i32);
+            set_vec2(gl, p, "u_range", frame.range);
+            gl.draw_arrays(glow::TRIANGLES, 0, 3);
+            timer.end();
+
+            gl.bind_vertex_array(None);
+            gl.use_program(None);
+            gl.active_texture(glow::TEXTURE0);
+            gl.bind_texture(glow::TEXTURE_2D, None);
+        }
+    }
+
+    unsafe fn create_targets(&self, size: [u32; 2]) -> Result<Targets> {
+        let gl = &self.gl;
+        let [w, h] = size.map(|s| s as i32);
+        let (half_w, half_h) = half(size);
+        unsafe {
+            let texture = |internal: u32,
+                           format: u32,
+                           kind: u32,
+                           w: i32,
+                           h: i32,
+                           filter: u32|
+             -> Result<glow::Texture> {
+                let t = gl.create_texture().map_err(gl_error("a texture"))?;
+                gl.bind_texture(glow::TEXTURE_2D, Some(t));
+                gl.tex_image_2d(
+                    glow::TEXTURE_2D,
+                    0,
+                    internal as i32,
+                    w,
+                    h,
+                    0,
+                    format,
+                    kind,
+                    glow::PixelUnpackData::Slice(None),
+                );
+                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MIN_FILTER, filter as i32);
+                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MAG_FILTER, filter as i32);
+                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE as i32);
+                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE as i32);
+                Ok(t)
+            };
+            let scene_colour = texture(glow::RGBA8, glow::RGBA, glow::UNSIGNED_BYTE, w, h, glow::LINEAR)?;
+            let scene_depth = texture(
+                glow::DEPTH_COMPONENT24,
+                glow::DEPTH_COMPONENT,
+                glow::UNSIGNED_INT,
+                w,
+                h,
+                glow::NEAREST,
+            )?;
+            let depth = [
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
+            ];
+            let thickness = texture(glow::RG32F, glow::RG, glow::FLOAT, half_w, half_h, glow::LINEAR)?;
+            gl.bind_texture(glow::TEXTURE_2D, None);
+            let depth_test = gl.create_renderbuffer().map_err(gl_error("a renderbuffer"))?;
+            gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth_test));
+            gl.renderbuffer_storage(glow::RENDERBUFFER, glow::DEPTH_COMPONENT24, w, h);
+            gl.bind_renderbuffer(glow::RENDERBUFFER, None);
+
+            let framebuffer =
+                |colour: glow::Texture, depth: Option<glow::Texture>| -> Result<glow::Framebuffer> {
+                    let f = gl.create_framebuffer().map_err(gl_error("a framebuffer"))?;
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(f));
+                    gl.framebuffer_texture_2d(
+                        glow::FRAMEBUFFER,
+                        glow::COLOR_ATTACHMENT0,
+                        glow::TEXTURE_2D,
+                        Some(colour),
+                        0,
+                    );
+                    if let Some(depth) = depth {
+                        gl.framebuffer_texture_2d(
+                            glow::FRAMEBUFFER,
+                            glow::DEPTH_ATTACHMENT,
+                            glow::TEXTURE_2D,
+                            Some(depth),
+                            0,
+                        );
+                    }
+                    Ok(f)
+                };
+            let scene_fbo = framebuffer(scene_colour, Some(scene_depth))?;
+            let depth_fbos = [framebuffer(depth[0], None)?, framebuffer(depth[1], None)?];
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(depth_fbos[0]));
+            gl.framebuffer_renderbuffer(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::RENDERBUFFER,
+                Some(depth_test),
+            );
+            let thickness_fbo = framebuffer(thickness, None)?;
+            let targets = Targets {
+                size,
+                scene_fbo,
+                scene_colour,
+                scene_depth,
+                depth_fbos,
+                depth,
+                depth_test,
+                thickness_fbo,
+                thickness,
+            };
+            for (name, fbo) in [
+                ("scene", scene_fbo),
+                ("depth", depth_fbos[0]),
+                ("smoothing", depth_fbos[1]),
+                ("thickness", thickness_fbo),
+            ] {
+                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
+                let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+                if status != glow::FRAMEBUFFER_COMPLETE {
+                    self.delete_targets(&targets);
+                    bail!(
+                        "the surface's {name} framebuffer ({w}x{h}) is incomplete (status {status:#x}): this \
+                         OpenGL lacks float render targets; draw with --draw spheres instead"
+                    );
+                }
+            }
+            Ok(targets)
+        }
+    }
+
+    unsafe fn delete_targets(&self, t: &Targets) {
+        let gl = &self.gl;
+        unsafe {
+            for f in [t.scene_fbo, t.depth_fbos[0], t.depth_fbos[1], t.thickness_fbo] {
+                gl.delete_framebuffer(f);
+            }
+            for tex in [t.scene_colour, t.scene_depth, t.depth[0], t.depth[1], t.thickness] {
+                gl.delete_texture(tex);
+            }
+            gl.delete_renderbuffer(t.depth_test);
+        }
+    }
+
+    pub fn destroy(&mut self) {
+        if let Some(t) = self.targets.take() {
+            // SAFETY: our objects, deleted once.
+            unsafe { self.delete_targets(&t) };
+        }
+        // SAFETY: as above.
+        unsafe {
+            let p = &self.programs;
+            for program in [p.depth, p.thickness, p.smooth, p.shade] {
+                self.gl.delete_program(program);
+            }
+            self.gl.delete_vertex_array(self.empty_vao);
+        }
+    }
+}
+
+/// The thickness texture's size: half of `size`, rounded up, at least 1.
+fn half(size: [u32; 2]) -> (i32, i32) {
+    (
+        size[0].div_ceil(2).max(1) as i32,
+        size[1].div_ceil(2).max(1) as i32,
+    )
+}
+
+unsafe fn set_particle_uniforms(
+    gl: &glow::Context,
+    program: glow::Program,
+    frame: &SurfaceFrame,
+    pixels_per_metre: f32,
+    min_splat_px: f32,
+) {
+    unsafe {
+        set_mat4(gl, program, "u_view", &frame.view);
+        set_mat4(gl, program, "u_proj", &frame.proj);
+        set_f32(gl, program, "u_radius", frame.settings.radius);
+        set_f32(gl, program, "u_pixels_per_metre", pixels_per_metre);
+        set_f32(gl, program, "u_min_splat_px", min_splat_px);
+    }
+}

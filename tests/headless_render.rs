@@ -1,0 +1,229 @@
+//! The renderer headless on whatever EGL device the machine has: the GPU's driver, or Mesa's llvmpipe
+//! on a machine without one (CI), with a CPU backend feeding the particles by host copy. The surface
+//! mode must show water, follow viewport changes (the window's resizes and its panel), draw only
+//! inside its viewport, and time its passes; the colour bar must carry its numbers. Reported as
+//! ignored, with the reason, where no EGL device gives OpenGL (tests/harness: `harness = false`).
+
+use mpm::backend::{self, BackendKind};
+use mpm::render::capture::Image;
+use mpm::render::headless::HeadlessGl;
+use mpm::render::offline::{render, RenderOptions};
+use mpm::render::{
+    Colouring, DrawMode, OrbitCamera, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport,
+};
+use mpm::sim::{Scene, Simulation};
+
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "headless OpenGL",
+        harness::headless_gl,
+        harness::tests![
+            surface_frames_show_water_and_time_their_passes,
+            surface_follows_viewport_changes,
+            colour_bar_carries_its_numbers,
+        ],
+    )
+}
+
+/// Water pixels: clearly blue (the surface's water colour, or the floor seen through it).
+fn water_fraction(image: &Image) -> f64 {
+    let blue = image
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[2] > 50 && i32::from(p[2]) > i32::from(p[0]) + 25)
+        .count();
+    blue as f64 / f64::from(image.width * image.height)
+}
+
+/// The `w` x `h` rectangle of `image` whose bottom-left corner is at (x, y) in GL's convention.
+fn crop(image: &Image, x: u32, y: u32, w: u32, h: u32) -> Image {
+    let top = image.height - y - h;
+    let mut rgba = Vec::with_capacity(4 * (w * h) as usize);
+    for row in top..top + h {
+        let start = 4 * (row * image.width + x) as usize;
+        rgba.extend_from_slice(&image.rgba[start..start + 4 * w as usize]);
+    }
+    Image {
+        width: w,
+        height: h,
+        rgba,
+    }
+}
+
+fn mean_abs_difference(a: &Image, b: &Image) -> f64 {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let sum: u64 = a
+        .rgba
+        .iter()
+        .zip(&b.rgba)
+        .map(|(&p, &q)| u64::from(p.abs_diff(q)))
+        .sum();
+    sum as f64 / a.rgba.len() as f64
+}
+
+fn surface_frames_show_water_and_time_their_passes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let options = RenderOptions {
+        scene: Scene::load("dam-break-coarse").expect("preset"),
+        backend: BackendKind::CpuParallel,
+        frames: 6,
+        out: Some(dir.path().to_path_buf()),
+        size: [320, 180],
+        mode: DrawMode::Surface,
+        colouring: Colouring::Speed,
+        particle_radius: None,
+        transfer: Transfer::HostCopy,
+        video: None,
+    };
+    let mut log = Vec::new();
+    let report = render(options, &mut log).expect("render");
+    println!("{}", String::from_utf8_lossy(&log));
+    let frame = std::fs::read(dir.path().join("frame-00006.png")).expect("frame 6 written");
+    let image = Image::read_png(&frame).expect("PNG");
+    let water = water_fraction(&image);
+    println!("water {:.1}% of the frame, {:?}", 100.0 * water, image.stats());
+    assert!(
+        water > 0.02,
+        "no water to be seen: {:.2}% blue pixels",
+        100.0 * water
+    );
+    assert!(
+        image.rgba.chunks_exact(4).all(|p| p[3] == 255),
+        "the frame is not opaque"
+    );
+    let passes = &report.timings.gpu_passes_ms;
+    for pass in ["scene", "depth", "thickness", "smoothing", "shading", "legend"] {
+        let ms = passes.get(pass).copied();
+        assert!(
+            ms.is_some_and(|ms| ms > 0.0),
+            "no GPU time for the {pass} pass: {passes:?}"
+        );
+    }
+    assert!(
+        !passes.contains_key("particles"),
+        "the surface draws no particle pass"
+    );
+    let total = report.timings.gpu_render_ms;
+    assert!((total - passes.values().sum::<f64>()).abs() < 1e-9);
+}
+
+/// A renderer drawing one simulation state into viewports of changing size and place, as the window
+/// does when it is resized or the panel changes width.
+fn surface_follows_viewport_changes() {
+    let headless = HeadlessGl::new(320, 180).expect("headless OpenGL");
+    println!("OpenGL: {}", headless.description);
+    let gl = headless.gl().clone();
+    let scene = Scene::load("dam-break-coarse").expect("preset");
+    let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let settings =
+        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Solid, None).expect("settings");
+    let mut sim = Simulation::new(scene, solver);
+    let mut renderer = Renderer::new(gl.clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let count = feed
+        .update(&mut sim, &mut renderer, settings.colouring)
+        .expect("particles");
+    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let mut draw = |viewport: Viewport| {
+        use glow::HasContext;
+        // Magenta outside the viewport shows whether anything was drawn there.
+        unsafe {
+            gl.disable(glow::SCISSOR_TEST);
+            gl.viewport(0, 0, 320, 180);
+            gl.clear_color(1.0, 0.0, 1.0, 1.0);
+            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+        }
+        renderer
+            .draw(viewport, &camera, &settings, count, domain)
+            .expect("draw");
+        headless.read_image()
+    };
+    let small = Viewport {
+        x: 0,
+        y: 0,
+        width: 160,
+        height: 90,
+    };
+    let first = crop(&draw(small), 0, 0, 160, 90);
+    let full = draw(Viewport::full([320, 180]));
+    let again = crop(&draw(small), 0, 0, 160, 90);
+    // Beside a panel 100 pixels wide, as in the window.
+    let beside = draw(Viewport {
+        x: 100,
+        y: 0,
+        width: 220,
+        height: 180,
+    });
+    renderer.destroy();
+
+    let (w_first, w_full) = (water_fraction(&first), water_fraction(&full));
+    println!(
+        "water: {:.1}% at 160x90, {:.1}% at 320x180",
+        100.0 * w_first,
+        100.0 * w_full
+    );
+    assert!(w_first > 0.02 && w_full > 0.02, "no water drawn");
+    // The same view at two resolutions covers the same share of the frame.
+    assert!(
+        (w_first - w_full).abs() < 0.25 * w_full,
+        "160x90 shows {w_first}, 320x180 shows {w_full}"
+    );
+    let difference = mean_abs_difference(&first, &again);
+    assert!(
+        difference < 1.0,
+        "the same state drawn at 160x90 before and after a 320x180 frame differs by {difference} per channel"
+    );
+    let left = crop(&beside, 0, 0, 100, 180);
+    assert!(
+        left.rgba.chunks_exact(4).all(|p| p[..3] == [255, 0, 255]),
+        "the surface drew outside its viewport (left of x = 100)"
+    );
+    let right = crop(&beside, 100, 0, 220, 180);
+    assert!(water_fraction(&right) > 0.02, "no water in the offset viewport");
+}
+
+/// Light pixels left of the bar: its numbers and unit. With solid colouring there is no bar, and
+/// that strip shows only the background.
+fn colour_bar_carries_its_numbers() {
+    let headless = HeadlessGl::new(640, 360).expect("headless OpenGL");
+    let scene = Scene::load("dam-break-coarse").expect("preset");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    // No particles: only the box, the bar and its labels are drawn.
+    renderer.upload(&[[0.0; 4]]);
+    let mut text_pixels = |colouring: Colouring| {
+        let settings =
+            RenderSettings::for_scene(&scene, DrawMode::Points, colouring, None).expect("settings");
+        renderer
+            .draw(Viewport::full([640, 360]), &camera, &settings, 0, domain)
+            .expect("draw");
+        let image = headless.read_image();
+        // The bar is 12 px wide, 24 px from the right edge; the numbers end 8 px left of it.
+        let strip = crop(&image, 640 - 24 - 70, 0, 70, 360);
+        strip
+            .rgba
+            .chunks_exact(4)
+            .filter(|p| p[0] > 150 && p[1] > 150 && p[2] > 150)
+            .count()
+    };
+    let speed = text_pixels(Colouring::Speed);
+    let density = text_pixels(Colouring::Density);
+    let solid = text_pixels(Colouring::Solid);
+    renderer.destroy();
+    println!("light pixels left of the bar: speed {speed}, density {density}, solid {solid}");
+    assert!(
+        speed > 30,
+        "the speed scale's numbers are missing ({speed} light pixels)"
+    );
+    assert!(
+        density > speed,
+        "ρ/ρ0 and two decimals take more ink than m/s and one"
+    );
+    assert_eq!(solid, 0, "solid colouring has no scale, so no numbers");
+}
