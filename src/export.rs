@@ -1,5 +1,11 @@
-//! Frame export: one binary little-endian PLY per frame (positions, velocities, density), which
-//! ParaView, Blender, Open3D and meshio open as they are. Names sort in frame order.
+//! Frame export. `--export`: one binary little-endian PLY of the particles per frame (positions,
+//! velocities, density), which ParaView, Blender, Open3D and meshio open as they are.
+//! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]). Both go
+//! through [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a
+//! user saved is replaced silently, and a failed write never leaves a truncated file behind.
+
+pub mod mesh_files;
+pub mod surface;
 
 use crate::sim::Particles;
 use crate::text::{io_reason, plural};
@@ -8,27 +14,54 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Writes `frame_NNNNNN.ply` files into one directory.
-pub struct PlyExporter {
+/// One kind of numbered frame file in one directory: `{prefix}NNNNNN.{extension}`, names that sort
+/// in frame order. Opening it refuses a directory that already holds files of this kind (in any of
+/// `kind.extensions`: a run never mixes with an earlier one's files), unless `overwrite`, which
+/// removes them first.
+pub struct FrameDir {
     dir: PathBuf,
-    every: u64,
-    /// The frames of an earlier run that `--overwrite` removed, in name order.
+    kind: FrameKind,
+    /// The extension this run writes (one of `kind.extensions`).
+    extension: &'static str,
+    /// The files of an earlier run that `--overwrite` removed, in name order.
     removed: Vec<PathBuf>,
 }
 
-impl PlyExporter {
-    /// Creates `dir` if needed and checks that a file can be written there. Refuses a directory that
-    /// already holds frames, unless `overwrite`: frames a user saved from an earlier run are never
-    /// replaced silently. With `overwrite` the earlier frames are all removed (see [`Self::removed`]),
-    /// so that the directory holds one run only, not the new frames mixed with a longer run's tail.
-    pub fn new(dir: &Path, every: u64, overwrite: bool) -> Result<PlyExporter> {
-        if every == 0 {
-            bail!("--every must be at least 1 (export every K-th frame)");
-        }
+/// What a [`FrameDir`] holds, in the words its messages use.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameKind {
+    /// The command-line flag that names the directory, e.g. `--export`.
+    pub flag: &'static str,
+    /// The start of every file name, e.g. `frame_`.
+    pub prefix: &'static str,
+    /// Every extension a run of this kind may write: all of them count as an earlier run's files.
+    pub extensions: &'static [&'static str],
+    /// The noun for one file and for several, e.g. `frame`, `frames`.
+    pub noun: (&'static str, &'static str),
+}
+
+/// The particle frames of `--export`.
+pub const PARTICLE_FRAMES: FrameKind = FrameKind {
+    flag: "--export",
+    prefix: "frame_",
+    extensions: &["ply"],
+    noun: ("frame", "frames"),
+};
+
+impl FrameDir {
+    /// Creates `dir` if needed and checks, before the first step, that a file can be written there.
+    /// Refuses a directory that already holds files of `kind`, unless `overwrite`: files a user
+    /// saved from an earlier run are never replaced silently. With `overwrite` the earlier files are
+    /// all removed (see [`Self::removed_note`]), so that the directory holds one run only, not the
+    /// new files mixed with a longer run's tail.
+    pub fn open(dir: &Path, kind: FrameKind, extension: &'static str, overwrite: bool) -> Result<FrameDir> {
+        debug_assert!(kind.extensions.contains(&extension));
+        let flag = kind.flag;
         if dir.exists() && !dir.is_dir() {
             bail!(
-                "--export {} is a file, not a directory; give a directory for the frames",
-                dir.display()
+                "{flag} {} is a file, not a directory; give a directory for the {}",
+                dir.display(),
+                kind.noun.1
             );
         }
         std::fs::create_dir_all(dir).map_err(|e| {
@@ -41,17 +74,17 @@ impl PlyExporter {
         let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
             .with_context(|| format!("cannot read the export directory {}", dir.display()))?
             .filter_map(|e| e.ok())
-            .filter(|e| is_frame_file(&e.file_name().to_string_lossy()))
+            .filter(|e| kind.owns(&e.file_name().to_string_lossy()))
             .map(|e| e.path())
             .collect();
         existing.sort();
         if !existing.is_empty() && !overwrite {
             bail!(
-                "{} already holds {} exported {}; pick another --export directory, or pass \
+                "{} already holds {} exported {}; pick another {flag} directory, or pass \
                  --overwrite to replace them",
                 dir.display(),
                 existing.len(),
-                plural(existing.len(), "frame", "frames")
+                plural(existing.len(), kind.noun.0, kind.noun.1)
             );
         }
         // Before the first step: a directory that cannot take a file fails now, not after a long run.
@@ -64,14 +97,19 @@ impl PlyExporter {
                 anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
             })?;
         }
-        Ok(PlyExporter {
+        Ok(FrameDir {
             dir: dir.to_path_buf(),
-            every,
+            kind,
+            extension,
             removed: existing,
         })
     }
 
-    /// The frames of an earlier run that `--overwrite` removed, in name order.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The files of an earlier run that `--overwrite` removed, in name order.
     pub fn removed(&self) -> &[PathBuf] {
         &self.removed
     }
@@ -92,8 +130,9 @@ impl PlyExporter {
             )
         } else {
             format!(
-                "--overwrite: removed {} frames of an earlier run from {} ({} .. {})",
+                "--overwrite: removed {} {} of an earlier run from {} ({} .. {})",
                 self.removed.len(),
+                self.kind.noun.1,
                 self.dir.display(),
                 name(first),
                 name(last)
@@ -101,22 +140,28 @@ impl PlyExporter {
         })
     }
 
-    pub fn wants(&self, frame: u64) -> bool {
-        frame % self.every == 0
-    }
-
     pub fn path_of(&self, frame: u64) -> PathBuf {
-        self.dir.join(format!("frame_{frame:06}.ply"))
+        self.dir
+            .join(format!("{}{frame:06}.{}", self.kind.prefix, self.extension))
     }
 
-    /// Writes the frame to a temporary name and renames it, so a failed write never leaves a
-    /// truncated file under a frame's name.
-    pub fn write(&self, frame: u64, comment: &str, particles: &Particles) -> Result<PathBuf> {
+    /// Writes frame `frame` through `write` to a temporary name, then renames it, so a failed write
+    /// never leaves a truncated file under a frame's name. A failure names the path, the reason and
+    /// the fix for that reason (a full disk, a refused permission, a read-only file system).
+    pub fn write(
+        &self,
+        frame: u64,
+        write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+    ) -> Result<PathBuf> {
         let path = self.path_of(frame);
-        let tmp = path.with_extension("ply.partial");
-        let result = File::create(&tmp)
-            .map_err(anyhow::Error::from)
-            .and_then(|f| write_ply(BufWriter::new(f), comment, particles));
+        let tmp = path.with_extension(format!("{}.partial", self.extension));
+        let result = File::create(&tmp).map_err(anyhow::Error::from).and_then(|f| {
+            let mut out = BufWriter::new(f);
+            write(&mut out)?;
+            // Flushed here, not on drop: a drop swallows the error of a disk that filled up at the end.
+            out.flush()?;
+            Ok(())
+        });
         if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, &path).map_err(Into::into)) {
             let _ = std::fs::remove_file(&tmp);
             let reason = e
@@ -129,8 +174,66 @@ impl PlyExporter {
     }
 }
 
-fn is_frame_file(name: &str) -> bool {
-    name.starts_with("frame_") && (name.ends_with(".ply") || name.ends_with(".ply.partial"))
+impl FrameKind {
+    /// Whether a file of this name belongs to this kind (a finished frame, or a write cut short).
+    fn owns(&self, name: &str) -> bool {
+        let Some(rest) = name.strip_prefix(self.prefix) else {
+            return false;
+        };
+        let rest = rest.strip_suffix(".partial").unwrap_or(rest);
+        self.extensions
+            .iter()
+            .any(|ext| rest.strip_suffix(ext).is_some_and(|r| r.ends_with('.')))
+    }
+}
+
+/// Writes `frame_NNNNNN.ply` files of the particles into one directory.
+pub struct PlyExporter {
+    frames: FrameDir,
+    every: u64,
+}
+
+impl PlyExporter {
+    /// Opens the directory as [`FrameDir::open`] says; `every` is `--every` (at least 1).
+    pub fn new(dir: &Path, every: u64, overwrite: bool) -> Result<PlyExporter> {
+        check_every(every)?;
+        Ok(PlyExporter {
+            frames: FrameDir::open(dir, PARTICLE_FRAMES, "ply", overwrite)?,
+            every,
+        })
+    }
+
+    /// The frames of an earlier run that `--overwrite` removed, in name order.
+    pub fn removed(&self) -> &[PathBuf] {
+        self.frames.removed()
+    }
+
+    /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
+    pub fn removed_note(&self) -> Option<String> {
+        self.frames.removed_note()
+    }
+
+    pub fn wants(&self, frame: u64) -> bool {
+        frame % self.every == 0
+    }
+
+    pub fn path_of(&self, frame: u64) -> PathBuf {
+        self.frames.path_of(frame)
+    }
+
+    /// Writes the frame to a temporary name and renames it, so a failed write never leaves a
+    /// truncated file under a frame's name.
+    pub fn write(&self, frame: u64, comment: &str, particles: &Particles) -> Result<PathBuf> {
+        self.frames.write(frame, |out| write_ply(out, comment, particles))
+    }
+}
+
+/// `--every K`: export every K-th frame, K at least 1.
+pub fn check_every(every: u64) -> Result<()> {
+    if every == 0 {
+        bail!("--every must be at least 1 (export every K-th frame)");
+    }
+    Ok(())
 }
 
 /// The vertex properties, in file order.

@@ -4,6 +4,8 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::bench;
+use mpm::export::mesh_files::SurfaceFormat;
+use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
 use mpm::export::PlyExporter;
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
@@ -83,6 +85,7 @@ enum Command {
 }
 
 #[derive(clap::Args)]
+#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT)]
@@ -97,8 +100,19 @@ struct RunArgs {
     /// Write one binary PLY per exported frame (frame 0 is the initial state) into this directory.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
-    /// Export every K-th frame.
-    #[arg(long, value_name = "K", default_value_t = 1, requires = "export", allow_negative_numbers = true,
+    /// Reconstruct the water surface of frame 0 and every K-th frame as a triangle mesh,
+    /// surface_NNNNNN.obj|ply|vtk, into this directory (on worker threads while the run goes on).
+    #[arg(long, value_name = "DIR")]
+    export_surface: Option<PathBuf>,
+    /// The surface meshes' file format: obj (Blender, ParaView, meshio), ply (binary), vtk (legacy,
+    /// ParaView).
+    #[arg(long, value_enum, value_name = "FORMAT", default_value_t = SurfaceFormat::Obj,
+          requires = "export_surface")]
+    surface_format: SurfaceFormat,
+    #[command(flatten)]
+    surface: SurfaceArgs,
+    /// Export every K-th frame (--export and --export-surface).
+    #[arg(long, value_name = "K", default_value_t = 1, requires = "frame_export", allow_negative_numbers = true,
           value_parser = count::<1>)]
     every: u64,
     /// Also write the per-frame statistics as JSON lines to this file.
@@ -107,6 +121,39 @@ struct RunArgs {
     /// Replace existing exported frames or stats file instead of refusing.
     #[arg(long)]
     overwrite: bool,
+}
+
+/// The surface reconstruction's parameters, overriding the defaults derived from the scene.
+#[derive(clap::Args)]
+struct SurfaceArgs {
+    /// Particle radius, m [default: dx / (2 n) for n^3 particles per cell: the particle's share of
+    /// the spawn lattice, as a cube of edge 2 r].
+    #[arg(long, value_name = "M", requires = "export_surface", allow_negative_numbers = true,
+          value_parser = positive)]
+    surface_particle_radius: Option<f32>,
+    /// Kernel smoothing length, in particle radii (the kernel reaches twice as far) [default: 2].
+    #[arg(long, value_name = "RADII", requires = "export_surface", allow_negative_numbers = true,
+          value_parser = positive)]
+    surface_smoothing_length: Option<f32>,
+    /// Iso-surface threshold, a fraction of rest density [default: 0.6].
+    #[arg(long, value_name = "FRACTION", requires = "export_surface", allow_negative_numbers = true,
+          value_parser = positive)]
+    surface_threshold: Option<f32>,
+    /// Marching-cubes cell edge, in particle radii (smaller: finer and slower) [default: 1].
+    #[arg(long, value_name = "RADII", requires = "export_surface", allow_negative_numbers = true,
+          value_parser = positive)]
+    surface_cube_size: Option<f32>,
+}
+
+impl SurfaceArgs {
+    fn overrides(&self) -> SurfaceOverrides {
+        SurfaceOverrides {
+            particle_radius: self.surface_particle_radius,
+            smoothing_length: self.surface_smoothing_length,
+            threshold: self.surface_threshold,
+            cube_size: self.surface_cube_size,
+        }
+    }
 }
 
 /// How the GPU steps: overrides of the scene's `solver.scatter` and `solver.pipeline`.
@@ -218,6 +265,15 @@ fn count<const MIN: u64>(text: &str) -> Result<u64, String> {
         Ok(n) if n >= i128::from(MIN) && n <= i128::from(u64::MAX) => Ok(n as u64),
         Ok(n) if n < i128::from(MIN) => Err(format!("{n} is too small: give a whole number from {MIN} up")),
         _ => Err(format!("`{text}` is not a whole number from {MIN} up")),
+    }
+}
+
+/// A positive, finite number (a length, a fraction).
+fn positive(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        Ok(x) => Err(format!("{x} is not a positive number: give a number above 0")),
+        Err(_) => Err(format!("`{text}` is not a number: give a number above 0")),
     }
 }
 
@@ -441,12 +497,24 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|dir| PlyExporter::new(dir, args.every, args.overwrite))
         .transpose()?;
+    let surface = args
+        .export_surface
+        .as_deref()
+        .map(|dir| -> Result<SurfaceExporter> {
+            let settings = SurfaceSettings::for_scene(&scene, args.surface.overrides())?;
+            SurfaceExporter::new(dir, args.every, args.surface_format, settings, args.overwrite)
+        })
+        .transpose()?;
     let stats = args
         .stats
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
-    if let Some(note) = export.as_ref().and_then(PlyExporter::removed_note) {
+    let notes = [
+        export.as_ref().and_then(PlyExporter::removed_note),
+        surface.as_ref().and_then(SurfaceExporter::removed_note),
+    ];
+    for note in notes.into_iter().flatten() {
         writeln!(std::io::stdout(), "{note}")?;
     }
     let solver = backend::create(args.backend, &scene)?;
@@ -463,10 +531,20 @@ fn run(args: RunArgs) -> Result<()> {
         scene.material.sound_speed(),
         solver.name()
     )?;
+    if let Some(surface) = &surface {
+        writeln!(
+            std::io::stdout(),
+            "surface meshes: {} into {}; {}",
+            surface.format().extension(),
+            surface.dir().display(),
+            surface.settings().describe()
+        )?;
+    }
     let mut sim = Simulation::new(scene, solver);
     let opts = RunOptions {
         frames: args.frames,
         export,
+        surface,
         stats,
         progress: std::io::stdout().is_terminal(),
     };

@@ -1,6 +1,7 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines and exports PLY frames.
+//! and optionally writes them as JSON lines, exports PLY frames and surface meshes.
 
+use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -8,11 +9,15 @@ use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 pub struct RunOptions {
     pub frames: u64,
     /// Writes the initial state as frame 0, then every K-th frame.
     pub export: Option<PlyExporter>,
+    /// Reconstructs the surface of the initial state and of every K-th frame as a mesh file, on
+    /// worker threads while the simulation steps on.
+    pub surface: Option<SurfaceExporter>,
     pub stats: Option<StatsFile>,
     /// Show a progress bar (stdout is a terminal).
     pub progress: bool,
@@ -107,9 +112,17 @@ pub fn cfl_warning(all: &[FrameStats]) -> Option<String> {
     ))
 }
 
-fn export_frame(sim: &mut Simulation, exporter: &PlyExporter) -> Result<()> {
+/// Worker threads that reconstruct surfaces; each also runs its reconstruction on rayon's pool.
+/// Two keep the pool busy while one of them writes its file.
+pub const SURFACE_WORKERS: usize = 2;
+/// Frames that may wait for a free worker before the simulation waits: with the workers' frames,
+/// at most four frames' particles are held at once.
+pub const SURFACE_QUEUE: usize = 2;
+
+/// The header comment of an exported frame's files.
+fn frame_comment(sim: &Simulation) -> String {
     let scene = sim.scene();
-    let comment = format!(
+    format!(
         "mpm frame {} t={:.6} s scene={} backend={}\ndx={} m grid={}x{}x{} rest_density={} kg/m^3",
         sim.frame(),
         sim.time(),
@@ -120,10 +133,55 @@ fn export_frame(sim: &mut Simulation, exporter: &PlyExporter) -> Result<()> {
         scene.grid_res[1],
         scene.grid_res[2],
         scene.material.rest_density
-    );
+    )
+}
+
+/// The frame's particle file and surface job, for the exports that want this frame: the particles
+/// are copied to the host only then.
+fn export_frame(
+    sim: &mut Simulation,
+    exporter: Option<&PlyExporter>,
+    surface: Option<&mut SurfaceQueue>,
+    on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
+) -> Result<()> {
+    let frame = sim.frame();
+    let ply = exporter.filter(|e| e.wants(frame));
+    let surface = surface.filter(|q| q.exporter().wants(frame));
+    if ply.is_none() && surface.is_none() {
+        return Ok(());
+    }
+    let comment = frame_comment(sim);
     let particles = sim.solver_mut().read_particles()?;
-    exporter.write(sim.frame(), &comment, &particles)?;
+    if let Some(exporter) = ply {
+        exporter.write(frame, &comment, &particles)?;
+    }
+    if let Some(queue) = surface {
+        let job = SurfaceJob {
+            frame,
+            comment,
+            positions: particles.x,
+        };
+        queue.submit(job, on_mesh)?;
+    }
     Ok(())
+}
+
+/// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
+/// simulation waited for them.
+pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
+    format!(
+        "surface: {} ({files}), {} triangles on average; {:.3} s per mesh (reconstruction {:.3} s, \
+         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for a free queue slot \
+         and {:.2} s for the last meshes after its last frame",
+        crate::text::count(p.done, "mesh", "meshes"),
+        p.triangles / p.done.max(1),
+        p.seconds_per_mesh(),
+        p.reconstruct.as_secs_f64() / p.done.max(1) as f64,
+        p.write.as_secs_f64() / p.done.max(1) as f64,
+        p.workers,
+        p.waited.as_secs_f64(),
+        after_last_frame.as_secs_f64()
+    )
 }
 
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
@@ -132,17 +190,15 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let RunOptions {
         frames,
         export,
+        surface,
         mut stats,
         progress,
     } = opts;
-    if let Some(exporter) = &export {
-        export_frame(sim, exporter)?;
-    }
     let bar = if progress {
         let bar = indicatif::ProgressBar::new(frames);
         bar.set_style(
             indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} frames  {elapsed} elapsed, eta {eta}",
+                "{bar:40} {pos}/{len} frames  {elapsed} elapsed, eta {eta}  {msg}",
             )
             .expect("the progress template is valid"),
         );
@@ -150,6 +206,20 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     } else {
         None
     };
+    let mut surface = surface.map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE));
+    // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
+    // terminal, else one line per mesh.
+    let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
+        Some(bar) => bar.set_message(progress.status()),
+        None => eprintln!(
+            "{}: {} triangles in {:.2} s ({})",
+            mesh.path.display(),
+            mesh.triangles,
+            (mesh.reconstruct + mesh.write).as_secs_f64(),
+            progress.status()
+        ),
+    };
+    export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
     for _ in 0..frames {
@@ -165,12 +235,29 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         if let Some(file) = &mut stats {
             file.append(&frame_stats)?;
         }
-        if let Some(exporter) = &export {
-            if exporter.wants(sim.frame()) {
-                export_frame(sim, exporter)?;
-            }
-        }
+        export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
         all.push(frame_stats);
+    }
+    if let Some(queue) = surface {
+        let last_frame = Instant::now();
+        let left = queue.progress().queued();
+        if left > 0 && bar.is_none() {
+            eprintln!(
+                "simulation done; waiting for {}",
+                crate::text::count(left, "surface mesh", "surface meshes")
+            );
+        }
+        let exporter_line = format!(
+            "{} in {}",
+            queue.exporter().format().extension(),
+            queue.exporter().dir().display()
+        );
+        let done = queue.finish(&mut on_mesh)?;
+        writeln!(
+            out,
+            "{}",
+            surface_summary(&done, &exporter_line, last_frame.elapsed())
+        )?;
     }
     if let Some(bar) = bar {
         bar.finish_and_clear();

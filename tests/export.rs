@@ -63,6 +63,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
         let opts = RunOptions {
             frames: 4,
             export: Some(PlyExporter::new(&frames, 2, overwrite)?),
+            surface: None,
             stats: Some(StatsFile::create(&stats, overwrite)?),
             progress: false,
         };
@@ -146,6 +147,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
         let opts = RunOptions {
             frames: count,
             export: Some(exporter),
+            surface: None,
             stats: None,
             progress: false,
         };
@@ -206,6 +208,7 @@ fn a_huge_frame_count_does_not_abort() {
     let opts = RunOptions {
         frames: 99_999_999_999,
         export: None,
+        surface: None,
         stats: None,
         progress: false,
     };

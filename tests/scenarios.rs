@@ -360,6 +360,7 @@ velocity = [50.0, 0.0, 0.0]
     let opts = mpm::runner::RunOptions {
         frames: 3,
         export: None,
+        surface: None,
         stats: None,
         progress: false,
     };

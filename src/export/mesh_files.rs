@@ -1,0 +1,140 @@
+//! Triangle-mesh files that Blender, ParaView and meshio open as they are: Wavefront OBJ (text),
+//! binary little-endian PLY, and legacy VTK (binary unstructured grid of triangles). Each carries
+//! per-vertex normals, and triangles wind counter-clockwise seen from outside (the normal is
+//! `(b - a) x (c - a)`, pointing out of the water), which is what all three tools expect.
+
+use anyhow::Result;
+use std::io::Write;
+
+/// A triangle mesh: shared vertices, their unit normals, and triangles as vertex indices.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SurfaceMesh {
+    pub vertices: Vec<[f32; 3]>,
+    /// One unit normal per vertex, pointing out of the water.
+    pub normals: Vec<[f32; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// The file formats of `--surface-format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SurfaceFormat {
+    /// Wavefront OBJ (text): Blender, ParaView, meshio, most 3D tools.
+    Obj,
+    /// Binary little-endian PLY: smaller and faster than OBJ; Blender, ParaView, meshio.
+    Ply,
+    /// Legacy VTK, binary (an unstructured grid of triangles): ParaView, VisIt, meshio.
+    Vtk,
+}
+
+impl SurfaceFormat {
+    pub const ALL: [SurfaceFormat; 3] = [SurfaceFormat::Obj, SurfaceFormat::Ply, SurfaceFormat::Vtk];
+
+    pub fn extension(self) -> &'static str {
+        match self {
+            SurfaceFormat::Obj => "obj",
+            SurfaceFormat::Ply => "ply",
+            SurfaceFormat::Vtk => "vtk",
+        }
+    }
+
+    /// Writes `mesh` with `comment` (one or more lines) in the file's header.
+    pub fn write(self, out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Result<()> {
+        match self {
+            SurfaceFormat::Obj => write_obj(out, comment, mesh),
+            SurfaceFormat::Ply => write_ply(out, comment, mesh),
+            SurfaceFormat::Vtk => write_vtk(out, comment, mesh),
+        }
+    }
+}
+
+pub fn write_obj(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Result<()> {
+    for line in comment.lines() {
+        writeln!(out, "# {line}")?;
+    }
+    writeln!(
+        out,
+        "# {} vertices, {} triangles",
+        mesh.vertices.len(),
+        mesh.triangles.len()
+    )?;
+    for [x, y, z] in &mesh.vertices {
+        writeln!(out, "v {x} {y} {z}")?;
+    }
+    for [x, y, z] in &mesh.normals {
+        writeln!(out, "vn {x} {y} {z}")?;
+    }
+    // OBJ counts from 1; each corner names its vertex and its normal (the same index).
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| u64::from(i) + 1);
+        writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+pub fn write_ply(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Result<()> {
+    writeln!(out, "ply\nformat binary_little_endian 1.0")?;
+    for line in comment.lines() {
+        writeln!(out, "comment {line}")?;
+    }
+    writeln!(out, "element vertex {}", mesh.vertices.len())?;
+    for p in ["x", "y", "z", "nx", "ny", "nz"] {
+        writeln!(out, "property float {p}")?;
+    }
+    writeln!(out, "element face {}", mesh.triangles.len())?;
+    writeln!(out, "property list uchar uint vertex_indices\nend_header")?;
+    for (v, n) in mesh.vertices.iter().zip(&mesh.normals) {
+        for value in v.iter().chain(n) {
+            out.write_all(&value.to_le_bytes())?;
+        }
+    }
+    for t in &mesh.triangles {
+        out.write_all(&[3])?;
+        for i in t {
+            out.write_all(&i.to_le_bytes())?;
+        }
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// Legacy VTK 3.0, binary (big-endian, as the format requires), an unstructured grid of triangles
+/// (cell type 5) with the normals as point data: the dataset type every VTK reader and meshio read.
+pub fn write_vtk(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Result<()> {
+    // The title is one line of at most 255 characters.
+    let title: String = comment
+        .lines()
+        .collect::<Vec<_>>()
+        .join("; ")
+        .chars()
+        .take(255)
+        .collect();
+    writeln!(
+        out,
+        "# vtk DataFile Version 3.0\n{title}\nBINARY\nDATASET UNSTRUCTURED_GRID"
+    )?;
+    writeln!(out, "POINTS {} float", mesh.vertices.len())?;
+    for value in mesh.vertices.iter().flatten() {
+        out.write_all(&value.to_be_bytes())?;
+    }
+    let cells = mesh.triangles.len();
+    writeln!(out, "\nCELLS {cells} {}", cells * 4)?;
+    for t in &mesh.triangles {
+        out.write_all(&3i32.to_be_bytes())?;
+        for &i in t {
+            out.write_all(&(i as i32).to_be_bytes())?;
+        }
+    }
+    writeln!(out, "\nCELL_TYPES {cells}")?;
+    const VTK_TRIANGLE: i32 = 5;
+    for _ in 0..cells {
+        out.write_all(&VTK_TRIANGLE.to_be_bytes())?;
+    }
+    writeln!(out, "\nPOINT_DATA {}\nNORMALS Normals float", mesh.vertices.len())?;
+    for value in mesh.normals.iter().flatten() {
+        out.write_all(&value.to_be_bytes())?;
+    }
+    writeln!(out)?;
+    out.flush()?;
+    Ok(())
+}

@@ -1,0 +1,459 @@
+//! `--export-surface`: the water surface of exported frames as triangle meshes.
+//!
+//! The surface is reconstructed with `splashsurf_lib`: an SPH density field is built from the
+//! particle positions alone (a cubic spline kernel), and marching cubes extracts the level set at a
+//! fraction of the rest density. The reconstruction runs on worker threads fed by a bounded queue
+//! ([`SurfaceQueue`]), so the simulation steps on while meshes are built; it waits only when the
+//! queue is full, which keeps memory bounded on long runs.
+//!
+//! Defaults from the scene: the spawn lattice gives each particle a cube of fluid of edge
+//! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
+//! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
+
+use super::mesh_files::{SurfaceFormat, SurfaceMesh};
+use super::{check_every, FrameDir, FrameKind};
+use crate::sim::Scene;
+use anyhow::{bail, Result};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// The surface meshes of `--export-surface`: `surface_NNNNNN.obj|ply|vtk`.
+pub const SURFACE_FRAMES: FrameKind = FrameKind {
+    flag: "--export-surface",
+    prefix: "surface_",
+    extensions: &["obj", "ply", "vtk"],
+    noun: ("surface mesh", "surface meshes"),
+};
+
+/// Default kernel smoothing length, in particle radii (splashsurf's convention: the kernel's
+/// compact support is twice this). 2 radii reach the nearest lattice neighbours on every side.
+pub const DEFAULT_SMOOTHING_LENGTH: f32 = 2.0;
+/// Default iso-surface threshold, as a fraction of rest density (splashsurf's usual 0.6: the
+/// surface sits just inside the outermost particles' half-spacing).
+pub const DEFAULT_THRESHOLD: f32 = 0.6;
+/// Default marching-cubes cell edge, in particle radii: half the particle spacing.
+pub const DEFAULT_CUBE_SIZE: f32 = 1.0;
+/// Marching-cubes cells along the domain's longest axis, at most: a finer grid is almost surely a
+/// mistyped value, and its memory grows with the square of the cell count.
+pub const MAX_CUBES_PER_AXIS: f32 = 8192.0;
+
+/// The reconstruction's parameters, in the units of the command line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceSettings {
+    /// Particle radius, m (`--surface-particle-radius`).
+    pub particle_radius: f32,
+    /// Kernel smoothing length, in particle radii (`--surface-smoothing-length`).
+    pub smoothing_length: f32,
+    /// Iso-surface threshold, a fraction of rest density (`--surface-threshold`).
+    pub threshold: f32,
+    /// Marching-cubes cell edge, in particle radii (`--surface-cube-size`).
+    pub cube_size: f32,
+    /// The fluid's rest density, kg/m^3.
+    pub rest_density: f32,
+}
+
+/// The command line's overrides of [`SurfaceSettings::for_scene`]; `None` keeps the default.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SurfaceOverrides {
+    pub particle_radius: Option<f32>,
+    pub smoothing_length: Option<f32>,
+    pub threshold: Option<f32>,
+    pub cube_size: Option<f32>,
+}
+
+impl SurfaceSettings {
+    /// The defaults for `scene` (see the module's comment), with `overrides` applied and every
+    /// value checked.
+    pub fn for_scene(scene: &Scene, overrides: SurfaceOverrides) -> Result<SurfaceSettings> {
+        let settings = SurfaceSettings {
+            particle_radius: overrides
+                .particle_radius
+                .unwrap_or(scene.dx / (2.0 * scene.particles_per_axis as f32)),
+            smoothing_length: overrides.smoothing_length.unwrap_or(DEFAULT_SMOOTHING_LENGTH),
+            threshold: overrides.threshold.unwrap_or(DEFAULT_THRESHOLD),
+            cube_size: overrides.cube_size.unwrap_or(DEFAULT_CUBE_SIZE),
+            rest_density: scene.material.rest_density,
+        };
+        for (flag, value) in [
+            ("--surface-particle-radius", settings.particle_radius),
+            ("--surface-smoothing-length", settings.smoothing_length),
+            ("--surface-threshold", settings.threshold),
+            ("--surface-cube-size", settings.cube_size),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                bail!("{flag} {value} must be a positive number");
+            }
+        }
+        let longest = scene.grid_res.iter().copied().max().unwrap_or(0) as f32 * scene.dx;
+        let cubes = longest / settings.cube_edge();
+        if cubes > MAX_CUBES_PER_AXIS {
+            bail!(
+                "the surface's marching-cubes cell ({:.3e} m = --surface-cube-size {} x radius {:.3e} m) \
+                 would cut the {longest} m domain into {cubes:.0} cells per axis, more than \
+                 {MAX_CUBES_PER_AXIS}; give a larger --surface-cube-size or --surface-particle-radius",
+                settings.cube_edge(),
+                settings.cube_size,
+                settings.particle_radius
+            );
+        }
+        Ok(settings)
+    }
+
+    /// The marching-cubes cell edge, m.
+    pub fn cube_edge(&self) -> f32 {
+        self.cube_size * self.particle_radius
+    }
+
+    /// One line for the user: what the reconstruction uses.
+    pub fn describe(&self) -> String {
+        format!(
+            "particle radius {:.4e} m, smoothing length {} radii (kernel support {:.4e} m), \
+             threshold {} x rest density, cells of {:.4e} m",
+            self.particle_radius,
+            self.smoothing_length,
+            self.support_radius(),
+            self.threshold,
+            self.cube_edge()
+        )
+    }
+
+    fn support_radius(&self) -> f32 {
+        2.0 * self.smoothing_length * self.particle_radius
+    }
+
+    fn splashsurf_parameters(&self) -> splashsurf_lib::Parameters<f32> {
+        let mut p =
+            splashsurf_lib::Parameters::new(self.particle_radius, self.support_radius(), self.cube_edge());
+        p.rest_density = self.rest_density;
+        p.iso_surface_threshold = self.threshold;
+        p
+    }
+}
+
+/// The water surface of the particles at `positions`: a closed mesh, wound counter-clockwise seen
+/// from outside, with vertex normals pointing out of the water.
+pub fn reconstruct(positions: &[Vec3], settings: &SurfaceSettings) -> Result<SurfaceMesh> {
+    if positions.is_empty() {
+        return Ok(SurfaceMesh::default());
+    }
+    let points: Vec<_> = positions
+        .iter()
+        .map(|p| splashsurf_lib::nalgebra::Vector3::new(p.x, p.y, p.z))
+        .collect();
+    let reconstruction =
+        splashsurf_lib::reconstruct_surface::<i64, f32>(&points, &settings.splashsurf_parameters())
+            .map_err(|e| anyhow::anyhow!("the surface reconstruction failed: {:#}", anyhow::Error::new(e)))?;
+    let mesh = reconstruction.mesh;
+    if mesh.vertices.len() > i32::MAX as usize {
+        bail!(
+            "the surface has {} vertices, more than a mesh file can index; give a larger \
+             --surface-cube-size",
+            mesh.vertices.len()
+        );
+    }
+    let vertices: Vec<[f32; 3]> = mesh.vertices.iter().map(|v| [v.x, v.y, v.z]).collect();
+    // splashsurf's marching cubes wind counter-clockwise seen from outside, as the files' readers
+    // expect (tests/surface_export.rs checks it through the signed volume).
+    let triangles: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.map(|i| i as u32)).collect();
+    let normals = vertex_normals(&vertices, &triangles);
+    Ok(SurfaceMesh {
+        vertices,
+        normals,
+        triangles,
+    })
+}
+
+/// Area-weighted vertex normals of a counter-clockwise mesh; a vertex whose triangles all have no
+/// area gets `+y`, never NaN.
+fn vertex_normals(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
+    let mut sums = vec![Vec3::ZERO; vertices.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| Vec3::from(vertices[i as usize]));
+        // Its length is twice the triangle's area: larger triangles weigh more.
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            sums[i as usize] += n;
+        }
+    }
+    sums.iter()
+        .map(|n| n.try_normalize().unwrap_or(Vec3::Y).to_array())
+        .collect()
+}
+
+/// Writes `surface_NNNNNN.<format>` meshes into one directory.
+pub struct SurfaceExporter {
+    frames: FrameDir,
+    every: u64,
+    format: SurfaceFormat,
+    settings: SurfaceSettings,
+}
+
+/// One finished mesh.
+#[derive(Debug, Clone)]
+pub struct MeshDone {
+    pub frame: u64,
+    pub path: PathBuf,
+    pub triangles: usize,
+    /// Wall time of the reconstruction (density, marching cubes, normals).
+    pub reconstruct: Duration,
+    /// Wall time of writing the file.
+    pub write: Duration,
+}
+
+/// The particles of one exported frame, on their way to a worker.
+pub struct SurfaceJob {
+    pub frame: u64,
+    /// The file's header comment (frame, time, scene).
+    pub comment: String,
+    pub positions: Vec<Vec3>,
+}
+
+impl SurfaceExporter {
+    /// Opens `dir` as [`FrameDir::open`] says (refusing files of an earlier run unless
+    /// `overwrite`); `every` is `--every`.
+    pub fn new(
+        dir: &Path,
+        every: u64,
+        format: SurfaceFormat,
+        settings: SurfaceSettings,
+        overwrite: bool,
+    ) -> Result<SurfaceExporter> {
+        check_every(every)?;
+        Ok(SurfaceExporter {
+            frames: FrameDir::open(dir, SURFACE_FRAMES, format.extension(), overwrite)?,
+            every,
+            format,
+            settings,
+        })
+    }
+
+    pub fn wants(&self, frame: u64) -> bool {
+        frame % self.every == 0
+    }
+
+    pub fn path_of(&self, frame: u64) -> PathBuf {
+        self.frames.path_of(frame)
+    }
+
+    pub fn dir(&self) -> &Path {
+        self.frames.dir()
+    }
+
+    pub fn format(&self) -> SurfaceFormat {
+        self.format
+    }
+
+    pub fn settings(&self) -> &SurfaceSettings {
+        &self.settings
+    }
+
+    /// One line for the user about the meshes `--overwrite` removed, or `None`.
+    pub fn removed_note(&self) -> Option<String> {
+        self.frames.removed_note()
+    }
+
+    /// Reconstructs and writes one frame's mesh, here and now.
+    pub fn export(&self, job: &SurfaceJob) -> Result<MeshDone> {
+        let start = Instant::now();
+        let mesh = reconstruct(&job.positions, &self.settings)?;
+        let reconstructed = Instant::now();
+        let comment = format!("{}\nsurface: {}", job.comment, self.settings.describe());
+        let path = self
+            .frames
+            .write(job.frame, |out| self.format.write(out, &comment, &mesh))?;
+        Ok(MeshDone {
+            frame: job.frame,
+            path,
+            triangles: mesh.triangles.len(),
+            reconstruct: reconstructed - start,
+            write: reconstructed.elapsed(),
+        })
+    }
+
+    /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
+    /// `waiting` more jobs wait for a free worker before `submit` blocks.
+    pub fn start(self, workers: usize, waiting: usize) -> SurfaceQueue {
+        let (jobs, receiver) = mpsc::sync_channel::<SurfaceJob>(waiting);
+        let (results, done) = mpsc::channel();
+        let receiver = Arc::new(Mutex::new(receiver));
+        let stop = Arc::new(AtomicBool::new(false));
+        let exporter = Arc::new(self);
+        let workers = (0..workers.max(1))
+            .map(|i| {
+                let (receiver, results, stop, exporter) =
+                    (receiver.clone(), results.clone(), stop.clone(), exporter.clone());
+                std::thread::Builder::new()
+                    .name(format!("surface-{i}"))
+                    .spawn(move || loop {
+                        // The lock is held only while taking a job (the guard is a temporary).
+                        let job = receiver.lock().map(|r| r.recv());
+                        let Ok(Ok(job)) = job else { break };
+                        if stop.load(Ordering::Relaxed) {
+                            continue;
+                        }
+                        let result = exporter.export(&job);
+                        if result.is_err() {
+                            stop.store(true, Ordering::Relaxed);
+                        }
+                        if results.send(result).is_err() {
+                            break;
+                        }
+                    })
+                    .expect("spawning a surface worker thread")
+            })
+            .collect::<Vec<_>>();
+        SurfaceQueue {
+            exporter,
+            jobs: Some(jobs),
+            done,
+            workers,
+            stop,
+            progress: SurfaceProgress::default(),
+        }
+    }
+}
+
+/// Where the meshes stand: counts and times so far.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SurfaceProgress {
+    /// Meshes handed to the workers.
+    pub submitted: u64,
+    /// Meshes written.
+    pub done: u64,
+    pub triangles: u64,
+    /// Summed over the meshes written.
+    pub reconstruct: Duration,
+    pub write: Duration,
+    /// How long the simulation waited for room in the queue.
+    pub waited: Duration,
+    /// How many worker threads there are.
+    pub workers: usize,
+}
+
+impl SurfaceProgress {
+    /// Meshes handed over and not yet written (in a worker's hands or waiting for one).
+    pub fn queued(&self) -> u64 {
+        self.submitted - self.done
+    }
+
+    /// Mean wall time per mesh (reconstruction and writing), s.
+    pub fn seconds_per_mesh(&self) -> f64 {
+        if self.done == 0 {
+            return 0.0;
+        }
+        (self.reconstruct + self.write).as_secs_f64() / self.done as f64
+    }
+
+    /// "3/5 surface meshes written, 2 queued, 0.84 s per mesh".
+    pub fn status(&self) -> String {
+        format!(
+            "{}/{} surface meshes written, {} queued, {:.2} s per mesh",
+            self.done,
+            self.submitted,
+            self.queued(),
+            self.seconds_per_mesh()
+        )
+    }
+}
+
+/// The exporter's worker threads and the bounded queue that feeds them.
+pub struct SurfaceQueue {
+    exporter: Arc<SurfaceExporter>,
+    /// `None` once closed: the workers then end when the queue is empty.
+    jobs: Option<SyncSender<SurfaceJob>>,
+    done: Receiver<Result<MeshDone>>,
+    workers: Vec<JoinHandle<()>>,
+    /// Set on the first failure, and on drop: the workers skip what is left.
+    stop: Arc<AtomicBool>,
+    progress: SurfaceProgress,
+}
+
+impl SurfaceQueue {
+    pub fn exporter(&self) -> &SurfaceExporter {
+        &self.exporter
+    }
+
+    pub fn progress(&self) -> SurfaceProgress {
+        SurfaceProgress {
+            workers: self.workers.len(),
+            ..self.progress
+        }
+    }
+
+    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
+    /// mesh (a full disk) is returned here, so the run stops at the next exported frame.
+    pub fn submit(
+        &mut self,
+        job: SurfaceJob,
+        on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress),
+    ) -> Result<()> {
+        self.collect(on_done, false)?;
+        let jobs = self.jobs.as_ref().expect("submit after finish");
+        let job = match jobs.try_send(job) {
+            Ok(()) => None,
+            Err(TrySendError::Full(job)) => Some(job),
+            Err(TrySendError::Disconnected(_)) => bail!("the surface worker threads ended early"),
+        };
+        if let Some(job) = job {
+            let start = Instant::now();
+            let sent = jobs.send(job);
+            self.progress.waited += start.elapsed();
+            if sent.is_err() {
+                // Every worker stopped, which happens only after a failure: report it.
+                self.collect(on_done, true)?;
+                bail!("the surface worker threads ended early");
+            }
+        }
+        self.progress.submitted += 1;
+        Ok(())
+    }
+
+    /// Takes the meshes finished so far, calling `on_done` for each; with `wait`, until every
+    /// submitted mesh is done. The first failure is returned.
+    pub fn collect(&mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress), wait: bool) -> Result<()> {
+        while self.progress.done < self.progress.submitted {
+            let result = if wait {
+                match self.done.recv() {
+                    Ok(result) => result,
+                    Err(_) => bail!("the surface worker threads ended early"),
+                }
+            } else {
+                match self.done.try_recv() {
+                    Ok(result) => result,
+                    Err(_) => return Ok(()),
+                }
+            };
+            let mesh = result?;
+            self.progress.done += 1;
+            self.progress.triangles += mesh.triangles as u64;
+            self.progress.reconstruct += mesh.reconstruct;
+            self.progress.write += mesh.write;
+            on_done(&mesh, self.progress());
+        }
+        Ok(())
+    }
+
+    /// Waits for every submitted mesh, then ends the workers.
+    pub fn finish(mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
+        self.jobs = None;
+        self.collect(on_done, true)?;
+        Ok(self.progress())
+    }
+}
+
+impl Drop for SurfaceQueue {
+    /// Without [`SurfaceQueue::finish`] (the run failed): the workers drop what is queued, finish
+    /// the mesh in hand, and end.
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.jobs = None;
+        for worker in self.workers.drain(..) {
+            let _ = worker.join();
+        }
+    }
+}
