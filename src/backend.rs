@@ -3,7 +3,7 @@
 use crate::cuda::{CudaOptions, CudaSolver};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
-use crate::sim::{Scene, Solver};
+use crate::sim::{Particles, Scene, Solver};
 use anyhow::Result;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -18,15 +18,41 @@ pub enum BackendKind {
     Cuda,
 }
 
+impl BackendKind {
+    /// The backend a solver of this [`Solver::name`] is, `None` for an unknown name.
+    pub fn of_solver(name: &str) -> Option<BackendKind> {
+        match name {
+            "cpu" => Some(BackendKind::Cpu),
+            "cpu-parallel" => Some(BackendKind::CpuParallel),
+            "cuda" => Some(BackendKind::Cuda),
+            _ => None,
+        }
+    }
+}
+
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU
 /// backend with a one-line notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
-    let parallel = || -> Box<dyn Solver> { Box::new(ParallelCpuSolver::new(scene.spawn(), scene.grid_res)) };
+    create_with(kind, scene, None)
+}
+
+/// [`create`] with `particles` (a checkpoint's) in place of the scene's spawn.
+pub fn restore(kind: BackendKind, scene: &Scene, particles: &Particles) -> Result<Box<dyn Solver>> {
+    create_with(kind, scene, Some(particles))
+}
+
+fn create_with(kind: BackendKind, scene: &Scene, particles: Option<&Particles>) -> Result<Box<dyn Solver>> {
+    let initial = || particles.cloned().unwrap_or_else(|| scene.spawn());
+    let parallel = || -> Box<dyn Solver> { Box::new(ParallelCpuSolver::new(initial(), scene.grid_res)) };
+    let cuda = |options: CudaOptions| match particles {
+        Some(particles) => CudaSolver::from_particles(scene, particles, options),
+        None => CudaSolver::new(scene, options),
+    };
     match kind {
-        BackendKind::Cpu => Ok(Box::new(CpuSolver::new(scene.spawn(), scene.grid_res))),
+        BackendKind::Cpu => Ok(Box::new(CpuSolver::new(initial(), scene.grid_res))),
         BackendKind::CpuParallel => Ok(parallel()),
-        BackendKind::Cuda => Ok(Box::new(CudaSolver::new(scene, CudaOptions::from_env()?)?)),
-        BackendKind::Auto => match CudaOptions::from_env().and_then(|o| CudaSolver::new(scene, o)) {
+        BackendKind::Cuda => Ok(Box::new(cuda(CudaOptions::from_env()?)?)),
+        BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Ok(Box::new(solver)),
             Err(why) => {
                 let why = format!("{why:#}");

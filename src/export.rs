@@ -25,49 +25,17 @@ impl PlyExporter {
         if every == 0 {
             bail!("--every must be at least 1 (export every K-th frame)");
         }
-        if dir.exists() && !dir.is_dir() {
-            bail!(
-                "--export {} is a file, not a directory; give a directory for the frames",
-                dir.display()
-            );
-        }
-        std::fs::create_dir_all(dir).map_err(|e| {
-            anyhow::anyhow!(
-                "cannot create the export directory {}: {}",
-                dir.display(),
-                io_reason(&e)
-            )
-        })?;
-        let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
-            .with_context(|| format!("cannot read the export directory {}", dir.display()))?
-            .filter_map(|e| e.ok())
-            .filter(|e| is_frame_file(&e.file_name().to_string_lossy()))
-            .map(|e| e.path())
-            .collect();
-        existing.sort();
-        if !existing.is_empty() && !overwrite {
-            bail!(
-                "{} already holds {} exported {}; pick another --export directory, or pass \
-                 --overwrite to replace them",
-                dir.display(),
-                existing.len(),
-                plural(existing.len(), "frame", "frames")
-            );
-        }
-        // Before the first step: a directory that cannot take a file fails now, not after a long run.
-        let probe = dir.join(".mpm-write-check");
-        File::create(&probe)
-            .and_then(|_| std::fs::remove_file(&probe))
-            .map_err(|e| anyhow::anyhow!("cannot write into {}: {}", dir.display(), io_reason(&e)))?;
-        for path in &existing {
-            std::fs::remove_file(path).map_err(|e| {
-                anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
-            })?;
-        }
+        let removed = claim_output_dir(
+            dir,
+            "--export",
+            ("exported frame", "exported frames"),
+            is_frame_file,
+            overwrite,
+        )?;
         Ok(PlyExporter {
             dir: dir.to_path_buf(),
             every,
-            removed: existing,
+            removed,
         })
     }
 
@@ -127,6 +95,60 @@ impl PlyExporter {
         }
         Ok(path)
     }
+}
+
+/// Claims `dir` for one run's output files: creates it, refuses one that already holds files `clashes`
+/// picks (named by `what`, singular and plural, and the `flag` that chose the directory) unless
+/// `overwrite`, which removes them, so the directory never mixes two runs' files; and checks that a
+/// file can be written there, so a bad directory fails before the first step. Returns the removed
+/// files in name order.
+pub fn claim_output_dir(
+    dir: &Path,
+    flag: &str,
+    what: (&str, &str),
+    clashes: impl Fn(&str) -> bool,
+    overwrite: bool,
+) -> Result<Vec<PathBuf>> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "{flag} {} is a file, not a directory; give a directory for the {}",
+            dir.display(),
+            what.1
+        );
+    }
+    let role = flag.trim_start_matches('-');
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot create the {role} directory {}: {}",
+            dir.display(),
+            io_reason(&e)
+        )
+    })?;
+    let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read the {role} directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter(|e| clashes(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .collect();
+    existing.sort();
+    if !existing.is_empty() && !overwrite {
+        bail!(
+            "{} already holds {} {}; pick another {flag} directory, or pass --overwrite to replace them",
+            dir.display(),
+            existing.len(),
+            plural(existing.len(), what.0, what.1)
+        );
+    }
+    let probe = dir.join(".mpm-write-check");
+    File::create(&probe)
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| anyhow::anyhow!("cannot write into {}: {}", dir.display(), io_reason(&e)))?;
+    for path in &existing {
+        std::fs::remove_file(path).map_err(|e| {
+            anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
+        })?;
+    }
+    Ok(existing)
 }
 
 fn is_frame_file(name: &str) -> bool {

@@ -1,6 +1,7 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
 //! and optionally writes them as JSON lines and exports PLY frames.
 
+use crate::checkpoint::CheckpointSeries;
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -14,6 +15,8 @@ pub struct RunOptions {
     /// Writes the initial state as frame 0, then every K-th frame.
     pub export: Option<PlyExporter>,
     pub stats: Option<StatsFile>,
+    /// Writes the state every K-th frame and at the last one.
+    pub checkpoints: Option<CheckpointSeries>,
     /// Show a progress bar (stdout is a terminal).
     pub progress: bool,
 }
@@ -133,6 +136,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         frames,
         export,
         mut stats,
+        checkpoints,
         progress,
     } = opts;
     if let Some(exporter) = &export {
@@ -152,15 +156,18 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     };
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
-    for _ in 0..frames {
-        let frame_stats = sim.advance_frame()?;
-        let line = format_frame(&frame_stats);
+    let say = |out: &mut dyn Write, line: &str| -> Result<()> {
         match &bar {
-            Some(bar) => {
-                bar.println(&line);
-                bar.inc(1);
-            }
+            Some(bar) => bar.println(line),
             None => writeln!(out, "{line}")?,
+        }
+        Ok(())
+    };
+    for done in 1..=frames {
+        let frame_stats = sim.advance_frame()?;
+        say(out, &format_frame(&frame_stats))?;
+        if let Some(bar) = &bar {
+            bar.inc(1);
         }
         if let Some(file) = &mut stats {
             file.append(&frame_stats)?;
@@ -168,6 +175,12 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         if let Some(exporter) = &export {
             if exporter.wants(sim.frame()) {
                 export_frame(sim, exporter)?;
+            }
+        }
+        if let Some(series) = &checkpoints {
+            if series.wants(sim.frame(), done == frames) {
+                let path = series.write(sim)?;
+                say(out, &format!("checkpoint {}", path.display()))?;
             }
         }
         all.push(frame_stats);

@@ -64,6 +64,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
             frames: 4,
             export: Some(PlyExporter::new(&frames, 2, overwrite)?),
             stats: Some(StatsFile::create(&stats, overwrite)?),
+            checkpoints: None,
             progress: false,
         };
         runner::run(&mut sim, opts, &mut std::io::sink())
@@ -147,6 +148,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
             frames: count,
             export: Some(exporter),
             stats: None,
+            checkpoints: None,
             progress: false,
         };
         runner::run(&mut sim, opts, &mut std::io::sink())?;
@@ -207,6 +209,7 @@ fn a_huge_frame_count_does_not_abort() {
         frames: 99_999_999_999,
         export: None,
         stats: None,
+        checkpoints: None,
         progress: false,
     };
     let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();

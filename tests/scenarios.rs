@@ -361,6 +361,7 @@ velocity = [50.0, 0.0, 0.0]
         frames: 3,
         export: None,
         stats: None,
+        checkpoints: None,
         progress: false,
     };
     let mut out = Vec::new();

@@ -13,6 +13,6 @@ pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
-    ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary,
-    MAX_PENDING_STEP_TIMINGS,
+    ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, RunClock, Simulation, Solver, StepExtremes,
+    Summary, MAX_PENDING_STEP_TIMINGS,
 };

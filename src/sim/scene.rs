@@ -227,6 +227,9 @@ pub struct Scene {
     pub bodies: Vec<Body>,
     /// Exact number of particles [`Scene::spawn`] makes.
     pub num_particles: usize,
+    /// The scene file's text as it was loaded (or the spec serialised, for a scene built in code):
+    /// what a checkpoint carries, so a run resumes in exactly the scene it was started in.
+    pub toml: String,
 }
 
 /// Particle arrays on the host (SoA), as spawned or as read back from a backend.
@@ -314,7 +317,9 @@ impl Scene {
             problem: format!("is not a valid scene file:\n{}", e.to_string().trim_end()),
             fix: "see the scene file reference in README.md; `mpm scenes --show dam-break` prints a complete example".into(),
         })?;
-        Scene::from_spec(&spec, source)
+        let mut scene = Scene::from_spec(&spec, source)?;
+        scene.toml = text.to_string();
+        Ok(scene)
     }
 
     pub fn from_spec(spec: &SceneSpec, source: &str) -> Result<Scene, SceneError> {
@@ -548,6 +553,8 @@ impl Validator<'_> {
             particles_per_axis,
             bodies,
             num_particles: 0,
+            // A spec always serialises (plain numbers, strings and arrays).
+            toml: toml::to_string(spec).unwrap_or_default(),
         };
         // The exact count walks every lattice point: refuse absurd sizes from the volume estimate first.
         self.fits_in_memory(&scene, self.estimate_particles(&scene))?;

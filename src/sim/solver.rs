@@ -313,7 +313,45 @@ impl FramePart {
     };
 }
 
+/// Where a run stands between frames: its clock and the time-step policy's memory. With the particles,
+/// the parameters and the scene, this is all a run carries from one frame to the next (the stretches
+/// whose extremes are read asynchronously are all accounted by the end of a frame), so a checkpoint
+/// holds it and [`Simulation::resume`] goes on from it exactly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunClock {
+    /// Frames completed.
+    pub frame: u64,
+    /// Simulated seconds at the end of frame `frame`.
+    pub time: f64,
+    /// See [`Simulation`]'s fields of the same names.
+    pub signal_speed: f32,
+    pub signal_rise: f32,
+}
+
 impl Simulation {
+    /// Goes on from a saved state: `solver` already holds the saved particles, `params` are the
+    /// parameters the run had (live changes included), `clock` where it stood.
+    pub fn resume(scene: Scene, solver: Box<dyn Solver>, params: Params, clock: RunClock) -> Simulation {
+        let mut sim = Simulation::new(scene, solver);
+        sim.params = params;
+        sim.frame = clock.frame;
+        sim.time = clock.time;
+        sim.signal_speed = clock.signal_speed;
+        sim.signal_rise = clock.signal_rise;
+        sim
+    }
+
+    /// The clock between frames; `None` while a frame begun by [`Self::step_frame_until`] is unfinished
+    /// (finish it with [`Self::step_frame`] first).
+    pub fn clock(&self) -> Option<RunClock> {
+        self.in_progress.is_none().then_some(RunClock {
+            frame: self.frame,
+            time: self.time,
+            signal_speed: self.signal_speed,
+            signal_rise: self.signal_rise,
+        })
+    }
+
     pub fn new(scene: Scene, solver: Box<dyn Solver>) -> Simulation {
         let params = scene.params();
         let initial_speed = scene
