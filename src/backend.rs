@@ -3,6 +3,7 @@
 use crate::cuda::{CudaOptions, CudaSolver};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
+use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::{Particles, Scene, Solver};
 use anyhow::Result;
 
@@ -36,20 +37,44 @@ pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
     create_with(kind, scene, None)
 }
 
-/// [`create`] with `particles` (a checkpoint's) in place of the scene's spawn.
-pub fn restore(kind: BackendKind, scene: &Scene, particles: &Particles) -> Result<Box<dyn Solver>> {
-    create_with(kind, scene, Some(particles))
+/// [`create`] with `particles` and the emitters' and sinks' state (a checkpoint's) in place of the
+/// scene's start.
+pub fn restore(
+    kind: BackendKind,
+    scene: &Scene,
+    particles: &Particles,
+    flow: Option<&FlowState>,
+) -> Result<Box<dyn Solver>> {
+    create_with(kind, scene, Some((particles, flow)))
 }
 
-fn create_with(kind: BackendKind, scene: &Scene, particles: Option<&Particles>) -> Result<Box<dyn Solver>> {
-    let initial = || particles.cloned().unwrap_or_else(|| scene.spawn());
-    let parallel = || -> Box<dyn Solver> { Box::new(ParallelCpuSolver::new(initial(), scene.grid_res)) };
-    let cuda = |options: CudaOptions| match particles {
-        Some(particles) => CudaSolver::from_particles(scene, particles, options),
+fn create_with(
+    kind: BackendKind,
+    scene: &Scene,
+    state: Option<(&Particles, Option<&FlowState>)>,
+) -> Result<Box<dyn Solver>> {
+    let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
+    // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
+    let lifecycle = || {
+        scene.flow.is_active().then(|| {
+            let flow_state = match state {
+                Some((_, Some(flow_state))) => flow_state.clone(),
+                _ => FlowState::start(&scene.flow, scene.num_particles),
+            };
+            Lifecycle::new(scene, flow_state)
+        })
+    };
+    let parallel = || -> Box<dyn Solver> {
+        Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
+    };
+    let cuda = |options: CudaOptions| match state {
+        Some((particles, _)) => CudaSolver::from_particles(scene, particles, options),
         None => CudaSolver::new(scene, options),
     };
     match kind {
-        BackendKind::Cpu => Ok(Box::new(CpuSolver::new(initial(), scene.grid_res))),
+        BackendKind::Cpu => Ok(Box::new(
+            CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()),
+        )),
         BackendKind::CpuParallel => Ok(parallel()),
         BackendKind::Cuda => Ok(Box::new(cuda(CudaOptions::from_env()?)?)),
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {

@@ -23,16 +23,21 @@
 //! | 4 | CRC-32 (IEEE) of everything before it |
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
-//! solver options, the particle count N); the 28 words of [`Params`]; the clock (frame u64, time f64,
-//! signal speed f32, signal rise f32); then x (3N f32), v (3N), C (9N, column by column per
-//! particle) and density (N). Floats are stored as their bits, so a resumed state is the saved one
-//! exactly.
+//! solver options, the particle slot count N, the emitter count E, whether a flow state follows); the
+//! 28 words of [`Params`]; the clock (frame u64, time f64, signal speed f32, signal rise f32, late
+//! emitter layers u64, E emitter phases f64); then x (3N f32), v (3N), C (9N, column by column per
+//! slot), density (N) and the live flags (N bytes, 1 live, 0 parked); then, with emitters or sinks,
+//! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
+//! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
+//! drained, exhausted, blocked: u64 each). Floats are stored as their bits, so a resumed state is the
+//! saved one exactly.
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
 
 use crate::backend::{self, BackendKind};
 use crate::export::claim_output_dir;
+use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::{Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
@@ -52,10 +57,10 @@ pub const EXTENSION: &str = "mpmck";
 const HEADER_BYTES: usize = 8 + 4 + 4 + 8;
 const CHECKSUM_BYTES: usize = 4;
 const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4;
-/// Frame, time, signal speed and rise.
-const CLOCK_BYTES: usize = 8 + 8 + 4 + 4;
-/// Floats per particle: x, v, C, density.
-const FLOATS_PER_PARTICLE: usize = 3 + 3 + 9 + 1;
+/// Frame, time, signal speed and rise, late layers (the emitters' phases follow, 8 bytes each).
+const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
+/// Bytes per particle slot: x, v, C, density as f32, and the live flag.
+const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1;
 
 /// What the body's JSON holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -69,6 +74,10 @@ struct Meta {
     pipeline: Pipeline,
     scatter: ScatterMode,
     particles: u64,
+    /// Emitter phases in the clock.
+    emitters: u64,
+    /// Whether the lifecycle's state follows the particles.
+    flow: bool,
 }
 
 /// A run's state between two frames.
@@ -85,6 +94,9 @@ pub struct Checkpoint {
     pub params: Params,
     pub clock: RunClock,
     pub particles: Particles,
+    /// The emitters' and sinks' state (free slots, nozzle points' last particles, counts), where the
+    /// scene has them.
+    pub flow: Option<FlowState>,
 }
 
 impl Checkpoint {
@@ -100,7 +112,9 @@ impl Checkpoint {
         let backend = sim.backend().to_string();
         let params = *sim.params();
         let particles = sim.solver_mut().read_particles()?;
+        let flow = sim.solver_mut().flow_state()?;
         Ok(Checkpoint {
+            flow,
             scene_source,
             scene_toml,
             backend,
@@ -119,12 +133,15 @@ impl Checkpoint {
         scene.pipeline = self.pipeline;
         scene.scatter = self.scatter;
         ensure!(
-            scene.num_particles == self.particles.len() && scene.grid_res == self.params.grid_res,
-            "the checkpoint holds {} particles on a {:?} grid, but its scene spawns {} on {:?}: the file \
+            scene.slots() == self.particles.len()
+                && scene.grid_res == self.params.grid_res
+                && scene.flow.is_active() == self.flow.is_some()
+                && scene.flow.emitters.len() == self.clock.emitter_phases.len(),
+            "the checkpoint holds {} particle slots on a {:?} grid, but its scene has {} on {:?}: the file \
              is inconsistent",
             self.particles.len(),
             self.params.grid_res,
-            scene.num_particles,
+            scene.slots(),
             scene.grid_res
         );
         Ok(scene)
@@ -139,10 +156,10 @@ impl Checkpoint {
     /// A simulation that goes on from this state on `backend` (its own by default), with `scene`
     /// (from [`Self::scene`], solver options possibly overridden).
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
-        let solver = backend::restore(backend, &scene, &self.particles)?;
+        let solver = backend::restore(backend, &scene, &self.particles, self.flow.as_ref())?;
         let mut params = self.params;
         params.scatter_mode = scene.scatter.code();
-        Ok(Simulation::resume(scene, solver, params, self.clock))
+        Ok(Simulation::resume(scene, solver, params, self.clock.clone()))
     }
 
     /// Writes the checkpoint to `path`, which must not exist: to a temporary file beside it, synced
@@ -202,9 +219,18 @@ impl Checkpoint {
             pipeline: self.pipeline,
             scatter: self.scatter,
             particles: self.particles.len() as u64,
+            emitters: self.clock.emitter_phases.len() as u64,
+            flow: self.flow.is_some(),
         })?;
         let n = self.particles.len();
-        let body = 8 + meta.len() + 4 * PARAMS_WORDS + CLOCK_BYTES + 4 * FLOATS_PER_PARTICLE * n;
+        let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
+        let body = 8
+            + meta.len()
+            + 4 * PARAMS_WORDS
+            + CLOCK_BYTES
+            + 8 * self.clock.emitter_phases.len()
+            + BYTES_PER_PARTICLE * n
+            + flow.len();
         out.write_all(&MAGIC)?;
         out.write_all(&FORMAT_VERSION.to_le_bytes())?;
         out.write_all(&0u32.to_le_bytes())?;
@@ -220,11 +246,18 @@ impl Checkpoint {
         out.write_all(&clock.time.to_bits().to_le_bytes())?;
         out.write_all(&clock.signal_speed.to_bits().to_le_bytes())?;
         out.write_all(&clock.signal_rise.to_bits().to_le_bytes())?;
+        out.write_all(&clock.late_layers.to_le_bytes())?;
+        for phase in &clock.emitter_phases {
+            out.write_all(&phase.to_bits().to_le_bytes())?;
+        }
         let p = &self.particles;
         write_words(out, bytemuck::cast_slice(&p.x))?;
         write_words(out, bytemuck::cast_slice(&p.v))?;
         write_words(out, bytemuck::cast_slice(&p.c))?;
         write_words(out, bytemuck::cast_slice(&p.rho))?;
+        let live: Vec<u8> = p.live.iter().map(|&l| u8::from(l)).collect();
+        out.write_all(&live)?;
+        out.write_all(&flow)?;
         Ok(())
     }
 
@@ -338,15 +371,22 @@ impl Body<'_> {
         let meta: Meta = serde_json::from_slice(self.take(meta_len, "the scene")?)?;
         let params: Params =
             bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?));
-        let clock = RunClock {
+        let mut clock = RunClock {
             frame: self.u64("the clock")?,
             time: f64::from_bits(self.u64("the clock")?),
             signal_speed: f32::from_bits(self.u32("the clock")?),
             signal_rise: f32::from_bits(self.u32("the clock")?),
+            late_layers: self.u64("the clock")?,
+            emitter_phases: Vec::new(),
         };
+        for _ in 0..meta.emitters {
+            clock
+                .emitter_phases
+                .push(f64::from_bits(self.u64("the emitters' phases")?));
+        }
         let n = usize::try_from(meta.particles)?;
         ensure!(
-            self.bytes.len() == 4 * FLOATS_PER_PARTICLE * n,
+            self.bytes.len() >= BYTES_PER_PARTICLE * n,
             "{} bytes of particles for {n} particles",
             self.bytes.len()
         );
@@ -355,8 +395,46 @@ impl Body<'_> {
             v: self.vectors::<Vec3>(n, "velocities")?,
             c: self.vectors::<Mat3>(n, "affine matrices")?,
             rho: self.vectors::<f32>(n, "densities")?,
+            live: self.take(n, "live flags")?.iter().map(|&b| b != 0).collect(),
         };
+        let flow = if meta.flow {
+            let free_len = usize::try_from(self.u64("the free slots")?)?;
+            let free = self.words(free_len, "the free slots")?;
+            let sorted = usize::try_from(self.u64("the free slots")?)?;
+            let last_len = usize::try_from(self.u64("the nozzle points")?)?;
+            let last = self.words(last_len, "the nozzle points")?;
+            let mut counts = [0u64; 5];
+            for count in &mut counts {
+                *count = self.u64("the flow counts")?;
+            }
+            let [live, emitted, drained, exhausted, blocked] = counts;
+            ensure!(
+                sorted <= free.len(),
+                "{sorted} sorted of {} free slots",
+                free.len()
+            );
+            Some(FlowState {
+                free,
+                sorted,
+                last,
+                counts: FlowCounts {
+                    live,
+                    emitted,
+                    drained,
+                    exhausted,
+                    blocked,
+                },
+            })
+        } else {
+            None
+        };
+        ensure!(
+            self.bytes.is_empty(),
+            "{} bytes after the state",
+            self.bytes.len()
+        );
         Ok(Checkpoint {
+            flow,
             scene_source: meta.scene_source,
             scene_toml: meta.scene_toml,
             backend: meta.backend,
@@ -367,6 +445,21 @@ impl Body<'_> {
             particles,
         })
     }
+}
+
+/// The lifecycle's state as the body stores it.
+fn flow_bytes(state: &FlowState) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend((state.free.len() as u64).to_le_bytes());
+    out.extend(state.free.iter().flat_map(|w| w.to_le_bytes()));
+    out.extend((state.sorted as u64).to_le_bytes());
+    out.extend((state.last.len() as u64).to_le_bytes());
+    out.extend(state.last.iter().flat_map(|w| w.to_le_bytes()));
+    let c = &state.counts;
+    for count in [c.live, c.emitted, c.drained, c.exhausted, c.blocked] {
+        out.extend(count.to_le_bytes());
+    }
+    out
 }
 
 fn write_words(out: &mut impl Write, words: &[u32]) -> std::io::Result<()> {

@@ -82,6 +82,15 @@ pub fn format_frame(s: &FrameStats) -> String {
         c[1],
         c[2],
     );
+    if let Some(f) = &s.flow {
+        line += &format!("  emitted={} drained={}", f.emitted, f.drained);
+        if f.exhausted > 0 {
+            line += &format!(
+                "  capacity exhausted at {}",
+                crate::text::count(f.exhausted, "nozzle point", "nozzle points")
+            );
+        }
+    }
     if let Some(t) = &s.timings {
         line += &format!("  step={:.3} ms", t.per_step());
     }
@@ -92,6 +101,29 @@ pub fn format_frame(s: &FrameStats) -> String {
         );
     }
     line
+}
+
+/// The closing warning of a run whose emitters ran out of particle slots or could not keep their rate,
+/// or `None`.
+pub fn flow_warning(last: &FrameStats) -> Option<String> {
+    let exhausted = last.flow.map_or(0, |f| f.exhausted);
+    let mut warnings = Vec::new();
+    if exhausted > 0 {
+        warnings.push(format!(
+            "warning: the emitters found no free particle slot {} (the scene's [particles] capacity is \
+             used up: live particles {}); raise capacity, or add a sink that drains as fast as they fill",
+            crate::text::count(exhausted, "time", "times"),
+            last.flow.map_or(0, |f| f.live)
+        ));
+    }
+    if last.late_layers > 0 {
+        warnings.push(format!(
+            "warning: {} fell due more than once in a substep and were skipped (the jet is faster than a \
+             particle spacing per substep); lower the emitter's speed or time_step.cfl",
+            crate::text::count(last.late_layers, "emitter layer", "emitter layers")
+        ));
+    }
+    (!warnings.is_empty()).then(|| warnings.join("\n"))
 }
 
 /// The closing warning of a run whose CFL number went above the stability bound, or `None`.
@@ -124,7 +156,7 @@ fn export_frame(sim: &mut Simulation, exporter: &PlyExporter) -> Result<()> {
         scene.grid_res[2],
         scene.material.rest_density
     );
-    let particles = sim.solver_mut().read_particles()?;
+    let particles = sim.solver_mut().read_particles()?.live_only();
     exporter.write(sim.frame(), &comment, &particles)?;
     Ok(())
 }
@@ -189,6 +221,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         bar.finish_and_clear();
     }
     if let Some(warning) = cfl_warning(&all) {
+        writeln!(out, "{warning}")?;
+    }
+    if let Some(warning) = all.last().and_then(flow_warning) {
         writeln!(out, "{warning}")?;
     }
     Ok(all)

@@ -3,6 +3,7 @@
 
 pub mod cpu;
 pub mod cpu_parallel;
+pub mod flow;
 pub mod params;
 pub mod presets;
 pub mod push;
