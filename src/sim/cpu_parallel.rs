@@ -115,6 +115,7 @@ impl Bins {
         }
         self.start.push(offset);
         self.order.resize(offset, 0);
+        self.rank.clear();
         self.rank.resize(x.len(), PARKED);
         for (i, &k) in self.key.iter().enumerate().filter(|(_, &k)| k != PARKED) {
             let slot = &mut self.count[k as usize];
