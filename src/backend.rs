@@ -3,7 +3,8 @@
 use crate::cuda::{CudaOptions, CudaSolver};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
-use crate::sim::{Scene, Solver};
+use crate::sim::flow::{FlowState, Lifecycle};
+use crate::sim::{Particles, Scene, Solver};
 use anyhow::Result;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -18,15 +19,65 @@ pub enum BackendKind {
     Cuda,
 }
 
+impl BackendKind {
+    /// The backend a solver of this [`Solver::name`] is, `None` for an unknown name.
+    pub fn of_solver(name: &str) -> Option<BackendKind> {
+        match name {
+            "cpu" => Some(BackendKind::Cpu),
+            "cpu-parallel" => Some(BackendKind::CpuParallel),
+            "cuda" => Some(BackendKind::Cuda),
+            _ => None,
+        }
+    }
+}
+
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU
 /// backend with a one-line notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
-    let parallel = || -> Box<dyn Solver> { Box::new(ParallelCpuSolver::new(scene.spawn(), scene.grid_res)) };
+    create_with(kind, scene, None)
+}
+
+/// [`create`] with `particles` and the emitters' and sinks' state (a checkpoint's) in place of the
+/// scene's start.
+pub fn restore(
+    kind: BackendKind,
+    scene: &Scene,
+    particles: &Particles,
+    flow: Option<&FlowState>,
+) -> Result<Box<dyn Solver>> {
+    create_with(kind, scene, Some((particles, flow)))
+}
+
+fn create_with(
+    kind: BackendKind,
+    scene: &Scene,
+    state: Option<(&Particles, Option<&FlowState>)>,
+) -> Result<Box<dyn Solver>> {
+    let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
+    // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
+    let lifecycle = || {
+        scene.flow.is_active().then(|| {
+            let flow_state = match state {
+                Some((_, Some(flow_state))) => flow_state.clone(),
+                _ => FlowState::start(&scene.flow, scene.num_particles),
+            };
+            Lifecycle::new(scene, flow_state)
+        })
+    };
+    let parallel = || -> Box<dyn Solver> {
+        Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
+    };
+    let cuda = |options: CudaOptions| match state {
+        Some((particles, _)) => CudaSolver::from_particles(scene, particles, options),
+        None => CudaSolver::new(scene, options),
+    };
     match kind {
-        BackendKind::Cpu => Ok(Box::new(CpuSolver::new(scene.spawn(), scene.grid_res))),
+        BackendKind::Cpu => Ok(Box::new(
+            CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()),
+        )),
         BackendKind::CpuParallel => Ok(parallel()),
-        BackendKind::Cuda => Ok(Box::new(CudaSolver::new(scene, CudaOptions::from_env()?)?)),
-        BackendKind::Auto => match CudaOptions::from_env().and_then(|o| CudaSolver::new(scene, o)) {
+        BackendKind::Cuda => Ok(Box::new(cuda(CudaOptions::from_env()?)?)),
+        BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Ok(Box::new(solver)),
             Err(why) => {
                 let why = format!("{why:#}");

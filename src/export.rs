@@ -56,52 +56,23 @@ impl FrameDir {
     /// new files mixed with a longer run's tail.
     pub fn open(dir: &Path, kind: FrameKind, extension: &'static str, overwrite: bool) -> Result<FrameDir> {
         debug_assert!(kind.extensions.contains(&extension));
-        let flag = kind.flag;
-        if dir.exists() && !dir.is_dir() {
-            bail!(
-                "{flag} {} is a file, not a directory; give a directory for the {}",
-                dir.display(),
-                kind.noun.1
-            );
-        }
-        std::fs::create_dir_all(dir).map_err(|e| {
-            anyhow::anyhow!(
-                "cannot create the export directory {}: {}",
-                dir.display(),
-                io_reason(&e)
-            )
-        })?;
-        let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
-            .with_context(|| format!("cannot read the export directory {}", dir.display()))?
-            .filter_map(|e| e.ok())
-            .filter(|e| kind.owns(&e.file_name().to_string_lossy()))
-            .map(|e| e.path())
-            .collect();
-        existing.sort();
-        if !existing.is_empty() && !overwrite {
-            bail!(
-                "{} already holds {} exported {}; pick another {flag} directory, or pass \
-                 --overwrite to replace them",
-                dir.display(),
-                existing.len(),
-                plural(existing.len(), kind.noun.0, kind.noun.1)
-            );
-        }
-        // Before the first step: a directory that cannot take a file fails now, not after a long run.
-        let probe = dir.join(".mpm-write-check");
-        File::create(&probe)
-            .and_then(|_| std::fs::remove_file(&probe))
-            .map_err(|e| anyhow::anyhow!("cannot write into {}: {}", dir.display(), io_reason(&e)))?;
-        for path in &existing {
-            std::fs::remove_file(path).map_err(|e| {
-                anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
-            })?;
-        }
+        let what = (
+            format!("exported {}", kind.noun.0),
+            format!("exported {}", kind.noun.1),
+        );
+        let removed = claim_output_dir(
+            dir,
+            kind.flag,
+            "export",
+            (&what.0, &what.1),
+            |name| kind.owns(name),
+            overwrite,
+        )?;
         Ok(FrameDir {
             dir: dir.to_path_buf(),
             kind,
             extension,
-            removed: existing,
+            removed,
         })
     }
 
@@ -229,6 +200,61 @@ impl PlyExporter {
 }
 
 /// `--every K`: export every K-th frame, K at least 1.
+/// Claims `dir` for a run's output files, before the first step: creates it if needed, checks that a
+/// file can be written there, and refuses it when it holds files the run would clash with (`clashes`
+/// of a file name), unless `overwrite`, which removes them (returned, for the run's note) so that the
+/// directory holds one run only, never the new files mixed with an earlier run's tail. `flag` names
+/// the directory's option, `role` the directory in messages, `what` one and several of its files.
+pub fn claim_output_dir(
+    dir: &Path,
+    flag: &str,
+    role: &str,
+    what: (&str, &str),
+    clashes: impl Fn(&str) -> bool,
+    overwrite: bool,
+) -> Result<Vec<PathBuf>> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "{flag} {} is a file, not a directory; give a directory for the {}",
+            dir.display(),
+            what.1
+        );
+    }
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot create the {role} directory {}: {}",
+            dir.display(),
+            io_reason(&e)
+        )
+    })?;
+    let mut existing: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read the {role} directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter(|e| clashes(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .collect();
+    existing.sort();
+    if !existing.is_empty() && !overwrite {
+        bail!(
+            "{} already holds {} {}; pick another {flag} directory, or pass --overwrite to replace them",
+            dir.display(),
+            existing.len(),
+            plural(existing.len(), what.0, what.1)
+        );
+    }
+    // Before the first step: a directory that cannot take a file fails now, not after a long run.
+    let probe = dir.join(".mpm-write-check");
+    File::create(&probe)
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| anyhow::anyhow!("cannot write into {}: {}", dir.display(), io_reason(&e)))?;
+    for path in &existing {
+        std::fs::remove_file(path).map_err(|e| {
+            anyhow::anyhow!("--overwrite: cannot remove {}: {}", path.display(), io_reason(&e))
+        })?;
+    }
+    Ok(existing)
+}
+
 pub fn check_every(every: u64) -> Result<()> {
     if every == 0 {
         bail!("--every must be at least 1 (export every K-th frame)");

@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::bench;
+use mpm::checkpoint::{Checkpoint, CheckpointSeries};
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
 use mpm::export::PlyExporter;
@@ -90,11 +91,12 @@ struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT)]
     scene: String,
-    /// Number of 60 Hz frames to simulate.
+    /// Number of 60 Hz frames to simulate (with --resume: frames after the checkpoint's).
     #[arg(long, default_value_t = 60, allow_negative_numbers = true, value_parser = count::<0>)]
     frames: u64,
-    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
-    backend: BackendKind,
+    /// The backend [default: auto; with --resume, the checkpoint's].
+    #[arg(long, value_enum)]
+    backend: Option<BackendKind>,
     #[command(flatten)]
     solver: SolverArgs,
     /// Write one binary PLY per exported frame (frame 0 is the initial state) into this directory.
@@ -118,7 +120,19 @@ struct RunArgs {
     /// Also write the per-frame statistics as JSON lines to this file.
     #[arg(long, value_name = "FILE")]
     stats: Option<PathBuf>,
-    /// Replace existing exported frames or stats file instead of refusing.
+    /// Write the whole state into this directory every --checkpoint-every frames and after the
+    /// last frame (checkpoint_NNNNNN.mpmck), for `mpm run --resume FILE`.
+    #[arg(long, value_name = "DIR")]
+    checkpoint: Option<PathBuf>,
+    /// Frames between checkpoints.
+    #[arg(long, value_name = "K", default_value_t = 60, requires = "checkpoint",
+          allow_negative_numbers = true, value_parser = count::<1>)]
+    checkpoint_every: u64,
+    /// Go on from a checkpoint file: its scene, backend and solver options (flags override the
+    /// last two), frame numbers and time continuing from it.
+    #[arg(long, value_name = "FILE", conflicts_with = "scene")]
+    resume: Option<PathBuf>,
+    /// Replace existing exported frames, stats file or checkpoints instead of refusing.
     #[arg(long)]
     overwrite: bool,
 }
@@ -489,7 +503,18 @@ fn bench(args: BenchArgs) -> Result<()> {
 }
 
 fn run(args: RunArgs) -> Result<()> {
-    let mut scene = Scene::load(&args.scene)?;
+    // The checkpoint is read and checked first: a bad file fails before anything is created.
+    let resumed = args.resume.as_deref().map(Checkpoint::read).transpose()?;
+    let (mut scene, backend_kind) = match &resumed {
+        Some(checkpoint) => (
+            checkpoint.scene()?,
+            args.backend.map_or_else(|| checkpoint.backend_kind(), Ok)?,
+        ),
+        None => (
+            Scene::load(&args.scene)?,
+            args.backend.unwrap_or(BackendKind::Auto),
+        ),
+    };
     args.solver.apply(&mut scene);
     // Open every output before the first step, so a bad path fails at once, not after a long run.
     let export = args
@@ -510,6 +535,12 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
+    let resumed_at = resumed.as_ref().map(|c| c.clock.frame);
+    let checkpoints = args
+        .checkpoint
+        .as_deref()
+        .map(|dir| CheckpointSeries::new(dir, args.checkpoint_every, resumed_at, args.overwrite))
+        .transpose()?;
     let notes = [
         export.as_ref().and_then(PlyExporter::removed_note),
         surface.as_ref().and_then(SurfaceExporter::removed_note),
@@ -517,7 +548,14 @@ fn run(args: RunArgs) -> Result<()> {
     for note in notes.into_iter().flatten() {
         writeln!(std::io::stdout(), "{note}")?;
     }
-    let solver = backend::create(args.backend, &scene)?;
+    let mut sim = match &resumed {
+        Some(checkpoint) => checkpoint.resume(scene, backend_kind)?,
+        None => {
+            let solver = backend::create(backend_kind, &scene)?;
+            Simulation::new(scene, solver)
+        }
+    };
+    let scene = sim.scene();
     writeln!(
         std::io::stdout(),
         "scene {} ({}): {} particles, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
@@ -528,8 +566,8 @@ fn run(args: RunArgs) -> Result<()> {
         scene.grid_res[1],
         scene.grid_res[2],
         scene.dx,
-        scene.material.sound_speed(),
-        solver.name()
+        sim.params().material.sound_speed(),
+        sim.backend()
     )?;
     if let Some(surface) = &surface {
         writeln!(
@@ -540,12 +578,21 @@ fn run(args: RunArgs) -> Result<()> {
             surface.settings().describe()
         )?;
     }
-    let mut sim = Simulation::new(scene, solver);
+    if let (Some(path), Some(checkpoint)) = (&args.resume, &resumed) {
+        writeln!(
+            std::io::stdout(),
+            "resumed from {} at frame {}, t = {:.4} s",
+            path.display(),
+            checkpoint.clock.frame,
+            checkpoint.clock.time
+        )?;
+    }
     let opts = RunOptions {
         frames: args.frames,
         export,
         surface,
         stats,
+        checkpoints,
         progress: std::io::stdout().is_terminal(),
     };
     runner::run(&mut sim, opts, &mut std::io::stdout().lock())?;

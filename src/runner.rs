@@ -1,6 +1,7 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
 //! and optionally writes them as JSON lines, exports PLY frames and surface meshes.
 
+use crate::checkpoint::CheckpointSeries;
 use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
@@ -19,6 +20,8 @@ pub struct RunOptions {
     /// worker threads while the simulation steps on.
     pub surface: Option<SurfaceExporter>,
     pub stats: Option<StatsFile>,
+    /// Writes the state every K-th frame and at the last one.
+    pub checkpoints: Option<CheckpointSeries>,
     /// Show a progress bar (stdout is a terminal).
     pub progress: bool,
 }
@@ -84,6 +87,15 @@ pub fn format_frame(s: &FrameStats) -> String {
         c[1],
         c[2],
     );
+    if let Some(f) = &s.flow {
+        line += &format!("  emitted={} drained={}", f.emitted, f.drained);
+        if f.exhausted > 0 {
+            line += &format!(
+                "  capacity exhausted at {}",
+                crate::text::count(f.exhausted, "nozzle point", "nozzle points")
+            );
+        }
+    }
     if let Some(t) = &s.timings {
         line += &format!("  step={:.3} ms", t.per_step());
     }
@@ -94,6 +106,29 @@ pub fn format_frame(s: &FrameStats) -> String {
         );
     }
     line
+}
+
+/// The closing warning of a run whose emitters ran out of particle slots or could not keep their rate,
+/// or `None`.
+pub fn flow_warning(last: &FrameStats) -> Option<String> {
+    let exhausted = last.flow.map_or(0, |f| f.exhausted);
+    let mut warnings = Vec::new();
+    if exhausted > 0 {
+        warnings.push(format!(
+            "warning: the emitters found no free particle slot {} (the scene's [particles] capacity is \
+             used up: live particles {}); raise capacity, or add a sink that drains as fast as they fill",
+            crate::text::count(exhausted, "time", "times"),
+            last.flow.map_or(0, |f| f.live)
+        ));
+    }
+    if last.late_layers > 0 {
+        warnings.push(format!(
+            "warning: {} fell due more than once in a substep and were skipped (the jet is faster than a \
+             particle spacing per substep); lower the emitter's speed or time_step.cfl",
+            crate::text::count(last.late_layers, "emitter layer", "emitter layers")
+        ));
+    }
+    (!warnings.is_empty()).then(|| warnings.join("\n"))
 }
 
 /// The closing warning of a run whose CFL number went above the stability bound, or `None`.
@@ -151,7 +186,7 @@ fn export_frame(
         return Ok(());
     }
     let comment = frame_comment(sim);
-    let particles = sim.solver_mut().read_particles()?;
+    let particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
         exporter.write(frame, &comment, &particles)?;
     }
@@ -192,6 +227,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         export,
         surface,
         mut stats,
+        checkpoints,
         progress,
     } = opts;
     let bar = if progress {
@@ -222,20 +258,29 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
-    for _ in 0..frames {
-        let frame_stats = sim.advance_frame()?;
-        let line = format_frame(&frame_stats);
+    let say = |out: &mut dyn Write, line: &str| -> Result<()> {
         match &bar {
-            Some(bar) => {
-                bar.println(&line);
-                bar.inc(1);
-            }
+            Some(bar) => bar.println(line),
             None => writeln!(out, "{line}")?,
+        }
+        Ok(())
+    };
+    for done in 1..=frames {
+        let frame_stats = sim.advance_frame()?;
+        say(out, &format_frame(&frame_stats))?;
+        if let Some(bar) = &bar {
+            bar.inc(1);
         }
         if let Some(file) = &mut stats {
             file.append(&frame_stats)?;
         }
         export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
+        if let Some(series) = &checkpoints {
+            if series.wants(sim.frame(), done == frames) {
+                let path = series.write(sim)?;
+                say(out, &format!("checkpoint {}", path.display()))?;
+            }
+        }
         all.push(frame_stats);
     }
     if let Some(queue) = surface {
@@ -263,6 +308,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         bar.finish_and_clear();
     }
     if let Some(warning) = cfl_warning(&all) {
+        writeln!(out, "{warning}")?;
+    }
+    if let Some(warning) = all.last().and_then(flow_warning) {
         writeln!(out, "{warning}")?;
     }
     Ok(all)

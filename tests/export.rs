@@ -65,6 +65,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
             export: Some(PlyExporter::new(&frames, 2, overwrite)?),
             surface: None,
             stats: Some(StatsFile::create(&stats, overwrite)?),
+            checkpoints: None,
             progress: false,
         };
         runner::run(&mut sim, opts, &mut std::io::sink())
@@ -149,6 +150,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
             export: Some(exporter),
             surface: None,
             stats: None,
+            checkpoints: None,
             progress: false,
         };
         runner::run(&mut sim, opts, &mut std::io::sink())?;
@@ -210,6 +212,7 @@ fn a_huge_frame_count_does_not_abort() {
         export: None,
         surface: None,
         stats: None,
+        checkpoints: None,
         progress: false,
     };
     let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();

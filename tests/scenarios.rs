@@ -317,7 +317,7 @@ fn every_preset_loads_and_steps_without_nan_inside_the_domain() {
             sim.solver_mut().step(&params).unwrap();
         }
         let p = sim.solver_mut().read_particles().unwrap();
-        assert_eq!(p.len(), scene.num_particles, "{name}");
+        assert_eq!(p.len(), scene.slots(), "{name}");
         let extent = Vec3::from(scene.grid_res.map(|r| r as f32)) * scene.dx;
         for n in 0..p.len() {
             assert!(
@@ -362,6 +362,7 @@ velocity = [50.0, 0.0, 0.0]
         export: None,
         surface: None,
         stats: None,
+        checkpoints: None,
         progress: false,
     };
     let mut out = Vec::new();

@@ -292,6 +292,7 @@ fn run_with_surface(scene: &Scene, dir: &Path, frames: u64, every: u64, format: 
         export: None,
         surface: Some(SurfaceExporter::new(dir, every, format, settings, false).unwrap()),
         stats: None,
+        checkpoints: None,
         progress: false,
     };
     let mut out = Vec::new();

@@ -286,6 +286,12 @@ impl CudaSolver {
             .attribute(cudarc::driver::sys::CUdevice_attribute::CU_DEVICE_ATTRIBUTE_MULTIPROCESSOR_COUNT)
             .context("reading the multiprocessor count")?;
 
+        ensure!(
+            !scene.flow.is_active(),
+            "scene {}: emitters and sinks run on the CPU backends only in this build; use --backend cpu \
+             or cpu-parallel",
+            scene.source
+        );
         let n = scene.num_particles;
         ensure!(n > 0, "scene {}: no particles", scene.source);
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
@@ -1222,6 +1228,7 @@ impl Solver for CudaSolver {
                 .map(|i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
                 .collect(),
             rho,
+            live: vec![true; n],
         })
     }
 
@@ -1262,11 +1269,7 @@ pub fn fixed_point_scales(scene: &Scene) -> (f32, f32) {
     let cell_mass = f64::from(scene.material.rest_density) * dx * dx * dx;
     let height = f64::from(scene.grid_res.iter().copied().max().unwrap_or(1)) * dx;
     let free_fall = (2.0 * f64::from(scene.gravity.length()) * height).sqrt();
-    let body_speed = scene
-        .bodies
-        .iter()
-        .map(|b| f64::from(b.velocity.length()))
-        .fold(0.0, f64::max);
+    let body_speed = f64::from(scene.fastest_start());
     let speed = f64::from(scene.material.sound_speed())
         .max(free_fall)
         .max(body_speed)

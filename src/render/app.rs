@@ -10,6 +10,7 @@ use super::hud::{self, Action, Controls, HudInfo};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
+use crate::checkpoint::Checkpoint;
 use crate::sim::{PhaseTimings, Push, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
 use glam::{Vec2, Vec3};
@@ -30,6 +31,8 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::raw_window_handle::HasWindowHandle;
 use winit::window::{Window, WindowId};
+
+mod snapshot;
 
 pub struct ViewerOptions {
     pub scene: Scene,
@@ -279,6 +282,16 @@ impl ViewerApp {
 
     /// Starts `scene` afresh on the chosen backend; on failure the old simulation keeps running.
     fn start_scene(&mut self, scene: Scene, reframe: bool) -> Result<()> {
+        self.start_scene_from(scene, reframe, None)
+    }
+
+    /// [`Self::start_scene`], or with `checkpoint` (of `scene`): going on from its state.
+    fn start_scene_from(
+        &mut self,
+        scene: Scene,
+        reframe: bool,
+        checkpoint: Option<&Checkpoint>,
+    ) -> Result<()> {
         // The new scene's view first: a --particle-radius too large for it is refused before the
         // running scene is touched.
         let defaults = if reframe {
@@ -289,7 +302,10 @@ impl ViewerApp {
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
-        let solver = backend::create(self.options.backend, &scene)?;
+        let sim = match checkpoint {
+            Some(checkpoint) => checkpoint.resume(scene.clone(), self.options.backend)?,
+            None => Simulation::new(scene.clone(), backend::create(self.options.backend, &scene)?),
+        };
         if let Some((camera, mut controls)) = defaults {
             // The look carries over; the radius follows the new scene's particle spacing.
             controls.render.surface = SurfaceSettings {
@@ -302,12 +318,13 @@ impl ViewerApp {
             controls.paused = self.controls.paused;
             self.camera = camera;
             self.controls = controls;
-        } else {
-            self.controls.viscosity = scene.material.viscosity;
-            self.controls.sound_speed = scene.material.sound_speed();
-            self.controls.gravity = scene.gravity;
         }
-        self.sim = Some(Simulation::new(scene.clone(), solver));
+        // The live sliders follow the simulation's parameters (a checkpoint's may differ from its scene).
+        let params = sim.params();
+        self.controls.viscosity = params.material.viscosity;
+        self.controls.sound_speed = params.material.sound_speed();
+        self.controls.gravity = Vec3::from(params.gravity);
+        self.sim = Some(sim);
         self.scene = scene;
         self.clock.reset();
         self.over_cfl = 0;
@@ -424,6 +441,8 @@ impl ViewerApp {
         match key {
             Key::Named(NamedKey::Space) => self.controls.paused = !self.controls.paused,
             Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Named(NamedKey::F5) => self.act(Action::SaveSnapshot, event_loop),
+            Key::Named(NamedKey::F9) => self.act(Action::LoadSnapshot, event_loop),
             Key::Character(c) => match c.to_lowercase().as_str() {
                 "n" => self.step_requested = true,
                 "r" => self.act(Action::Reset, event_loop),
@@ -465,6 +484,8 @@ impl ViewerApp {
                 Ok(())
             }
             Action::ToggleRecording => self.toggle_recording(),
+            Action::SaveSnapshot => self.save_snapshot(),
+            Action::LoadSnapshot => self.load_snapshot(),
             Action::FrameCamera => {
                 let (lo, hi) = self.domain();
                 self.camera = OrbitCamera::framing(lo, hi);

@@ -64,7 +64,8 @@ impl ParticleFeed {
         renderer: &mut Renderer,
         colouring: Colouring,
     ) -> Result<usize> {
-        let n = sim.scene().num_particles;
+        // Every slot, parked ones included (they arrive clipped): the buffer keeps the solver's indices.
+        let n = sim.scene().slots();
         let rest_density = sim.params().material.rest_density;
         let quantity = colouring.quantity();
         if renderer.capacity() != n {

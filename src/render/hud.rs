@@ -62,6 +62,8 @@ pub enum Action {
     LoadFile(String),
     Screenshot,
     ToggleRecording,
+    SaveSnapshot,
+    LoadSnapshot,
     FrameCamera,
     SetViscosity(f32),
     SetSoundSpeed(f32),
@@ -78,6 +80,8 @@ pub const KEYS: &[(&str, &str)] = &[
     ("F", "frame the domain"),
     ("P", "screenshot (PNG)"),
     ("V", "start / stop PNG recording"),
+    ("F5", "save a snapshot (checkpoint)"),
+    ("F9", "load the newest snapshot"),
     ("H", "hide / show this panel"),
     ("Esc", "quit"),
     ("left drag", "orbit"),
@@ -227,6 +231,7 @@ fn run_controls(ui: &mut egui::Ui, c: &mut Controls, info: &HudInfo, actions: &m
             actions.push(Action::ToggleRecording);
         }
     });
+    snapshot_buttons(ui, actions);
     ui.checkbox(
         &mut c.fixed_pacing,
         "fixed frames per draw (else follow wall time)",
@@ -234,6 +239,17 @@ fn run_controls(ui: &mut egui::Ui, c: &mut Controls, info: &HudInfo, actions: &m
     if c.fixed_pacing {
         ui.add(egui::Slider::new(&mut c.frames_per_draw, 1..=8).text("60 Hz frames per draw"));
     }
+}
+
+fn snapshot_buttons(ui: &mut egui::Ui, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        if ui.button("Save snapshot (F5)").clicked() {
+            actions.push(Action::SaveSnapshot);
+        }
+        if ui.button("Load snapshot (F9)").clicked() {
+            actions.push(Action::LoadSnapshot);
+        }
+    });
 }
 
 fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {

@@ -226,6 +226,8 @@ out vec3 v_centre;
 void main() {
     vec4 view = u_view * vec4(a_particle.xyz, 1.0);
     gl_Position = u_proj * view;
+    // A parked particle slot (sim::flow) arrives as NaN: put it behind the far plane, where it is clipped.
+    if (isnan(a_particle.x)) gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
     v_centre = view.xyz;
     if (u_spheres == 1) {
         gl_PointSize = max(2.0 * u_radius * u_pixels_per_metre_at_unit_depth / max(-view.z, 1e-4), 1.0);

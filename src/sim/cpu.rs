@@ -2,10 +2,11 @@
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 
+use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;
-use super::solver::{push_step_timing, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, render_attribute, PhaseTimings, Solver, StepExtremes};
 use glam::{IVec3, Mat3, UVec3, Vec3};
 use std::time::Instant;
 
@@ -223,6 +224,8 @@ pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec
 pub struct CpuSolver {
     pub particles: Particles,
     pub grid: Grid,
+    /// Emitters and sinks, where the scene has them (`sim::flow`).
+    pub lifecycle: Option<Lifecycle>,
     extremes: StepExtremes,
     /// One record per substep, until taken.
     timings: Vec<PhaseTimings>,
@@ -233,8 +236,31 @@ impl CpuSolver {
         CpuSolver {
             particles,
             grid: Grid::new(grid_res),
+            lifecycle: None,
             extremes: StepExtremes::default(),
             timings: Vec::new(),
+        }
+    }
+
+    /// The solver with emitters and sinks.
+    pub fn with_lifecycle(mut self, lifecycle: Option<Lifecycle>) -> CpuSolver {
+        self.lifecycle = lifecycle;
+        self
+    }
+
+    /// Drains (`Lifecycle::drains`) every live particle inside a sink: after g2p.
+    pub fn drain(&mut self) {
+        let Some(lifecycle) = &mut self.lifecycle else {
+            return;
+        };
+        if lifecycle.flow.sinks.is_empty() {
+            return;
+        }
+        let p = &mut self.particles;
+        for (i, (x, live)) in p.x.iter().zip(p.live.iter_mut()).enumerate() {
+            if *live && lifecycle.drains(i, *x) {
+                *live = false;
+            }
         }
     }
 
@@ -247,7 +273,8 @@ impl CpuSolver {
     pub fn p2g_init(&mut self, params: &Params) {
         let m_p = params.material.particle_mass;
         let Grid { shape, mass, .. } = &mut self.grid;
-        for &x in &self.particles.x {
+        let p = &self.particles;
+        for (&x, _) in p.x.iter().zip(&p.live).filter(|(_, &live)| live) {
             Stencil::new(x, params.inv_dx).for_each_node(*shape, |i, w, _| mass[i] += w * m_p);
         }
     }
@@ -279,7 +306,7 @@ impl CpuSolver {
         } = &mut self.grid;
         let p = &mut self.particles;
         let mut max_rho = 0.0f32;
-        for n in 0..p.x.len() {
+        for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let st = Stencil::new(p.x[n], params.inv_dx);
             let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.v[n], p.c[n]);
             p.rho[n] = rho;
@@ -313,7 +340,7 @@ impl CpuSolver {
         } = &self.grid;
         let p = &mut self.particles;
         let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
-        for n in 0..p.x.len() {
+        for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let (x, v, c) = g2p_particle(params, *shape, velocity, p.x[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let speed = v.length();
@@ -349,6 +376,7 @@ impl Solver for CpuSolver {
         self.grid_update(params);
         lap(&mut times.grid_update);
         self.g2p(params);
+        self.drain();
         lap(&mut times.g2p);
         times.steps = 1;
         push_step_timing(&mut self.timings, times);
@@ -384,11 +412,32 @@ impl Solver for CpuSolver {
     ) -> anyhow::Result<()> {
         let p = &self.particles;
         out.clear();
-        out.extend((0..p.len()).map(|i| {
-            let value = colour_by.value(p.v[i], p.rho[i], rest_density);
-            [p.x[i].x, p.x[i].y, p.x[i].z, value]
-        }));
+        out.extend((0..p.len()).map(|i| render_attribute(p, i, colour_by, rest_density)));
         Ok(())
+    }
+
+    fn emit(&mut self, _params: &Params, mask: u32) -> anyhow::Result<()> {
+        let Some(lifecycle) = &mut self.lifecycle else {
+            anyhow::bail!("this solver has no emitters");
+        };
+        let p = &mut self.particles;
+        let slots = Slots {
+            x: &mut p.x,
+            v: &mut p.v,
+            c: &mut p.c,
+            rho: &mut p.rho,
+            live: &mut p.live,
+        };
+        lifecycle.emit(slots, mask);
+        Ok(())
+    }
+
+    fn flow_counts(&mut self) -> anyhow::Result<Option<FlowCounts>> {
+        Ok(self.lifecycle.as_ref().map(|l| l.state.counts))
+    }
+
+    fn flow_state(&mut self) -> anyhow::Result<Option<FlowState>> {
+        Ok(self.lifecycle.as_ref().map(|l| l.state.clone()))
     }
 
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any {

@@ -30,14 +30,17 @@
 use super::cpu::{
     g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
 };
+use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;
-use super::solver::{push_step_timing, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, render_attribute, PhaseTimings, Solver, StepExtremes};
 use glam::{IVec3, UVec3, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// The tile key and rank of a parked slot: in no tile.
+const PARKED: u32 = u32::MAX;
 /// Tile edge, nodes.
 const TILE: u32 = 4;
 /// A tile's block: its nodes plus the 2-node overhang of its particles' stencils, per axis.
@@ -71,14 +74,19 @@ struct Bins {
 }
 
 impl Bins {
-    fn build(&mut self, x: &[Vec3], params: &Params, res: UVec3) {
+    /// Parked slots (`live` false) go in no tile.
+    fn build(&mut self, x: &[Vec3], live: &[bool], params: &Params, res: UVec3) {
         let inv_dx = params.inv_dx;
         self.tiles = (res + (TILE - 1)) / TILE;
         let tiles = self.tiles;
         // The stencil's base node, computed exactly as `Stencil::new` does.
         x.par_iter()
+            .zip(live.par_iter())
             .with_min_len(MIN_PER_TASK)
-            .map(|&x| {
+            .map(|(&x, &live)| {
+                if !live {
+                    return PARKED;
+                }
                 let base = ((x * inv_dx) - 0.5)
                     .floor()
                     .as_ivec3()
@@ -90,7 +98,7 @@ impl Bins {
             .collect_into_vec(&mut self.key);
         self.count.clear();
         self.count.resize((tiles.x * tiles.y * tiles.z) as usize, 0);
-        for &k in &self.key {
+        for &k in self.key.iter().filter(|&&k| k != PARKED) {
             self.count[k as usize] += 1;
         }
         self.active.clear();
@@ -106,9 +114,10 @@ impl Bins {
             }
         }
         self.start.push(offset);
-        self.order.resize(x.len(), 0);
-        self.rank.resize(x.len(), 0);
-        for (i, &k) in self.key.iter().enumerate() {
+        self.order.resize(offset, 0);
+        self.rank.clear();
+        self.rank.resize(x.len(), PARKED);
+        for (i, &k) in self.key.iter().enumerate().filter(|(_, &k)| k != PARKED) {
             let slot = &mut self.count[k as usize];
             self.order[*slot as usize] = i as u32;
             self.rank[i] = *slot;
@@ -226,6 +235,34 @@ impl ParallelCpuSolver {
         }
     }
 
+    /// The solver with emitters and sinks.
+    pub fn with_lifecycle(mut self, lifecycle: Option<Lifecycle>) -> ParallelCpuSolver {
+        self.inner.lifecycle = lifecycle;
+        self
+    }
+
+    /// Parks the live particles inside a sink: a parallel test of every slot, then the drained slots
+    /// in index order (the reference's order).
+    fn drain(&mut self) {
+        let Some(lifecycle) = &mut self.inner.lifecycle else {
+            return;
+        };
+        if lifecycle.flow.sinks.is_empty() {
+            return;
+        }
+        let p = &mut self.inner.particles;
+        let sinks = &lifecycle.flow.sinks;
+        let drained: Vec<usize> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(MIN_PER_TASK)
+            .filter(|&i| p.live[i] && sinks.iter().any(|s| s.contains(p.x[i])))
+            .collect();
+        for i in drained {
+            p.live[i] = false;
+            lifecycle.state.drain(i as u32);
+        }
+    }
+
     /// Threads the backend runs on (rayon's pool: `RAYON_NUM_THREADS`, else one per core).
     pub fn threads() -> usize {
         rayon::current_num_threads()
@@ -266,8 +303,12 @@ impl ParallelCpuSolver {
 
     /// The particles in tile order (the `sort` slot of the timings).
     pub fn bin(&mut self, params: &Params) {
-        self.bins
-            .build(&self.inner.particles.x, params, self.inner.grid.shape.res);
+        self.bins.build(
+            &self.inner.particles.x,
+            &self.inner.particles.live,
+            params,
+            self.inner.grid.shape.res,
+        );
     }
 
     /// m_i += w m_p, per tile block, then merged; then the walls' mirror mass.
@@ -302,7 +343,7 @@ impl ParallelCpuSolver {
         let p = &self.inner.particles;
         self.block_momentum
             .resize(bins.active.len() * BLOCK_NODES, Vec3::ZERO);
-        self.rho_binned.resize(p.len(), 0.0);
+        self.rho_binned.resize(bins.order.len(), 0.0);
         // Each tile's densities are a run of `rho_binned`: split it into one slice per tile.
         let mut rho_runs = Vec::with_capacity(bins.active.len());
         let mut rest = self.rho_binned.as_mut_slice();
@@ -339,6 +380,7 @@ impl ParallelCpuSolver {
             .par_iter_mut()
             .with_min_len(MIN_PER_TASK)
             .zip(rank.par_iter())
+            .filter(|(_, &r)| r != PARKED)
             .for_each(|(rho, &r)| *rho = binned[r as usize]);
         merge(
             &self.bins,
@@ -398,7 +440,11 @@ impl ParallelCpuSolver {
                 .zip(p.v.par_iter_mut())
                 .zip(p.c.par_iter_mut())
                 .zip(p.rho.par_iter())
-                .map(|(((x, v), c), &rho)| {
+                .zip(p.live.par_iter())
+                .map(|((((x, v), c), &rho), &live)| {
+                    if !live {
+                        return (0.0, 0.0);
+                    }
                     (*x, *v, *c) = g2p_particle(params, *shape, velocity, *x);
                     let speed = v.length();
                     (speed, material.sound_speed_at(rho) + speed)
@@ -436,6 +482,7 @@ impl Solver for ParallelCpuSolver {
         self.grid_update(params);
         lap(&mut times.grid_update);
         self.g2p(params);
+        self.drain();
         lap(&mut times.g2p);
         times.steps = 1;
         push_step_timing(&mut self.timings, times);
@@ -479,12 +526,21 @@ impl Solver for ParallelCpuSolver {
         (0..p.len())
             .into_par_iter()
             .with_min_len(MIN_PER_TASK)
-            .map(|i| {
-                let value = colour_by.value(p.v[i], p.rho[i], rest_density);
-                [p.x[i].x, p.x[i].y, p.x[i].z, value]
-            })
+            .map(|i| render_attribute(p, i, colour_by, rest_density))
             .collect_into_vec(out);
         Ok(())
+    }
+
+    fn emit(&mut self, params: &Params, mask: u32) -> anyhow::Result<()> {
+        self.inner.emit(params, mask)
+    }
+
+    fn flow_counts(&mut self) -> anyhow::Result<Option<FlowCounts>> {
+        self.inner.flow_counts()
+    }
+
+    fn flow_state(&mut self) -> anyhow::Result<Option<FlowState>> {
+        self.inner.flow_state()
     }
 
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any {

@@ -3,6 +3,7 @@
 
 pub mod cpu;
 pub mod cpu_parallel;
+pub mod flow;
 pub mod params;
 pub mod presets;
 pub mod push;
@@ -13,6 +14,6 @@ pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
-    ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, Simulation, Solver, StepExtremes, Summary,
-    SummaryTicket, MAX_PENDING_STEP_TIMINGS,
+    ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, RunClock, Simulation, Solver, StepExtremes,
+    Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
 };

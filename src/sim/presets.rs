@@ -2,20 +2,22 @@
 //! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 6] = [
+pub const NAMES: [&str; 7] = [
     "dam-break",
     "dam-break-coarse",
     "double-dam-break",
     "drop",
+    "fountain",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 6] = [
+const FILES: [&str; 7] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
     include_str!("../../scenes/double-dam-break.toml"),
     include_str!("../../scenes/drop.toml"),
+    include_str!("../../scenes/fountain.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];

@@ -4,6 +4,7 @@
 //! default makes sense), then validated into a [`Scene`] (what the solver runs, every value checked).
 //! Every refusal names the file, the key and the fix.
 
+use super::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use glam::{DVec3, Vec3};
@@ -59,6 +60,53 @@ pub struct SceneSpec {
     pub blocks: Vec<BlockSpec>,
     #[serde(default, rename = "sphere")]
     pub spheres: Vec<SphereSpec>,
+    #[serde(default)]
+    pub particles: Option<ParticlesSpec>,
+    #[serde(default, rename = "emitter")]
+    pub emitters: Vec<EmitterSpec>,
+    #[serde(default, rename = "sink")]
+    pub sinks: Vec<SinkSpec>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesSpec {
+    /// Particle slots allocated up front, live and parked: what emitters can fill.
+    pub capacity: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NozzleShape {
+    Disc,
+    Rectangle,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmitterSpec {
+    pub shape: NozzleShape,
+    /// Centre of the nozzle, m.
+    pub center: [f64; 3],
+    /// The direction the fluid leaves in (normalised on load).
+    pub normal: [f32; 3],
+    /// Disc radius, m.
+    pub radius: Option<f64>,
+    /// Rectangle side lengths across the normal, m.
+    pub size: Option<[f64; 2]>,
+    /// m/s along the normal.
+    pub speed: f32,
+    /// m^3/s; default: what the nozzle passes at `speed` (its area times the speed).
+    pub rate: Option<f64>,
+    #[serde(default = "default_ppc")]
+    pub particles_per_cell: u32,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SinkSpec {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -225,8 +273,13 @@ pub struct Scene {
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,
     pub bodies: Vec<Body>,
-    /// Exact number of particles [`Scene::spawn`] makes.
+    /// Exact number of live particles [`Scene::spawn`] makes.
     pub num_particles: usize,
+    /// Emitters, sinks and the particle slots (`flow.capacity`, at least `num_particles`).
+    pub flow: Flow,
+    /// The scene file's text as it was loaded (or the spec serialised, for a scene built in code):
+    /// what a checkpoint carries, so a run resumes in exactly the scene it was started in.
+    pub toml: String,
 }
 
 /// Particle arrays on the host (SoA), as spawned or as read back from a backend.
@@ -238,14 +291,38 @@ pub struct Particles {
     pub c: Vec<glam::Mat3>,
     /// Density estimated in the last p2g, kg/m^3 (rest density before the first step).
     pub rho: Vec<f32>,
+    /// False for a parked slot (see `sim::flow`): no part of the fluid, kept for its index.
+    pub live: Vec<bool>,
 }
 
 impl Particles {
+    /// Slots, live and parked.
     pub fn len(&self) -> usize {
         self.x.len()
     }
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()
+    }
+
+    pub fn num_live(&self) -> usize {
+        self.live.iter().filter(|&&l| l).count()
+    }
+
+    /// The live particles alone, in slot order: what export and statistics see.
+    pub fn live_only(&self) -> Particles {
+        if self.live.iter().all(|&l| l) {
+            return self.clone();
+        }
+        let keep = |i: &usize| self.live[*i];
+        let pick = |n: usize| (0..n).filter(keep);
+        let n = self.len();
+        Particles {
+            x: pick(n).map(|i| self.x[i]).collect(),
+            v: pick(n).map(|i| self.v[i]).collect(),
+            c: pick(n).map(|i| self.c[i]).collect(),
+            rho: pick(n).map(|i| self.rho[i]).collect(),
+            live: vec![true; pick(n).count()],
+        }
     }
 }
 
@@ -314,7 +391,9 @@ impl Scene {
             problem: format!("is not a valid scene file:\n{}", e.to_string().trim_end()),
             fix: "see the scene file reference in README.md; `mpm scenes --show dam-break` prints a complete example".into(),
         })?;
-        Scene::from_spec(&spec, source)
+        let mut scene = Scene::from_spec(&spec, source)?;
+        scene.toml = text.to_string();
+        Ok(scene)
     }
 
     pub fn from_spec(spec: &SceneSpec, source: &str) -> Result<Scene, SceneError> {
@@ -333,7 +412,7 @@ impl Scene {
             inv_dx: 1.0 / self.dx,
             boundary_band: self.boundary_band,
             soft_wall_tau: if self.soft_wall { FRAME_DT } else { 0.0 },
-            num_particles: self.num_particles as u32,
+            num_particles: self.slots() as u32,
             scatter_mode: self.scatter.code(),
             fixed_mass_scale: 0.0,
             fixed_momentum_scale: 0.0,
@@ -359,15 +438,24 @@ impl Scene {
         )
     }
 
+    /// Particle slots a solver allocates: the flow's capacity (the live particles where the scene has
+    /// no flow).
+    pub fn slots(&self) -> usize {
+        self.flow.capacity
+    }
+
     /// The particles, in body order, each body's lattice points in x-fastest order, skipping points
-    /// that an earlier body already covers.
+    /// that an earlier body already covers; then the parked slots up to the capacity (at the origin,
+    /// at rest).
     pub fn spawn(&self) -> Particles {
         let lattice = self.lattice();
+        let slots = self.slots();
         let mut particles = Particles {
-            x: Vec::with_capacity(self.num_particles),
-            v: Vec::with_capacity(self.num_particles),
-            c: vec![glam::Mat3::ZERO; self.num_particles],
-            rho: vec![self.material.rest_density; self.num_particles],
+            x: Vec::with_capacity(slots),
+            v: Vec::with_capacity(slots),
+            c: vec![glam::Mat3::ZERO; slots],
+            rho: vec![self.material.rest_density; slots],
+            live: vec![true; self.num_particles],
         };
         for (k, body) in self.bodies.iter().enumerate() {
             for p in self.own_points(&lattice, k) {
@@ -376,6 +464,9 @@ impl Scene {
             }
         }
         debug_assert_eq!(particles.x.len(), self.num_particles);
+        particles.x.resize(slots, Vec3::ZERO);
+        particles.v.resize(slots, Vec3::ZERO);
+        particles.live.resize(slots, false);
         particles
     }
 
@@ -384,6 +475,13 @@ impl Scene {
         lattice
             .points(&self.bodies[k].shape)
             .filter(move |&p| !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
+    }
+
+    /// The fastest speed at the start, m/s: of the bodies and of what the emitters emit.
+    pub fn fastest_start(&self) -> f32 {
+        let bodies = self.bodies.iter().map(|b| b.velocity.length());
+        let emitters = self.flow.emitters.iter().map(|e| e.speed);
+        bodies.chain(emitters).fold(0.0, f32::max)
     }
 
     /// Total particle mass, kg.
@@ -528,7 +626,15 @@ impl Validator<'_> {
         let material = self.material(&spec.material, dx, particles_per_axis)?;
         let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
         let bodies = self.bodies(spec, grid_res, dx, band, spec.solver.soft_wall)?;
-        let max_body_speed = bodies.iter().map(|b| b.velocity.length()).fold(0.0, f32::max);
+        let emitter_speeds = spec
+            .emitters
+            .iter()
+            .map(|e| if e.speed.is_finite() { e.speed } else { 0.0 });
+        let max_body_speed = bodies
+            .iter()
+            .map(|b| b.velocity.length())
+            .chain(emitter_speeds)
+            .fold(0.0, f32::max);
         let time_step = self.time_step(&spec.time_step, &material, dx, max_body_speed)?;
 
         let mut scene = Scene {
@@ -548,11 +654,15 @@ impl Validator<'_> {
             particles_per_axis,
             bodies,
             num_particles: 0,
+            flow: Flow::default(),
+            // A spec always serialises (plain numbers, strings and arrays).
+            toml: toml::to_string(spec).unwrap_or_default(),
         };
         // The exact count walks every lattice point: refuse absurd sizes from the volume estimate first.
         self.fits_in_memory(&scene, self.estimate_particles(&scene))?;
-        scene.num_particles = self.count_particles(&scene)?;
-        self.fits_in_memory(&scene, scene.num_particles)?;
+        scene.num_particles = self.count_particles(&scene, !spec.emitters.is_empty())?;
+        scene.flow = self.flow(spec, &scene)?;
+        self.fits_in_memory(&scene, scene.slots())?;
         Ok(scene)
     }
 
@@ -604,6 +714,12 @@ impl Validator<'_> {
                     .iter()
                     .enumerate()
                     .map(|(i, s)| (format!("sphere[{i}].particles_per_cell"), s.particles_per_cell)),
+            )
+            .chain(
+                spec.emitters
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| (format!("emitter[{i}].particles_per_cell"), e.particles_per_cell)),
             );
         let mut chosen: Option<(String, u32)> = None;
         for (key, ppc) in ppcs {
@@ -630,8 +746,8 @@ impl Validator<'_> {
         chosen.map(|(_, n)| n).ok_or_else(|| {
             self.err(
                 "block",
-                "the scene has no fluid bodies, so it has zero particles",
-                "add at least one [[block]] (min, max) or [[sphere]] (center, radius)",
+                "the scene has no fluid bodies and no emitters, so it has zero particles",
+                "add at least one [[block]] (min, max), [[sphere]] (center, radius) or [[emitter]]",
             )
         })
     }
@@ -765,6 +881,196 @@ impl Validator<'_> {
         Ok(bodies)
     }
 
+    /// Emitters and sinks, validated against the domain, and the particle capacity.
+    fn flow(&self, spec: &SceneSpec, scene: &Scene) -> Result<Flow, SceneError> {
+        let (lo, hi) = scene.fluid_region();
+        let spacing = scene.lattice().spacing;
+        let region = format!(
+            "[{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}] m",
+            lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
+        );
+        if spec.emitters.len() > MAX_EMITTERS {
+            return Err(self.err(
+                "emitter",
+                format!(
+                    "{} emitters are more than the {MAX_EMITTERS} a scene may have",
+                    spec.emitters.len()
+                ),
+                "merge nozzles that share a speed and direction into one rectangle",
+            ));
+        }
+        let mut emitters = Vec::new();
+        for (i, e) in spec.emitters.iter().enumerate() {
+            emitters.push(self.emitter(i, e, spacing, (lo, hi), &region)?);
+        }
+        let domain = DVec3::from(scene.grid_res.map(f64::from)) * f64::from(scene.dx);
+        let mut sinks = Vec::new();
+        for (i, k) in spec.sinks.iter().enumerate() {
+            let (min, max) = (DVec3::from(k.min), DVec3::from(k.max));
+            if !(min.is_finite() && max.is_finite()) || min.cmpge(max).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!("has min {:?} not below max {:?} on every axis", k.min, k.max),
+                    "give min < max on x, y and z",
+                ));
+            }
+            if min.cmplt(DVec3::ZERO).any() || max.cmpgt(domain).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!(
+                        "reaches outside the domain [0, {:.4}] x [0, {:.4}] x [0, {:.4}] m",
+                        domain.x, domain.y, domain.z
+                    ),
+                    "keep the sink box inside the domain; a drain at the floor reaches down to 0",
+                ));
+            }
+            if min.cmpge(hi).any() || max.cmple(lo).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!("lies wholly in the boundary band, where no particle goes (the fluid region is {region})"),
+                    "let the box reach into the fluid region",
+                ));
+            }
+            sinks.push(Sink {
+                min: min.as_vec3(),
+                max: max.as_vec3(),
+            });
+        }
+        let initial = scene.num_particles;
+        let capacity = match &spec.particles {
+            Some(p) => {
+                let capacity = p.capacity;
+                if capacity == 0 || capacity < initial as u64 {
+                    return Err(self.err(
+                        "particles.capacity",
+                        format!("= {capacity} is below the {initial} particles the bodies spawn"),
+                        format!("give at least {initial}, plus room for what the emitters add"),
+                    ));
+                }
+                if capacity > u64::from(u32::MAX) {
+                    return Err(self.err(
+                        "particles.capacity",
+                        format!("= {capacity} is above the 2^32 limit of particle indices"),
+                        "give a smaller capacity",
+                    ));
+                }
+                capacity as usize
+            }
+            None if !emitters.is_empty() => {
+                return Err(self.err(
+                    "particles.capacity",
+                    "is missing: a scene with emitters allocates its particles up front",
+                    format!(
+                        "add [particles] capacity = N, N at least {initial} (the bodies' particles) plus                          what the emitters may add"
+                    ),
+                ))
+            }
+            None => initial,
+        };
+        Ok(Flow {
+            emitters,
+            sinks,
+            capacity,
+        })
+    }
+
+    fn emitter(
+        &self,
+        i: usize,
+        e: &EmitterSpec,
+        spacing: f64,
+        (lo, hi): (DVec3, DVec3),
+        region: &str,
+    ) -> Result<Emitter, SceneError> {
+        let key = |k: &str| format!("emitter[{i}].{k}");
+        let normal = Vec3::from(e.normal);
+        if !(normal.is_finite() && normal.length() > 1e-6) {
+            return Err(self.err(
+                key("normal"),
+                format!("= {:?} is not a direction", e.normal),
+                "give the direction the fluid leaves in, e.g. [0.0, -1.0, 0.0] for a tap",
+            ));
+        }
+        let normal = normal.normalize();
+        let nozzle = match (e.shape, e.radius, e.size) {
+            (NozzleShape::Disc, Some(radius), None) if radius.is_finite() && radius > 0.0 => {
+                Nozzle::Disc { radius }
+            }
+            (NozzleShape::Rectangle, None, Some(size)) if size.iter().all(|s| s.is_finite() && *s > 0.0) => {
+                Nozzle::Rectangle { size }
+            }
+            (NozzleShape::Disc, ..) => {
+                return Err(self.err(
+                    key("radius"),
+                    "must be given, positive, for a disc nozzle (and `size` left out)",
+                    "give radius = R in metres",
+                ))
+            }
+            (NozzleShape::Rectangle, ..) => {
+                return Err(self.err(
+                    key("size"),
+                    "must be given, two positive lengths, for a rectangle nozzle (and `radius` left out)",
+                    "give size = [A, B] in metres, the sides across the normal",
+                ))
+            }
+        };
+        if !(e.speed.is_finite() && e.speed > 0.0) {
+            return Err(self.err(
+                key("speed"),
+                format!("= {} must be a positive speed", e.speed),
+                "give the speed the fluid leaves the nozzle at, m/s",
+            ));
+        }
+        let center = DVec3::from(e.center);
+        let points = flow::nozzle_points(nozzle, center, normal, spacing);
+        if points.is_empty() {
+            return Err(self.err(
+                format!("emitter[{i}]"),
+                format!("has a nozzle smaller than the particle spacing {spacing:.4} m"),
+                "make the nozzle wider than one particle spacing",
+            ));
+        }
+        let (lo32, hi32) = (lo.as_vec3(), hi.as_vec3());
+        if !center.is_finite() || points.iter().any(|p| p.cmplt(lo32).any() || p.cmpgt(hi32).any()) {
+            return Err(self.err(
+                format!("emitter[{i}]"),
+                format!("reaches outside the domain's fluid region {region}"),
+                "move the nozzle inside the region, or make it smaller",
+            ));
+        }
+        let full = points.len() as f64 * spacing * spacing * f64::from(e.speed);
+        let rate = match e.rate {
+            None => full,
+            Some(rate) if rate.is_finite() && rate > 0.0 && rate <= full * (1.0 + 1e-9) => rate,
+            Some(rate) if rate.is_finite() && rate > full => {
+                return Err(self.err(
+                    key("rate"),
+                    format!(
+                        "= {rate:.3e} m^3/s is more than the nozzle passes at {} m/s ({full:.3e} m^3/s: its                          {} particle columns times the speed); particles would land on each other",
+                        e.speed,
+                        points.len()
+                    ),
+                    "raise the speed, widen the nozzle, or lower the rate",
+                ))
+            }
+            Some(rate) => {
+                return Err(self.err(
+                    key("rate"),
+                    format!("= {rate} must be a positive flow in m^3/s"),
+                    format!("give a rate up to {full:.3e} m^3/s, or leave it out for that full flow"),
+                ))
+            }
+        };
+        Ok(Emitter {
+            nozzle,
+            center,
+            normal,
+            speed: e.speed,
+            rate,
+            points,
+        })
+    }
+
     fn time_step(
         &self,
         t: &TimeStepSpec,
@@ -819,7 +1125,8 @@ impl Validator<'_> {
         }
     }
 
-    fn count_particles(&self, scene: &Scene) -> Result<usize, SceneError> {
+    /// The live particles the bodies spawn; zero only where emitters will bring fluid.
+    fn count_particles(&self, scene: &Scene, has_emitters: bool) -> Result<usize, SceneError> {
         let lattice = scene.lattice();
         let mut total = 0usize;
         for (k, body) in scene.bodies.iter().enumerate() {
@@ -843,6 +1150,13 @@ impl Validator<'_> {
                 ));
             }
             total += own;
+        }
+        if total == 0 && !has_emitters {
+            return Err(self.err(
+                "block",
+                "the scene spawns zero particles",
+                "add a [[block]] or [[sphere]] of fluid, or an [[emitter]]",
+            ));
         }
         if total > u32::MAX as usize {
             return Err(self.err(

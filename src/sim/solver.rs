@@ -3,6 +3,7 @@
 //! A [`Solver`] is a backend (CPU reference or CUDA) that knows how to take one substep.
 //! A [`Simulation`] owns one, and advances it frame by frame under the scene's time-step policy.
 
+use super::flow::{self, FlowCounts, FlowState};
 use super::params::{Material, Params, FRAME_DT};
 use super::push::{ColourBy, Push};
 use super::scene::{Particles, Scene, MAX_CFL};
@@ -168,11 +169,22 @@ pub trait Solver {
     ) -> Result<()> {
         let p = self.read_particles()?;
         out.clear();
-        out.extend((0..p.len()).map(|i| {
-            let value = colour_by.value(p.v[i], p.rho[i], rest_density);
-            [p.x[i].x, p.x[i].y, p.x[i].z, value]
-        }));
+        out.extend((0..p.len()).map(|i| render_attribute(&p, i, colour_by, rest_density)));
         Ok(())
+    }
+    /// Emits a layer from each emitter whose bit is set in `mask` (`sim::flow`), before the next
+    /// substep. Only a solver made with the scene's emitters can.
+    fn emit(&mut self, _params: &Params, mask: u32) -> Result<()> {
+        ensure!(mask == 0, "the {} backend has no emitters", self.name());
+        Ok(())
+    }
+    /// What emitters and sinks did so far; `None` without them.
+    fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
+        Ok(None)
+    }
+    /// The lifecycle's state for a checkpoint; `None` without emitters and sinks.
+    fn flow_state(&mut self) -> Result<Option<FlowState>> {
+        Ok(None)
     }
     /// For reaching backend-specific features (the CUDA solver's GL interop) through `dyn Solver`.
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
@@ -199,9 +211,21 @@ pub trait Solver {
     }
 }
 
+/// The renderer's `[x, y, z, value]` of slot `i`: `value` as `colour_by` says, or
+/// [`flow::PARKED_RENDER_ATTRIBUTES`] for a parked slot.
+#[inline]
+pub fn render_attribute(p: &Particles, i: usize, colour_by: ColourBy, rest_density: f32) -> [f32; 4] {
+    if !p.live[i] {
+        return flow::PARKED_RENDER_ATTRIBUTES;
+    }
+    let value = colour_by.value(p.v[i], p.rho[i], rest_density);
+    [p.x[i].x, p.x[i].y, p.x[i].z, value]
+}
+
 /// Particle statistics of one state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Summary {
+    /// Live particles.
     pub particles: usize,
     /// m/s.
     pub max_speed: f32,
@@ -216,14 +240,26 @@ pub struct Summary {
 }
 
 impl Summary {
+    /// Of the live particles; an empty state (a tank before its emitters start) has zeros.
     pub fn of(particles: &Particles, particle_mass: f32, rest_density: f32) -> Summary {
-        let n = particles.len();
+        let n = particles.num_live();
+        if n == 0 {
+            return Summary {
+                particles: 0,
+                max_speed: 0.0,
+                density_ratio_min: 0.0,
+                density_ratio_mean: 0.0,
+                density_ratio_max: 0.0,
+                kinetic_energy: 0.0,
+                centre_of_mass: [0.0; 3],
+            };
+        }
         let m = f64::from(particle_mass);
         let mut com = DVec3::ZERO;
         let mut ke = 0.0f64;
         let mut max_speed = 0.0f32;
         let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f64);
-        for i in 0..n {
+        for i in (0..particles.len()).filter(|&i| particles.live[i]) {
             com += particles.x[i].as_dvec3();
             let v2 = particles.v[i].length_squared();
             ke += 0.5 * m * f64::from(v2);
@@ -279,6 +315,11 @@ pub struct FrameStats {
     pub substeps_over_cfl: u32,
     #[serde(flatten)]
     pub summary: Summary,
+    /// What emitters and sinks did since the run began; `None` in a scene without them.
+    pub flow: Option<FlowCounts>,
+    /// Emitter layers that fell due more than once in a substep since the run began (the jet could not
+    /// keep its rate at that substep); 0 without emitters.
+    pub late_layers: u64,
     /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
     pub timings: Option<PhaseTimings>,
 }
@@ -314,6 +355,9 @@ pub struct Simulation {
     /// request, so they arrive with its extremes, in the frame's one wait.
     summary_wanted: bool,
     summary_ticket: Option<SummaryTicket>,
+    /// See [`RunClock`].
+    emitter_phases: Vec<f64>,
+    late_layers: u64,
 }
 
 /// What a frame's substeps have done so far.
@@ -350,15 +394,57 @@ impl FramePart {
     }
 }
 
+/// Where a run stands between frames: its clock and the time-step policy's memory. With the particles,
+/// the parameters and the scene, this is all a run carries from one frame to the next (the stretches
+/// whose extremes are read asynchronously are all accounted by the end of a frame), so a checkpoint
+/// holds it and [`Simulation::resume`] goes on from it exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunClock {
+    /// Frames completed.
+    pub frame: u64,
+    /// Simulated seconds at the end of frame `frame`.
+    pub time: f64,
+    /// See [`Simulation`]'s fields of the same names.
+    pub signal_speed: f32,
+    pub signal_rise: f32,
+    /// Each emitter's layers owed (`flow::schedule`).
+    pub emitter_phases: Vec<f64>,
+    /// See [`FrameStats::late_layers`].
+    pub late_layers: u64,
+}
+
 impl Simulation {
+    /// Goes on from a saved state: `solver` already holds the saved particles, `params` are the
+    /// parameters the run had (live changes included), `clock` where it stood.
+    pub fn resume(scene: Scene, solver: Box<dyn Solver>, params: Params, clock: RunClock) -> Simulation {
+        let mut sim = Simulation::new(scene, solver);
+        sim.params = params;
+        sim.frame = clock.frame;
+        sim.time = clock.time;
+        sim.signal_speed = clock.signal_speed;
+        sim.signal_rise = clock.signal_rise;
+        sim.emitter_phases = clock.emitter_phases;
+        sim.late_layers = clock.late_layers;
+        sim
+    }
+
+    /// The clock between frames; `None` while a frame begun by [`Self::step_frame_until`] is unfinished
+    /// (finish it with [`Self::step_frame`] first).
+    pub fn clock(&self) -> Option<RunClock> {
+        self.in_progress.is_none().then_some(RunClock {
+            frame: self.frame,
+            time: self.time,
+            signal_speed: self.signal_speed,
+            signal_rise: self.signal_rise,
+            emitter_phases: self.emitter_phases.clone(),
+            late_layers: self.late_layers,
+        })
+    }
+
     pub fn new(scene: Scene, solver: Box<dyn Solver>) -> Simulation {
         let params = scene.params();
-        let initial_speed = scene
-            .bodies
-            .iter()
-            .map(|b| b.velocity.length())
-            .fold(0.0, f32::max);
-        let signal_speed = scene.material.sound_speed() + initial_speed;
+        let signal_speed = scene.material.sound_speed() + scene.fastest_start();
+        let emitter_phases = vec![0.0; scene.flow.emitters.len()];
         Simulation {
             scene,
             params,
@@ -371,6 +457,8 @@ impl Simulation {
             in_progress: None,
             summary_wanted: false,
             summary_ticket: None,
+            emitter_phases,
+            late_layers: 0,
         }
     }
 
@@ -444,6 +532,20 @@ impl Simulation {
         Ok(())
     }
 
+    /// Emits what the emitters owe before a substep of `dt` (nothing in a scene without them).
+    fn emit_due(&mut self, dt: f32) -> Result<()> {
+        if self.emitter_phases.is_empty() {
+            return Ok(());
+        }
+        let spacing = self.scene.lattice().spacing;
+        let (mask, late) = flow::schedule(&self.scene.flow, spacing, dt, &mut self.emitter_phases);
+        self.late_layers += late;
+        if mask != 0 {
+            self.solver.emit(&self.params, mask)?;
+        }
+        Ok(())
+    }
+
     /// Advance one 60 Hz frame and return its statistics.
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
         self.summary_wanted = true;
@@ -466,6 +568,8 @@ impl Simulation {
             max_cfl: steps.max_cfl,
             substeps_over_cfl: steps.substeps_over_cfl,
             summary,
+            flow: self.solver.flow_counts()?,
+            late_layers: self.late_layers,
             timings: steps.timings,
         })
     }
@@ -502,6 +606,7 @@ impl Simulation {
             self.params.dt = dt;
             let mut n = 0;
             while n < planned {
+                self.emit_due(dt)?;
                 self.solver.step(&self.params)?;
                 n += 1;
                 if late() {

@@ -1,0 +1,557 @@
+//! Checkpoints: the whole state of a run between two frames in one file, from which a run goes on
+//! exactly as if it had never stopped (`mpm run --checkpoint DIR`, `mpm run --resume FILE`, the
+//! viewer's snapshots).
+//!
+//! A checkpoint holds the scene as it was loaded (its TOML text and where it came from), the solver
+//! options (backend, GPU pipeline, scatter mode), the parameters as the run had them (live changes
+//! included), the clock and the time-step policy's memory ([`RunClock`]), and every particle's x, v,
+//! C and density. Nothing else carries from one frame to the next: the CPU backends rebuild their
+//! grid every substep, and the CUDA solver's between-substep state (the particle bins, the binned
+//! pipeline's grid mass of the next substep) is rebuilt from the particles on the first substep
+//! after a resume, which gives the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
+//! checks a resumed run byte for byte against an uninterrupted one).
+//!
+//! # File format (version 1), all numbers little-endian
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `MPMCKPT` and a zero byte |
+//! | 4 | format version (u32) |
+//! | 4 | reserved, 0 |
+//! | 8 | body length B (u64) |
+//! | B | body |
+//! | 4 | CRC-32 (IEEE) of everything before it |
+//!
+//! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
+//! solver options, the particle slot count N, the emitter count E, whether a flow state follows); the
+//! 28 words of [`Params`]; the clock (frame u64, time f64, signal speed f32, signal rise f32, late
+//! emitter layers u64, E emitter phases f64); then x (3N f32), v (3N), C (9N, column by column per
+//! slot), density (N) and the live flags (N bytes, 1 live, 0 parked); then, with emitters or sinks,
+//! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
+//! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
+//! drained, exhausted, blocked: u64 each). Floats are stored as their bits, so a resumed state is the
+//! saved one exactly.
+//!
+//! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
+//! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
+
+use crate::backend::{self, BackendKind};
+use crate::export::claim_output_dir;
+use crate::sim::flow::{FlowCounts, FlowState};
+use crate::sim::{Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
+use crate::text::io_reason;
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use glam::{Mat3, Vec3};
+use serde::{Deserialize, Serialize};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// The first bytes of every checkpoint.
+pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
+/// The format this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+/// The file name extension of checkpoints.
+pub const EXTENSION: &str = "mpmck";
+/// Magic, version, reserved word and body length.
+const HEADER_BYTES: usize = 8 + 4 + 4 + 8;
+const CHECKSUM_BYTES: usize = 4;
+const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4;
+/// Frame, time, signal speed and rise, late layers (the emitters' phases follow, 8 bytes each).
+const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
+/// Bytes per particle slot: x, v, C, density as f32, and the live flag.
+const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1;
+
+/// What the body's JSON holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Meta {
+    /// The mpm version that wrote the file (for the user; not checked).
+    written_by: String,
+    scene_source: String,
+    scene_toml: String,
+    /// `Solver::name()` of the backend that ran.
+    backend: String,
+    pipeline: Pipeline,
+    scatter: ScatterMode,
+    particles: u64,
+    /// Emitter phases in the clock.
+    emitters: u64,
+    /// Whether the lifecycle's state follows the particles.
+    flow: bool,
+}
+
+/// A run's state between two frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checkpoint {
+    /// Where the scene came from (`preset NAME` or a path), as it was loaded.
+    pub scene_source: String,
+    /// The scene file's text as it was loaded.
+    pub scene_toml: String,
+    /// The backend that ran (`cpu`, `cpu-parallel`, `cuda`).
+    pub backend: String,
+    pub pipeline: Pipeline,
+    pub scatter: ScatterMode,
+    pub params: Params,
+    pub clock: RunClock,
+    pub particles: Particles,
+    /// The emitters' and sinks' state (free slots, nozzle points' last particles, counts), where the
+    /// scene has them.
+    pub flow: Option<FlowState>,
+}
+
+impl Checkpoint {
+    /// The state of `sim`, which must be between two frames (not inside one that
+    /// `Simulation::step_frame_until` paused). Copies the particles to the host.
+    pub fn capture(sim: &mut Simulation) -> Result<Checkpoint> {
+        let clock = sim
+            .clock()
+            .context("a frame is half done; finish it (Simulation::step_frame) before saving the state")?;
+        let scene = sim.scene();
+        let (scene_source, scene_toml) = (scene.source.clone(), scene.toml.clone());
+        let (pipeline, scatter) = (scene.pipeline, scene.scatter);
+        let backend = sim.backend().to_string();
+        let params = *sim.params();
+        let particles = sim.solver_mut().read_particles()?;
+        let flow = sim.solver_mut().flow_state()?;
+        Ok(Checkpoint {
+            flow,
+            scene_source,
+            scene_toml,
+            backend,
+            pipeline,
+            scatter,
+            params,
+            clock,
+            particles,
+        })
+    }
+
+    /// The scene the run had, with its solver options.
+    pub fn scene(&self) -> Result<Scene> {
+        let mut scene = Scene::from_toml(&self.scene_toml, &self.scene_source)
+            .context("the scene saved in the checkpoint no longer loads")?;
+        scene.pipeline = self.pipeline;
+        scene.scatter = self.scatter;
+        ensure!(
+            scene.slots() == self.particles.len()
+                && scene.grid_res == self.params.grid_res
+                && scene.flow.is_active() == self.flow.is_some()
+                && scene.flow.emitters.len() == self.clock.emitter_phases.len(),
+            "the checkpoint holds {} particle slots on a {:?} grid, but its scene has {} on {:?}: the file \
+             is inconsistent",
+            self.particles.len(),
+            self.params.grid_res,
+            scene.slots(),
+            scene.grid_res
+        );
+        Ok(scene)
+    }
+
+    /// The backend the run had.
+    pub fn backend_kind(&self) -> Result<BackendKind> {
+        BackendKind::of_solver(&self.backend)
+            .ok_or_else(|| anyhow!("the checkpoint names an unknown backend `{}`", self.backend))
+    }
+
+    /// A simulation that goes on from this state on `backend` (its own by default), with `scene`
+    /// (from [`Self::scene`], solver options possibly overridden).
+    pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
+        let solver = backend::restore(backend, &scene, &self.particles, self.flow.as_ref())?;
+        let mut params = self.params;
+        params.scatter_mode = scene.scatter.code();
+        Ok(Simulation::resume(scene, solver, params, self.clock.clone()))
+    }
+
+    /// Writes the checkpoint to `path`, which must not exist: to a temporary file beside it, synced
+    /// to the disk, then renamed, so `path` is either absent or complete.
+    pub fn write_new(&self, path: &Path) -> Result<()> {
+        ensure!(
+            !path.exists(),
+            "{} exists already; not overwriting it (choose another name)",
+            path.display()
+        );
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path
+            .file_name()
+            .with_context(|| format!("{} is not a file name", path.display()))?;
+        let tmp = dir.join(format!(".{}.partial", name.to_string_lossy()));
+        let written = File::create(&tmp)
+            .map_err(anyhow::Error::from)
+            .and_then(|file| {
+                let mut out = Crc32Writer::new(BufWriter::with_capacity(1 << 20, file));
+                self.write_to(&mut out)?;
+                let checksum = out.hasher.clone().finalize();
+                out.inner.write_all(&checksum.to_le_bytes())?;
+                let file = out.inner.into_inner().map_err(|e| e.into_error())?;
+                file.sync_all()?;
+                Ok(())
+            })
+            .and_then(|()| {
+                ensure!(!path.exists(), "{} appeared while it was written", path.display());
+                std::fs::rename(&tmp, path).map_err(Into::into)
+            });
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&tmp);
+            let reason = e
+                .chain()
+                .find_map(|cause| cause.downcast_ref::<std::io::Error>())
+                .map_or_else(|| format!("{e:#}"), io_reason);
+            bail!("cannot write the checkpoint {}: {reason}", path.display());
+        }
+        // The rename is durable once the directory is synced; where a directory cannot be opened for
+        // that (some platforms), the file itself is already complete.
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    }
+
+    /// Header and body, without the checksum.
+    fn write_to(&self, out: &mut impl Write) -> Result<()> {
+        let meta = serde_json::to_vec(&Meta {
+            written_by: format!("mpm {}", env!("CARGO_PKG_VERSION")),
+            scene_source: self.scene_source.clone(),
+            scene_toml: self.scene_toml.clone(),
+            backend: self.backend.clone(),
+            pipeline: self.pipeline,
+            scatter: self.scatter,
+            particles: self.particles.len() as u64,
+            emitters: self.clock.emitter_phases.len() as u64,
+            flow: self.flow.is_some(),
+        })?;
+        let n = self.particles.len();
+        let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
+        let body = 8
+            + meta.len()
+            + 4 * PARAMS_WORDS
+            + CLOCK_BYTES
+            + 8 * self.clock.emitter_phases.len()
+            + BYTES_PER_PARTICLE * n
+            + flow.len();
+        out.write_all(&MAGIC)?;
+        out.write_all(&FORMAT_VERSION.to_le_bytes())?;
+        out.write_all(&0u32.to_le_bytes())?;
+        out.write_all(&(body as u64).to_le_bytes())?;
+        out.write_all(&(meta.len() as u64).to_le_bytes())?;
+        out.write_all(&meta)?;
+        write_words(
+            out,
+            bytemuck::cast_slice::<Params, u32>(std::slice::from_ref(&self.params)),
+        )?;
+        let clock = &self.clock;
+        out.write_all(&clock.frame.to_le_bytes())?;
+        out.write_all(&clock.time.to_bits().to_le_bytes())?;
+        out.write_all(&clock.signal_speed.to_bits().to_le_bytes())?;
+        out.write_all(&clock.signal_rise.to_bits().to_le_bytes())?;
+        out.write_all(&clock.late_layers.to_le_bytes())?;
+        for phase in &clock.emitter_phases {
+            out.write_all(&phase.to_bits().to_le_bytes())?;
+        }
+        let p = &self.particles;
+        write_words(out, bytemuck::cast_slice(&p.x))?;
+        write_words(out, bytemuck::cast_slice(&p.v))?;
+        write_words(out, bytemuck::cast_slice(&p.c))?;
+        write_words(out, bytemuck::cast_slice(&p.rho))?;
+        let live: Vec<u8> = p.live.iter().map(|&l| u8::from(l)).collect();
+        out.write_all(&live)?;
+        out.write_all(&flow)?;
+        Ok(())
+    }
+
+    /// Reads a checkpoint, refusing (with what is wrong and what to do) a file that is not one, one
+    /// of another format version, a truncated one and one whose checksum does not match.
+    pub fn read(path: &Path) -> Result<Checkpoint> {
+        let bytes = std::fs::read(path)
+            .map_err(|e| anyhow!("cannot read the checkpoint {}: {}", path.display(), io_reason(&e)))?;
+        Checkpoint::from_bytes(&bytes).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
+    }
+
+    pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint> {
+        let magic_len = bytes.len().min(MAGIC.len());
+        if bytes[..magic_len] != MAGIC[..magic_len] || bytes.is_empty() {
+            bail!(
+                "is not an mpm checkpoint (it does not begin with the checkpoint header); give a file \
+                 that `mpm run --checkpoint DIR` or the viewer's snapshot wrote (*.{EXTENSION})"
+            );
+        }
+        if bytes.len() < HEADER_BYTES {
+            bail!(
+                "is truncated: {} bytes, less than the {HEADER_BYTES}-byte header (the write was cut \
+                 off, or the file was copied in part); use an earlier checkpoint",
+                bytes.len()
+            );
+        }
+        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
+        let version = word(8);
+        if version != FORMAT_VERSION {
+            bail!(
+                "is of checkpoint format version {version}, but this mpm reads version {FORMAT_VERSION}{}",
+                if version > FORMAT_VERSION {
+                    ": it was written by a newer mpm; resume it with that one"
+                } else {
+                    " (the file is damaged: no version below 1 exists)"
+                }
+            );
+        }
+        let body = u64::from_le_bytes(bytes[16..24].try_into().expect("8 bytes"));
+        let expected = (HEADER_BYTES as u64)
+            .checked_add(body)
+            .and_then(|b| b.checked_add(CHECKSUM_BYTES as u64))
+            .context("is damaged: its header gives an impossible length")?;
+        let actual = bytes.len() as u64;
+        if actual < expected {
+            bail!(
+                "is truncated: {actual} bytes of the {expected} its header announces (the write was cut \
+                 off, or the file was copied in part); use an earlier checkpoint"
+            );
+        }
+        if actual > expected {
+            bail!(
+                "has {} bytes after its end ({actual} bytes, {expected} announced): it was changed \
+                 after it was written; use an earlier checkpoint",
+                actual - expected
+            );
+        }
+        let end = expected as usize - CHECKSUM_BYTES;
+        let stored = word(end);
+        let computed = crc32fast::hash(&bytes[..end]);
+        if stored != computed {
+            bail!(
+                "is corrupt: its checksum does not match its contents (stored {stored:08x}, computed \
+                 {computed:08x}); the file was damaged after it was written; use an earlier checkpoint"
+            );
+        }
+        Body {
+            bytes: &bytes[HEADER_BYTES..end],
+        }
+        .checkpoint()
+        .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")
+    }
+}
+
+/// Reads the body's fields in order.
+struct Body<'a> {
+    bytes: &'a [u8],
+}
+
+impl Body<'_> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&[u8]> {
+        ensure!(self.bytes.len() >= n, "the body ends inside {what}");
+        let (head, rest) = self.bytes.split_at(n);
+        self.bytes = rest;
+        Ok(head)
+    }
+
+    fn u64(&mut self, what: &str) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.take(8, what)?.try_into()?))
+    }
+
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into()?))
+    }
+
+    fn words(&mut self, n: usize, what: &str) -> Result<Vec<u32>> {
+        let bytes = self.take(n.checked_mul(4).context("too many words")?, what)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes(w.try_into().expect("4 bytes")))
+            .collect())
+    }
+
+    fn vectors<T: bytemuck::Pod>(&mut self, n: usize, what: &str) -> Result<Vec<T>> {
+        let words = self.words(n * std::mem::size_of::<T>() / 4, what)?;
+        Ok(bytemuck::cast_slice(&words).to_vec())
+    }
+
+    fn checkpoint(mut self) -> Result<Checkpoint> {
+        let meta_len = usize::try_from(self.u64("the scene's length")?)?;
+        let meta: Meta = serde_json::from_slice(self.take(meta_len, "the scene")?)?;
+        let params: Params =
+            bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?));
+        let mut clock = RunClock {
+            frame: self.u64("the clock")?,
+            time: f64::from_bits(self.u64("the clock")?),
+            signal_speed: f32::from_bits(self.u32("the clock")?),
+            signal_rise: f32::from_bits(self.u32("the clock")?),
+            late_layers: self.u64("the clock")?,
+            emitter_phases: Vec::new(),
+        };
+        for _ in 0..meta.emitters {
+            clock
+                .emitter_phases
+                .push(f64::from_bits(self.u64("the emitters' phases")?));
+        }
+        let n = usize::try_from(meta.particles)?;
+        ensure!(
+            self.bytes.len() >= BYTES_PER_PARTICLE * n,
+            "{} bytes of particles for {n} particles",
+            self.bytes.len()
+        );
+        let particles = Particles {
+            x: self.vectors::<Vec3>(n, "positions")?,
+            v: self.vectors::<Vec3>(n, "velocities")?,
+            c: self.vectors::<Mat3>(n, "affine matrices")?,
+            rho: self.vectors::<f32>(n, "densities")?,
+            live: self.take(n, "live flags")?.iter().map(|&b| b != 0).collect(),
+        };
+        let flow = if meta.flow {
+            let free_len = usize::try_from(self.u64("the free slots")?)?;
+            let free = self.words(free_len, "the free slots")?;
+            let sorted = usize::try_from(self.u64("the free slots")?)?;
+            let last_len = usize::try_from(self.u64("the nozzle points")?)?;
+            let last = self.words(last_len, "the nozzle points")?;
+            let mut counts = [0u64; 5];
+            for count in &mut counts {
+                *count = self.u64("the flow counts")?;
+            }
+            let [live, emitted, drained, exhausted, blocked] = counts;
+            ensure!(
+                sorted <= free.len(),
+                "{sorted} sorted of {} free slots",
+                free.len()
+            );
+            Some(FlowState {
+                free,
+                sorted,
+                last,
+                counts: FlowCounts {
+                    live,
+                    emitted,
+                    drained,
+                    exhausted,
+                    blocked,
+                },
+            })
+        } else {
+            None
+        };
+        ensure!(
+            self.bytes.is_empty(),
+            "{} bytes after the state",
+            self.bytes.len()
+        );
+        Ok(Checkpoint {
+            flow,
+            scene_source: meta.scene_source,
+            scene_toml: meta.scene_toml,
+            backend: meta.backend,
+            pipeline: meta.pipeline,
+            scatter: meta.scatter,
+            params,
+            clock,
+            particles,
+        })
+    }
+}
+
+/// The lifecycle's state as the body stores it.
+fn flow_bytes(state: &FlowState) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend((state.free.len() as u64).to_le_bytes());
+    out.extend(state.free.iter().flat_map(|w| w.to_le_bytes()));
+    out.extend((state.sorted as u64).to_le_bytes());
+    out.extend((state.last.len() as u64).to_le_bytes());
+    out.extend(state.last.iter().flat_map(|w| w.to_le_bytes()));
+    let c = &state.counts;
+    for count in [c.live, c.emitted, c.drained, c.exhausted, c.blocked] {
+        out.extend(count.to_le_bytes());
+    }
+    out
+}
+
+fn write_words(out: &mut impl Write, words: &[u32]) -> std::io::Result<()> {
+    // Little-endian whatever the machine; in chunks, so a large state needs no second copy.
+    let mut chunk = Vec::with_capacity(4 * 4096);
+    for part in words.chunks(4096) {
+        chunk.clear();
+        chunk.extend(part.iter().flat_map(|w| w.to_le_bytes()));
+        out.write_all(&chunk)?;
+    }
+    Ok(())
+}
+
+/// Passes bytes on and keeps their CRC-32.
+struct Crc32Writer<W> {
+    inner: W,
+    hasher: crc32fast::Hasher,
+}
+
+impl<W: Write> Crc32Writer<W> {
+    fn new(inner: W) -> Self {
+        Crc32Writer {
+            inner,
+            hasher: crc32fast::Hasher::new(),
+        }
+    }
+}
+
+impl<W: Write> Write for Crc32Writer<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The checkpoints of one `mpm run`: `checkpoint_NNNNNN.mpmck` (the frame number) in one directory,
+/// every K-th frame and at the run's last frame.
+pub struct CheckpointSeries {
+    dir: PathBuf,
+    every: u64,
+}
+
+impl CheckpointSeries {
+    /// Claims `dir` (created if needed). A run from the start refuses a directory that already holds
+    /// checkpoints; a run resumed at frame F keeps those up to F (the run it continues) and refuses
+    /// later ones, which it would replace. `overwrite` removes the ones refused instead.
+    pub fn new(dir: &Path, every: u64, resumed_at: Option<u64>, overwrite: bool) -> Result<CheckpointSeries> {
+        ensure!(every >= 1, "--checkpoint-every must be at least 1");
+        let clashes = |name: &str| match (checkpoint_frame(name), resumed_at) {
+            (Some(frame), Some(start)) => frame > start,
+            (Some(_), None) => true,
+            (None, _) => false,
+        };
+        claim_output_dir(
+            dir,
+            "--checkpoint",
+            "checkpoint",
+            ("checkpoint", "checkpoints"),
+            clashes,
+            overwrite,
+        )?;
+        Ok(CheckpointSeries {
+            dir: dir.to_path_buf(),
+            every,
+        })
+    }
+
+    /// Whether the run writes a checkpoint after `frame` (`last`: the run's final frame).
+    pub fn wants(&self, frame: u64, last: bool) -> bool {
+        last || frame % self.every == 0
+    }
+
+    pub fn path_of(&self, frame: u64) -> PathBuf {
+        self.dir.join(format!("checkpoint_{frame:06}.{EXTENSION}"))
+    }
+
+    /// Writes the state of `sim` as its frame's checkpoint.
+    pub fn write(&self, sim: &mut Simulation) -> Result<PathBuf> {
+        let path = self.path_of(sim.frame());
+        Checkpoint::capture(sim)?.write_new(&path)?;
+        Ok(path)
+    }
+}
+
+/// The frame of a series' checkpoint file name, `None` for other names.
+fn checkpoint_frame(name: &str) -> Option<u64> {
+    name.strip_prefix("checkpoint_")?
+        .strip_suffix(&format!(".{EXTENSION}"))?
+        .parse()
+        .ok()
+}

@@ -1,0 +1,328 @@
+//! Checkpoint and restart on the CPU backends: a resumed run is byte for byte the uninterrupted one,
+//! and a corrupt, truncated, foreign or newer file is refused with a clear error. The same identity on
+//! the GPU is in tests/gpu_lifecycle.rs.
+
+use mpm::backend::{self, BackendKind};
+use mpm::checkpoint::{Checkpoint, CheckpointSeries, FORMAT_VERSION};
+use mpm::sim::{ScatterMode, Scene, Simulation};
+use std::path::Path;
+use std::process::{Command, Output};
+
+mod common;
+
+fn mpm(args: &[&str]) -> Output {
+    Command::new(common::mpm_binary())
+        .args(args)
+        .output()
+        .expect("running mpm")
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "mpm failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The statistics lines of a run's stdout, without the wall-clock timing.
+fn frame_lines(stdout: &str) -> Vec<String> {
+    stdout
+        .lines()
+        .filter(|l| l.starts_with("frame"))
+        .map(|l| l.split("  step=").next().unwrap_or(l).to_string())
+        .collect()
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().expect("temp paths are UTF-8")
+}
+
+/// The dam break at 2.5 cm under the CFL policy: the substep follows the collapse's rising speeds, so
+/// the time-step policy's memory matters to the frames after a resume.
+fn run_and_resume(backend: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
+    let common = [
+        "run",
+        "--backend",
+        backend,
+        "--scatter",
+        "fixed-point",
+        "--checkpoint-every",
+        "3",
+    ];
+    let mut args = common.to_vec();
+    args.extend([
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "10",
+        "--checkpoint",
+        path(&whole),
+    ]);
+    let uninterrupted = ok(&mpm(&args));
+    for frame in [3, 6, 9, 10] {
+        let file = whole.join(format!("checkpoint_{frame:06}.mpmck"));
+        assert!(file.is_file(), "no checkpoint at frame {frame}:\n{uninterrupted}");
+    }
+    let start = whole.join("checkpoint_000003.mpmck");
+    // At frame 3 the collapse is speeding up: the policy's memory of the rise shapes the next substeps,
+    // so a resume that lost it would step differently (and this test would see it).
+    let clock = Checkpoint::read(&start).unwrap().clock;
+    assert!(
+        clock.signal_rise > 0.0,
+        "the test needs a rising signal speed at its start: {clock:?}"
+    );
+    let mut args = common.to_vec();
+    args.extend([
+        "--resume",
+        path(&start),
+        "--frames",
+        "7",
+        "--checkpoint",
+        path(&resumed),
+    ]);
+    let continued = ok(&mpm(&args));
+    assert!(continued.contains("resumed from"), "{continued}");
+
+    let lines = frame_lines(&uninterrupted);
+    assert_eq!(
+        frame_lines(&continued),
+        lines[3..],
+        "the resumed run's frames differ from the uninterrupted run's"
+    );
+    for frame in [6, 9, 10] {
+        let name = format!("checkpoint_{frame:06}.mpmck");
+        let (a, b) = (
+            std::fs::read(whole.join(&name)).unwrap(),
+            std::fs::read(resumed.join(&name)).unwrap(),
+        );
+        assert!(
+            a == b,
+            "{name}: the resumed run's state is not byte-identical to the uninterrupted run's"
+        );
+    }
+    assert!(
+        !resumed.join("checkpoint_000003.mpmck").exists(),
+        "the resumed run rewrote the frame it started from"
+    );
+}
+
+#[test]
+fn a_resumed_cpu_run_is_byte_identical_to_an_uninterrupted_one() {
+    run_and_resume("cpu");
+}
+
+#[test]
+fn a_resumed_cpu_parallel_run_is_byte_identical_to_an_uninterrupted_one() {
+    run_and_resume("cpu-parallel");
+}
+
+fn small_sim(frames: u64) -> Simulation {
+    let mut scene = Scene::load("dam-break-coarse").unwrap();
+    scene.scatter = ScatterMode::FixedPoint;
+    let solver = backend::create(BackendKind::Cpu, &scene).unwrap();
+    let mut sim = Simulation::new(scene, solver);
+    for _ in 0..frames {
+        sim.advance_frame().unwrap();
+    }
+    sim
+}
+
+#[test]
+fn a_checkpoint_reads_back_as_written_and_holds_the_whole_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = small_sim(3);
+    sim.set_viscosity(0.25).unwrap(); // a live change the scene text does not know
+    let saved = Checkpoint::capture(&mut sim).unwrap();
+    let file = dir.path().join("a.mpmck");
+    saved.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    assert_eq!(read, saved);
+    assert_eq!(read.clock.frame, 3);
+    assert!(
+        read.particles.c.iter().any(|c| *c != glam::Mat3::ZERO),
+        "C was not saved"
+    );
+    assert_eq!(read.params.material.viscosity, 0.25);
+    let resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
+    assert_eq!(resumed.params().material.viscosity, 0.25);
+    assert_eq!((resumed.frame(), resumed.time()), (3, saved.clock.time));
+    // Nothing but the checkpoint was left in the directory (no temporary file).
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["a.mpmck"]);
+}
+
+#[test]
+fn an_existing_file_is_never_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("mine.mpmck");
+    std::fs::write(&file, "a user's file").unwrap();
+    let e = Checkpoint::capture(&mut small_sim(0))
+        .unwrap()
+        .write_new(&file)
+        .unwrap_err();
+    assert!(format!("{e:#}").contains("not overwriting"), "{e:#}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "a user's file");
+}
+
+/// A written checkpoint's bytes, for damaging.
+fn checkpoint_bytes() -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("c.mpmck");
+    Checkpoint::capture(&mut small_sim(1))
+        .unwrap()
+        .write_new(&file)
+        .unwrap();
+    std::fs::read(file).unwrap()
+}
+
+fn refusal(bytes: &[u8]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("damaged.mpmck");
+    std::fs::write(&file, bytes).unwrap();
+    let e = Checkpoint::read(&file).expect_err("a damaged checkpoint was accepted");
+    let text = format!("{e:#}");
+    assert!(
+        text.contains("damaged.mpmck"),
+        "the error does not name the file: {text}"
+    );
+    text
+}
+
+#[test]
+fn a_corrupt_checkpoint_is_refused() {
+    let mut bytes = checkpoint_bytes();
+    let middle = bytes.len() / 2; // inside the particles
+    bytes[middle] ^= 0x10;
+    let text = refusal(&bytes);
+    assert!(text.contains("corrupt") && text.contains("checksum"), "{text}");
+}
+
+#[test]
+fn a_truncated_checkpoint_is_refused() {
+    let bytes = checkpoint_bytes();
+    for cut in [bytes.len() - 1, bytes.len() / 2, 20] {
+        let text = refusal(&bytes[..cut]);
+        assert!(text.contains("truncated"), "cut at {cut}: {text}");
+    }
+    let mut longer = bytes.clone();
+    longer.extend_from_slice(b"extra");
+    assert!(refusal(&longer).contains("after its end"));
+}
+
+#[test]
+fn a_foreign_file_is_refused() {
+    for foreign in [
+        b"name = \"dam-break\"\n".to_vec(),
+        b"\x89PNG\r\n\x1a\n0000000000000000".to_vec(),
+        Vec::new(),
+    ] {
+        let text = refusal(&foreign);
+        assert!(text.contains("not an mpm checkpoint"), "{text}");
+    }
+}
+
+#[test]
+fn a_newer_format_is_refused_with_what_to_do() {
+    let mut bytes = checkpoint_bytes();
+    bytes[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+    let text = refusal(&bytes);
+    assert!(text.contains("newer mpm"), "{text}");
+}
+
+#[test]
+fn the_cli_refuses_a_bad_checkpoint_before_creating_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.mpmck");
+    std::fs::write(&bad, "not a checkpoint").unwrap();
+    let out_dir = dir.path().join("out");
+    let out = mpm(&["run", "--resume", path(&bad), "--checkpoint", path(&out_dir)]);
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(text.contains("not an mpm checkpoint"), "{text}");
+    assert!(
+        !out_dir.exists(),
+        "the checkpoint directory was created for a run that never started"
+    );
+}
+
+#[test]
+fn checkpoints_of_another_run_are_not_mixed_with_or_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = dir.path().join("series");
+    ok(&mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(&series),
+        "--checkpoint-every",
+        "1",
+    ]));
+    let first = std::fs::read(series.join("checkpoint_000002.mpmck")).unwrap();
+    // A fresh run into the same directory is refused...
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(&series),
+    ]);
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains("already holds 2 checkpoints") && text.contains("--overwrite"),
+        "{text}"
+    );
+    // ...and so is a resume at frame 1, which would replace frame 2...
+    let at_1 = series.join("checkpoint_000001.mpmck");
+    let out = mpm(&[
+        "run",
+        "--resume",
+        path(&at_1),
+        "--frames",
+        "1",
+        "--checkpoint",
+        path(&series),
+    ]);
+    assert!(!out.status.success(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(
+        std::fs::read(series.join("checkpoint_000002.mpmck")).unwrap(),
+        first
+    );
+    // ...while resuming the latest one goes on in the same directory.
+    let at_2 = series.join("checkpoint_000002.mpmck");
+    ok(&mpm(&[
+        "run",
+        "--resume",
+        path(&at_2),
+        "--frames",
+        "1",
+        "--checkpoint",
+        path(&series),
+    ]));
+    assert!(series.join("checkpoint_000003.mpmck").is_file());
+}
+
+#[test]
+fn a_series_writes_every_kth_frame_and_the_last() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = CheckpointSeries::new(dir.path(), 3, None, false).unwrap();
+    let wanted: Vec<u64> = (1..=7).filter(|&f| series.wants(f, f == 7)).collect();
+    assert_eq!(wanted, [3, 6, 7]);
+}
