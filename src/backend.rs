@@ -21,6 +21,10 @@ pub enum BackendKind {
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU
 /// backend with a one-line notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
+    if matches!(kind, BackendKind::Cuda | BackendKind::Auto) {
+        // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
+        scene.check_pipeline()?;
+    }
     let parallel = || -> Box<dyn Solver> { Box::new(ParallelCpuSolver::new(scene.spawn(), scene.grid_res)) };
     match kind {
         BackendKind::Cpu => Ok(Box::new(CpuSolver::new(scene.spawn(), scene.grid_res))),

@@ -4,6 +4,7 @@
 //! default makes sense), then validated into a [`Scene`] (what the solver runs, every value checked).
 //! Every refusal names the file, the key and the fix.
 
+use super::colliders::{self, ColliderFrame, ColliderSpec, Colliders, MAX_COLLIDERS};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use glam::{DVec3, Vec3};
@@ -59,6 +60,8 @@ pub struct SceneSpec {
     pub blocks: Vec<BlockSpec>,
     #[serde(default, rename = "sphere")]
     pub spheres: Vec<SphereSpec>,
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderSpec>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -225,6 +228,8 @@ pub struct Scene {
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,
     pub bodies: Vec<Body>,
+    /// Obstacles and kinematic bodies (none in most scenes). No fluid spawns inside them.
+    pub colliders: Colliders,
     /// Exact number of particles [`Scene::spawn`] makes.
     pub num_particles: usize,
 }
@@ -369,8 +374,9 @@ impl Scene {
             c: vec![glam::Mat3::ZERO; self.num_particles],
             rho: vec![self.material.rest_density; self.num_particles],
         };
+        let colliders = self.colliders_at_start();
         for (k, body) in self.bodies.iter().enumerate() {
-            for p in self.own_points(&lattice, k) {
+            for p in self.own_points(&lattice, k, &colliders) {
                 particles.x.push(p.as_vec3());
                 particles.v.push(body.velocity);
             }
@@ -380,10 +386,37 @@ impl Scene {
     }
 
     /// The lattice points of body `k` that no earlier body covers: where its particles go.
-    fn own_points<'a>(&'a self, lattice: &'a Lattice, k: usize) -> impl Iterator<Item = DVec3> + 'a {
-        lattice
-            .points(&self.bodies[k].shape)
-            .filter(move |&p| !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
+    /// Points inside a collider (at time 0) are left out too.
+    fn own_points<'a>(
+        &'a self,
+        lattice: &'a Lattice,
+        k: usize,
+        colliders: &'a ColliderFrame,
+    ) -> impl Iterator<Item = DVec3> + 'a {
+        lattice.points(&self.bodies[k].shape).filter(move |&p| {
+            !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)) && !colliders.contains(p.as_vec3())
+        })
+    }
+
+    /// The colliders at time 0.
+    fn colliders_at_start(&self) -> ColliderFrame {
+        self.colliders.frame(0.0)
+    }
+
+    /// Refuses colliders on the report pipeline (whose kernels do not apply them), naming the fix.
+    pub fn check_pipeline(&self) -> Result<(), SceneError> {
+        if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
+            return Err(SceneError {
+                source: self.source.clone(),
+                key: "solver.pipeline".into(),
+                problem: format!(
+                    "= \"report\" cannot run this scene's {} collider(s): only the binned pipeline applies colliders",
+                    self.colliders.len()
+                ),
+                fix: "use --pipeline binned (or solver.pipeline = \"binned\", the default)".into(),
+            });
+        }
+        Ok(())
     }
 
     /// Total particle mass, kg.
@@ -529,7 +562,9 @@ impl Validator<'_> {
         let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
         let bodies = self.bodies(spec, grid_res, dx, band, spec.solver.soft_wall)?;
         let max_body_speed = bodies.iter().map(|b| b.velocity.length()).fold(0.0, f32::max);
-        let time_step = self.time_step(&spec.time_step, &material, dx, max_body_speed)?;
+        let colliders = self.colliders(spec, grid_res, dx)?;
+        let max_speed = max_body_speed.max(colliders.max_speed());
+        let time_step = self.time_step(&spec.time_step, &material, dx, max_speed)?;
 
         let mut scene = Scene {
             name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
@@ -547,6 +582,7 @@ impl Validator<'_> {
             time_step,
             particles_per_axis,
             bodies,
+            colliders,
             num_particles: 0,
         };
         // The exact count walks every lattice point: refuse absurd sizes from the volume estimate first.
@@ -765,6 +801,30 @@ impl Validator<'_> {
         Ok(bodies)
     }
 
+    fn colliders(&self, spec: &SceneSpec, res: [u32; 3], dx: f64) -> Result<Colliders, SceneError> {
+        if spec.colliders.len() > MAX_COLLIDERS {
+            return Err(self.err(
+                format!("collider[{MAX_COLLIDERS}]"),
+                format!("is one of {} colliders, more than the {MAX_COLLIDERS} a scene may have", spec.colliders.len()),
+                "merge obstacles into one mesh collider, or drop some",
+            ));
+        }
+        // Mesh files are found beside the scene file.
+        let dir = Path::new(self.source).parent().map(Path::to_path_buf).unwrap_or_default();
+        let resolve = |file: &str| dir.join(file);
+        let domain = DVec3::from(res.map(f64::from)) * dx;
+        let list = spec
+            .colliders
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                colliders::validate(c, &resolve, domain, dx)
+                    .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Colliders::new(list, dx as f32))
+    }
+
     fn time_step(
         &self,
         t: &TimeStepSpec,
@@ -821,9 +881,10 @@ impl Validator<'_> {
 
     fn count_particles(&self, scene: &Scene) -> Result<usize, SceneError> {
         let lattice = scene.lattice();
+        let colliders = scene.colliders_at_start();
         let mut total = 0usize;
         for (k, body) in scene.bodies.iter().enumerate() {
-            let own = scene.own_points(&lattice, k).count();
+            let own = scene.own_points(&lattice, k, &colliders).count();
             if own == 0 {
                 let blocks = scene.bodies[..k]
                     .iter()
@@ -836,10 +897,10 @@ impl Validator<'_> {
                 return Err(self.err(
                     key,
                     format!(
-                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body)",
+                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body or a collider)",
                         lattice.spacing
                     ),
-                    "make it larger than one cell, or move it out of the bodies listed before it",
+                    "make it larger than one cell, or move it out of the bodies listed before it and the colliders",
                 ));
             }
             total += own;
