@@ -237,3 +237,236 @@ fn wavenumber(omega: f64, h: f64) -> f64 {
     }
     k
 }
+
+// ---------------------------------------------------------------------------------------------
+// Bad colliders and meshes.
+
+/// A 20^3-node box of water (0.2 m) with one collider table (and a mesh file `dir` may hold).
+fn water_with(collider: &str) -> String {
+    common::water_box(
+        20,
+        &format!("[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.1, 0.1, 0.1]\n[[collider]]\n{collider}"),
+    )
+}
+
+/// An axis-aligned cube of edge 2 h about the origin as OBJ text, outward-facing; without the last
+/// face when `open`.
+fn cube_obj(h: f64, open: bool) -> String {
+    let mut text = String::new();
+    for i in 0..8 {
+        let c = |bit: usize| if i >> bit & 1 == 1 { h } else { -h };
+        text += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    let faces = [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ];
+    for f in &faces[..if open { 5 } else { 6 }] {
+        text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    text
+}
+
+#[test]
+fn bad_colliders_are_refused_with_the_key_and_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("open.obj"), cube_obj(0.03, true)).unwrap();
+    let scene_path = dir.path().join("scene.toml");
+    let cases = [
+        (
+            "outside the domain",
+            "shape = \"sphere\"\ncenter = [0.5, 0.1, 0.1]\nradius = 0.05",
+            "collider[0].center",
+            "outside the domain",
+        ),
+        (
+            "an open mesh",
+            "shape = \"mesh\"\nfile = \"open.obj\"\ncenter = [0.15, 0.1, 0.1]",
+            "collider[0].file",
+            "not a closed mesh",
+        ),
+        (
+            "an unknown boundary kind",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\nboundary = \"sticky\"",
+            "collider[0].boundary",
+            "not a boundary kind",
+        ),
+        (
+            "negative friction",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\nfriction = -0.2",
+            "collider[0].friction",
+            "zero or positive",
+        ),
+        (
+            "zero size",
+            "shape = \"box\"\ncenter = [0.15, 0.1, 0.1]\nsize = [0.05, 0.0, 0.05]",
+            "collider[0].size[1]",
+            "positive",
+        ),
+        (
+            "zero radius",
+            "shape = \"capsule\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.0\nlength = 0.05",
+            "collider[0].radius",
+            "positive",
+        ),
+        (
+            "an unknown shape",
+            "shape = \"cone\"\ncenter = [0.15, 0.1, 0.1]",
+            "collider[0].shape",
+            "not a collider shape",
+        ),
+        (
+            "a missing mesh file",
+            "shape = \"mesh\"\nfile = \"nowhere.stl\"",
+            "collider[0].file",
+            "nowhere.stl",
+        ),
+        (
+            "a key of another shape",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\nsize = [0.1, 0.1, 0.1]",
+            "collider[0].size",
+            "not a key of a sphere",
+        ),
+        (
+            "two kinds of motion",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\n[collider.motion]\nvelocity = [1.0, 0.0, 0.0]\n\
+             piston = { direction = [1.0, 0.0, 0.0], amplitude = 0.01, period = 1.0 }",
+            "collider[0].motion",
+            "one kind per collider",
+        ),
+        (
+            "a piston of zero period",
+            "shape = \"box\"\ncenter = [0.15, 0.1, 0.1]\nsize = [0.02, 0.2, 0.2]\n[collider.motion]\n\
+             piston = { direction = [1.0, 0.0, 0.0], amplitude = 0.01, period = 0.0 }",
+            "collider[0].motion.piston.period",
+            "positive",
+        ),
+    ];
+    for (what, collider, key, words) in cases {
+        std::fs::write(&scene_path, water_with(collider)).unwrap();
+        let e = match Scene::load(scene_path.to_str().unwrap()) {
+            Ok(_) => panic!("accepted {what}"),
+            Err(e) => e,
+        };
+        let message = e.to_string();
+        println!("{what}: {message}");
+        assert_eq!(e.key, key, "{what}: {message}");
+        assert!(message.contains(words), "{what}: `{words}` not in: {message}");
+        assert!(!e.fix.is_empty(), "{what}: no fix in {message}");
+    }
+}
+
+#[test]
+fn colliders_on_the_report_pipeline_are_refused_naming_the_binned_pipeline() {
+    let mut scene = common::scene(&water_with("shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03"));
+    assert!(scene.check_pipeline().is_ok());
+    scene.pipeline = mpm::sim::Pipeline::Report;
+    let e = scene.check_pipeline().unwrap_err().to_string();
+    assert!(e.contains("--pipeline binned"), "{e}");
+    let e = backend::create(BackendKind::Cuda, &scene).err().expect("refused").to_string();
+    assert!(e.contains("--pipeline binned"), "refused before any device work: {e}");
+}
+
+/// A cube mesh read from OBJ and from STL has the distance field of the same box collider, and no
+/// fluid spawns inside it.
+#[test]
+fn a_closed_mesh_collider_matches_the_box_it_describes() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cube.obj"), cube_obj(0.03, false)).unwrap();
+    // The same cube as STL, through stl_io's writer.
+    let obj = tobj_free_triangles(&cube_obj(0.03, false));
+    let stl: Vec<stl_io::Triangle> = obj
+        .iter()
+        .map(|t| stl_io::Triangle {
+            normal: stl_io::Normal::new([0.0; 3]),
+            vertices: t.map(|v| stl_io::Vertex::new(v)),
+        })
+        .collect();
+    let mut file = std::fs::File::create(dir.path().join("cube.stl")).unwrap();
+    stl_io::write_stl(&mut file, stl.iter()).unwrap();
+    drop(file);
+    let scene_path = dir.path().join("scene.toml");
+    let center = "center = [0.15, 0.1, 0.1]";
+    std::fs::write(&scene_path, water_with(&format!("shape = \"box\"\n{center}\nsize = [0.06, 0.06, 0.06]"))).unwrap();
+    let reference = Scene::load(scene_path.to_str().unwrap()).unwrap().colliders.frame(0.0);
+    for file in ["cube.obj", "cube.stl"] {
+        std::fs::write(&scene_path, water_with(&format!("shape = \"mesh\"\nfile = \"{file}\"\n{center}"))).unwrap();
+        let scene = Scene::load(scene_path.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
+        let frame = scene.colliders.frame(0.0);
+        let mut worst = 0.0f32;
+        for i in 0..400 {
+            // Points on a jittered lattice around the cube, inside the sampled box.
+            let t = i as f32;
+            let x = Vec3::new(0.15, 0.1, 0.1) + Vec3::new((t * 0.37).sin(), (t * 0.73).cos(), (t * 1.31).sin()) * 0.04;
+            let (a, _) = frame.distance(&frame.states[0], x);
+            let (b, _) = reference.distance(&reference.states[0], x);
+            // Deep inside, the exact field peaks (a pyramid) and trilinear samples round the peak off:
+            // there only the sign is held to; the boundary conditions read the field near the surface.
+            assert_eq!(a < 0.0, b < 0.0, "{file}: inside and outside disagree at {x}");
+            if b.abs() < 0.01 {
+                worst = worst.max((a - b).abs());
+            }
+        }
+        // Across the middle of a face the field is linear, so its samples are exact there.
+        for d in [-0.015f32, -0.004, 0.0, 0.003, 0.012] {
+            let x = Vec3::new(0.15 + 0.03 + d, 0.1, 0.1);
+            let (a, n) = frame.distance(&frame.states[0], x);
+            assert!((a - d).abs() < 1e-5 && (n - Vec3::X).length() < 1e-4, "{file}: {a} at {d} m from the face, normal {n}");
+        }
+        println!("{file}: largest distance difference from the box within a cell of its surface {worst:.2e} m (dx = 0.01)");
+        // Within a cell of the surface: trilinear samples of the exact field round its kinks and
+        // curves at the cube's edges and corners by up to about a quarter of a cell.
+        assert!(worst < 0.3 * 0.01, "{file}: {worst} m");
+        let p = scene.spawn();
+        assert!(p.x.iter().all(|x| frame.distance(&frame.states[0], *x).0 >= 0.0), "fluid spawned inside the mesh");
+    }
+}
+
+/// The triangles of OBJ text with quads (as `cube_obj` writes), without a reader: for the STL copy.
+fn tobj_free_triangles(obj: &str) -> Vec<[[f32; 3]; 3]> {
+    let mut v = Vec::new();
+    let mut t = Vec::new();
+    for line in obj.lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w[0] {
+            "v" => v.push([w[1], w[2], w[3]].map(|s| s.parse::<f32>().unwrap())),
+            "f" => {
+                let i: Vec<usize> = w[1..].iter().map(|s| s.parse::<usize>().unwrap() - 1).collect();
+                t.push([v[i[0]], v[i[1]], v[i[2]]]);
+                t.push([v[i[0]], v[i[2]], v[i[3]]]);
+            }
+            _ => {}
+        }
+    }
+    t
+}
+
+/// The reference and the multi-threaded backend apply the same colliders (a moving piston, a
+/// friction sphere and a stick capsule) to rounding: both run 40 substeps of the same scene.
+#[test]
+fn cpu_parallel_follows_the_reference_with_colliders() {
+    let scene = tank(
+        0.25,
+        "[[collider]]\nshape = \"sphere\"\ncenter = [0.3, 0.12, 0.12]\nradius = 0.06\nfriction = 0.3\n\
+         [[collider]]\nshape = \"capsule\"\ncenter = [0.15, 0.1, 0.12]\nradius = 0.03\nlength = 0.1\nrotation = [90.0, 0.0, 0.0]\nboundary = \"stick\"\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.45, 0.2, 0.12]\nsize = [0.03, 0.4, 0.3]\n\
+         [collider.motion]\npiston = { direction = [1.0, 0.0, 0.0], amplitude = 0.02, period = 0.5 }\n\
+         [[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.42, 0.2, 0.21]",
+    );
+    let mut reference = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let mut parallel = Simulation::new(scene.clone(), backend::create(BackendKind::CpuParallel, &scene).unwrap());
+    let (mut a, mut b) = (0, 0);
+    for _ in 0..3 {
+        a += reference.advance_frame().unwrap().backstop_pushes;
+        b += parallel.advance_frame().unwrap().backstop_pushes;
+    }
+    let (p, q) = (particles(&mut reference), particles(&mut parallel));
+    let worst = p.x.iter().zip(&q.x).map(|(x, y)| (*x - *y).length()).fold(0.0, f32::max) / scene.dx;
+    println!("after 3 frames: largest position difference {worst:.2e} dx; backstop pushes {a} and {b}");
+    assert!(worst < 1e-3, "{worst} dx");
+    assert_eq!(reference.backstop_pushes(), a);
+}

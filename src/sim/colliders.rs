@@ -936,10 +936,11 @@ pub fn validate(
         return Err(spec_err(
             "center",
             format!(
-                "puts the collider (centre {:?}, reaching [{:.3}, {:.3}, {:.3}] to [{:.3}, {:.3}, {:.3}]) outside the domain [0, {:?}] m",
+                "puts the collider (centre {:?}, reaching [{:.3}, {:.3}, {:.3}] to [{:.3}, {:.3}, {:.3}] m) outside \
+                 the domain [0, {}] x [0, {}] x [0, {}] m",
                 center.to_array(),
                 lo.x, lo.y, lo.z, hi.x, hi.y, hi.z,
-                domain.to_array()
+                domain.x, domain.y, domain.z
             ),
             "move the collider's centre inside the tank",
         ));
