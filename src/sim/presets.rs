@@ -2,18 +2,22 @@
 //! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 6] = [
+pub const NAMES: [&str; 8] = [
     "dam-break",
     "dam-break-coarse",
+    "dam-break-obstacle",
+    "wave-tank",
     "double-dam-break",
     "drop",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 6] = [
+const FILES: [&str; 8] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
+    include_str!("../../scenes/dam-break-obstacle.toml"),
+    include_str!("../../scenes/wave-tank.toml"),
     include_str!("../../scenes/double-dam-break.toml"),
     include_str!("../../scenes/drop.toml"),
     include_str!("../../scenes/bench-65k.toml"),
