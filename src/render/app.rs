@@ -24,6 +24,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
+use super::colliders::{ColliderDrag, ColliderRenderer};
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
@@ -139,6 +140,8 @@ struct Gpu {
     // Field order is drop order: GL users first, then the surface and context, then the window.
     egui: egui_glow::EguiGlow,
     renderer: Renderer,
+    /// The scene's colliders' meshes; `None` until built for the current scene.
+    colliders: Option<ColliderRenderer>,
     gl: Arc<glow::Context>,
     surface: Surface<WindowSurface>,
     context: PossiblyCurrentContext,
@@ -152,6 +155,8 @@ struct Mouse {
     right: bool,
     /// Drag movement since the last frame, for the push.
     push_drag: Vec2,
+    /// A collider held with Ctrl + left button.
+    collider_drag: Option<ColliderDrag>,
 }
 
 struct Recording {
@@ -297,6 +302,13 @@ impl ViewerApp {
         }
         self.sim = Some(Simulation::new(scene.clone(), solver));
         self.scene = scene;
+        self.mouse.collider_drag = None;
+        if let Some(gpu) = self.gpu.as_mut() {
+            // Rebuilt for the new scene's colliders at the next draw.
+            if let Some(mut meshes) = gpu.colliders.take() {
+                meshes.destroy();
+            }
+        }
         self.clock.reset();
         self.over_cfl = 0;
         self.step_owed = false;
@@ -401,6 +413,7 @@ impl ViewerApp {
         Ok(Gpu {
             egui,
             renderer,
+            colliders: None,
             gl,
             surface,
             context,
@@ -596,6 +609,11 @@ impl ViewerApp {
                 dt: self.last_steps.1,
                 max_cfl: self.last_steps.2,
                 substeps_over_cfl: self.over_cfl,
+                backstop_pushes: self
+                    .sim
+                    .as_ref()
+                    .filter(|s| !s.colliders().is_empty())
+                    .map(|s| s.backstop_pushes()),
                 frame_in_progress: self.sim.as_ref().is_some_and(|s| s.time_stepped() > s.time()),
                 sim_time: self.sim.as_ref().map_or(0.0, |s| s.time()),
                 wall_time: self.started.elapsed().as_secs_f64(),
@@ -637,6 +655,14 @@ impl ViewerApp {
             count,
             domain,
         );
+        if let Some(sim) = &self.sim {
+            if gpu.colliders.is_none() {
+                gpu.colliders = Some(ColliderRenderer::new(gpu.gl.clone(), sim.colliders())?);
+            }
+            if let Some(meshes) = &gpu.colliders {
+                meshes.draw(self.scene_viewport, &self.camera, &sim.collider_frame());
+            }
+        }
 
         let last_frame = self
             .options
@@ -688,20 +714,49 @@ impl ViewerApp {
         Ok(())
     }
 
+    /// The cursor relative to the scene's viewport (window y runs down, GL's up), and the viewport's
+    /// size; `None` without a window.
+    fn scene_cursor(&self) -> Option<(Vec2, Vec2)> {
+        let gpu = self.gpu.as_ref()?;
+        let window_height = gpu.window.inner_size().height as f32;
+        let vp = self.scene_viewport;
+        let size = Vec2::new(vp.width as f32, vp.height as f32);
+        let top = window_height - (vp.y as f32 + vp.height as f32);
+        Some((self.mouse.position - Vec2::new(vp.x as f32, top), size))
+    }
+
+    /// Ctrl + left button: takes hold of the collider under the cursor, if any; on release lets it
+    /// go (it stays where it is, at rest).
+    fn collider_button(&mut self, pressed: bool) {
+        let cursor = self.scene_cursor();
+        let Some(sim) = self.sim.as_mut() else { return };
+        if pressed {
+            if let Some((cursor, size)) = cursor {
+                self.mouse.collider_drag = ColliderDrag::grab(sim, &self.camera, cursor, size);
+            }
+        } else if let Some(held) = self.mouse.collider_drag.take() {
+            if let Err(e) = held.release(sim) {
+                self.message = Some(format!("drag failed: {e:#}"));
+            }
+        }
+    }
+
     /// Completes up to `frames` 60 Hz frames, applying the pending push first, and returns how many it
     /// completed. It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next
     /// draw. A failed step pauses the viewer with the reason shown, rather than closing it.
     fn step(&mut self, frames: u32) -> Result<u32> {
+        let scene_cursor = self.scene_cursor();
         let Some(sim) = &mut self.sim else { return Ok(0) };
+        if let (Some(held), Some((cursor, size))) = (self.mouse.collider_drag, scene_cursor) {
+            if frames > 0 {
+                if let Err(e) = held.follow(sim, &self.camera, cursor, size, frames) {
+                    self.message = Some(format!("drag failed: {e:#}"));
+                }
+            }
+        }
         let drag = std::mem::take(&mut self.mouse.push_drag);
         if drag != Vec2::ZERO && frames > 0 {
-            if let Some(gpu) = &self.gpu {
-                // The cursor relative to the scene's viewport (window y runs down, GL's up).
-                let window_height = gpu.window.inner_size().height as f32;
-                let vp = self.scene_viewport;
-                let size = Vec2::new(vp.width as f32, vp.height as f32);
-                let top = window_height - (vp.y as f32 + vp.height as f32);
-                let cursor = self.mouse.position - Vec2::new(vp.x as f32, top);
+            if let Some((cursor, size)) = scene_cursor {
                 let (origin, direction) = self.camera.ray(cursor, size);
                 // The drag in world units, along the camera's right and up axes.
                 let view = self.camera.view();
@@ -820,7 +875,12 @@ impl ApplicationHandler for ViewerApp {
                     return;
                 }
                 match button {
-                    MouseButton::Left => self.mouse.left = pressed,
+                    MouseButton::Left => {
+                        self.mouse.left = pressed;
+                        if (pressed && self.modifiers.control_key()) || (!pressed && self.mouse.collider_drag.is_some()) {
+                            self.collider_button(pressed);
+                        }
+                    }
                     MouseButton::Right | MouseButton::Middle => self.mouse.right = pressed,
                     _ => {}
                 }
@@ -833,7 +893,9 @@ impl ApplicationHandler for ViewerApp {
                     return;
                 }
                 let height = self.scene_viewport.height as f32;
-                if self.mouse.left && self.modifiers.shift_key() {
+                if self.mouse.collider_drag.is_some() {
+                    // The held collider follows the cursor at the next step.
+                } else if self.mouse.left && self.modifiers.shift_key() {
                     self.mouse.push_drag += delta;
                 } else if self.mouse.left {
                     self.camera.orbit(delta);
@@ -862,6 +924,9 @@ impl ApplicationHandler for ViewerApp {
         self.feed.release();
         self.sim = None;
         if let Some(mut gpu) = self.gpu.take() {
+            if let Some(mut meshes) = gpu.colliders.take() {
+                meshes.destroy();
+            }
             gpu.renderer.destroy();
             gpu.egui.destroy();
         }

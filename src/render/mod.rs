@@ -3,6 +3,7 @@
 //! - [`camera`]: orbit/pan/zoom camera (glam) that frames the domain.
 //! - [`renderer`]: points, sphere impostors, domain wireframe, colour bar (glow); shared by the
 //!   window and the headless path.
+//! - [`colliders`]: the colliders drawn solid and shaded, and dragged with the mouse.
 //! - [`feed`]: the particle state into the GL buffer: CUDA-GL interop, or a host copy.
 //! - [`capture`]: PNG screenshots and frame sequences, never overwriting.
 //! - [`headless`]: an EGL device context and framebuffer (no X server).
@@ -14,6 +15,7 @@ pub mod app;
 pub mod camera;
 pub mod capture;
 pub mod clock;
+pub mod colliders;
 pub mod feed;
 pub mod headless;
 pub mod hud;

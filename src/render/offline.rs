@@ -4,6 +4,7 @@
 
 use super::camera::OrbitCamera;
 use super::capture::FrameSequence;
+use super::colliders::ColliderRenderer;
 use super::feed::{ParticleFeed, Transfer};
 use super::headless::HeadlessGl;
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
@@ -91,6 +92,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     settings.mode = options.mode;
     settings.colouring = options.colouring;
     settings.scale_range = RenderSettings::default_range(options.colouring);
+    let mut colliders = ColliderRenderer::new(renderer.gl().clone(), &scene.colliders)?;
     let mut sim = Simulation::new(scene, solver);
     let mut feed = ParticleFeed::new(options.transfer);
 
@@ -103,6 +105,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         let stepped = Instant::now();
         let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
         renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain);
+        colliders.draw(Viewport::full(headless.size()), &camera, &sim.collider_frame());
         headless.finish();
         let drawn = Instant::now();
         if frame > WARM_UP_FRAMES {
@@ -170,6 +173,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     }
     let path = feed.path();
     feed.release();
+    colliders.destroy();
     renderer.destroy();
     Ok(RenderReport {
         timings,

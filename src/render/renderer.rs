@@ -495,11 +495,11 @@ impl Renderer {
     }
 }
 
-fn gl_error(what: &'static str) -> impl Fn(String) -> anyhow::Error {
+pub(super) fn gl_error(what: &'static str) -> impl Fn(String) -> anyhow::Error {
     move |e| anyhow!("OpenGL could not create {what}: {e}")
 }
 
-unsafe fn set_mat4(gl: &glow::Context, program: glow::Program, name: &str, m: &Mat4) {
+pub(super) unsafe fn set_mat4(gl: &glow::Context, program: glow::Program, name: &str, m: &Mat4) {
     unsafe {
         let loc = gl.get_uniform_location(program, name);
         gl.uniform_matrix_4_f32_slice(loc.as_ref(), false, &m.to_cols_array());
@@ -521,7 +521,7 @@ unsafe fn set_i32(gl: &glow::Context, program: glow::Program, name: &str, value:
 }
 
 /// Compiles and links one program; `prelude` (shared GLSL functions) follows the version line.
-unsafe fn link(
+pub(super) unsafe fn link(
     gl: &glow::Context,
     name: &str,
     vertex: &[&str],
