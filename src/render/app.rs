@@ -660,7 +660,7 @@ impl ViewerApp {
                 gpu.colliders = Some(ColliderRenderer::new(gpu.gl.clone(), sim.colliders())?);
             }
             if let Some(meshes) = &gpu.colliders {
-                meshes.draw(self.scene_viewport, &self.camera, &sim.collider_frame());
+                meshes.draw(self.scene_viewport, &self.camera, &sim.collider_frame(), domain);
             }
         }
 

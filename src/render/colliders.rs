@@ -128,10 +128,19 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 uniform mat4 u_view_proj;
 uniform mat4 u_model;
+uniform vec3 u_lo;
+uniform vec3 u_hi;
 out vec3 v_normal;
+out float gl_ClipDistance[6];
 void main() {
     v_normal = mat3(u_model) * a_normal;
-    gl_Position = u_view_proj * u_model * vec4(a_position, 1.0);
+    vec4 world = u_model * vec4(a_position, 1.0);
+    // Cut away what reaches past the tank (a paddle or a slope through the walls).
+    for (int a = 0; a < 3; ++a) {
+        gl_ClipDistance[a] = world[a] - u_lo[a];
+        gl_ClipDistance[a + 3] = u_hi[a] - world[a];
+    }
+    gl_Position = u_view_proj * world;
 }
 "#;
 
@@ -191,8 +200,8 @@ impl ColliderRenderer {
     }
 
     /// Draws every collider in its pose of `frame` into `viewport`, depth-tested against what the
-    /// particle renderer drew there.
-    pub fn draw(&self, viewport: Viewport, camera: &OrbitCamera, frame: &ColliderFrame) {
+    /// particle renderer drew there, and cut off at the faces of the box `domain` (lo, hi).
+    pub fn draw(&self, viewport: Viewport, camera: &OrbitCamera, frame: &ColliderFrame, domain: (Vec3, Vec3)) {
         if self.meshes.is_empty() {
             return;
         }
@@ -206,6 +215,13 @@ impl ColliderRenderer {
             gl.depth_func(glow::LESS);
             gl.use_program(Some(self.program));
             set_mat4(gl, self.program, "u_view_proj", &view_proj);
+            for (name, corner) in [("u_lo", domain.0), ("u_hi", domain.1)] {
+                let loc = gl.get_uniform_location(self.program, name);
+                gl.uniform_3_f32(loc.as_ref(), corner.x, corner.y, corner.z);
+            }
+            for plane in 0..6 {
+                gl.enable(glow::CLIP_DISTANCE0 + plane);
+            }
             for (mesh, state) in self.meshes.iter().zip(&frame.states) {
                 set_mat4(gl, self.program, "u_model", &model_matrix(state));
                 gl.bind_vertex_array(Some(mesh.vao));
@@ -213,6 +229,9 @@ impl ColliderRenderer {
             }
             gl.bind_vertex_array(None);
             gl.use_program(None);
+            for plane in 0..6 {
+                gl.disable(glow::CLIP_DISTANCE0 + plane);
+            }
         }
     }
 

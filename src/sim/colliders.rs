@@ -929,20 +929,20 @@ pub fn validate(
         rotation,
         motion,
     };
-    // Inside the domain: some of the collider must be (a slope may run through a wall), and so must
-    // its centre (its pose at rest), or the fluid would never meet it.
+    // Some of the collider must be inside the domain (a paddle or a slope may well run through a
+    // wall or the floor, its centre outside), or the fluid would never meet it.
     let (lo, hi) = collider_bounds(&collider);
-    if center.cmplt(DVec3::ZERO).any() || center.cmpgt(domain).any() || hi.cmple(DVec3::ZERO).any() || lo.cmpge(domain).any() {
+    if hi.cmple(DVec3::ZERO).any() || lo.cmpge(domain).any() {
         return Err(spec_err(
             "center",
             format!(
                 "puts the collider (centre {:?}, reaching [{:.3}, {:.3}, {:.3}] to [{:.3}, {:.3}, {:.3}] m) outside \
-                 the domain [0, {}] x [0, {}] x [0, {}] m",
+                 the domain [0, {:.4}] x [0, {:.4}] x [0, {:.4}] m",
                 center.to_array(),
                 lo.x, lo.y, lo.z, hi.x, hi.y, hi.z,
                 domain.x, domain.y, domain.z
             ),
-            "move the collider's centre inside the tank",
+            "move the collider so that at least part of it is inside the tank",
         ));
     }
     Ok(collider)
