@@ -29,7 +29,8 @@ struct ColliderState {
     u32 sdf_dims[3];           // mesh: samples per axis, x fastest
     float sdf_spacing;         // mesh: m
     u32 sdf_offset;            // mesh: first sample in the SDF buffer
-    u32 _pad[3];
+    float reach;               // m: a ball about the centre that holds the shape (with a margin)
+    u32 _pad[2];
 };
 static_assert(sizeof(ColliderState) == 144, "ColliderState must match src/sim/colliders.rs");
 
@@ -80,6 +81,14 @@ __device__ __forceinline__ float mesh_distance(const ColliderState& s, const flo
     const float len = collider_norm(grad);
     if (len > 0.0f) normal = v3(grad.x / len, grad.y / len, grad.z / len);
     return phi;
+}
+
+// Whether x lies farther than `margin` outside the collider's bounding ball (ColliderFrame's `beyond`):
+// the cheap test that spares most nodes and particles the shape.
+__device__ __forceinline__ bool collider_beyond(const ColliderState& s, Vec3f x, float margin) {
+    const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+    const float limit = s.reach + margin;
+    return r.x * r.x + r.y * r.y + r.z * r.z > limit * limit;
 }
 
 // Signed distance (negative inside) and outward unit normal of a shape at local point p.
@@ -162,6 +171,7 @@ __device__ __forceinline__ Vec3f collider_velocity_at(const ColliderState& s, Ve
 __device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float (&vel)[3]) {
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
+        if (collider_beyond(s, x, s.band)) continue;
         Vec3f n;
         const float phi = collider_distance(s, colliders.sdf, x, n);
         if (!(phi < s.band)) continue;
@@ -198,6 +208,7 @@ __device__ __forceinline__ bool collider_backstop(const Colliders& colliders, fl
     bool pushed = false;
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
+        if (collider_beyond(s, v3(x[0], x[1], x[2]), 0.0f)) continue;
         Vec3f n;
         const float phi = collider_distance(s, colliders.sdf, v3(x[0], x[1], x[2]), n);
         if (phi < 0.0f) {

@@ -356,7 +356,9 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
 
 // The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a
 // collider goes back to its surface, then g2p's clamp again; its speed and signal speed follow. Counted.
-__device__ __forceinline__ void collider_backstop_particle(const Params& params, const Colliders& colliders,
+// Not inlined: g2p2g is compiled for 80 registers (tiles.cuh), and its path without colliders should
+// not pay for this one's registers.
+__device__ __noinline__ void collider_backstop_particle(const Params& params, const Colliders& colliders,
                                                            float rho, G2pResult& r, u32& pushes) {
     float x[3] = {r.x.x, r.x.y, r.x.z};
     float vel[3] = {r.v.x, r.v.y, r.v.z};

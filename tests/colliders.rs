@@ -45,7 +45,9 @@ fn tank(depth: f64, extra: &str) -> Scene {
 /// The raised floor of the resting and sliding tests: a box through the x and z walls, top at
 /// y = 0.2 m, with `boundary` (TOML lines).
 fn raised_floor(boundary: &str) -> String {
-    format!("[[collider]]\nshape = \"box\"\ncenter = [0.25, 0.15, 0.125]\nsize = [0.6, 0.1, 0.4]\n{boundary}\n")
+    format!(
+        "[[collider]]\nshape = \"box\"\ncenter = [0.25, 0.15, 0.125]\nsize = [0.6, 0.1, 0.4]\n{boundary}\n"
+    )
 }
 
 #[test]
@@ -62,7 +64,10 @@ fn block_resting_on_an_obstacle_stays_at_rest() {
         let p = particles(&mut sim);
         let lowest = p.x.iter().map(|x| x.y).fold(f32::INFINITY, f32::min);
         // The backstop would put a leaking particle back on the surface; none gets that far.
-        assert!(lowest > 0.2, "a particle at y = {lowest} reached the obstacle's top (0.2 m)");
+        assert!(
+            lowest > 0.2,
+            "a particle at y = {lowest} reached the obstacle's top (0.2 m)"
+        );
         assert_eq!(stats.backstop_pushes, 0, "particles reached into the obstacle");
     }
     // Settling (the block starts at rest density, so it compresses and rings) decays: the last
@@ -70,7 +75,10 @@ fn block_resting_on_an_obstacle_stays_at_rest() {
     let peak = energies.iter().copied().fold(0.0, f64::max);
     let late = energies[30..].iter().copied().fold(0.0, f64::max);
     println!("kinetic energy: peak {peak:.3e} J, last 6 frames at most {late:.3e} J");
-    assert!(late < 0.1 * peak, "kinetic energy {late} J late vs {peak} J at its peak");
+    assert!(
+        late < 0.1 * peak,
+        "kinetic energy {late} J late vs {peak} J at its peak"
+    );
 }
 
 /// The inclined plane: a box turned 30 degrees about z, its top surface through (0.225, 0.1433) m.
@@ -98,7 +106,10 @@ fn slide(mu: f64, frames: usize) -> Vec<(f32, f32)> {
             sim.advance_frame().unwrap();
             let p = particles(&mut sim);
             let all = mean(p.v.iter().copied()).as_vec3().dot(down);
-            let contact = p.x.iter().zip(&p.v).filter(|(x, _)| (**x - surface).dot(normal) < 0.75 / 64.0);
+            let contact =
+                p.x.iter()
+                    .zip(&p.v)
+                    .filter(|(x, _)| (**x - surface).dot(normal) < 0.75 / 64.0);
             (all, mean(contact.map(|(_, v)| *v)).as_vec3().dot(down))
         })
         .collect()
@@ -116,7 +127,10 @@ fn friction_plane_slides_above_the_friction_angle_and_sticks_below() {
     let accel = (fast[11].0 - fast[1].0) / (10.0 / 60.0);
     let expected = g * (sin - 0.2 * cos);
     println!("mu 0.2: acceleration down the slope {accel:.3} m/s^2, Coulomb {expected:.3}");
-    assert!((accel / expected - 1.0).abs() < 0.1, "{accel} m/s^2 vs {expected}");
+    assert!(
+        (accel / expected - 1.0).abs() < 0.1,
+        "{accel} m/s^2 vs {expected}"
+    );
 
     // Either side of the friction angle: the contact layer slips at mu = 0.45 < tan 30 and holds at
     // mu = 0.7 > tan 30 (the water above it still flows down over it, as water does). Means over
@@ -124,8 +138,14 @@ fn friction_plane_slides_above_the_friction_angle_and_sticks_below() {
     let contact = |runs: &[(f32, f32)]| runs[3..9].iter().map(|r| r.1).sum::<f32>() / 6.0;
     let (below, above) = (contact(&slide(0.45, 9)), contact(&slide(0.7, 9)));
     println!("contact layer down the slope: mu 0.45 {below:.4} m/s, mu 0.7 {above:.4} m/s");
-    assert!(above < 0.05, "the contact layer slips at {above} m/s with mu above tan(theta)");
-    assert!(below > 2.0 * above, "mu 0.45 slips at {below} m/s, mu 0.7 at {above} m/s");
+    assert!(
+        above < 0.05,
+        "the contact layer slips at {above} m/s with mu above tan(theta)"
+    );
+    assert!(
+        below > 2.0 * above,
+        "mu 0.45 slips at {below} m/s, mu 0.7 at {above} m/s"
+    );
 }
 
 /// Mean x velocity of the particles within 0.75 dx of the raised floor's top after 0.1 s of a layer
@@ -183,7 +203,12 @@ fn piston_wave_maker_matches_linear_wavemaker_theory() {
     for _ in 0..150 {
         sim.advance_frame().unwrap();
         let p = particles(&mut sim);
-        let volume: f32 = p.x.iter().zip(&p.rho).filter(|(x, _)| (x.x - gauge).abs() < 0.5 * width).map(|(_, rho)| m_p / rho).sum();
+        let volume: f32 =
+            p.x.iter()
+                .zip(&p.rho)
+                .filter(|(x, _)| (x.x - gauge).abs() < 0.5 * width)
+                .map(|(_, rho)| m_p / rho)
+                .sum();
         if sim.time() >= 1.2 {
             window.push((sim.time(), f64::from(volume / (width * across))));
         }
@@ -193,8 +218,16 @@ fn piston_wave_maker_matches_linear_wavemaker_theory() {
     let k = wavenumber(omega, depth);
     let kh2 = 2.0 * k * depth;
     let expected = 2.0 * (kh2.cosh() - 1.0) / (kh2.sinh() + kh2) * 2.0 * amplitude;
-    println!("wave height {:.4} m at the gauge, Biesel {expected:.4} m (depth {depth:.4} m, kh {:.2})", 2.0 * a, k * depth);
-    assert!((2.0 * a / expected - 1.0).abs() < 0.2, "H = {} m vs {expected} m", 2.0 * a);
+    println!(
+        "wave height {:.4} m at the gauge, Biesel {expected:.4} m (depth {depth:.4} m, kh {:.2})",
+        2.0 * a,
+        k * depth
+    );
+    assert!(
+        (2.0 * a / expected - 1.0).abs() < 0.2,
+        "H = {} m vs {expected} m",
+        2.0 * a
+    );
 }
 
 /// Least-squares fit of c0 + c1 t + a cos(wt) + b sin(wt): returns (amplitude sqrt(a^2 + b^2), mean level).
@@ -213,7 +246,9 @@ fn fit_sine(samples: &[(f64, f64)], omega: f64) -> (f64, f64) {
     }
     // Gauss-Jordan on the 4x4 normal equations.
     for c in 0..4 {
-        let pivot = (c..4).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap();
+        let pivot = (c..4)
+            .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+            .unwrap();
         m.swap(c, pivot);
         for r in 0..4 {
             if r != c {
@@ -362,13 +397,21 @@ fn bad_colliders_are_refused_with_the_key_and_the_fix() {
 
 #[test]
 fn colliders_on_the_report_pipeline_are_refused_naming_the_binned_pipeline() {
-    let mut scene = common::scene(&water_with("shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03"));
+    let mut scene = common::scene(&water_with(
+        "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03",
+    ));
     assert!(scene.check_pipeline().is_ok());
     scene.pipeline = mpm::sim::Pipeline::Report;
     let e = scene.check_pipeline().unwrap_err().to_string();
     assert!(e.contains("--pipeline binned"), "{e}");
-    let e = backend::create(BackendKind::Cuda, &scene).err().expect("refused").to_string();
-    assert!(e.contains("--pipeline binned"), "refused before any device work: {e}");
+    let e = backend::create(BackendKind::Cuda, &scene)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("--pipeline binned"),
+        "refused before any device work: {e}"
+    );
 }
 
 /// A cube mesh read from OBJ and from STL has the distance field of the same box collider, and no
@@ -391,17 +434,29 @@ fn a_closed_mesh_collider_matches_the_box_it_describes() {
     drop(file);
     let scene_path = dir.path().join("scene.toml");
     let center = "center = [0.15, 0.1, 0.1]";
-    std::fs::write(&scene_path, water_with(&format!("shape = \"box\"\n{center}\nsize = [0.06, 0.06, 0.06]"))).unwrap();
-    let reference = Scene::load(scene_path.to_str().unwrap()).unwrap().colliders.frame(0.0);
+    std::fs::write(
+        &scene_path,
+        water_with(&format!("shape = \"box\"\n{center}\nsize = [0.06, 0.06, 0.06]")),
+    )
+    .unwrap();
+    let reference = Scene::load(scene_path.to_str().unwrap())
+        .unwrap()
+        .colliders
+        .frame(0.0);
     for file in ["cube.obj", "cube.stl"] {
-        std::fs::write(&scene_path, water_with(&format!("shape = \"mesh\"\nfile = \"{file}\"\n{center}"))).unwrap();
+        std::fs::write(
+            &scene_path,
+            water_with(&format!("shape = \"mesh\"\nfile = \"{file}\"\n{center}")),
+        )
+        .unwrap();
         let scene = Scene::load(scene_path.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
         let frame = scene.colliders.frame(0.0);
         let mut worst = 0.0f32;
         for i in 0..400 {
             // Points on a jittered lattice around the cube, inside the sampled box.
             let t = i as f32;
-            let x = Vec3::new(0.15, 0.1, 0.1) + Vec3::new((t * 0.37).sin(), (t * 0.73).cos(), (t * 1.31).sin()) * 0.04;
+            let x = Vec3::new(0.15, 0.1, 0.1)
+                + Vec3::new((t * 0.37).sin(), (t * 0.73).cos(), (t * 1.31).sin()) * 0.04;
             let (a, _) = frame.distance(&frame.states[0], x);
             let (b, _) = reference.distance(&reference.states[0], x);
             // Deep inside, the exact field peaks (a pyramid) and trilinear samples round the peak off:
@@ -415,14 +470,20 @@ fn a_closed_mesh_collider_matches_the_box_it_describes() {
         for d in [-0.015f32, -0.004, 0.0, 0.003, 0.012] {
             let x = Vec3::new(0.15 + 0.03 + d, 0.1, 0.1);
             let (a, n) = frame.distance(&frame.states[0], x);
-            assert!((a - d).abs() < 1e-5 && (n - Vec3::X).length() < 1e-4, "{file}: {a} at {d} m from the face, normal {n}");
+            assert!(
+                (a - d).abs() < 1e-5 && (n - Vec3::X).length() < 1e-4,
+                "{file}: {a} at {d} m from the face, normal {n}"
+            );
         }
         println!("{file}: largest distance difference from the box within a cell of its surface {worst:.2e} m (dx = 0.01)");
         // Within a cell of the surface: trilinear samples of the exact field round its kinks and
         // curves at the cube's edges and corners by up to about a quarter of a cell.
         assert!(worst < 0.3 * 0.01, "{file}: {worst} m");
         let p = scene.spawn();
-        assert!(p.x.iter().all(|x| frame.distance(&frame.states[0], *x).0 >= 0.0), "fluid spawned inside the mesh");
+        assert!(
+            p.x.iter().all(|x| frame.distance(&frame.states[0], *x).0 >= 0.0),
+            "fluid spawned inside the mesh"
+        );
     }
 }
 
@@ -458,14 +519,22 @@ fn cpu_parallel_follows_the_reference_with_colliders() {
          [[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.42, 0.2, 0.21]",
     );
     let mut reference = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
-    let mut parallel = Simulation::new(scene.clone(), backend::create(BackendKind::CpuParallel, &scene).unwrap());
+    let mut parallel = Simulation::new(
+        scene.clone(),
+        backend::create(BackendKind::CpuParallel, &scene).unwrap(),
+    );
     let (mut a, mut b) = (0, 0);
     for _ in 0..3 {
         a += reference.advance_frame().unwrap().backstop_pushes;
         b += parallel.advance_frame().unwrap().backstop_pushes;
     }
     let (p, q) = (particles(&mut reference), particles(&mut parallel));
-    let worst = p.x.iter().zip(&q.x).map(|(x, y)| (*x - *y).length()).fold(0.0, f32::max) / scene.dx;
+    let worst =
+        p.x.iter()
+            .zip(&q.x)
+            .map(|(x, y)| (*x - *y).length())
+            .fold(0.0, f32::max)
+            / scene.dx;
     println!("after 3 frames: largest position difference {worst:.2e} dx; backstop pushes {a} and {b}");
     assert!(worst < 1e-3, "{worst} dx");
     assert_eq!(reference.backstop_pushes(), a);

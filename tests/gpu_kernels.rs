@@ -796,7 +796,15 @@ fn colliders_grid_update_and_backstop_match_cpu() {
     for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
         let scene = collider_tank(dir.path(), scatter);
         let mut particles = random_particles(&scene, 5);
-        for (k, x) in [[0.3, 0.2, 0.35], [0.15, 0.1, 0.15], [0.7, 0.3, 0.37], [0.25, 0.38, 0.5]].iter().enumerate() {
+        for (k, x) in [
+            [0.3, 0.2, 0.35],
+            [0.15, 0.1, 0.15],
+            [0.7, 0.3, 0.37],
+            [0.25, 0.38, 0.5],
+        ]
+        .iter()
+        .enumerate()
+        {
             particles.x[k * 97] = Vec3::from(*x) + 0.003;
         }
         let params = step_params(&scene);
@@ -814,8 +822,14 @@ fn colliders_grid_update_and_backstop_match_cpu() {
                 err = err.max((*v - *cpu_v).abs().max_element());
             }
         }
-        println!("colliders, grid_update {scatter:?}: max velocity error {:.2e} of the largest", err / vmax);
-        assert!(err <= 1e-4 * vmax, "{scatter:?}: grid velocity error {err} vs {vmax}");
+        println!(
+            "colliders, grid_update {scatter:?}: max velocity error {:.2e} of the largest",
+            err / vmax
+        );
+        assert!(
+            err <= 1e-4 * vmax,
+            "{scatter:?}: grid velocity error {err} vs {vmax}"
+        );
 
         cpu.g2p(&params);
         gpu.g2p(&params).unwrap();
@@ -829,8 +843,14 @@ fn colliders_grid_update_and_backstop_match_cpu() {
         );
         assert!(dv <= 1e-4 * vmax, "{scatter:?}: particle velocity error {dv}");
         assert!(dxp <= 1e-5, "{scatter:?}: position error {dxp} dx");
-        assert!(e_cpu.backstop_pushes >= 4, "the particles put inside colliders were pushed out");
-        assert_eq!(e_cpu.backstop_pushes, e_gpu.backstop_pushes, "{scatter:?}: backstop counts");
+        assert!(
+            e_cpu.backstop_pushes >= 4,
+            "the particles put inside colliders were pushed out"
+        );
+        assert_eq!(
+            e_cpu.backstop_pushes, e_gpu.backstop_pushes,
+            "{scatter:?}: backstop counts"
+        );
     }
 }
 
@@ -851,13 +871,23 @@ fn colliders_trajectory_follows_cpu() {
         gpu.step(&params).unwrap();
         if step % 100 == 0 {
             let p = gpu.read_particles().unwrap();
-            let errors: Vec<f32> = p.x.iter().zip(&cpu.particles.x).map(|(a, b)| (*a - *b).length() / scene.dx).collect();
+            let errors: Vec<f32> =
+                p.x.iter()
+                    .zip(&cpu.particles.x)
+                    .map(|(a, b)| (*a - *b).length() / scene.dx)
+                    .collect();
             let max = errors.iter().copied().fold(0.0, f32::max);
             let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
             println!("colliders step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
-            assert!(max <= 0.1 && rms <= 0.01, "step {step}: max {max} dx, rms {rms} dx");
+            assert!(
+                max <= 0.1 && rms <= 0.01,
+                "step {step}: max {max} dx, rms {rms} dx"
+            );
         }
     }
     let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
-    println!("backstop pushes over the run: CPU {}, GPU {}", e_cpu.backstop_pushes, e_gpu.backstop_pushes);
+    println!(
+        "backstop pushes over the run: CPU {}, GPU {}",
+        e_cpu.backstop_pushes, e_gpu.backstop_pushes
+    );
 }

@@ -359,7 +359,9 @@ impl CudaSolver {
                 .context("allocating the collider states")?,
             count: 0,
             uploaded: Vec::new(),
-            sdf: stream.alloc_zeros::<f32>(1).context("allocating the collider SDF")?,
+            sdf: stream
+                .alloc_zeros::<f32>(1)
+                .context("allocating the collider SDF")?,
             sdf_source: None,
         };
         let mut solver = CudaSolver {
@@ -1170,7 +1172,10 @@ impl Solver for CudaSolver {
         if device.uploaded != frame.states {
             if !frame.states.is_empty() {
                 stream
-                    .memcpy_htod(&frame.states[..], &mut device.states.slice_mut(0..frame.states.len()))
+                    .memcpy_htod(
+                        &frame.states[..],
+                        &mut device.states.slice_mut(0..frame.states.len()),
+                    )
                     .context("uploading the collider states")?;
             }
             device.uploaded.clone_from(&frame.states);

@@ -5,6 +5,7 @@
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
 use super::clock::{Pacing, SimClock};
+use super::colliders::{ColliderDrag, ColliderRenderer};
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
@@ -24,7 +25,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
-use super::colliders::{ColliderDrag, ColliderRenderer};
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
@@ -877,7 +877,9 @@ impl ApplicationHandler for ViewerApp {
                 match button {
                     MouseButton::Left => {
                         self.mouse.left = pressed;
-                        if (pressed && self.modifiers.control_key()) || (!pressed && self.mouse.collider_drag.is_some()) {
+                        if (pressed && self.modifiers.control_key())
+                            || (!pressed && self.mouse.collider_drag.is_some())
+                        {
                             self.collider_button(pressed);
                         }
                     }

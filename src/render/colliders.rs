@@ -33,7 +33,12 @@ pub fn shape_triangles(shape: &Shape) -> Vec<[Vec3; 2]> {
                     let (u, v) = (Vec3::AXES[(axis + 1) % 3], Vec3::AXES[(axis + 2) % 3]);
                     let corner = |s: f32, t: f32| [(n + u * s + v * t) * h, n];
                     // Counter-clockwise seen from outside.
-                    let (a, b, c, d) = (corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0));
+                    let (a, b, c, d) = (
+                        corner(-1.0, -1.0),
+                        corner(1.0, -1.0),
+                        corner(1.0, 1.0),
+                        corner(-1.0, 1.0),
+                    );
                     if sign > 0.0 {
                         tri(a, b, c);
                         tri(a, c, d);
@@ -45,14 +50,10 @@ pub fn shape_triangles(shape: &Shape) -> Vec<[Vec3; 2]> {
             }
         }
         Shape::Sphere { radius } => round(&mut tri, *radius as f32, 0.0, true),
-        Shape::Capsule {
-            radius,
-            half_length,
-        } => round(&mut tri, *radius as f32, *half_length as f32, true),
-        Shape::Cylinder {
-            radius,
-            half_length,
-        } => round(&mut tri, *radius as f32, *half_length as f32, false),
+        Shape::Capsule { radius, half_length } => round(&mut tri, *radius as f32, *half_length as f32, true),
+        Shape::Cylinder { radius, half_length } => {
+            round(&mut tri, *radius as f32, *half_length as f32, false)
+        }
         Shape::Mesh(mesh) => {
             for t in &mesh.triangles {
                 let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
@@ -106,8 +107,16 @@ fn round(tri: &mut impl FnMut([Vec3; 2], [Vec3; 2], [Vec3; 2]), radius: f32, hal
             tri(lo(p), hi(q), lo(q));
             tri(lo(p), hi(p), hi(q));
             let (top, bottom) = (Vec3::Y * half_length, -Vec3::Y * half_length);
-            tri([top, Vec3::Y], [q * radius + top, Vec3::Y], [p * radius + top, Vec3::Y]);
-            tri([bottom, -Vec3::Y], [p * radius + bottom, -Vec3::Y], [q * radius + bottom, -Vec3::Y]);
+            tri(
+                [top, Vec3::Y],
+                [q * radius + top, Vec3::Y],
+                [p * radius + top, Vec3::Y],
+            );
+            tri(
+                [bottom, -Vec3::Y],
+                [p * radius + bottom, -Vec3::Y],
+                [q * radius + bottom, -Vec3::Y],
+            );
         }
     }
 }
@@ -182,7 +191,11 @@ impl ColliderRenderer {
                 let vbo = gl.create_buffer().map_err(gl_error("a buffer"))?;
                 gl.bind_vertex_array(Some(vao));
                 gl.bind_buffer(glow::ARRAY_BUFFER, Some(vbo));
-                gl.buffer_data_u8_slice(glow::ARRAY_BUFFER, bytemuck::cast_slice(&vertices), glow::STATIC_DRAW);
+                gl.buffer_data_u8_slice(
+                    glow::ARRAY_BUFFER,
+                    bytemuck::cast_slice(&vertices),
+                    glow::STATIC_DRAW,
+                );
                 gl.enable_vertex_attrib_array(0);
                 gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 24, 0);
                 gl.enable_vertex_attrib_array(1);
@@ -201,7 +214,13 @@ impl ColliderRenderer {
 
     /// Draws every collider in its pose of `frame` into `viewport`, depth-tested against what the
     /// particle renderer drew there, and cut off at the faces of the box `domain` (lo, hi).
-    pub fn draw(&self, viewport: Viewport, camera: &OrbitCamera, frame: &ColliderFrame, domain: (Vec3, Vec3)) {
+    pub fn draw(
+        &self,
+        viewport: Viewport,
+        camera: &OrbitCamera,
+        frame: &ColliderFrame,
+        domain: (Vec3, Vec3),
+    ) {
         if self.meshes.is_empty() {
             return;
         }
@@ -249,7 +268,12 @@ impl ColliderRenderer {
 }
 
 /// The first collider a ray hits, and where: sphere tracing along the colliders' distance fields.
-pub fn pick(frame: &ColliderFrame, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<(usize, Vec3)> {
+pub fn pick(
+    frame: &ColliderFrame,
+    origin: Vec3,
+    direction: Vec3,
+    max_distance: f32,
+) -> Option<(usize, Vec3)> {
     let direction = direction.normalize_or_zero();
     let mut best: Option<(usize, f32)> = None;
     for (index, state) in frame.states.iter().enumerate() {
@@ -284,7 +308,12 @@ pub struct ColliderDrag {
 
 impl ColliderDrag {
     /// Starts a drag where the cursor's ray hits a collider, if it does.
-    pub fn grab(sim: &Simulation, camera: &OrbitCamera, cursor: Vec2, viewport_size: Vec2) -> Option<ColliderDrag> {
+    pub fn grab(
+        sim: &Simulation,
+        camera: &OrbitCamera,
+        cursor: Vec2,
+        viewport_size: Vec2,
+    ) -> Option<ColliderDrag> {
         let frame = sim.collider_frame();
         let (origin, direction) = camera.ray(cursor, viewport_size);
         let (index, hit) = pick(&frame, origin, direction, 4.0 * camera.distance)?;
@@ -298,7 +327,14 @@ impl ColliderDrag {
 
     /// Moves the held collider so that it reaches the cursor's point of the drag plane after `frames`
     /// 60 Hz frames, at a constant velocity (capped at [`MAX_DRAG_SPEED`]).
-    pub fn follow(&self, sim: &mut Simulation, camera: &OrbitCamera, cursor: Vec2, viewport_size: Vec2, frames: u32) -> Result<()> {
+    pub fn follow(
+        &self,
+        sim: &mut Simulation,
+        camera: &OrbitCamera,
+        cursor: Vec2,
+        viewport_size: Vec2,
+        frames: u32,
+    ) -> Result<()> {
         let (origin, direction) = camera.ray(cursor, viewport_size);
         let denominator = direction.dot(self.plane_normal);
         if denominator.abs() < 1e-6 {
@@ -359,11 +395,19 @@ mod tests {
                 let face = (t[1][0] - t[0][0]).cross(t[2][0] - t[0][0]);
                 let normal = t[0][1] + t[1][1] + t[2][1];
                 if face.length() > 1e-9 {
-                    assert!(face.dot(normal) > 0.0, "{}: a triangle faces inward", shape.kind_name());
+                    assert!(
+                        face.dot(normal) > 0.0,
+                        "{}: a triangle faces inward",
+                        shape.kind_name()
+                    );
                 }
                 for [p, _] in t {
                     let (phi, _) = frame.distance(&frame.states[0], *p);
-                    assert!(phi.abs() < 1e-5, "{}: vertex {p} is {phi} m off the surface", shape.kind_name());
+                    assert!(
+                        phi.abs() < 1e-5,
+                        "{}: vertex {p} is {phi} m off the surface",
+                        shape.kind_name()
+                    );
                 }
             }
         }

@@ -142,7 +142,10 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             row("CFL", format!("{:.2}", info.max_cfl));
         }
         if let Some(pushes) = info.backstop_pushes {
-            row("collider backstop", crate::text::count(pushes, "particle", "particles"));
+            row(
+                "collider backstop",
+                crate::text::count(pushes, "particle", "particles"),
+            );
         }
         row("sim time", format!("{:.3} s", info.sim_time));
         row("wall time", format!("{:.3} s", info.wall_time));

@@ -105,7 +105,12 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         let stepped = Instant::now();
         let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
         renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain);
-        colliders.draw(Viewport::full(headless.size()), &camera, &sim.collider_frame(), domain);
+        colliders.draw(
+            Viewport::full(headless.size()),
+            &camera,
+            &sim.collider_frame(),
+            domain,
+        );
         headless.finish();
         let drawn = Instant::now();
         if frame > WARM_UP_FRAMES {

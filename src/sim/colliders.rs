@@ -73,7 +73,10 @@ pub struct ColliderState {
     pub sdf_spacing: f32,
     /// Mesh: index of the first sample in the frame's SDF buffer.
     pub sdf_offset: u32,
-    pub _pad: [u32; 3],
+    /// Radius of a ball about the centre that holds the shape, m, with a margin for rounding: a point
+    /// farther than this (plus the band) is skipped without evaluating the shape.
+    pub reach: f32,
+    pub _pad: [u32; 2],
 }
 
 const _: () = {
@@ -87,6 +90,7 @@ const _: () = {
     assert!(offset_of!(ColliderState, sdf_dims) == 112);
     assert!(offset_of!(ColliderState, sdf_spacing) == 124);
     assert!(offset_of!(ColliderState, sdf_offset) == 128);
+    assert!(offset_of!(ColliderState, reach) == 132);
 };
 
 /// The boundary condition of a collider.
@@ -104,12 +108,22 @@ pub enum Boundary {
 /// What a collider is, in its own frame (centred on its `center`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Shape {
-    Box { half_extents: DVec3 },
-    Sphere { radius: f64 },
+    Box {
+        half_extents: DVec3,
+    },
+    Sphere {
+        radius: f64,
+    },
     /// A segment along local y from -half_length to half_length, swept by a sphere of `radius`.
-    Capsule { radius: f64, half_length: f64 },
+    Capsule {
+        radius: f64,
+        half_length: f64,
+    },
     /// A solid cylinder along local y, flat caps at +-half_length.
-    Cylinder { radius: f64, half_length: f64 },
+    Cylinder {
+        radius: f64,
+        half_length: f64,
+    },
     /// A closed triangle mesh, as a signed distance field sampled around it.
     Mesh(Arc<MeshSdf>),
 }
@@ -120,15 +134,10 @@ impl Shape {
         match self {
             Shape::Box { half_extents } => half_extents.length(),
             Shape::Sphere { radius } => *radius,
-            Shape::Capsule {
-                radius,
-                half_length,
-            } => radius + half_length,
-            Shape::Cylinder {
-                radius,
-                half_length,
-            } => (radius * radius + half_length * half_length).sqrt(),
-            Shape::Mesh(mesh) => mesh.bounding_radius,
+            Shape::Capsule { radius, half_length } => radius + half_length,
+            Shape::Cylinder { radius, half_length } => (radius * radius + half_length * half_length).sqrt(),
+            // Its trilinear distance samples may read up to a fraction of a cell short of the truth.
+            Shape::Mesh(mesh) => mesh.bounding_radius + f64::from(mesh.spacing),
         }
     }
 
@@ -160,7 +169,10 @@ impl Oscillation {
     /// Value and rate at time t.
     fn at(&self, t: f64) -> (f64, f64) {
         let arg = self.omega() * t + self.phase;
-        (self.amplitude * arg.sin(), self.amplitude * self.omega() * arg.cos())
+        (
+            self.amplitude * arg.sin(),
+            self.amplitude * self.omega() * arg.cos(),
+        )
     }
 }
 
@@ -170,12 +182,23 @@ pub enum Motion {
     Static,
     /// Constant velocity (m/s) and rotation rate about the centre (rad/s, world axis times rate),
     /// from the pose at time `since`.
-    Steady { velocity: DVec3, angular_velocity: DVec3, since: f64 },
+    Steady {
+        velocity: DVec3,
+        angular_velocity: DVec3,
+        since: f64,
+    },
     /// A piston: the centre moves along the unit `direction` by the oscillation (m).
-    Piston { direction: DVec3, oscillation: Oscillation },
+    Piston {
+        direction: DVec3,
+        oscillation: Oscillation,
+    },
     /// A flap: the body turns about the line through `hinge` along the unit `axis` by the
     /// oscillation (rad).
-    Flap { hinge: DVec3, axis: DVec3, oscillation: Oscillation },
+    Flap {
+        hinge: DVec3,
+        axis: DVec3,
+        oscillation: Oscillation,
+    },
 }
 
 /// A validated collider.
@@ -277,14 +300,12 @@ impl Collider {
         let (kind, size) = match &self.shape {
             Shape::Box { half_extents } => (KIND_BOX, half_extents.as_vec3().to_array()),
             Shape::Sphere { radius } => (KIND_SPHERE, [*radius as f32, 0.0, 0.0]),
-            Shape::Capsule {
-                radius,
-                half_length,
-            } => (KIND_CAPSULE, [*radius as f32, *half_length as f32, 0.0]),
-            Shape::Cylinder {
-                radius,
-                half_length,
-            } => (KIND_CYLINDER, [*radius as f32, *half_length as f32, 0.0]),
+            Shape::Capsule { radius, half_length } => {
+                (KIND_CAPSULE, [*radius as f32, *half_length as f32, 0.0])
+            }
+            Shape::Cylinder { radius, half_length } => {
+                (KIND_CYLINDER, [*radius as f32, *half_length as f32, 0.0])
+            }
             Shape::Mesh(_) => (KIND_MESH, [0.0; 3]),
         };
         let (boundary, friction) = match self.boundary {
@@ -302,6 +323,7 @@ impl Collider {
             velocity: pose.velocity.as_vec3().to_array(),
             angular_velocity: pose.angular_velocity.as_vec3().to_array(),
             size,
+            reach: (self.shape.bounding_radius() * (1.0 + 1e-4)) as f32 + 1e-3 * dx,
             ..Zeroable::zeroed()
         };
         if let Shape::Mesh(mesh) = &self.shape {
@@ -374,7 +396,6 @@ impl Colliders {
     pub fn max_speed(&self) -> f32 {
         self.list.iter().map(Collider::max_speed).fold(0.0, f64::max) as f32
     }
-
 }
 
 /// Every collider at one instant: what a backend's substep reads.
@@ -531,6 +552,15 @@ fn mesh_distance(s: &ColliderState, sdf: &[f32], p: Vec3) -> (f32, Vec3) {
     }
 }
 
+/// Whether x lies farther than `margin` outside the collider's bounding ball (so farther than
+/// `margin` from the collider): the cheap test that spares most nodes and particles the shape.
+#[inline(always)]
+fn beyond(s: &ColliderState, x: Vec3, margin: f32) -> bool {
+    let r = x - Vec3::from(s.center);
+    let limit = s.reach + margin;
+    r.x * r.x + r.y * r.y + r.z * r.z > limit * limit
+}
+
 impl ColliderFrame {
     pub fn is_empty(&self) -> bool {
         self.states.is_empty()
@@ -560,6 +590,9 @@ impl ColliderFrame {
     /// can separate from it.
     pub fn project_node(&self, x: Vec3, mut v: Vec3) -> Vec3 {
         for s in &self.states {
+            if beyond(s, x, s.band) {
+                continue;
+            }
             let (phi, n) = self.distance(s, x);
             if !(phi < s.band) {
                 continue;
@@ -595,6 +628,9 @@ impl ColliderFrame {
     pub fn backstop(&self, mut x: Vec3, mut v: Vec3) -> Option<(Vec3, Vec3)> {
         let mut pushed = false;
         for s in &self.states {
+            if beyond(s, x, 0.0) {
+                continue;
+            }
             let (phi, n) = self.distance(s, x);
             if phi < 0.0 {
                 x -= n * phi;
@@ -716,7 +752,11 @@ fn finite(key: &str, v: &[f64]) -> Result<(), SpecError> {
     if v.iter().all(|c| c.is_finite()) {
         Ok(())
     } else {
-        Err(spec_err(key, format!("must be finite, got {v:?}"), "give finite numbers"))
+        Err(spec_err(
+            key,
+            format!("must be finite, got {v:?}"),
+            "give finite numbers",
+        ))
     }
 }
 
@@ -760,7 +800,11 @@ pub fn validate(
     let center = DVec3::from(spec.center.unwrap_or([0.0; 3]));
     finite("center", &center.to_array())?;
     if spec.center.is_none() && spec.shape != "mesh" {
-        return Err(spec_err("center", "is missing", "give the collider's centre in metres, e.g. center = [0.5, 0.1, 0.25]"));
+        return Err(spec_err(
+            "center",
+            "is missing",
+            "give the collider's centre in metres, e.g. center = [0.5, 0.1, 0.25]",
+        ));
     }
     let rotation = match (spec.rotation, spec.axis_angle) {
         (Some(_), Some(_)) => {
@@ -786,7 +830,11 @@ pub fn validate(
     let shape = match spec.shape.as_str() {
         "box" => {
             let size = spec.size.ok_or_else(|| {
-                spec_err("size", "is missing", "give the box's edge lengths in metres, e.g. size = [0.2, 0.1, 0.3]")
+                spec_err(
+                    "size",
+                    "is missing",
+                    "give the box's edge lengths in metres, e.g. size = [0.2, 0.1, 0.3]",
+                )
             })?;
             for (a, s) in size.iter().enumerate() {
                 positive(&format!("size[{a}]"), Some(*s), "every edge length in metres")?;
@@ -809,7 +857,11 @@ pub fn validate(
         }
         "mesh" => {
             let file = spec.file.as_deref().ok_or_else(|| {
-                spec_err("file", "is missing", "give the mesh file, e.g. file = \"obstacle.obj\" (.obj or .stl)")
+                spec_err(
+                    "file",
+                    "is missing",
+                    "give the mesh file, e.g. file = \"obstacle.obj\" (.obj or .stl)",
+                )
             })?;
             let scale = match spec.scale {
                 None => 1.0,
@@ -826,7 +878,12 @@ pub fn validate(
             let (vertices, triangles) = super::mesh::read_triangles(&path, scale).map_err(fail)?;
             super::mesh::check_closed(&triangles).map_err(fail)?;
             let band = f64::from(BAND_CELLS) * dx;
-            Shape::Mesh(Arc::new(super::mesh::build_sdf(vertices, triangles, dx, band + 2.0 * dx)))
+            Shape::Mesh(Arc::new(super::mesh::build_sdf(
+                vertices,
+                triangles,
+                dx,
+                band + 2.0 * dx,
+            )))
         }
         other => {
             return Err(spec_err(
@@ -837,12 +894,27 @@ pub fn validate(
         }
     };
     if mesh_keys_given && !matches!(shape, Shape::Mesh(_)) {
-        return Err(spec_err("file", "is only for shape = \"mesh\"", "drop `file` and `scale`, or set shape = \"mesh\""));
+        return Err(spec_err(
+            "file",
+            "is only for shape = \"mesh\"",
+            "drop `file` and `scale`, or set shape = \"mesh\"",
+        ));
     }
     for (key, given, used) in [
         ("size", spec.size.is_some(), matches!(shape, Shape::Box { .. })),
-        ("radius", spec.radius.is_some(), matches!(shape, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. })),
-        ("length", spec.length.is_some(), matches!(shape, Shape::Capsule { .. } | Shape::Cylinder { .. })),
+        (
+            "radius",
+            spec.radius.is_some(),
+            matches!(
+                shape,
+                Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. }
+            ),
+        ),
+        (
+            "length",
+            spec.length.is_some(),
+            matches!(shape, Shape::Capsule { .. } | Shape::Cylinder { .. }),
+        ),
     ] {
         if given && !used {
             return Err(spec_err(
@@ -866,7 +938,11 @@ pub fn validate(
             Boundary::Friction(mu as f32)
         }
         (Some("friction"), None) => {
-            return Err(spec_err("friction", "is missing", "give the Coulomb coefficient, e.g. friction = 0.3"))
+            return Err(spec_err(
+                "friction",
+                "is missing",
+                "give the Coulomb coefficient, e.g. friction = 0.3",
+            ))
         }
         (Some(kind @ ("slip" | "stick")), Some(_)) => {
             return Err(spec_err(
@@ -875,13 +951,11 @@ pub fn validate(
                 "drop `friction`, or set boundary = \"friction\"",
             ))
         }
-        (Some(other), _) => {
-            return Err(spec_err(
-                "boundary",
-                format!("= {other:?} is not a boundary kind"),
-                "use \"slip\" (free slip, the default), \"stick\" (no slip) or \"friction\" with friction = mu",
-            ))
-        }
+        (Some(other), _) => return Err(spec_err(
+            "boundary",
+            format!("= {other:?} is not a boundary kind"),
+            "use \"slip\" (free slip, the default), \"stick\" (no slip) or \"friction\" with friction = mu",
+        )),
     };
     let motion = match &spec.motion {
         None => Motion::Static,

@@ -235,7 +235,13 @@ pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec
 /// The colliders' particle backstop after g2p (`ColliderFrame::backstop`), then g2p's clamp again.
 /// `None` where the particle is in no collider.
 #[inline(always)]
-pub fn g2p_backstop(params: &Params, shape: GridShape, colliders: &ColliderFrame, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+pub fn g2p_backstop(
+    params: &Params,
+    shape: GridShape,
+    colliders: &ColliderFrame,
+    x: Vec3,
+    v: Vec3,
+) -> Option<(Vec3, Vec3)> {
     if colliders.is_empty() {
         return None;
     }

@@ -29,7 +29,8 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_backstop, g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
+    g2p_backstop, g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape,
+    Stencil,
 };
 use super::params::Params;
 use super::push::{ColourBy, Push};
@@ -408,7 +409,11 @@ impl ParallelCpuSolver {
                         (*x, *v) = moved;
                     }
                     let speed = v.length();
-                    (speed, material.sound_speed_at(rho) + speed, u64::from(backstop.is_some()))
+                    (
+                        speed,
+                        material.sound_speed_at(rho) + speed,
+                        u64::from(backstop.is_some()),
+                    )
                 })
                 .reduce(
                     || (0.0f32, 0.0f32, 0u64),

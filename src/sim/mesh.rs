@@ -55,7 +55,11 @@ pub fn read_triangles(path: &Path, scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 
                         .chunks_exact(3)
                         .map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]),
                 );
-                triangles.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+                triangles.extend(
+                    m.indices
+                        .chunks_exact(3)
+                        .map(|t| [base + t[0], base + t[1], base + t[2]]),
+                );
             }
             (positions, triangles)
         }
@@ -67,10 +71,7 @@ pub fn read_triangles(path: &Path, scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 
                     .iter()
                     .map(|v| [f64::from(v.0[0]), f64::from(v.0[1]), f64::from(v.0[2])])
                     .collect(),
-                mesh.faces
-                    .iter()
-                    .map(|f| f.vertices.map(|i| i as u32))
-                    .collect(),
+                mesh.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect(),
             )
         }
         _ => return Err("is neither an .obj nor an .stl file".into()),

@@ -394,7 +394,8 @@ impl Scene {
         colliders: &'a ColliderFrame,
     ) -> impl Iterator<Item = DVec3> + 'a {
         lattice.points(&self.bodies[k].shape).filter(move |&p| {
-            !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)) && !colliders.contains(p.as_vec3())
+            !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p))
+                && !colliders.contains(p.as_vec3())
         })
     }
 
@@ -805,12 +806,18 @@ impl Validator<'_> {
         if spec.colliders.len() > MAX_COLLIDERS {
             return Err(self.err(
                 format!("collider[{MAX_COLLIDERS}]"),
-                format!("is one of {} colliders, more than the {MAX_COLLIDERS} a scene may have", spec.colliders.len()),
+                format!(
+                    "is one of {} colliders, more than the {MAX_COLLIDERS} a scene may have",
+                    spec.colliders.len()
+                ),
                 "merge obstacles into one mesh collider, or drop some",
             ));
         }
         // Mesh files are found beside the scene file.
-        let dir = Path::new(self.source).parent().map(Path::to_path_buf).unwrap_or_default();
+        let dir = Path::new(self.source)
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
         let resolve = |file: &str| dir.join(file);
         let domain = DVec3::from(res.map(f64::from)) * dx;
         let list = spec

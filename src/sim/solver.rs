@@ -405,7 +405,10 @@ impl Simulation {
             .list
             .get_mut(index)
             .ok_or_else(|| anyhow::anyhow!("there is no collider {index}"))?;
-        ensure!(center.is_finite() && velocity.is_finite(), "a dragged collider's position and velocity must be finite");
+        ensure!(
+            center.is_finite() && velocity.is_finite(),
+            "a dragged collider's position and velocity must be finite"
+        );
         let pose = collider.pose(now);
         collider.center = center;
         collider.rotation = pose.rotation;
@@ -414,7 +417,9 @@ impl Simulation {
             angular_velocity: glam::DVec3::ZERO,
             since: now,
         };
-        self.signal_speed = self.signal_speed.max(self.params.material.sound_speed() + velocity.length() as f32);
+        self.signal_speed = self
+            .signal_speed
+            .max(self.params.material.sound_speed() + velocity.length() as f32);
         Ok(())
     }
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
