@@ -250,11 +250,12 @@ fn fit_sine(samples: &[(f64, f64)], omega: f64) -> (f64, f64) {
             .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
             .unwrap();
         m.swap(c, pivot);
-        for r in 0..4 {
+        let pivot_row = m[c];
+        for (r, row) in m.iter_mut().enumerate() {
             if r != c {
-                let f = m[r][c] / m[c][c];
-                for k in c..5 {
-                    m[r][k] -= f * m[c][k];
+                let f = row[c] / pivot_row[c];
+                for (x, p) in row.iter_mut().zip(pivot_row).skip(c) {
+                    *x -= f * p;
                 }
             }
         }
@@ -426,7 +427,7 @@ fn a_closed_mesh_collider_matches_the_box_it_describes() {
         .iter()
         .map(|t| stl_io::Triangle {
             normal: stl_io::Normal::new([0.0; 3]),
-            vertices: t.map(|v| stl_io::Vertex::new(v)),
+            vertices: t.map(stl_io::Vertex::new),
         })
         .collect();
     let mut file = std::fs::File::create(dir.path().join("cube.stl")).unwrap();

@@ -594,8 +594,8 @@ impl ColliderFrame {
                 continue;
             }
             let (phi, n) = self.distance(s, x);
-            if !(phi < s.band) {
-                continue;
+            if phi.is_nan() || phi >= s.band {
+                continue; // as the kernel's !(phi < band)
             }
             let vc = Self::velocity_at(s, x);
             let mut rel = v - vc;
