@@ -63,6 +63,8 @@ ASSERT_FIELD_AT(params_layout_probe, material.rest_density, fixed_momentum_scale
 ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_lo, 92);
 ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_hi, 96);
 
+#include "colliders.cuh"
+
 #define SCATTER_FLOAT 0u
 #define SCATTER_FIXED_POINT 1u
 
@@ -74,7 +76,8 @@ struct StepCounters {
     u32 max_signal_bits;   // bits of the largest c(rho_p) + |v_p| of one particle
     u32 rebin_needed;      // binned pipeline: a particle's stencil left its bin's reach (bins.cu)
     u32 tile_misses;       // binned pipeline: particles scattered past their tile, by global atomics
-    u32 _pad[2];
+    u32 backstop_pushes;   // particles the colliders' backstop put back on a surface (colliders.cuh)
+    u32 _pad;
 };
 static_assert(sizeof(StepCounters) == 32, "StepCounters must match src/cuda/solver.rs");
 
@@ -351,10 +354,36 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
     return r;
 }
 
-// grid_update for node i (docs/physics.md step 3): momentum to velocity, gravity, free slip in the boundary
-// band. Consume-and-zero: the accumulators are zeroed as they are read, which is the grid clear.
+// The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a
+// collider goes back to its surface, then g2p's clamp again; its speed and signal speed follow. Counted.
+// Not inlined: g2p2g is compiled for 80 registers (tiles.cuh), and its path without colliders should
+// not pay for this one's registers.
+__device__ __noinline__ void collider_backstop_particle(const Params& params, const Colliders& colliders,
+                                                           float rho, G2pResult& r, u32& pushes) {
+    float x[3] = {r.x.x, r.x.y, r.x.z};
+    float vel[3] = {r.v.x, r.v.y, r.v.z};
+    if (!collider_backstop(colliders, x, vel)) return;
+    ++pushes;
+    const float dx = params.dx;
+    float speed_sq = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        x[a] = fminf(fmaxf(x[a], dx), ((float)params.grid_res[a] - 2.0f) * dx);
+        speed_sq += vel[a] * vel[a];
+    }
+    r.x = make_float4(x[0], x[1], x[2], 0.0f);
+    r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
+    const Material mat = params.material;
+    r.speed = sqrtf(speed_sq);
+    const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
+    r.signal = sound_speed * powf(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f)) + r.speed;
+}
+
+// grid_update for node i (docs/physics.md step 3): momentum to velocity, gravity, the colliders' boundary
+// conditions, free slip in the walls' boundary band (last, as in src/sim/cpu.rs). Consume-and-zero: the
+// accumulators are zeroed as they are read, which is the grid clear.
 __device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
-                                            u64* fixed_mass, u64* fixed_momentum, StepCounters* counters) {
+                                            u64* fixed_mass, u64* fixed_momentum, StepCounters* counters,
+                                            const Colliders& colliders) {
     const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
     const u32 band = params.boundary_band;
     float m, mv[3];
@@ -386,8 +415,12 @@ __device__ __forceinline__ void update_node(const Params& params, u32 i, float4*
     if (m > 0.0f) {
         const u32 node[3] = {i % rx, (i / rx) % ry, i / (rx * ry)};
         const u32 res[3] = {rx, ry, rz};
+        for (int a = 0; a < 3; ++a) vel[a] = mv[a] / m + params.gravity[a] * params.dt;
+        if (colliders.count) {
+            const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);
+            collider_project_node(colliders, x, vel);
+        }
         for (int a = 0; a < 3; ++a) {
-            vel[a] = mv[a] / m + params.gravity[a] * params.dt;
             if (node[a] < band || node[a] >= res[a] - band) vel[a] = 0.0f;
         }
     }

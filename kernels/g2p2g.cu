@@ -13,7 +13,8 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   float4* __restrict__ v, float4* __restrict__ c,
                                                   const float4* __restrict__ grid_vel, const float* __restrict__ rho,
                                                   float4* grid_acc, u64* fixed_mass, const BlockMarks& marks,
-                                                  u32* work_counts, StepCounters* __restrict__ counters) {
+                                                  u32* work_counts, StepCounters* __restrict__ counters,
+                                                  const Colliders& colliders) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
@@ -22,7 +23,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f;
-    u32 misses = 0;
+    u32 misses = 0, pushes = 0;
     bool far = false;
 
     const u32 listed = work_counts[WORK_BINS];
@@ -35,7 +36,8 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             const u32 p = order[bin.start + j];
             float4 xp = x[p];
             if (ADVECT) {
-                const G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
+                G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
+                if (colliders.count) collider_backstop_particle(params, colliders, rho[p], r, pushes);
                 for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
                 v[p] = r.v;
                 x[p] = r.x;
@@ -68,6 +70,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
     }
     if (misses) atomicAdd(&counters->tile_misses, misses);
+    if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     if (far) counters->rebin_needed = 1u;
 }
 
@@ -75,9 +78,12 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                  const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
-                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
+                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
+                                 const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+                                 const float* __restrict__ collider_sdf) {
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
-                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
+                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
+                            Colliders{collider_states, num_colliders, collider_sdf});
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
@@ -85,5 +91,6 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g
                                     u64* fixed_mass, u32* block_marks, u32* block_list, u32* work_counts,
                                     StepCounters* __restrict__ counters) {
     scatter_bins_mass<false>(params, bins, order, x, nullptr, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
-                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
+                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
+                             Colliders{nullptr, 0u, nullptr});
 }

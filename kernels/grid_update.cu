@@ -19,7 +19,8 @@ extern "C" __global__ void grid_update(const Params params,
                                        StepCounters* __restrict__ counters) {
     const u32 num_nodes = params.grid_res[0] * params.grid_res[1] * params.grid_res[2];
     FOR_EACH_INDEX(i, num_nodes) {
-        update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters);
+        // The report's pipeline applies no colliders (the host refuses scenes that have them).
+        update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, Colliders{nullptr, 0u, nullptr});
     }
 }
 
@@ -33,7 +34,11 @@ extern "C" __global__ void grid_update_blocks(const Params params,
                                               float4* __restrict__ grid_vel,
                                               u64* __restrict__ fixed_mass,
                                               u64* __restrict__ fixed_momentum,
-                                              StepCounters* __restrict__ counters) {
+                                              StepCounters* __restrict__ counters,
+                                              const ColliderState* __restrict__ collider_states,
+                                              const u32 num_colliders,
+                                              const float* __restrict__ collider_sdf) {
+    const Colliders colliders{collider_states, num_colliders, collider_sdf};
     const u32 listed = work_counts[WORK_NODE_BLOCKS];
     const NodeBlocks blocks = node_blocks(params);
     for (u32 k = blockIdx.x; k < listed; k += gridDim.x) {
@@ -45,7 +50,7 @@ extern "C" __global__ void grid_update_blocks(const Params params,
                              origin[2] + (threadIdx.x >> 4)};
         if (node[0] < params.grid_res[0] && node[1] < params.grid_res[1] && node[2] < params.grid_res[2]) {
             const u32 i = node[0] + params.grid_res[0] * (node[1] + params.grid_res[1] * node[2]);
-            update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters);
+            update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, colliders);
         }
         if (threadIdx.x == 0) block_marks[b] = 0;
     }

@@ -53,6 +53,10 @@ fn create_with(
     scene: &Scene,
     state: Option<(&Particles, Option<&FlowState>)>,
 ) -> Result<Box<dyn Solver>> {
+    if matches!(kind, BackendKind::Cuda | BackendKind::Auto) {
+        // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
+        scene.check_pipeline()?;
+    }
     let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {

@@ -105,6 +105,9 @@ pub fn format_frame(s: &FrameStats) -> String {
             crate::text::count(s.substeps_over_cfl, "substep", "substeps")
         );
     }
+    if s.backstop_pushes > 0 {
+        line += &format!("  backstop={}", s.backstop_pushes);
+    }
     line
 }
 
@@ -129,6 +132,23 @@ pub fn flow_warning(last: &FrameStats) -> Option<String> {
         ));
     }
     (!warnings.is_empty()).then(|| warnings.join("\n"))
+}
+
+/// The closing line of a run whose particles the colliders' backstop had to put back on a collider's
+/// surface, or `None`: the grid's boundary condition alone did not keep them out.
+pub fn backstop_note(all: &[FrameStats]) -> Option<String> {
+    let pushes: u64 = all.iter().map(|s| s.backstop_pushes).sum();
+    if pushes == 0 {
+        return None;
+    }
+    let frames = all.iter().filter(|s| s.backstop_pushes > 0).count();
+    Some(format!(
+        "note: the collider backstop put {} back on a collider's surface, in {} of {} (the grid's \
+         boundary condition did not stop them: a fast or thin collider, or a large time step)",
+        crate::text::count(pushes, "particle", "particles"),
+        crate::text::count(frames, "frame", "frames"),
+        all.len()
+    ))
 }
 
 /// The closing warning of a run whose CFL number went above the stability bound, or `None`.
@@ -312,6 +332,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     }
     if let Some(warning) = all.last().and_then(flow_warning) {
         writeln!(out, "{warning}")?;
+    }
+    if let Some(note) = backstop_note(&all) {
+        writeln!(out, "{note}")?;
     }
     Ok(all)
 }

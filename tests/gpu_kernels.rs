@@ -37,6 +37,8 @@ fn main() -> std::process::ExitCode {
             graphed_substeps_match_launched_ones,
             binned_pipeline_follows_the_report_pipeline,
             device_statistics_match_a_host_reduction,
+            colliders_grid_update_and_backstop_match_cpu,
+            colliders_trajectory_follows_cpu,
         ],
     )
 }
@@ -782,4 +784,164 @@ fn device_statistics_match_a_host_reduction() {
         "max speed",
     );
     assert!(device.kinetic_energy > 0.0, "the block is falling");
+}
+
+/// The small tank with one collider of every kind: a friction sphere, a tilted slip box, a moving
+/// stick capsule, a cylinder, a piston (box) and a closed mesh (a cube, written to `dir` as OBJ).
+fn collider_tank(dir: &std::path::Path, scatter: ScatterMode) -> Scene {
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |bit: usize| if i >> bit & 1 == 1 { 0.05 } else { -0.05 };
+        obj += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    obj += "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    std::fs::write(dir.join("cube.obj"), obj).unwrap();
+    let colliders = r#"
+[[collider]]
+shape = "sphere"
+center = [0.3, 0.2, 0.35]
+radius = 0.08
+friction = 0.4
+[[collider]]
+shape = "box"
+center = [0.15, 0.1, 0.15]
+size = [0.12, 0.05, 0.2]
+rotation = [10.0, 0.0, 25.0]
+[[collider]]
+shape = "capsule"
+center = [0.45, 0.25, 0.2]
+radius = 0.04
+length = 0.15
+axis_angle = [1.0, 0.0, 0.0, 90.0]
+boundary = "stick"
+[collider.motion]
+velocity = [0.2, 0.0, 0.0]
+angular_velocity = [0.0, 45.0, 0.0]
+[[collider]]
+shape = "cylinder"
+center = [0.5, 0.1, 0.5]
+radius = 0.05
+length = 0.2
+[[collider]]
+shape = "box"
+center = [0.7, 0.3, 0.37]
+size = [0.03, 0.6, 0.8]
+[collider.motion]
+piston = { direction = [1.0, 0.0, 0.0], amplitude = 0.02, period = 0.4, phase = 30.0 }
+[[collider]]
+shape = "mesh"
+file = "cube.obj"
+center = [0.25, 0.38, 0.5]
+rotation = [0.0, 30.0, 0.0]
+"#;
+    let path = dir.join("colliders.toml");
+    std::fs::write(&path, SMALL_TANK.to_string() + colliders).unwrap();
+    let mut scene = Scene::load(path.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    scene.scatter = scatter;
+    scene.pipeline = Pipeline::Binned;
+    scene
+}
+
+/// The grid update with colliders and g2p with the backstop, on the binned pipeline against the CPU
+/// reference, to the bounds of grid_update_and_g2p_match_cpu. A few particles are put inside the
+/// colliders, so the backstop runs; its count must agree.
+fn colliders_grid_update_and_backstop_match_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    for scatter in [ScatterMode::Float, ScatterMode::FixedPoint] {
+        let scene = collider_tank(dir.path(), scatter);
+        let mut particles = random_particles(&scene, 5);
+        for (k, x) in [
+            [0.3, 0.2, 0.35],
+            [0.15, 0.1, 0.15],
+            [0.7, 0.3, 0.37],
+            [0.25, 0.38, 0.5],
+        ]
+        .iter()
+        .enumerate()
+        {
+            particles.x[k * 97] = Vec3::from(*x) + 0.003;
+        }
+        let params = step_params(&scene);
+        let frame = scene.colliders.frame(0.0);
+        let (mut cpu, mut gpu) = pair(&scene, &particles);
+        cpu.set_colliders(&frame).unwrap();
+        gpu.set_colliders(&frame).unwrap();
+        run_phases(&mut cpu, &mut gpu, &params, Through::GridUpdate);
+        let (_, velocity) = gpu.read_grid_velocity().unwrap();
+        let m_min = 0.01 * scene.material.particle_mass;
+        let vmax = max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
+        let mut err = 0.0f32;
+        for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
+            if m > m_min {
+                err = err.max((*v - *cpu_v).abs().max_element());
+            }
+        }
+        println!(
+            "colliders, grid_update {scatter:?}: max velocity error {:.2e} of the largest",
+            err / vmax
+        );
+        assert!(
+            err <= 1e-4 * vmax,
+            "{scatter:?}: grid velocity error {err} vs {vmax}"
+        );
+
+        cpu.g2p(&params);
+        gpu.g2p(&params).unwrap();
+        let p = gpu.read_particles().unwrap();
+        let dv = max_diff_vec3(&p.v, &cpu.particles.v);
+        let dxp = max_diff_vec3(&p.x, &cpu.particles.x) / scene.dx;
+        let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
+        println!(
+            "colliders, g2p {scatter:?}: max |dv| {dv:.2e} m/s, max |dx| {dxp:.2e} dx, backstop CPU {} GPU {}",
+            e_cpu.backstop_pushes, e_gpu.backstop_pushes
+        );
+        assert!(dv <= 1e-4 * vmax, "{scatter:?}: particle velocity error {dv}");
+        assert!(dxp <= 1e-5, "{scatter:?}: position error {dxp} dx");
+        assert!(
+            e_cpu.backstop_pushes >= 4,
+            "the particles put inside colliders were pushed out"
+        );
+        assert_eq!(
+            e_cpu.backstop_pushes, e_gpu.backstop_pushes,
+            "{scatter:?}: backstop counts"
+        );
+    }
+}
+
+/// 300 substeps of the collider tank's dam break, colliders moving, on both backends (as
+/// dam_break_follows_cpu_trajectory, whose bounds it keeps).
+fn colliders_trajectory_follows_cpu() {
+    const STEPS: usize = 300;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = collider_tank(dir.path(), ScatterMode::FixedPoint);
+    let params = step_params(&scene);
+    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
+    for step in 1..=STEPS {
+        let frame = scene.colliders.frame(step as f64 * f64::from(params.dt));
+        cpu.set_colliders(&frame).unwrap();
+        gpu.set_colliders(&frame).unwrap();
+        cpu.step(&params).unwrap();
+        gpu.step(&params).unwrap();
+        if step % 100 == 0 {
+            let p = gpu.read_particles().unwrap();
+            let errors: Vec<f32> =
+                p.x.iter()
+                    .zip(&cpu.particles.x)
+                    .map(|(a, b)| (*a - *b).length() / scene.dx)
+                    .collect();
+            let max = errors.iter().copied().fold(0.0, f32::max);
+            let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+            println!("colliders step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
+            assert!(
+                max <= 0.1 && rms <= 0.01,
+                "step {step}: max {max} dx, rms {rms} dx"
+            );
+        }
+    }
+    let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
+    println!(
+        "backstop pushes over the run: CPU {}, GPU {}",
+        e_cpu.backstop_pushes, e_gpu.backstop_pushes
+    );
 }

@@ -21,6 +21,7 @@ use super::modules::{LoadedModules, Origin};
 use super::spawn::{self, SpawnBody};
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
+use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
 use crate::sim::params::{Pipeline, ScatterMode};
 use crate::sim::{
     ColourBy, ExtremesTicket, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes,
@@ -37,6 +38,10 @@ use std::sync::Arc;
 unsafe impl DeviceRepr for Params {}
 // SAFETY: `Push` is `#[repr(C)]` and Pod; kernels/render.cu mirrors it with a static_assert.
 unsafe impl DeviceRepr for Push {}
+// SAFETY: `ColliderState` is `#[repr(C)]` and Pod; kernels/colliders.cuh mirrors it with a static_assert.
+unsafe impl DeviceRepr for ColliderState {}
+// SAFETY: every field is a u32 or f32, for which all-zero bits are valid.
+unsafe impl cudarc::driver::ValidAsZeroBits for ColliderState {}
 
 /// Where and how to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,6 +111,7 @@ const COUNTER_FIXED_OVERFLOWS: usize = 2;
 const COUNTER_MAX_SIGNAL: usize = 3;
 const COUNTER_REBIN_NEEDED: usize = 4;
 const COUNTER_TILE_MISSES: usize = 5;
+const COUNTER_BACKSTOP_PUSHES: usize = 6;
 /// Host copies of the counters in the ring: more than the two requests `Solver` allows outstanding.
 const COUNTER_COPIES: usize = 3;
 
@@ -176,6 +182,19 @@ impl Kernels {
     }
 }
 
+/// The colliders on the device (kernels/colliders.cuh): the states of the current substep, uploaded
+/// when they change (every substep for moving colliders, once for static ones), and the mesh
+/// colliders' distance samples, uploaded once.
+struct DeviceColliders {
+    states: CudaSlice<ColliderState>,
+    count: u32,
+    /// What `states` holds, to skip uploads of an unchanged frame.
+    uploaded: Vec<ColliderState>,
+    sdf: CudaSlice<f32>,
+    /// The host buffer `sdf` was copied from.
+    sdf_source: Option<Arc<[f32]>>,
+}
+
 /// The binned pipeline's list of touched node blocks (kernels/tiles.cuh): a mark per block and the
 /// list the scatters append to; its length is `work_counts[WORK_NODE_BLOCKS]`.
 struct NodeBlockList {
@@ -239,6 +258,7 @@ pub struct CudaSolver {
     stats: ParticleStats,
     /// Device scratch of the host-copy render path (allocated on first use, kept).
     render_scratch: Option<CudaSlice<f32>>,
+    colliders: DeviceColliders,
 }
 
 /// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, bin key and rank)
@@ -253,7 +273,12 @@ impl CudaSolver {
     /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`.
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
         let mut solver = CudaSolver::allocate(scene, options)?;
-        solver.spawn_on_device(scene)?;
+        if scene.colliders.is_empty() {
+            solver.spawn_on_device(scene)?;
+        } else {
+            // The device lattice knows nothing of colliders, whose insides get no fluid.
+            solver.upload(&scene.spawn())?;
+        }
         Ok(solver)
     }
 
@@ -269,6 +294,7 @@ impl CudaSolver {
 
     fn allocate(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
         options.validate()?;
+        scene.check_pipeline()?;
         library::ensure_driver()?;
         let ctx = CudaContext::new(options.device).map_err(|e| {
             anyhow!(
@@ -349,6 +375,17 @@ impl CudaSolver {
             Pipeline::Report => 0,
             Pipeline::Binned => bins.num_bins(),
         };
+        let colliders = DeviceColliders {
+            states: stream
+                .alloc_zeros::<ColliderState>(MAX_COLLIDERS)
+                .context("allocating the collider states")?,
+            count: 0,
+            uploaded: Vec::new(),
+            sdf: stream
+                .alloc_zeros::<f32>(1)
+                .context("allocating the collider SDF")?,
+            sdf_source: None,
+        };
         let mut solver = CudaSolver {
             bins,
             bins_built: false,
@@ -395,6 +432,7 @@ impl CudaSolver {
             fixed_mass_scale,
             fixed_momentum_scale,
             render_scratch: None,
+            colliders,
         };
         if fixed_scatter {
             solver.ensure_fixed_grid()?;
@@ -735,7 +773,10 @@ impl CudaSolver {
                             .arg(&self.grid_vel)
                             .arg(fixed_mass)
                             .arg(fixed_momentum)
-                            .arg(&self.counters);
+                            .arg(&self.counters)
+                            .arg(&self.colliders.states)
+                            .arg(&self.colliders.count)
+                            .arg(&self.colliders.sdf);
                     })?;
                 }
                 // Every listed block was visited and unmarked: the list starts empty again.
@@ -787,7 +828,10 @@ impl CudaSolver {
                             .arg(&self.node_blocks.marks)
                             .arg(&self.node_blocks.list)
                             .arg(&self.work_counts)
-                            .arg(&self.counters);
+                            .arg(&self.counters)
+                            .arg(&self.colliders.states)
+                            .arg(&self.colliders.count)
+                            .arg(&self.colliders.sdf);
                     })?;
                 }
                 self.mass_scattered = Some(params.scatter_mode);
@@ -1166,11 +1210,51 @@ impl Solver for CudaSolver {
             max_density: f32::from_bits(counters[COUNTER_MAX_DENSITY]),
             max_speed: f32::from_bits(counters[COUNTER_MAX_SPEED]),
             max_signal_speed: f32::from_bits(counters[COUNTER_MAX_SIGNAL]),
+            backstop_pushes: u64::from(counters[COUNTER_BACKSTOP_PUSHES]),
         })
     }
 
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
         self.timing.take_completed().map(Some)
+    }
+
+    /// Uploads the states where they changed, and the mesh samples once (in stream order, so the
+    /// substeps already enqueued keep the states they were launched with).
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
+        ensure!(
+            frame.is_empty() || self.pipeline == Pipeline::Binned,
+            "the report pipeline applies no colliders; use --pipeline binned (or solver.pipeline = \"binned\")"
+        );
+        ensure!(
+            frame.states.len() <= MAX_COLLIDERS,
+            "{} colliders, more than the {MAX_COLLIDERS} the kernels take",
+            frame.states.len()
+        );
+        let stream = self.launcher.stream.clone();
+        let device = &mut self.colliders;
+        let sdf_is_new = device
+            .sdf_source
+            .as_ref()
+            .is_none_or(|source| !Arc::ptr_eq(source, &frame.sdf));
+        if sdf_is_new && !frame.sdf.is_empty() {
+            device.sdf = stream
+                .clone_htod(&frame.sdf[..])
+                .context("uploading the mesh colliders' distance fields")?;
+            device.sdf_source = Some(frame.sdf.clone());
+        }
+        if device.uploaded != frame.states {
+            if !frame.states.is_empty() {
+                stream
+                    .memcpy_htod(
+                        &frame.states[..],
+                        &mut device.states.slice_mut(0..frame.states.len()),
+                    )
+                    .context("uploading the collider states")?;
+            }
+            device.uploaded.clone_from(&frame.states);
+            device.count = frame.states.len() as u32;
+        }
+        Ok(())
     }
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {

@@ -5,6 +5,7 @@
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
 use super::clock::{Pacing, SimClock};
+use super::colliders::ColliderDrag;
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
@@ -145,6 +146,8 @@ struct Gpu {
     // Field order is drop order: GL users first, then the surface and context, then the window.
     egui: egui_glow::EguiGlow,
     renderer: Renderer,
+    /// Whether the renderer holds the current scene's colliders' meshes.
+    colliders_built: bool,
     gl: Arc<glow::Context>,
     surface: Surface<WindowSurface>,
     context: PossiblyCurrentContext,
@@ -158,6 +161,8 @@ struct Mouse {
     right: bool,
     /// Drag movement since the last frame, for the push.
     push_drag: Vec2,
+    /// A collider held with Ctrl + left button.
+    collider_drag: Option<ColliderDrag>,
 }
 
 struct Recording {
@@ -326,6 +331,11 @@ impl ViewerApp {
         self.controls.gravity = Vec3::from(params.gravity);
         self.sim = Some(sim);
         self.scene = scene;
+        self.mouse.collider_drag = None;
+        if let Some(gpu) = self.gpu.as_mut() {
+            // Rebuilt for the new scene's colliders at the next draw.
+            gpu.colliders_built = false;
+        }
         self.clock.reset();
         self.over_cfl = 0;
         self.step_owed = false;
@@ -430,6 +440,7 @@ impl ViewerApp {
         Ok(Gpu {
             egui,
             renderer,
+            colliders_built: false,
             gl,
             surface,
             context,
@@ -623,6 +634,11 @@ impl ViewerApp {
                 dt: self.last_steps.1,
                 max_cfl: self.last_steps.2,
                 substeps_over_cfl: self.over_cfl,
+                backstop_pushes: self
+                    .sim
+                    .as_ref()
+                    .filter(|s| !s.colliders().is_empty())
+                    .map(|s| s.backstop_pushes()),
                 frame_in_progress: self.sim.as_ref().is_some_and(|s| s.time_stepped() > s.time()),
                 sim_time: self.sim.as_ref().map_or(0.0, |s| s.time()),
                 wall_time: self.started.elapsed().as_secs_f64(),
@@ -658,6 +674,13 @@ impl ViewerApp {
             }
             None => Viewport::full(size),
         };
+        if let Some(sim) = &self.sim {
+            if !gpu.colliders_built {
+                gpu.renderer.set_colliders(sim.colliders())?;
+                gpu.colliders_built = true;
+            }
+            gpu.renderer.set_collider_frame(sim.collider_frame());
+        }
         if let Err(e) = gpu.renderer.draw(
             self.scene_viewport,
             &self.camera,
@@ -720,20 +743,49 @@ impl ViewerApp {
         Ok(())
     }
 
+    /// The cursor relative to the scene's viewport (window y runs down, GL's up), and the viewport's
+    /// size; `None` without a window.
+    fn scene_cursor(&self) -> Option<(Vec2, Vec2)> {
+        let gpu = self.gpu.as_ref()?;
+        let window_height = gpu.window.inner_size().height as f32;
+        let vp = self.scene_viewport;
+        let size = Vec2::new(vp.width as f32, vp.height as f32);
+        let top = window_height - (vp.y as f32 + vp.height as f32);
+        Some((self.mouse.position - Vec2::new(vp.x as f32, top), size))
+    }
+
+    /// Ctrl + left button: takes hold of the collider under the cursor, if any; on release lets it
+    /// go (it stays where it is, at rest).
+    fn collider_button(&mut self, pressed: bool) {
+        let cursor = self.scene_cursor();
+        let Some(sim) = self.sim.as_mut() else { return };
+        if pressed {
+            if let Some((cursor, size)) = cursor {
+                self.mouse.collider_drag = ColliderDrag::grab(sim, &self.camera, cursor, size);
+            }
+        } else if let Some(held) = self.mouse.collider_drag.take() {
+            if let Err(e) = held.release(sim) {
+                self.message = Some(format!("drag failed: {e:#}"));
+            }
+        }
+    }
+
     /// Completes up to `frames` 60 Hz frames, applying the pending push first, and returns how many it
     /// completed. It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next
     /// draw. A failed step pauses the viewer with the reason shown, rather than closing it.
     fn step(&mut self, frames: u32) -> Result<u32> {
+        let scene_cursor = self.scene_cursor();
         let Some(sim) = &mut self.sim else { return Ok(0) };
+        if let (Some(held), Some((cursor, size))) = (self.mouse.collider_drag, scene_cursor) {
+            if frames > 0 {
+                if let Err(e) = held.follow(sim, &self.camera, cursor, size, frames) {
+                    self.message = Some(format!("drag failed: {e:#}"));
+                }
+            }
+        }
         let drag = std::mem::take(&mut self.mouse.push_drag);
         if drag != Vec2::ZERO && frames > 0 {
-            if let Some(gpu) = &self.gpu {
-                // The cursor relative to the scene's viewport (window y runs down, GL's up).
-                let window_height = gpu.window.inner_size().height as f32;
-                let vp = self.scene_viewport;
-                let size = Vec2::new(vp.width as f32, vp.height as f32);
-                let top = window_height - (vp.y as f32 + vp.height as f32);
-                let cursor = self.mouse.position - Vec2::new(vp.x as f32, top);
+            if let Some((cursor, size)) = scene_cursor {
                 let (origin, direction) = self.camera.ray(cursor, size);
                 // The drag in world units, along the camera's right and up axes.
                 let view = self.camera.view();
@@ -852,7 +904,14 @@ impl ApplicationHandler for ViewerApp {
                     return;
                 }
                 match button {
-                    MouseButton::Left => self.mouse.left = pressed,
+                    MouseButton::Left => {
+                        self.mouse.left = pressed;
+                        if (pressed && self.modifiers.control_key())
+                            || (!pressed && self.mouse.collider_drag.is_some())
+                        {
+                            self.collider_button(pressed);
+                        }
+                    }
                     MouseButton::Right | MouseButton::Middle => self.mouse.right = pressed,
                     _ => {}
                 }
@@ -865,7 +924,9 @@ impl ApplicationHandler for ViewerApp {
                     return;
                 }
                 let height = self.scene_viewport.height as f32;
-                if self.mouse.left && self.modifiers.shift_key() {
+                if self.mouse.collider_drag.is_some() {
+                    // The held collider follows the cursor at the next step.
+                } else if self.mouse.left && self.modifiers.shift_key() {
                     self.mouse.push_drag += delta;
                 } else if self.mouse.left {
                     self.camera.orbit(delta);

@@ -24,6 +24,8 @@ pub struct HudInfo<'a> {
     pub max_cfl: f32,
     /// Substeps since the scene started whose CFL number went above the bound.
     pub substeps_over_cfl: u64,
+    /// Particles the colliders' backstop put back on a surface since the start; `None` without colliders.
+    pub backstop_pushes: Option<u64>,
     /// A 60 Hz frame is being stepped over several draws.
     pub frame_in_progress: bool,
     pub sim_time: f64,
@@ -88,6 +90,7 @@ pub const KEYS: &[(&str, &str)] = &[
     ("right drag", "pan"),
     ("wheel", "zoom"),
     ("Shift + left drag", "push the fluid"),
+    ("Ctrl + left drag", "move a collider"),
 ];
 
 pub fn panel(ctx: &egui::Context, controls: &mut Controls, info: &HudInfo) -> Vec<Action> {
@@ -145,6 +148,12 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
             row("CFL", format!("{:.2} (> {MAX_CFL} in {over})", info.max_cfl));
         } else {
             row("CFL", format!("{:.2}", info.max_cfl));
+        }
+        if let Some(pushes) = info.backstop_pushes {
+            row(
+                "collider backstop",
+                crate::text::count(pushes, "particle", "particles"),
+            );
         }
         row("sim time", format!("{:.3} s", info.sim_time));
         row("wall time", format!("{:.3} s", info.wall_time));

@@ -4,6 +4,7 @@
 //! - [`renderer`]: the draw modes (surface, points, spheres), domain box, floor; shared by the window
 //!   and the headless path. [`surface`]: the screen-space water surface; [`legend`]: the colour bar
 //!   and its numbers; [`timer`]: GPU time per pass; [`program`]: GLSL compiling and uniforms.
+//! - [`colliders`]: the colliders drawn solid and shaded in the scene pass, and dragged with the mouse.
 //! - [`feed`]: the particle state into the GL buffer: CUDA-GL interop, or a host copy.
 //! - [`capture`]: PNG screenshots and frame sequences, never overwriting.
 //! - [`headless`]: an EGL device context and framebuffer (no X server).
@@ -15,6 +16,7 @@ pub mod app;
 pub mod camera;
 pub mod capture;
 pub mod clock;
+pub mod colliders;
 pub mod feed;
 pub mod headless;
 pub mod hud;

@@ -96,6 +96,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     let (lo, hi) = scene.fluid_region();
     let domain = (lo.as_vec3(), hi.as_vec3());
     let camera = OrbitCamera::framing(domain.0, domain.1);
+    renderer.set_colliders(&scene.colliders)?;
     let mut sim = Simulation::new(scene, solver);
     let mut feed = ParticleFeed::new(options.transfer);
 
@@ -107,6 +108,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         }
         let stepped = Instant::now();
         let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
+        renderer.set_collider_frame(sim.collider_frame());
         renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain)?;
         headless.finish();
         let drawn = Instant::now();

@@ -5,10 +5,12 @@
 //! into whatever framebuffer is bound, and times each pass on the GPU ([`super::timer`]).
 
 use super::camera::OrbitCamera;
+use super::colliders::ColliderRenderer;
 use super::legend::{Legend, Scale};
 use super::program::{gl_error, link, set_f32, set_i32, set_mat4};
 use super::surface::{Surface, SurfaceFrame, SurfaceSettings, Tint};
 use super::timer::{GpuTimer, Pass, PassTimes};
+use crate::sim::colliders::{ColliderFrame, Colliders};
 use anyhow::{anyhow, Result};
 use glam::{Mat4, Vec3};
 use glow::HasContext;
@@ -328,6 +330,10 @@ pub struct Renderer {
     surface: Surface,
     legend: Legend,
     timer: GpuTimer,
+    /// The scene's colliders, drawn solid into the scene pass (so the water refracts them and they
+    /// hide the water behind them), in the pose last set.
+    colliders: Option<ColliderRenderer>,
+    collider_frame: ColliderFrame,
 }
 
 impl Renderer {
@@ -379,6 +385,8 @@ impl Renderer {
                 surface,
                 legend,
                 timer,
+                colliders: None,
+                collider_frame: ColliderFrame::default(),
             })
         }
     }
@@ -523,6 +531,9 @@ impl Renderer {
             if settings.show_box {
                 self.draw_stage(&(proj * view), domain, false, true);
             }
+            if let Some(colliders) = &self.colliders {
+                colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
+            }
         }
         self.timer.begin(Pass::Particles);
         // SAFETY: as above.
@@ -601,6 +612,9 @@ impl Renderer {
             gl.disable(glow::SCISSOR_TEST);
             // The floor stays without the box: the water refracts it.
             self.draw_stage(&(proj * view), domain, true, settings.show_box);
+            if let Some(colliders) = &self.colliders {
+                colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
+            }
         }
         let tint = match settings.colouring {
             Colouring::Solid => Tint::Clear,
@@ -677,7 +691,27 @@ impl Renderer {
     }
 
     /// Deletes the GL objects (the context must be current). Drop any CUDA registration first.
+    /// The colliders of a new scene (their meshes are built once per scene).
+    pub fn set_colliders(&mut self, colliders: &Colliders) -> Result<()> {
+        if let Some(mut old) = self.colliders.take() {
+            old.destroy();
+        }
+        self.colliders = (!colliders.is_empty())
+            .then(|| ColliderRenderer::new(self.gl.clone(), colliders))
+            .transpose()?;
+        self.collider_frame = ColliderFrame::default();
+        Ok(())
+    }
+
+    /// The colliders' pose the next draws show.
+    pub fn set_collider_frame(&mut self, frame: ColliderFrame) {
+        self.collider_frame = frame;
+    }
+
     pub fn destroy(&mut self) {
+        if let Some(mut colliders) = self.colliders.take() {
+            colliders.destroy();
+        }
         self.surface.destroy();
         self.legend.destroy();
         self.timer.destroy();

@@ -3,6 +3,7 @@
 //! phase is a public method that a test can run on its own.
 
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
+use super::colliders::ColliderFrame;
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;
@@ -181,12 +182,23 @@ pub fn p2g_particle(
     (rho, v * m_p, affine)
 }
 
-/// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, and free slip
-/// in the boundary band.
+/// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, the colliders'
+/// boundary conditions, and free slip in the walls' boundary band (last, so the walls hold whatever a
+/// moving collider near them does).
 #[inline(always)]
-pub fn node_velocity(params: &Params, shape: GridShape, index: usize, m: f32, mv: Vec3) -> Vec3 {
+pub fn node_velocity(
+    params: &Params,
+    shape: GridShape,
+    index: usize,
+    m: f32,
+    mv: Vec3,
+    colliders: &ColliderFrame,
+) -> Vec3 {
     let mut v = mv / m + Vec3::from(params.gravity) * params.dt;
     let node = shape.node(index);
+    if !colliders.is_empty() {
+        v = colliders.project_node(node.as_vec3() * params.dx, v);
+    }
     let (band, res) = (params.boundary_band, shape.res);
     for a in 0..3 {
         if node[a] < band || node[a] >= res[a] - band {
@@ -221,11 +233,31 @@ pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec
     (((x + v * dt).clamp(lo, hi)), v, b * (4.0 * inv_dx))
 }
 
+/// The colliders' particle backstop after g2p (`ColliderFrame::backstop`), then g2p's clamp again.
+/// `None` where the particle is in no collider.
+#[inline(always)]
+pub fn g2p_backstop(
+    params: &Params,
+    shape: GridShape,
+    colliders: &ColliderFrame,
+    x: Vec3,
+    v: Vec3,
+) -> Option<(Vec3, Vec3)> {
+    if colliders.is_empty() {
+        return None;
+    }
+    let (x, v) = colliders.backstop(x, v)?;
+    let dx = params.dx;
+    Some((x.clamp(Vec3::splat(dx), (shape.res.as_vec3() - 2.0) * dx), v))
+}
+
 pub struct CpuSolver {
     pub particles: Particles,
     pub grid: Grid,
     /// Emitters and sinks, where the scene has them (`sim::flow`).
     pub lifecycle: Option<Lifecycle>,
+    /// The colliders as of the next substep (`Solver::set_colliders`).
+    pub colliders: ColliderFrame,
     extremes: StepExtremes,
     /// One record per substep, until taken.
     timings: Vec<PhaseTimings>,
@@ -237,6 +269,7 @@ impl CpuSolver {
             particles,
             grid: Grid::new(grid_res),
             lifecycle: None,
+            colliders: ColliderFrame::default(),
             extremes: StepExtremes::default(),
             timings: Vec::new(),
         }
@@ -316,7 +349,7 @@ impl CpuSolver {
         self.extremes.max_density = self.extremes.max_density.max(max_rho);
     }
 
-    /// Momentum to velocity, gravity, free-slip walls in the boundary band.
+    /// Momentum to velocity, gravity, colliders, free-slip walls in the boundary band.
     pub fn grid_update(&mut self, params: &Params) {
         let Grid {
             shape,
@@ -325,7 +358,7 @@ impl CpuSolver {
         } = &mut self.grid;
         for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
             if m > 0.0 {
-                *mv = node_velocity(params, *shape, i, m, *mv);
+                *mv = node_velocity(params, *shape, i, m, *mv, &self.colliders);
             }
         }
     }
@@ -340,8 +373,13 @@ impl CpuSolver {
         } = &self.grid;
         let p = &mut self.particles;
         let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
+        let mut pushed = 0u64;
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
-            let (x, v, c) = g2p_particle(params, *shape, velocity, p.x[n]);
+            let (mut x, mut v, c) = g2p_particle(params, *shape, velocity, p.x[n]);
+            if let Some(backstop) = g2p_backstop(params, *shape, &self.colliders, x, v) {
+                (x, v) = backstop;
+                pushed += 1;
+            }
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let speed = v.length();
             max_speed = max_speed.max(speed);
@@ -349,6 +387,7 @@ impl CpuSolver {
         }
         self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
         self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);
+        self.extremes.backstop_pushes += pushed;
     }
 }
 
@@ -385,6 +424,11 @@ impl Solver for CpuSolver {
 
     fn take_extremes(&mut self) -> anyhow::Result<StepExtremes> {
         Ok(std::mem::take(&mut self.extremes))
+    }
+
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> anyhow::Result<()> {
+        self.colliders.clone_from(frame);
+        Ok(())
     }
 
     fn take_step_timings(&mut self) -> anyhow::Result<Option<Vec<PhaseTimings>>> {

@@ -27,8 +27,10 @@
 //! count. The order differs from the reference's (particle index order), so results agree with the
 //! reference to float rounding (tests/cpu_parallel.rs), not bit for bit.
 
+use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
+    g2p_backstop, g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape,
+    Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
@@ -404,6 +406,7 @@ impl ParallelCpuSolver {
         );
         let slab = self.slab_nodes();
         let dirty = &self.bins.dirty;
+        let colliders = &self.inner.colliders;
         let Grid {
             shape,
             mass,
@@ -419,7 +422,7 @@ impl ParallelCpuSolver {
             .for_each(|(k, ((mv, m), _))| {
                 for (j, (mv, &m)) in mv.iter_mut().zip(m).enumerate() {
                     if m > 0.0 {
-                        *mv = node_velocity(params, shape, k * slab + j, m, *mv);
+                        *mv = node_velocity(params, shape, k * slab + j, m, *mv, colliders);
                     }
                 }
             });
@@ -432,9 +435,10 @@ impl ParallelCpuSolver {
             momentum: velocity,
             ..
         } = &self.inner.grid;
+        let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
         let material = &params.material;
-        let (max_speed, max_signal) =
+        let (max_speed, max_signal, pushed) =
             p.x.par_iter_mut()
                 .with_min_len(MIN_PER_TASK)
                 .zip(p.v.par_iter_mut())
@@ -446,12 +450,24 @@ impl ParallelCpuSolver {
                         return (0.0, 0.0);
                     }
                     (*x, *v, *c) = g2p_particle(params, *shape, velocity, *x);
+                    let backstop = g2p_backstop(params, *shape, colliders, *x, *v);
+                    if let Some(moved) = backstop {
+                        (*x, *v) = moved;
+                    }
                     let speed = v.length();
-                    (speed, material.sound_speed_at(rho) + speed)
+                    (
+                        speed,
+                        material.sound_speed_at(rho) + speed,
+                        u64::from(backstop.is_some()),
+                    )
                 })
-                .reduce(|| (0.0f32, 0.0f32), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+                .reduce(
+                    || (0.0f32, 0.0f32, 0u64),
+                    |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 + b.2),
+                );
         self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
         self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);
+        self.extremes.backstop_pushes += pushed;
     }
 }
 
@@ -505,6 +521,10 @@ impl Solver for ParallelCpuSolver {
 
     fn read_particles(&mut self) -> anyhow::Result<Particles> {
         Ok(self.inner.particles.clone())
+    }
+
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> anyhow::Result<()> {
+        self.inner.set_colliders(frame)
     }
 
     fn apply_push(&mut self, push: &Push) -> anyhow::Result<()> {

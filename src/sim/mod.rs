@@ -1,15 +1,18 @@
 //! The simulation core: parameters, scenes, the CPU reference and the step API.
 //! It knows nothing of windows, GL or files beyond scene text.
 
+pub mod colliders;
 pub mod cpu;
 pub mod cpu_parallel;
 pub mod flow;
+pub mod mesh;
 pub mod params;
 pub mod presets;
 pub mod push;
 pub mod scene;
 pub mod solver;
 
+pub use colliders::{ColliderFrame, Colliders};
 pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use push::{ColourBy, Push};
 pub use scene::{Particles, Scene, SceneError};

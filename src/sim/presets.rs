@@ -2,9 +2,11 @@
 //! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 7] = [
+pub const NAMES: [&str; 9] = [
     "dam-break",
     "dam-break-coarse",
+    "dam-break-obstacle",
+    "wave-tank",
     "double-dam-break",
     "drop",
     "fountain",
@@ -12,9 +14,11 @@ pub const NAMES: [&str; 7] = [
     "bench-655k",
 ];
 
-const FILES: [&str; 7] = [
+const FILES: [&str; 9] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
+    include_str!("../../scenes/dam-break-obstacle.toml"),
+    include_str!("../../scenes/wave-tank.toml"),
     include_str!("../../scenes/double-dam-break.toml"),
     include_str!("../../scenes/drop.toml"),
     include_str!("../../scenes/fountain.toml"),

@@ -5,6 +5,7 @@
 //! Every refusal names the file, the key and the fix.
 
 use super::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
+use super::colliders::{self, ColliderFrame, ColliderSpec, Colliders, MAX_COLLIDERS};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use glam::{DVec3, Vec3};
@@ -60,6 +61,8 @@ pub struct SceneSpec {
     pub blocks: Vec<BlockSpec>,
     #[serde(default, rename = "sphere")]
     pub spheres: Vec<SphereSpec>,
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderSpec>,
     #[serde(default)]
     pub particles: Option<ParticlesSpec>,
     #[serde(default, rename = "emitter")]
@@ -273,6 +276,8 @@ pub struct Scene {
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,
     pub bodies: Vec<Body>,
+    /// Obstacles and kinematic bodies (none in most scenes). No fluid spawns inside them.
+    pub colliders: Colliders,
     /// Exact number of live particles [`Scene::spawn`] makes.
     pub num_particles: usize,
     /// Emitters, sinks and the particle slots (`flow.capacity`, at least `num_particles`).
@@ -457,8 +462,9 @@ impl Scene {
             rho: vec![self.material.rest_density; slots],
             live: vec![true; self.num_particles],
         };
+        let colliders = self.colliders_at_start();
         for (k, body) in self.bodies.iter().enumerate() {
-            for p in self.own_points(&lattice, k) {
+            for p in self.own_points(&lattice, k, &colliders) {
                 particles.x.push(p.as_vec3());
                 particles.v.push(body.velocity);
             }
@@ -471,17 +477,46 @@ impl Scene {
     }
 
     /// The lattice points of body `k` that no earlier body covers: where its particles go.
-    fn own_points<'a>(&'a self, lattice: &'a Lattice, k: usize) -> impl Iterator<Item = DVec3> + 'a {
-        lattice
-            .points(&self.bodies[k].shape)
-            .filter(move |&p| !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p)))
+    /// Points inside a collider (at time 0) are left out too.
+    fn own_points<'a>(
+        &'a self,
+        lattice: &'a Lattice,
+        k: usize,
+        colliders: &'a ColliderFrame,
+    ) -> impl Iterator<Item = DVec3> + 'a {
+        lattice.points(&self.bodies[k].shape).filter(move |&p| {
+            !self.bodies[..k].iter().any(|b| lattice.contains(&b.shape, p))
+                && !colliders.contains(p.as_vec3())
+        })
     }
 
-    /// The fastest speed at the start, m/s: of the bodies and of what the emitters emit.
+    /// The colliders at time 0.
+    fn colliders_at_start(&self) -> ColliderFrame {
+        self.colliders.frame(0.0)
+    }
+
+    /// Refuses colliders on the report pipeline (whose kernels do not apply them), naming the fix.
+    pub fn check_pipeline(&self) -> Result<(), SceneError> {
+        if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
+            return Err(SceneError {
+                source: self.source.clone(),
+                key: "solver.pipeline".into(),
+                problem: format!(
+                    "= \"report\" cannot run this scene's {} collider(s): only the binned pipeline applies colliders",
+                    self.colliders.len()
+                ),
+                fix: "use --pipeline binned (or solver.pipeline = \"binned\", the default)".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The fastest speed at the start, m/s: of the bodies, of what the emitters emit and of the
+    /// moving colliders.
     pub fn fastest_start(&self) -> f32 {
         let bodies = self.bodies.iter().map(|b| b.velocity.length());
         let emitters = self.flow.emitters.iter().map(|e| e.speed);
-        bodies.chain(emitters).fold(0.0, f32::max)
+        bodies.chain(emitters).fold(self.colliders.max_speed(), f32::max)
     }
 
     /// Total particle mass, kg.
@@ -635,7 +670,9 @@ impl Validator<'_> {
             .map(|b| b.velocity.length())
             .chain(emitter_speeds)
             .fold(0.0, f32::max);
-        let time_step = self.time_step(&spec.time_step, &material, dx, max_body_speed)?;
+        let colliders = self.colliders(spec, grid_res, dx)?;
+        let max_speed = max_body_speed.max(colliders.max_speed());
+        let time_step = self.time_step(&spec.time_step, &material, dx, max_speed)?;
 
         let mut scene = Scene {
             name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
@@ -653,6 +690,7 @@ impl Validator<'_> {
             time_step,
             particles_per_axis,
             bodies,
+            colliders,
             num_particles: 0,
             flow: Flow::default(),
             // A spec always serialises (plain numbers, strings and arrays).
@@ -1069,6 +1107,34 @@ impl Validator<'_> {
             rate,
             points,
         })
+    fn colliders(&self, spec: &SceneSpec, res: [u32; 3], dx: f64) -> Result<Colliders, SceneError> {
+        if spec.colliders.len() > MAX_COLLIDERS {
+            return Err(self.err(
+                format!("collider[{MAX_COLLIDERS}]"),
+                format!(
+                    "is one of {} colliders, more than the {MAX_COLLIDERS} a scene may have",
+                    spec.colliders.len()
+                ),
+                "merge obstacles into one mesh collider, or drop some",
+            ));
+        }
+        // Mesh files are found beside the scene file.
+        let dir = Path::new(self.source)
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let resolve = |file: &str| dir.join(file);
+        let domain = DVec3::from(res.map(f64::from)) * dx;
+        let list = spec
+            .colliders
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                colliders::validate(c, &resolve, domain, dx)
+                    .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Colliders::new(list, dx as f32))
     }
 
     fn time_step(
@@ -1128,9 +1194,10 @@ impl Validator<'_> {
     /// The live particles the bodies spawn; zero only where emitters will bring fluid.
     fn count_particles(&self, scene: &Scene, has_emitters: bool) -> Result<usize, SceneError> {
         let lattice = scene.lattice();
+        let colliders = scene.colliders_at_start();
         let mut total = 0usize;
         for (k, body) in scene.bodies.iter().enumerate() {
-            let own = scene.own_points(&lattice, k).count();
+            let own = scene.own_points(&lattice, k, &colliders).count();
             if own == 0 {
                 let blocks = scene.bodies[..k]
                     .iter()
@@ -1143,10 +1210,10 @@ impl Validator<'_> {
                 return Err(self.err(
                     key,
                     format!(
-                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body)",
+                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body or a collider)",
                         lattice.spacing
                     ),
-                    "make it larger than one cell, or move it out of the bodies listed before it",
+                    "make it larger than one cell, or move it out of the bodies listed before it and the colliders",
                 ));
             }
             total += own;

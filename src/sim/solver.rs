@@ -4,6 +4,7 @@
 //! A [`Simulation`] owns one, and advances it frame by frame under the scene's time-step policy.
 
 use super::flow::{self, FlowCounts, FlowState};
+use super::colliders::ColliderFrame;
 use super::params::{Material, Params, FRAME_DT};
 use super::push::{ColourBy, Push};
 use super::scene::{Particles, Scene, MAX_CFL};
@@ -21,6 +22,9 @@ pub struct StepExtremes {
     /// chosen from c(max density) + max speed instead, an upper bound of it: at an impact the densest
     /// particles are the ones that just stopped, so the bound leaves headroom for the next impact.
     pub max_signal_speed: f32,
+    /// Particles the colliders' backstop put back on a collider's surface (they had ended a substep
+    /// inside it), summed over the substeps.
+    pub backstop_pushes: u64,
 }
 
 /// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
@@ -159,6 +163,17 @@ pub trait Solver {
     fn read_particles(&mut self) -> Result<Particles>;
     /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
     fn apply_push(&mut self, push: &Push) -> Result<()>;
+    /// The colliders the next substeps apply (their pose at the end of the substep): [`Simulation`]
+    /// sets them before every substep of a scene that has colliders. A backend without colliders
+    /// refuses them.
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
+        ensure!(
+            frame.is_empty(),
+            "the {} backend does not apply colliders",
+            self.name()
+        );
+        Ok(())
+    }
     /// One `[x, y, z, value]` per particle, `value` as `colour_by` says: what the renderer draws,
     /// for backends without GL interop (and the CUDA host-copy comparison).
     fn render_attributes(
@@ -313,6 +328,9 @@ pub struct FrameStats {
     /// Substeps of the frame run in a stretch whose CFL number went above [`MAX_CFL`] (0 when the
     /// bound held). The step cannot be taken back, so these are counted and reported instead.
     pub substeps_over_cfl: u32,
+    /// Particles the colliders' backstop put back on a collider's surface in this frame
+    /// (see [`StepExtremes::backstop_pushes`]); 0 without colliders.
+    pub backstop_pushes: u64,
     #[serde(flatten)]
     pub summary: Summary,
     /// What emitters and sinks did since the run began; `None` in a scene without them.
@@ -333,6 +351,8 @@ pub struct FrameSteps {
     pub max_cfl: f32,
     /// See [`FrameStats::substeps_over_cfl`].
     pub substeps_over_cfl: u32,
+    /// See [`FrameStats::backstop_pushes`].
+    pub backstop_pushes: u64,
     pub timings: Option<PhaseTimings>,
 }
 
@@ -358,6 +378,8 @@ pub struct Simulation {
     /// See [`RunClock`].
     emitter_phases: Vec<f64>,
     late_layers: u64,
+    /// Backstop pushes since the start (see [`StepExtremes::backstop_pushes`]).
+    backstop_total: u64,
 }
 
 /// What a frame's substeps have done so far.
@@ -367,6 +389,7 @@ struct FramePart {
     smallest_dt: f32,
     max_cfl: f32,
     over_cfl: u32,
+    backstop_pushes: u64,
     /// Simulated seconds of the frame so far.
     simulated: f64,
     /// Timing records of the frame's substeps read so far (`None` where the backend measures none).
@@ -382,6 +405,7 @@ impl FramePart {
         smallest_dt: f32::INFINITY,
         max_cfl: 0.0,
         over_cfl: 0,
+        backstop_pushes: 0,
         simulated: 0.0,
         step_timings: None,
     };
@@ -459,6 +483,7 @@ impl Simulation {
             summary_ticket: None,
             emitter_phases,
             late_layers: 0,
+            backstop_total: 0,
         }
     }
 
@@ -484,6 +509,45 @@ impl Simulation {
     /// One timing record per substep of the last frame (empty where the backend measures none).
     pub fn last_step_timings(&self) -> &[PhaseTimings] {
         &self.last_step_timings
+    }
+    /// Particles the colliders' backstop put back on a collider's surface since the start.
+    pub fn backstop_pushes(&self) -> u64 {
+        self.backstop_total
+    }
+    /// The scene's colliders, as the viewer draws and drags them.
+    pub fn colliders(&self) -> &super::Colliders {
+        &self.scene.colliders
+    }
+    /// The colliders as of the last substep's end (the current simulated time).
+    pub fn collider_frame(&self) -> ColliderFrame {
+        self.scene.colliders.frame(self.time_stepped())
+    }
+    /// Moves collider `index` kinematically from now on: its centre is at `center` now and goes on
+    /// at `velocity` (the viewer's drag). Its rotation stays as it is now.
+    pub fn drag_collider(&mut self, index: usize, center: glam::DVec3, velocity: glam::DVec3) -> Result<()> {
+        let now = self.time_stepped();
+        let collider = self
+            .scene
+            .colliders
+            .list
+            .get_mut(index)
+            .ok_or_else(|| anyhow::anyhow!("there is no collider {index}"))?;
+        ensure!(
+            center.is_finite() && velocity.is_finite(),
+            "a dragged collider's position and velocity must be finite"
+        );
+        let pose = collider.pose(now);
+        collider.center = center;
+        collider.rotation = pose.rotation;
+        collider.motion = super::colliders::Motion::Steady {
+            velocity,
+            angular_velocity: glam::DVec3::ZERO,
+            since: now,
+        };
+        self.signal_speed = self
+            .signal_speed
+            .max(self.params.material.sound_speed() + velocity.length() as f32);
+        Ok(())
     }
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
         self.solver.as_mut()
@@ -529,6 +593,8 @@ impl Simulation {
         if stretch_cfl > MAX_CFL {
             part.over_cfl += n; // the stretch's extremes are all there is: count all its substeps
         }
+        part.backstop_pushes += extremes.backstop_pushes;
+        self.backstop_total += extremes.backstop_pushes;
         Ok(())
     }
 
@@ -567,6 +633,7 @@ impl Simulation {
             dt: steps.dt,
             max_cfl: steps.max_cfl,
             substeps_over_cfl: steps.substeps_over_cfl,
+            backstop_pushes: steps.backstop_pushes,
             summary,
             flow: self.solver.flow_counts()?,
             late_layers: self.late_layers,
@@ -607,6 +674,11 @@ impl Simulation {
             let mut n = 0;
             while n < planned {
                 self.emit_due(dt)?;
+                if !self.scene.colliders.is_empty() {
+                    // Each substep's boundary conditions with the colliders where the substep ends.
+                    let end = self.time + part.simulated + f64::from(n + 1) * f64::from(dt);
+                    self.solver.set_colliders(&self.scene.colliders.frame(end))?;
+                }
                 self.solver.step(&self.params)?;
                 n += 1;
                 if late() {
@@ -646,6 +718,7 @@ impl Simulation {
             smallest_dt,
             max_cfl,
             over_cfl,
+            backstop_pushes,
             simulated,
             step_timings,
         } = part;
@@ -662,6 +735,7 @@ impl Simulation {
             dt: smallest_dt,
             max_cfl,
             substeps_over_cfl: over_cfl,
+            backstop_pushes,
             timings,
         }))
     }

@@ -1,0 +1,229 @@
+// Colliders on the device (src/sim/colliders.rs, docs/physics.md "Colliders"): the mirror of
+// `ColliderState`, the signed distance of each shape, the grid update's boundary condition and the
+// particle backstop. The host evaluates every collider's motion once per substep into a small array of
+// states (pose, rigid velocity, shape), uploaded only when it changed; mesh colliders add their
+// distance samples in one buffer. Each function follows its Rust twin operation for operation, so the
+// CPU reference and the kernels agree to rounding.
+
+#define COLLIDER_BOX 0u
+#define COLLIDER_SPHERE 1u
+#define COLLIDER_CAPSULE 2u
+#define COLLIDER_CYLINDER 3u
+#define COLLIDER_MESH 4u
+
+#define BOUNDARY_SLIP 0u
+#define BOUNDARY_STICK 1u
+#define BOUNDARY_FRICTION 2u
+
+struct ColliderState {
+    u32 kind;
+    u32 boundary;
+    float friction;            // Coulomb coefficient
+    float band;                // m: nodes closer than this are constrained
+    float rotation[9];         // world-from-local, row-major
+    float center[3];           // m
+    float velocity[3];         // m/s, of the centre
+    float angular_velocity[3]; // rad/s, world frame
+    float size[3];             // box: half extents; sphere: radius; capsule, cylinder: radius, half length
+    float sdf_origin[3];       // mesh: local position of sample (0, 0, 0)
+    u32 sdf_dims[3];           // mesh: samples per axis, x fastest
+    float sdf_spacing;         // mesh: m
+    u32 sdf_offset;            // mesh: first sample in the SDF buffer
+    float reach;               // m: a ball about the centre that holds the shape (with a margin)
+    u32 _pad[2];
+};
+static_assert(sizeof(ColliderState) == 144, "ColliderState must match src/sim/colliders.rs");
+
+// What the grid update and the backstop read: the states, their count, the mesh samples.
+struct Colliders {
+    const ColliderState* states;
+    u32 count;
+    const float* sdf;
+};
+
+struct Vec3f {
+    float x, y, z;
+};
+
+__device__ __forceinline__ Vec3f v3(float x, float y, float z) { return Vec3f{x, y, z}; }
+__device__ __forceinline__ float collider_norm(Vec3f v) { return sqrtf(v.x * v.x + v.y * v.y + v.z * v.z); }
+__device__ __forceinline__ float collider_sign(float x) { return x < 0.0f ? -1.0f : 1.0f; }
+
+// Trilinear distance samples of a mesh and their gradient; far (+inf) outside the sampled box.
+__device__ __forceinline__ float mesh_distance(const ColliderState& s, const float* __restrict__ sdf, Vec3f p,
+                                               Vec3f& normal) {
+    const float inv = 1.0f / s.sdf_spacing;
+    const float g[3] = {(p.x - s.sdf_origin[0]) * inv, (p.y - s.sdf_origin[1]) * inv, (p.z - s.sdf_origin[2]) * inv};
+    const float b[3] = {floorf(g[0]), floorf(g[1]), floorf(g[2])};
+    normal = v3(0.0f, 1.0f, 0.0f);
+    if (b[0] < 0.0f || b[1] < 0.0f || b[2] < 0.0f) return __int_as_float(0x7f800000);
+    const u32 i = (u32)b[0], j = (u32)b[1], k = (u32)b[2];
+    const u32 nx = s.sdf_dims[0], ny = s.sdf_dims[1], nz = s.sdf_dims[2];
+    if (i + 1 >= nx || j + 1 >= ny || k + 1 >= nz) return __int_as_float(0x7f800000);
+    const float f[3] = {g[0] - b[0], g[1] - b[1], g[2] - b[2]};
+    const float* at = sdf + s.sdf_offset;
+#define SDF_AT(a, bb, c) __ldg(&at[(a) + nx * ((bb) + ny * (c))])
+    const float c000 = SDF_AT(i, j, k), c100 = SDF_AT(i + 1, j, k);
+    const float c010 = SDF_AT(i, j + 1, k), c110 = SDF_AT(i + 1, j + 1, k);
+    const float c001 = SDF_AT(i, j, k + 1), c101 = SDF_AT(i + 1, j, k + 1);
+    const float c011 = SDF_AT(i, j + 1, k + 1), c111 = SDF_AT(i + 1, j + 1, k + 1);
+#undef SDF_AT
+    const float x00 = c000 + (c100 - c000) * f[0];
+    const float x10 = c010 + (c110 - c010) * f[0];
+    const float x01 = c001 + (c101 - c001) * f[0];
+    const float x11 = c011 + (c111 - c011) * f[0];
+    const float y0 = x00 + (x10 - x00) * f[1];
+    const float y1 = x01 + (x11 - x01) * f[1];
+    const float phi = y0 + (y1 - y0) * f[2];
+    const float ga = (c100 - c000) + ((c110 - c010) - (c100 - c000)) * f[1];
+    const float gb = (c101 - c001) + ((c111 - c011) - (c101 - c001)) * f[1];
+    const Vec3f grad = v3(ga + (gb - ga) * f[2], (x10 - x00) + ((x11 - x01) - (x10 - x00)) * f[2], y1 - y0);
+    const float len = collider_norm(grad);
+    if (len > 0.0f) normal = v3(grad.x / len, grad.y / len, grad.z / len);
+    return phi;
+}
+
+// Whether x lies farther than `margin` outside the collider's bounding ball (ColliderFrame's `beyond`):
+// the cheap test that spares most nodes and particles the shape.
+__device__ __forceinline__ bool collider_beyond(const ColliderState& s, Vec3f x, float margin) {
+    const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+    const float limit = s.reach + margin;
+    return r.x * r.x + r.y * r.y + r.z * r.z > limit * limit;
+}
+
+// Signed distance (negative inside) and outward unit normal of a shape at local point p.
+__device__ __forceinline__ float collider_local_distance(const ColliderState& s, const float* __restrict__ sdf,
+                                                         Vec3f p, Vec3f& normal) {
+    if (s.kind == COLLIDER_BOX) {
+        const Vec3f q = v3(fabsf(p.x) - s.size[0], fabsf(p.y) - s.size[1], fabsf(p.z) - s.size[2]);
+        const Vec3f outside = v3(fmaxf(q.x, 0.0f), fmaxf(q.y, 0.0f), fmaxf(q.z, 0.0f));
+        const float out_len = collider_norm(outside);
+        const float inside = fminf(fmaxf(q.x, fmaxf(q.y, q.z)), 0.0f);
+        if (out_len > 0.0f) {
+            normal = v3(outside.x * collider_sign(p.x) / out_len, outside.y * collider_sign(p.y) / out_len,
+                        outside.z * collider_sign(p.z) / out_len);
+        } else if (q.x >= q.y && q.x >= q.z) {
+            normal = v3(collider_sign(p.x), 0.0f, 0.0f);
+        } else if (q.y >= q.z) {
+            normal = v3(0.0f, collider_sign(p.y), 0.0f);
+        } else {
+            normal = v3(0.0f, 0.0f, collider_sign(p.z));
+        }
+        return out_len + inside;
+    }
+    if (s.kind == COLLIDER_SPHERE) {
+        const float len = collider_norm(p);
+        normal = len > 0.0f ? v3(p.x / len, p.y / len, p.z / len) : v3(0.0f, 1.0f, 0.0f);
+        return len - s.size[0];
+    }
+    if (s.kind == COLLIDER_CAPSULE) {
+        const float a = fminf(fmaxf(p.y, -s.size[1]), s.size[1]);
+        const Vec3f d = v3(p.x, p.y - a, p.z);
+        const float len = collider_norm(d);
+        normal = len > 0.0f ? v3(d.x / len, d.y / len, d.z / len) : v3(1.0f, 0.0f, 0.0f);
+        return len - s.size[0];
+    }
+    if (s.kind == COLLIDER_CYLINDER) {
+        const float radial = sqrtf(p.x * p.x + p.z * p.z);
+        const float dr = radial - s.size[0];
+        const float dy = fabsf(p.y) - s.size[1];
+        const float ox = fmaxf(dr, 0.0f), oy = fmaxf(dy, 0.0f);
+        const float out_len = sqrtf(ox * ox + oy * oy);
+        const Vec3f u = radial > 0.0f ? v3(p.x / radial, 0.0f, p.z / radial) : v3(1.0f, 0.0f, 0.0f);
+        const float axial = collider_sign(p.y);
+        if (out_len > 0.0f) {
+            normal = v3(u.x * ox / out_len, oy * axial / out_len, u.z * ox / out_len);
+        } else if (dr > dy) {
+            normal = u;
+        } else {
+            normal = v3(0.0f, axial, 0.0f);
+        }
+        return out_len + fminf(fmaxf(dr, dy), 0.0f);
+    }
+    return mesh_distance(s, sdf, p, normal);
+}
+
+// Signed distance and outward unit normal (world frame) at world point x.
+__device__ __forceinline__ float collider_distance(const ColliderState& s, const float* __restrict__ sdf, Vec3f x,
+                                                   Vec3f& normal) {
+    const float* m = s.rotation;
+    const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+    const Vec3f p = v3(m[0] * r.x + m[3] * r.y + m[6] * r.z, m[1] * r.x + m[4] * r.y + m[7] * r.z,
+                       m[2] * r.x + m[5] * r.y + m[8] * r.z);
+    Vec3f n;
+    const float phi = collider_local_distance(s, sdf, p, n);
+    normal = v3(m[0] * n.x + m[1] * n.y + m[2] * n.z, m[3] * n.x + m[4] * n.y + m[5] * n.z,
+                m[6] * n.x + m[7] * n.y + m[8] * n.z);
+    return phi;
+}
+
+// The collider's own velocity at world point x: v + w x (x - c).
+__device__ __forceinline__ Vec3f collider_velocity_at(const ColliderState& s, Vec3f x) {
+    const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+    const float* w = s.angular_velocity;
+    return v3(s.velocity[0] + (w[1] * r.z - w[2] * r.y), s.velocity[1] + (w[2] * r.x - w[0] * r.z),
+              s.velocity[2] + (w[0] * r.y - w[1] * r.x));
+}
+
+// The grid update's boundary condition (ColliderFrame::project_node): for each collider in turn whose
+// surface is within the band, the velocity relative to it loses its part into the collider (slip), all
+// of it (stick), or that and a Coulomb share of its tangential part (friction).
+__device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float (&vel)[3]) {
+    for (u32 k = 0; k < colliders.count; ++k) {
+        const ColliderState& s = colliders.states[k];
+        if (collider_beyond(s, x, s.band)) continue;
+        Vec3f n;
+        const float phi = collider_distance(s, colliders.sdf, x, n);
+        if (!(phi < s.band)) continue;
+        const Vec3f vc = collider_velocity_at(s, x);
+        Vec3f rel = v3(vel[0] - vc.x, vel[1] - vc.y, vel[2] - vc.z);
+        if (s.boundary == BOUNDARY_STICK) {
+            rel = v3(0.0f, 0.0f, 0.0f);
+        } else {
+            const float vn = rel.x * n.x + rel.y * n.y + rel.z * n.z;
+            if (vn < 0.0f) {
+                const Vec3f t = v3(rel.x - n.x * vn, rel.y - n.y * vn, rel.z - n.z * vn);
+                if (s.boundary == BOUNDARY_FRICTION) {
+                    const float vt = collider_norm(t);
+                    if (vt <= -s.friction * vn) {
+                        rel = v3(0.0f, 0.0f, 0.0f);
+                    } else {
+                        const float keep = 1.0f + s.friction * vn / vt;
+                        rel = v3(t.x * keep, t.y * keep, t.z * keep);
+                    }
+                } else {
+                    rel = t;
+                }
+            }
+        }
+        vel[0] = vc.x + rel.x;
+        vel[1] = vc.y + rel.y;
+        vel[2] = vc.z + rel.z;
+    }
+}
+
+// The particle backstop after advection (ColliderFrame::backstop): a particle that ended inside a
+// collider goes back to its surface along the normal and loses its velocity into it. True where it did.
+__device__ __forceinline__ bool collider_backstop(const Colliders& colliders, float (&x)[3], float (&vel)[3]) {
+    bool pushed = false;
+    for (u32 k = 0; k < colliders.count; ++k) {
+        const ColliderState& s = colliders.states[k];
+        if (collider_beyond(s, v3(x[0], x[1], x[2]), 0.0f)) continue;
+        Vec3f n;
+        const float phi = collider_distance(s, colliders.sdf, v3(x[0], x[1], x[2]), n);
+        if (phi < 0.0f) {
+            x[0] -= n.x * phi;
+            x[1] -= n.y * phi;
+            x[2] -= n.z * phi;
+            const Vec3f vc = collider_velocity_at(s, v3(x[0], x[1], x[2]));
+            const float vn = (vel[0] - vc.x) * n.x + (vel[1] - vc.y) * n.y + (vel[2] - vc.z) * n.z;
+            if (vn < 0.0f) {
+                vel[0] -= n.x * vn;
+                vel[1] -= n.y * vn;
+                vel[2] -= n.z * vn;
+            }
+            pushed = true;
+        }
+    }
+    return pushed;
+}
