@@ -123,7 +123,8 @@ fn push_agrees_between_cpu_and_cuda() {
     );
 }
 
-/// Frame 30 of `mpm render --scene dam-break --frames 30 --size 320x180 --backend cuda --out DIR`
+/// Frame 30 of `mpm render --scene dam-break --frames 30 --size 320x180 --backend cuda --draw spheres
+/// --out DIR`
 /// (spheres coloured by speed, interop), made on an NVIDIA H200 on 2026-11-21, before the colour bar
 /// carried its numbers: at this size they cover about 0.4 % of the frame and raise the mean colour by
 /// 0.3 per channel (measured on Mesa), inside the bounds below. Embedded, so the test binary runs
