@@ -19,7 +19,8 @@
 #   --size WxH             the window, and the X screen around it [1280x720]
 #   --mpm PATH             the binary [.gpu/bin/mpm, else target/release/mpm]
 #   --x11 TARBALL          the X11 tree [.gpu/x11/root.tar.xz]
-#   --out DIR              where window.png, view.log, xvfb.log and check.txt go [$OUT or ./view-on-gpu-out]
+#   --out DIR              where the results go [$OUT or ./view-on-gpu-out]: window.png (the viewer's
+#                          last frame), screen.png (the X screen near the end), view.log, xvfb.log, check.txt
 #   --timeout S            limit for the viewer run [300]
 #   --min-fluid F          least fraction of the frame that must show fluid [0.02]
 #   -- ARGS...             more arguments for `mpm view` (e.g. --draw points)
@@ -72,7 +73,7 @@ x11=$(realpath "$x11")
 command -v python3 >/dev/null || fail "python3 is needed (scripts/window_check.py)"
 mkdir -p "$out" || fail "cannot create the output folder $out"
 out=$(realpath "$out")
-for f in window.png view.log xvfb.log check.txt; do
+for f in window.png screen.png view.log xvfb.log check.txt; do
   [[ ! -e $out/$f ]] || fail "$out/$f exists already; not overwriting it: give another --out"
 done
 # The transfer the log must name: CUDA-GL interop on the CUDA backend, a host copy on the CPU (auto:
@@ -163,9 +164,10 @@ fi
 width=${BASH_REMATCH[1]} height=${BASH_REMATCH[2]}
 display_file=$root/display
 : >"$display_file"
+mkdir -p "$root/fb" # -fbdir: the screen's pixels live in a file there (XWD), for the screen dump
 env LD_LIBRARY_PATH="$lib" LIBGL_DRIVERS_PATH="$lib/dri" XLOCALEDIR="$root/usr/share/X11/locale" \
   "$root/usr/bin/Xvfb" -displayfd 3 -screen 0 "${width}x${height}x24" -nolisten tcp -noreset \
-  +extension GLX -xkbdir "$root/usr/share/X11/xkb" -fp built-ins \
+  +extension GLX -xkbdir "$root/usr/share/X11/xkb" -fp built-ins -fbdir "$root/fb" \
   3>"$display_file" >"$out/xvfb.log" 2>&1 &
 xvfb_pid=$!
 display=$(timeout 30 python3 "$here/window_check.py" wait-x "$display_file" "$xvfb_pid" 20 2>>"$out/check.txt") || {
@@ -186,16 +188,30 @@ env -u WAYLAND_DISPLAY DISPLAY="$display" __GLX_VENDOR_LIBRARY_NAME="$vendor" \
   XLOCALEDIR="$root/usr/share/X11/locale" XKB_CONFIG_ROOT="$root/usr/share/X11/xkb" \
   timeout -k 10 "$view_timeout" "$mpm" view --backend "$backend" --scene "$scene" --size "$size" \
   --no-vsync --fixed-frames "$fixed" --quit-after "$frames" --final-screenshot "$out/window.png" \
-  --capture-dir "$root" "${extra[@]}" >"$out/view.log" 2>&1
+  --capture-dir "$root" "${extra[@]}" >"$out/view.log" 2>&1 &
+view_pid=$!
+# While the viewer runs, copy the X screen every half second; a copy counts once the viewer is seen
+# alive after it (its window was still up), so the last such copy shows the window's last frames.
+while kill -0 "$view_pid" 2>/dev/null; do
+  sleep 0.5
+  cp "$root/fb/Xvfb_screen0" "$root/screen.part" 2>/dev/null &&
+    kill -0 "$view_pid" 2>/dev/null && mv "$root/screen.part" "$root/screen.xwd"
+done
+wait "$view_pid"
 status=$?
 say "mpm view exited with status $status after $(($(date +%s) - start)) s (log: $out/view.log)"
 ((status == 124 || status == 137)) && say "mpm view ran past --timeout $view_timeout s and was stopped"
 tail -n 15 "$out/view.log" >&2
 
+if [[ -f $root/screen.xwd ]]; then
+  timeout 60 python3 "$here/window_check.py" xwd2png "$root/screen.xwd" "$out/screen.png" ||
+    say "could not convert the X screen dump"
+fi
 cleanup
 xvfb_pid="" made_link="" root=""
 timeout 120 python3 "$here/window_check.py" check --shot "$out/window.png" --log "$out/view.log" \
-  --renderer "$renderer_re" --transfer "$transfer" --min-fluid "$min_fluid" | tee -a "$out/check.txt"
+  --screen "$out/screen.png" --renderer "$renderer_re" --transfer "$transfer" --min-fluid "$min_fluid" |
+  tee -a "$out/check.txt"
 checked=${PIPESTATUS[0]}
 ((status == 0)) || say "FAILED: mpm view exited with status $status"
 ((status == 0 && checked == 0))

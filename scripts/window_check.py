@@ -8,9 +8,14 @@ packages):
       Waits until the X server started with `-displayfd` has written its display number, connects
       to it (the X11 connection handshake) and asks whether it has the GLX extension. Prints the
       display (`:N`) on stdout; fails if the server dies, refuses, lacks GLX or takes too long.
-  window_check.py check --shot PNG --log LOG [--renderer REGEX] [--transfer WORDS] [--min-fluid F]
+  window_check.py xwd2png XWD PNG
+      Converts Xvfb's screen (the file `-fbdir` keeps, in XWD format) into a PNG.
+  window_check.py check --shot PNG --log LOG [--screen PNG] [--renderer REGEX] [--transfer WORDS]
+                        [--min-fluid F]
       Checks the viewer's last frame and log: enough of the frame shows fluid, the OpenGL renderer
-      the viewer reported matches REGEX, and the particles reached OpenGL by the expected path.
+      the viewer reported matches REGEX, and the particles reached OpenGL by the expected path; with
+      --screen, that the X server's screen shows the fluid too (the frames were presented to the
+      window, not only drawn).
 """
 
 import argparse
@@ -148,19 +153,58 @@ def read_png(path):
     return width, height, channels, rows
 
 
-def fluid_fraction(width, height, channels, rows):
+def xwd_to_png(xwd_path, png_path):
+    """Xvfb's -fbdir screen file: an XWD header (big-endian CARD32 fields), the window name, the
+    colour map, then the pixels, 32 bits each in TrueColor."""
+    data = open(xwd_path, "rb").read()
+    fields = struct.unpack_from(">25I", data, 0)
+    if fields[1] != 7:
+        raise ValueError(f"{xwd_path} is not an XWD (version 7) file")
+    header_size, depth, width, height = fields[0], fields[3], fields[4], fields[5]
+    byte_order, bits_per_pixel, bytes_per_line = fields[7], fields[11], fields[12]
+    masks, ncolors = fields[14:17], fields[19]
+    if bits_per_pixel != 32 or depth != 24:
+        raise ValueError(f"{xwd_path}: {bits_per_pixel} bits per pixel, depth {depth}; 32/24 expected")
+    # Which byte of a pixel holds each channel (byte_order 0: least significant byte first).
+    offsets = []
+    for mask in masks:
+        shift = (mask & -mask).bit_length() - 1
+        offsets.append(shift // 8 if byte_order == 0 else 3 - shift // 8)
+    pixels = data[header_size + 12 * ncolors :]
+    raw = bytearray()
+    for y in range(height):
+        row = pixels[y * bytes_per_line : y * bytes_per_line + 4 * width]
+        rgb = bytearray(3 * width)
+        for k in range(3):
+            rgb[k::3] = row[offsets[k] :: 4]
+        raw += b"\0" + rgb  # filter type 0
+    write_png(png_path, width, height, bytes(raw))
+
+
+def write_png(path, width, height, raw_rows):
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    with open(path, "xb") as f:  # never overwrites
+        f.write(b"\x89PNG\r\n\x1a\n")
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)))
+        f.write(chunk(b"IDAT", zlib.compress(raw_rows, 6)))
+        f.write(chunk(b"IEND", b""))
+
+
+def fluid_fraction(width, height, channels, rows, from_x=0.0):
     """Fractions of the frame that differ from the background, and that show fluid: a clear colour
     (the colour scale and the water are blue to red; the box's lines are grey) left of the colour
-    bar (the right 5 % of the frame)."""
+    bar (the right 5 % of the frame) and right of `from_x` (a fraction of the width)."""
     covered = fluid = 0
-    left_of_bar = int(width * 0.95)
+    left, right = int(width * from_x), int(width * 0.95)
     for row in rows:
         for x in range(width):
             i = x * channels
             r, g, b = row[i], row[i + 1], row[i + 2]
             if abs(r - BACKGROUND[0]) > 12 or abs(g - BACKGROUND[1]) > 12 or abs(b - BACKGROUND[2]) > 12:
                 covered += 1
-                if x < left_of_bar and max(r, g, b) - min(r, g, b) >= 40:
+                if left <= x < right and max(r, g, b) - min(r, g, b) >= 40:
                     fluid += 1
     return covered / (width * height), fluid / (width * height)
 
@@ -200,6 +244,19 @@ def check(args):
             failures.append(f"too little fluid in the frame: {100 * fluid:.2f}%")
         if covered > 0.9:
             failures.append(f"the frame is filled ({100 * covered:.0f}% not background), not drawn")
+    if args.screen:
+        if not os.path.exists(args.screen):
+            failures.append(f"no dump of the X screen at {args.screen}")
+        else:
+            width, height, channels, rows = read_png(args.screen)
+            # Only the right half counts: the panel on the left has coloured widgets (its legend).
+            # The scene is the part of the window right of the panel: half the frame's share suffices.
+            _, fluid = fluid_fraction(width, height, channels, rows, from_x=0.5)
+            print(f"X screen: {width}x{height}, fluid pixel fraction {100 * fluid:.1f}% "
+                  f"(at least {50 * args.min_fluid:.1f}% wanted)")
+            if fluid < args.min_fluid / 2:
+                failures.append(f"the X screen shows too little fluid ({100 * fluid:.2f}%): the frames "
+                                "were drawn but not presented to the window")
     for f in failures:
         print(f"FAILED: {f}")
     print("window check: " + ("passed" if not failures else f"{len(failures)} failed"))
@@ -216,9 +273,13 @@ def main():
     p.add_argument("display_file")
     p.add_argument("pid", type=int)
     p.add_argument("timeout", type=float)
+    p = sub.add_parser("xwd2png")
+    p.add_argument("xwd")
+    p.add_argument("png")
     p = sub.add_parser("check")
     p.add_argument("--shot", required=True)
     p.add_argument("--log", required=True)
+    p.add_argument("--screen", help="a PNG of the X server's screen, taken while the viewer ran")
     p.add_argument("--renderer", default="NVIDIA", help="regular expression the GL renderer must match")
     p.add_argument("--transfer", default="CUDA-GL interop", help="the particle path the log must name")
     p.add_argument("--min-fluid", type=float, default=0.02, help="least fraction of fluid pixels")
@@ -227,6 +288,8 @@ def main():
         unpack(args.tarball, args.dest)
     elif args.command == "wait-x":
         wait_x(args.display_file, args.pid, args.timeout)
+    elif args.command == "xwd2png":
+        xwd_to_png(args.xwd, args.png)
     else:
         sys.exit(check(args))
 
