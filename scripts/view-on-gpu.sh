@@ -5,7 +5,8 @@
 # `__GLX_VENDOR_LIBRARY_NAME=nvidia`) and CUDA-GL interop on the window's context, stops Xvfb, and
 # checks the last frame and the log (scripts/window_check.py). Exits non-zero when a check fails.
 #
-# On the GPU machine, from the checkout (after the EGL/GLX loaders are in place, e.g. by .gpu/run):
+# On the GPU machine, as root, from the checkout with .gpu/bin/mpm and .gpu/x11/ (the tree brings
+# glvnd's GL loaders along; the machine needs python3 and the NVIDIA driver):
 #   bash scripts/view-on-gpu.sh                  (results in $OUT, or ./view-on-gpu-out)
 # A dry run on a machine without an NVIDIA GPU (Mesa's software GLX, the CPU backend):
 #   bash scripts/view-on-gpu.sh --vendor mesa --backend cpu-parallel --scene dam-break-coarse
@@ -96,10 +97,14 @@ if [[ $vendor == nvidia ]] && ! ldconfig -p | grep -q 'libGLX_nvidia\.so\.0 '; t
   nvidia_dir=$found
 fi
 
-# Cleanup on every exit: the X server (SIGTERM so that it removes its lock file and socket; SIGKILL
-# after 5 s), the xkbcomp link if this script made it, and the unpacked tree.
-root="" xvfb_pid="" made_link=""
+# Cleanup on every exit: the viewer if still running, the X server (SIGTERM so that it removes its
+# lock file and socket; SIGKILL after 5 s), the xkbcomp link if this script made it, the unpacked tree.
+root="" xvfb_pid="" view_pid="" made_link=""
 cleanup() {
+  if [[ -n $view_pid ]] && kill -0 "$view_pid" 2>/dev/null; then
+    kill -TERM "$view_pid" 2>/dev/null # `timeout`, which passes it on to mpm
+    wait "$view_pid" 2>/dev/null
+  fi
   if [[ -n $xvfb_pid ]] && kill -0 "$xvfb_pid" 2>/dev/null; then
     kill -TERM "$xvfb_pid" 2>/dev/null
     for _ in $(seq 50); do kill -0 "$xvfb_pid" 2>/dev/null || break; sleep 0.1; done
@@ -208,7 +213,7 @@ if [[ -f $root/screen.xwd ]]; then
     say "could not convert the X screen dump"
 fi
 cleanup
-xvfb_pid="" made_link="" root=""
+view_pid="" xvfb_pid="" made_link="" root=""
 timeout 120 python3 "$here/window_check.py" check --shot "$out/window.png" --log "$out/view.log" \
   --screen "$out/screen.png" --renderer "$renderer_re" --transfer "$transfer" --min-fluid "$min_fluid" |
   tee -a "$out/check.txt"
