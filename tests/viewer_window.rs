@@ -142,6 +142,18 @@ fn viewer_window_shows_particles() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("mpm view stderr:\n{stderr}");
     assert!(output.status.success(), "mpm view failed: {}", output.status);
+    // Scripts on a display-less GPU server (scripts/view-on-gpu.sh) read the particles' path and
+    // the window system's API from the log.
+    assert!(
+        stderr.contains("drawn, particles by host copy + glBufferSubData;"),
+        "the viewer's last line names how the particles reached OpenGL"
+    );
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("OpenGL: ") && (l.contains("(GLX ") || l.contains("(EGL "))),
+        "the viewer names its window system's API"
+    );
     let bytes = std::fs::read(&shot).expect("the viewer wrote its last frame");
     let image = Image::read_png(&bytes).expect("a PNG");
     // The final screenshot is the scene's part of the window: its height, and the width right of

@@ -423,9 +423,10 @@ impl ViewerApp {
         // SAFETY: the context is current.
         let description = unsafe {
             format!(
-                "{} / OpenGL {}",
+                "{} / OpenGL {} ({})",
                 gl.get_parameter_string(glow::RENDERER),
-                gl.get_parameter_string(glow::VERSION)
+                gl.get_parameter_string(glow::VERSION),
+                display.version_string()
             )
         };
         eprintln!("OpenGL: {description}");
@@ -946,9 +947,12 @@ impl ApplicationHandler for ViewerApp {
     }
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
+        // The particles' path is said here as well as in the panel: scripted runs (a GPU server's
+        // Xvfb, tests) read it from the log to tell interop from its host-copy fallback.
         eprintln!(
-            "viewer: {} drawn; the longest stepping in one draw took {:.0} ms",
+            "viewer: {} drawn, particles by {}; the longest stepping in one draw took {:.0} ms",
             crate::text::count(self.frames_drawn, "frame", "frames"),
+            self.feed.path(),
             self.longest_step.as_secs_f64() * 1e3
         );
         // Release in dependency order: the CUDA registration, the solver, then GL objects.
