@@ -23,6 +23,9 @@ pub struct SubstepKey {
     pub params: Params,
     pub sort: bool,
     pub mass_scattered: Option<u32>,
+    /// Colliders the kernels loop over (their states are read from device memory, updated between
+    /// launches; the count is a kernel argument).
+    pub colliders: u32,
 }
 
 impl PartialEq for SubstepKey {
@@ -31,6 +34,7 @@ impl PartialEq for SubstepKey {
         bytemuck::bytes_of(&self.params) == bytemuck::bytes_of(&other.params)
             && self.sort == other.sort
             && self.mass_scattered == other.mass_scattered
+            && self.colliders == other.colliders
     }
 }
 

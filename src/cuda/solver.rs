@@ -1137,6 +1137,7 @@ impl Solver for CudaSolver {
             params: *params,
             sort,
             mass_scattered: self.mass_scattered,
+            colliders: self.colliders.count,
         };
         let graph = match self.graphs.take(&key) {
             Some(graph) => {

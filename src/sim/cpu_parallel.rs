@@ -447,7 +447,7 @@ impl ParallelCpuSolver {
                 .zip(p.live.par_iter())
                 .map(|((((x, v), c), &rho), &live)| {
                     if !live {
-                        return (0.0, 0.0);
+                        return (0.0, 0.0, 0);
                     }
                     (*x, *v, *c) = g2p_particle(params, *shape, velocity, *x);
                     let backstop = g2p_backstop(params, *shape, colliders, *x, *v);

@@ -999,7 +999,7 @@ impl Validator<'_> {
                     "particles.capacity",
                     "is missing: a scene with emitters allocates its particles up front",
                     format!(
-                        "add [particles] capacity = N, N at least {initial} (the bodies' particles) plus                          what the emitters may add"
+                        "add [particles] capacity = N, N at least {initial} (the bodies' particles) plus what the emitters may add"
                     ),
                 ))
             }
@@ -1084,7 +1084,7 @@ impl Validator<'_> {
                 return Err(self.err(
                     key("rate"),
                     format!(
-                        "= {rate:.3e} m^3/s is more than the nozzle passes at {} m/s ({full:.3e} m^3/s: its                          {} particle columns times the speed); particles would land on each other",
+                        "= {rate:.3e} m^3/s is more than the nozzle passes at {} m/s ({full:.3e} m^3/s: its {} particle columns times the speed); particles would land on each other",
                         e.speed,
                         points.len()
                     ),
@@ -1107,6 +1107,8 @@ impl Validator<'_> {
             rate,
             points,
         })
+    }
+
     fn colliders(&self, spec: &SceneSpec, res: [u32; 3], dx: f64) -> Result<Colliders, SceneError> {
         if spec.colliders.len() > MAX_COLLIDERS {
             return Err(self.err(
