@@ -236,6 +236,10 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             file.append(&frame_stats)?;
         }
         export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
+        // Meshes finished during this frame are reported now, not at the next exported frame.
+        if let Some(queue) = surface.as_mut() {
+            queue.collect(&mut on_mesh, false)?;
+        }
         all.push(frame_stats);
     }
     if let Some(queue) = surface {

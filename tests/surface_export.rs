@@ -168,7 +168,7 @@ fn read_vtk(path: &Path) -> Read {
         "every cell a VTK_TRIANGLE"
     );
     assert_eq!(vtk.line(), format!("POINT_DATA {n}"));
-    assert_eq!(vtk.line(), "NORMALS Normals float");
+    assert_eq!(vtk.line(), "VECTORS Normals float");
     let normals = vtk.floats(n);
     assert_eq!(vtk.at, vtk.bytes.len(), "nothing after the normals");
     Read {

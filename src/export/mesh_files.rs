@@ -130,7 +130,8 @@ pub fn write_vtk(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Resu
     for _ in 0..cells {
         out.write_all(&VTK_TRIANGLE.to_be_bytes())?;
     }
-    writeln!(out, "\nPOINT_DATA {}\nNORMALS Normals float", mesh.vertices.len())?;
+    // VECTORS, not NORMALS: meshio reads no NORMALS section; VTK and ParaView read both.
+    writeln!(out, "\nPOINT_DATA {}\nVECTORS Normals float", mesh.vertices.len())?;
     for value in mesh.normals.iter().flatten() {
         out.write_all(&value.to_be_bytes())?;
     }
