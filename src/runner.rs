@@ -206,7 +206,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     } else {
         None
     };
-    let mut surface = surface.map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE));
+    let mut surface = surface
+        .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
+        .transpose()?;
     // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
     // terminal, else one line per mesh.
     let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
