@@ -18,11 +18,11 @@ pub struct SurfaceMesh {
 /// The file formats of `--surface-format`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SurfaceFormat {
-    /// Wavefront OBJ (text): Blender, ParaView, meshio, most 3D tools.
+    /// Wavefront OBJ (text, with normals): Blender, meshio, most 3D tools; ParaView one file at a time.
     Obj,
-    /// Binary little-endian PLY: smaller and faster than OBJ; Blender, ParaView, meshio.
+    /// Binary little-endian PLY, a third of OBJ's size: Blender, ParaView (as a series), meshio.
     Ply,
-    /// Legacy VTK, binary (an unstructured grid of triangles): ParaView, VisIt, meshio.
+    /// Legacy VTK, binary (an unstructured grid of triangles): ParaView (as a series), meshio.
     Vtk,
 }
 
