@@ -388,6 +388,37 @@ fn every_format_reads_back_to_the_same_mesh() {
     }
 }
 
+/// A mesh that cannot be written (here its folder vanished after the checks; a full disk is the
+/// same path) stops the run with the file's name and the reason, instead of being lost on a worker
+/// thread; nothing is left under a mesh's name.
+#[test]
+fn a_failed_write_on_a_worker_stops_the_run() {
+    let scene = block_scene();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("surface");
+    let settings = SurfaceSettings::for_scene(&scene, SurfaceOverrides::default()).unwrap();
+    let exporter = SurfaceExporter::new(&out, 1, SurfaceFormat::Ply, settings, false).unwrap();
+    std::fs::remove_dir(&out).unwrap();
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let opts = RunOptions {
+        frames: 3,
+        export: None,
+        surface: Some(exporter),
+        stats: None,
+        progress: false,
+    };
+    let e = runner::run(&mut sim, opts, &mut std::io::sink()).unwrap_err();
+    let text = format!("{e:#}");
+    assert!(
+        text.contains(&format!(
+            "cannot write {}",
+            out.join("surface_000000.ply").display()
+        )) && text.contains("does not exist"),
+        "{text}"
+    );
+    assert!(!out.exists());
+}
+
 // --- The command line: every refusal comes before the first step. ---
 
 fn mpm(args: &[&str]) -> Output {
