@@ -106,8 +106,7 @@ struct RunArgs {
     /// surface_NNNNNN.obj|ply|vtk, into this directory (on worker threads while the run goes on).
     #[arg(long, value_name = "DIR")]
     export_surface: Option<PathBuf>,
-    /// The surface meshes' file format: obj (Blender, ParaView, meshio), ply (binary), vtk (legacy,
-    /// ParaView).
+    /// The surface meshes' file format.
     #[arg(long, value_enum, value_name = "FORMAT", default_value_t = SurfaceFormat::Obj,
           requires = "export_surface")]
     surface_format: SurfaceFormat,

@@ -225,9 +225,9 @@ fn export_frame(
 /// simulation waited for them.
 pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
     format!(
-        "surface: {} ({files}), {} triangles on average; {:.3} s per mesh (reconstruction {:.3} s, \
-         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for a free queue slot \
-         and {:.2} s for the last meshes after its last frame",
+        "surface: {} ({files}), {} triangles on average, {:.3} s per mesh (reconstruction {:.3} s, \
+         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
+         {:.2} s for the last meshes",
         crate::text::count(p.done, "mesh", "meshes"),
         p.triangles / p.done.max(1),
         p.seconds_per_mesh(),
@@ -262,7 +262,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     } else {
         None
     };
-    let mut surface = surface.map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE));
+    let mut surface = surface
+        .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
+        .transpose()?;
     // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
     // terminal, else one line per mesh.
     let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
@@ -295,6 +297,10 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             file.append(&frame_stats)?;
         }
         export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
+        // Meshes finished during this frame are reported now, not at the next exported frame.
+        if let Some(queue) = surface.as_mut() {
+            queue.collect(&mut on_mesh, false)?;
+        }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
                 let path = series.write(sim)?;
@@ -303,29 +309,31 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
         all.push(frame_stats);
     }
-    if let Some(queue) = surface {
-        let last_frame = Instant::now();
-        let left = queue.progress().queued();
-        if left > 0 && bar.is_none() {
-            eprintln!(
-                "simulation done; waiting for {}",
-                crate::text::count(left, "surface mesh", "surface meshes")
+    let surface_line = match surface {
+        Some(queue) => {
+            let last_frame = Instant::now();
+            let left = queue.progress().queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "surface mesh", "surface meshes")
+                );
+            }
+            let files = format!(
+                "{} in {}",
+                queue.exporter().format().extension(),
+                queue.exporter().dir().display()
             );
+            let done = queue.finish(&mut on_mesh)?;
+            Some(surface_summary(&done, &files, last_frame.elapsed()))
         }
-        let exporter_line = format!(
-            "{} in {}",
-            queue.exporter().format().extension(),
-            queue.exporter().dir().display()
-        );
-        let done = queue.finish(&mut on_mesh)?;
-        writeln!(
-            out,
-            "{}",
-            surface_summary(&done, &exporter_line, last_frame.elapsed())
-        )?;
-    }
+        None => None,
+    };
     if let Some(bar) = bar {
         bar.finish_and_clear();
+    }
+    if let Some(line) = surface_line {
+        writeln!(out, "{line}")?;
     }
     if let Some(warning) = cfl_warning(&all) {
         writeln!(out, "{warning}")?;

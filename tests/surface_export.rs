@@ -8,16 +8,16 @@ use mpm::backend::{self, BackendKind};
 use mpm::export::mesh_files::{SurfaceFormat, SurfaceMesh};
 use mpm::export::surface::{SurfaceExporter, SurfaceJob, SurfaceOverrides, SurfaceSettings};
 use mpm::runner::{self, RunOptions};
-use mpm::sim::{Scene, Simulation};
+use mpm::sim::{FrameStats, Scene, Simulation};
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
 use std::collections::HashMap;
 use std::path::Path;
 use std::process::{Command, Output};
 
-/// A 12 x 8 x 10 cm block of water, 8 particles per 1 cm cell (7,680 particles), resting on the
-/// floor of a 20 cm box.
-const BLOCK: &str = "[[block]]\nmin = [0.02, 0.02, 0.03]\nmax = [0.14, 0.10, 0.13]\nparticles_per_cell = 8";
+/// A 6 cm deep layer of water filling the floor of a 20 cm box wall to wall (its fluid region is
+/// [1, 18] cm), 8 particles per 1 cm cell: 13,872 particles at rest.
+const BLOCK: &str = "[[block]]\nmin = [0.01, 0.01, 0.01]\nmax = [0.18, 0.07, 0.18]\nparticles_per_cell = 8";
 
 fn block_scene() -> Scene {
     common::scene(&common::water_box(20, BLOCK))
@@ -168,7 +168,7 @@ fn read_vtk(path: &Path) -> Read {
         "every cell a VTK_TRIANGLE"
     );
     assert_eq!(vtk.line(), format!("POINT_DATA {n}"));
-    assert_eq!(vtk.line(), "NORMALS Normals float");
+    assert_eq!(vtk.line(), "VECTORS Normals float");
     let normals = vtk.floats(n);
     assert_eq!(vtk.at, vtk.bytes.len(), "nothing after the normals");
     Read {
@@ -284,7 +284,15 @@ fn check_closed_outward(mesh: &Read, volume: f64, what: &str) -> f64 {
     signed
 }
 
-fn run_with_surface(scene: &Scene, dir: &Path, frames: u64, every: u64, format: SurfaceFormat) -> String {
+/// Runs `frames` frames on the CPU reference with the surface export; returns the frames'
+/// statistics and what the run printed.
+fn run_with_surface(
+    scene: &Scene,
+    dir: &Path,
+    frames: u64,
+    every: u64,
+    format: SurfaceFormat,
+) -> (Vec<FrameStats>, String) {
     let settings = SurfaceSettings::for_scene(scene, SurfaceOverrides::default()).unwrap();
     let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, scene).unwrap());
     let opts = RunOptions {
@@ -296,8 +304,8 @@ fn run_with_surface(scene: &Scene, dir: &Path, frames: u64, every: u64, format: 
         progress: false,
     };
     let mut out = Vec::new();
-    runner::run(&mut sim, opts, &mut out).unwrap();
-    String::from_utf8(out).unwrap()
+    let stats = runner::run(&mut sim, opts, &mut out).unwrap();
+    (stats, String::from_utf8(out).unwrap())
 }
 
 fn names(dir: &Path) -> Vec<String> {
@@ -313,9 +321,11 @@ fn names(dir: &Path) -> Vec<String> {
 fn a_resting_block_exports_closed_outward_meshes_that_hold_its_volume() {
     let scene = block_scene();
     let volume = fluid_volume(&scene);
-    assert!((volume - 0.12 * 0.08 * 0.10).abs() < 1e-9, "{volume}");
+    assert!((volume - 0.17 * 0.06 * 0.17).abs() < 1e-9, "{volume}");
     let dir = tempfile::tempdir().unwrap();
-    let out = run_with_surface(&scene, dir.path(), 4, 2, SurfaceFormat::Obj);
+    let (stats, out) = run_with_surface(&scene, dir.path(), 4, 2, SurfaceFormat::Obj);
+    let fastest = stats.iter().map(|s| s.summary.max_speed).fold(0.0, f32::max);
+    assert!(fastest < 0.05, "the block moves: {fastest} m/s");
     assert_eq!(
         names(dir.path()),
         ["surface_000000.obj", "surface_000002.obj", "surface_000004.obj"]
@@ -326,7 +336,8 @@ fn a_resting_block_exports_closed_outward_meshes_that_hold_its_volume() {
         "{summary}"
     );
     for name in names(dir.path()) {
-        check_closed_outward(&read(&dir.path().join(&name)), volume, &name);
+        let enclosed = check_closed_outward(&read(&dir.path().join(&name)), volume, &name);
+        println!("{name}: encloses {enclosed:.4e} m^3 of {volume:.4e} m^3");
     }
 }
 
@@ -376,6 +387,38 @@ fn every_format_reads_back_to_the_same_mesh() {
         assert_eq!(done.triangles, exported.triangles.len());
         check_closed_outward(&exported, volume, &format!("{format:?} exported"));
     }
+}
+
+/// A mesh that cannot be written (here its folder vanished after the checks; a full disk is the
+/// same path) stops the run with the file's name and the reason, instead of being lost on a worker
+/// thread; nothing is left under a mesh's name.
+#[test]
+fn a_failed_write_on_a_worker_stops_the_run() {
+    let scene = block_scene();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("surface");
+    let settings = SurfaceSettings::for_scene(&scene, SurfaceOverrides::default()).unwrap();
+    let exporter = SurfaceExporter::new(&out, 1, SurfaceFormat::Ply, settings, false).unwrap();
+    std::fs::remove_dir(&out).unwrap();
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let opts = RunOptions {
+        frames: 3,
+        export: None,
+        surface: Some(exporter),
+        stats: None,
+        checkpoints: None,
+        progress: false,
+    };
+    let e = runner::run(&mut sim, opts, &mut std::io::sink()).unwrap_err();
+    let text = format!("{e:#}");
+    assert!(
+        text.contains(&format!(
+            "cannot write {}",
+            out.join("surface_000000.ply").display()
+        )) && text.contains("does not exist"),
+        "{text}"
+    );
+    assert!(!out.exists());
 }
 
 // --- The command line: every refusal comes before the first step. ---

@@ -18,11 +18,11 @@ pub struct SurfaceMesh {
 /// The file formats of `--surface-format`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SurfaceFormat {
-    /// Wavefront OBJ (text): Blender, ParaView, meshio, most 3D tools.
+    /// Wavefront OBJ (text, with normals): Blender, meshio, most 3D tools; ParaView one file at a time.
     Obj,
-    /// Binary little-endian PLY: smaller and faster than OBJ; Blender, ParaView, meshio.
+    /// Binary little-endian PLY, a third of OBJ's size: Blender, ParaView (as a series), meshio.
     Ply,
-    /// Legacy VTK, binary (an unstructured grid of triangles): ParaView, VisIt, meshio.
+    /// Legacy VTK, binary (an unstructured grid of triangles): ParaView (as a series), meshio.
     Vtk,
 }
 
@@ -130,7 +130,8 @@ pub fn write_vtk(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Resu
     for _ in 0..cells {
         out.write_all(&VTK_TRIANGLE.to_be_bytes())?;
     }
-    writeln!(out, "\nPOINT_DATA {}\nNORMALS Normals float", mesh.vertices.len())?;
+    // VECTORS, not NORMALS: meshio reads no NORMALS section; VTK and ParaView read both.
+    writeln!(out, "\nPOINT_DATA {}\nVECTORS Normals float", mesh.vertices.len())?;
     for value in mesh.normals.iter().flatten() {
         out.write_all(&value.to_be_bytes())?;
     }

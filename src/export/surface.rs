@@ -277,7 +277,7 @@ impl SurfaceExporter {
 
     /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
     /// `waiting` more jobs wait for a free worker before `submit` blocks.
-    pub fn start(self, workers: usize, waiting: usize) -> SurfaceQueue {
+    pub fn start(self, workers: usize, waiting: usize) -> Result<SurfaceQueue> {
         let (jobs, receiver) = mpsc::sync_channel::<SurfaceJob>(waiting);
         let (results, done) = mpsc::channel();
         let receiver = Arc::new(Mutex::new(receiver));
@@ -304,17 +304,17 @@ impl SurfaceExporter {
                             break;
                         }
                     })
-                    .expect("spawning a surface worker thread")
+                    .map_err(|e| anyhow::anyhow!("cannot start a surface worker thread: {e}"))
             })
-            .collect::<Vec<_>>();
-        SurfaceQueue {
+            .collect::<Result<Vec<_>>>()?;
+        Ok(SurfaceQueue {
             exporter,
             jobs: Some(jobs),
             done,
             workers,
             stop,
             progress: SurfaceProgress::default(),
-        }
+        })
     }
 }
 

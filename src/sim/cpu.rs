@@ -2,8 +2,8 @@
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 
-use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::colliders::ColliderFrame;
+use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::Params;
 use super::push::{ColourBy, Push};
 use super::scene::Particles;

@@ -4,8 +4,8 @@
 //! default makes sense), then validated into a [`Scene`] (what the solver runs, every value checked).
 //! Every refusal names the file, the key and the fix.
 
-use super::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use super::colliders::{self, ColliderFrame, ColliderSpec, Colliders, MAX_COLLIDERS};
+use super::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use glam::{DVec3, Vec3};

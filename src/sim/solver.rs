@@ -3,8 +3,8 @@
 //! A [`Solver`] is a backend (CPU reference or CUDA) that knows how to take one substep.
 //! A [`Simulation`] owns one, and advances it frame by frame under the scene's time-step policy.
 
-use super::flow::{self, FlowCounts, FlowState};
 use super::colliders::ColliderFrame;
+use super::flow::{self, FlowCounts, FlowState};
 use super::params::{Material, Params, FRAME_DT};
 use super::push::{ColourBy, Push};
 use super::scene::{Particles, Scene, MAX_CFL};
