@@ -847,9 +847,13 @@ fn colliders_grid_update_and_backstop_match_cpu() {
             e_cpu.backstop_pushes >= 4,
             "the particles put inside colliders were pushed out"
         );
-        assert_eq!(
-            e_cpu.backstop_pushes, e_gpu.backstop_pushes,
-            "{scatter:?}: backstop counts"
+        // A particle that ends within rounding (1e-7 of a metre) of a surface may be counted by one
+        // side only; more than one such is a bug, not rounding.
+        assert!(
+            e_cpu.backstop_pushes.abs_diff(e_gpu.backstop_pushes) <= 1,
+            "{scatter:?}: backstop counts CPU {} GPU {}",
+            e_cpu.backstop_pushes,
+            e_gpu.backstop_pushes
         );
     }
 }
