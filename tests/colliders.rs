@@ -461,8 +461,11 @@ fn a_closed_mesh_collider_matches_the_box_it_describes() {
             let (a, _) = frame.distance(&frame.states[0], x);
             let (b, _) = reference.distance(&reference.states[0], x);
             // Deep inside, the exact field peaks (a pyramid) and trilinear samples round the peak off:
-            // there only the sign is held to; the boundary conditions read the field near the surface.
-            assert_eq!(a < 0.0, b < 0.0, "{file}: inside and outside disagree at {x}");
+            // there only the sign is held to (away from the edges, where the rounding below may flip
+            // it); the boundary conditions read the field near the surface.
+            if b.abs() > 0.3 * 0.01 {
+                assert_eq!(a < 0.0, b < 0.0, "{file}: inside and outside disagree at {x}");
+            }
             if b.abs() < 0.01 {
                 worst = worst.max((a - b).abs());
             }
