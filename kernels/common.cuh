@@ -355,15 +355,19 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
 }
 
 // The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a
-// collider goes back to its surface, then g2p's clamp again; its speed and signal speed follow. Counted.
-// Not inlined: g2p2g is compiled for 80 registers (tiles.cuh), and its path without colliders should
-// not pay for this one's registers.
-__device__ __noinline__ void collider_backstop_particle(const Params& params, const Colliders& colliders,
-                                                           float rho, G2pResult& r, u32& pushes) {
+// collider goes back to its surface, then g2p's clamp again; its speed and signal speed follow.
+// Not inlined, and everything by value: g2p2g is compiled for 80 registers (tiles.cuh), and its path
+// without colliders should pay neither for this one's registers nor for an address taken.
+struct Backstop {
+    G2pResult r;
+    bool pushed;
+};
+
+__device__ __noinline__ Backstop collider_backstop_particle(const Params params, const Colliders colliders, float rho,
+                                                            G2pResult r) {
     float x[3] = {r.x.x, r.x.y, r.x.z};
     float vel[3] = {r.v.x, r.v.y, r.v.z};
-    if (!collider_backstop(colliders, x, vel)) return;
-    ++pushes;
+    if (!collider_backstop(colliders, x, vel)) return Backstop{r, false};
     const float dx = params.dx;
     float speed_sq = 0.0f;
     for (int a = 0; a < 3; ++a) {
@@ -376,6 +380,7 @@ __device__ __noinline__ void collider_backstop_particle(const Params& params, co
     r.speed = sqrtf(speed_sq);
     const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
     r.signal = sound_speed * powf(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f)) + r.speed;
+    return Backstop{r, true};
 }
 
 // grid_update for node i (docs/physics.md step 3): momentum to velocity, gravity, the colliders' boundary

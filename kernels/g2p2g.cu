@@ -37,7 +37,11 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             float4 xp = x[p];
             if (ADVECT) {
                 G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
-                if (colliders.count) collider_backstop_particle(params, colliders, rho[p], r, pushes);
+                if (colliders.count) {
+                    const Backstop b = collider_backstop_particle(params, colliders, rho[p], r);
+                    r = b.r;
+                    pushes += b.pushed;
+                }
                 for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
                 v[p] = r.v;
                 x[p] = r.x;

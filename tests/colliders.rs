@@ -461,8 +461,11 @@ fn a_closed_mesh_collider_matches_the_box_it_describes() {
             let (a, _) = frame.distance(&frame.states[0], x);
             let (b, _) = reference.distance(&reference.states[0], x);
             // Deep inside, the exact field peaks (a pyramid) and trilinear samples round the peak off:
-            // there only the sign is held to; the boundary conditions read the field near the surface.
-            assert_eq!(a < 0.0, b < 0.0, "{file}: inside and outside disagree at {x}");
+            // there only the sign is held to (away from the edges, where the rounding below may flip
+            // it); the boundary conditions read the field near the surface.
+            if b.abs() > 0.3 * 0.01 {
+                assert_eq!(a < 0.0, b < 0.0, "{file}: inside and outside disagree at {x}");
+            }
             if b.abs() < 0.01 {
                 worst = worst.max((a - b).abs());
             }
@@ -539,4 +542,32 @@ fn cpu_parallel_follows_the_reference_with_colliders() {
     println!("after 3 frames: largest position difference {worst:.2e} dx; backstop pushes {a} and {b}");
     assert!(worst < 1e-3, "{worst} dx");
     assert_eq!(reference.backstop_pushes(), a);
+}
+
+/// The viewer's drag, as the simulation sees it: a sphere set moving through still water at 1 m/s
+/// is where the motion says after 0.2 s, and has pushed the water along (momentum along x).
+#[test]
+fn a_dragged_collider_moves_and_pushes_the_water() {
+    let scene = tank(
+        0.25,
+        "[[collider]]\nshape = \"sphere\"\ncenter = [0.1, 0.1, 0.125]\nradius = 0.05\n\
+         [[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.46, 0.15, 0.21]",
+    );
+    let mut sim = run(&scene, 1);
+    let start = Vec3::from(sim.collider_frame().states[0].center);
+    sim.drag_collider(0, start.as_dvec3(), DVec3::new(1.0, 0.0, 0.0))
+        .unwrap();
+    for _ in 0..12 {
+        sim.advance_frame().unwrap();
+    }
+    let moved = Vec3::from(sim.collider_frame().states[0].center) - start;
+    let p = particles(&mut sim);
+    let momentum = mean(p.v.iter().copied()).x;
+    println!("the sphere moved {moved} m; mean water velocity along x {momentum:.4} m/s");
+    assert!((moved - Vec3::new(0.2, 0.0, 0.0)).length() < 1e-5, "{moved}");
+    assert!(momentum > 0.02, "the water was not pushed: {momentum} m/s");
+    assert!(
+        sim.drag_collider(5, DVec3::ZERO, DVec3::ZERO).is_err(),
+        "a collider that is not there"
+    );
 }

@@ -39,6 +39,7 @@ fn main() -> std::process::ExitCode {
             device_statistics_match_a_host_reduction,
             colliders_grid_update_and_backstop_match_cpu,
             colliders_trajectory_follows_cpu,
+            colliders_fixed_point_runs_are_byte_identical,
         ],
     )
 }
@@ -916,9 +917,13 @@ fn colliders_grid_update_and_backstop_match_cpu() {
             e_cpu.backstop_pushes >= 4,
             "the particles put inside colliders were pushed out"
         );
-        assert_eq!(
-            e_cpu.backstop_pushes, e_gpu.backstop_pushes,
-            "{scatter:?}: backstop counts"
+        // A particle that ends within rounding (1e-7 of a metre) of a surface may be counted by one
+        // side only; more than one such is a bug, not rounding.
+        assert!(
+            e_cpu.backstop_pushes.abs_diff(e_gpu.backstop_pushes) <= 1,
+            "{scatter:?}: backstop counts CPU {} GPU {}",
+            e_cpu.backstop_pushes,
+            e_gpu.backstop_pushes
         );
     }
 }
@@ -958,5 +963,28 @@ fn colliders_trajectory_follows_cpu() {
     println!(
         "backstop pushes over the run: CPU {}, GPU {}",
         e_cpu.backstop_pushes, e_gpu.backstop_pushes
+    );
+}
+
+/// Colliders keep the fixed-point scatter's determinism: two runs of the collider tank with moving
+/// colliders, 200 substeps each, are byte-identical.
+fn colliders_fixed_point_runs_are_byte_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = collider_tank(dir.path(), ScatterMode::FixedPoint);
+    let params = step_params(&scene);
+    let run = || {
+        let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
+        for step in 1..=200 {
+            gpu.set_colliders(&scene.colliders.frame(step as f64 * f64::from(params.dt)))
+                .unwrap();
+            gpu.step(&params).unwrap();
+        }
+        gpu.take_extremes().unwrap();
+        gpu.read_particles().unwrap()
+    };
+    let (first, second) = (run(), run());
+    assert!(
+        particle_bytes(&first) == particle_bytes(&second),
+        "two fixed-point runs with colliders differ"
     );
 }

@@ -19,7 +19,8 @@ fn main() -> std::process::ExitCode {
         display_or_xvfb,
         harness::tests![
             viewer_window_shows_particles,
-            viewer_splits_slow_frames_across_draws
+            viewer_splits_slow_frames_across_draws,
+            viewer_window_draws_colliders
         ],
     )
 }
@@ -218,4 +219,60 @@ fn viewer_splits_slow_frames_across_draws() {
         .and_then(|rest| rest.trim_end_matches(" ms").parse().ok())
         .expect("the viewer reports its longest step");
     assert!(longest < 300.0, "one draw spent {longest} ms stepping");
+}
+
+/// A scene with colliders beside the water: the last frame shows them, solid and shaded in their warm
+/// grey (src/render/colliders.rs), and the panel's backstop row does not stop the viewer.
+fn viewer_window_draws_colliders() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let shot = dir.path().join("last-frame.png");
+    let scene = dir.path().join("obstacles.toml");
+    std::fs::write(
+        &scene,
+        "name = \"obstacles\"\n[domain]\nsize = [0.4, 0.4, 0.4]\nresolution = [20, 20, 20]\n\
+         [material]\nrest_density = 1000.0\nsound_speed = 10.0\n\
+         [[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.15, 0.2, 0.2]\n\
+         [[collider]]\nshape = \"sphere\"\ncenter = [0.28, 0.12, 0.2]\nradius = 0.07\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.25, 0.3, 0.2]\nsize = [0.1, 0.04, 0.2]\nrotation = [0.0, 0.0, 30.0]\n\
+         [collider.motion]\npiston = { direction = [0.0, 1.0, 0.0], amplitude = 0.02, period = 0.5 }\n",
+    )
+    .expect("writing the scene");
+    let output = Command::new(common::mpm_binary())
+        .args([
+            "view",
+            "--backend",
+            "cpu",
+            "--size",
+            "800x500",
+            "--no-vsync",
+            "--scene",
+        ])
+        .arg(&scene)
+        .args(["--quit-after", "4", "--final-screenshot"])
+        .arg(&shot)
+        .arg("--capture-dir")
+        .arg(dir.path())
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm view");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("mpm view stderr:\n{stderr}");
+    assert!(output.status.success(), "mpm view failed: {}", output.status);
+    let image = Image::read_png(&std::fs::read(&shot).expect("the last frame")).expect("a PNG");
+    // The colliders' shade (0.62, 0.58, 0.52) times a light factor: red above blue, green between.
+    let grey = image
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[0] > 60 && p[0] >= p[1] && p[1] >= p[2] && i32::from(p[0]) - i32::from(p[2]) > 8)
+        .count() as f64
+        / f64::from(image.width * image.height);
+    println!("collider pixels {:.1}%", 100.0 * grey);
+    assert!(
+        grey > 0.01,
+        "no colliders visible: {:.3}% of the pixels",
+        100.0 * grey
+    );
 }

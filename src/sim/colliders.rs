@@ -1044,3 +1044,112 @@ fn collider_bounds(c: &Collider) -> (DVec3, DVec3) {
     };
     (c.center - half, c.center + half)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn collider(motion: Motion) -> Collider {
+        Collider {
+            shape: Shape::Box {
+                half_extents: DVec3::new(0.1, 0.2, 0.05),
+            },
+            boundary: Boundary::Slip,
+            center: DVec3::new(0.5, 0.3, 0.2),
+            rotation: DQuat::from_rotation_z(0.3),
+            motion,
+        }
+    }
+
+    /// Every motion's rigid velocity is the time derivative of its pose: a point fixed in the body
+    /// moves at v + w x (x - c), by central differences of the pose.
+    #[test]
+    fn each_motion_moves_at_the_velocity_it_reports() {
+        let oscillation = Oscillation {
+            amplitude: 0.05,
+            period: 0.8,
+            phase: 0.4,
+        };
+        let motions = [
+            Motion::Static,
+            Motion::Steady {
+                velocity: DVec3::new(0.3, -0.1, 0.2),
+                angular_velocity: DVec3::new(0.5, 1.0, -0.7),
+                since: 0.1,
+            },
+            Motion::Piston {
+                direction: DVec3::X,
+                oscillation,
+            },
+            Motion::Flap {
+                hinge: DVec3::new(0.4, 0.0, 0.2),
+                axis: DVec3::Z,
+                oscillation: Oscillation {
+                    amplitude: 0.3,
+                    ..oscillation
+                },
+            },
+        ];
+        let local = DVec3::new(0.07, -0.15, 0.03);
+        for motion in motions {
+            let c = collider(motion);
+            let point = |t: f64| {
+                let pose = c.pose(t);
+                pose.center + pose.rotation * local
+            };
+            for t in [0.0, 0.37, 1.2] {
+                let h = 1e-5;
+                let finite = (point(t + h) - point(t - h)) / (2.0 * h);
+                let pose = c.pose(t);
+                let rigid = pose.velocity + pose.angular_velocity.cross(point(t) - pose.center);
+                assert!(
+                    (finite - rigid).length() < 1e-6,
+                    "{motion:?} at t = {t}: {finite} vs {rigid}"
+                );
+                assert!(
+                    rigid.length() <= c.max_speed() + 1e-9,
+                    "{motion:?}: faster than max_speed"
+                );
+            }
+        }
+    }
+
+    /// The grid condition against a still floor: slip keeps the tangential velocity and removes the
+    /// normal one into the floor; stick removes both; friction removes mu |v_n| of the tangential
+    /// part; a velocity leaving the floor is kept; a node beyond the band is untouched.
+    #[test]
+    fn the_boundary_conditions_project_as_documented() {
+        let floor = |boundary| Collider {
+            shape: Shape::Box {
+                half_extents: DVec3::new(1.0, 0.1, 1.0),
+            },
+            boundary,
+            center: DVec3::new(0.5, 0.0, 0.5),
+            rotation: DQuat::IDENTITY,
+            motion: Motion::Static,
+        };
+        let at = Vec3::new(0.5, 0.105, 0.5); // half a cell above the top, within the band
+        let into = Vec3::new(0.8, -0.5, 0.0);
+        let project = |b, x, v| Colliders::new(vec![floor(b)], 0.01).frame(0.0).project_node(x, v);
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-6;
+        assert!(close(project(Boundary::Slip, at, into), Vec3::new(0.8, 0.0, 0.0)));
+        assert!(close(project(Boundary::Stick, at, into), Vec3::ZERO));
+        assert!(close(
+            project(Boundary::Friction(0.4), at, into),
+            Vec3::new(0.6, 0.0, 0.0)
+        ));
+        assert!(close(project(Boundary::Friction(2.0), at, into), Vec3::ZERO));
+        let leaving = Vec3::new(0.8, 0.5, 0.0);
+        assert!(close(project(Boundary::Friction(0.4), at, leaving), leaving));
+        let far = Vec3::new(0.5, 0.2, 0.5);
+        assert!(close(project(Boundary::Stick, far, into), into));
+        // Below the surface the backstop puts a particle back on it.
+        let frame = Colliders::new(vec![floor(Boundary::Slip)], 0.01).frame(0.0);
+        let (x, v) = frame.backstop(Vec3::new(0.5, 0.09, 0.5), into).expect("inside");
+        assert!(
+            close(x, Vec3::new(0.5, 0.1, 0.5)) && close(v, Vec3::new(0.8, 0.0, 0.0)),
+            "{x} {v}"
+        );
+        assert!(frame.backstop(at, into).is_none());
+    }
+}
