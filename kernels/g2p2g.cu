@@ -13,7 +13,9 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   float4* __restrict__ v, float4* __restrict__ c,
                                                   const float4* __restrict__ grid_vel, const float* __restrict__ rho,
                                                   float4* grid_acc, u64* fixed_mass, const BlockMarks& marks,
-                                                  u32* work_counts, StepCounters* __restrict__ counters) {
+                                                  u32* work_counts, StepCounters* __restrict__ counters,
+                                                  const float4* __restrict__ sinks, u32 num_sinks,
+                                                  u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
@@ -34,6 +36,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
             float4 xp = x[p];
+            if (is_parked(xp)) continue;  // parked since the last binning: nothing to move or scatter
             if (ADVECT) {
                 const G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
                 for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
@@ -42,6 +45,13 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                 xp = r.x;
                 max_speed = fmaxf(max_speed, r.speed);
                 max_signal = fmaxf(max_signal, r.signal);
+                if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
+                    // Drained: parked, its slot pushed on the free stack (settle_free orders the pushes).
+                    x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
+                    free_slots[atomicAdd(&flow->free_count, 1ull)] = p;
+                    atomicAdd(&flow->drained, 1ull);
+                    continue;
+                }
             }
             const Stencil s = make_stencil(xp, params);
             u32 first;
@@ -75,9 +85,12 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) g2p2
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                  const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
-                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
+                                 u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
+                                 const float4* __restrict__ sinks, u32 num_sinks, u32* __restrict__ free_slots,
+                                 FlowCounters* __restrict__ flow) {
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
-                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
+                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters, sinks,
+                            num_sinks, free_slots, flow);
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
@@ -85,5 +98,6 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, TILE_MIN_BLOCKS) p2g_
                                     u64* fixed_mass, u32* block_marks, u32* block_list, u32* work_counts,
                                     StepCounters* __restrict__ counters) {
     scatter_bins_mass<false>(params, bins, order, x, nullptr, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
-                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters);
+                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters, nullptr, 0u,
+                             nullptr, nullptr);
 }

@@ -9,40 +9,7 @@ use mpm::sim::{Scene, Simulation};
 
 mod common;
 
-/// A 40 x 30 x 20 cm tank at dx = 2 cm: a pool, a jet from the left wall, a drain in the floor.
-fn tank(capacity: u64, extra: &str) -> String {
-    format!(
-        r#"
-name = "jet-tank"
-[domain]
-size = [0.4, 0.3, 0.2]
-resolution = [20, 15, 10]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
-[time_step]
-cfl = 0.35
-[particles]
-capacity = {capacity}
-[[block]]
-min = [0.02, 0.02, 0.02]
-max = [0.36, 0.08, 0.16]
-[[emitter]]
-shape = "disc"
-center = [0.05, 0.2, 0.1]
-normal = [1.0, 0.5, 0.0]
-radius = 0.02
-speed = 1.5
-{extra}
-"#
-    )
-}
-
-const DRAIN: &str = r#"
-[[sink]]
-min = [0.28, 0.0, 0.06]
-max = [0.34, 0.04, 0.14]
-"#;
+use common::{jet_tank as tank, JET_TANK_DRAIN as DRAIN};
 
 fn sim(toml: &str, backend: BackendKind) -> Simulation {
     let scene = common::scene(toml);

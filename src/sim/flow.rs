@@ -256,7 +256,8 @@ pub struct Slots<'a> {
 }
 
 /// One emission: each point of each emitter in `mask`, in order, that is not blocked takes the top
-/// free slot. The reference of kernels' emission; the CPU backends call it as it is.
+/// free slot; whether a point is blocked is judged on the state before the emission. The reference of
+/// kernels/lifecycle.cu's `emit_particles`; the CPU backends call it as it is.
 pub fn emit(
     flow: &Flow,
     state: &mut FlowState,
@@ -267,37 +268,40 @@ pub fn emit(
 ) {
     state.settle();
     let clearance_sq = (CLEARANCE * spacing) * (CLEARANCE * spacing);
+    let mut wants = Vec::with_capacity(state.last.len());
     let mut point = 0usize;
     for (e, emitter) in flow.emitters.iter().enumerate() {
-        if mask & (1 << e) == 0 {
-            point += emitter.points.len();
-            continue;
-        }
-        let velocity = emitter.normal * emitter.speed;
+        let due = mask & (1 << e) != 0;
         for &at in &emitter.points {
             let last = state.last[point];
             point += 1;
-            if last != NO_PARTICLE
-                && slots.live[last as usize]
-                && (slots.x[last as usize] - at).length_squared() < clearance_sq
-            {
+            let clear = last == NO_PARTICLE
+                || !slots.live[last as usize]
+                || (slots.x[last as usize] - at).length_squared() >= clearance_sq;
+            if due && !clear {
                 state.counts.blocked += 1;
-                continue;
             }
-            let Some(slot) = state.free.pop() else {
-                state.counts.exhausted += 1;
-                continue;
-            };
-            let s = slot as usize;
-            slots.x[s] = at;
-            slots.v[s] = velocity;
-            slots.c[s] = glam::Mat3::ZERO;
-            slots.rho[s] = rest_density;
-            slots.live[s] = true;
-            state.last[point - 1] = slot;
-            state.counts.emitted += 1;
-            state.counts.live += 1;
+            wants.push(due && clear);
         }
+    }
+    let points = flow
+        .emitters
+        .iter()
+        .flat_map(|e| e.points.iter().map(move |&at| (at, e.normal * e.speed)));
+    for (point, ((at, velocity), _)) in points.zip(&wants).enumerate().filter(|(_, (_, &w))| w) {
+        let Some(slot) = state.free.pop() else {
+            state.counts.exhausted += 1;
+            continue;
+        };
+        let s = slot as usize;
+        slots.x[s] = at;
+        slots.v[s] = velocity;
+        slots.c[s] = glam::Mat3::ZERO;
+        slots.rho[s] = rest_density;
+        slots.live[s] = true;
+        state.last[point] = slot;
+        state.counts.emitted += 1;
+        state.counts.live += 1;
     }
     state.sorted = state.free.len();
 }
