@@ -484,10 +484,17 @@ fn run(args: RunArgs) -> Result<()> {
     let scene = sim.scene();
     writeln!(
         std::io::stdout(),
-        "scene {} ({}): {} particles, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
+        "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
         scene.name,
         scene.source,
-        scene.num_particles,
+        resumed
+            .as_ref()
+            .map_or(scene.num_particles, |c| c.particles.num_live()),
+        if scene.flow.is_active() {
+            format!(" (capacity {})", scene.slots())
+        } else {
+            String::new()
+        },
         scene.grid_res[0],
         scene.grid_res[1],
         scene.grid_res[2],
