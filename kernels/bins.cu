@@ -125,7 +125,7 @@ extern "C" __global__ void bin_list(const u32 num_bins,
         u32 count = 0, start = 0;
         if (live) {
             start = cell_starts[b * BIN_CELLS];
-            count = cell_starts[(b + 1) * BIN_CELLS] - start;  // the last bin ends where the parked start
+            count = cell_starts[(b + 1) * BIN_CELLS] - start;  // the last bin ends where the parked slots start
         }
         const u32 chunks = (count + chunk - 1) / chunk;
         // An exclusive scan of the warp's chunk counts, then one atomic for the warp's total.

@@ -326,3 +326,17 @@ fn a_series_writes_every_kth_frame_and_the_last() {
     let wanted: Vec<u64> = (1..=7).filter(|&f| series.wants(f, f == 7)).collect();
     assert_eq!(wanted, [3, 6, 7]);
 }
+
+#[test]
+fn a_scene_built_in_code_carries_a_text_that_loads_back_to_it() {
+    let scene = mpm::bench::column_scene(4096, 40).unwrap();
+    assert!(!scene.toml.is_empty(), "the spec did not serialise");
+    let back = Scene::from_toml(&scene.toml, &scene.source).unwrap();
+    assert_eq!(
+        Scene {
+            toml: scene.toml.clone(),
+            ..back
+        },
+        scene
+    );
+}

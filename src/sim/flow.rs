@@ -7,18 +7,19 @@
 //! the statistics, the rendering or the export. The free slots form a stack:
 //!
 //! - A **sink** parks every live particle that ends a substep inside its box and pushes its slot on
-//!   the stack. This is a test fused into g2p, which visits each live particle anyway: no pass over
-//!   the slots of its own.
+//!   the stack. On the GPU this is a test inside g2p2g, which visits each live particle anyway (no
+//!   pass over the slots of its own); the CPU backends test in a pass after g2p.
 //! - An **emitter** is a nozzle, a disc or a rectangle of lattice points (spacing h = dx / particles
 //!   per axis) facing along its normal. It emits a layer, one particle per point, each time the
 //!   volume it has delivered falls a layer behind its rate (a phase the simulation keeps, the same on
 //!   every backend); each point takes the top slot of the stack, in point order. A point whose last
-//!   particle is still live and within [`CLEARANCE`] h of it skips its turn (the jet is stalled there,
-//!   e.g. under water): no particle is put on top of fluid. A point that finds the stack empty is
+//!   particle is still live and within [`CLEARANCE`] h of it skips its turn (the jet is stalled there):
+//!   a stalled jet is not packed tighter. Only the point's own last particle is looked at, not fluid
+//!   that arrives from elsewhere, so nozzles belong above the water they feed. A point that finds the stack empty is
 //!   counted as exhausted and reported. Emission is O(points emitted), draining O(drained).
-//! - Before an emission takes from the stack, the slots pushed since the last one are sorted (highest
-//!   first, so the lowest free index comes off first): which slot a new particle gets is then fixed by
-//!   *which* particles drained, never by the order threads pushed them, and runs stay reproducible.
+//! - After each substep's drains, the slots they pushed are sorted (highest first, so the lowest free
+//!   index comes off first): which slot a new particle gets is then fixed by *which* particles drained,
+//!   never by the order threads pushed them, and runs stay reproducible.
 
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -142,7 +143,7 @@ pub struct FlowCounts {
 pub struct FlowState {
     /// Free slots, a stack: emission takes from the end.
     pub free: Vec<u32>,
-    /// `free[..sorted]` is in canonical order; what sinks pushed since is sorted before the next pop.
+    /// `free[..sorted]` is in canonical order; what sinks pushed since is sorted at the substep's end.
     pub sorted: usize,
     /// Per nozzle point (all emitters' in order): the slot it filled last, or [`NO_PARTICLE`].
     pub last: Vec<u32>,
@@ -164,7 +165,7 @@ impl FlowState {
         }
     }
 
-    /// Sorts the slots pushed since the last emission, highest first.
+    /// Sorts the slots pushed since it last ran, highest first (after each substep's drains).
     pub fn settle(&mut self) {
         self.free[self.sorted..].sort_unstable_by(|a, b| b.cmp(a));
         self.sorted = self.free.len();
