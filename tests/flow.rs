@@ -290,3 +290,31 @@ fn an_emitter_alone_may_fill_an_empty_tank() {
     }
     assert!(sim.solver_mut().flow_counts().unwrap().unwrap().live > 0);
 }
+
+#[test]
+fn a_rectangle_nozzle_covers_its_size_across_the_normal() {
+    let toml = tank(40_000, "").replace(
+        "shape = \"disc\"\ncenter = [0.05, 0.2, 0.1]\nnormal = [1.0, 0.5, 0.0]\nradius = 0.02",
+        "shape = \"rectangle\"\ncenter = [0.05, 0.2, 0.1]\nnormal = [1.0, 0.0, 0.0]\nsize = [0.04, 0.02]",
+    );
+    let scene = common::scene(&toml);
+    let e = &scene.flow.emitters[0];
+    // h = 1 cm: 4 x 2 points, all on the plane x = 0.05, within the rectangle.
+    assert_eq!(e.points.len(), 8);
+    for p in &e.points {
+        assert!((p.x - 0.05).abs() < 1e-6);
+        let (dy, dz) = ((p.y - 0.2).abs(), (p.z - 0.1).abs());
+        assert!(dy.max(dz) <= 0.02 + 1e-6 && dy.min(dz) <= 0.01 + 1e-6, "{p}");
+    }
+    let mut sim = sim(&toml, BackendKind::Cpu);
+    for _ in 0..5 {
+        sim.advance_frame().unwrap();
+    }
+    let p = sim.solver_mut().read_particles().unwrap();
+    let jet = (0..p.len()).filter(|&i| p.live[i] && p.x[i].y > 0.12).count();
+    assert!(jet >= 8, "the jet has {jet} particles");
+    assert!(
+        (0..p.len()).filter(|&i| p.live[i] && p.x[i].y > 0.12).all(|i| p.v[i].x > 0.5),
+        "the jet does not move along its normal"
+    );
+}
