@@ -114,8 +114,8 @@ struct RunArgs {
     #[arg(long, value_name = "K", default_value_t = 60, requires = "checkpoint",
           allow_negative_numbers = true, value_parser = count::<1>)]
     checkpoint_every: u64,
-    /// Go on from a checkpoint file: its scene, backend and solver options (flags override the
-    /// last two), frame numbers and time continuing from it.
+    /// Go on from a checkpoint file: its scene, backend and solver options (--backend, --scatter and
+    /// --pipeline override them), frame numbers and time continuing from it.
     #[arg(long, value_name = "FILE", conflicts_with = "scene")]
     resume: Option<PathBuf>,
     /// Replace existing exported frames, stats file or checkpoints instead of refusing.
