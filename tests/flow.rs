@@ -314,7 +314,9 @@ fn a_rectangle_nozzle_covers_its_size_across_the_normal() {
     let jet = (0..p.len()).filter(|&i| p.live[i] && p.x[i].y > 0.12).count();
     assert!(jet >= 8, "the jet has {jet} particles");
     assert!(
-        (0..p.len()).filter(|&i| p.live[i] && p.x[i].y > 0.12).all(|i| p.v[i].x > 0.5),
+        (0..p.len())
+            .filter(|&i| p.live[i] && p.x[i].y > 0.12)
+            .all(|i| p.v[i].x > 0.5),
         "the jet does not move along its normal"
     );
 }
