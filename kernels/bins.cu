@@ -24,14 +24,19 @@
 extern "C" __global__ void bin_count(const Params params,
                                     const u32 edge,
                                     const float4* __restrict__ x,
-                                    u32* __restrict__ cell_counts,  // zeroed, one per key
+                                    u32* __restrict__ cell_counts,  // zeroed, one per key and the parked key
                                     u32* __restrict__ key,
                                     u32* __restrict__ rank) {
-    u32 bins[2];
-    for (int a = 0; a < 2; ++a) bins[a] = (params.grid_res[a] + edge - 1) / edge;
+    u32 bins[3];
+    for (int a = 0; a < 3; ++a) bins[a] = (params.grid_res[a] + edge - 1) / edge;
+    // Parked slots (kernels/lifecycle.cu) share one key past every bin's: they sort to the end of
+    // `order`, in no bin and no list.
+    const u32 parked_key = bins[0] * bins[1] * bins[2] * edge * edge * edge;
     FOR_EACH_INDEX_CONVERGED(p, live, first, params.num_particles) {
         u32 k = 0xffffffffu;  // lanes past the end form a group of their own and add nothing
-        if (live) {
+        if (live && is_parked(x[p])) {
+            k = parked_key;
+        } else if (live) {
             const Stencil s = make_stencil(x[p], params);
             const u32 bin = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));
             const u32 cell = s.base[0] % edge + edge * (s.base[1] % edge + edge * (s.base[2] % edge));
@@ -105,13 +110,13 @@ extern "C" __global__ void sort_scatter(u32 num_particles,
 
 // The bins that hold particles, as chunks of at most `chunk` particles each (a bin's run in `order`
 // cut in turn), with the start and length of each chunk; the list's length goes to
-// work_counts[WORK_BINS] (zeroed before). A tiled pass takes a chunk per CUDA block: small chunks
+// work_counts[WORK_BINS] (zeroed before). `cell_starts` has one more entry past the bins' cells: the
+// parked slots' start, where the last bin ends. A tiled pass takes a chunk per CUDA block: small chunks
 // (a thread per particle) keep a GPU busy when bins are few, so a bin of 512 particles feeds 4 blocks
 // rather than one thread on 4 particles; where bins are plentiful, whole bins save the tiles' clears
 // and flushes (the host chooses, src/cuda/bins.rs). The cells inside a bin are sorted, so a chunk
 // covers a compact slab of them. The list's order varies from run to run.
 extern "C" __global__ void bin_list(const u32 num_bins,
-                                   const u32 num_particles,
                                    const u32 chunk,
                                    const u32* __restrict__ cell_starts,  // BIN_CELLS per bin
                                    BinEntry* __restrict__ list,
@@ -120,7 +125,7 @@ extern "C" __global__ void bin_list(const u32 num_bins,
         u32 count = 0, start = 0;
         if (live) {
             start = cell_starts[b * BIN_CELLS];
-            count = (b + 1 < num_bins ? cell_starts[(b + 1) * BIN_CELLS] : num_particles) - start;
+            count = cell_starts[(b + 1) * BIN_CELLS] - start;  // the last bin ends where the parked slots start
         }
         const u32 chunks = (count + chunk - 1) / chunk;
         // An exclusive scan of the warp's chunk counts, then one atomic for the warp's total.

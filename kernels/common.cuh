@@ -431,3 +431,32 @@ __device__ __forceinline__ void update_node(const Params& params, u32 i, float4*
     }
     grid_vel[i] = make_float4(vel[0], vel[1], vel[2], m);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The particle lifecycle (src/sim/flow.rs, kernels/lifecycle.cu): x.w of a parked slot.
+
+#define PARKED_W 1.0f
+#define NO_PARTICLE 0xffffffffu
+
+__device__ __forceinline__ bool is_parked(float4 x) { return x.w != 0.0f; }
+
+// Mirror of `FlowCounters` in src/cuda/lifecycle.rs: the free stack's length and what the lifecycle
+// did since the run began.
+struct FlowCounters {
+    u64 free_count;  // slots on the free stack
+    u64 sorted;      // free[..sorted] is in canonical order (settle_free)
+    u64 emitted;
+    u64 drained;
+    u64 exhausted;  // nozzle points that found the stack empty
+    u64 blocked;    // nozzle points whose last particle had not moved clear
+};
+static_assert(sizeof(FlowCounters) == 48, "FlowCounters must match src/cuda/lifecycle.rs");
+
+// A sink is a box [lo, hi) given as two float4.
+__device__ __forceinline__ bool in_a_sink(float4 x, const float4* sinks, u32 num_sinks) {
+    for (u32 k = 0; k < num_sinks; ++k) {
+        const float4 lo = sinks[2 * k], hi = sinks[2 * k + 1];
+        if (x.x >= lo.x && x.y >= lo.y && x.z >= lo.z && x.x < hi.x && x.y < hi.y && x.z < hi.z) return true;
+    }
+    return false;
+}

@@ -14,7 +14,9 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   const float4* __restrict__ grid_vel, const float* __restrict__ rho,
                                                   float4* grid_acc, u64* fixed_mass, const BlockMarks& marks,
                                                   u32* work_counts, StepCounters* __restrict__ counters,
-                                                  const Colliders& colliders) {
+                                                  const Colliders& colliders, const float4* __restrict__ sinks,
+                                                  u32 num_sinks, u32* __restrict__ free_slots,
+                                                  FlowCounters* __restrict__ flow) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
@@ -35,6 +37,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
             float4 xp = x[p];
+            if (is_parked(xp)) continue;  // parked since the last binning: nothing to move or scatter
             if (ADVECT) {
                 G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
                 if (colliders.count) {
@@ -48,6 +51,13 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                 xp = r.x;
                 max_speed = fmaxf(max_speed, r.speed);
                 max_signal = fmaxf(max_signal, r.signal);
+                if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
+                    // Drained: parked, its slot pushed on the free stack (settle_free orders the pushes).
+                    x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
+                    free_slots[atomicAdd(&flow->free_count, 1ull)] = p;
+                    atomicAdd(&flow->drained, 1ull);
+                    continue;
+                }
             }
             const Stencil s = make_stencil(xp, params);
             u32 first;
@@ -84,10 +94,12 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
                                  const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
                                  u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
                                  const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-                                 const float* __restrict__ collider_sdf) {
+                                 const float* __restrict__ collider_sdf, const float4* __restrict__ sinks,
+                                 u32 num_sinks, u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                            Colliders{collider_states, num_colliders, collider_sdf});
+                            Colliders{collider_states, num_colliders, collider_sdf}, sinks, num_sinks,
+                            free_slots, flow);
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
@@ -96,5 +108,5 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g
                                     StepCounters* __restrict__ counters) {
     scatter_bins_mass<false>(params, bins, order, x, nullptr, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
                              BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                             Colliders{nullptr, 0u, nullptr});
+                             Colliders{nullptr, 0u, nullptr}, nullptr, 0u, nullptr, nullptr);
 }

@@ -37,6 +37,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
 
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
+            if (is_parked(x[p])) continue;  // drained since the last binning
             const Stencil s = make_stencil(x[p], params);
             const float rho = gather_density(s, params, grid_acc, fixed_mass);
             rho_out[p] = rho;

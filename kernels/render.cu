@@ -11,6 +11,11 @@ extern "C" __global__ void render_attributes(const float4* __restrict__ x, const
                                              float inv_rest_density, float4* __restrict__ out) {
     FOR_EACH_INDEX(i, num_particles) {
         const float4 p = x[i];
+        if (is_parked(p)) {  // the particle shader clips a NaN position (src/render/renderer.rs)
+            const float nan = __int_as_float(0x7fffffff);
+            out[i] = make_float4(nan, nan, nan, nan);
+            continue;
+        }
         float value;
         if (colour_by == COLOUR_BY_DENSITY) {
             value = rho[i] * inv_rest_density;
@@ -38,6 +43,7 @@ extern "C" __global__ void push_particles(Push push, u32 num_particles, const fl
                                           float4* __restrict__ v) {
     FOR_EACH_INDEX(i, num_particles) {
         const float4 p = x[i];
+        if (is_parked(p)) continue;
         const float ox = p.x - push.origin[0], oy = p.y - push.origin[1], oz = p.z - push.origin[2];
         const float along =
             fmaxf(ox * push.direction[0] + oy * push.direction[1] + oz * push.direction[2], 0.0f);

@@ -38,6 +38,7 @@ extern "C" __global__ void __launch_bounds__(STATS_THREADS) particle_stats(const
     StatsPartial mine{0.0, {0.0, 0.0, 0.0}, 0.0, 0.0f, __int_as_float(0x7f800000), -__int_as_float(0x7f800000), 0u};
     FOR_EACH_INDEX(p, params.num_particles) {
         const float4 xp = x[p], vp = v[p];
+        if (is_parked(xp)) continue;
         const float v2 = vp.x * vp.x + vp.y * vp.y + vp.z * vp.z;
         const float ratio = rho[p] / params.material.rest_density;
         mine.kinetic_energy += half_mass * (double)v2;

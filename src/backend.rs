@@ -72,7 +72,7 @@ fn create_with(
         Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
     };
     let cuda = |options: CudaOptions| match state {
-        Some((particles, _)) => CudaSolver::from_particles(scene, particles, options),
+        Some((particles, flow)) => CudaSolver::restore(scene, particles, flow, options),
         None => CudaSolver::new(scene, options),
     };
     match kind {

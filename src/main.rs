@@ -127,8 +127,8 @@ struct RunArgs {
     #[arg(long, value_name = "K", default_value_t = 60, requires = "checkpoint",
           allow_negative_numbers = true, value_parser = count::<1>)]
     checkpoint_every: u64,
-    /// Go on from a checkpoint file: its scene, backend and solver options (flags override the
-    /// last two), frame numbers and time continuing from it.
+    /// Go on from a checkpoint file: its scene, backend and solver options (--backend, --scatter and
+    /// --pipeline override them), frame numbers and time continuing from it.
     #[arg(long, value_name = "FILE", conflicts_with = "scene")]
     resume: Option<PathBuf>,
     /// Replace existing exported frames, stats file or checkpoints instead of refusing.
@@ -557,10 +557,17 @@ fn run(args: RunArgs) -> Result<()> {
     let scene = sim.scene();
     writeln!(
         std::io::stdout(),
-        "scene {} ({}): {} particles, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
+        "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
         scene.name,
         scene.source,
-        scene.num_particles,
+        resumed
+            .as_ref()
+            .map_or(scene.num_particles, |c| c.particles.num_live()),
+        if scene.flow.is_active() {
+            format!(" (capacity {})", scene.slots())
+        } else {
+            String::new()
+        },
         scene.grid_res[0],
         scene.grid_res[1],
         scene.grid_res[2],

@@ -326,3 +326,62 @@ fn a_series_writes_every_kth_frame_and_the_last() {
     let wanted: Vec<u64> = (1..=7).filter(|&f| series.wants(f, f == 7)).collect();
     assert_eq!(wanted, [3, 6, 7]);
 }
+
+#[test]
+fn a_scene_built_in_code_carries_a_text_that_loads_back_to_it() {
+    let scene = mpm::bench::column_scene(4096, 40).unwrap();
+    assert!(!scene.toml.is_empty(), "the spec did not serialise");
+    let back = Scene::from_toml(&scene.toml, &scene.source).unwrap();
+    assert_eq!(
+        Scene {
+            toml: scene.toml.clone(),
+            ..back
+        },
+        scene
+    );
+}
+
+#[test]
+fn the_fountain_resumed_from_the_command_line_is_byte_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
+    let run = ["run", "--backend", "cpu-parallel", "--checkpoint-every", "2"];
+    let mut args = run.to_vec();
+    args.extend([
+        "--scene",
+        "fountain",
+        "--frames",
+        "4",
+        "--checkpoint",
+        path(&whole),
+    ]);
+    let uninterrupted = ok(&mpm(&args));
+    assert!(
+        uninterrupted.contains("emitted=") && uninterrupted.contains("(capacity 60000)"),
+        "{uninterrupted}"
+    );
+    let start = whole.join("checkpoint_000002.mpmck");
+    let saved = Checkpoint::read(&start).unwrap();
+    let flow = saved.flow.as_ref().expect("the fountain's lifecycle is saved");
+    assert!(
+        flow.counts.emitted > 0 && flow.counts.drained > 0,
+        "{:?}",
+        flow.counts
+    );
+    let mut args = run.to_vec();
+    args.extend([
+        "--resume",
+        path(&start),
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(&resumed),
+    ]);
+    let continued = ok(&mpm(&args));
+    assert_eq!(frame_lines(&continued), frame_lines(&uninterrupted)[2..]);
+    let name = "checkpoint_000004.mpmck";
+    assert!(
+        std::fs::read(whole.join(name)).unwrap() == std::fs::read(resumed.join(name)).unwrap(),
+        "the resumed fountain's state differs"
+    );
+}

@@ -9,40 +9,7 @@ use mpm::sim::{Scene, Simulation};
 
 mod common;
 
-/// A 40 x 30 x 20 cm tank at dx = 2 cm: a pool, a jet from the left wall, a drain in the floor.
-fn tank(capacity: u64, extra: &str) -> String {
-    format!(
-        r#"
-name = "jet-tank"
-[domain]
-size = [0.4, 0.3, 0.2]
-resolution = [20, 15, 10]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
-[time_step]
-cfl = 0.35
-[particles]
-capacity = {capacity}
-[[block]]
-min = [0.02, 0.02, 0.02]
-max = [0.36, 0.08, 0.16]
-[[emitter]]
-shape = "disc"
-center = [0.05, 0.2, 0.1]
-normal = [1.0, 0.5, 0.0]
-radius = 0.02
-speed = 1.5
-{extra}
-"#
-    )
-}
-
-const DRAIN: &str = r#"
-[[sink]]
-min = [0.28, 0.0, 0.06]
-max = [0.34, 0.04, 0.14]
-"#;
+use common::{jet_tank as tank, JET_TANK_DRAIN as DRAIN};
 
 fn sim(toml: &str, backend: BackendKind) -> Simulation {
     let scene = common::scene(toml);
@@ -323,4 +290,34 @@ fn an_emitter_alone_may_fill_an_empty_tank() {
         sim.advance_frame().unwrap();
     }
     assert!(sim.solver_mut().flow_counts().unwrap().unwrap().live > 0);
+}
+
+#[test]
+fn a_rectangle_nozzle_covers_its_size_across_the_normal() {
+    let toml = tank(40_000, "").replace(
+        "shape = \"disc\"\ncenter = [0.05, 0.2, 0.1]\nnormal = [1.0, 0.5, 0.0]\nradius = 0.02",
+        "shape = \"rectangle\"\ncenter = [0.05, 0.2, 0.1]\nnormal = [1.0, 0.0, 0.0]\nsize = [0.04, 0.02]",
+    );
+    let scene = common::scene(&toml);
+    let e = &scene.flow.emitters[0];
+    // h = 1 cm: 4 x 2 points, all on the plane x = 0.05, within the rectangle.
+    assert_eq!(e.points.len(), 8);
+    for p in &e.points {
+        assert!((p.x - 0.05).abs() < 1e-6);
+        let (dy, dz) = ((p.y - 0.2).abs(), (p.z - 0.1).abs());
+        assert!(dy.max(dz) <= 0.02 + 1e-6 && dy.min(dz) <= 0.01 + 1e-6, "{p}");
+    }
+    let mut sim = sim(&toml, BackendKind::Cpu);
+    for _ in 0..5 {
+        sim.advance_frame().unwrap();
+    }
+    let p = sim.solver_mut().read_particles().unwrap();
+    let jet = (0..p.len()).filter(|&i| p.live[i] && p.x[i].y > 0.12).count();
+    assert!(jet >= 8, "the jet has {jet} particles");
+    assert!(
+        (0..p.len())
+            .filter(|&i| p.live[i] && p.x[i].y > 0.12)
+            .all(|i| p.v[i].x > 0.5),
+        "the jet does not move along its normal"
+    );
 }

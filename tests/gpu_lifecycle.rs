@@ -1,5 +1,6 @@
-//! Checkpoint and restart on the CUDA backend: a fixed-point run resumed from a checkpoint is byte
-//! for byte the uninterrupted one, in both pipelines. Where no CUDA device and driver are usable,
+//! The particle state's life on the CUDA backend: a fixed-point run resumed from a checkpoint is byte
+//! for byte the uninterrupted one, in both pipelines; emitters and sinks follow the CPU reference,
+//! keep exact books, stay deterministic and resume exactly. Where no CUDA device and driver are usable,
 //! every test is reported as ignored, with the reason (tests/harness: `harness = false`).
 //!
 //! What this guards: the CUDA solver keeps state between substeps that a checkpoint does not hold
@@ -12,6 +13,7 @@ use mpm::checkpoint::Checkpoint;
 use mpm::sim::params::{Pipeline, ScatterMode};
 use mpm::sim::{Particles, Scene, Simulation};
 
+mod common;
 mod harness;
 
 fn main() -> std::process::ExitCode {
@@ -20,7 +22,11 @@ fn main() -> std::process::ExitCode {
         harness::cuda_device,
         harness::tests![
             a_resumed_fixed_point_run_is_byte_identical,
-            a_gpu_checkpoint_resumes_on_the_cpu
+            a_gpu_checkpoint_resumes_on_the_cpu,
+            gpu_emission_and_draining_follow_the_cpu,
+            gpu_flow_runs_are_byte_identical_and_resume_exactly,
+            gpu_capacity_exhaustion_is_counted,
+            the_report_pipeline_refuses_emitters,
         ],
     )
 }
@@ -111,4 +117,130 @@ fn a_gpu_checkpoint_resumes_on_the_cpu() {
     assert_eq!(stats.frame, 3);
     assert!(stats.summary.is_finite());
     assert_eq!(stats.summary.particles, checkpoint.particles.len());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Emitters and sinks on the GPU (the binned pipeline), against the CPU reference.
+
+fn flow_scene(capacity: u64, extra: &str) -> Scene {
+    let mut scene = common::scene(&common::jet_tank(capacity, extra));
+    scene.scatter = ScatterMode::FixedPoint;
+    scene
+}
+
+fn flow_sim(scene: &Scene, backend: BackendKind) -> Simulation {
+    let solver = mpm::backend::create(backend, scene).expect("a solver");
+    Simulation::new(scene.clone(), solver)
+}
+
+fn gpu_emission_and_draining_follow_the_cpu() {
+    let scene = flow_scene(40_000, common::JET_TANK_DRAIN);
+    let (mut cpu, mut gpu) = (
+        flow_sim(&scene, BackendKind::Cpu),
+        flow_sim(&scene, BackendKind::Cuda),
+    );
+    let start = scene.num_particles as u64;
+    for _ in 0..30 {
+        let a = cpu.advance_frame().unwrap();
+        let b = gpu.advance_frame().unwrap();
+        let (fa, fb) = (a.flow.unwrap(), b.flow.unwrap());
+        println!(
+            "frame {}: cpu emitted {} drained {} blocked {}, gpu emitted {} drained {} blocked {}",
+            a.frame, fa.emitted, fa.drained, fa.blocked, fb.emitted, fb.drained, fb.blocked
+        );
+        // The schedule is the host's, the same for both: every layer is emitted unless blocked.
+        assert_eq!(
+            fa.emitted + fa.blocked,
+            fb.emitted + fb.blocked,
+            "frame {}",
+            a.frame
+        );
+        assert!(
+            fa.emitted.abs_diff(fb.emitted) <= 16,
+            "frame {}: emitted {fa:?} vs {fb:?}",
+            a.frame
+        );
+        // Rounding moves a particle across a sink's face now and then.
+        let tolerance = 8 + fa.drained / 20;
+        assert!(
+            fa.drained.abs_diff(fb.drained) <= tolerance,
+            "frame {}: {fa:?} vs {fb:?}",
+            a.frame
+        );
+        // Exact bookkeeping on the device.
+        assert_eq!(fb.live, start + fb.emitted - fb.drained, "frame {}", b.frame);
+        assert_eq!(
+            b.summary.particles as u64, fb.live,
+            "the statistics count parked slots"
+        );
+        assert_eq!(fb.exhausted, 0);
+    }
+    let p = gpu.solver_mut().read_particles().unwrap();
+    let counts = gpu.solver_mut().flow_counts().unwrap().unwrap();
+    assert_eq!(p.num_live() as u64, counts.live);
+    assert!(counts.drained > 0 && counts.emitted > 500, "{counts:?}");
+    let sinks = &scene.flow.sinks;
+    assert!(
+        (0..p.len()).all(|i| !p.live[i] || !sinks.iter().any(|s| s.contains(p.x[i]))),
+        "a live particle sits in the drain"
+    );
+    let mut attributes = Vec::new();
+    gpu.solver_mut()
+        .render_attributes(mpm::sim::ColourBy::Speed, 1000.0, &mut attributes)
+        .unwrap();
+    assert_eq!(attributes.iter().filter(|a| !a[0].is_nan()).count(), p.num_live());
+}
+
+fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
+    let scene = flow_scene(40_000, common::JET_TANK_DRAIN);
+    let dir = tempfile::tempdir().unwrap();
+    let run = |frames: u64| {
+        let mut sim = flow_sim(&scene, BackendKind::Cuda);
+        self::frames(&mut sim, frames);
+        sim
+    };
+    let (mut a, mut b) = (run(12), run(12));
+    let (sa, sb) = (
+        Checkpoint::capture(&mut a).unwrap(),
+        Checkpoint::capture(&mut b).unwrap(),
+    );
+    assert_eq!(sa.flow, sb.flow, "two fixed-point runs' lifecycles differ");
+    assert!(
+        particle_bits(&sa.particles) == particle_bits(&sb.particles)
+            && sa.particles.live == sb.particles.live,
+        "two fixed-point runs with emitters and sinks differ"
+    );
+    let mut first = run(5);
+    let checkpoint = save_and_read(&mut first, dir.path());
+    let mut resumed = checkpoint
+        .resume(checkpoint.scene().unwrap(), BackendKind::Cuda)
+        .unwrap();
+    frames(&mut resumed, 7);
+    let sr = Checkpoint::capture(&mut resumed).unwrap();
+    assert_eq!(sa.flow, sr.flow, "the resumed lifecycle differs");
+    assert!(
+        particle_bits(&sa.particles) == particle_bits(&sr.particles)
+            && sa.particles.live == sr.particles.live,
+        "the resumed run with emitters and sinks differs from the uninterrupted one"
+    );
+}
+
+fn gpu_capacity_exhaustion_is_counted() {
+    let initial = flow_scene(100_000, "").num_particles as u64;
+    let scene = flow_scene(initial + 100, "");
+    let mut sim = flow_sim(&scene, BackendKind::Cuda);
+    frames(&mut sim, 20);
+    let counts = sim.solver_mut().flow_counts().unwrap().unwrap();
+    assert_eq!(counts.emitted, 100);
+    assert_eq!(counts.live, initial + 100);
+    assert!(counts.exhausted > 0);
+}
+
+fn the_report_pipeline_refuses_emitters() {
+    let mut scene = flow_scene(40_000, "");
+    scene.pipeline = Pipeline::Report;
+    let e = mpm::backend::create(BackendKind::Cuda, &scene)
+        .err()
+        .expect("refused");
+    assert!(format!("{e:#}").contains("binned"), "{e:#}");
 }

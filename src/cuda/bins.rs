@@ -87,7 +87,8 @@ impl Bins {
             .iter()
             .map(|&b| b as usize)
             .product();
-        let num_keys = num_bins * (edge as usize).pow(3);
+        // One key per cell, and one past them for the parked slots (kernels/bins.cu).
+        let num_keys = num_bins * (edge as usize).pow(3) + 1;
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<u32>(len.max(1))
@@ -214,7 +215,6 @@ impl Bins {
             unsafe {
                 k.list.launch(launcher, launcher.cover(self.num_bins), |a| {
                     a.arg(&num_bins)
-                        .arg(&n)
                         .arg(&self.chunk)
                         .arg(&self.levels[0])
                         .arg(list)

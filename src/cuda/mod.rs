@@ -5,6 +5,7 @@
 //! - [`launch`]: the one launch helper (kernel name, NVTX range, errors naming the kernel).
 //! - [`solver`]: [`CudaSolver`], the device particle state and the substep, in either pipeline.
 //! - [`bins`]: particles binned by cell or node block (kernels/bins.cu), and the bin list.
+//! - [`lifecycle`]: emitters, sinks and the free particle slots (kernels/lifecycle.cu).
 //! - [`stats`]: the per-frame statistics as a device reduction (kernels/stats.cu).
 //! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
 //! - [`interop`]: OpenGL buffers registered with CUDA, mapped for the render kernel each frame.
@@ -16,6 +17,7 @@ pub mod graph;
 pub mod interop;
 pub mod launch;
 pub mod library;
+pub mod lifecycle;
 pub mod modules;
 mod nvrtc_preload;
 pub mod solver;

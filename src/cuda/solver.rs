@@ -17,11 +17,13 @@ use super::bins::{self, BinKernels, Bins, NODE_BLOCK_EDGE, WORK_COUNTS, WORK_NOD
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::launch::{Kernel, Launcher, NvtxRange};
 use super::library;
+use super::lifecycle::{DeviceFlow, LifecycleKernels};
 use super::modules::{LoadedModules, Origin};
 use super::spawn::{self, SpawnBody};
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
 use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
+use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::params::{Pipeline, ScatterMode};
 use crate::sim::{
     ColourBy, ExtremesTicket, Material, Params, Particles, PhaseTimings, Push, Scene, Solver, StepExtremes,
@@ -158,6 +160,7 @@ struct Kernels {
     spawn_write: Kernel,
     render_attributes: Kernel,
     push_particles: Kernel,
+    lifecycle: LifecycleKernels,
 }
 
 impl Kernels {
@@ -178,6 +181,7 @@ impl Kernels {
             spawn_write: k("spawn", "spawn_write")?,
             render_attributes: k("render", "render_attributes")?,
             push_particles: k("render", "push_particles")?,
+            lifecycle: LifecycleKernels::load(modules)?,
         })
     }
 }
@@ -259,7 +263,12 @@ pub struct CudaSolver {
     /// Device scratch of the host-copy render path (allocated on first use, kept).
     render_scratch: Option<CudaSlice<f32>>,
     colliders: DeviceColliders,
+    /// Emitters, sinks and the free slots, where the scene has them (binned pipeline only).
+    flow: Option<DeviceFlow>,
 }
+
+/// x.w of a parked particle slot (PARKED_W in kernels/common.cuh).
+const PARKED_W: f32 = 1.0;
 
 /// Bytes on the device per particle (x, v as float4; C as 3 float4; rho; order, bin key and rank)
 /// and per node (two float4, the report sort's cell count; the binned pipeline's per-block lists
@@ -270,8 +279,12 @@ pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
 pub const FIXED_BYTES_PER_NODE: usize = 8 * 4;
 
 impl CudaSolver {
-    /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`.
+    /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`. A scene with
+    /// emitters or sinks is spawned on the host (its parked slots with it) and uploaded.
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
+        if scene.flow.is_active() {
+            return CudaSolver::restore(scene, &scene.spawn(), None, options);
+        }
         let mut solver = CudaSolver::allocate(scene, options)?;
         if scene.colliders.is_empty() {
             solver.spawn_on_device(scene)?;
@@ -285,10 +298,43 @@ impl CudaSolver {
     /// Uploads `particles` (for tests: any state, not only a spawned one) into a solver for `scene`'s
     /// grid, material and pipeline.
     pub fn from_particles(scene: &Scene, particles: &Particles, options: CudaOptions) -> Result<CudaSolver> {
+        CudaSolver::restore(scene, particles, None, options)
+    }
+
+    /// Uploads a saved state: `particles` (every slot) and, for a scene with emitters or sinks, the
+    /// lifecycle's `flow` state (`None`: the scene's start).
+    pub fn restore(
+        scene: &Scene,
+        particles: &Particles,
+        flow: Option<&FlowState>,
+        options: CudaOptions,
+    ) -> Result<CudaSolver> {
         let mut scene = scene.clone();
-        scene.num_particles = particles.len();
+        if scene.flow.is_active() {
+            ensure!(
+                particles.len() == scene.slots(),
+                "{} particle slots for a scene of {}",
+                particles.len(),
+                scene.slots()
+            );
+        } else {
+            scene.num_particles = particles.len();
+            scene.flow.capacity = particles.len();
+        }
         let mut solver = CudaSolver::allocate(&scene, options)?;
         solver.upload(particles)?;
+        if scene.flow.is_active() {
+            let start;
+            let state = match flow {
+                Some(state) => state,
+                None => {
+                    start = FlowState::start(&scene.flow, scene.num_particles);
+                    &start
+                }
+            };
+            let spacing = scene.lattice().spacing as f32;
+            solver.flow = Some(DeviceFlow::new(&solver.launcher, &scene.flow, state, spacing)?);
+        }
         Ok(solver)
     }
 
@@ -313,12 +359,12 @@ impl CudaSolver {
             .context("reading the multiprocessor count")?;
 
         ensure!(
-            !scene.flow.is_active(),
-            "scene {}: emitters and sinks run on the CPU backends only in this build; use --backend cpu \
-             or cpu-parallel",
+            !scene.flow.is_active() || scene.pipeline == Pipeline::Binned,
+            "scene {}: emitters and sinks run in the binned GPU pipeline; drop solver.pipeline = \
+             \"report\" (or --pipeline report), or use a CPU backend",
             scene.source
         );
-        let n = scene.num_particles;
+        let n = scene.slots();
         ensure!(n > 0, "scene {}: no particles", scene.source);
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
@@ -433,6 +479,7 @@ impl CudaSolver {
             fixed_momentum_scale,
             render_scratch: None,
             colliders,
+            flow: None,
         };
         if fixed_scatter {
             solver.ensure_fixed_grid()?;
@@ -698,8 +745,10 @@ impl CudaSolver {
         let _range = NvtxRange::new("p2g");
         let (fixed_mass, fixed_momentum) = self.fixed_grid();
         let (l, k) = (&self.launcher, &self.kernels);
-        let tiled =
-            self.pipeline == Pipeline::Binned && params.scatter_mode == ScatterMode::FixedPoint.code();
+        // Scenes with a flow take the tiled pass in either mode: p2g.cu walks the whole order, parked
+        // slots included.
+        let tiled = self.pipeline == Pipeline::Binned
+            && (params.scatter_mode == ScatterMode::FixedPoint.code() || self.flow.is_some());
         if !tiled {
             // SAFETY: the arguments match p2g in kernels/p2g.cu; buffers are sized for params. In the
             // binned pipeline, g2p2g marked every node block these stencils cover (same positions).
@@ -812,7 +861,10 @@ impl CudaSolver {
             Pipeline::Binned => {
                 let list = self.bin_list()?;
                 let config = self.tiled_pass(1);
-                // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; as in p2g_init.
+                let null: u64 = 0;
+                let num_sinks = self.flow.as_ref().map_or(0, |f| f.num_sinks);
+                // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; as in p2g_init. Without a
+                // flow the sink and free-slot pointers are null and never read (no sinks).
                 unsafe {
                     k.g2p2g.launch(l, config, |a| {
                         a.arg(&params)
@@ -832,6 +884,14 @@ impl CudaSolver {
                             .arg(&self.colliders.states)
                             .arg(&self.colliders.count)
                             .arg(&self.colliders.sdf);
+                        match &self.flow {
+                            Some(flow) => a
+                                .arg(&flow.sinks)
+                                .arg(&num_sinks)
+                                .arg(&flow.free)
+                                .arg(&flow.counters),
+                            None => a.arg(&null).arg(&num_sinks).arg(&null).arg(&null),
+                        };
                     })?;
                 }
                 self.mass_scattered = Some(params.scatter_mode);
@@ -860,6 +920,9 @@ impl CudaSolver {
         self.grid_update(params)?;
         self.timing.mark(&stream, 4)?;
         self.g2p(params)?;
+        if let Some(flow) = self.flow.as_ref().filter(|f| f.num_sinks > 0) {
+            flow.settle(&self.kernels.lifecycle, &self.launcher)?;
+        }
         self.timing.mark(&stream, 5)?;
         Ok(())
     }
@@ -1021,6 +1084,13 @@ impl CudaSolver {
             self.num_particles
         );
         let float4 = |v: &[Vec3]| -> Vec<f32> { v.iter().flat_map(|p| [p.x, p.y, p.z, 0.0]).collect() };
+        // x.w marks a parked slot (PARKED_W in kernels/common.cuh).
+        let positions: Vec<f32> = particles
+            .x
+            .iter()
+            .zip(&particles.live)
+            .flat_map(|(p, &live)| [p.x, p.y, p.z, if live { 0.0 } else { PARKED_W }])
+            .collect();
         let mut c = Vec::with_capacity(12 * n);
         for col in 0..3 {
             c.extend(particles.c.iter().flat_map(|m| {
@@ -1030,7 +1100,7 @@ impl CudaSolver {
         }
         let stream = &self.launcher.stream;
         stream
-            .memcpy_htod(&float4(&particles.x), &mut self.x)
+            .memcpy_htod(&positions, &mut self.x)
             .context("uploading positions")?;
         stream
             .memcpy_htod(&float4(&particles.v), &mut self.v)
@@ -1157,6 +1227,63 @@ impl Solver for CudaSolver {
         self.graphs.put(key, graph);
         launched
     }
+
+    fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
+        let params = self.device_params(params)?;
+        let scatter_mass = u32::from(self.mass_scattered.is_some());
+        let flow = self.flow.as_ref().context("this CUDA solver has no emitters")?;
+        let (fixed_mass, _) = self.fixed_grid();
+        let l = &self.launcher;
+        // SAFETY: arguments match emit_particles in kernels/lifecycle.cu; the point buffers hold
+        // num_points entries, the particle buffers every slot, `free` the capacity.
+        unsafe {
+            self.kernels
+                .lifecycle
+                .emit
+                .launch(l, DeviceFlow::one_block(), |a| {
+                    a.arg(&params)
+                        .arg(&mask)
+                        .arg(&flow.points)
+                        .arg(&flow.num_points)
+                        .arg(&flow.velocities)
+                        .arg(&flow.clearance_sq)
+                        .arg(&flow.emits)
+                        .arg(&flow.last)
+                        .arg(&flow.free)
+                        .arg(&flow.counters)
+                        .arg(&self.x)
+                        .arg(&self.v)
+                        .arg(&self.c)
+                        .arg(&self.rho)
+                        .arg(&scatter_mass)
+                        .arg(&self.grid_acc)
+                        .arg(fixed_mass)
+                        .arg(&self.node_blocks.marks)
+                        .arg(&self.node_blocks.list)
+                        .arg(&self.work_counts)
+                        .arg(&self.counters);
+                })?;
+        }
+        // The new particles are in no bin yet.
+        self.bins_built = false;
+        Ok(())
+    }
+
+    fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
+        let Some(flow) = &self.flow else { return Ok(None) };
+        let counters = self.download(&flow.counters)?;
+        Ok(Some(DeviceFlow::counts(&counters, flow.capacity)))
+    }
+
+    fn flow_state(&mut self) -> Result<Option<FlowState>> {
+        let Some(flow) = &self.flow else { return Ok(None) };
+        let counters = self.download(&flow.counters)?;
+        let free = self.download(&flow.free)?;
+        let mut last = self.download(&flow.last)?;
+        last.truncate(flow.num_points as usize);
+        Ok(Some(DeviceFlow::state(&counters, &free, last, flow.capacity)))
+    }
+
     fn take_extremes(&mut self) -> Result<StepExtremes> {
         let ticket = self.request_extremes()?;
         self.wait_extremes(ticket)
@@ -1313,7 +1440,7 @@ impl Solver for CudaSolver {
                 .map(|i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
                 .collect(),
             rho,
-            live: vec![true; n],
+            live: (0..n).map(|i| x[4 * i + 3] == 0.0).collect(),
         })
     }
 

@@ -124,6 +124,10 @@ fn combine(partials: &[StatsPartial]) -> Summary {
         rmax = rmax.max(p.density_ratio_max);
         count += u64::from(p.count);
     }
+    if count == 0 {
+        // Every slot parked (a tank before its emitters start): zeros, as `Summary::of` gives.
+        return Summary::of(&crate::sim::Particles::default(), 0.0, 1.0);
+    }
     let inv_n = 1.0 / count.max(1) as f64;
     Summary {
         particles: count as usize,

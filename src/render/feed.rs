@@ -19,6 +19,14 @@ pub enum Transfer {
     HostCopy,
 }
 
+/// Live particles of `slots`: all of them, unless the scene's emitters and sinks say otherwise.
+fn live_count(sim: &mut Simulation, slots: usize) -> Result<usize> {
+    Ok(sim
+        .solver_mut()
+        .flow_counts()?
+        .map_or(slots, |flow| flow.live as usize))
+}
+
 pub struct ParticleFeed {
     transfer: Transfer,
     registration: Option<GlBufferResource>,
@@ -57,7 +65,8 @@ impl ParticleFeed {
         self.registration = None;
     }
 
-    /// Writes the simulation's current particles into the renderer's buffer.
+    /// Writes the simulation's current particles into the renderer's buffer; returns how many are live
+    /// (parked slots are written too, and clipped by the shader).
     pub fn update(
         &mut self,
         sim: &mut Simulation,
@@ -76,7 +85,7 @@ impl ParticleFeed {
         if want_interop {
             if let Some(cuda) = sim.solver_mut().as_any_mut().downcast_mut::<CudaSolver>() {
                 match self.write_through_interop(cuda, renderer, quantity, rest_density) {
-                    Ok(()) => return Ok(n),
+                    Ok(()) => return live_count(sim, n),
                     Err(why) => {
                         let why = format!("{why:#}");
                         eprintln!("note: CUDA-OpenGL interop unavailable ({why}); copying through the host");
@@ -89,7 +98,7 @@ impl ParticleFeed {
         sim.solver_mut()
             .render_attributes(quantity, rest_density, &mut self.host)?;
         renderer.upload(&self.host);
-        Ok(n)
+        live_count(sim, n)
     }
 
     fn write_through_interop(

@@ -295,6 +295,7 @@ impl CpuSolver {
                 *live = false;
             }
         }
+        lifecycle.state.settle();
     }
 
     pub fn clear_grid(&mut self) {

@@ -263,6 +263,7 @@ impl ParallelCpuSolver {
             p.live[i] = false;
             lifecycle.state.drain(i as u32);
         }
+        lifecycle.state.settle();
     }
 
     /// Threads the backend runs on (rayon's pool: `RAYON_NUM_THREADS`, else one per core).

@@ -7,18 +7,19 @@
 //! the statistics, the rendering or the export. The free slots form a stack:
 //!
 //! - A **sink** parks every live particle that ends a substep inside its box and pushes its slot on
-//!   the stack. This is a test fused into g2p, which visits each live particle anyway: no pass over
-//!   the slots of its own.
+//!   the stack. On the GPU this is a test inside g2p2g, which visits each live particle anyway (no
+//!   pass over the slots of its own); the CPU backends test in a pass after g2p.
 //! - An **emitter** is a nozzle, a disc or a rectangle of lattice points (spacing h = dx / particles
 //!   per axis) facing along its normal. It emits a layer, one particle per point, each time the
 //!   volume it has delivered falls a layer behind its rate (a phase the simulation keeps, the same on
 //!   every backend); each point takes the top slot of the stack, in point order. A point whose last
-//!   particle is still live and within [`CLEARANCE`] h of it skips its turn (the jet is stalled there,
-//!   e.g. under water): no particle is put on top of fluid. A point that finds the stack empty is
+//!   particle is still live and within [`CLEARANCE`] h of it skips its turn (the jet is stalled there):
+//!   a stalled jet is not packed tighter. Only the point's own last particle is looked at, not fluid
+//!   that arrives from elsewhere, so nozzles belong above the water they feed. A point that finds the stack empty is
 //!   counted as exhausted and reported. Emission is O(points emitted), draining O(drained).
-//! - Before an emission takes from the stack, the slots pushed since the last one are sorted (highest
-//!   first, so the lowest free index comes off first): which slot a new particle gets is then fixed by
-//!   *which* particles drained, never by the order threads pushed them, and runs stay reproducible.
+//! - After each substep's drains, the slots they pushed are sorted (highest first, so the lowest free
+//!   index comes off first): which slot a new particle gets is then fixed by *which* particles drained,
+//!   never by the order threads pushed them, and runs stay reproducible.
 
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -142,7 +143,7 @@ pub struct FlowCounts {
 pub struct FlowState {
     /// Free slots, a stack: emission takes from the end.
     pub free: Vec<u32>,
-    /// `free[..sorted]` is in canonical order; what sinks pushed since is sorted before the next pop.
+    /// `free[..sorted]` is in canonical order; what sinks pushed since is sorted at the substep's end.
     pub sorted: usize,
     /// Per nozzle point (all emitters' in order): the slot it filled last, or [`NO_PARTICLE`].
     pub last: Vec<u32>,
@@ -164,7 +165,7 @@ impl FlowState {
         }
     }
 
-    /// Sorts the slots pushed since the last emission, highest first.
+    /// Sorts the slots pushed since it last ran, highest first (after each substep's drains).
     pub fn settle(&mut self) {
         self.free[self.sorted..].sort_unstable_by(|a, b| b.cmp(a));
         self.sorted = self.free.len();
@@ -256,7 +257,8 @@ pub struct Slots<'a> {
 }
 
 /// One emission: each point of each emitter in `mask`, in order, that is not blocked takes the top
-/// free slot. The reference of kernels' emission; the CPU backends call it as it is.
+/// free slot; whether a point is blocked is judged on the state before the emission. The reference of
+/// kernels/lifecycle.cu's `emit_particles`; the CPU backends call it as it is.
 pub fn emit(
     flow: &Flow,
     state: &mut FlowState,
@@ -267,37 +269,40 @@ pub fn emit(
 ) {
     state.settle();
     let clearance_sq = (CLEARANCE * spacing) * (CLEARANCE * spacing);
+    let mut wants = Vec::with_capacity(state.last.len());
     let mut point = 0usize;
     for (e, emitter) in flow.emitters.iter().enumerate() {
-        if mask & (1 << e) == 0 {
-            point += emitter.points.len();
-            continue;
-        }
-        let velocity = emitter.normal * emitter.speed;
+        let due = mask & (1 << e) != 0;
         for &at in &emitter.points {
             let last = state.last[point];
             point += 1;
-            if last != NO_PARTICLE
-                && slots.live[last as usize]
-                && (slots.x[last as usize] - at).length_squared() < clearance_sq
-            {
+            let clear = last == NO_PARTICLE
+                || !slots.live[last as usize]
+                || (slots.x[last as usize] - at).length_squared() >= clearance_sq;
+            if due && !clear {
                 state.counts.blocked += 1;
-                continue;
             }
-            let Some(slot) = state.free.pop() else {
-                state.counts.exhausted += 1;
-                continue;
-            };
-            let s = slot as usize;
-            slots.x[s] = at;
-            slots.v[s] = velocity;
-            slots.c[s] = glam::Mat3::ZERO;
-            slots.rho[s] = rest_density;
-            slots.live[s] = true;
-            state.last[point - 1] = slot;
-            state.counts.emitted += 1;
-            state.counts.live += 1;
+            wants.push(due && clear);
         }
+    }
+    let points = flow
+        .emitters
+        .iter()
+        .flat_map(|e| e.points.iter().map(move |&at| (at, e.normal * e.speed)));
+    for (point, ((at, velocity), _)) in points.zip(&wants).enumerate().filter(|(_, (_, &w))| w) {
+        let Some(slot) = state.free.pop() else {
+            state.counts.exhausted += 1;
+            continue;
+        };
+        let s = slot as usize;
+        slots.x[s] = at;
+        slots.v[s] = velocity;
+        slots.c[s] = glam::Mat3::ZERO;
+        slots.rho[s] = rest_density;
+        slots.live[s] = true;
+        state.last[point] = slot;
+        state.counts.emitted += 1;
+        state.counts.live += 1;
     }
     state.sorted = state.free.len();
 }

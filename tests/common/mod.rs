@@ -65,3 +65,40 @@ pressure_floor = 0.0
         size = f64::from(res) * 0.01
     )
 }
+
+/// A 40 x 30 x 20 cm tank at dx = 2 cm with a pool and a jet from the left wall, `capacity` particle
+/// slots and `extra` TOML after the emitter (its `rate`, a sink: [`JET_TANK_DRAIN`]).
+pub fn jet_tank(capacity: u64, extra: &str) -> String {
+    format!(
+        r#"
+name = "jet-tank"
+[domain]
+size = [0.4, 0.3, 0.2]
+resolution = [20, 15, 10]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[time_step]
+cfl = 0.35
+[particles]
+capacity = {capacity}
+[[block]]
+min = [0.02, 0.02, 0.02]
+max = [0.36, 0.08, 0.16]
+[[emitter]]
+shape = "disc"
+center = [0.05, 0.2, 0.1]
+normal = [1.0, 0.5, 0.0]
+radius = 0.02
+speed = 1.5
+{extra}
+"#
+    )
+}
+
+/// A drain in the jet tank's floor, where the jet lands.
+pub const JET_TANK_DRAIN: &str = r#"
+[[sink]]
+min = [0.28, 0.0, 0.06]
+max = [0.34, 0.04, 0.14]
+"#;

@@ -1,0 +1,153 @@
+//! The particle lifecycle on the device (kernels/lifecycle.cu; src/sim/flow.rs is the reference): the
+//! free-slot stack, its counters, the nozzle points and the sinks, and the two one-block launches
+//! that settle the stack after a substep's drains and emit from it.
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
+use anyhow::{ensure, Context, Result};
+use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
+
+/// Mirror of `FlowCounters` in kernels/common.cuh, as six u64.
+pub const FLOW_COUNTERS: usize = 6;
+const FREE_COUNT: usize = 0;
+const SORTED: usize = 1;
+const EMITTED: usize = 2;
+const DRAINED: usize = 3;
+const EXHAUSTED: usize = 4;
+const BLOCKED: usize = 5;
+/// Threads of the one-block launches (their `__launch_bounds__`).
+const ONE_BLOCK: LaunchConfig = LaunchConfig {
+    grid_dim: (1, 1, 1),
+    block_dim: (1024, 1, 1),
+    shared_mem_bytes: 0,
+};
+
+pub struct LifecycleKernels {
+    pub settle: Kernel,
+    pub emit: Kernel,
+}
+
+impl LifecycleKernels {
+    pub fn load(modules: &LoadedModules) -> Result<LifecycleKernels> {
+        Ok(LifecycleKernels {
+            settle: Kernel::load(modules, "lifecycle", "settle_free")?,
+            emit: Kernel::load(modules, "lifecycle", "emit_particles")?,
+        })
+    }
+}
+
+/// The lifecycle's device buffers.
+pub struct DeviceFlow {
+    pub capacity: usize,
+    /// The free-slot stack, `capacity` long; its length is `counters[FREE_COUNT]`.
+    pub free: CudaSlice<u32>,
+    pub counters: CudaSlice<u64>,
+    /// Per nozzle point: its last slot.
+    pub last: CudaSlice<u32>,
+    /// Per nozzle point: xyz and the emitter's index as bits.
+    pub points: CudaSlice<f32>,
+    pub num_points: u32,
+    /// Per emitter: the velocity its particles leave with (float4).
+    pub velocities: CudaSlice<f32>,
+    /// Per nozzle point: whether it emits this time (scratch of emit_particles).
+    pub emits: CudaSlice<u32>,
+    /// Per sink: min and max as two float4.
+    pub sinks: CudaSlice<f32>,
+    pub num_sinks: u32,
+    pub clearance_sq: f32,
+}
+
+impl DeviceFlow {
+    /// The buffers of `flow` in `state` (a fresh start or a checkpoint's).
+    pub fn new(launcher: &Launcher, flow: &Flow, state: &FlowState, spacing: f32) -> Result<DeviceFlow> {
+        let stream = &launcher.stream;
+        ensure!(
+            state.free.len() <= flow.capacity && state.last.len() == flow.num_points(),
+            "the lifecycle state does not fit the scene's flow"
+        );
+        let mut free = vec![0u32; flow.capacity.max(1)];
+        free[..state.free.len()].copy_from_slice(&state.free);
+        let c = &state.counts;
+        let mut counters = [0u64; FLOW_COUNTERS];
+        counters[FREE_COUNT] = state.free.len() as u64;
+        counters[SORTED] = state.sorted as u64;
+        counters[EMITTED] = c.emitted;
+        counters[DRAINED] = c.drained;
+        counters[EXHAUSTED] = c.exhausted;
+        counters[BLOCKED] = c.blocked;
+        let mut points = Vec::with_capacity(4 * flow.num_points());
+        let mut velocities = Vec::with_capacity(4 * flow.emitters.len());
+        for (e, emitter) in flow.emitters.iter().enumerate() {
+            for p in &emitter.points {
+                points.extend([p.x, p.y, p.z, f32::from_bits(e as u32)]);
+            }
+            let u = emitter.normal * emitter.speed;
+            velocities.extend([u.x, u.y, u.z, 0.0]);
+        }
+        let sinks: Vec<f32> = flow
+            .sinks
+            .iter()
+            .flat_map(|s| [s.min.x, s.min.y, s.min.z, 0.0, s.max.x, s.max.y, s.max.z, 0.0])
+            .collect();
+        let upload_u32 = |v: &[u32], what: &str| {
+            let v = if v.is_empty() { &[0u32][..] } else { v };
+            stream.clone_htod(v).with_context(|| format!("uploading {what}"))
+        };
+        let upload_f32 = |v: &[f32], what: &str| {
+            let v = if v.is_empty() { &[0f32; 4][..] } else { v };
+            stream.clone_htod(v).with_context(|| format!("uploading {what}"))
+        };
+        Ok(DeviceFlow {
+            capacity: flow.capacity,
+            free: upload_u32(&free, "the free particle slots")?,
+            counters: stream
+                .clone_htod(&counters)
+                .context("uploading the lifecycle's counters")?,
+            last: upload_u32(&state.last, "the nozzle points' particles")?,
+            points: upload_f32(&points, "the nozzle points")?,
+            num_points: flow.num_points() as u32,
+            velocities: upload_f32(&velocities, "the emitters' velocities")?,
+            emits: upload_u32(&vec![0; flow.num_points()], "the emission scratch")?,
+            sinks: upload_f32(&sinks, "the sinks")?,
+            num_sinks: flow.sinks.len() as u32,
+            clearance_sq: (CLEARANCE * spacing) * (CLEARANCE * spacing),
+        })
+    }
+
+    /// Sorts the slots this substep's drains pushed (after g2p2g).
+    pub fn settle(&self, kernels: &LifecycleKernels, launcher: &Launcher) -> Result<()> {
+        // SAFETY: arguments match settle_free; `free` holds `capacity` slots, counters six u64.
+        unsafe {
+            kernels.settle.launch(launcher, ONE_BLOCK, |a| {
+                a.arg(&self.free).arg(&self.counters);
+            })
+        }
+    }
+
+    pub fn one_block() -> LaunchConfig {
+        ONE_BLOCK
+    }
+
+    /// The counts from the device counters (waits for the device).
+    pub fn counts(counters: &[u64], capacity: usize) -> FlowCounts {
+        FlowCounts {
+            live: capacity as u64 - counters[FREE_COUNT],
+            emitted: counters[EMITTED],
+            drained: counters[DRAINED],
+            exhausted: counters[EXHAUSTED],
+            blocked: counters[BLOCKED],
+        }
+    }
+
+    /// The state as a checkpoint holds it, from downloads of the buffers.
+    pub fn state(counters: &[u64], free: &[u32], last: Vec<u32>, capacity: usize) -> FlowState {
+        let free_count = counters[FREE_COUNT] as usize;
+        FlowState {
+            free: free[..free_count].to_vec(),
+            sorted: counters[SORTED] as usize,
+            last,
+            counts: DeviceFlow::counts(counters, capacity),
+        }
+    }
+}
