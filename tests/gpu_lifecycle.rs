@@ -69,8 +69,9 @@ fn a_resumed_fixed_point_run_is_byte_identical() {
     // 29 substeps a frame or so: the checkpoints fall between two of the 8-substep rebinnings.
     const BEFORE: u64 = 3;
     const AFTER: u64 = 7;
-    let dir = tempfile::tempdir().unwrap();
     for pipeline in [Pipeline::Binned, Pipeline::Report] {
+        // A folder per pipeline: both checkpoint the same frame, and files are never overwritten.
+        let dir = tempfile::tempdir().unwrap();
         let scene = scene(pipeline);
         let mut whole = cuda_sim(&scene);
         frames(&mut whole, BEFORE + AFTER);
