@@ -145,6 +145,11 @@ impl Surface {
     /// `prelude`: the shared GLSL (the colour scale and [`glsl_constants`]).
     pub fn new(gl: Arc<glow::Context>, prelude: &str) -> Result<Surface> {
         const PARTICLE_VS: &str = include_str!("shaders/surface_particle.vert");
+        // The depth pass rasterises each sprite at its sphere's front and promises the fragment
+        // depth is never nearer (conservative depth, core in GL 4.2, an extension to GLSL 3.30), so
+        // the early depth test keeps rejecting hidden fragments although the shader writes depth.
+        let depth_prelude =
+            format!("#extension GL_ARB_conservative_depth : enable\n#define SPHERE_FRONT_DEPTH\n{prelude}");
         // SAFETY: the caller's context is current.
         unsafe {
             let programs = Programs {
@@ -153,7 +158,7 @@ impl Surface {
                     "surface depth",
                     &[PARTICLE_VS],
                     &[include_str!("shaders/surface_depth.frag")],
-                    prelude,
+                    &depth_prelude,
                 )?,
                 thickness: link(
                     &gl,
