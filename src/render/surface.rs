@@ -4,8 +4,9 @@
 //! 1. **scene**: the floor and the domain box into a colour and a depth texture (what the water
 //!    refracts), drawn by the renderer into [`Surface::bind_scene`];
 //! 2. **depth**: every particle as a sphere impostor; the nearest sphere's view distance per pixel;
-//! 3. **thickness**: additive splats at half resolution: how much water each pixel looks through,
-//!    and the colour quantity averaged along the way;
+//! 3. **thickness**: additive splats at a fraction of the resolution (a quarter per axis by
+//!    default): how much water each pixel looks through, and the colour quantity averaged along the
+//!    way;
 //! 4. **smoothing**: the narrow-range filter (`shaders/surface_smooth.frag` says why that filter)
 //!    flattens the spheres into one surface, horizontally then vertically;
 //! 5. **shading**: normals from the smoothed depth, Fresnel reflection of a sky, refraction of the
@@ -69,6 +70,13 @@ pub struct SurfaceSettings {
     pub absorption: f32,
     /// How far the scene behind is displaced by the surface's slope and the water's thickness.
     pub refraction: f32,
+    /// Speed against quality: the filter's radius in pixels never exceeds this, whatever the zoom.
+    pub max_filter_px: u32,
+    /// Speed against quality: the thickness is splatted at 1/this of the resolution per axis.
+    pub thickness_downsample: u32,
+    /// Speed against quality: the smallest thickness splat's radius, in pixels of its texture (a
+    /// smaller splat is cheaper but noisier; its mass is kept on average either way).
+    pub thickness_min_splat_px: f32,
 }
 
 impl SurfaceSettings {
@@ -81,12 +89,12 @@ impl SurfaceSettings {
             iterations: 2,
             absorption: 1.0,
             refraction: 0.6,
+            max_filter_px: 24,
+            thickness_downsample: 4,
+            thickness_min_splat_px: 1.0,
         }
     }
 }
-
-/// The filter's radius in pixels never exceeds this, whatever the zoom: a bounded cost per pixel.
-const MAX_FILTER_PX: i32 = 24;
 
 /// How the colour quantity tints the water (the shading's `u_tint`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -120,9 +128,10 @@ struct Programs {
     shade: glow::Program,
 }
 
-/// The off-screen textures for one viewport size.
+/// The off-screen textures for one viewport size and thickness resolution.
 struct Targets {
     size: [u32; 2],
+    thickness_downsample: u32,
     scene_fbo: glow::Framebuffer,
     scene_colour: glow::Texture,
     scene_depth: glow::Texture,
@@ -192,16 +201,17 @@ impl Surface {
         }
     }
 
-    /// Makes the textures `size` (reallocating only when the size changed) and binds the scene's
-    /// framebuffer for drawing, with a viewport of that size.
-    pub fn bind_scene(&mut self, size: [u32; 2]) -> Result<()> {
-        if self.targets.as_ref().map(|t| t.size) != Some(size) {
+    /// Makes the textures `size`, the thickness 1/`thickness_downsample` of it (reallocating only
+    /// when either changed) and binds the scene's framebuffer for drawing, with a viewport of that size.
+    pub fn bind_scene(&mut self, size: [u32; 2], thickness_downsample: u32) -> Result<()> {
+        let downsample = thickness_downsample.clamp(1, MAX_THICKNESS_DOWNSAMPLE);
+        if self.targets.as_ref().map(|t| (t.size, t.thickness_downsample)) != Some((size, downsample)) {
             if let Some(old) = self.targets.take() {
                 // SAFETY: our objects, not used after this.
                 unsafe { self.delete_targets(&old) };
             }
             // SAFETY: the context is current.
-            self.targets = Some(unsafe { self.create_targets(size)? });
+            self.targets = Some(unsafe { self.create_targets(size, downsample)? });
         }
         let targets = self.targets.as_ref().expect("just made");
         // SAFETY: our framebuffer.
@@ -225,7 +235,8 @@ impl Surface {
         let Some(targets) = &self.targets else { return };
         let gl = &self.gl;
         let [w, h] = targets.size.map(|s| s as i32);
-        let (half_w, half_h) = half(targets.size);
+        let downsample = targets.thickness_downsample;
+        let (thick_w, thick_h) = downsampled(targets.size, downsample);
         let s = frame.settings;
         let count = frame.count as i32;
         // SAFETY: every object is ours or the caller's (the VAO, the target), on the current context.
@@ -251,7 +262,7 @@ impl Surface {
 
             timer.begin(Pass::Thickness);
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
-            gl.viewport(0, 0, half_w, half_h);
+            gl.viewport(0, 0, thick_w, thick_h);
             gl.clear_color(0.0, 0.0, 0.0, 0.0);
             gl.clear(glow::COLOR_BUFFER_BIT);
             gl.disable(glow::DEPTH_TEST);
@@ -260,9 +271,15 @@ impl Surface {
             gl.blend_func(glow::ONE, glow::ONE);
             let p = self.programs.thickness;
             gl.use_program(Some(p));
-            // Half resolution: half the pixels per metre; splats of at least 1.5 px radius, so a far
+            // Fewer pixels per metre at the lower resolution; a smallest splat radius, so a far
             // particle still lands on pixels rather than between them.
-            set_particle_uniforms(gl, p, frame, 0.5 * frame.pixels_per_metre, 1.5);
+            set_particle_uniforms(
+                gl,
+                p,
+                frame,
+                frame.pixels_per_metre / downsample as f32,
+                s.thickness_min_splat_px.max(0.5),
+            );
             set_f32(gl, p, "u_particle_volume", frame.particle_volume);
             gl.draw_arrays(glow::POINTS, 0, count);
             gl.disable(glow::BLEND);
@@ -277,7 +294,7 @@ impl Surface {
             set_f32(gl, p, "u_radius", s.radius);
             set_f32(gl, p, "u_pixels_per_metre", frame.pixels_per_metre);
             set_f32(gl, p, "u_filter_radii", s.smoothing);
-            set_i32(gl, p, "u_max_filter_px", MAX_FILTER_PX);
+            set_i32(gl, p, "u_max_filter_px", s.max_filter_px.max(1) as i32);
             // Depths within a few particle radii of each other belong to one surface.
             set_f32(gl, p, "u_range", 4.0 * s.radius);
             for _ in 0..s.iterations {
@@ -326,10 +343,10 @@ impl Surface {
         }
     }
 
-    unsafe fn create_targets(&self, size: [u32; 2]) -> Result<Targets> {
+    unsafe fn create_targets(&self, size: [u32; 2], thickness_downsample: u32) -> Result<Targets> {
         let gl = &self.gl;
         let [w, h] = size.map(|s| s as i32);
-        let (half_w, half_h) = half(size);
+        let (thick_w, thick_h) = downsampled(size, thickness_downsample);
         unsafe {
             let texture = |internal: u32,
                            format: u32,
@@ -366,11 +383,15 @@ impl Surface {
                 h,
                 glow::NEAREST,
             )?;
+            // Linear: the smoothing reads two pixels per fetch (shaders/surface_smooth.frag); the
+            // other passes read single pixels with texelFetch, which ignores the filter.
             let depth = [
-                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
-                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::LINEAR)?,
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::LINEAR)?,
             ];
-            let thickness = texture(glow::RG32F, glow::RG, glow::FLOAT, half_w, half_h, glow::LINEAR)?;
+            // Half floats: blended at full rate where 32-bit floats blend at a fraction of it; 11 bits
+            // of mantissa are plenty for a thickness that only tints and absorbs.
+            let thickness = texture(glow::RG16F, glow::RG, glow::FLOAT, thick_w, thick_h, glow::LINEAR)?;
             gl.bind_texture(glow::TEXTURE_2D, None);
             let depth_test = gl.create_renderbuffer().map_err(gl_error("a renderbuffer"))?;
             gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth_test));
@@ -411,6 +432,7 @@ impl Surface {
             let thickness_fbo = framebuffer(thickness, None)?;
             let targets = Targets {
                 size,
+                thickness_downsample,
                 scene_fbo,
                 scene_colour,
                 scene_depth,
@@ -469,11 +491,14 @@ impl Surface {
     }
 }
 
-/// The thickness texture's size: half of `size`, rounded up, at least 1.
-fn half(size: [u32; 2]) -> (i32, i32) {
+/// The largest thickness downsampling the targets accept (the panel's slider stops there).
+pub const MAX_THICKNESS_DOWNSAMPLE: u32 = 8;
+
+/// The thickness texture's size: 1/`factor` of `size`, rounded up, at least 1.
+fn downsampled(size: [u32; 2], factor: u32) -> (i32, i32) {
     (
-        size[0].div_ceil(2).max(1) as i32,
-        size[1].div_ceil(2).max(1) as i32,
+        size[0].div_ceil(factor).max(1) as i32,
+        size[1].div_ceil(factor).max(1) as i32,
     )
 }
 
