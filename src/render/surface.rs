@@ -148,6 +148,9 @@ pub struct Surface {
     programs: Programs,
     empty_vao: glow::VertexArray,
     targets: Option<Targets>,
+    /// The indices `len - 1` down to 0, to draw the particles last to first (see [`Surface::draw`]).
+    reversed: glow::Buffer,
+    reversed_len: usize,
 }
 
 impl Surface {
@@ -192,11 +195,14 @@ impl Surface {
                 )?,
             };
             let empty_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
+            let reversed = gl.create_buffer().map_err(gl_error("a buffer"))?;
             Ok(Surface {
                 gl,
                 programs,
                 empty_vao,
                 targets: None,
+                reversed,
+                reversed_len: 0,
             })
         }
     }
@@ -232,6 +238,14 @@ impl Surface {
         target: Option<glow::Framebuffer>,
         viewport: [i32; 4],
     ) {
+        if self.targets.is_none() {
+            return;
+        }
+        let back_first = draws_back_first(&frame.view);
+        if back_first {
+            // SAFETY: our buffer, on the current context.
+            unsafe { self.ensure_reversed(frame.count) };
+        }
         let Some(targets) = &self.targets else { return };
         let gl = &self.gl;
         let [w, h] = targets.size.map(|s| s as i32);
@@ -258,7 +272,16 @@ impl Surface {
             gl.use_program(Some(p));
             set_particle_uniforms(gl, p, frame, frame.pixels_per_metre, 0.5);
             gl.bind_vertex_array(Some(frame.particles));
-            gl.draw_arrays(glow::POINTS, 0, count);
+            if back_first {
+                // The last `count` of the indices: count - 1 down to 0.
+                gl.bind_buffer(glow::ELEMENT_ARRAY_BUFFER, Some(self.reversed));
+                let first = (self.reversed_len - frame.count) * std::mem::size_of::<u32>();
+                gl.draw_elements(glow::POINTS, count, glow::UNSIGNED_INT, first as i32);
+                // The element buffer is the VAO's state: the other draws of these particles use none.
+                gl.bind_buffer(glow::ELEMENT_ARRAY_BUFFER, None);
+            } else {
+                gl.draw_arrays(glow::POINTS, 0, count);
+            }
 
             timer.begin(Pass::Thickness);
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
@@ -341,6 +364,26 @@ impl Surface {
             gl.active_texture(glow::TEXTURE0);
             gl.bind_texture(glow::TEXTURE_2D, None);
         }
+    }
+
+    /// Makes the reversed indices cover at least `count` particles (grown by doubling: an emitter's
+    /// growing count reallocates a few times, not every frame).
+    unsafe fn ensure_reversed(&mut self, count: usize) {
+        if count <= self.reversed_len {
+            return;
+        }
+        let len = count.max(2 * self.reversed_len);
+        let indices: Vec<u32> = (0..len as u32).rev().collect();
+        unsafe {
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.reversed));
+            self.gl.buffer_data_u8_slice(
+                glow::ARRAY_BUFFER,
+                bytemuck::cast_slice(&indices),
+                glow::STATIC_DRAW,
+            );
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
+        }
+        self.reversed_len = len;
     }
 
     unsafe fn create_targets(&self, size: [u32; 2], thickness_downsample: u32) -> Result<Targets> {
@@ -487,8 +530,25 @@ impl Surface {
                 self.gl.delete_program(program);
             }
             self.gl.delete_vertex_array(self.empty_vao);
+            self.gl.delete_buffer(self.reversed);
         }
     }
+}
+
+/// Whether the particles' buffer order runs from the back of this view to its front, so that the
+/// depth pass should draw it last to first.
+///
+/// The early depth test (see `shaders/surface_depth.frag`) only saves work for fragments behind water
+/// already drawn: drawn back to front, every layer of a pixel is shaded. The buffer holds the
+/// particles in spawn order, each body's lattice x fastest, then y, then z (`Scene::spawn`; the GPU
+/// solver sorts an index list, never the particles themselves), and they stay roughly where they
+/// started. So the order runs mainly along +z, then +y, then +x; this compares that with the
+/// direction towards the camera and draws in reverse where they agree. No sorting per frame: a wrong
+/// guess (a scene mixed through) costs time, never a different picture.
+fn draws_back_first(view: &Mat4) -> bool {
+    // The view's +z axis in world space points from the scene towards the eye.
+    let towards_eye = view.row(2).truncate();
+    towards_eye.dot(Vec3::new(0.01, 0.1, 1.0)) > 0.0
 }
 
 /// The largest thickness downsampling the targets accept (the panel's slider stops there).
@@ -515,5 +575,29 @@ unsafe fn set_particle_uniforms(
         set_f32(gl, program, "u_radius", frame.settings.radius);
         set_f32(gl, program, "u_pixels_per_metre", pixels_per_metre);
         set_f32(gl, program, "u_min_splat_px", min_splat_px);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::OrbitCamera;
+
+    #[test]
+    fn depth_pass_draws_the_spawn_order_from_the_front() {
+        let mut camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.3));
+        // The default view looks from +z (and above, and +x) at the tank: the last spawned particles
+        // (highest z) are the nearest, so the buffer runs back to front.
+        assert!(draws_back_first(&camera.view()));
+        // Turned round to look from -z, the buffer's own order is front to back.
+        camera.yaw += std::f32::consts::PI;
+        assert!(!draws_back_first(&camera.view()));
+    }
+
+    #[test]
+    fn thickness_targets_round_up_and_never_vanish() {
+        assert_eq!(downsampled([1920, 1080], 4), (480, 270));
+        assert_eq!(downsampled([1921, 1081], 4), (481, 271));
+        assert_eq!(downsampled([3, 1], 8), (1, 1));
     }
 }
