@@ -3,6 +3,7 @@
 
 use super::legend::Scale;
 use super::renderer::{Colouring, DrawMode, RenderSettings};
+use super::surface::MAX_THICKNESS_DOWNSAMPLE;
 use super::timer::PassTimes;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
@@ -302,6 +303,16 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             ui.add(egui::Slider::new(&mut s.iterations, 0..=4).text("smoothing passes"));
             ui.add(egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"));
             ui.add(egui::Slider::new(&mut s.refraction, 0.0..=2.0).text("refraction"));
+            // Speed against quality: each cuts the surface's GPU time (README, "Surface speed").
+            ui.add(egui::Slider::new(&mut s.max_filter_px, 1..=48).text("smoothing reach (px, at most)"));
+            ui.add(
+                egui::Slider::new(&mut s.thickness_downsample, 1..=MAX_THICKNESS_DOWNSAMPLE)
+                    .text("thickness resolution (1/n)"),
+            );
+            ui.add(
+                egui::Slider::new(&mut s.thickness_min_splat_px, 0.5..=3.0)
+                    .text("thickness splat (px, at least)"),
+            );
             if r.colouring == Colouring::Speed {
                 ui.label("speed: whitewater from the low to the high end of the scale");
             }

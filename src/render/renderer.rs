@@ -592,7 +592,9 @@ impl Renderer {
         let view = camera.view();
         let proj = camera.projection(w as f32 / h as f32);
         self.timer.begin(Pass::Scene);
-        let bound = self.surface.bind_scene([w, h]);
+        let bound = self
+            .surface
+            .bind_scene([w, h], settings.surface.thickness_downsample);
         if bound.is_err() {
             // SAFETY: the caller's framebuffer, bound back.
             unsafe { self.gl.bind_framebuffer(glow::FRAMEBUFFER, target) };

@@ -4,8 +4,9 @@
 //! 1. **scene**: the floor and the domain box into a colour and a depth texture (what the water
 //!    refracts), drawn by the renderer into [`Surface::bind_scene`];
 //! 2. **depth**: every particle as a sphere impostor; the nearest sphere's view distance per pixel;
-//! 3. **thickness**: additive splats at half resolution: how much water each pixel looks through,
-//!    and the colour quantity averaged along the way;
+//! 3. **thickness**: additive splats at a fraction of the resolution (a quarter per axis by
+//!    default): how much water each pixel looks through, and the colour quantity averaged along the
+//!    way;
 //! 4. **smoothing**: the narrow-range filter (`shaders/surface_smooth.frag` says why that filter)
 //!    flattens the spheres into one surface, horizontally then vertically;
 //! 5. **shading**: normals from the smoothed depth, Fresnel reflection of a sky, refraction of the
@@ -69,6 +70,13 @@ pub struct SurfaceSettings {
     pub absorption: f32,
     /// How far the scene behind is displaced by the surface's slope and the water's thickness.
     pub refraction: f32,
+    /// Speed against quality: the filter's radius in pixels never exceeds this, whatever the zoom.
+    pub max_filter_px: u32,
+    /// Speed against quality: the thickness is splatted at 1/this of the resolution per axis.
+    pub thickness_downsample: u32,
+    /// Speed against quality: the smallest thickness splat's radius, in pixels of its texture (a
+    /// smaller splat is cheaper but noisier; its mass is kept on average either way).
+    pub thickness_min_splat_px: f32,
 }
 
 impl SurfaceSettings {
@@ -81,12 +89,12 @@ impl SurfaceSettings {
             iterations: 2,
             absorption: 1.0,
             refraction: 0.6,
+            max_filter_px: 24,
+            thickness_downsample: 4,
+            thickness_min_splat_px: 1.0,
         }
     }
 }
-
-/// The filter's radius in pixels never exceeds this, whatever the zoom: a bounded cost per pixel.
-const MAX_FILTER_PX: i32 = 24;
 
 /// How the colour quantity tints the water (the shading's `u_tint`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -120,9 +128,10 @@ struct Programs {
     shade: glow::Program,
 }
 
-/// The off-screen textures for one viewport size.
+/// The off-screen textures for one viewport size and thickness resolution.
 struct Targets {
     size: [u32; 2],
+    thickness_downsample: u32,
     scene_fbo: glow::Framebuffer,
     scene_colour: glow::Texture,
     scene_depth: glow::Texture,
@@ -139,12 +148,20 @@ pub struct Surface {
     programs: Programs,
     empty_vao: glow::VertexArray,
     targets: Option<Targets>,
+    /// The indices `len - 1` down to 0, to draw the particles last to first (see [`Surface::draw`]).
+    reversed: glow::Buffer,
+    reversed_len: usize,
 }
 
 impl Surface {
     /// `prelude`: the shared GLSL (the colour scale and [`glsl_constants`]).
     pub fn new(gl: Arc<glow::Context>, prelude: &str) -> Result<Surface> {
         const PARTICLE_VS: &str = include_str!("shaders/surface_particle.vert");
+        // The depth pass rasterises each sprite at its sphere's front and promises the fragment
+        // depth is never nearer (conservative depth, core in GL 4.2, an extension to GLSL 3.30), so
+        // the early depth test keeps rejecting hidden fragments although the shader writes depth.
+        let depth_prelude =
+            format!("#extension GL_ARB_conservative_depth : enable\n#define SPHERE_FRONT_DEPTH\n{prelude}");
         // SAFETY: the caller's context is current.
         unsafe {
             let programs = Programs {
@@ -153,7 +170,7 @@ impl Surface {
                     "surface depth",
                     &[PARTICLE_VS],
                     &[include_str!("shaders/surface_depth.frag")],
-                    prelude,
+                    &depth_prelude,
                 )?,
                 thickness: link(
                     &gl,
@@ -178,25 +195,29 @@ impl Surface {
                 )?,
             };
             let empty_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
+            let reversed = gl.create_buffer().map_err(gl_error("a buffer"))?;
             Ok(Surface {
                 gl,
                 programs,
                 empty_vao,
                 targets: None,
+                reversed,
+                reversed_len: 0,
             })
         }
     }
 
-    /// Makes the textures `size` (reallocating only when the size changed) and binds the scene's
-    /// framebuffer for drawing, with a viewport of that size.
-    pub fn bind_scene(&mut self, size: [u32; 2]) -> Result<()> {
-        if self.targets.as_ref().map(|t| t.size) != Some(size) {
+    /// Makes the textures `size`, the thickness 1/`thickness_downsample` of it (reallocating only
+    /// when either changed) and binds the scene's framebuffer for drawing, with a viewport of that size.
+    pub fn bind_scene(&mut self, size: [u32; 2], thickness_downsample: u32) -> Result<()> {
+        let downsample = thickness_downsample.clamp(1, MAX_THICKNESS_DOWNSAMPLE);
+        if self.targets.as_ref().map(|t| (t.size, t.thickness_downsample)) != Some((size, downsample)) {
             if let Some(old) = self.targets.take() {
                 // SAFETY: our objects, not used after this.
                 unsafe { self.delete_targets(&old) };
             }
             // SAFETY: the context is current.
-            self.targets = Some(unsafe { self.create_targets(size)? });
+            self.targets = Some(unsafe { self.create_targets(size, downsample)? });
         }
         let targets = self.targets.as_ref().expect("just made");
         // SAFETY: our framebuffer.
@@ -217,10 +238,19 @@ impl Surface {
         target: Option<glow::Framebuffer>,
         viewport: [i32; 4],
     ) {
+        if self.targets.is_none() {
+            return;
+        }
+        let back_first = draws_back_first(&frame.view);
+        if back_first {
+            // SAFETY: our buffer, on the current context.
+            unsafe { self.ensure_reversed(frame.count) };
+        }
         let Some(targets) = &self.targets else { return };
         let gl = &self.gl;
         let [w, h] = targets.size.map(|s| s as i32);
-        let (half_w, half_h) = half(targets.size);
+        let downsample = targets.thickness_downsample;
+        let (thick_w, thick_h) = downsampled(targets.size, downsample);
         let s = frame.settings;
         let count = frame.count as i32;
         // SAFETY: every object is ours or the caller's (the VAO, the target), on the current context.
@@ -242,11 +272,20 @@ impl Surface {
             gl.use_program(Some(p));
             set_particle_uniforms(gl, p, frame, frame.pixels_per_metre, 0.5);
             gl.bind_vertex_array(Some(frame.particles));
-            gl.draw_arrays(glow::POINTS, 0, count);
+            if back_first {
+                // The last `count` of the indices: count - 1 down to 0.
+                gl.bind_buffer(glow::ELEMENT_ARRAY_BUFFER, Some(self.reversed));
+                let first = (self.reversed_len - frame.count) * std::mem::size_of::<u32>();
+                gl.draw_elements(glow::POINTS, count, glow::UNSIGNED_INT, first as i32);
+                // The element buffer is the VAO's state: the other draws of these particles use none.
+                gl.bind_buffer(glow::ELEMENT_ARRAY_BUFFER, None);
+            } else {
+                gl.draw_arrays(glow::POINTS, 0, count);
+            }
 
             timer.begin(Pass::Thickness);
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
-            gl.viewport(0, 0, half_w, half_h);
+            gl.viewport(0, 0, thick_w, thick_h);
             gl.clear_color(0.0, 0.0, 0.0, 0.0);
             gl.clear(glow::COLOR_BUFFER_BIT);
             gl.disable(glow::DEPTH_TEST);
@@ -255,9 +294,15 @@ impl Surface {
             gl.blend_func(glow::ONE, glow::ONE);
             let p = self.programs.thickness;
             gl.use_program(Some(p));
-            // Half resolution: half the pixels per metre; splats of at least 1.5 px radius, so a far
+            // Fewer pixels per metre at the lower resolution; a smallest splat radius, so a far
             // particle still lands on pixels rather than between them.
-            set_particle_uniforms(gl, p, frame, 0.5 * frame.pixels_per_metre, 1.5);
+            set_particle_uniforms(
+                gl,
+                p,
+                frame,
+                frame.pixels_per_metre / downsample as f32,
+                s.thickness_min_splat_px.max(0.5),
+            );
             set_f32(gl, p, "u_particle_volume", frame.particle_volume);
             gl.draw_arrays(glow::POINTS, 0, count);
             gl.disable(glow::BLEND);
@@ -272,7 +317,7 @@ impl Surface {
             set_f32(gl, p, "u_radius", s.radius);
             set_f32(gl, p, "u_pixels_per_metre", frame.pixels_per_metre);
             set_f32(gl, p, "u_filter_radii", s.smoothing);
-            set_i32(gl, p, "u_max_filter_px", MAX_FILTER_PX);
+            set_i32(gl, p, "u_max_filter_px", s.max_filter_px.max(1) as i32);
             // Depths within a few particle radii of each other belong to one surface.
             set_f32(gl, p, "u_range", 4.0 * s.radius);
             for _ in 0..s.iterations {
@@ -321,10 +366,30 @@ impl Surface {
         }
     }
 
-    unsafe fn create_targets(&self, size: [u32; 2]) -> Result<Targets> {
+    /// Makes the reversed indices cover at least `count` particles (grown by doubling: an emitter's
+    /// growing count reallocates a few times, not every frame).
+    unsafe fn ensure_reversed(&mut self, count: usize) {
+        if count <= self.reversed_len {
+            return;
+        }
+        let len = count.max(2 * self.reversed_len);
+        let indices: Vec<u32> = (0..len as u32).rev().collect();
+        unsafe {
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.reversed));
+            self.gl.buffer_data_u8_slice(
+                glow::ARRAY_BUFFER,
+                bytemuck::cast_slice(&indices),
+                glow::STATIC_DRAW,
+            );
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
+        }
+        self.reversed_len = len;
+    }
+
+    unsafe fn create_targets(&self, size: [u32; 2], thickness_downsample: u32) -> Result<Targets> {
         let gl = &self.gl;
         let [w, h] = size.map(|s| s as i32);
-        let (half_w, half_h) = half(size);
+        let (thick_w, thick_h) = downsampled(size, thickness_downsample);
         unsafe {
             let texture = |internal: u32,
                            format: u32,
@@ -361,11 +426,15 @@ impl Surface {
                 h,
                 glow::NEAREST,
             )?;
+            // Linear: the smoothing reads two pixels per fetch (shaders/surface_smooth.frag); the
+            // other passes read single pixels with texelFetch, which ignores the filter.
             let depth = [
-                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
-                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::NEAREST)?,
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::LINEAR)?,
+                texture(glow::R32F, glow::RED, glow::FLOAT, w, h, glow::LINEAR)?,
             ];
-            let thickness = texture(glow::RG32F, glow::RG, glow::FLOAT, half_w, half_h, glow::LINEAR)?;
+            // Half floats: blended at full rate where 32-bit floats blend at a fraction of it; 11 bits
+            // of mantissa are plenty for a thickness that only tints and absorbs.
+            let thickness = texture(glow::RG16F, glow::RG, glow::FLOAT, thick_w, thick_h, glow::LINEAR)?;
             gl.bind_texture(glow::TEXTURE_2D, None);
             let depth_test = gl.create_renderbuffer().map_err(gl_error("a renderbuffer"))?;
             gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth_test));
@@ -406,6 +475,7 @@ impl Surface {
             let thickness_fbo = framebuffer(thickness, None)?;
             let targets = Targets {
                 size,
+                thickness_downsample,
                 scene_fbo,
                 scene_colour,
                 scene_depth,
@@ -460,15 +530,35 @@ impl Surface {
                 self.gl.delete_program(program);
             }
             self.gl.delete_vertex_array(self.empty_vao);
+            self.gl.delete_buffer(self.reversed);
         }
     }
 }
 
-/// The thickness texture's size: half of `size`, rounded up, at least 1.
-fn half(size: [u32; 2]) -> (i32, i32) {
+/// Whether the particles' buffer order runs from the back of this view to its front, so that the
+/// depth pass should draw it last to first.
+///
+/// The early depth test (see `shaders/surface_depth.frag`) only saves work for fragments behind water
+/// already drawn: drawn back to front, every layer of a pixel is shaded. The buffer holds the
+/// particles in spawn order, each body's lattice x fastest, then y, then z (`Scene::spawn`; the GPU
+/// solver sorts an index list, never the particles themselves), and they stay roughly where they
+/// started. So the order runs mainly along +z, then +y, then +x; this compares that with the
+/// direction towards the camera and draws in reverse where they agree. No sorting per frame: a wrong
+/// guess (a scene mixed through) costs time, never a different picture.
+fn draws_back_first(view: &Mat4) -> bool {
+    // The view's +z axis in world space points from the scene towards the eye.
+    let towards_eye = view.row(2).truncate();
+    towards_eye.dot(Vec3::new(0.01, 0.1, 1.0)) > 0.0
+}
+
+/// The largest thickness downsampling the targets accept (the panel's slider stops there).
+pub const MAX_THICKNESS_DOWNSAMPLE: u32 = 8;
+
+/// The thickness texture's size: 1/`factor` of `size`, rounded up, at least 1.
+fn downsampled(size: [u32; 2], factor: u32) -> (i32, i32) {
     (
-        size[0].div_ceil(2).max(1) as i32,
-        size[1].div_ceil(2).max(1) as i32,
+        size[0].div_ceil(factor).max(1) as i32,
+        size[1].div_ceil(factor).max(1) as i32,
     )
 }
 
@@ -485,5 +575,29 @@ unsafe fn set_particle_uniforms(
         set_f32(gl, program, "u_radius", frame.settings.radius);
         set_f32(gl, program, "u_pixels_per_metre", pixels_per_metre);
         set_f32(gl, program, "u_min_splat_px", min_splat_px);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::OrbitCamera;
+
+    #[test]
+    fn depth_pass_draws_the_spawn_order_from_the_front() {
+        let mut camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.3));
+        // The default view looks from +z (and above, and +x) at the tank: the last spawned particles
+        // (highest z) are the nearest, so the buffer runs back to front.
+        assert!(draws_back_first(&camera.view()));
+        // Turned round to look from -z, the buffer's own order is front to back.
+        camera.yaw += std::f32::consts::PI;
+        assert!(!draws_back_first(&camera.view()));
+    }
+
+    #[test]
+    fn thickness_targets_round_up_and_never_vanish() {
+        assert_eq!(downsampled([1920, 1080], 4), (480, 270));
+        assert_eq!(downsampled([1921, 1081], 4), (481, 271));
+        assert_eq!(downsampled([3, 1], 8), (1, 1));
     }
 }

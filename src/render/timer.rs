@@ -16,7 +16,7 @@ pub enum Pass {
     Particles,
     /// Surface: sphere impostors into the fluid depth texture.
     Depth,
-    /// Surface: additive splats into the half-resolution thickness texture.
+    /// Surface: additive splats into the (quarter-resolution by default) thickness texture.
     Thickness,
     /// Surface: the narrow-range filter over the depth, horizontal then vertical.
     Smoothing,

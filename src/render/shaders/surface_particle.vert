@@ -18,4 +18,12 @@ void main() {
     v_splat = splat_px * depth / u_pixels_per_metre;
     v_centre = view.xyz;
     v_quantity = a_particle.w;
+#ifdef SPHERE_FRONT_DEPTH
+    // The whole sprite is rasterised at the depth of the sphere's front (its nearest point), with its
+    // place on screen unchanged: every depth the fragment shader writes is then at or behind the
+    // rasterised one, which is what `depth_greater` promises the early depth test. A front in front
+    // of the near plane is put just behind it (nearer than any depth written there).
+    vec4 front = u_proj * vec4(view.xy, min(view.z + v_splat, -1e-4), 1.0);
+    gl_Position.z = max(front.z / front.w, -0.99999) * gl_Position.w;
+#endif
 }

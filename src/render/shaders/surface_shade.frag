@@ -6,7 +6,7 @@ in vec2 v_uv;
 uniform sampler2D u_scene;           // colour of what is behind the water
 uniform sampler2D u_scene_depth;     // its depth buffer
 uniform sampler2D u_depth;           // smoothed water depth: view distance, m
-uniform sampler2D u_thickness;       // half resolution: thickness (m), thickness x quantity
+uniform sampler2D u_thickness;       // reduced resolution: thickness (m), thickness x quantity
 uniform mat4 u_proj;
 uniform mat3 u_view_to_world;
 uniform vec3 u_sun_view;             // towards the sun, view space
