@@ -333,7 +333,7 @@ impl ViewerApp {
         self.scene = scene;
         self.mouse.collider_drag = None;
         if let Some(gpu) = self.gpu.as_mut() {
-            // Rebuilt for the new scene's colliders at the next draw.
+            // Rebuilt for the new scene's colliders and flow outlines at the next draw.
             gpu.colliders_built = false;
         }
         self.clock.reset();
@@ -678,6 +678,7 @@ impl ViewerApp {
         if let Some(sim) = &self.sim {
             if !gpu.colliders_built {
                 gpu.renderer.set_colliders(sim.colliders())?;
+                gpu.renderer.set_flow(&sim.scene().flow, domain);
                 gpu.colliders_built = true;
             }
             gpu.renderer.set_collider_frame(sim.collider_frame());

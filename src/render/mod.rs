@@ -5,6 +5,7 @@
 //!   and the headless path. [`surface`]: the screen-space water surface; [`legend`]: the colour bar
 //!   and its numbers; [`timer`]: GPU time per pass; [`program`]: GLSL compiling and uniforms.
 //! - [`colliders`]: the colliders drawn solid and shaded in the scene pass, and dragged with the mouse.
+//! - [`flow`]: the emitters' nozzles and the sinks' boxes outlined in the scene pass.
 //! - [`feed`]: the particle state into the GL buffer: CUDA-GL interop, or a host copy.
 //! - [`capture`]: PNG screenshots and frame sequences, never overwriting.
 //! - [`headless`]: an EGL device context and framebuffer (no X server).
@@ -18,6 +19,7 @@ pub mod capture;
 pub mod clock;
 pub mod colliders;
 pub mod feed;
+pub mod flow;
 pub mod headless;
 pub mod hud;
 pub mod legend;

@@ -97,6 +97,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     let domain = (lo.as_vec3(), hi.as_vec3());
     let camera = OrbitCamera::framing(domain.0, domain.1);
     renderer.set_colliders(&scene.colliders)?;
+    renderer.set_flow(&scene.flow, domain);
     let mut sim = Simulation::new(scene, solver);
     let mut feed = ParticleFeed::new(options.transfer);
 

@@ -6,11 +6,13 @@
 
 use super::camera::OrbitCamera;
 use super::colliders::ColliderRenderer;
+use super::flow::{outline, OUTLINE_COLOUR};
 use super::legend::{Legend, Scale};
 use super::program::{gl_error, link, set_f32, set_i32, set_mat4};
 use super::surface::{Surface, SurfaceFrame, SurfaceSettings, Tint};
 use super::timer::{GpuTimer, Pass, PassTimes};
 use crate::sim::colliders::{ColliderFrame, Colliders};
+use crate::sim::flow::Flow;
 use anyhow::{anyhow, Result};
 use glam::{Mat4, Vec3};
 use glow::HasContext;
@@ -334,6 +336,10 @@ pub struct Renderer {
     /// hide the water behind them), in the pose last set.
     colliders: Option<ColliderRenderer>,
     collider_frame: ColliderFrame,
+    /// The scene's emitters and sinks outlined ([`super::flow`]): line vertices, set per scene.
+    flow_vao: glow::VertexArray,
+    flow_vbo: glow::Buffer,
+    flow_vertices: i32,
 }
 
 impl Renderer {
@@ -367,6 +373,13 @@ impl Renderer {
             );
             gl.enable_vertex_attrib_array(0);
             gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 12, 0);
+
+            let flow_vao = gl.create_vertex_array().map_err(gl_error("a vertex array"))?;
+            let flow_vbo = gl.create_buffer().map_err(gl_error("a buffer"))?;
+            gl.bind_vertex_array(Some(flow_vao));
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(flow_vbo));
+            gl.enable_vertex_attrib_array(0);
+            gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 12, 0);
             gl.bind_vertex_array(None);
             gl.bind_buffer(glow::ARRAY_BUFFER, None);
 
@@ -387,6 +400,9 @@ impl Renderer {
                 timer,
                 colliders: None,
                 collider_frame: ColliderFrame::default(),
+                flow_vao,
+                flow_vbo,
+                flow_vertices: 0,
             })
         }
     }
@@ -534,6 +550,7 @@ impl Renderer {
             if let Some(colliders) = &self.colliders {
                 colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
             }
+            self.draw_flow(&(proj * view));
         }
         self.timer.begin(Pass::Particles);
         // SAFETY: as above.
@@ -617,6 +634,7 @@ impl Renderer {
             if let Some(colliders) = &self.colliders {
                 colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
             }
+            self.draw_flow(&(proj * view));
         }
         let tint = match settings.colouring {
             Colouring::Solid => Tint::Clear,
@@ -692,7 +710,45 @@ impl Renderer {
         }
     }
 
-    /// Deletes the GL objects (the context must be current). Drop any CUDA registration first.
+    /// The emitters' and sinks' outlines, depth-tested (a sink in the floor shows on it, not under).
+    unsafe fn draw_flow(&self, view_proj: &Mat4) {
+        if self.flow_vertices == 0 {
+            return;
+        }
+        let gl = &self.gl;
+        let p = self.programs.lines;
+        unsafe {
+            gl.depth_func(glow::LEQUAL);
+            gl.use_program(Some(p));
+            set_mat4(gl, p, "u_view_proj", view_proj);
+            let loc = gl.get_uniform_location(p, "u_colour");
+            let [r, g, b] = OUTLINE_COLOUR;
+            gl.uniform_3_f32(loc.as_ref(), r, g, b);
+            gl.bind_vertex_array(Some(self.flow_vao));
+            gl.draw_arrays(glow::LINES, 0, self.flow_vertices);
+            gl.bind_vertex_array(None);
+            gl.use_program(None);
+            gl.depth_func(glow::LESS);
+        }
+    }
+
+    /// The emitters and sinks of a new scene, outlined in every draw mode; sinks are cut to the box
+    /// `domain` (lo, hi) the draws show.
+    pub fn set_flow(&mut self, flow: &Flow, domain: (Vec3, Vec3)) {
+        let lines = outline(flow, domain);
+        // SAFETY: our buffer, our context (current).
+        unsafe {
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.flow_vbo));
+            self.gl.buffer_data_u8_slice(
+                glow::ARRAY_BUFFER,
+                bytemuck::cast_slice(&lines),
+                glow::STATIC_DRAW,
+            );
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
+        }
+        self.flow_vertices = 2 * lines.len() as i32;
+    }
+
     /// The colliders of a new scene (their meshes are built once per scene).
     pub fn set_colliders(&mut self, colliders: &Colliders) -> Result<()> {
         if let Some(mut old) = self.colliders.take() {
@@ -710,6 +766,7 @@ impl Renderer {
         self.collider_frame = frame;
     }
 
+    /// Deletes the GL objects (the context must be current). Drop any CUDA registration first.
     pub fn destroy(&mut self) {
         if let Some(mut colliders) = self.colliders.take() {
             colliders.destroy();
@@ -730,8 +787,10 @@ impl Renderer {
             }
             gl.delete_vertex_array(self.particle_vao);
             gl.delete_vertex_array(self.stage_vao);
+            gl.delete_vertex_array(self.flow_vao);
             gl.delete_buffer(self.particle_vbo);
             gl.delete_buffer(self.stage_vbo);
+            gl.delete_buffer(self.flow_vbo);
         }
     }
 }
