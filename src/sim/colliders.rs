@@ -788,11 +788,14 @@ fn oscillation(key: &str, amplitude: f64, period: f64, phase_deg: f64) -> Result
     })
 }
 
-/// Validates one `[[collider]]` table. `resolve` turns a mesh file name into a path (relative to
-/// the scene file); `domain` is the tank's size, m; `dx` the grid spacing.
+/// A mesh file's welded vertices and triangles, or why they could not be read.
+pub type ReadMesh<'a> = &'a dyn Fn(&str, f64) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String>;
+
+/// Validates one `[[collider]]` table. `read_mesh` reads a mesh file named in the scene (with its
+/// scale), its errors naming where it looked; `domain` is the tank's size, m; `dx` the grid spacing.
 pub fn validate(
     spec: &ColliderSpec,
-    resolve: &dyn Fn(&str) -> std::path::PathBuf,
+    read_mesh: ReadMesh,
     domain: DVec3,
     dx: f64,
 ) -> Result<Collider, SpecError> {
@@ -867,16 +870,15 @@ pub fn validate(
                 None => 1.0,
                 Some(s) => positive("scale", Some(s), "a positive scale factor")?,
             };
-            let path = resolve(file);
             let fail = |problem: String| {
                 spec_err(
                     "file",
-                    format!("{}: {problem}", path.display()),
+                    problem,
                     "give a closed (watertight) triangle mesh in an .obj or .stl file",
                 )
             };
-            let (vertices, triangles) = super::mesh::read_triangles(&path, scale).map_err(fail)?;
-            super::mesh::check_closed(&triangles).map_err(fail)?;
+            let (vertices, triangles) = read_mesh(file, scale).map_err(fail)?;
+            super::mesh::check_closed(&triangles).map_err(|e| fail(format!("{file}: {e}")))?;
             let band = f64::from(BAND_CELLS) * dx;
             Shape::Mesh(Arc::new(super::mesh::build_sdf(
                 vertices,

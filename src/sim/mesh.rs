@@ -31,6 +31,13 @@ pub struct MeshSdf {
 
 /// Reads an OBJ or STL file's triangles (vertices scaled by `scale`), welded by position.
 pub fn read_triangles(path: &Path, scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot be opened: {e}"))?;
+    parse_triangles(path, &bytes, scale)
+}
+
+/// The triangles of an OBJ or STL file's contents (`path`'s extension says which), welded by
+/// position, vertices scaled by `scale`: a file read from disk, or one embedded with the presets.
+pub fn parse_triangles(path: &Path, bytes: &[u8], scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -43,8 +50,11 @@ pub fn read_triangles(path: &Path, scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 
                 ignore_lines: true,
                 ..Default::default()
             };
-            let (models, _materials) =
-                tobj::load_obj(path, &options).map_err(|e| format!("cannot be read as OBJ: {e}"))?;
+            // Materials play no part in a collider: a `mtllib` line is skipped, not read.
+            let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
+                Err(tobj::LoadError::OpenFileFailed)
+            })
+            .map_err(|e| format!("cannot be read as OBJ: {e}"))?;
             let mut positions = Vec::new();
             let mut triangles = Vec::new();
             for model in models {
@@ -64,8 +74,8 @@ pub fn read_triangles(path: &Path, scale: f64) -> Result<(Vec<DVec3>, Vec<[u32; 
             (positions, triangles)
         }
         "stl" => {
-            let mut file = std::fs::File::open(path).map_err(|e| format!("cannot be opened: {e}"))?;
-            let mesh = stl_io::read_stl(&mut file).map_err(|e| format!("cannot be read as STL: {e}"))?;
+            let mesh = stl_io::read_stl(&mut std::io::Cursor::new(bytes))
+                .map_err(|e| format!("cannot be read as STL: {e}"))?;
             (
                 mesh.vertices
                     .iter()

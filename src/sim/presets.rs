@@ -1,8 +1,10 @@
 //! Built-in scenes. Each is an ordinary scene file under `scenes/`, embedded in the binary, so
-//! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own.
+//! `mpm scenes --show NAME` prints a complete, valid starting point for a scene of one's own. The
+//! mesh files the presets' colliders name are embedded beside them (a preset has no folder on disk
+//! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 9] = [
+pub const NAMES: [&str; 10] = [
     "dam-break",
     "dam-break-coarse",
     "dam-break-obstacle",
@@ -10,11 +12,12 @@ pub const NAMES: [&str; 9] = [
     "double-dam-break",
     "drop",
     "fountain",
+    "tap",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 9] = [
+const FILES: [&str; 10] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
     include_str!("../../scenes/dam-break-obstacle.toml"),
@@ -22,6 +25,7 @@ const FILES: [&str; 9] = [
     include_str!("../../scenes/double-dam-break.toml"),
     include_str!("../../scenes/drop.toml"),
     include_str!("../../scenes/fountain.toml"),
+    include_str!("../../scenes/tap.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];
@@ -32,4 +36,15 @@ pub const DEFAULT: &str = NAMES[0];
 /// The TOML text of a preset.
 pub fn get(name: &str) -> Option<&'static str> {
     NAMES.iter().position(|&n| n == name).map(|i| FILES[i])
+}
+
+/// The mesh files the presets name, by the name they give (`file = "glass.obj"`).
+const MESHES: [(&str, &str); 1] = [("glass.obj", include_str!("../../scenes/glass.obj"))];
+
+/// The text of a mesh file a preset names.
+pub fn mesh(file: &str) -> Option<&'static str> {
+    MESHES
+        .iter()
+        .find(|(name, _)| *name == file)
+        .map(|(_, text)| *text)
 }

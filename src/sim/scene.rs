@@ -7,7 +7,7 @@
 use super::colliders::{self, ColliderFrame, ColliderSpec, Colliders, MAX_COLLIDERS};
 use super::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
-use super::presets;
+use super::{mesh, presets};
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -1120,19 +1120,30 @@ impl Validator<'_> {
                 "merge obstacles into one mesh collider, or drop some",
             ));
         }
-        // Mesh files are found beside the scene file.
+        // Mesh files are found beside the scene file; a preset's among the files embedded with it.
         let dir = Path::new(self.source)
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
-        let resolve = |file: &str| dir.join(file);
+        let preset = self
+            .source
+            .strip_prefix("preset ")
+            .is_some_and(|name| presets::get(name).is_some());
+        let read_mesh = |file: &str, scale: f64| match presets::mesh(file).filter(|_| preset) {
+            Some(text) => mesh::parse_triangles(Path::new(file), text.as_bytes(), scale)
+                .map_err(|e| format!("{file} (embedded with the presets): {e}")),
+            None => {
+                let path = dir.join(file);
+                mesh::read_triangles(&path, scale).map_err(|e| format!("{}: {e}", path.display()))
+            }
+        };
         let domain = DVec3::from(res.map(f64::from)) * dx;
         let list = spec
             .colliders
             .iter()
             .enumerate()
             .map(|(i, c)| {
-                colliders::validate(c, &resolve, domain, dx)
+                colliders::validate(c, &read_mesh, domain, dx)
                     .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
             })
             .collect::<Result<Vec<_>, _>>()?;
