@@ -547,10 +547,7 @@ impl Renderer {
             if settings.show_box {
                 self.draw_stage(&(proj * view), domain, false, true);
             }
-            if let Some(colliders) = &self.colliders {
-                colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
-            }
-            self.draw_flow(&(proj * view));
+            self.draw_scene_objects(&(proj * view), domain);
         }
         self.timer.begin(Pass::Particles);
         // SAFETY: as above.
@@ -631,10 +628,7 @@ impl Renderer {
             gl.disable(glow::SCISSOR_TEST);
             // The floor stays without the box: the water refracts it.
             self.draw_stage(&(proj * view), domain, true, settings.show_box);
-            if let Some(colliders) = &self.colliders {
-                colliders.draw_in_pass(&(proj * view), &self.collider_frame, domain);
-            }
-            self.draw_flow(&(proj * view));
+            self.draw_scene_objects(&(proj * view), domain);
         }
         let tint = match settings.colouring {
             Colouring::Solid => Tint::Clear,
@@ -708,6 +702,16 @@ impl Renderer {
             gl.bind_vertex_array(None);
             gl.use_program(None);
         }
+    }
+
+    /// What stands in the tank besides the fluid, drawn into the scene pass of every draw mode: the
+    /// colliders (solid) and the emitters' and sinks' outlines.
+    unsafe fn draw_scene_objects(&self, view_proj: &Mat4, domain: (Vec3, Vec3)) {
+        if let Some(colliders) = &self.colliders {
+            colliders.draw_in_pass(view_proj, &self.collider_frame, domain);
+        }
+        // SAFETY: the caller's pass is bound and the context current.
+        unsafe { self.draw_flow(view_proj) };
     }
 
     /// The emitters' and sinks' outlines, depth-tested (a sink in the floor shows on it, not under).
