@@ -614,6 +614,8 @@ impl Simulation {
 
     /// Advance one 60 Hz frame and return its statistics.
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
+        // A request left by a frame that failed part-way is of another state: never read it.
+        self.summary_ticket = None;
         self.summary_wanted = true;
         let steps = self.step_frame();
         self.summary_wanted = false;
