@@ -233,22 +233,32 @@ pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec
     (((x + v * dt).clamp(lo, hi)), v, b * (4.0 * inv_dx))
 }
 
-/// The colliders' particle backstop after g2p (`ColliderFrame::backstop`), then g2p's clamp again.
-/// `None` where the particle is in no collider.
+/// `g2p_particle`, then the colliders' particle backstop (`ColliderFrame::backstop`) and g2p's clamp
+/// again: the particle's new x, v and C, and whether the backstop moved it. Both CPU backends' g2p.
 #[inline(always)]
-pub fn g2p_backstop(
+pub fn g2p_with_backstop(
     params: &Params,
     shape: GridShape,
+    velocity: &[Vec3],
     colliders: &ColliderFrame,
     x: Vec3,
-    v: Vec3,
-) -> Option<(Vec3, Vec3)> {
+) -> (Vec3, Vec3, Mat3, bool) {
+    let (x, v, c) = g2p_particle(params, shape, velocity, x);
     if colliders.is_empty() {
-        return None;
+        return (x, v, c, false);
     }
-    let (x, v) = colliders.backstop(x, v)?;
-    let dx = params.dx;
-    Some((x.clamp(Vec3::splat(dx), (shape.res.as_vec3() - 2.0) * dx), v))
+    match colliders.backstop(x, v) {
+        Some((x, v)) => {
+            let dx = params.dx;
+            (
+                x.clamp(Vec3::splat(dx), (shape.res.as_vec3() - 2.0) * dx),
+                v,
+                c,
+                true,
+            )
+        }
+        None => (x, v, c, false),
+    }
 }
 
 pub struct CpuSolver {
@@ -376,11 +386,8 @@ impl CpuSolver {
         let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
         let mut pushed = 0u64;
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
-            let (mut x, mut v, c) = g2p_particle(params, *shape, velocity, p.x[n]);
-            if let Some(backstop) = g2p_backstop(params, *shape, &self.colliders, x, v) {
-                (x, v) = backstop;
-                pushed += 1;
-            }
+            let (x, v, c, moved) = g2p_with_backstop(params, *shape, velocity, &self.colliders, p.x[n]);
+            pushed += u64::from(moved);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let speed = v.length();
             max_speed = max_speed.max(speed);

@@ -29,8 +29,7 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_backstop, g2p_particle, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape,
-    Stencil,
+    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
@@ -450,17 +449,10 @@ impl ParallelCpuSolver {
                     if !live {
                         return (0.0, 0.0, 0);
                     }
-                    (*x, *v, *c) = g2p_particle(params, *shape, velocity, *x);
-                    let backstop = g2p_backstop(params, *shape, colliders, *x, *v);
-                    if let Some(moved) = backstop {
-                        (*x, *v) = moved;
-                    }
+                    let moved;
+                    (*x, *v, *c, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
                     let speed = v.length();
-                    (
-                        speed,
-                        material.sound_speed_at(rho) + speed,
-                        u64::from(backstop.is_some()),
-                    )
+                    (speed, material.sound_speed_at(rho) + speed, u64::from(moved))
                 })
                 .reduce(
                     || (0.0f32, 0.0f32, 0u64),
