@@ -535,14 +535,7 @@ impl Renderer {
         // SAFETY: every object used is this renderer's; the context is current.
         unsafe {
             gl.viewport(x0, y0, w, h);
-            gl.clear_color(BACKGROUND[0], BACKGROUND[1], BACKGROUND[2], 1.0);
-            gl.clear_depth_f32(1.0);
-            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
-            gl.enable(glow::DEPTH_TEST);
-            gl.depth_func(glow::LESS);
-            gl.disable(glow::BLEND);
-            gl.disable(glow::CULL_FACE);
-            gl.disable(glow::SCISSOR_TEST);
+            self.clear_scene();
 
             if settings.show_box {
                 self.draw_stage(&(proj * view), domain, false, true);
@@ -617,15 +610,7 @@ impl Renderer {
         }
         // SAFETY: the surface's scene framebuffer is bound; every object is ours.
         unsafe {
-            let gl = &self.gl;
-            gl.clear_color(BACKGROUND[0], BACKGROUND[1], BACKGROUND[2], 1.0);
-            gl.clear_depth_f32(1.0);
-            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
-            gl.enable(glow::DEPTH_TEST);
-            gl.depth_func(glow::LESS);
-            gl.disable(glow::BLEND);
-            gl.disable(glow::CULL_FACE);
-            gl.disable(glow::SCISSOR_TEST);
+            self.clear_scene();
             // The floor stays without the box: the water refracts it.
             self.draw_stage(&(proj * view), domain, true, settings.show_box);
             self.draw_scene_objects(&(proj * view), domain);
@@ -701,6 +686,23 @@ impl Renderer {
             }
             gl.bind_vertex_array(None);
             gl.use_program(None);
+        }
+    }
+
+    /// Clears the bound framebuffer to the background and sets the scene pass's state (opaque,
+    /// depth-tested), for every draw mode.
+    unsafe fn clear_scene(&self) {
+        let gl = &self.gl;
+        // SAFETY: the caller's framebuffer is bound and the context current.
+        unsafe {
+            gl.clear_color(BACKGROUND[0], BACKGROUND[1], BACKGROUND[2], 1.0);
+            gl.clear_depth_f32(1.0);
+            gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+            gl.enable(glow::DEPTH_TEST);
+            gl.depth_func(glow::LESS);
+            gl.disable(glow::BLEND);
+            gl.disable(glow::CULL_FACE);
+            gl.disable(glow::SCISSOR_TEST);
         }
     }
 
