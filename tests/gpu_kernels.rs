@@ -877,7 +877,7 @@ fn colliders_grid_update_and_backstop_match_cpu() {
         // the error, not the colliders. Each node may be off by that rounding over 64 contributions,
         // over its mass, on top of the float bound (measured on the H200: 1.1e-4 of the largest
         // velocity at the worst node, 5e-5 without colliders).
-        let (mass_scale, momentum_scale) = gpu.fixed_point_scales();
+        let (mass_scale, momentum_scale) = (params.fixed_mass_scale, params.fixed_momentum_scale);
         let rounding = |m: f32, v: Vec3| match scatter {
             ScatterMode::Float => 0.0,
             ScatterMode::FixedPoint => {

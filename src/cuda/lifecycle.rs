@@ -2,9 +2,12 @@
 //! free-slot stack, its counters, the nozzle points and the sinks, and the two one-block launches
 //! that settle the stack after a substep's drains and emit from it.
 
+use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
+use super::state::DeviceState;
 use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
+use crate::sim::Params;
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 
@@ -24,8 +27,8 @@ const ONE_BLOCK: LaunchConfig = LaunchConfig {
 };
 
 pub struct LifecycleKernels {
-    pub settle: Kernel,
-    pub emit: Kernel,
+    settle: Kernel,
+    emit: Kernel,
 }
 
 impl LifecycleKernels {
@@ -34,6 +37,58 @@ impl LifecycleKernels {
             settle: Kernel::load(modules, "lifecycle", "settle_free")?,
             emit: Kernel::load(modules, "lifecycle", "emit_particles")?,
         })
+    }
+
+    /// Sorts the slots this substep's drains pushed (after g2p2g).
+    pub fn settle(&self, l: &Launcher, flow: &DeviceFlow) -> Result<()> {
+        // SAFETY: arguments match settle_free; `free` holds `capacity` slots, counters six u64.
+        unsafe {
+            self.settle.launch(l, ONE_BLOCK, |a| {
+                a.arg(&flow.free).arg(&flow.counters);
+            })
+        }
+    }
+
+    /// Emits a layer from each emitter whose bit is set in `mask` into free slots; where the grid
+    /// already holds the next substep's mass (`scatter_mass`), the new particles' mass is added to it.
+    pub fn emit(
+        &self,
+        l: &Launcher,
+        params: &Params,
+        mask: u32,
+        scatter_mass: bool,
+        d: &DeviceState,
+    ) -> Result<()> {
+        let flow = d.flow.as_ref().context("this CUDA solver has no emitters")?;
+        let (p, g) = (&d.particles, &d.grid);
+        let scatter_mass = u32::from(scatter_mass);
+        // SAFETY: arguments match emit_particles in kernels/lifecycle.cu; the point buffers hold
+        // num_points entries, the particle buffers every slot, `free` the capacity.
+        unsafe {
+            self.emit.launch(l, ONE_BLOCK, |a| {
+                a.arg(params)
+                    .arg(&mask)
+                    .arg(&flow.points)
+                    .arg(&flow.num_points)
+                    .arg(&flow.velocities)
+                    .arg(&flow.clearance_sq)
+                    .arg(&flow.emits)
+                    .arg(&flow.last)
+                    .arg(&flow.free)
+                    .arg(&flow.counters)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&p.rho)
+                    .arg(&scatter_mass)
+                    .arg(&g.acc)
+                    .arg(g.fixed_mass())
+                    .arg(&g.node_blocks.marks)
+                    .arg(&g.node_blocks.list)
+                    .arg(&g.work_counts)
+                    .arg(&d.counters.device);
+            })
+        }
     }
 }
 
@@ -115,22 +170,22 @@ impl DeviceFlow {
         })
     }
 
-    /// Sorts the slots this substep's drains pushed (after g2p2g).
-    pub fn settle(&self, kernels: &LifecycleKernels, launcher: &Launcher) -> Result<()> {
-        // SAFETY: arguments match settle_free; `free` holds `capacity` slots, counters six u64.
-        unsafe {
-            kernels.settle.launch(launcher, ONE_BLOCK, |a| {
-                a.arg(&self.free).arg(&self.counters);
-            })
-        }
+    /// What emitters and sinks did so far. Waits for the device.
+    pub fn read_counts(&self, gpu: &Gpu) -> Result<FlowCounts> {
+        Ok(DeviceFlow::counts(&gpu.download(&self.counters)?, self.capacity))
     }
 
-    pub fn one_block() -> LaunchConfig {
-        ONE_BLOCK
+    /// The state as a checkpoint holds it. Waits for the device.
+    pub fn read_state(&self, gpu: &Gpu) -> Result<FlowState> {
+        let counters = gpu.download(&self.counters)?;
+        let free = gpu.download(&self.free)?;
+        let mut last = gpu.download(&self.last)?;
+        last.truncate(self.num_points as usize);
+        Ok(DeviceFlow::state(&counters, &free, last, self.capacity))
     }
 
-    /// The counts from the device counters (waits for the device).
-    pub fn counts(counters: &[u64], capacity: usize) -> FlowCounts {
+    /// The counts from the device counters.
+    fn counts(counters: &[u64], capacity: usize) -> FlowCounts {
         FlowCounts {
             live: capacity as u64 - counters[FREE_COUNT],
             emitted: counters[EMITTED],
@@ -140,8 +195,7 @@ impl DeviceFlow {
         }
     }
 
-    /// The state as a checkpoint holds it, from downloads of the buffers.
-    pub fn state(counters: &[u64], free: &[u32], last: Vec<u32>, capacity: usize) -> FlowState {
+    fn state(counters: &[u64], free: &[u32], last: Vec<u32>, capacity: usize) -> FlowState {
         let free_count = counters[FREE_COUNT] as usize;
         FlowState {
             free: free[..free_count].to_vec(),

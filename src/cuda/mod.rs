@@ -12,22 +12,43 @@
 //! - [`graph`]: the substep captured as a CUDA graph and replayed, one launch per substep.
 //! - [`timing`]: per-phase CUDA events, read back without stalling.
 
-pub mod bins;
+// The bottom: one GPU and the buffers it holds.
+pub mod colliders;
+pub mod counters;
+pub mod gpu;
 pub mod graph;
+pub mod grid;
 pub mod interop;
 pub mod launch;
 pub mod library;
-pub mod lifecycle;
 pub mod modules;
 mod nvrtc_preload;
-pub mod solver;
-pub mod spawn;
-pub mod stats;
+pub mod particles;
+pub mod state;
 pub mod timing;
 
+// One host file per kernel file: kernels/X.cu is launched from X.rs alone.
+pub mod bins;
+pub mod g2p;
+pub mod g2p2g;
+pub mod grid_update;
+pub mod lifecycle;
+pub mod mirror_walls;
+pub mod p2g;
+pub mod p2g_init;
+pub mod p2g_tiled;
+pub mod push;
+pub mod render;
+pub mod spawn;
+pub mod stats;
+
+// On top: the substep.
+pub mod solver;
+
+pub use bins::SORT_INTERVAL;
+pub use gpu::CudaOptions;
+pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
-pub use solver::{
-    fixed_point_scales, CudaOptions, CudaSolver, BYTES_PER_NODE, BYTES_PER_PARTICLE, FIXED_BYTES_PER_NODE,
-    SORT_INTERVAL,
-};
+pub use particles::BYTES_PER_PARTICLE;
+pub use solver::CudaSolver;

@@ -1,9 +1,16 @@
-//! The body table that kernels/spawn.cu reads: each body's lattice range and shape, computed here with
-//! the same f64 arithmetic as `Lattice` in src/sim/scene.rs, so the device visits the same points.
+//! Spawning a scene's particles on the device (kernels/spawn.cu), in the order of `Scene::spawn()`:
+//! the body table (each body's lattice range and shape, computed here with the same f64 arithmetic as
+//! `Lattice` in src/sim/scene.rs, so the device visits the same points), a count pass, a prefix sum
+//! of the per-block counts here, and a write pass.
 
+use super::gpu::Gpu;
+use super::launch::{Kernel, NvtxRange};
+use super::modules::LoadedModules;
+use super::particles::DeviceParticles;
 use crate::sim::scene::{Scene, Shape};
-use anyhow::{bail, Result};
+use anyhow::{bail, ensure, Context, Result};
 use bytemuck::{Pod, Zeroable};
+use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 use std::mem::{offset_of, size_of};
 
 pub const BODY_BLOCK: u32 = 0;
@@ -75,4 +82,91 @@ pub fn body_table(scene: &Scene) -> Result<(Vec<SpawnBody>, u64)> {
         bail!("scene {}: no lattice points to spawn", scene.source);
     }
     Ok((table, total))
+}
+
+pub struct SpawnKernels {
+    count: Kernel,
+    write: Kernel,
+}
+
+impl SpawnKernels {
+    pub fn load(modules: &LoadedModules) -> Result<SpawnKernels> {
+        Ok(SpawnKernels {
+            count: Kernel::load(modules, "spawn", "spawn_count")?,
+            write: Kernel::load(modules, "spawn", "spawn_write")?,
+        })
+    }
+}
+
+/// Writes `scene`'s lattice particles into `particles` (which must hold exactly as many), and waits.
+pub fn spawn_on_device(gpu: &Gpu, scene: &Scene, particles: &DeviceParticles) -> Result<()> {
+    let _range = NvtxRange::new("spawn");
+    let kernels = &gpu.kernels.spawn;
+    let l = &gpu.launcher;
+    let (table, candidates) = body_table(scene)?;
+    let block = l.block_size;
+    let blocks_u64 = candidates.div_ceil(u64::from(block));
+    ensure!(
+        blocks_u64 <= u64::from(i32::MAX as u32),
+        "scene {}: {candidates} lattice candidates are too many to spawn on the device",
+        scene.source
+    );
+    let blocks = blocks_u64 as u32;
+    let config = LaunchConfig {
+        grid_dim: (blocks, 1, 1),
+        block_dim: (block, 1, 1),
+        shared_mem_bytes: 0,
+    };
+    let stream = gpu.stream();
+    let bodies: CudaSlice<SpawnBody> = stream.clone_htod(&table).context("uploading bodies")?;
+    let num_bodies = table.len() as u32;
+    let spacing = scene.lattice().spacing;
+    let counts = stream
+        .alloc_zeros::<u32>(blocks as usize)
+        .context("spawn counts")?;
+    // SAFETY: arguments match spawn_count in kernels/spawn.cu; `counts` has one slot per block.
+    unsafe {
+        kernels.count.launch(l, config, |a| {
+            a.arg(&bodies)
+                .arg(&num_bodies)
+                .arg(&spacing)
+                .arg(&candidates)
+                .arg(&counts);
+        })?;
+    }
+
+    let block_counts = gpu.download(&counts)?;
+    let mut offsets = Vec::with_capacity(block_counts.len());
+    let mut total = 0u64;
+    for &count in &block_counts {
+        offsets.push(total as u32);
+        total += u64::from(count);
+    }
+    ensure!(
+        total == particles.count as u64,
+        "device spawn made {total} particles but scene {} has {} (the device and host lattices disagree)",
+        scene.source,
+        particles.count
+    );
+    let offsets = stream.clone_htod(&offsets).context("uploading spawn offsets")?;
+    let rest_density = scene.material.rest_density;
+    let n = particles.count as u32;
+    // SAFETY: as above; every output holds `n` particles.
+    unsafe {
+        kernels.write.launch(l, config, |a| {
+            a.arg(&bodies)
+                .arg(&num_bodies)
+                .arg(&spacing)
+                .arg(&candidates)
+                .arg(&offsets)
+                .arg(&rest_density)
+                .arg(&n)
+                .arg(&particles.x)
+                .arg(&particles.v)
+                .arg(&particles.c)
+                .arg(&particles.rho);
+        })?;
+    }
+    stream.synchronize().context("spawning particles on the GPU")?;
+    Ok(())
 }

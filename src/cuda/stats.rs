@@ -4,13 +4,17 @@
 //! substeps (`request`) and arrive with them, so a frame of `mpm run` waits for the GPU once.
 
 use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use super::particles::DeviceParticles;
 use crate::sim::{Params, Summary};
 use anyhow::{ensure, Context, Result};
 use bytemuck::{Pod, Zeroable};
 use cudarc::driver::{
-    CudaEvent, CudaSlice, DeviceRepr, LaunchConfig, PinnedHostSlice, PushKernelArg, ValidAsZeroBits,
+    CudaEvent, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PinnedHostSlice, PushKernelArg,
+    ValidAsZeroBits,
 };
 use std::mem::size_of;
+use std::sync::Arc;
 
 /// Blocks of the reduction (a fixed count: the partials do not depend on the device).
 pub const STATS_BLOCKS: usize = 256;
@@ -35,8 +39,16 @@ unsafe impl DeviceRepr for StatsPartial {}
 // SAFETY: all-zero bits are a valid StatsPartial (Pod).
 unsafe impl ValidAsZeroBits for StatsPartial {}
 
+pub struct StatsKernel(Kernel);
+
+impl StatsKernel {
+    pub fn load(modules: &LoadedModules) -> Result<StatsKernel> {
+        Ok(StatsKernel(Kernel::load(modules, "stats", "particle_stats")?))
+    }
+}
+
+/// The partials on the device and their pinned host copy.
 pub struct ParticleStats {
-    kernel: Kernel,
     partials: CudaSlice<StatsPartial>,
     /// The partials' host copy, written in stream order, and the event recorded after the copy.
     host: PinnedHostSlice<StatsPartial>,
@@ -45,11 +57,9 @@ pub struct ParticleStats {
 }
 
 impl ParticleStats {
-    pub fn new(kernel: Kernel, launcher: &Launcher) -> Result<ParticleStats> {
-        let stream = &launcher.stream;
+    pub fn allocate(stream: &Arc<CudaStream>) -> Result<ParticleStats> {
         let ctx = stream.context();
         Ok(ParticleStats {
-            kernel,
             partials: stream
                 .alloc_zeros::<StatsPartial>(STATS_BLOCKS)
                 .context("allocating the statistics partials")?,
@@ -65,11 +75,10 @@ impl ParticleStats {
     /// copy of its partials to the host; nothing waits.
     pub fn request(
         &mut self,
+        kernel: &StatsKernel,
         launcher: &Launcher,
         params: &Params,
-        x: &CudaSlice<f32>,
-        v: &CudaSlice<f32>,
-        rho: &CudaSlice<f32>,
+        particles: &DeviceParticles,
     ) -> Result<()> {
         let config = LaunchConfig {
             grid_dim: (STATS_BLOCKS as u32, 1, 1),
@@ -79,8 +88,12 @@ impl ParticleStats {
         // SAFETY: the arguments match particle_stats in kernels/stats.cu; `partials` holds one record
         // per block of this launch.
         unsafe {
-            self.kernel.launch(launcher, config, |a| {
-                a.arg(params).arg(x).arg(v).arg(rho).arg(&self.partials);
+            kernel.0.launch(launcher, config, |a| {
+                a.arg(params)
+                    .arg(&particles.x)
+                    .arg(&particles.v)
+                    .arg(&particles.rho)
+                    .arg(&self.partials);
             })?;
         }
         let stream = &launcher.stream;

@@ -1,0 +1,68 @@
+//! The colliders on the device (kernels/colliders.cuh): the states of the current substep, uploaded
+//! when they change (every substep for moving colliders, once for static ones), and the mesh
+//! colliders' distance samples, uploaded once.
+
+use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
+use anyhow::{ensure, Context, Result};
+use cudarc::driver::{CudaSlice, CudaStream};
+use std::sync::Arc;
+
+pub struct DeviceColliders {
+    pub states: CudaSlice<ColliderState>,
+    /// Colliders the kernels loop over (a kernel argument: part of a captured substep's key).
+    pub count: u32,
+    /// What `states` holds, to skip uploads of an unchanged frame.
+    uploaded: Vec<ColliderState>,
+    pub sdf: CudaSlice<f32>,
+    /// The host buffer `sdf` was copied from.
+    sdf_source: Option<Arc<[f32]>>,
+}
+
+impl DeviceColliders {
+    pub fn allocate(stream: &Arc<CudaStream>) -> Result<DeviceColliders> {
+        Ok(DeviceColliders {
+            states: stream
+                .alloc_zeros::<ColliderState>(MAX_COLLIDERS)
+                .context("allocating the collider states")?,
+            count: 0,
+            uploaded: Vec::new(),
+            sdf: stream
+                .alloc_zeros::<f32>(1)
+                .context("allocating the collider SDF")?,
+            sdf_source: None,
+        })
+    }
+
+    /// Uploads the states where they changed, and the mesh samples once (in stream order, so the
+    /// substeps already enqueued keep the states they were launched with).
+    pub fn set(&mut self, stream: &Arc<CudaStream>, frame: &ColliderFrame) -> Result<()> {
+        ensure!(
+            frame.states.len() <= MAX_COLLIDERS,
+            "{} colliders, more than the {MAX_COLLIDERS} the kernels take",
+            frame.states.len()
+        );
+        let sdf_is_new = self
+            .sdf_source
+            .as_ref()
+            .is_none_or(|source| !Arc::ptr_eq(source, &frame.sdf));
+        if sdf_is_new && !frame.sdf.is_empty() {
+            self.sdf = stream
+                .clone_htod(&frame.sdf[..])
+                .context("uploading the mesh colliders' distance fields")?;
+            self.sdf_source = Some(frame.sdf.clone());
+        }
+        if self.uploaded != frame.states {
+            if !frame.states.is_empty() {
+                stream
+                    .memcpy_htod(
+                        &frame.states[..],
+                        &mut self.states.slice_mut(0..frame.states.len()),
+                    )
+                    .context("uploading the collider states")?;
+            }
+            self.uploaded.clone_from(&frame.states);
+            self.count = frame.states.len() as u32;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,91 @@
+//! kernels/g2p2g.cu: the binned pipeline's particle pass. `g2p2g` gathers velocity and C from the
+//! grid, applies the soft wall, colliders and sinks, advects, and scatters the mass of the new
+//! position through a shared tile for the next substep; `p2g_mass` is its second half alone, for the
+//! first substep (nothing to gather yet) and after emission.
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use super::state::DeviceState;
+use crate::sim::Params;
+use anyhow::Result;
+use cudarc::driver::PushKernelArg;
+
+/// One channel per tile node: the mass.
+const MASS_CHANNELS: u32 = 1;
+
+pub struct G2p2g(Kernel);
+
+impl G2p2g {
+    pub fn load(modules: &LoadedModules) -> Result<G2p2g> {
+        Ok(G2p2g(Kernel::load(modules, "g2p2g", "g2p2g")?))
+    }
+
+    pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
+        let (p, g, c) = (&d.particles, &d.grid, &d.colliders);
+        let list = d.bins.list()?;
+        let config = d.bins.tiled_pass(l, MASS_CHANNELS);
+        let null: u64 = 0;
+        let num_sinks = d.flow.as_ref().map_or(0, |f| f.num_sinks);
+        // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; the bin list, order and node-block
+        // list are sized for this grid and these particles. Without a flow the sink and free-slot
+        // pointers are null and never read (no sinks).
+        unsafe {
+            self.0.launch(l, config, |a| {
+                a.arg(params)
+                    .arg(list)
+                    .arg(&d.bins.order)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&g.vel)
+                    .arg(&p.rho)
+                    .arg(&g.acc)
+                    .arg(g.fixed_mass())
+                    .arg(&g.node_blocks.marks)
+                    .arg(&g.node_blocks.list)
+                    .arg(&g.work_counts)
+                    .arg(&d.counters.device)
+                    .arg(&c.states)
+                    .arg(&c.count)
+                    .arg(&c.sdf);
+                match &d.flow {
+                    Some(flow) => a
+                        .arg(&flow.sinks)
+                        .arg(&num_sinks)
+                        .arg(&flow.free)
+                        .arg(&flow.counters),
+                    None => a.arg(&null).arg(&num_sinks).arg(&null).arg(&null),
+                };
+            })
+        }
+    }
+}
+
+pub struct P2gMass(Kernel);
+
+impl P2gMass {
+    pub fn load(modules: &LoadedModules) -> Result<P2gMass> {
+        Ok(P2gMass(Kernel::load(modules, "g2p2g", "p2g_mass")?))
+    }
+
+    pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
+        let g = &d.grid;
+        let list = d.bins.list()?;
+        let config = d.bins.tiled_pass(l, MASS_CHANNELS);
+        // SAFETY: the arguments match p2g_mass in kernels/g2p2g.cu; sized as for g2p2g.
+        unsafe {
+            self.0.launch(l, config, |a| {
+                a.arg(params)
+                    .arg(list)
+                    .arg(&d.bins.order)
+                    .arg(&d.particles.x)
+                    .arg(&g.acc)
+                    .arg(g.fixed_mass())
+                    .arg(&g.node_blocks.marks)
+                    .arg(&g.node_blocks.list)
+                    .arg(&g.work_counts)
+                    .arg(&d.counters.device);
+            })
+        }
+    }
+}

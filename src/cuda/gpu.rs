@@ -1,0 +1,212 @@
+//! One GPU: its context, its stream (through the [`Launcher`]), the kernels loaded into it, and the
+//! checks that come before anything is allocated there. Everything else of a solver that lives on a
+//! device (buffers, graphs, timing) hangs off the solver that owns one `Gpu`, so a second device is a
+//! second `Gpu`, never shared state.
+
+use super::bins::BinKernels;
+use super::g2p::G2p;
+use super::g2p2g::{G2p2g, P2gMass};
+use super::grid_update::GridUpdate;
+use super::launch::Launcher;
+use super::library;
+use super::lifecycle::LifecycleKernels;
+use super::mirror_walls::MirrorWalls;
+use super::modules::{LoadedModules, Origin};
+use super::p2g::P2g;
+use super::p2g_init::P2gInit;
+use super::p2g_tiled::P2gTiled;
+use super::push::PushParticles;
+use super::render::RenderAttributes;
+use super::spawn::SpawnKernels;
+use super::stats::StatsKernel;
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr};
+use std::sync::Arc;
+
+/// Where and how to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CudaOptions {
+    /// CUDA device ordinal.
+    pub device: usize,
+    /// Threads per block of the particle and grid kernels: a multiple of 32 (the kernels reduce per
+    /// warp with full-mask shuffles), at most 1024.
+    pub block_size: u32,
+    /// Each substep as one CUDA graph launch (graph.rs) rather than a launch per kernel.
+    pub graphs: bool,
+}
+
+impl Default for CudaOptions {
+    fn default() -> Self {
+        CudaOptions {
+            device: 0,
+            block_size: 128,
+            graphs: true,
+        }
+    }
+}
+
+impl CudaOptions {
+    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE` and `MPM_CUDA_GRAPHS` where
+    /// set.
+    pub fn from_env() -> Result<CudaOptions> {
+        let mut options = CudaOptions::default();
+        if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
+            options.device = text
+                .trim()
+                .parse()
+                .map_err(|_| anyhow!("MPM_CUDA_DEVICE={text:?} is not a device number (0, 1, ...)"))?;
+        }
+        if let Ok(text) = std::env::var("MPM_CUDA_BLOCK_SIZE") {
+            options.block_size = text.trim().parse().map_err(|_| {
+                anyhow!("MPM_CUDA_BLOCK_SIZE={text:?} is not a number; use 128 (or 64, 256, ...)")
+            })?;
+        }
+        if let Ok(text) = std::env::var("MPM_CUDA_GRAPHS") {
+            options.graphs = match text.trim() {
+                "1" => true,
+                "0" => false,
+                _ => bail!("MPM_CUDA_GRAPHS={text:?}: use 1 (substeps as CUDA graphs, the default) or 0"),
+            };
+        }
+        options.validate()?;
+        Ok(options)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        ensure!(
+            self.block_size >= 32 && self.block_size <= 1024 && self.block_size % 32 == 0,
+            "block size {} must be a multiple of 32 between 32 and 1024 (128 is the default)",
+            self.block_size
+        );
+        Ok(())
+    }
+}
+
+/// Every kernel, each owned by the host file beside its `kernels/X.cu`, which alone knows its
+/// arguments.
+pub struct Kernels {
+    pub bins: BinKernels,
+    pub p2g_init: P2gInit,
+    pub p2g_mass: P2gMass,
+    pub mirror_walls: MirrorWalls,
+    pub p2g: P2g,
+    pub p2g_tiled: P2gTiled,
+    pub grid_update: GridUpdate,
+    pub g2p: G2p,
+    pub g2p2g: G2p2g,
+    pub lifecycle: LifecycleKernels,
+    pub spawn: SpawnKernels,
+    pub stats: StatsKernel,
+    pub render_attributes: RenderAttributes,
+    pub push: PushParticles,
+}
+
+impl Kernels {
+    fn load(modules: &LoadedModules) -> Result<Kernels> {
+        Ok(Kernels {
+            bins: BinKernels::load(modules)?,
+            p2g_init: P2gInit::load(modules)?,
+            p2g_mass: P2gMass::load(modules)?,
+            mirror_walls: MirrorWalls::load(modules)?,
+            p2g: P2g::load(modules)?,
+            p2g_tiled: P2gTiled::load(modules)?,
+            grid_update: GridUpdate::load(modules)?,
+            g2p: G2p::load(modules)?,
+            g2p2g: G2p2g::load(modules)?,
+            lifecycle: LifecycleKernels::load(modules)?,
+            spawn: SpawnKernels::load(modules)?,
+            stats: StatsKernel::load(modules)?,
+            render_attributes: RenderAttributes::load(modules)?,
+            push: PushParticles::load(modules)?,
+        })
+    }
+}
+
+/// One device, opened: the context, the one stream every launch goes to, the kernels.
+pub struct Gpu {
+    pub ctx: Arc<CudaContext>,
+    pub launcher: Launcher,
+    pub kernels: Kernels,
+    pub module_origin: Origin,
+    pub ordinal: usize,
+}
+
+impl Gpu {
+    /// Opens device `options.device` and loads every kernel module into it.
+    pub fn open(options: &CudaOptions) -> Result<Gpu> {
+        options.validate()?;
+        library::ensure_driver()?;
+        let ctx = CudaContext::new(options.device).map_err(|e| {
+            anyhow!(
+                "cannot open CUDA device {}: {e} (no NVIDIA GPU, or the driver is not working)",
+                options.device
+            )
+        })?;
+        // One stream, so cudarc's cross-stream event tracking only costs time.
+        // SAFETY: called before any allocation in this context.
+        unsafe { ctx.disable_event_tracking() };
+        let stream = ctx.new_stream().context("creating a CUDA stream")?;
+        let modules = LoadedModules::load(&ctx)?;
+        let kernels = Kernels::load(&modules)?;
+        let multiprocessors = ctx
+            .attribute(cudarc::driver::sys::CUdevice_attribute::CU_DEVICE_ATTRIBUTE_MULTIPROCESSOR_COUNT)
+            .context("reading the multiprocessor count")?;
+        Ok(Gpu {
+            launcher: Launcher {
+                stream,
+                block_size: options.block_size,
+                multiprocessors: multiprocessors.max(1) as u32,
+                sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
+            },
+            kernels,
+            module_origin: modules.origin,
+            ordinal: options.device,
+            ctx,
+        })
+    }
+
+    pub fn stream(&self) -> &Arc<CudaStream> {
+        &self.launcher.stream
+    }
+
+    /// The device's name, e.g. "NVIDIA H200".
+    pub fn name(&self) -> String {
+        self.ctx.name().unwrap_or_else(|_| "unknown CUDA device".into())
+    }
+
+    /// Refuses a run that needs `needed` bytes of device memory where fewer are free (with room left
+    /// for the context, the modules and the spawn scratch); `what` and `fix` say what asked and what
+    /// to change.
+    pub fn ensure_fits(&self, needed: usize, what: &str, fix: &str) -> Result<()> {
+        let (free, total) = self.ctx.mem_get_info().context("cuMemGetInfo")?;
+        if needed + (64 << 20) > free {
+            bail!(
+                "{what} needs {:.2} GiB of GPU memory but device {} ({}) has {:.2} GiB free of {:.2} GiB; \
+                 {fix}",
+                gib(needed),
+                self.ordinal,
+                self.name(),
+                gib(free),
+                gib(total)
+            );
+        }
+        Ok(())
+    }
+
+    /// A host copy of `buffer`, waiting for everything enqueued before it.
+    pub fn download<T: DeviceRepr + Default + Clone>(&self, buffer: &CudaSlice<T>) -> Result<Vec<T>> {
+        let mut host = vec![T::default(); buffer.len()];
+        let stream = self.stream();
+        stream
+            .memcpy_dtoh(buffer, &mut host)
+            .context("copying from the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        stream
+            .synchronize()
+            .context("waiting for the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        Ok(host)
+    }
+}
+
+fn gib(bytes: usize) -> f64 {
+    bytes as f64 / (1u64 << 30) as f64
+}

@@ -1,0 +1,146 @@
+//! The grid on the device: the scatter accumulators (float, and fixed point where that scatter runs),
+//! the node velocities the grid update writes for the gather, and the binned pipeline's list of the
+//! node blocks a substep touched.
+
+use super::bins::{WORK_COUNTS, WORK_NODE_BLOCKS};
+use super::gpu::Gpu;
+use crate::sim::{Params, ScatterMode};
+use anyhow::{Context, Result};
+use cudarc::driver::{CudaSlice, CudaStream};
+use glam::Vec3;
+use std::sync::Arc;
+
+/// Bytes on the device per node: two float4 and the report sort's cell count (the binned pipeline's
+/// per-block lists are far smaller).
+pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
+/// Added per node by the fixed-point scatter: mass and three momentum components as u64.
+pub const FIXED_BYTES_PER_NODE: usize = 8 * 4;
+
+/// Fixed-point accumulators, allocated on first use of the fixed-point scatter.
+struct FixedGrid {
+    mass: CudaSlice<u64>,
+    /// Three per node, interleaved.
+    momentum: CudaSlice<u64>,
+}
+
+/// The binned pipeline's list of touched node blocks (kernels/tiles.cuh): a mark per block and the
+/// list the scatters append to; its length is `work_counts[WORK_NODE_BLOCKS]`.
+pub struct NodeBlockList {
+    pub marks: CudaSlice<u32>,
+    pub list: CudaSlice<u32>,
+}
+
+pub struct DeviceGrid {
+    pub res: [u32; 3],
+    /// Scatter accumulators, float4 per node: momentum xyz, mass w. Zeroed by the grid update.
+    pub acc: CudaSlice<f32>,
+    /// Node velocity xyz and mass w, written by the grid update, read by the gather.
+    pub vel: CudaSlice<f32>,
+    fixed: Option<FixedGrid>,
+    /// Passed for the fixed-point pointers when the float scatter runs (never dereferenced).
+    unused_fixed: CudaSlice<u64>,
+    pub node_blocks: NodeBlockList,
+    /// Device-side list lengths (WORK_BINS, WORK_NODE_BLOCKS in kernels/tiles.cuh).
+    pub work_counts: CudaSlice<u32>,
+}
+
+impl DeviceGrid {
+    /// A zeroed grid of `res` nodes with `num_node_blocks` blocks to list (0 in the report pipeline).
+    pub fn allocate(stream: &Arc<CudaStream>, res: [u32; 3], num_node_blocks: usize) -> Result<DeviceGrid> {
+        let nodes: usize = res.iter().map(|&r| r as usize).product();
+        let alloc_f32 = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<f32>(len)
+                .with_context(|| format!("allocating {what} ({len} floats)"))
+        };
+        let alloc_u32 = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<u32>(len.max(1))
+                .with_context(|| format!("allocating {what} ({len} values)"))
+        };
+        Ok(DeviceGrid {
+            res,
+            acc: alloc_f32(4 * nodes, "grid accumulators")?,
+            vel: alloc_f32(4 * nodes, "grid velocities")?,
+            fixed: None,
+            unused_fixed: stream.alloc_zeros::<u64>(1).context("allocating a placeholder")?,
+            node_blocks: NodeBlockList {
+                marks: alloc_u32(num_node_blocks, "node block marks")?,
+                list: alloc_u32(num_node_blocks, "the node block list")?,
+            },
+            work_counts: alloc_u32(WORK_COUNTS, "work counts")?,
+        })
+    }
+
+    pub fn num_nodes(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// Allocates the fixed-point accumulators if they are not yet there.
+    pub fn ensure_fixed(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        if self.fixed.is_none() {
+            let nodes = self.num_nodes();
+            self.fixed = Some(FixedGrid {
+                mass: stream
+                    .alloc_zeros::<u64>(nodes)
+                    .context("allocating fixed-point mass")?,
+                momentum: stream
+                    .alloc_zeros::<u64>(3 * nodes)
+                    .context("allocating fixed-point momentum")?,
+            });
+        }
+        Ok(())
+    }
+
+    /// The fixed-point mass accumulators, or a placeholder the float scatter never dereferences.
+    pub fn fixed_mass(&self) -> &CudaSlice<u64> {
+        self.fixed.as_ref().map_or(&self.unused_fixed, |f| &f.mass)
+    }
+
+    /// The fixed-point momentum accumulators (three per node), or the placeholder.
+    pub fn fixed_momentum(&self) -> &CudaSlice<u64> {
+        self.fixed.as_ref().map_or(&self.unused_fixed, |f| &f.momentum)
+    }
+
+    /// Empties the list of touched node blocks (after the grid update visited and unmarked them all).
+    pub fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        stream
+            .memset_zeros(&mut self.work_counts.slice_mut(WORK_NODE_BLOCKS..WORK_NODE_BLOCKS + 1))
+            .context("clearing the node block list")
+    }
+
+    /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum
+    /// per node (converted from fixed point with `params`' scales where that scatter ran). Waits.
+    pub fn read_accumulators(&self, gpu: &Gpu, params: &Params) -> Result<(Vec<f32>, Vec<Vec3>)> {
+        if params.scatter_mode != ScatterMode::FixedPoint.code() {
+            return Ok(split_float4(&gpu.download(&self.acc)?));
+        }
+        let fixed = self
+            .fixed
+            .as_ref()
+            .context("the fixed-point scatter has not run")?;
+        let mass = gpu.download(&fixed.mass)?;
+        let momentum = gpu.download(&fixed.momentum)?;
+        let (ms, ps) = (1.0 / params.fixed_mass_scale, 1.0 / params.fixed_momentum_scale);
+        let value = |q: u64, inv: f32| (q as i64) as f32 * inv;
+        Ok((
+            mass.iter().map(|&q| value(q, ms)).collect(),
+            momentum
+                .chunks_exact(3)
+                .map(|m| Vec3::new(value(m[0], ps), value(m[1], ps), value(m[2], ps)))
+                .collect(),
+        ))
+    }
+
+    /// Node mass and velocity as the grid update left them. Waits.
+    pub fn read_velocity(&self, gpu: &Gpu) -> Result<(Vec<f32>, Vec<Vec3>)> {
+        Ok(split_float4(&gpu.download(&self.vel)?))
+    }
+}
+
+fn split_float4(values: &[f32]) -> (Vec<f32>, Vec<Vec3>) {
+    values
+        .chunks_exact(4)
+        .map(|q| (q[3], Vec3::new(q[0], q[1], q[2])))
+        .unzip()
+}

@@ -1,0 +1,89 @@
+//! kernels/mirror_walls.cu: the walls' mirror image, added to the grid between the scatters and the
+//! grid update so that fluid at a wall is not read as a free surface. All three axes in one launch,
+//! one thread per reflection orbit.
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use super::state::DeviceState;
+use crate::sim::{Params, Pipeline};
+use anyhow::{ensure, Result};
+use cudarc::driver::PushKernelArg;
+
+/// What is mirrored: the codes of kernels/mirror_walls.cu.
+#[derive(Clone, Copy)]
+pub enum MirrorQuantity {
+    /// The image mass, between the mass scatter and p2g.
+    Mass = 0,
+    /// The image momentum, wall-normal component reflected, between p2g and the grid update.
+    Momentum = 1,
+}
+
+pub struct MirrorWalls(Kernel);
+
+impl MirrorWalls {
+    pub fn load(modules: &LoadedModules) -> Result<MirrorWalls> {
+        Ok(MirrorWalls(Kernel::load(
+            modules,
+            "mirror_walls",
+            "mirror_walls",
+        )?))
+    }
+
+    /// Nothing where the mirror is off (`wall_mirror_lo == 0`).
+    pub fn launch(
+        &self,
+        l: &Launcher,
+        pipeline: Pipeline,
+        quantity: MirrorQuantity,
+        params: &Params,
+        d: &DeviceState,
+    ) -> Result<()> {
+        if params.wall_mirror_lo == 0 {
+            return Ok(());
+        }
+        let threads = orbits(params)?;
+        let g = &d.grid;
+        // The report's pipeline visits every orbit (null marks); the binned one skips untouched blocks.
+        let null: u64 = 0;
+        let quantity_code = quantity as u32;
+        // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
+        // pointers, which the kernel checks, for the report's pipeline).
+        unsafe {
+            self.0.launch(l, l.cover(threads), |a| {
+                a.arg(params)
+                    .arg(&quantity_code)
+                    .arg(&g.acc)
+                    .arg(g.fixed_mass())
+                    .arg(g.fixed_momentum());
+                if pipeline == Pipeline::Binned {
+                    a.arg(&g.node_blocks.marks)
+                        .arg(&g.node_blocks.list)
+                        .arg(&g.work_counts);
+                } else {
+                    a.arg(&null).arg(&null).arg(&null);
+                }
+            })
+        }
+    }
+}
+
+/// The threads of one launch: each takes the fluid-side nodes of both walls of one axis within their
+/// reach, across the other two axes. The two walls' reaches must not meet (the kernel tells them
+/// apart).
+fn orbits(params: &Params) -> Result<usize> {
+    let res = params.grid_res;
+    let mut threads = 0usize;
+    for a in 0..3 {
+        let (lo, hi) = (params.wall_mirror_lo, params.wall_mirror_hi[a]);
+        let (lo_reach, hi_reach) = (lo.min(res[a] - 1 - lo), hi.min(res[a] - 1 - hi));
+        ensure!(
+            lo + lo_reach < hi - hi_reach,
+            "the grid is too small for the wall mirror: {} nodes along axis {a}; use at least {}",
+            res[a],
+            2 * (lo + lo_reach + 1)
+        );
+        let across = res[(a + 1) % 3] as usize * res[(a + 2) % 3] as usize;
+        threads += (lo_reach + hi_reach + 2) as usize * across;
+    }
+    Ok(threads)
+}

@@ -1,0 +1,44 @@
+//! kernels/p2g_tiled.cu: p2g through a shared tile per listed bin chunk, flushed once per node: the
+//! binned pipeline's fixed-point momentum scatter (and any scatter of a scene with a flow).
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use super::state::DeviceState;
+use crate::sim::Params;
+use anyhow::Result;
+use cudarc::driver::PushKernelArg;
+
+pub struct P2gTiled(Kernel);
+
+impl P2gTiled {
+    pub fn load(modules: &LoadedModules) -> Result<P2gTiled> {
+        Ok(P2gTiled(Kernel::load(modules, "p2g_tiled", "p2g_tiled")?))
+    }
+
+    pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
+        let (p, g) = (&d.particles, &d.grid);
+        let list = d.bins.list()?;
+        // Three channels: momentum xyz (the mass is already on the grid).
+        let config = d.bins.tiled_pass(l, 3);
+        // SAFETY: the arguments match p2g_tiled in kernels/p2g_tiled.cu; the bin list, order and
+        // node-block list are sized for this grid and these particles.
+        unsafe {
+            self.0.launch(l, config, |a| {
+                a.arg(params)
+                    .arg(list)
+                    .arg(&d.bins.order)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&p.rho)
+                    .arg(&g.acc)
+                    .arg(g.fixed_mass())
+                    .arg(g.fixed_momentum())
+                    .arg(&g.node_blocks.marks)
+                    .arg(&g.node_blocks.list)
+                    .arg(&g.work_counts)
+                    .arg(&d.counters.device);
+            })
+        }
+    }
+}

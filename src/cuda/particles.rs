@@ -1,0 +1,98 @@
+//! The particle state on the device, structure of arrays, index-stable (the scatters walk a sorted
+//! index buffer, never reordered particles): what the kernels read and write every substep.
+
+use super::gpu::Gpu;
+use crate::sim::Particles;
+use anyhow::{ensure, Context, Result};
+use cudarc::driver::{CudaSlice, CudaStream};
+use glam::{Mat3, Vec3};
+use std::sync::Arc;
+
+/// x.w of a parked particle slot (PARKED_W in kernels/common.cuh).
+const PARKED_W: f32 = 1.0;
+
+/// Bytes on the device per particle: x, v as float4; C as 3 float4; rho; the bins' order, key and
+/// rank (bins.rs).
+pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
+
+pub struct DeviceParticles {
+    pub count: usize,
+    /// x, y, z, and w: 0 for a live particle, PARKED_W for a parked slot. One float4 per particle (a
+    /// layout a GL vertex buffer can share).
+    pub x: CudaSlice<f32>,
+    /// vx, vy, vz, unused.
+    pub v: CudaSlice<f32>,
+    /// C as three float4 arrays of `count` (columns 0, 1, 2).
+    pub c: CudaSlice<f32>,
+    /// The density p2g estimated (per particle, from the grid's mass).
+    pub rho: CudaSlice<f32>,
+}
+
+impl DeviceParticles {
+    /// Zeroed buffers for `count` particles.
+    pub fn allocate(stream: &Arc<CudaStream>, count: usize) -> Result<DeviceParticles> {
+        let alloc = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<f32>(len)
+                .with_context(|| format!("allocating {what} ({len} floats)"))
+        };
+        Ok(DeviceParticles {
+            count,
+            x: alloc(4 * count, "particle positions")?,
+            v: alloc(4 * count, "particle velocities")?,
+            c: alloc(12 * count, "particle affine matrices")?,
+            rho: alloc(count, "particle densities")?,
+        })
+    }
+
+    /// Copies `particles` (every slot, parked ones marked) into the buffers and waits.
+    pub fn upload(&mut self, stream: &Arc<CudaStream>, particles: &Particles) -> Result<()> {
+        let n = particles.len();
+        ensure!(n == self.count, "{n} particles for a solver of {}", self.count);
+        let float4 = |v: &[Vec3]| -> Vec<f32> { v.iter().flat_map(|p| [p.x, p.y, p.z, 0.0]).collect() };
+        let positions: Vec<f32> = particles
+            .x
+            .iter()
+            .zip(&particles.live)
+            .flat_map(|(p, &live)| [p.x, p.y, p.z, if live { 0.0 } else { PARKED_W }])
+            .collect();
+        let mut c = Vec::with_capacity(12 * n);
+        for col in 0..3 {
+            c.extend(particles.c.iter().flat_map(|m| {
+                let v = m.col(col);
+                [v.x, v.y, v.z, 0.0]
+            }));
+        }
+        stream
+            .memcpy_htod(&positions, &mut self.x)
+            .context("uploading positions")?;
+        stream
+            .memcpy_htod(&float4(&particles.v), &mut self.v)
+            .context("uploading velocities")?;
+        stream.memcpy_htod(&c, &mut self.c).context("uploading C")?;
+        stream
+            .memcpy_htod(&particles.rho, &mut self.rho)
+            .context("uploading densities")?;
+        stream.synchronize().context("uploading particles")?;
+        Ok(())
+    }
+
+    /// A host copy of every slot, waiting for the device.
+    pub fn download(&self, gpu: &Gpu) -> Result<Particles> {
+        let n = self.count;
+        let x = gpu.download(&self.x)?;
+        let v = gpu.download(&self.v)?;
+        let c = gpu.download(&self.c)?;
+        let rho = gpu.download(&self.rho)?;
+        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
+        Ok(Particles {
+            x: (0..n).map(|i| vec3(&x, i)).collect(),
+            v: (0..n).map(|i| vec3(&v, i)).collect(),
+            c: (0..n)
+                .map(|i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
+                .collect(),
+            rho,
+            live: (0..n).map(|i| x[4 * i + 3] == 0.0).collect(),
+        })
+    }
+}

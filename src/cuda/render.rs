@@ -1,0 +1,52 @@
+//! kernels/render.cu: one float4 per particle (position, and the value the renderer colours by) into
+//! a device buffer, usually a GL vertex buffer mapped through interop, so the particles are drawn
+//! without a trip through the host.
+
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
+use super::particles::DeviceParticles;
+use crate::sim::ColourBy;
+use anyhow::Result;
+use cudarc::driver::{sys::CUdeviceptr, PushKernelArg};
+
+pub struct RenderAttributes(Kernel);
+
+impl RenderAttributes {
+    pub fn load(modules: &LoadedModules) -> Result<RenderAttributes> {
+        Ok(RenderAttributes(Kernel::load(
+            modules,
+            "render",
+            "render_attributes",
+        )?))
+    }
+
+    /// Writes `16 * particles.count` bytes at `out`. Asynchronous on the launcher's stream.
+    ///
+    /// # Safety
+    /// `out` must be a live device allocation of at least `16 * particles.count` bytes in the context
+    /// of the launcher's stream.
+    pub unsafe fn launch(
+        &self,
+        l: &Launcher,
+        particles: &DeviceParticles,
+        colour_by: ColourBy,
+        rest_density: f32,
+        out: CUdeviceptr,
+    ) -> Result<()> {
+        let n = particles.count as u32;
+        let code = colour_by.code();
+        let inv_rest_density = 1.0 / rest_density;
+        // SAFETY: the arguments match render_attributes; the caller vouches for `out`.
+        unsafe {
+            self.0.launch(l, l.cover(particles.count), |a| {
+                a.arg(&particles.x)
+                    .arg(&particles.v)
+                    .arg(&particles.rho)
+                    .arg(&n)
+                    .arg(&code)
+                    .arg(&inv_rest_density)
+                    .arg(&out);
+            })
+        }
+    }
+}

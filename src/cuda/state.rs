@@ -1,0 +1,92 @@
+//! Every buffer one GPU holds for a scene, allocated together after one memory check: the particles,
+//! the grid, the bins, the step counters, the colliders and the particle lifecycle. The kernels' host
+//! files (X.rs beside kernels/X.cu) take what they need from here.
+
+use super::bins::{Bins, NODE_BLOCK_EDGE};
+use super::colliders::DeviceColliders;
+use super::counters::StepCounters;
+use super::gpu::Gpu;
+use super::grid::{DeviceGrid, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
+use super::lifecycle::DeviceFlow;
+use super::particles::{DeviceParticles, BYTES_PER_PARTICLE};
+use super::stats::ParticleStats;
+use crate::sim::flow::FlowState;
+use crate::sim::{Pipeline, ScatterMode, Scene};
+use anyhow::Result;
+
+pub struct DeviceState {
+    pub particles: DeviceParticles,
+    pub grid: DeviceGrid,
+    /// Particle indices by cell (report) or node block (binned): the order the scatters walk.
+    pub bins: Bins,
+    pub counters: StepCounters,
+    pub colliders: DeviceColliders,
+    /// Emitters, sinks and the free slots, where the scene has them (binned pipeline only).
+    pub flow: Option<DeviceFlow>,
+    pub stats: ParticleStats,
+}
+
+impl DeviceState {
+    /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
+    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks.
+    pub fn allocate(gpu: &Gpu, scene: &Scene, flow: Option<&FlowState>) -> Result<DeviceState> {
+        let n = scene.slots();
+        let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
+        let needed = n * BYTES_PER_PARTICLE
+            + nodes * (BYTES_PER_NODE + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 });
+        gpu.ensure_fits(
+            needed,
+            &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
+            "use a coarser domain.resolution, fewer particles, or --backend cpu",
+        )?;
+
+        let (l, stream) = (&gpu.launcher, gpu.stream());
+        let binned = scene.pipeline == Pipeline::Binned;
+        let bins = Bins::new(
+            l,
+            scene.grid_res,
+            n,
+            if binned { NODE_BLOCK_EDGE } else { 1 },
+            binned,
+        )?;
+        let num_node_blocks = if binned { bins.num_bins() } else { 0 };
+        let mut grid = DeviceGrid::allocate(stream, scene.grid_res, num_node_blocks)?;
+        if fixed_scatter {
+            grid.ensure_fixed(stream)?;
+        }
+        let flow = if scene.flow.is_active() {
+            let start;
+            let state = match flow {
+                Some(state) => state,
+                None => {
+                    start = FlowState::start(&scene.flow, scene.num_particles);
+                    &start
+                }
+            };
+            let spacing = scene.lattice().spacing as f32;
+            Some(DeviceFlow::new(l, &scene.flow, state, spacing)?)
+        } else {
+            None
+        };
+        Ok(DeviceState {
+            particles: DeviceParticles::allocate(stream, n)?,
+            grid,
+            bins,
+            counters: StepCounters::allocate(&gpu.ctx, stream)?,
+            colliders: DeviceColliders::allocate(stream)?,
+            flow,
+            stats: ParticleStats::allocate(stream)?,
+        })
+    }
+}
+
+// TEMP(merge): the contract helper moves these next to the structs.
+// SAFETY: `Params` is `#[repr(C)]` and Pod; kernels/common.cuh mirrors it with static_asserts.
+unsafe impl cudarc::driver::DeviceRepr for crate::sim::Params {}
+// SAFETY: `Push` is `#[repr(C)]` and Pod; kernels/render.cu mirrors it with a static_assert.
+unsafe impl cudarc::driver::DeviceRepr for crate::sim::Push {}
+// SAFETY: `ColliderState` is `#[repr(C)]` and Pod; kernels/colliders.cuh mirrors it with a static_assert.
+unsafe impl cudarc::driver::DeviceRepr for crate::sim::colliders::ColliderState {}
+// SAFETY: every field is a u32 or f32, for which all-zero bits are valid.
+unsafe impl cudarc::driver::ValidAsZeroBits for crate::sim::colliders::ColliderState {}
