@@ -43,6 +43,7 @@ pub mod spawn;
 pub mod stats;
 
 // On top: the substep.
+mod readback;
 pub mod solver;
 
 pub use bins::SORT_INTERVAL;

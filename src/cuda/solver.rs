@@ -30,17 +30,16 @@ use crate::sim::{
 };
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DevicePtrMut};
-use glam::Vec3;
 use std::sync::Arc;
 
 pub struct CudaSolver {
-    gpu: Gpu,
-    state: DeviceState,
+    pub(super) gpu: Gpu,
+    pub(super) state: DeviceState,
     options: CudaOptions,
     pipeline: Pipeline,
     /// The parameters the kernels get, as the scene wrote them (`Scene::params`) with the current dt;
     /// checked when they change (`accept`).
-    params: Params,
+    pub(super) params: Params,
     schedule: BinSchedule,
     /// Binned pipeline: the grid already holds the mass of the particles' current positions (g2p2g
     /// scattered it), with this scatter mode.
@@ -102,14 +101,6 @@ impl CudaSolver {
 
     /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer.
     fn allocate(scene: &Scene, flow: Option<&FlowState>, options: CudaOptions) -> Result<CudaSolver> {
-        scene.check_pipeline()?;
-        ensure!(
-            !scene.flow.is_active() || scene.pipeline == Pipeline::Binned,
-            "scene {}: emitters and sinks run in the binned GPU pipeline; drop solver.pipeline = \
-             \"report\" (or --pipeline report), or use a CPU backend",
-            scene.source
-        );
-        ensure!(scene.slots() > 0, "scene {}: no particles", scene.source);
         let gpu = Gpu::open(&options)?;
         let state = DeviceState::allocate(&gpu, scene, flow)?;
         let mut solver = CudaSolver {
@@ -132,7 +123,7 @@ impl CudaSolver {
     }
 
     /// Takes `params` for the coming work, checking them once where they changed.
-    fn accept(&mut self, params: &Params) -> Result<()> {
+    pub(super) fn accept(&mut self, params: &Params) -> Result<()> {
         if bytemuck::bytes_of(params) != bytemuck::bytes_of(&self.params) {
             self.check_params(params)?;
             self.params = *params;
@@ -141,40 +132,9 @@ impl CudaSolver {
     }
 
     fn check_params(&mut self, params: &Params) -> Result<()> {
-        let p = &self.state.particles;
-        ensure!(
-            params.num_particles as usize == p.count && params.grid_res == self.state.grid.res,
-            "Params are for {} particles on a {:?} grid, but this CUDA solver holds {} on {:?}",
-            params.num_particles,
-            params.grid_res,
-            p.count,
-            self.state.grid.res
-        );
-        ensure!(
-            params.scatter_mode <= ScatterMode::FixedPoint.code(),
-            "unknown scatter mode {}",
-            params.scatter_mode
-        );
-        if let Some(mode) = self.mass_scattered {
-            ensure!(
-                mode == params.scatter_mode,
-                "the scatter mode cannot change in the middle of a binned-pipeline run (the grid \
-                 already holds the next substep's mass in the other mode)"
-            );
-        }
-        // The binned pipeline's tiles accumulate fixed point in either scatter mode (tiles.cuh).
-        let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
-        if fixed || self.pipeline == Pipeline::Binned {
-            ensure!(
-                params.fixed_mass_scale > 0.0 && params.fixed_momentum_scale > 0.0,
-                "Params without fixed-point scales: take them from Scene::params()"
-            );
-        }
-        if fixed {
-            // Allocated before any graph capture, which must not allocate.
-            self.state.grid.ensure_fixed(self.gpu.stream())?;
-        }
-        Ok(())
+        let stream = self.gpu.stream();
+        self.state
+            .check_params(stream, params, self.pipeline, self.mass_scattered)
     }
 
     /// How the kernels were loaded: embedded PTX, or compiled at run time (and why).
@@ -382,29 +342,6 @@ impl CudaSolver {
         let graph = SubstepGraph::capture(&stream, &placeholders, || self.enqueue_substep(sort));
         self.timing.end_capture();
         graph
-    }
-
-    /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum
-    /// per node (converted from fixed point where that scatter ran). Waits for the device.
-    pub fn read_grid_accumulators(&mut self, params: &Params) -> Result<(Vec<f32>, Vec<Vec3>)> {
-        self.accept(params)?;
-        self.state.grid.read_accumulators(&self.gpu, &self.params)
-    }
-
-    /// Node mass and velocity as the grid update left them. Waits for the device.
-    pub fn read_grid_velocity(&mut self) -> Result<(Vec<f32>, Vec<Vec3>)> {
-        self.state.grid.read_velocity(&self.gpu)
-    }
-
-    /// The particle order of the last binning (identity before the first). Waits for the device.
-    pub fn read_order(&mut self) -> Result<Vec<u32>> {
-        self.gpu.download(&self.state.bins.order)
-    }
-
-    /// The binned pipeline's bin list: (bin, start, count) per chunk of a bin that holds particles,
-    /// in the order the last binning listed them. Waits for the device.
-    pub fn read_bin_list(&mut self) -> Result<Vec<[u32; 3]>> {
-        self.state.bins.read_list(&self.gpu, &self.state.grid.work_counts)
     }
 
     /// Writes one float4 per particle (position, `colour_by` value) to device memory at `out`, which

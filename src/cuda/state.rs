@@ -11,8 +11,10 @@ use super::lifecycle::DeviceFlow;
 use super::particles::{DeviceParticles, BYTES_PER_PARTICLE};
 use super::stats::ParticleStats;
 use crate::sim::flow::FlowState;
-use crate::sim::{Pipeline, ScatterMode, Scene};
-use anyhow::Result;
+use crate::sim::{Params, Pipeline, ScatterMode, Scene};
+use anyhow::{ensure, Result};
+use cudarc::driver::CudaStream;
+use std::sync::Arc;
 
 pub struct DeviceState {
     pub particles: DeviceParticles,
@@ -30,6 +32,14 @@ impl DeviceState {
     /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
     /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks.
     pub fn allocate(gpu: &Gpu, scene: &Scene, flow: Option<&FlowState>) -> Result<DeviceState> {
+        scene.check_pipeline()?;
+        ensure!(
+            !scene.flow.is_active() || scene.pipeline == Pipeline::Binned,
+            "scene {}: emitters and sinks run in the binned GPU pipeline; drop solver.pipeline = \
+             \"report\" (or --pipeline report), or use a CPU backend",
+            scene.source
+        );
+        ensure!(scene.slots() > 0, "scene {}: no particles", scene.source);
         let n = scene.slots();
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
@@ -78,6 +88,47 @@ impl DeviceState {
             flow,
             stats: ParticleStats::allocate(stream)?,
         })
+    }
+
+    /// Whether these buffers can run substeps with `params` in `pipeline` (`mass_scattered`: the
+    /// scatter mode of the mass already on the grid, if any); allocates the fixed-point grid on first
+    /// use, before any graph capture (which must not allocate).
+    pub fn check_params(
+        &mut self,
+        stream: &Arc<CudaStream>,
+        params: &Params,
+        pipeline: Pipeline,
+        mass_scattered: Option<u32>,
+    ) -> Result<()> {
+        let count = self.particles.count;
+        ensure!(
+            params.num_particles as usize == count && params.grid_res == self.grid.res,
+            "Params are for {} particles on a {:?} grid, but this CUDA solver holds {count} on {:?}",
+            params.num_particles,
+            params.grid_res,
+            self.grid.res
+        );
+        ensure!(
+            params.scatter_mode <= ScatterMode::FixedPoint.code(),
+            "unknown scatter mode {}",
+            params.scatter_mode
+        );
+        ensure!(
+            mass_scattered.is_none_or(|mode| mode == params.scatter_mode),
+            "the scatter mode cannot change in the middle of a binned-pipeline run (the grid already \
+             holds the next substep's mass in the other mode)"
+        );
+        // The binned pipeline's tiles accumulate fixed point in either scatter mode (tiles.cuh).
+        let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
+        ensure!(
+            !(fixed || pipeline == Pipeline::Binned)
+                || (params.fixed_mass_scale > 0.0 && params.fixed_momentum_scale > 0.0),
+            "Params without fixed-point scales: take them from Scene::params()"
+        );
+        if fixed {
+            self.grid.ensure_fixed(stream)?;
+        }
+        Ok(())
     }
 }
 
