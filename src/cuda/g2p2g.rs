@@ -5,7 +5,7 @@
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -21,7 +21,7 @@ impl G2p2g {
     }
 
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
-        let (p, g, c) = (&d.particles, &d.grid, &d.colliders);
+        let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
         let config = d.bins.tiled_pass(l, MASS_CHANNELS);
         let null: u64 = 0;
@@ -41,13 +41,8 @@ impl G2p2g {
                     .arg(&p.rho)
                     .arg(&g.acc)
                     .arg(g.fixed_mass())
-                    .arg(&g.node_blocks.marks)
-                    .arg(&g.node_blocks.list)
-                    .arg(&g.work_counts)
-                    .arg(&d.counters.device)
-                    .arg(&c.states)
-                    .arg(&c.count)
-                    .arg(&c.sdf);
+                    .node_block_list(d)
+                    .colliders(&d.colliders);
                 match &d.flow {
                     Some(flow) => a
                         .arg(&flow.sinks)
@@ -81,10 +76,7 @@ impl P2gMass {
                     .arg(&d.particles.x)
                     .arg(&g.acc)
                     .arg(g.fixed_mass())
-                    .arg(&g.node_blocks.marks)
-                    .arg(&g.node_blocks.list)
-                    .arg(&g.work_counts)
-                    .arg(&d.counters.device);
+                    .node_block_list(d);
             })
         }
     }

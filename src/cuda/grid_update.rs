@@ -5,7 +5,7 @@
 use super::bins::NODE_BLOCK_NODES;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::{Params, Pipeline};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -41,7 +41,6 @@ impl GridUpdate {
             },
             Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
-                let c = &d.colliders;
                 // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
                 unsafe {
                     self.listed_blocks.launch(l, config, |a| {
@@ -54,9 +53,7 @@ impl GridUpdate {
                             .arg(g.fixed_mass())
                             .arg(g.fixed_momentum())
                             .arg(&d.counters.device)
-                            .arg(&c.states)
-                            .arg(&c.count)
-                            .arg(&c.sdf);
+                            .colliders(&d.colliders);
                     })
                 }
             }

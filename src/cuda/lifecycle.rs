@@ -5,7 +5,7 @@
 use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
 use crate::sim::Params;
 use anyhow::{ensure, Context, Result};
@@ -83,10 +83,7 @@ impl LifecycleKernels {
                     .arg(&scatter_mass)
                     .arg(&g.acc)
                     .arg(g.fixed_mass())
-                    .arg(&g.node_blocks.marks)
-                    .arg(&g.node_blocks.list)
-                    .arg(&g.work_counts)
-                    .arg(&d.counters.device);
+                    .node_block_list(d);
             })
         }
     }

@@ -4,7 +4,7 @@
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
@@ -50,11 +50,7 @@ impl MirrorWalls {
         // pointers, which the kernel checks, for the report's pipeline).
         unsafe {
             self.0.launch(l, l.cover(threads), |a| {
-                a.arg(params)
-                    .arg(&quantity_code)
-                    .arg(&g.acc)
-                    .arg(g.fixed_mass())
-                    .arg(g.fixed_momentum());
+                a.arg(params).arg(&quantity_code).accumulators(g);
                 if pipeline == Pipeline::Binned {
                     a.arg(&g.node_blocks.marks)
                         .arg(&g.node_blocks.list)

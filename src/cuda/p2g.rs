@@ -4,7 +4,7 @@
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -28,9 +28,7 @@ impl P2g {
                     .arg(&p.v)
                     .arg(&p.c)
                     .arg(&p.rho)
-                    .arg(&g.acc)
-                    .arg(g.fixed_mass())
-                    .arg(g.fixed_momentum())
+                    .accumulators(g)
                     .arg(&d.counters.device);
             })
         }

@@ -3,7 +3,7 @@
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -31,13 +31,8 @@ impl P2gTiled {
                     .arg(&p.v)
                     .arg(&p.c)
                     .arg(&p.rho)
-                    .arg(&g.acc)
-                    .arg(g.fixed_mass())
-                    .arg(g.fixed_momentum())
-                    .arg(&g.node_blocks.marks)
-                    .arg(&g.node_blocks.list)
-                    .arg(&g.work_counts)
-                    .arg(&d.counters.device);
+                    .accumulators(g)
+                    .node_block_list(d);
             })
         }
     }

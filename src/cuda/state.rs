@@ -13,7 +13,7 @@ use super::stats::ParticleStats;
 use crate::sim::flow::FlowState;
 use crate::sim::{Params, Pipeline, ScatterMode, Scene};
 use anyhow::{ensure, Result};
-use cudarc::driver::CudaStream;
+use cudarc::driver::{CudaStream, LaunchArgs, PushKernelArg};
 use std::sync::Arc;
 
 pub struct DeviceState {
@@ -129,6 +129,40 @@ impl DeviceState {
             self.grid.ensure_fixed(stream)?;
         }
         Ok(())
+    }
+}
+
+/// Argument groups several kernels take together, in the order their signatures list them, so a
+/// kernel's host file names a group once instead of spelling out its buffers.
+pub trait StateArgs<'a> {
+    /// `grid_acc, fixed_mass, fixed_momentum`: the scatter accumulators, float and fixed point.
+    fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self;
+    /// `block_marks, block_list, work_counts, counters`: the node-block list a scatter appends to
+    /// (`BlockMarks` in kernels/tiles.cuh), then the step counters.
+    fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self;
+    /// `collider_states, num_colliders, collider_sdf` (`Colliders` in kernels/colliders.cuh).
+    fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self;
+}
+
+impl<'a> StateArgs<'a> for LaunchArgs<'a> {
+    fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self {
+        self.arg(&grid.acc)
+            .arg(grid.fixed_mass())
+            .arg(grid.fixed_momentum())
+    }
+
+    fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self {
+        let blocks = &state.grid.node_blocks;
+        self.arg(&blocks.marks)
+            .arg(&blocks.list)
+            .arg(&state.grid.work_counts)
+            .arg(&state.counters.device)
+    }
+
+    fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self {
+        self.arg(&colliders.states)
+            .arg(&colliders.count)
+            .arg(&colliders.sdf)
     }
 }
 
