@@ -185,10 +185,8 @@ fn gpu_emission_and_draining_follow_the_cpu() {
         (0..p.len()).all(|i| !p.live[i] || !sinks.iter().any(|s| s.contains(p.x[i]))),
         "a live particle sits in the drain"
     );
-    let mut attributes = Vec::new();
-    gpu.solver_mut()
-        .render_attributes(mpm::sim::ColourBy::Speed, 1000.0, &mut attributes)
-        .unwrap();
+    let attributes =
+        mpm::render::feed::read_attributes(gpu.solver(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
     assert_eq!(attributes.iter().filter(|a| !a[0].is_nan()).count(), p.num_live());
 }
 

@@ -10,9 +10,10 @@ use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
 use mpm::render::offline::{render, RenderOptions};
+use mpm::render::ColourBy;
 use mpm::render::{Colouring, DrawMode, Renderer, Transfer};
 use mpm::sim::cpu::CpuSolver;
-use mpm::sim::{ColourBy, Push, Scene, Simulation, Solver};
+use mpm::sim::{ParticleView, Push, Scene, Simulation, Solver};
 
 mod harness;
 
@@ -43,11 +44,9 @@ fn interop_round_trip_through_gl() {
         sim.step_frame().expect("step");
     }
     let expected = sim.solver_mut().read_particles().expect("read back");
-    let cuda = sim
-        .solver_mut()
-        .as_any_mut()
-        .downcast_mut::<CudaSolver>()
-        .expect("a CUDA solver");
+    let ParticleView::Device(cuda) = sim.solver().particles() else {
+        panic!("a CUDA solver keeps its particles on the device");
+    };
 
     let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
     renderer.ensure_capacity(n);
@@ -68,7 +67,7 @@ fn interop_round_trip_through_gl() {
         } else {
             ColourBy::Density
         };
-        unsafe { cuda.write_render_attributes_raw(mapped.ptr, colour_by, rest_density) }.expect("kernel");
+        unsafe { cuda.write_render_attributes(colour_by, rest_density, mapped.ptr) }.expect("kernel");
         registration.unmap(&stream).expect("unmap");
         let seen = renderer.read_particle_buffer(n);
         drop(registration);

@@ -5,7 +5,7 @@
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::particles::DeviceParticles;
-use crate::sim::ColourBy;
+use crate::render::ColourBy;
 use anyhow::Result;
 use cudarc::driver::{sys::CUdeviceptr, PushKernelArg};
 

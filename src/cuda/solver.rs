@@ -19,17 +19,18 @@ use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
 use super::modules::Origin;
+use super::particles::DeviceParticlesView;
 use super::spawn::spawn_on_device;
 use super::state::DeviceState;
 use super::timing::PhaseEvents;
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::{
-    ColourBy, ExtremesTicket, Material, Params, Particles, PhaseTimings, Pipeline, Push, ScatterMode, Scene,
-    Solver, StepExtremes, Summary, SummaryTicket,
+    ExtremesTicket, Material, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode,
+    Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
-use anyhow::{ensure, Context, Result};
-use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DevicePtrMut};
+use anyhow::{ensure, Result};
+use cudarc::driver::{CudaContext, CudaStream};
 use std::sync::Arc;
 
 pub struct CudaSolver {
@@ -51,8 +52,6 @@ pub struct CudaSolver {
     graphs: SubstepGraphs,
     /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
     substeps: u64,
-    /// Device scratch of the host-copy render path (allocated on first use, kept).
-    render_scratch: Option<CudaSlice<f32>>,
 }
 
 impl CudaSolver {
@@ -115,7 +114,6 @@ impl CudaSolver {
             tile_misses: 0,
             graphs: SubstepGraphs::default(),
             substeps: 0,
-            render_scratch: None,
         };
         let params = solver.params;
         solver.check_params(&params)?;
@@ -343,26 +341,6 @@ impl CudaSolver {
         self.timing.end_capture();
         graph
     }
-
-    /// Writes one float4 per particle (position, `colour_by` value) to device memory at `out`, which
-    /// must hold `16 * num_particles()` bytes: a mapped GL buffer (`interop::MappedBuffer`), so the
-    /// renderer draws the state without a host round trip. Asynchronous on `stream()`.
-    ///
-    /// # Safety
-    /// `out` must be a live device allocation of at least `16 * num_particles()` bytes in this context.
-    pub unsafe fn write_render_attributes_raw(
-        &mut self,
-        out: cudarc::driver::sys::CUdeviceptr,
-        colour_by: ColourBy,
-        rest_density: f32,
-    ) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        // SAFETY: the caller vouches for `out`.
-        unsafe {
-            k.render_attributes
-                .launch(l, &self.state.particles, colour_by, rest_density, out)
-        }
-    }
 }
 
 impl Solver for CudaSolver {
@@ -471,37 +449,11 @@ impl Solver for CudaSolver {
         k.push.launch(l, push, &self.state.particles)
     }
 
-    /// Launches the attribute kernel into a scratch buffer and copies that to the host.
-    fn render_attributes(
-        &mut self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        out: &mut Vec<[f32; 4]>,
-    ) -> Result<()> {
-        let n = self.num_particles();
-        let mut scratch = match self.render_scratch.take() {
-            Some(scratch) => scratch,
-            None => self
-                .gpu
-                .stream()
-                .alloc_zeros::<f32>(4 * n)
-                .context("allocating render attributes")?,
-        };
-        let stream = self.gpu.stream().clone();
-        let (ptr, guard) = scratch.device_ptr_mut(&stream);
-        // SAFETY: `scratch` is a live allocation of this context holding 4 floats per particle.
-        let written = unsafe { self.write_render_attributes_raw(ptr, colour_by, rest_density) };
-        drop(guard);
-        let flat = written.and_then(|()| self.gpu.download(&scratch));
-        self.render_scratch = Some(scratch);
-        let flat = flat?;
-        out.clear();
-        out.extend(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
-        Ok(())
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
-        self
+    fn particles(&self) -> ParticleView<'_> {
+        ParticleView::Device(DeviceParticlesView {
+            gpu: &self.gpu,
+            particles: &self.state.particles,
+        })
     }
 
     fn read_particles(&mut self) -> Result<Particles> {

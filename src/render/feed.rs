@@ -4,11 +4,14 @@
 //! - host copy (CPU backend, or CUDA when asked for the comparison or when interop is refused):
 //!   the attributes are copied to the host and uploaded with glBufferSubData.
 
-use super::renderer::{Colouring, Renderer};
+use super::renderer::{ColourBy, Colouring, Renderer};
 use crate::cuda::interop::GlBufferResource;
-use crate::cuda::CudaSolver;
-use crate::sim::Simulation;
+use crate::cuda::particles::DeviceParticlesView;
+use crate::sim::flow::PARKED_RENDER_ATTRIBUTES;
+use crate::sim::{ParticleView, Particles, Simulation, Solver};
 use anyhow::{ensure, Result};
+use cudarc::driver::CudaSlice;
+use rayon::prelude::*;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Transfer {
@@ -33,6 +36,8 @@ pub struct ParticleFeed {
     /// Set once interop failed here (e.g. GL runs on another GPU than CUDA): host copies from then on.
     interop_refused: Option<String>,
     host: Vec<[f32; 4]>,
+    /// The host-copy path's device buffer, on the CUDA solver's GPU (dropped with the registration).
+    device_scratch: Option<CudaSlice<f32>>,
 }
 
 impl ParticleFeed {
@@ -42,6 +47,7 @@ impl ParticleFeed {
             registration: None,
             interop_refused: None,
             host: Vec::new(),
+            device_scratch: None,
         }
     }
 
@@ -63,6 +69,7 @@ impl ParticleFeed {
     /// replaced). The next update registers again.
     pub fn release(&mut self) {
         self.registration = None;
+        self.device_scratch = None;
     }
 
     /// Writes the simulation's current particles into the renderer's buffer; returns how many are live
@@ -82,30 +89,41 @@ impl ParticleFeed {
             renderer.ensure_capacity(n);
         }
         let want_interop = self.transfer == Transfer::Interop && self.interop_refused.is_none();
-        if want_interop {
-            if let Some(cuda) = sim.solver_mut().as_any_mut().downcast_mut::<CudaSolver>() {
-                match self.write_through_interop(cuda, renderer, quantity, rest_density) {
-                    Ok(()) => return live_count(sim, n),
-                    Err(why) => {
-                        let why = format!("{why:#}");
-                        eprintln!("note: CUDA-OpenGL interop unavailable ({why}); copying through the host");
-                        self.interop_refused = Some(why);
-                        self.release();
+        match sim.solver().particles() {
+            ParticleView::Device(view) => {
+                if want_interop {
+                    match self.write_through_interop(&view, renderer, quantity, rest_density) {
+                        Ok(()) => return live_count(sim, n),
+                        Err(why) => {
+                            let why = format!("{why:#}");
+                            eprintln!(
+                                "note: CUDA-OpenGL interop unavailable ({why}); copying through the host"
+                            );
+                            self.interop_refused = Some(why);
+                            self.release();
+                        }
                     }
                 }
+                view.copy_render_attributes(
+                    quantity,
+                    rest_density,
+                    &mut self.device_scratch,
+                    &mut self.host,
+                )?;
+            }
+            ParticleView::Host(particles) => {
+                host_attributes(particles, quantity, rest_density, &mut self.host)
             }
         }
-        sim.solver_mut()
-            .render_attributes(quantity, rest_density, &mut self.host)?;
         renderer.upload(&self.host);
         live_count(sim, n)
     }
 
     fn write_through_interop(
         &mut self,
-        cuda: &mut CudaSolver,
+        cuda: &DeviceParticlesView,
         renderer: &Renderer,
-        quantity: crate::sim::ColourBy,
+        quantity: ColourBy,
         rest_density: f32,
     ) -> Result<()> {
         let registration = match &mut self.registration {
@@ -120,10 +138,10 @@ impl ParticleFeed {
         };
         let stream = cuda.stream().clone();
         let mapped = registration.map(&stream)?;
-        let needed = 16 * cuda.num_particles();
+        let needed = 16 * cuda.count();
         let written = if mapped.bytes >= needed {
             // SAFETY: the mapped buffer is a device allocation of `mapped.bytes` >= needed bytes.
-            unsafe { cuda.write_render_attributes_raw(mapped.ptr, quantity, rest_density) }
+            unsafe { cuda.write_render_attributes(quantity, rest_density, mapped.ptr) }
         } else {
             Err(anyhow::anyhow!(
                 "the mapped GL buffer holds {} bytes, {needed} needed",
@@ -134,9 +152,42 @@ impl ParticleFeed {
         written?;
         unmapped?;
         ensure!(
-            renderer.capacity() == cuda.num_particles(),
+            renderer.capacity() == cuda.count(),
             "renderer and solver disagree on the particle count"
         );
         Ok(())
     }
+}
+
+/// The renderer's `[x, y, z, value]` of slot `i`: `value` as `colour_by` says, or
+/// `PARKED_RENDER_ATTRIBUTES` (clipped by the shader) for a parked slot.
+#[inline]
+pub fn host_attribute(p: &Particles, i: usize, colour_by: ColourBy, rest_density: f32) -> [f32; 4] {
+    if !p.live[i] {
+        return PARKED_RENDER_ATTRIBUTES;
+    }
+    let value = colour_by.value(p.v[i], p.rho[i], rest_density);
+    [p.x[i].x, p.x[i].y, p.x[i].z, value]
+}
+
+/// Every slot's attributes, computed on the host (on every core).
+fn host_attributes(p: &Particles, colour_by: ColourBy, rest_density: f32, out: &mut Vec<[f32; 4]>) {
+    (0..p.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| host_attribute(p, i, colour_by, rest_density))
+        .collect_into_vec(out);
+}
+
+/// The vertex attributes the renderer would draw for `solver`'s particles, copied to the host
+/// (kernels/render.cu on a CUDA solver): what the host-copy path uploads.
+pub fn read_attributes(solver: &dyn Solver, colour_by: ColourBy, rest_density: f32) -> Result<Vec<[f32; 4]>> {
+    let mut out = Vec::new();
+    match solver.particles() {
+        ParticleView::Device(view) => {
+            view.copy_render_attributes(colour_by, rest_density, &mut None, &mut out)?
+        }
+        ParticleView::Host(particles) => host_attributes(particles, colour_by, rest_density, &mut out),
+    }
+    Ok(out)
 }

@@ -31,6 +31,6 @@ pub mod timer;
 
 pub use camera::OrbitCamera;
 pub use feed::{ParticleFeed, Transfer};
-pub use renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+pub use renderer::{ColourBy, Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 pub use surface::SurfaceSettings;
 pub use timer::{Pass, PassTimes};

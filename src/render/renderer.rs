@@ -40,6 +40,35 @@ impl DrawMode {
     }
 }
 
+/// The quantity each particle vertex carries in w (`Colouring::quantity`): what kernels/render.cu
+/// writes on the GPU and [`host_attribute`](super::feed::host_attribute) on the host.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ColourBy {
+    /// |v|, m/s.
+    #[default]
+    Speed,
+    /// rho / rho0.
+    Density,
+}
+
+impl ColourBy {
+    /// The switch value of kernels/render.cu.
+    pub fn code(self) -> u32 {
+        match self {
+            ColourBy::Speed => 0,
+            ColourBy::Density => 1,
+        }
+    }
+
+    /// The value written for one particle.
+    pub fn value(self, v: Vec3, rho: f32, rest_density: f32) -> f32 {
+        match self {
+            ColourBy::Speed => v.length(),
+            ColourBy::Density => rho / rest_density,
+        }
+    }
+}
+
 /// How particles are coloured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Colouring {
@@ -54,10 +83,10 @@ pub enum Colouring {
 
 impl Colouring {
     /// The quantity the render kernel writes (solid colouring ignores it).
-    pub fn quantity(self) -> crate::sim::ColourBy {
+    pub fn quantity(self) -> ColourBy {
         match self {
-            Colouring::Density => crate::sim::ColourBy::Density,
-            Colouring::Solid | Colouring::Speed => crate::sim::ColourBy::Speed,
+            Colouring::Density => ColourBy::Density,
+            Colouring::Solid | Colouring::Speed => ColourBy::Speed,
         }
     }
 

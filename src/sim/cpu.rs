@@ -5,9 +5,9 @@
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::Params;
-use super::push::{ColourBy, Push};
+use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, render_attribute, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, ParticleView, PhaseTimings, Solver, StepExtremes};
 use glam::{IVec3, Mat3, UVec3, Vec3};
 use std::time::Instant;
 
@@ -443,6 +443,10 @@ impl Solver for CpuSolver {
         Ok(Some(std::mem::take(&mut self.timings)))
     }
 
+    fn particles(&self) -> ParticleView<'_> {
+        ParticleView::Host(&self.particles)
+    }
+
     fn read_particles(&mut self) -> anyhow::Result<Particles> {
         Ok(self.particles.clone())
     }
@@ -452,19 +456,6 @@ impl Solver for CpuSolver {
         for (x, v) in p.x.iter().zip(p.v.iter_mut()) {
             *v += push.velocity_change(*x);
         }
-        Ok(())
-    }
-
-    /// Reads the particles in place (the trait's default would clone them first).
-    fn render_attributes(
-        &mut self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        out: &mut Vec<[f32; 4]>,
-    ) -> anyhow::Result<()> {
-        let p = &self.particles;
-        out.clear();
-        out.extend((0..p.len()).map(|i| render_attribute(p, i, colour_by, rest_density)));
         Ok(())
     }
 
@@ -490,9 +481,5 @@ impl Solver for CpuSolver {
 
     fn flow_state(&mut self) -> anyhow::Result<Option<FlowState>> {
         Ok(self.lifecycle.as_ref().map(|l| l.state.clone()))
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
-        self
     }
 }

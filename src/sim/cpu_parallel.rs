@@ -33,9 +33,9 @@ use super::cpu::{
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
-use super::push::{ColourBy, Push};
+use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, render_attribute, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, ParticleView, PhaseTimings, Solver, StepExtremes};
 use glam::{IVec3, UVec3, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -512,6 +512,10 @@ impl Solver for ParallelCpuSolver {
         Ok(Some(std::mem::take(&mut self.timings)))
     }
 
+    fn particles(&self) -> ParticleView<'_> {
+        ParticleView::Host(&self.inner.particles)
+    }
+
     fn read_particles(&mut self) -> anyhow::Result<Particles> {
         Ok(self.inner.particles.clone())
     }
@@ -529,21 +533,6 @@ impl Solver for ParallelCpuSolver {
         Ok(())
     }
 
-    fn render_attributes(
-        &mut self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        out: &mut Vec<[f32; 4]>,
-    ) -> anyhow::Result<()> {
-        let p = &self.inner.particles;
-        (0..p.len())
-            .into_par_iter()
-            .with_min_len(MIN_PER_TASK)
-            .map(|i| render_attribute(p, i, colour_by, rest_density))
-            .collect_into_vec(out);
-        Ok(())
-    }
-
     fn emit(&mut self, params: &Params, mask: u32) -> anyhow::Result<()> {
         self.inner.emit(params, mask)
     }
@@ -554,9 +543,5 @@ impl Solver for ParallelCpuSolver {
 
     fn flow_state(&mut self) -> anyhow::Result<Option<FlowState>> {
         self.inner.flow_state()
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
-        self
     }
 }

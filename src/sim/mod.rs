@@ -14,9 +14,9 @@ pub mod solver;
 
 pub use colliders::{ColliderFrame, Colliders};
 pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
-pub use push::{ColourBy, Push};
+pub use push::Push;
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
-    ExtremesTicket, FrameStats, FrameSteps, PhaseTimings, RunClock, Simulation, Solver, StepExtremes,
-    Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
+    ExtremesTicket, FrameStats, FrameSteps, ParticleView, PhaseTimings, RunClock, Simulation, Solver,
+    StepExtremes, Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
 };

@@ -1,6 +1,6 @@
 //! The viewer's mouse push: a velocity change given to the particles near a ray (the line under the
 //! cursor). Both backends apply the same formula: [`Push::velocity_change`] here, and `push_particles`
-//! in kernels/render.cu, field for field.
+//! in kernels/push.cu, field for field.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -54,34 +54,6 @@ impl Push {
     /// The largest speed the push can add, m/s (it raises the next step's signal speed).
     pub fn max_speed_gain(&self) -> f32 {
         Vec3::from(self.delta_v).length()
-    }
-}
-
-/// What the renderer colours particles by; the value a render kernel writes into each vertex's w.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum ColourBy {
-    /// |v|, m/s.
-    #[default]
-    Speed,
-    /// rho / rho0.
-    Density,
-}
-
-impl ColourBy {
-    /// The switch value of kernels/render.cu.
-    pub fn code(self) -> u32 {
-        match self {
-            ColourBy::Speed => 0,
-            ColourBy::Density => 1,
-        }
-    }
-
-    /// The value written for one particle.
-    pub fn value(self, v: Vec3, rho: f32, rest_density: f32) -> f32 {
-        match self {
-            ColourBy::Speed => v.length(),
-            ColourBy::Density => rho / rest_density,
-        }
     }
 }
 

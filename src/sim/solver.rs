@@ -6,7 +6,7 @@
 use super::colliders::ColliderFrame;
 use super::flow::{self, FlowCounts, FlowState};
 use super::params::{Material, Params, FRAME_DT};
-use super::push::{ColourBy, Push};
+use super::push::Push;
 use super::scene::{Particles, Scene, MAX_CFL};
 use anyhow::{bail, ensure, Result};
 use glam::{DVec3, Vec3};
@@ -174,19 +174,8 @@ pub trait Solver {
         );
         Ok(())
     }
-    /// One `[x, y, z, value]` per particle, `value` as `colour_by` says: what the renderer draws,
-    /// for backends without GL interop (and the CUDA host-copy comparison).
-    fn render_attributes(
-        &mut self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        out: &mut Vec<[f32; 4]>,
-    ) -> Result<()> {
-        let p = self.read_particles()?;
-        out.clear();
-        out.extend((0..p.len()).map(|i| render_attribute(&p, i, colour_by, rest_density)));
-        Ok(())
-    }
+    /// Where the particles are, for a reader (the renderer) that can use them in place.
+    fn particles(&self) -> ParticleView<'_>;
     /// Emits a layer from each emitter whose bit is set in `mask` (`sim::flow`), before the next
     /// substep. Only a solver made with the scene's emitters can.
     fn emit(&mut self, _params: &Params, mask: u32) -> Result<()> {
@@ -201,8 +190,6 @@ pub trait Solver {
     fn flow_state(&mut self) -> Result<Option<FlowState>> {
         Ok(None)
     }
-    /// For reaching backend-specific features (the CUDA solver's GL interop) through `dyn Solver`.
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
     /// Statistics of the current state. Backends that can reduce in place override this copy.
     fn summary(&mut self, material: &Material) -> Result<Summary> {
         let particles = self.read_particles()?;
@@ -226,15 +213,12 @@ pub trait Solver {
     }
 }
 
-/// The renderer's `[x, y, z, value]` of slot `i`: `value` as `colour_by` says, or
-/// [`flow::PARKED_RENDER_ATTRIBUTES`] for a parked slot.
-#[inline]
-pub fn render_attribute(p: &Particles, i: usize, colour_by: ColourBy, rest_density: f32) -> [f32; 4] {
-    if !p.live[i] {
-        return flow::PARKED_RENDER_ATTRIBUTES;
-    }
-    let value = colour_by.value(p.v[i], p.rho[i], rest_density);
-    [p.x[i].x, p.x[i].y, p.x[i].z, value]
+/// Where a solver keeps its particles.
+pub enum ParticleView<'a> {
+    /// In a CUDA solver's device memory: the renderer draws them through CUDA-OpenGL interop.
+    Device(crate::cuda::particles::DeviceParticlesView<'a>),
+    /// In host memory (the CPU backends), every slot.
+    Host(&'a Particles),
 }
 
 /// Particle statistics of one state.
@@ -549,6 +533,10 @@ impl Simulation {
             .max(self.params.material.sound_speed() + velocity.length() as f32);
         Ok(())
     }
+    pub fn solver(&self) -> &dyn Solver {
+        self.solver.as_ref()
+    }
+
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
         self.solver.as_mut()
     }
