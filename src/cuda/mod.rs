@@ -43,7 +43,7 @@ pub mod spawn;
 pub mod stats;
 
 // On top: the substep.
-mod readback;
+mod inspect;
 pub mod solver;
 
 pub use bins::SORT_INTERVAL;

@@ -100,6 +100,7 @@ impl CudaSolver {
 
     /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer.
     fn allocate(scene: &Scene, flow: Option<&FlowState>, options: CudaOptions) -> Result<CudaSolver> {
+        DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
         let state = DeviceState::allocate(&gpu, scene, flow)?;
         let mut solver = CudaSolver {
@@ -176,53 +177,6 @@ impl CudaSolver {
         self.state.particles.count
     }
 
-    // The substep's phases, each also callable alone (the kernel tests compare each with the CPU).
-
-    /// Rebuilds the particle order by bin (kernels/bins.cu): by cell for the report's pipeline, by
-    /// node block (with the list of bins that hold particles) for the binned one.
-    pub fn sort_particles(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.sort()
-    }
-
-    /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
-    /// (which g2p2g does as its second half on every substep after the first).
-    pub fn p2g_init(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.scatter_mass()
-    }
-
-    /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
-    pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.mirror(MirrorQuantity::Mass)
-    }
-
-    /// Density from the grid mass, pressure and stress, momentum scatter.
-    pub fn p2g(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.scatter_momentum()
-    }
-
-    /// The walls' image momentum, wall-normal component reflected, between p2g and the grid update.
-    pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.mirror(MirrorQuantity::Momentum)
-    }
-
-    /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators.
-    pub fn grid_update(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.update_grid()
-    }
-
-    /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned
-    /// pipeline's g2p2g, which also scatters the mass of the new positions for the next substep.
-    pub fn g2p(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        self.gather()
-    }
-
     /// The substep's work, phase by phase, in stream order, each phase an NVTX range between two
     /// timing events.
     fn enqueue_substep(&mut self, sort: bool) -> Result<()> {
@@ -248,7 +202,7 @@ impl CudaSolver {
         Ok(())
     }
 
-    fn sort(&mut self) -> Result<()> {
+    pub(super) fn sort(&mut self) -> Result<()> {
         let _range = NvtxRange::new("sort");
         let (gpu, state) = (&self.gpu, &mut self.state);
         state.bins.rebuild(
@@ -262,7 +216,7 @@ impl CudaSolver {
         Ok(())
     }
 
-    fn scatter_mass(&mut self) -> Result<()> {
+    pub(super) fn scatter_mass(&mut self) -> Result<()> {
         let _range = NvtxRange::new("p2g_init");
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         match self.pipeline {
@@ -279,7 +233,7 @@ impl CudaSolver {
         }
     }
 
-    fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
+    pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         k.mirror_walls
             .launch(l, self.pipeline, quantity, &self.params, &self.state)
@@ -293,7 +247,7 @@ impl CudaSolver {
     /// tiled (the L2 adds floats natively, a tile must round every contribution); fixed point 0.17 ms
     /// tiled, 0.20 ms by integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48
     /// against 3.86 ms).
-    fn scatter_momentum(&self) -> Result<()> {
+    pub(super) fn scatter_momentum(&self) -> Result<()> {
         let _range = NvtxRange::new("p2g");
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         let tiled = self.pipeline == Pipeline::Binned
@@ -305,7 +259,7 @@ impl CudaSolver {
         }
     }
 
-    fn update_grid(&mut self) -> Result<()> {
+    pub(super) fn update_grid(&mut self) -> Result<()> {
         let _range = NvtxRange::new("grid_update");
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         k.grid_update
@@ -316,7 +270,7 @@ impl CudaSolver {
         Ok(())
     }
 
-    fn gather(&mut self) -> Result<()> {
+    pub(super) fn gather(&mut self) -> Result<()> {
         let _range = NvtxRange::new("g2p");
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         match self.pipeline {

@@ -29,9 +29,8 @@ pub struct DeviceState {
 }
 
 impl DeviceState {
-    /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
-    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks.
-    pub fn allocate(gpu: &Gpu, scene: &Scene, flow: Option<&FlowState>) -> Result<DeviceState> {
+    /// What the kernels cannot run, refused before a device is opened.
+    pub fn check_scene(scene: &Scene) -> Result<()> {
         scene.check_pipeline()?;
         ensure!(
             !scene.flow.is_active() || scene.pipeline == Pipeline::Binned,
@@ -40,6 +39,12 @@ impl DeviceState {
             scene.source
         );
         ensure!(scene.slots() > 0, "scene {}: no particles", scene.source);
+        Ok(())
+    }
+
+    /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
+    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks.
+    pub fn allocate(gpu: &Gpu, scene: &Scene, flow: Option<&FlowState>) -> Result<DeviceState> {
         let n = scene.slots();
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;

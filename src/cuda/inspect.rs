@@ -1,0 +1,79 @@
+//! The kernel tests' interface to a solver: the substep's kernels one at a time, with the CPU
+//! reference's names (p2g_init, mirror_mass, ...), and what they read back to compare with it (the
+//! grid after each phase, the particle order, the bin list; each readback waits for the device).
+
+use super::mirror_walls::MirrorQuantity;
+use super::solver::CudaSolver;
+use crate::sim::Params;
+use anyhow::Result;
+use glam::Vec3;
+
+impl CudaSolver {
+    /// Rebuilds the particle order by bin (kernels/bins.cu): by cell for the report's pipeline, by
+    /// node block (with the list of bins that hold particles) for the binned one.
+    pub fn sort_particles(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.sort()
+    }
+
+    /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
+    /// (which g2p2g does as its second half on every substep after the first).
+    pub fn p2g_init(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.scatter_mass()
+    }
+
+    /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
+    pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.mirror(MirrorQuantity::Mass)
+    }
+
+    /// Density from the grid mass, pressure and stress, momentum scatter.
+    pub fn p2g(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.scatter_momentum()
+    }
+
+    /// The walls' image momentum, wall-normal component reflected, between p2g and the grid update.
+    pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.mirror(MirrorQuantity::Momentum)
+    }
+
+    /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators.
+    pub fn grid_update(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.update_grid()
+    }
+
+    /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned
+    /// pipeline's g2p2g, which also scatters the mass of the new positions for the next substep.
+    pub fn g2p(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.gather()
+    }
+
+    /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum
+    /// per node (converted from fixed point where that scatter ran). Waits for the device.
+    pub fn read_grid_accumulators(&mut self, params: &Params) -> Result<(Vec<f32>, Vec<Vec3>)> {
+        self.accept(params)?;
+        self.state.grid.read_accumulators(&self.gpu, &self.params)
+    }
+
+    /// Node mass and velocity as the grid update left them. Waits for the device.
+    pub fn read_grid_velocity(&mut self) -> Result<(Vec<f32>, Vec<Vec3>)> {
+        self.state.grid.read_velocity(&self.gpu)
+    }
+
+    /// The particle order of the last binning (identity before the first). Waits for the device.
+    pub fn read_order(&mut self) -> Result<Vec<u32>> {
+        self.gpu.download(&self.state.bins.order)
+    }
+
+    /// The binned pipeline's bin list: (bin, start, count) per chunk of a bin that holds particles,
+    /// in the order the last binning listed them. Waits for the device.
+    pub fn read_bin_list(&mut self) -> Result<Vec<[u32; 3]>> {
+        self.state.bins.read_list(&self.gpu, &self.state.grid.work_counts)
+    }
+}
