@@ -157,8 +157,15 @@ impl Checkpoint {
     /// (from [`Self::scene`], solver options possibly overridden).
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
         let solver = backend::restore(backend, &scene, &self.particles, self.flow.as_ref())?;
-        let mut params = self.params;
-        params.scatter_mode = scene.scatter.code();
+        // The scatter's mode and scales are the scene's (whose solver options --scatter may override);
+        // checkpoints written before the scene authored the scales hold zeros there.
+        let authored = scene.params();
+        let params = Params {
+            scatter_mode: authored.scatter_mode,
+            fixed_mass_scale: authored.fixed_mass_scale,
+            fixed_momentum_scale: authored.fixed_momentum_scale,
+            ..self.params
+        };
         Ok(Simulation::resume(scene, solver, params, self.clock.clone()))
     }
 

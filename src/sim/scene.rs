@@ -405,9 +405,11 @@ impl Scene {
         Validator { source }.scene(spec)
     }
 
-    /// The parameters a step needs, with `dt` still to be set by the time-step policy.
+    /// The parameters a step needs, with `dt` still to be set by the time-step policy: their one
+    /// author. Every backend and tool takes them from here.
     pub fn params(&self) -> Params {
         let (mirror_lo, mirror_hi) = fluid_region_nodes(self.grid_res, self.boundary_band, self.soft_wall);
+        let (fixed_mass_scale, fixed_momentum_scale) = self.fixed_point_scales();
         Params {
             material: self.material,
             gravity: self.gravity.to_array(),
@@ -419,12 +421,33 @@ impl Scene {
             soft_wall_tau: if self.soft_wall { FRAME_DT } else { 0.0 },
             num_particles: self.slots() as u32,
             scatter_mode: self.scatter.code(),
-            fixed_mass_scale: 0.0,
-            fixed_momentum_scale: 0.0,
+            fixed_mass_scale,
+            fixed_momentum_scale,
             wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             _pad: 0,
         }
+    }
+
+    /// Fixed-point scales (units per kg, units per kg m/s): a grid node at rest holds one cell's mass,
+    /// rho0 dx^3, so that maps to 2^40 units; momentum maps one cell's mass at the reference speed to
+    /// 2^40 units. The speed is the largest of the sound speed, the free-fall speed over the domain
+    /// height and the bodies' speeds: a bound the fluid does not pass while the CFL policy holds.
+    /// Contributions then sit near 2^37, far under the 2^52 per-contribution limit, and the rounding
+    /// step (2^-40 of a cell's mass) is far finer than f32 resolves. The GPU's fixed-point scatter and
+    /// the binned pipeline's tiles (in either scatter mode) use them; the CPU ignores them.
+    pub fn fixed_point_scales(&self) -> (f32, f32) {
+        let dx = f64::from(self.dx);
+        let cell_mass = f64::from(self.material.rest_density) * dx * dx * dx;
+        let height = f64::from(self.grid_res.iter().copied().max().unwrap_or(1)) * dx;
+        let free_fall = (2.0 * f64::from(self.gravity.length()) * height).sqrt();
+        let body_speed = f64::from(self.fastest_start());
+        let speed = f64::from(self.material.sound_speed())
+            .max(free_fall)
+            .max(body_speed)
+            .max(1e-3);
+        let units = (1u64 << 40) as f64;
+        ((units / cell_mass) as f32, (units / (cell_mass * speed)) as f32)
     }
 
     pub fn lattice(&self) -> Lattice {
