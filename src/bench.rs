@@ -20,7 +20,8 @@ use crate::backend::{self, BackendKind};
 use crate::cuda::{self, CudaOptions, CudaSolver};
 use crate::sim::scene::{BlockSpec, DomainSpec, SceneSpec};
 use crate::sim::{
-    presets, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, MAX_PENDING_STEP_TIMINGS,
+    presets, Phase, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, Traffic,
+    MAX_PENDING_STEP_TIMINGS,
 };
 use anyhow::{bail, ensure, Context, Result};
 use serde::Serialize;
@@ -87,12 +88,15 @@ impl Default for PhaseBenchOptions {
 /// Median, 95th percentile and mean of one phase, milliseconds per substep.
 #[derive(Debug, Clone, Serialize)]
 pub struct PhaseRow {
+    /// `Phase::name()`, or "total".
     pub phase: String,
+    /// What the phase holds on the backend measured (the kernels, on the GPU).
+    pub label: String,
     pub median_ms: f64,
     pub p95_ms: f64,
     pub mean_ms: f64,
     /// Bytes the phase must move to or from device memory per substep at the least (the traffic
-    /// model of [`traffic_bytes`]), averaged over substeps; CUDA only.
+    /// model of [`Phase::traffic_floor`]), averaged over substeps; CUDA only.
     pub floor_bytes: Option<f64>,
     /// `floor_bytes` at the peak bandwidth, milliseconds: no implementation can beat it.
     pub floor_ms: Option<f64>,
@@ -131,94 +135,23 @@ pub fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[rank.clamp(1, sorted.len()) - 1]
 }
 
-fn row(phase: &str, mut samples: Vec<f64>, floor_bytes: Option<f64>, peak_gbs: f64) -> PhaseRow {
+fn row(
+    phase: &str,
+    label: String,
+    mut samples: Vec<f64>,
+    floor_bytes: Option<f64>,
+    peak_gbs: f64,
+) -> PhaseRow {
     samples.sort_by(f64::total_cmp);
     let mean = samples.iter().sum::<f64>() / samples.len().max(1) as f64;
     PhaseRow {
         phase: phase.to_string(),
+        label,
         median_ms: percentile(&samples, 0.5),
         p95_ms: percentile(&samples, 0.95),
         mean_ms: mean,
         floor_bytes,
         floor_ms: floor_bytes.map(|b| b / (peak_gbs * 1e9) * 1e3),
-    }
-}
-
-/// The least device-memory traffic of each GPU phase per substep, bytes, in the order of
-/// [`PhaseTimings::PHASES`]: every particle array a kernel must read or write, once, and every grid
-/// array a grid-wide kernel walks, once. The scatter's and gather's grid traffic is left out: at the
-/// report's sizes the touched part of the grid stays in L2 (the float4 accumulators of a 100^3 grid
-/// are 16 MB; the H200's L2 holds 50 MB). Hence a floor, not an estimate of the traffic.
-///
-/// The report's pipeline:
-/// - sort (every `SORT_INTERVAL` substeps, amortised): key from x (16 B) -> key, rank (8 B);
-///   scatter (key, rank 8 B -> order 4 B); per node: clear, count scan read + write, start read (16 B).
-/// - p2g_init: order (4 B) and x (16 B) per particle.
-/// - p2g: order, x, v, C (3 float4), rho written: 4 + 16 + 16 + 48 + 4 = 88 B per particle.
-/// - grid_update: accumulators read and zeroed, velocities written: 3 x 16 B per node (float scatter;
-///   fixed point reads and zeroes 32 B and writes 16 B: 80 B).
-/// - g2p: x read and written, v and C written: 16 + 16 + 16 + 48 = 96 B per particle.
-///
-/// The binned pipeline walks only the nodes the fluid covers, at least one per 8 particles (rest
-/// density); the grid update's per-node bytes are as above, over those nodes:
-/// - sort (rebinning, when a particle moved about a cell): its cadence depends on the flow, so no
-///   floor is claimed for it.
-/// - p2g_init (the mirror passes over the wall slabs only): no floor claimed.
-/// - p2g (p2g_tiled): as the report's, 88 B per particle.
-/// - g2p (g2p2g): order, x and rho read, x, v, C written: 4 + 16 + 4 + 16 + 16 + 48 = 104 B per particle.
-pub fn traffic_bytes(particles: usize, nodes: usize, scatter: ScatterMode, pipeline: Pipeline) -> [f64; 6] {
-    let (n, g) = (particles as f64, nodes as f64);
-    let grid_update_per_node = match scatter {
-        ScatterMode::Float => 48.0,
-        ScatterMode::FixedPoint => 80.0,
-    };
-    match pipeline {
-        Pipeline::Report => {
-            let sort_every = f64::from(cuda::SORT_INTERVAL);
-            [
-                0.0,
-                (36.0 * n + 16.0 * g) / sort_every,
-                20.0 * n,
-                88.0 * n,
-                grid_update_per_node * g,
-                96.0 * n,
-            ]
-        }
-        Pipeline::Binned => {
-            let covered_nodes = (n / 8.0).min(g);
-            [
-                0.0,
-                0.0,
-                0.0,
-                88.0 * n,
-                grid_update_per_node * covered_nodes,
-                104.0 * n,
-            ]
-        }
-    }
-}
-
-/// What each `PhaseTimings` slot holds in `pipeline` with `scatter`, for the tables
-/// (src/cuda/solver.rs lists the phases).
-pub fn phase_label(pipeline: Pipeline, scatter: ScatterMode, slot: &str) -> String {
-    match (pipeline, slot) {
-        (Pipeline::Report, "sort") => format!("sort (GPU only, every {} substeps)", cuda::SORT_INTERVAL),
-        (Pipeline::Report, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
-        (Pipeline::Binned, "grid_clear") => "grid_clear (inside grid_update on the GPU)".into(),
-        (Pipeline::Binned, "sort") => format!(
-            "rebin (every {} substeps, or when a particle moved a cell)",
-            cuda::SORT_INTERVAL
-        ),
-        (Pipeline::Binned, "p2g_init") => "mirror mass (mass scattered by g2p2g)".into(),
-        (Pipeline::Binned, "p2g") => match scatter {
-            ScatterMode::Float => "p2g (warp runs, global atomics)".into(),
-            ScatterMode::FixedPoint => "p2g_tiled".into(),
-        },
-        (Pipeline::Binned, "grid_update") => "grid_update_blocks (+ mirror momentum)".into(),
-        (Pipeline::Binned, "g2p") => "g2p2g (g2p + next mass scatter)".into(),
-        (Pipeline::Report, "p2g_init") => "p2g_init (+ mirror mass)".into(),
-        (Pipeline::Report, "grid_update") => "grid_update (+ mirror momentum)".into(),
-        (_, slot) => slot.to_string(),
     }
 }
 
@@ -234,19 +167,32 @@ fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
     scene
 }
 
-fn phase_rows(samples: &[PhaseTimings], floor: Option<[f64; 6]>, peak_gbs: f64) -> (Vec<PhaseRow>, PhaseRow) {
-    let rows = PhaseTimings::PHASES
-        .iter()
-        .enumerate()
-        .map(|(i, name)| {
-            let values = samples.iter().map(|t| t.phases()[i]).collect();
-            row(name, values, floor.map(|f| f[i]), peak_gbs)
+/// One row per phase (`Phase::ALL`) and the total. `label` names what each phase holds on the
+/// backend measured; `floor` gives each phase's traffic floor (CUDA only).
+fn phase_rows(
+    samples: &[PhaseTimings],
+    label: impl Fn(Phase) -> String,
+    floor: Option<&dyn Fn(Phase) -> f64>,
+    peak_gbs: f64,
+) -> (Vec<PhaseRow>, PhaseRow) {
+    let rows = Phase::ALL
+        .into_iter()
+        .map(|phase| {
+            let values = samples.iter().map(|t| t[phase]).collect();
+            row(
+                phase.name(),
+                label(phase),
+                values,
+                floor.map(|f| f(phase)),
+                peak_gbs,
+            )
         })
         .collect();
     let total = row(
         "total",
+        "total".into(),
         samples.iter().map(PhaseTimings::total).collect(),
-        floor.map(|f| f.iter().sum()),
+        floor.map(|f| Phase::ALL.into_iter().map(f).sum()),
         peak_gbs,
     );
     (rows, total)
@@ -330,15 +276,22 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             }
         }
     }
-    let floor = (options.backend == BackendKind::Cuda).then(|| {
-        traffic_bytes(
-            scene.num_particles,
-            grid_nodes(scene.grid_res),
-            scene.scatter,
-            scene.pipeline,
-        )
-    });
-    let (rows, total) = phase_rows(&samples, floor, options.peak_gbs);
+    let on_gpu = options.backend == BackendKind::Cuda;
+    let fixed_point = scene.scatter == ScatterMode::FixedPoint;
+    let label = |phase: Phase| match on_gpu {
+        true => phase.gpu_label(scene.pipeline, fixed_point, cuda::SORT_INTERVAL),
+        false => phase.cpu_label(),
+    };
+    let traffic = Traffic {
+        particles: scene.num_particles,
+        nodes: grid_nodes(scene.grid_res),
+        fixed_point,
+        pipeline: scene.pipeline,
+        sort_interval: cuda::SORT_INTERVAL,
+    };
+    let floor = |phase: Phase| phase.traffic_floor(&traffic);
+    let floor = on_gpu.then_some(&floor as &dyn Fn(Phase) -> f64);
+    let (rows, total) = phase_rows(&samples, label, floor, options.peak_gbs);
     Ok(PhaseReport {
         scene: scene.name.clone(),
         particles: scene.num_particles,
@@ -420,11 +373,9 @@ pub fn phase_table(report: &PhaseReport) -> String {
         .map(|r| (r, false))
         .chain([(&report.total, true)])
     {
-        let name = match (r.phase.as_str(), bold) {
-            (name, true) => format!("**{name}**"),
-            (name, false) if with_floor => phase_label(report.pipeline, report.scatter, name),
-            ("sort", false) => "sort (cpu-parallel's binning; none in the reference)".to_string(),
-            (name, false) => name.to_string(),
+        let name = match bold {
+            true => format!("**{}**", r.label),
+            false => r.label.clone(),
         };
         let mut line = format!(
             "| {name} | {} | {} | {} |",

@@ -4,7 +4,7 @@
 //! device is usable (tests/harness: `harness = false`).
 
 use mpm::bench::{self, PhaseBenchOptions};
-use mpm::sim::Scene;
+use mpm::sim::{Phase, Scene};
 
 mod harness;
 
@@ -26,11 +26,13 @@ fn bench_code_measures_every_gpu_phase() {
     let report = bench::phase_bench(&scene, &options).expect("phase bench");
     println!("{}", bench::phase_table(&report));
     assert_eq!(report.steps, 50);
-    for row in &report.rows {
-        match row.phase.as_str() {
+    assert_eq!(report.rows.len(), Phase::COUNT);
+    for (phase, row) in Phase::ALL.into_iter().zip(&report.rows) {
+        assert_eq!(row.phase, phase.name());
+        match phase {
             // No launch of its own (grid_update clears), and every eighth substep only.
-            "grid_clear" => assert_eq!(row.mean_ms, 0.0),
-            "sort" => assert!(row.p95_ms > 0.0, "the sort ran in the sample"),
+            Phase::GridClear => assert_eq!(row.mean_ms, 0.0),
+            Phase::Sort => assert!(row.p95_ms > 0.0, "the sort ran in the sample"),
             _ => assert!(row.median_ms > 0.0, "{} measured", row.phase),
         }
     }

@@ -1,21 +1,43 @@
 //! Per-phase GPU time from CUDA events, read back without stalling the pipeline: each substep records
-//! six events on the stream (at its start and after each of the five phases: sort, p2g_init, p2g,
-//! grid_update, g2p; the sort's pair is recorded back to back on substeps without a sort), and
-//! `take_completed` returns only the substeps whose last event has already completed (in practice,
-//! the frames the host has already waited for), leaving the rest for a later call.
+//! an event on the stream at its start and one at the end of each phase the GPU runs
+//! (`Phase::runs_on_gpu`; a phase with no work that substep, such as the sort between binnings, gets
+//! its pair back to back), and `take_completed` returns only the substeps whose last event has already
+//! completed (in practice, the frames the host has already waited for), leaving the rest for a later
+//! call.
 //!
-//! A substep run as a CUDA graph (graph.rs) records the same six events: its capture records a set
-//! of placeholder events as external event-record nodes, and each launch points those nodes at a
-//! fresh set from here (`begin_graphed_step`).
+//! A substep run as a CUDA graph (graph.rs) records the same events: its capture records a set of
+//! placeholder events as external event-record nodes, and each launch points those nodes at a fresh
+//! set from here (`begin_graphed_step`).
 
 use super::graph::record_external;
-use crate::sim::{PhaseTimings, MAX_PENDING_STEP_TIMINGS};
-use anyhow::{Context, Result};
+use crate::sim::{Phase, PhaseTimings, MAX_PENDING_STEP_TIMINGS};
+use anyhow::{anyhow, Context, Result};
 use cudarc::driver::{sys, sys::CUevent_flags, CudaContext, CudaEvent, CudaStream};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-pub const EVENTS_PER_STEP: usize = 6;
+/// The events of one substep: its start, then the end of each phase the GPU runs.
+pub const EVENTS_PER_STEP: usize = 1 + gpu_phases();
+
+const fn gpu_phases() -> usize {
+    let (mut count, mut i) = (0, 0);
+    while i < Phase::COUNT {
+        if Phase::ALL[i].runs_on_gpu() {
+            count += 1;
+        }
+        i += 1;
+    }
+    count
+}
+
+/// The phases the GPU times, in step order, each with the slot of the event at its end (slot 0 is
+/// the substep's start, so the phase spans its slot's predecessor to its slot).
+fn timed_phases() -> impl Iterator<Item = (Phase, usize)> {
+    Phase::ALL
+        .into_iter()
+        .filter(|phase| phase.runs_on_gpu())
+        .zip(1..)
+}
 
 type StepEvents = [CudaEvent; EVENTS_PER_STEP];
 
@@ -50,7 +72,10 @@ impl PhaseEvents {
                 .new_event(Some(CUevent_flags::CU_EVENT_DEFAULT))
                 .context("creating a timing event")
         };
-        Ok([new()?, new()?, new()?, new()?, new()?, new()?])
+        let events: Vec<CudaEvent> = (0..EVENTS_PER_STEP).map(|_| new()).collect::<Result<_>>()?;
+        events
+            .try_into()
+            .map_err(|_| anyhow!("a timing event set of the wrong size"))
     }
 
     fn push_pending(&mut self, events: StepEvents) {
@@ -62,28 +87,35 @@ impl PhaseEvents {
 
     /// Records the start of a substep.
     pub fn begin_step(&mut self, stream: &CudaStream) -> Result<()> {
-        self.mark(stream, 0)
+        if !self.capturing {
+            let events = self.new_set()?;
+            self.push_pending(events);
+        }
+        self.record(stream, 0)
     }
 
-    /// Records the end of phase `phase` (1..=5, step order) of the current substep; phase 0 is its
-    /// start.
-    pub fn mark(&mut self, stream: &CudaStream, phase: usize) -> Result<()> {
+    /// Records the end of `phase` in the current substep.
+    pub fn end_phase(&mut self, stream: &CudaStream, phase: Phase) -> Result<()> {
+        let slot = timed_phases()
+            .find(|&(timed, _)| timed == phase)
+            .map(|(_, slot)| slot)
+            .with_context(|| format!("the GPU runs no phase {}", phase.name()))?;
+        self.record(stream, slot)
+    }
+
+    fn record(&mut self, stream: &CudaStream, slot: usize) -> Result<()> {
         if self.capturing {
             let placeholders = self
                 .placeholders
                 .as_ref()
                 .context("a graph capture without its timing events")?;
-            return record_external(&placeholders[phase], stream);
-        }
-        if phase == 0 {
-            let events = self.new_set()?;
-            self.push_pending(events);
+            return record_external(&placeholders[slot], stream);
         }
         let events = self
             .pending
             .back()
             .context("a phase ended before its substep began")?;
-        events[phase].record(stream).context("recording a timing event")
+        events[slot].record(stream).context("recording a timing event")
     }
 
     /// From here to `end_capture`, the marks record the placeholder events (as graph nodes); returns
@@ -119,23 +151,14 @@ impl PhaseEvents {
             {
                 break;
             }
-            let ms = |a: usize| -> Result<f64> {
-                Ok(f64::from(
-                    events[a]
-                        .elapsed_ms(&events[a + 1])
-                        .context("reading a timing event")?,
-                ))
-            };
-            // grid_clear stays 0: grid_update clears the accumulators it reads (consume-and-zero).
-            records.push(PhaseTimings {
-                steps: 1,
-                grid_clear: 0.0,
-                sort: ms(0)?,
-                p2g_init: ms(1)?,
-                p2g: ms(2)?,
-                grid_update: ms(3)?,
-                g2p: ms(4)?,
-            });
+            let mut record = PhaseTimings::one_step();
+            for (phase, end) in timed_phases() {
+                let ms = events[end - 1]
+                    .elapsed_ms(&events[end])
+                    .context("reading a timing event")?;
+                record[phase] = f64::from(ms);
+            }
+            records.push(record);
             if let Some(done) = self.pending.pop_front() {
                 self.free.push(done);
             }

@@ -5,11 +5,11 @@
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::Params;
+use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, ParticleView, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, ParticleView, Solver, StepExtremes};
 use glam::{IVec3, Mat3, UVec3, Vec3};
-use std::time::Instant;
 
 /// Quadratic B-spline weights of one particle on its 3x3x3 stencil.
 #[derive(Debug, Clone, Copy)]
@@ -405,28 +405,28 @@ impl Solver for CpuSolver {
     }
 
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
-        let mut t = Instant::now();
-        let mut lap = |slot: &mut f64| {
-            let now = Instant::now();
-            *slot += (now - t).as_secs_f64() * 1e3;
-            t = now;
-        };
-        let mut times = PhaseTimings::default();
-        self.clear_grid();
-        lap(&mut times.grid_clear);
-        self.p2g_init(params);
-        self.mirror_mass(params);
-        lap(&mut times.p2g_init);
-        self.p2g(params);
-        lap(&mut times.p2g);
-        self.mirror_momentum(params);
-        self.grid_update(params);
-        lap(&mut times.grid_update);
-        self.g2p(params);
-        self.drain();
-        lap(&mut times.g2p);
-        times.steps = 1;
-        push_step_timing(&mut self.timings, times);
+        let mut clock = PhaseClock::start();
+        for phase in Phase::ALL {
+            match phase {
+                Phase::GridClear => self.clear_grid(),
+                Phase::Sort => {} // the reference walks the particles in index order
+                Phase::P2gInit => {
+                    self.p2g_init(params);
+                    self.mirror_mass(params);
+                }
+                Phase::P2g => self.p2g(params),
+                Phase::GridUpdate => {
+                    self.mirror_momentum(params);
+                    self.grid_update(params);
+                }
+                Phase::G2p => {
+                    self.g2p(params);
+                    self.drain();
+                }
+            }
+            clock.lap(phase);
+        }
+        push_step_timing(&mut self.timings, clock.finish());
         Ok(())
     }
 

@@ -33,12 +33,12 @@ use super::cpu::{
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
+use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, ParticleView, PhaseTimings, Solver, StepExtremes};
+use super::solver::{push_step_timing, ParticleView, Solver, StepExtremes};
 use glam::{IVec3, UVec3, Vec3};
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// The tile key and rank of a parked slot: in no tile.
 const PARKED: u32 = u32::MAX;
@@ -473,28 +473,22 @@ impl Solver for ParallelCpuSolver {
         if self.sequential() {
             return self.inner.step(params);
         }
-        let mut t = Instant::now();
-        let mut lap = |slot: &mut f64| {
-            let now = Instant::now();
-            *slot += (now - t).as_secs_f64() * 1e3;
-            t = now;
-        };
-        let mut times = PhaseTimings::default();
-        self.clear_grid();
-        lap(&mut times.grid_clear);
-        self.bin(params);
-        lap(&mut times.sort);
-        self.p2g_init(params);
-        lap(&mut times.p2g_init);
-        self.p2g(params);
-        lap(&mut times.p2g);
-        self.grid_update(params);
-        lap(&mut times.grid_update);
-        self.g2p(params);
-        self.drain();
-        lap(&mut times.g2p);
-        times.steps = 1;
-        push_step_timing(&mut self.timings, times);
+        let mut clock = PhaseClock::start();
+        for phase in Phase::ALL {
+            match phase {
+                Phase::GridClear => self.clear_grid(),
+                Phase::Sort => self.bin(params),
+                Phase::P2gInit => self.p2g_init(params),
+                Phase::P2g => self.p2g(params),
+                Phase::GridUpdate => self.grid_update(params),
+                Phase::G2p => {
+                    self.g2p(params);
+                    self.drain();
+                }
+            }
+            clock.lap(phase);
+        }
+        push_step_timing(&mut self.timings, clock.finish());
         Ok(())
     }
 

@@ -7,6 +7,7 @@ pub mod cpu_parallel;
 pub mod flow;
 pub mod mesh;
 pub mod params;
+pub mod phase;
 pub mod presets;
 pub mod push;
 pub mod scene;
@@ -14,9 +15,10 @@ pub mod solver;
 
 pub use colliders::{ColliderFrame, Colliders};
 pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
+pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Particles, Scene, SceneError};
 pub use solver::{
-    ExtremesTicket, FrameStats, FrameSteps, ParticleView, PhaseTimings, RunClock, Simulation, Solver,
-    StepExtremes, Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
+    ExtremesTicket, FrameStats, FrameSteps, ParticleView, RunClock, Simulation, Solver, StepExtremes,
+    Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
 };

@@ -6,6 +6,7 @@
 use super::colliders::ColliderFrame;
 use super::flow::{self, FlowCounts, FlowState};
 use super::params::{Material, Params, FRAME_DT};
+use super::phase::PhaseTimings;
 use super::push::Push;
 use super::scene::{Particles, Scene, MAX_CFL};
 use anyhow::{bail, ensure, Result};
@@ -25,81 +26,6 @@ pub struct StepExtremes {
     /// Particles the colliders' backstop put back on a collider's surface (they had ended a substep
     /// inside it), summed over the substeps.
     pub backstop_pushes: u64,
-}
-
-/// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
-/// runner, the viewer's HUD and the benches read. The CPU measures with a host clock (its phases are
-/// synchronous); the CUDA backend with events.
-///
-/// `sort` is the GPU's counting sort of the particle order, which runs every few substeps (0 on the
-/// substeps between, and always 0 on the CPU, which has no sort). `grid_clear` is 0 on the GPU, whose
-/// grid_update zeroes the accumulators it reads.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
-pub struct PhaseTimings {
-    pub steps: u32,
-    pub grid_clear: f64,
-    pub sort: f64,
-    pub p2g_init: f64,
-    pub p2g: f64,
-    pub grid_update: f64,
-    pub g2p: f64,
-}
-
-impl PhaseTimings {
-    /// The phases in step order, as [`Self::phases`] returns them.
-    pub const PHASES: [&'static str; 6] = ["grid_clear", "sort", "p2g_init", "p2g", "grid_update", "g2p"];
-
-    pub fn accumulate(&mut self, other: &PhaseTimings) {
-        self.steps += other.steps;
-        for (a, b) in self.phases_mut().into_iter().zip(other.phases()) {
-            *a += b;
-        }
-    }
-
-    /// Per-phase sums in the order of [`Self::PHASES`].
-    pub fn phases(&self) -> [f64; 6] {
-        [
-            self.grid_clear,
-            self.sort,
-            self.p2g_init,
-            self.p2g,
-            self.grid_update,
-            self.g2p,
-        ]
-    }
-
-    fn phases_mut(&mut self) -> [&mut f64; 6] {
-        [
-            &mut self.grid_clear,
-            &mut self.sort,
-            &mut self.p2g_init,
-            &mut self.p2g,
-            &mut self.grid_update,
-            &mut self.g2p,
-        ]
-    }
-
-    pub fn total(&self) -> f64 {
-        self.phases().iter().sum()
-    }
-
-    /// Milliseconds per substep of the whole step.
-    pub fn per_step(&self) -> f64 {
-        if self.steps == 0 {
-            0.0
-        } else {
-            self.total() / f64::from(self.steps)
-        }
-    }
-
-    /// The sum of per-substep records.
-    pub fn sum(records: &[PhaseTimings]) -> PhaseTimings {
-        let mut total = PhaseTimings::default();
-        for record in records {
-            total.accumulate(record);
-        }
-        total
-    }
 }
 
 /// Per-substep timing records a backend keeps until they are taken; beyond that the oldest are
@@ -134,7 +60,7 @@ pub enum SummaryTicket {
 /// A backend that advances the particles by one substep.
 pub trait Solver {
     fn name(&self) -> &'static str;
-    /// One substep of `params.dt`: grid clear, p2g_init, p2g, grid_update, g2p.
+    /// One substep of `params.dt`: its phases (`Phase::ALL`) in step order.
     fn step(&mut self, params: &Params) -> Result<()>;
     /// The extremes since the last call, then reset.
     fn take_extremes(&mut self) -> Result<StepExtremes>;
