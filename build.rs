@@ -3,20 +3,24 @@
 //!
 //! - Each kernel's `#include "common.cuh"` is pasted in here (with `#line` markers, so NVRTC's log still
 //!   names the right file and line); the pasted source is embedded too, for run-time compilation.
+//!   `#include "contract.cuh"` pastes the header written from src/contract/items.rs (the structs and
+//!   constants the kernels share with the host).
 //! - Targets: `compute_75` PTX (NVRTC 13 accepts nothing older; the driver JIT-compiles it for any newer
 //!   GPU on first load and caches the result) and `compute_90` PTX, which Hopper and newer load instead
 //!   (it uses sm_90's vector atomics in p2g). Both with `-lineinfo`.
-//! - NVRTC is looked for at `NVRTC_LIB` (a file), `CUDA_HOME`/`CUDA_PATH` (`lib64/`), /usr/local/cuda,
-//!   the cache of `.ci/install-nvrtc`, then the loader path. Its builtins library, which libnvrtc opens by
-//!   bare name, is loaded first from the same folder, so LD_LIBRARY_PATH is not needed.
+//! - NVRTC is looked for where the run-time compile looks (src/cuda/nvrtc_search.rs, with the same
+//!   compile options). Its builtins library, which libnvrtc opens by bare name, is loaded first from
+//!   the same folder, so LD_LIBRARY_PATH is not needed.
 //! - A kernel that does not compile fails the build with NVRTC's log.
 //! - No NVRTC: the build succeeds with a warning and the program compiles the embedded sources at run
 //!   time, unless `MPM_REQUIRE_NVRTC=1` (CI), which makes a missing NVRTC an error.
 
-#[path = "src/cuda/nvrtc_preload.rs"]
-mod nvrtc_preload;
+#[path = "src/contract/header.rs"]
+mod contract_header;
+#[path = "src/cuda/nvrtc_search.rs"]
+mod nvrtc_search;
 use cudarc::nvrtc::{result, sys};
-use nvrtc_preload::preload_folder_libraries;
+use nvrtc_search::{find_nvrtc, COMPILE_OPTIONS};
 use std::ffi::CStr;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -24,15 +28,19 @@ use std::path::{Path, PathBuf};
 const KERNEL_DIR: &str = "kernels";
 /// Every module is compiled for each; src/cuda/modules.rs picks the newest the GPU runs.
 const ARCHS: [&str; 2] = ["compute_75", "compute_90"];
-/// Kept in step with `COMPILE_OPTIONS` in src/cuda/modules.rs (the run-time compile).
-const OPTIONS: [&str; 2] = ["-lineinfo", "--std=c++17"];
+/// The header written from src/contract/items.rs, pasted where a kernel includes it.
+const CONTRACT_HEADER: &str = "contract.cuh";
 
 fn main() {
     println!("cargo:rerun-if-changed={KERNEL_DIR}");
+    println!("cargo:rerun-if-changed=src/contract/items.rs");
+    println!("cargo:rerun-if-changed=src/contract/header.rs");
+    println!("cargo:rerun-if-changed=src/cuda/nvrtc_search.rs");
     for var in [
         "NVRTC_LIB",
         "CUDA_HOME",
         "CUDA_PATH",
+        "MPM_NVRTC_CACHE",
         "MPM_REQUIRE_NVRTC",
         "LD_LIBRARY_PATH",
     ] {
@@ -56,7 +64,8 @@ fn run() -> Result<(), String> {
     let modules = read_modules(Path::new(KERNEL_DIR))?;
     let require = std::env::var("MPM_REQUIRE_NVRTC").is_ok_and(|v| v == "1");
 
-    let nvrtc = find_nvrtc();
+    let checkout = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let nvrtc = find_nvrtc(&[checkout]);
     let compiled = match &nvrtc {
         Ok(found) => {
             let mut ptx = Vec::new();
@@ -65,6 +74,7 @@ fn run() -> Result<(), String> {
                     ARCHS.iter().map(|arch| compile(module, arch)).collect();
                 ptx.push(per_arch?);
             }
+            check_contract_layout()?;
             let (major, minor) = nvrtc_version()?;
             // Said aloud only where NVRTC is required (CI), so the log shows that every kernel compiled.
             if require {
@@ -165,6 +175,12 @@ fn paste_includes(dir: &Path, path: &Path) -> Result<String, String> {
 }
 
 fn paste_file(dir: &Path, path: &Path, pasted: &mut Vec<PathBuf>, out: &mut String) -> Result<(), String> {
+    if path.file_name().is_some_and(|f| f == CONTRACT_HEADER) {
+        pasted.push(path.to_path_buf());
+        let _ = writeln!(out, "#line 1 \"{CONTRACT_HEADER}\"");
+        out.push_str(&contract_header::contract_header());
+        return Ok(());
+    }
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     pasted.push(path.to_path_buf());
     let file_name = path
@@ -182,7 +198,7 @@ fn paste_file(dir: &Path, path: &Path, pasted: &mut Vec<PathBuf>, out: &mut Stri
         match included {
             Some(header) => {
                 let header_path = dir.join(header);
-                if !header_path.is_file() {
+                if header != CONTRACT_HEADER && !header_path.is_file() {
                     return Err(format!("{}:{}: cannot read {header}", path.display(), number + 1));
                 }
                 if !pasted.contains(&header_path) {
@@ -199,47 +215,6 @@ fn paste_file(dir: &Path, path: &Path, pasted: &mut Vec<PathBuf>, out: &mut Stri
     Ok(())
 }
 
-/// Makes libnvrtc loadable by cudarc (which opens it by bare name) and says where it came from.
-fn find_nvrtc() -> Result<String, String> {
-    let mut folders: Vec<PathBuf> = Vec::new();
-    let mut found_in = std::env::var("NVRTC_LIB").ok();
-    if let Some(lib) = std::env::var_os("NVRTC_LIB").map(PathBuf::from) {
-        if !lib.is_file() {
-            return Err(format!("NVRTC_LIB={} is not a file", lib.display()));
-        }
-        preload_folder_libraries(lib.parent().unwrap_or(Path::new(".")), Some(&lib))?;
-    } else {
-        for var in ["CUDA_HOME", "CUDA_PATH"] {
-            if let Some(root) = std::env::var_os(var) {
-                folders.push(PathBuf::from(root).join("lib64"));
-            }
-        }
-        folders.push(PathBuf::from("/usr/local/cuda/lib64"));
-        if let Ok(entries) = std::fs::read_dir(
-            Path::new(&std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default()).join(".ci-cache/nvrtc"),
-        ) {
-            let mut wheels: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
-            wheels.sort();
-            folders.extend(wheels.iter().rev().map(|w| w.join("nvidia/cu13/lib")));
-        }
-        for folder in &folders {
-            if preload_folder_libraries(folder, None)? {
-                found_in = Some(folder.display().to_string());
-                break;
-            }
-        }
-    }
-    // SAFETY: only probes whether the library can be opened; cudarc panics later if it cannot.
-    if unsafe { sys::is_culib_present() } {
-        Ok(found_in.unwrap_or_else(|| "found on the loader path".into()))
-    } else {
-        Err(format!(
-            "no libnvrtc in NVRTC_LIB, CUDA_HOME, CUDA_PATH, /usr/local/cuda or .ci-cache/nvrtc \
-             (looked in {folders:?}), nor on the loader path"
-        ))
-    }
-}
-
 fn nvrtc_version() -> Result<(i32, i32), String> {
     let (mut major, mut minor) = (0, 0);
     // SAFETY: NVRTC is loaded (find_nvrtc succeeded); the pointers are to locals.
@@ -247,6 +222,16 @@ fn nvrtc_version() -> Result<(i32, i32), String> {
         .result()
         .map_err(|e| format!("nvrtcVersion: {e:?}"))?;
     Ok((major, minor))
+}
+
+/// Compiles the contract header with its field-offset checks (src/contract/header.rs): a struct
+/// that C lays out differently from Rust fails the build here, naming the field.
+fn check_contract_layout() -> Result<(), String> {
+    let check = Module {
+        name: "contract_layout_check".into(),
+        source: contract_header::layout_check_source(),
+    };
+    compile(&check, ARCHS[0]).map(|_| ())
 }
 
 /// NVRTC `module.source` to PTX for `arch`, or an error carrying NVRTC's log (file:line: message).
@@ -257,7 +242,7 @@ fn compile(module: &Module, arch: &str) -> Result<String, String> {
     let name = std::ffi::CString::new(file_name.as_str()).map_err(|e| e.to_string())?;
     let program = result::create_program(&source, Some(name.as_c_str()))
         .map_err(|e| format!("NVRTC cannot create a program for {file_name}: {e:?}"))?;
-    let mut options: Vec<String> = OPTIONS.iter().map(|s| s.to_string()).collect();
+    let mut options: Vec<String> = COMPILE_OPTIONS.iter().map(|s| s.to_string()).collect();
     options.push(format!("--gpu-architecture={arch}"));
     // SAFETY: `program` was created above and is destroyed once, below.
     let compiled = unsafe { result::compile_program(program, &options) };

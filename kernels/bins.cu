@@ -55,7 +55,6 @@ extern "C" __global__ void bin_count(const Params params,
     }
 }
 
-#define SCAN_ITEMS_PER_THREAD 8
 
 // In-place exclusive scan of each tile of blockDim.x * SCAN_ITEMS_PER_THREAD values; tile_sums gets
 // each tile's total. Needs blockDim.x * sizeof(u32) bytes of dynamic shared memory.

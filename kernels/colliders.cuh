@@ -1,38 +1,10 @@
-// Colliders on the device (src/sim/colliders.rs, docs/physics.md "Colliders"): the mirror of
-// `ColliderState`, the signed distance of each shape, the grid update's boundary condition and the
+// Colliders on the device (src/sim/colliders.rs, docs/physics.md "Colliders"): `ColliderState`
+// (contract.cuh), the signed distance of each shape, the grid update's boundary condition and the
 // particle backstop. The host evaluates every collider's motion once per substep into a small array of
 // states (pose, rigid velocity, shape), uploaded only when it changed; mesh colliders add their
 // distance samples in one buffer. Each function follows its Rust twin operation for operation, so the
 // CPU reference and the kernels agree to rounding.
 
-#define COLLIDER_BOX 0u
-#define COLLIDER_SPHERE 1u
-#define COLLIDER_CAPSULE 2u
-#define COLLIDER_CYLINDER 3u
-#define COLLIDER_MESH 4u
-
-#define BOUNDARY_SLIP 0u
-#define BOUNDARY_STICK 1u
-#define BOUNDARY_FRICTION 2u
-
-struct ColliderState {
-    u32 kind;
-    u32 boundary;
-    float friction;            // Coulomb coefficient
-    float band;                // m: nodes closer than this are constrained
-    float rotation[9];         // world-from-local, row-major
-    float center[3];           // m
-    float velocity[3];         // m/s, of the centre
-    float angular_velocity[3]; // rad/s, world frame
-    float size[3];             // box: half extents; sphere: radius; capsule, cylinder: radius, half length
-    float sdf_origin[3];       // mesh: local position of sample (0, 0, 0)
-    u32 sdf_dims[3];           // mesh: samples per axis, x fastest
-    float sdf_spacing;         // mesh: m
-    u32 sdf_offset;            // mesh: first sample in the SDF buffer
-    float reach;               // m: a ball about the centre that holds the shape (with a margin)
-    u32 _pad[2];
-};
-static_assert(sizeof(ColliderState) == 144, "ColliderState must match src/sim/colliders.rs");
 
 // What the grid update and the backstop read: the states, their count, the mesh samples.
 struct Colliders {

@@ -1,85 +1,14 @@
-// Shared by every kernel: the mirrors of the Rust structs that kernels receive by value, the quadratic
-// B-spline stencil, the fixed-point scatter and the extremes reductions.
+// Shared by every kernel: the quadratic B-spline stencil, the fixed-point scatter and the extremes
+// reductions. The structs kernels receive by value and the constants they share with the host come
+// from contract.cuh, which build.rs writes from src/contract/items.rs.
 //
 // build.rs pastes this file in place of `#include "common.cuh"`, with #line markers so that NVRTC's
 // messages still name this file and line. No standard headers: NVRTC ships none.
 
-typedef unsigned int u32;
-typedef unsigned long long u64;
-typedef long long i64;
-
-// ---------------------------------------------------------------------------------------------
-// Mirrors of src/sim/params.rs. Field for field; the static_asserts below and the `const _` asserts
-// there must agree, or Params arrives in the kernels shifted.
-
-struct Material {
-    float rest_density;    // rho0, kg/m^3
-    float eos_stiffness;   // Tait k, Pa
-    float eos_power;       // Tait gamma
-    float viscosity;       // mu, Pa s
-    float pressure_floor;  // p_min, Pa
-    float particle_mass;   // m_p, kg
-    u32 _pad[2];
-};
-
-struct Params {
-    Material material;
-    float gravity[3];  // m/s^2
-    float dt;          // s
-    u32 grid_res[3];   // nodes per axis; node (i, j, k) is stored at i + rx (j + ry k)
-    float dx;
-    float inv_dx;
-    u32 boundary_band;
-    float soft_wall_tau;  // s; 0 = off
-    u32 num_particles;
-    u32 scatter_mode;            // SCATTER_FLOAT or SCATTER_FIXED_POINT
-    float fixed_mass_scale;      // fixed-point units per kg
-    float fixed_momentum_scale;  // fixed-point units per kg m/s
-    u32 wall_mirror_lo;          // node plane of the low walls' mirror (mirror_walls.cu); 0 = off
-    u32 wall_mirror_hi[3];       // node planes of the high walls' mirror, per axis
-    u32 _pad;
-};
-
-static_assert(sizeof(Material) == 32, "Material must match src/sim/params.rs");
-static_assert(sizeof(Params) == 112, "Params must match src/sim/params.rs");
-// NVRTC has no offsetof (no <cstddef>, no __builtin_offsetof), so offsets are checked on a constexpr
-// instance: the field's address must equal the first word's address plus the offset in words.
-#define ASSERT_FIELD_AT(object, first_word, field, byte_offset)                               \
-    static_assert((const void*)&(object).field == (const void*)(&(object).first_word + (byte_offset) / sizeof((object).first_word)), \
-                  #field " must sit at byte " #byte_offset " of " #first_word ", as in the Rust mirror")
-__device__ constexpr Params params_layout_probe{};
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, material, 0);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, gravity, 32);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, dt, 44);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, grid_res, 48);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, dx, 60);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, inv_dx, 64);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, boundary_band, 68);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, soft_wall_tau, 72);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, num_particles, 76);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, scatter_mode, 80);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, fixed_mass_scale, 84);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, fixed_momentum_scale, 88);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_lo, 92);
-ASSERT_FIELD_AT(params_layout_probe, material.rest_density, wall_mirror_hi, 96);
+#include "contract.cuh"
 
 #include "colliders.cuh"
 
-#define SCATTER_FLOAT 0u
-#define SCATTER_FIXED_POINT 1u
-
-// Mirror of `StepCounters` in src/cuda/solver.rs: what the host reads back once per substep choice.
-struct StepCounters {
-    u32 max_density_bits;  // bits of the largest rho (non-negative floats order like their bits)
-    u32 max_speed_bits;    // bits of the largest |v|
-    u32 fixed_overflows;   // fixed-point contributions or sums out of range (must stay 0)
-    u32 max_signal_bits;   // bits of the largest c(rho_p) + |v_p| of one particle
-    u32 rebin_needed;      // binned pipeline: a particle's stencil left its bin's reach (bins.cu)
-    u32 tile_misses;       // binned pipeline: particles scattered past their tile, by global atomics
-    u32 backstop_pushes;   // particles the colliders' backstop put back on a surface (colliders.cuh)
-    u32 _pad;
-};
-static_assert(sizeof(StepCounters) == 32, "StepCounters must match src/cuda/solver.rs");
 
 // ---------------------------------------------------------------------------------------------
 // Grid-stride loops: any launch size covers any count, so launches need no 2D/3D grid tricks.
@@ -435,22 +364,8 @@ __device__ __forceinline__ void update_node(const Params& params, u32 i, float4*
 // ---------------------------------------------------------------------------------------------
 // The particle lifecycle (src/sim/flow.rs, kernels/lifecycle.cu): x.w of a parked slot.
 
-#define PARKED_W 1.0f
-#define NO_PARTICLE 0xffffffffu
-
 __device__ __forceinline__ bool is_parked(float4 x) { return x.w != 0.0f; }
 
-// Mirror of `FlowCounters` in src/cuda/lifecycle.rs: the free stack's length and what the lifecycle
-// did since the run began.
-struct FlowCounters {
-    u64 free_count;  // slots on the free stack
-    u64 sorted;      // free[..sorted] is in canonical order (settle_free)
-    u64 emitted;
-    u64 drained;
-    u64 exhausted;  // nozzle points that found the stack empty
-    u64 blocked;    // nozzle points whose last particle had not moved clear
-};
-static_assert(sizeof(FlowCounters) == 48, "FlowCounters must match src/cuda/lifecycle.rs");
 
 // A sink is a box [lo, hi) given as two float4.
 __device__ __forceinline__ bool in_a_sink(float4 x, const float4* sinks, u32 num_sinks) {

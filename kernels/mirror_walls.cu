@@ -20,8 +20,6 @@
 // the report's pipeline passes null marks and visits every orbit.
 #include "tiles.cuh"
 
-#define MIRROR_MASS 0u
-#define MIRROR_MOMENTUM 1u
 
 // One axis's two walls: node planes and reaches (the pairs W +- d stay inside the grid).
 struct MirrorAxis {

@@ -12,26 +12,6 @@
 // bit, and the positions are the same doubles rounded to float.
 #include "common.cuh"
 
-#define BODY_BLOCK 0u
-#define BODY_SPHERE 1u
-
-// Mirror of `SpawnBody` in src/cuda/spawn.rs.
-struct SpawnBody {
-    i64 range_lo[3];     // lattice index range visited, [lo, hi) per axis
-    i64 range_hi[3];     // (a block's range is also its containment test)
-    double center[3];    // sphere
-    double radius_sq;    // sphere: radius * radius, rounded as the host rounds it
-    float velocity[3];
-    u32 kind;            // BODY_BLOCK or BODY_SPHERE
-    u64 first_candidate; // offset of this body's range in the candidate list
-};
-static_assert(sizeof(SpawnBody) == 104, "SpawnBody must match src/cuda/spawn.rs");
-__device__ constexpr SpawnBody spawn_body_layout_probe{};
-ASSERT_FIELD_AT(spawn_body_layout_probe, range_lo[0], center, 48);
-ASSERT_FIELD_AT(spawn_body_layout_probe, range_lo[0], radius_sq, 72);
-ASSERT_FIELD_AT(spawn_body_layout_probe, range_lo[0], velocity, 80);
-ASSERT_FIELD_AT(spawn_body_layout_probe, velocity[0], kind, 12);  // byte 92
-ASSERT_FIELD_AT(spawn_body_layout_probe, range_lo[0], first_candidate, 96);
 
 // Lattice::point: (j + 1/2) h.
 __device__ __forceinline__ double lattice_coordinate(i64 j, double spacing) {

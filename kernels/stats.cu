@@ -4,19 +4,6 @@
 // order: the partials, and so the host's sum of them, are the same on every run.
 #include "common.cuh"
 
-#define STATS_THREADS 256
-
-// Mirrors `StatsPartial` in src/cuda/stats.rs.
-struct StatsPartial {
-    double kinetic_energy;  // J
-    double position_sum[3];  // m, for the centre of mass
-    double density_ratio_sum;
-    float max_speed;  // m/s
-    float density_ratio_min;
-    float density_ratio_max;
-    u32 count;
-};
-static_assert(sizeof(StatsPartial) == 56, "StatsPartial must match src/cuda/stats.rs");
 
 __device__ __forceinline__ void combine(StatsPartial& a, const StatsPartial& b) {
     a.kinetic_energy += b.kinetic_energy;

@@ -30,15 +30,12 @@
 //   so grid_update_blocks visits only those: empty space costs nothing.
 #include "common.cuh"
 
-#define NODE_BLOCK_EDGE 4u
-#define NODE_BLOCK_NODES 64u
 #define TILE_HALO 2
 #define TILE_EDGE 10  // NODE_BLOCK_EDGE + 2 (the stencil's reach) + 2 TILE_HALO
-#define TILE_NODES (TILE_EDGE * TILE_EDGE * TILE_EDGE)
+static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in src/contract/items.rs");
 #define TILE_SPAN 3  // node blocks a tile overlaps per axis: b - 1, b, b + 1
 #define TILE_SPAN_BLOCKS (TILE_SPAN * TILE_SPAN * TILE_SPAN)
 #define BIN_CELLS 64     // cells of a bin (the sort keys of a bin, bins.cu)
-#define TILE_THREADS 128  // threads of a tiled pass's block (__launch_bounds__ below)
 // Blocks per multiprocessor the tiled passes are compiled for (their register caps). Measured on the
 // H200 (2026-11-23, mpm bench --steps 1500, phase means at 6 / 8 blocks): g2p2g at 8 (64 registers)
 // runs bench-655k in 0.090 ms against 0.103 at 6 (80), bench-65k 0.0176 against 0.0169; p2g_tiled
@@ -53,20 +50,6 @@
 // Largest contribution a tile takes, in tile units; larger ones go to the grid (and are counted).
 #define TILE_CONTRIBUTION_LIMIT 67108864.0f /* 2^26 */
 
-// Slots of the work-count buffer (src/cuda/bins.rs): list lengths the passes read on the device, so
-// no launch waits for the host to learn them.
-#define WORK_BINS 0
-#define WORK_NODE_BLOCKS 1
-
-// One listed chunk of a bin: the bin's node block and the chunk's range in the bin order. Mirrors
-// `BIN_ENTRY_WORDS` in src/cuda/bins.rs.
-struct BinEntry {
-    u32 bin;
-    u32 start;
-    u32 count;
-    u32 _pad;
-};
-static_assert(sizeof(BinEntry) == 16, "BinEntry must match src/cuda/bins.rs");
 
 struct NodeBlocks {
     u32 count[3];  // node blocks per axis

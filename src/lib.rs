@@ -3,6 +3,7 @@
 pub mod backend;
 pub mod bench;
 pub mod checkpoint;
+pub mod contract;
 pub mod cuda;
 pub mod export;
 pub mod render;

@@ -11,22 +11,16 @@ use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 
-/// Nodes per axis of a node block: a bin of the binned pipeline (NODE_BLOCK_EDGE in tiles.cuh).
-pub const NODE_BLOCK_EDGE: u32 = 4;
-/// Nodes of a node block: the threads of a launch per block (NODE_BLOCK_NODES in tiles.cuh).
-pub const NODE_BLOCK_NODES: u32 = 64;
-/// Nodes of a tiled pass's shared tile (TILE_NODES in tiles.cuh) and threads of its block
-/// (TILE_THREADS, which the kernels' launch bounds are compiled for).
-const TILE_NODES: u32 = 1000;
-const TILE_THREADS: u32 = 128;
-/// Values each thread of `scan_tiles` scans (SCAN_ITEMS_PER_THREAD in kernels/bins.cu).
-const SCAN_ITEMS_PER_THREAD: usize = 8;
-/// Slots of the work-count buffer (WORK_BINS, WORK_NODE_BLOCKS in tiles.cuh).
-pub const WORK_BINS: usize = 0;
-pub const WORK_NODE_BLOCKS: usize = 1;
+use crate::contract::{
+    BinEntry, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
+};
+pub use crate::contract::{NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
+/// Slots of the work-count buffer, `WORK_BINS` and `WORK_NODE_BLOCKS`.
 pub const WORK_COUNTS: usize = 2;
-/// u32 words of one listed chunk of a bin (BinEntry in tiles.cuh: bin, start, count, pad).
-pub const BIN_ENTRY_WORDS: usize = 4;
+/// The work-count slots as indices.
+pub const BIN_COUNT_SLOT: usize = WORK_BINS as usize;
+pub const NODE_BLOCK_COUNT_SLOT: usize = WORK_NODE_BLOCKS as usize;
+const _: () = assert!(BIN_COUNT_SLOT < WORK_COUNTS && NODE_BLOCK_COUNT_SLOT < WORK_COUNTS);
 /// The smallest chunk a bin is listed in: one particle per thread of a tiled pass (TILE_THREADS).
 pub const MIN_BIN_CHUNK: usize = 128;
 /// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.
@@ -71,7 +65,7 @@ pub struct Bins {
     pub order: CudaSlice<u32>,
     /// The bins that hold particles, in chunks of at most `chunk` particles (BIN_ENTRY_WORDS each),
     /// where listed.
-    pub list: Option<CudaSlice<u32>>,
+    pub list: Option<CudaSlice<BinEntry>>,
     /// Particles per listed chunk at the most: the smallest chunk (a thread per particle) where bins
     /// are too few to fill the device, up to whole bins where they are plentiful, since each chunk
     /// clears and flushes a tile. Measured on the H200: 128-particle chunks took bench-65k from 0.106
@@ -101,7 +95,7 @@ impl Bins {
                 .alloc_zeros::<u32>(len.max(1))
                 .with_context(|| format!("allocating {what} ({len} values)"))
         };
-        let tile = launcher.block_size as usize * SCAN_ITEMS_PER_THREAD;
+        let tile = launcher.block_size as usize * SCAN_ITEMS_PER_THREAD as usize;
         let mut levels = vec![alloc(num_keys, "the cells' counts")?];
         let mut level_len = num_keys;
         while level_len > tile {
@@ -127,7 +121,11 @@ impl Bins {
                 // A bin of c particles lists ceil(c / chunk) chunks: at most one per bin plus one per
                 // chunk of particles.
                 let capacity = num_bins + num_particles / MIN_BIN_CHUNK;
-                Some(alloc(BIN_ENTRY_WORDS * capacity, "the bin list")?)
+                Some(
+                    stream
+                        .alloc_zeros::<BinEntry>(capacity.max(1))
+                        .context("allocating the bin list")?,
+                )
             } else {
                 None
             },
@@ -140,11 +138,11 @@ impl Bins {
 
     /// The most chunks the bin list can hold.
     pub fn list_capacity(&self) -> usize {
-        self.list.as_ref().map_or(0, |l| l.len() / BIN_ENTRY_WORDS)
+        self.list.as_ref().map_or(0, |l| l.len())
     }
 
     /// The binned pipeline's list of bin chunks, which its tiled passes walk.
-    pub fn list(&self) -> Result<&CudaSlice<u32>> {
+    pub fn list(&self) -> Result<&CudaSlice<BinEntry>> {
         self.list
             .as_ref()
             .context("only the binned pipeline lists its bins")
@@ -153,7 +151,11 @@ impl Bins {
     /// A tiled pass over the listed bins: a block per bin chunk, a thread per particle, and `channels`
     /// 32-bit accumulators per tile node (kernels/tiles.cuh).
     pub fn tiled_pass(&self, launcher: &Launcher, channels: u32) -> LaunchConfig {
-        launcher.over_list(self.list_capacity(), TILE_THREADS, channels * TILE_NODES * 4)
+        launcher.over_list(
+            self.list_capacity(),
+            TILE_THREADS as u32,
+            channels * TILE_NODES as u32 * 4,
+        )
     }
 
     /// The bin list as the last binning left it: (bin, start, count) per chunk of a bin that holds
@@ -162,9 +164,9 @@ impl Bins {
         let counts = gpu.download(work_counts)?;
         let entries = gpu.download(self.list()?)?;
         Ok(entries
-            .chunks_exact(BIN_ENTRY_WORDS)
-            .take(counts[WORK_BINS] as usize)
-            .map(|e| [e[0], e[1], e[2]])
+            .iter()
+            .take(counts[BIN_COUNT_SLOT] as usize)
+            .map(|e| [e.bin, e.start, e.count])
             .collect())
     }
 
@@ -199,7 +201,7 @@ impl Bins {
         // Exclusive scan of the counts: scan each level's tiles (their totals go one level up), then
         // add the scanned totals back down.
         let block = launcher.block_size;
-        let tile = block as usize * SCAN_ITEMS_PER_THREAD;
+        let tile = block as usize * SCAN_ITEMS_PER_THREAD as usize;
         let tiles_of = |len: usize| LaunchConfig {
             grid_dim: (len.div_ceil(tile) as u32, 1, 1),
             block_dim: (block, 1, 1),
@@ -240,7 +242,7 @@ impl Bins {
 
         if let Some(list) = &self.list {
             stream
-                .memset_zeros(&mut work_counts.slice_mut(WORK_BINS..WORK_BINS + 1))
+                .memset_zeros(&mut work_counts.slice_mut(BIN_COUNT_SLOT..BIN_COUNT_SLOT + 1))
                 .context("clearing the bin list's length")?;
             let num_bins = self.num_bins as u32;
             // SAFETY: arguments match bin_list; the list has room for every bin.

@@ -1,20 +1,12 @@
-//! What the kernels count and reduce between substep choices (`StepCounters` in kernels/common.cuh),
+//! What the kernels count and reduce between substep choices (`StepCounters`, src/contract/items.rs),
 //! and the ring of pinned host copies it travels back in without stalling the stream.
 
+use crate::contract::StepCounters;
 use crate::sim::{Params, StepExtremes};
 use anyhow::{bail, Context, Result};
 use cudarc::driver::{CudaContext, CudaEvent, CudaSlice, CudaStream, PinnedHostSlice};
 use std::sync::Arc;
 
-/// The words of `StepCounters`, by index.
-const COUNTERS: usize = 8;
-const COUNTER_MAX_DENSITY: usize = 0;
-const COUNTER_MAX_SPEED: usize = 1;
-const COUNTER_FIXED_OVERFLOWS: usize = 2;
-const COUNTER_MAX_SIGNAL: usize = 3;
-const COUNTER_REBIN_NEEDED: usize = 4;
-const COUNTER_TILE_MISSES: usize = 5;
-const COUNTER_BACKSTOP_PUSHES: usize = 6;
 /// Host copies in the ring: more than the two requests `Solver` allows outstanding.
 const COUNTER_COPIES: usize = 3;
 
@@ -27,27 +19,27 @@ pub struct CounterReading {
     pub tile_misses: u64,
 }
 
-pub struct StepCounters {
+pub struct CounterRing {
     /// The device words the kernels reduce into; reset after each copy.
-    pub device: CudaSlice<u32>,
+    pub device: CudaSlice<StepCounters>,
     /// Pinned host copies, one per outstanding request, each with the event recorded after its copy.
     /// (cudarc's pinned slices carry an event of their own, but record it only where cudarc tracks
     /// events between streams, which a one-stream solver turns off: waiting on it returned before the
     /// copy had landed.)
-    copies: Vec<(PinnedHostSlice<u32>, CudaEvent)>,
+    copies: Vec<(PinnedHostSlice<StepCounters>, CudaEvent)>,
     next_copy: usize,
 }
 
-impl StepCounters {
-    pub fn allocate(ctx: &Arc<CudaContext>, stream: &Arc<CudaStream>) -> Result<StepCounters> {
-        Ok(StepCounters {
+impl CounterRing {
+    pub fn allocate(ctx: &Arc<CudaContext>, stream: &Arc<CudaStream>) -> Result<CounterRing> {
+        Ok(CounterRing {
             device: stream
-                .alloc_zeros::<u32>(COUNTERS)
+                .alloc_zeros::<StepCounters>(1)
                 .context("allocating the step counters")?,
             copies: (0..COUNTER_COPIES)
                 .map(|_| {
                     // SAFETY: each copy is written by a device copy before it is read (`wait`).
-                    let copy = unsafe { ctx.alloc_pinned::<u32>(COUNTERS) }?;
+                    let copy = unsafe { ctx.alloc_pinned::<StepCounters>(1) }?;
                     Ok((copy, ctx.new_event(None)?))
                 })
                 .collect::<Result<_, cudarc::driver::DriverError>>()
@@ -81,8 +73,10 @@ impl StepCounters {
             .context("an extremes ticket of another solver")?;
         let waited = copied.synchronize().and_then(|()| copy.as_slice());
         let counters = waited
-            .context("waiting for the step counters (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        let overflows = counters[COUNTER_FIXED_OVERFLOWS];
+            .context("waiting for the step counters (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?
+            .first()
+            .context("an empty copy of the step counters")?;
+        let overflows = counters.fixed_overflows;
         if overflows > 0 {
             bail!(
                 "the fixed-point scatter overflowed {overflows} times since the last frame (a grid \
@@ -96,13 +90,13 @@ impl StepCounters {
         }
         Ok(CounterReading {
             extremes: StepExtremes {
-                max_density: f32::from_bits(counters[COUNTER_MAX_DENSITY]),
-                max_speed: f32::from_bits(counters[COUNTER_MAX_SPEED]),
-                max_signal_speed: f32::from_bits(counters[COUNTER_MAX_SIGNAL]),
-                backstop_pushes: u64::from(counters[COUNTER_BACKSTOP_PUSHES]),
+                max_density: f32::from_bits(counters.max_density_bits),
+                max_speed: f32::from_bits(counters.max_speed_bits),
+                max_signal_speed: f32::from_bits(counters.max_signal_bits),
+                backstop_pushes: u64::from(counters.backstop_pushes),
             },
-            rebin_needed: counters[COUNTER_REBIN_NEEDED] != 0,
-            tile_misses: u64::from(counters[COUNTER_TILE_MISSES]),
+            rebin_needed: counters.rebin_needed != 0,
+            tile_misses: u64::from(counters.tile_misses),
         })
     }
 }

@@ -2,7 +2,7 @@
 //! the node velocities the grid update writes for the gather, and the binned pipeline's list of the
 //! node blocks a substep touched.
 
-use super::bins::{WORK_COUNTS, WORK_NODE_BLOCKS};
+use super::bins::{NODE_BLOCK_COUNT_SLOT, WORK_COUNTS};
 use super::gpu::Gpu;
 use crate::sim::{Params, ScatterMode};
 use anyhow::{Context, Result};
@@ -105,7 +105,11 @@ impl DeviceGrid {
     /// Empties the list of touched node blocks (after the grid update visited and unmarked them all).
     pub fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
         stream
-            .memset_zeros(&mut self.work_counts.slice_mut(WORK_NODE_BLOCKS..WORK_NODE_BLOCKS + 1))
+            .memset_zeros(
+                &mut self
+                    .work_counts
+                    .slice_mut(NODE_BLOCK_COUNT_SLOT..NODE_BLOCK_COUNT_SLOT + 1),
+            )
             .context("clearing the node block list")
     }
 

@@ -2,7 +2,7 @@
 //! panics when a library is missing, so absence is checked here first and becomes an error that says
 //! what to install.
 
-use super::nvrtc_preload::preload_folder_libraries;
+use super::nvrtc_search::find_nvrtc;
 use anyhow::{bail, Result};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -20,45 +20,26 @@ pub fn ensure_driver() -> Result<()> {
     }
 }
 
-/// NVRTC can be opened, looking where build.rs looks: `NVRTC_LIB`, `CUDA_HOME`/`CUDA_PATH`,
-/// /usr/local/cuda, then the loader path. Checked once per process.
+/// NVRTC can be opened, looking where build.rs looks (src/cuda/nvrtc_search.rs); the checkout whose
+/// `.ci/install-nvrtc` cache may hold it is the working directory or a folder above the executable
+/// (`target/release/mpm`). Checked once per process.
 pub fn ensure_nvrtc() -> Result<()> {
-    static FOUND: OnceLock<Result<(), String>> = OnceLock::new();
-    match FOUND.get_or_init(find_nvrtc) {
-        Ok(()) => Ok(()),
-        Err(why) => bail!("{why}"),
-    }
-}
-
-fn find_nvrtc() -> Result<(), String> {
-    let mut folders: Vec<PathBuf> = Vec::new();
-    if let Some(lib) = std::env::var_os("NVRTC_LIB").map(PathBuf::from) {
-        // A library that does not load is reported below, by the presence check.
-        let _ = preload_folder_libraries(lib.parent().unwrap_or(Path::new(".")), Some(&lib));
-    } else {
-        for var in ["CUDA_HOME", "CUDA_PATH"] {
-            if let Some(root) = std::env::var_os(var) {
-                folders.push(PathBuf::from(root).join("lib64"));
-            }
+    static FOUND: OnceLock<Result<String, String>> = OnceLock::new();
+    let found = FOUND.get_or_init(|| {
+        let mut checkouts: Vec<PathBuf> = std::env::current_dir().into_iter().collect();
+        if let Ok(exe) = std::env::current_exe() {
+            checkouts.extend(exe.ancestors().skip(1).take(3).map(Path::to_path_buf));
         }
-        folders.push(PathBuf::from("/usr/local/cuda/lib64"));
-        for folder in &folders {
-            if preload_folder_libraries(folder, None).unwrap_or(false) {
-                break;
-            }
-        }
-    }
-    // SAFETY: only tries to open the library by its usual names (or finds the one preloaded above).
-    if unsafe { cudarc::nvrtc::sys::is_culib_present() } {
-        Ok(())
-    } else {
-        Err(
-            "NVRTC (libnvrtc.so) was not found, and the kernels must be compiled at run time. \
+        find_nvrtc(&checkouts)
+    });
+    match found {
+        Ok(_) => Ok(()),
+        Err(why) => bail!(
+            "NVRTC (libnvrtc.so) was not found ({why}), and the kernels must be compiled at run time. \
              Install the CUDA toolkit (or only NVRTC: `pip install nvidia-cuda-nvrtc==13.0.88`) and set \
              NVRTC_LIB to its libnvrtc.so.*, or rebuild with NVRTC present (see .ci/install-nvrtc) so \
              the kernels are compiled into the binary"
-                .to_string(),
-        )
+        ),
     }
 }
 

@@ -6,19 +6,12 @@ use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
+use crate::contract::FlowCounters;
 use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
 use crate::sim::Params;
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 
-/// Mirror of `FlowCounters` in kernels/common.cuh, as six u64.
-pub const FLOW_COUNTERS: usize = 6;
-const FREE_COUNT: usize = 0;
-const SORTED: usize = 1;
-const EMITTED: usize = 2;
-const DRAINED: usize = 3;
-const EXHAUSTED: usize = 4;
-const BLOCKED: usize = 5;
 /// Threads of the one-block launches (their `__launch_bounds__`).
 const ONE_BLOCK: LaunchConfig = LaunchConfig {
     grid_dim: (1, 1, 1),
@@ -41,7 +34,7 @@ impl LifecycleKernels {
 
     /// Sorts the slots this substep's drains pushed (after g2p2g).
     pub fn settle(&self, l: &Launcher, flow: &DeviceFlow) -> Result<()> {
-        // SAFETY: arguments match settle_free; `free` holds `capacity` slots, counters six u64.
+        // SAFETY: arguments match settle_free; `free` holds `capacity` slots.
         unsafe {
             self.settle.launch(l, ONE_BLOCK, |a| {
                 a.arg(&flow.free).arg(&flow.counters);
@@ -92,9 +85,9 @@ impl LifecycleKernels {
 /// The lifecycle's device buffers.
 pub struct DeviceFlow {
     pub capacity: usize,
-    /// The free-slot stack, `capacity` long; its length is `counters[FREE_COUNT]`.
+    /// The free-slot stack, `capacity` long; its length is `counters.free_count`.
     pub free: CudaSlice<u32>,
-    pub counters: CudaSlice<u64>,
+    pub counters: CudaSlice<FlowCounters>,
     /// Per nozzle point: its last slot.
     pub last: CudaSlice<u32>,
     /// Per nozzle point: xyz and the emitter's index as bits.
@@ -121,13 +114,14 @@ impl DeviceFlow {
         let mut free = vec![0u32; flow.capacity.max(1)];
         free[..state.free.len()].copy_from_slice(&state.free);
         let c = &state.counts;
-        let mut counters = [0u64; FLOW_COUNTERS];
-        counters[FREE_COUNT] = state.free.len() as u64;
-        counters[SORTED] = state.sorted as u64;
-        counters[EMITTED] = c.emitted;
-        counters[DRAINED] = c.drained;
-        counters[EXHAUSTED] = c.exhausted;
-        counters[BLOCKED] = c.blocked;
+        let counters = [FlowCounters {
+            free_count: state.free.len() as u64,
+            sorted: state.sorted as u64,
+            emitted: c.emitted,
+            drained: c.drained,
+            exhausted: c.exhausted,
+            blocked: c.blocked,
+        }];
         let mut points = Vec::with_capacity(4 * flow.num_points());
         let mut velocities = Vec::with_capacity(4 * flow.emitters.len());
         for (e, emitter) in flow.emitters.iter().enumerate() {
@@ -169,36 +163,38 @@ impl DeviceFlow {
 
     /// What emitters and sinks did so far. Waits for the device.
     pub fn read_counts(&self, gpu: &Gpu) -> Result<FlowCounts> {
-        Ok(DeviceFlow::counts(&gpu.download(&self.counters)?, self.capacity))
+        Ok(self.counts(&self.read_counters(gpu)?))
     }
 
     /// The state as a checkpoint holds it. Waits for the device.
     pub fn read_state(&self, gpu: &Gpu) -> Result<FlowState> {
-        let counters = gpu.download(&self.counters)?;
-        let free = gpu.download(&self.free)?;
+        let counters = self.read_counters(gpu)?;
+        let mut free = gpu.download(&self.free)?;
+        free.truncate(counters.free_count as usize);
         let mut last = gpu.download(&self.last)?;
         last.truncate(self.num_points as usize);
-        Ok(DeviceFlow::state(&counters, &free, last, self.capacity))
-    }
-
-    /// The counts from the device counters.
-    fn counts(counters: &[u64], capacity: usize) -> FlowCounts {
-        FlowCounts {
-            live: capacity as u64 - counters[FREE_COUNT],
-            emitted: counters[EMITTED],
-            drained: counters[DRAINED],
-            exhausted: counters[EXHAUSTED],
-            blocked: counters[BLOCKED],
-        }
-    }
-
-    fn state(counters: &[u64], free: &[u32], last: Vec<u32>, capacity: usize) -> FlowState {
-        let free_count = counters[FREE_COUNT] as usize;
-        FlowState {
-            free: free[..free_count].to_vec(),
-            sorted: counters[SORTED] as usize,
+        Ok(FlowState {
+            free,
+            sorted: counters.sorted as usize,
             last,
-            counts: DeviceFlow::counts(counters, capacity),
+            counts: self.counts(&counters),
+        })
+    }
+
+    fn read_counters(&self, gpu: &Gpu) -> Result<FlowCounters> {
+        gpu.download(&self.counters)?
+            .first()
+            .copied()
+            .context("an empty copy of the lifecycle's counters")
+    }
+
+    fn counts(&self, counters: &FlowCounters) -> FlowCounts {
+        FlowCounts {
+            live: self.capacity as u64 - counters.free_count,
+            emitted: counters.emitted,
+            drained: counters.drained,
+            exhausted: counters.exhausted,
+            blocked: counters.blocked,
         }
     }
 }

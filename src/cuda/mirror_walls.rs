@@ -5,17 +5,18 @@
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
+use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM};
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
 
-/// What is mirrored: the codes of kernels/mirror_walls.cu.
+/// What is mirrored.
 #[derive(Clone, Copy)]
 pub enum MirrorQuantity {
     /// The image mass, between the mass scatter and p2g.
-    Mass = 0,
+    Mass,
     /// The image momentum, wall-normal component reflected, between p2g and the grid update.
-    Momentum = 1,
+    Momentum,
 }
 
 pub struct MirrorWalls(Kernel);
@@ -45,7 +46,10 @@ impl MirrorWalls {
         let g = &d.grid;
         // The report's pipeline visits every orbit (null marks); the binned one skips untouched blocks.
         let null: u64 = 0;
-        let quantity_code = quantity as u32;
+        let quantity_code = match quantity {
+            MirrorQuantity::Mass => MIRROR_MASS,
+            MirrorQuantity::Momentum => MIRROR_MOMENTUM,
+        };
         // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
         // pointers, which the kernel checks, for the report's pipeline).
         unsafe {

@@ -22,7 +22,7 @@ pub mod interop;
 pub mod launch;
 pub mod library;
 pub mod modules;
-mod nvrtc_preload;
+mod nvrtc_search;
 pub mod particles;
 pub mod state;
 pub mod timing;

@@ -3,6 +3,7 @@
 //! a cubin for this GPU (a cubin carries no PTX version, so a newer NVRTC than the driver still works).
 
 use super::library;
+use super::nvrtc_search::COMPILE_OPTIONS;
 use anyhow::{anyhow, bail, Context, Result};
 use cudarc::driver::{sys::CUresult, CudaContext, CudaFunction, CudaModule, DriverError};
 use cudarc::nvrtc::{result as nvrtc, sys as nvrtc_sys, Ptx};
@@ -28,9 +29,6 @@ mod embedded {
     include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
 }
 pub use embedded::ALL as MODULES;
-
-/// Options of the run-time compile, in step with `OPTIONS` in build.rs.
-const COMPILE_OPTIONS: [&str; 2] = ["-lineinfo", "--std=c++17"];
 
 /// How a module came to be loaded, for messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -2,15 +2,13 @@
 //! index buffer, never reordered particles): what the kernels read and write every substep.
 
 use super::gpu::Gpu;
+use crate::contract::PARKED_W;
 use crate::render::ColourBy;
 use crate::sim::Particles;
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{sys::CUdeviceptr, CudaContext, CudaSlice, CudaStream, DevicePtrMut};
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
-
-/// x.w of a parked particle slot (PARKED_W in kernels/common.cuh).
-const PARKED_W: f32 = 1.0;
 
 /// Bytes on the device per particle: x, v as float4; C as 3 float4; rho; the bins' order, key and
 /// rank (bins.rs).

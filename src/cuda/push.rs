@@ -11,7 +11,7 @@ pub struct PushParticles(Kernel);
 
 impl PushParticles {
     pub fn load(modules: &LoadedModules) -> Result<PushParticles> {
-        Ok(PushParticles(Kernel::load(modules, "render", "push_particles")?))
+        Ok(PushParticles(Kernel::load(modules, "push", "push_particles")?))
     }
 
     pub fn launch(&self, l: &Launcher, push: &Push, particles: &DeviceParticles) -> Result<()> {

@@ -7,41 +7,10 @@ use super::gpu::Gpu;
 use super::launch::{Kernel, NvtxRange};
 use super::modules::LoadedModules;
 use super::particles::DeviceParticles;
+use crate::contract::{SpawnBody, BODY_BLOCK, BODY_SPHERE};
 use crate::sim::scene::{Scene, Shape};
 use anyhow::{bail, ensure, Context, Result};
-use bytemuck::{Pod, Zeroable};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
-use std::mem::{offset_of, size_of};
-
-pub const BODY_BLOCK: u32 = 0;
-pub const BODY_SPHERE: u32 = 1;
-
-/// Mirror of `SpawnBody` in kernels/spawn.cu.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct SpawnBody {
-    /// Lattice index range visited, `[lo, hi)` per axis; for a block also its containment test.
-    pub range_lo: [i64; 3],
-    pub range_hi: [i64; 3],
-    pub center: [f64; 3],
-    pub radius_sq: f64,
-    pub velocity: [f32; 3],
-    pub kind: u32,
-    /// Offset of this body's range in the list of all candidates.
-    pub first_candidate: u64,
-}
-
-const _: () = {
-    assert!(size_of::<SpawnBody>() == 104);
-    assert!(offset_of!(SpawnBody, center) == 48);
-    assert!(offset_of!(SpawnBody, radius_sq) == 72);
-    assert!(offset_of!(SpawnBody, velocity) == 80);
-    assert!(offset_of!(SpawnBody, kind) == 92);
-    assert!(offset_of!(SpawnBody, first_candidate) == 96);
-};
-
-// SAFETY: plain old data, laid out as the kernel's struct (asserted above and there).
-unsafe impl cudarc::driver::DeviceRepr for SpawnBody {}
 
 /// The body table and the number of candidate points (the sum of the ranges' sizes).
 pub fn body_table(scene: &Scene) -> Result<(Vec<SpawnBody>, u64)> {

@@ -4,7 +4,7 @@
 
 use super::bins::{Bins, NODE_BLOCK_EDGE};
 use super::colliders::DeviceColliders;
-use super::counters::StepCounters;
+use super::counters::CounterRing;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 use super::lifecycle::DeviceFlow;
@@ -21,7 +21,7 @@ pub struct DeviceState {
     pub grid: DeviceGrid,
     /// Particle indices by cell (report) or node block (binned): the order the scatters walk.
     pub bins: Bins,
-    pub counters: StepCounters,
+    pub counters: CounterRing,
     pub colliders: DeviceColliders,
     /// Emitters, sinks and the free slots, where the scene has them (binned pipeline only).
     pub flow: Option<DeviceFlow>,
@@ -88,7 +88,7 @@ impl DeviceState {
             particles: DeviceParticles::allocate(stream, n)?,
             grid,
             bins,
-            counters: StepCounters::allocate(&gpu.ctx, stream)?,
+            counters: CounterRing::allocate(&gpu.ctx, stream)?,
             colliders: DeviceColliders::allocate(stream)?,
             flow,
             stats: ParticleStats::allocate(stream)?,
@@ -170,13 +170,3 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
             .arg(&colliders.sdf)
     }
 }
-
-// TEMP(merge): the contract helper moves these next to the structs.
-// SAFETY: `Params` is `#[repr(C)]` and Pod; kernels/common.cuh mirrors it with static_asserts.
-unsafe impl cudarc::driver::DeviceRepr for crate::sim::Params {}
-// SAFETY: `Push` is `#[repr(C)]` and Pod; kernels/render.cu mirrors it with a static_assert.
-unsafe impl cudarc::driver::DeviceRepr for crate::sim::Push {}
-// SAFETY: `ColliderState` is `#[repr(C)]` and Pod; kernels/colliders.cuh mirrors it with a static_assert.
-unsafe impl cudarc::driver::DeviceRepr for crate::sim::colliders::ColliderState {}
-// SAFETY: every field is a u32 or f32, for which all-zero bits are valid.
-unsafe impl cudarc::driver::ValidAsZeroBits for crate::sim::colliders::ColliderState {}

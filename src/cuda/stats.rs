@@ -6,39 +6,14 @@
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::particles::DeviceParticles;
+use crate::contract::{StatsPartial, STATS_THREADS};
 use crate::sim::{Params, Summary};
 use anyhow::{ensure, Context, Result};
-use bytemuck::{Pod, Zeroable};
-use cudarc::driver::{
-    CudaEvent, CudaSlice, CudaStream, DeviceRepr, LaunchConfig, PinnedHostSlice, PushKernelArg,
-    ValidAsZeroBits,
-};
-use std::mem::size_of;
+use cudarc::driver::{CudaEvent, CudaSlice, CudaStream, LaunchConfig, PinnedHostSlice, PushKernelArg};
 use std::sync::Arc;
 
 /// Blocks of the reduction (a fixed count: the partials do not depend on the device).
 pub const STATS_BLOCKS: usize = 256;
-/// Threads per block (STATS_THREADS in kernels/stats.cu).
-const STATS_THREADS: u32 = 256;
-
-/// One block's partial statistics; mirrors `StatsPartial` in kernels/stats.cu.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct StatsPartial {
-    kinetic_energy: f64,
-    position_sum: [f64; 3],
-    density_ratio_sum: f64,
-    max_speed: f32,
-    density_ratio_min: f32,
-    density_ratio_max: f32,
-    count: u32,
-}
-const _: () = assert!(size_of::<StatsPartial>() == 56);
-// SAFETY: `StatsPartial` is `#[repr(C)]` and Pod; kernels/stats.cu mirrors it with a static_assert.
-unsafe impl DeviceRepr for StatsPartial {}
-// SAFETY: all-zero bits are a valid StatsPartial (Pod).
-unsafe impl ValidAsZeroBits for StatsPartial {}
-
 pub struct StatsKernel(Kernel);
 
 impl StatsKernel {
@@ -82,7 +57,7 @@ impl ParticleStats {
     ) -> Result<()> {
         let config = LaunchConfig {
             grid_dim: (STATS_BLOCKS as u32, 1, 1),
-            block_dim: (STATS_THREADS, 1, 1),
+            block_dim: (STATS_THREADS as u32, 1, 1),
             shared_mem_bytes: 0,
         };
         // SAFETY: the arguments match particle_stats in kernels/stats.cu; `partials` holds one record

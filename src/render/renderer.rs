@@ -55,8 +55,8 @@ impl ColourBy {
     /// The switch value of kernels/render.cu.
     pub fn code(self) -> u32 {
         match self {
-            ColourBy::Speed => 0,
-            ColourBy::Density => 1,
+            ColourBy::Speed => crate::contract::COLOUR_BY_SPEED,
+            ColourBy::Density => crate::contract::COLOUR_BY_DENSITY,
         }
     }
 

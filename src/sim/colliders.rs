@@ -16,9 +16,11 @@
 //!   ([`ColliderFrame::backstop`]), counted and reported.
 
 use super::mesh::MeshSdf;
-use bytemuck::{Pod, Zeroable};
+pub use crate::contract::{
+    ColliderState, BOUNDARY_FRICTION, BOUNDARY_SLIP, BOUNDARY_STICK, COLLIDER_BOX, COLLIDER_CAPSULE,
+    COLLIDER_CYLINDER, COLLIDER_MESH, COLLIDER_SPHERE,
+};
 use glam::{DMat3, DQuat, DVec3, Vec3};
-use std::mem::{offset_of, size_of};
 use std::sync::Arc;
 
 /// The most colliders a scene may have: the kernels walk them per node, so they stay few.
@@ -28,70 +30,6 @@ pub const MAX_COLLIDERS: usize = 16;
 /// condition. One cell: the fluid rests within about a cell of the surface, and a particle's
 /// stencil (1.5 cells) always reaches a constrained node before the particle reaches the surface.
 pub const BAND_CELLS: f32 = 1.0;
-
-/// `ColliderState::kind`.
-pub const KIND_BOX: u32 = 0;
-pub const KIND_SPHERE: u32 = 1;
-pub const KIND_CAPSULE: u32 = 2;
-pub const KIND_CYLINDER: u32 = 3;
-pub const KIND_MESH: u32 = 4;
-
-/// `ColliderState::boundary`.
-pub const BOUNDARY_SLIP: u32 = 0;
-pub const BOUNDARY_STICK: u32 = 1;
-pub const BOUNDARY_FRICTION: u32 = 2;
-
-/// One collider at one instant, as every backend reads it. Mirrored field for field by
-/// `ColliderState` in kernels/colliders.cuh (the asserts below and the static_asserts there).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct ColliderState {
-    /// `KIND_*`.
-    pub kind: u32,
-    /// `BOUNDARY_*`.
-    pub boundary: u32,
-    /// Coulomb coefficient (friction boundary only).
-    pub friction: f32,
-    /// Nodes with a signed distance below this, m, are constrained ([`BAND_CELLS`] dx).
-    pub band: f32,
-    /// World-from-local rotation, row-major: world = rotation * local + center.
-    pub rotation: [f32; 9],
-    /// m.
-    pub center: [f32; 3],
-    /// Velocity of the centre, m/s.
-    pub velocity: [f32; 3],
-    /// rad/s, world frame; a point x moves at velocity + angular_velocity x (x - center).
-    pub angular_velocity: [f32; 3],
-    /// Box: half extents. Sphere: radius in [0]. Capsule, cylinder: radius in [0], half length (along
-    /// local y) in [1]. Mesh: unused.
-    pub size: [f32; 3],
-    /// Mesh: the local position of SDF sample (0, 0, 0).
-    pub sdf_origin: [f32; 3],
-    /// Mesh: SDF samples per axis (x fastest).
-    pub sdf_dims: [u32; 3],
-    /// Mesh: distance between SDF samples, m.
-    pub sdf_spacing: f32,
-    /// Mesh: index of the first sample in the frame's SDF buffer.
-    pub sdf_offset: u32,
-    /// Radius of a ball about the centre that holds the shape, m, with a margin for rounding: a point
-    /// farther than this (plus the band) is skipped without evaluating the shape.
-    pub reach: f32,
-    pub _pad: [u32; 2],
-}
-
-const _: () = {
-    assert!(size_of::<ColliderState>() == 144);
-    assert!(offset_of!(ColliderState, rotation) == 16);
-    assert!(offset_of!(ColliderState, center) == 52);
-    assert!(offset_of!(ColliderState, velocity) == 64);
-    assert!(offset_of!(ColliderState, angular_velocity) == 76);
-    assert!(offset_of!(ColliderState, size) == 88);
-    assert!(offset_of!(ColliderState, sdf_origin) == 100);
-    assert!(offset_of!(ColliderState, sdf_dims) == 112);
-    assert!(offset_of!(ColliderState, sdf_spacing) == 124);
-    assert!(offset_of!(ColliderState, sdf_offset) == 128);
-    assert!(offset_of!(ColliderState, reach) == 132);
-};
 
 /// The boundary condition of a collider.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -298,15 +236,15 @@ impl Collider {
         // Row-major: the columns of the transpose.
         let rotation = DMat3::from_quat(pose.rotation).transpose().as_mat3();
         let (kind, size) = match &self.shape {
-            Shape::Box { half_extents } => (KIND_BOX, half_extents.as_vec3().to_array()),
-            Shape::Sphere { radius } => (KIND_SPHERE, [*radius as f32, 0.0, 0.0]),
+            Shape::Box { half_extents } => (COLLIDER_BOX, half_extents.as_vec3().to_array()),
+            Shape::Sphere { radius } => (COLLIDER_SPHERE, [*radius as f32, 0.0, 0.0]),
             Shape::Capsule { radius, half_length } => {
-                (KIND_CAPSULE, [*radius as f32, *half_length as f32, 0.0])
+                (COLLIDER_CAPSULE, [*radius as f32, *half_length as f32, 0.0])
             }
             Shape::Cylinder { radius, half_length } => {
-                (KIND_CYLINDER, [*radius as f32, *half_length as f32, 0.0])
+                (COLLIDER_CYLINDER, [*radius as f32, *half_length as f32, 0.0])
             }
-            Shape::Mesh(_) => (KIND_MESH, [0.0; 3]),
+            Shape::Mesh(_) => (COLLIDER_MESH, [0.0; 3]),
         };
         let (boundary, friction) = match self.boundary {
             Boundary::Slip => (BOUNDARY_SLIP, 0.0),
@@ -324,7 +262,7 @@ impl Collider {
             angular_velocity: pose.angular_velocity.as_vec3().to_array(),
             size,
             reach: (self.shape.bounding_radius() * (1.0 + 1e-4)) as f32 + 1e-3 * dx,
-            ..Zeroable::zeroed()
+            ..bytemuck::Zeroable::zeroed()
         };
         if let Shape::Mesh(mesh) = &self.shape {
             state.sdf_origin = mesh.origin.to_array();
@@ -445,7 +383,7 @@ fn sign(x: f32) -> f32 {
 /// operations follow collider_local_distance in kernels/colliders.cuh one for one.
 fn local_distance(s: &ColliderState, sdf: &[f32], p: Vec3) -> (f32, Vec3) {
     match s.kind {
-        KIND_BOX => {
+        COLLIDER_BOX => {
             let q = p.abs() - Vec3::from(s.size);
             let outside = q.max(Vec3::ZERO);
             let out_len = norm(outside);
@@ -465,19 +403,19 @@ fn local_distance(s: &ColliderState, sdf: &[f32], p: Vec3) -> (f32, Vec3) {
             };
             (out_len + inside, normal)
         }
-        KIND_SPHERE => {
+        COLLIDER_SPHERE => {
             let len = norm(p);
             let normal = if len > 0.0 { p / len } else { Vec3::Y };
             (len - s.size[0], normal)
         }
-        KIND_CAPSULE => {
+        COLLIDER_CAPSULE => {
             let a = p.y.clamp(-s.size[1], s.size[1]);
             let d = Vec3::new(p.x, p.y - a, p.z);
             let len = norm(d);
             let normal = if len > 0.0 { d / len } else { Vec3::X };
             (len - s.size[0], normal)
         }
-        KIND_CYLINDER => {
+        COLLIDER_CYLINDER => {
             let radial = (p.x * p.x + p.z * p.z).sqrt();
             let dr = radial - s.size[0];
             let dy = p.y.abs() - s.size[1];

@@ -29,7 +29,7 @@ pub const MAX_EMITTERS: usize = 32;
 /// A nozzle point emits only once its last particle is this many particle spacings away.
 pub const CLEARANCE: f32 = 0.75;
 /// Marks a nozzle point that has not emitted yet.
-pub const NO_PARTICLE: u32 = u32::MAX;
+pub use crate::contract::NO_PARTICLE;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Nozzle {

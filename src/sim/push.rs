@@ -2,27 +2,8 @@
 //! cursor). Both backends apply the same formula: [`Push::velocity_change`] here, and `push_particles`
 //! in kernels/push.cu, field for field.
 
-use bytemuck::{Pod, Zeroable};
+pub use crate::contract::Push;
 use glam::Vec3;
-use std::mem::size_of;
-
-/// One push, applied once (an impulse), between frames.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Push {
-    /// A point on the ray (the camera eye), m.
-    pub origin: [f32; 3],
-    /// Particles closer than this to the ray are pushed, m.
-    pub radius: f32,
-    /// Unit direction of the ray.
-    pub direction: [f32; 3],
-    pub _pad0: f32,
-    /// Velocity change at the ray itself, m/s; it falls off smoothly to zero at `radius`.
-    pub delta_v: [f32; 3],
-    pub _pad1: f32,
-}
-
-const _: () = assert!(size_of::<Push>() == 48);
 
 impl Push {
     pub fn new(origin: Vec3, direction: Vec3, radius: f32, delta_v: Vec3) -> Push {

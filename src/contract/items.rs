@@ -1,0 +1,242 @@
+// The host/device contract's items: every struct the kernels receive or share with the host, and
+// every constant both sides name. Written once, here: `src/contract/mod.rs` expands them into Rust
+// items, and build.rs into the header the kernels include as "contract.cuh" (with `static_assert`s
+// of every size and field offset that Rust computed). A constant's Rust type is its C type: `u32`
+// is written `4u`, `i32` as a plain `4`, `f32` as `1.0f`, so the kernels compile exactly as they did
+// with hand-written macros.
+//
+// To add a field: add it here (keeping every struct free of implicit padding: bytemuck's Pod refuses
+// one), and use it on both sides; nothing else restates it.
+
+device_structs! {
+    /// The constitutive law of the fluid: the one owner of these values (docs/physics.md, "Parameters").
+    struct Material {
+        /// rho0, kg/m^3.
+        rest_density: f32,
+        /// Tait stiffness k, Pa.
+        eos_stiffness: f32,
+        /// Tait exponent gamma.
+        eos_power: f32,
+        /// Dynamic viscosity mu, Pa s.
+        viscosity: f32,
+        /// p_min, Pa: pressure is clamped from below so that the free surface does not pull itself
+        /// together.
+        pressure_floor: f32,
+        /// m_p, kg: rho0 dx^3 / particles-per-cell, so the initial packing is at rest density.
+        particle_mass: f32,
+        _pad: [u32; 2],
+    }
+
+    /// Everything one substep needs: material, solver settings, grid shape and the step size. Written
+    /// by `Scene::params`, every kernel's first argument.
+    struct Params {
+        material: Material,
+        /// m/s^2.
+        gravity: [f32; 3],
+        /// The substep, s. Set by the time-step policy before every frame.
+        dt: f32,
+        /// Grid nodes per axis; node (i, j, k) sits at (i, j, k) dx and is stored at i + rx (j + ry k).
+        grid_res: [u32; 3],
+        /// Node spacing, m.
+        dx: f32,
+        inv_dx: f32,
+        /// Outer node layers in which the wall-normal velocity is zeroed (free slip).
+        boundary_band: u32,
+        /// Time constant of the soft wall, s; 0 turns it off.
+        soft_wall_tau: f32,
+        num_particles: u32,
+        /// `SCATTER_FLOAT` or `SCATTER_FIXED_POINT` (`ScatterMode::code()`).
+        scatter_mode: u32,
+        /// Fixed-point units per kg of grid mass (the fixed-point scatter and the binned tiles).
+        fixed_mass_scale: f32,
+        /// Fixed-point units per kg m/s of grid momentum (likewise).
+        fixed_momentum_scale: f32,
+        /// Mirror planes of the walls, in nodes: where fluid rests against the low walls (the same on
+        /// every axis) and the high walls. The grid gains the mass and momentum of a mirror-image fluid
+        /// beyond each wall (`cpu::mirror_walls`, kernels/mirror_walls.cu), so particles at a wall are
+        /// not read as a free surface. 0 turns the mirror off (never 0 when on: the fluid region starts
+        /// at node 1).
+        wall_mirror_lo: u32,
+        wall_mirror_hi: [u32; 3],
+        _pad: u32,
+    }
+
+    /// What the kernels count and reduce between substep choices; the host reads it back once per
+    /// choice (src/cuda/counters.rs).
+    struct StepCounters {
+        /// Bits of the largest rho (non-negative floats order like their bits).
+        max_density_bits: u32,
+        /// Bits of the largest |v|.
+        max_speed_bits: u32,
+        /// Fixed-point contributions or sums out of range (must stay 0).
+        fixed_overflows: u32,
+        /// Bits of the largest c(rho_p) + |v_p| of one particle.
+        max_signal_bits: u32,
+        /// Binned pipeline: a particle's stencil left its bin's reach (bins.cu).
+        rebin_needed: u32,
+        /// Binned pipeline: particles scattered past their tile, by global atomics.
+        tile_misses: u32,
+        /// Particles the colliders' backstop put back on a surface (colliders.cuh).
+        backstop_pushes: u32,
+        _pad: u32,
+    }
+
+    /// The particle lifecycle's free stack and what it did since the run began (kernels/lifecycle.cu,
+    /// src/cuda/lifecycle.rs).
+    struct FlowCounters {
+        /// Slots on the free stack.
+        free_count: u64,
+        /// free[..sorted] is in canonical order (settle_free).
+        sorted: u64,
+        emitted: u64,
+        drained: u64,
+        /// Nozzle points that found the stack empty.
+        exhausted: u64,
+        /// Nozzle points whose last particle had not moved clear.
+        blocked: u64,
+    }
+
+    /// One collider at one instant, as every backend reads it (src/sim/colliders.rs,
+    /// kernels/colliders.cuh).
+    struct ColliderState {
+        /// `COLLIDER_*`.
+        kind: u32,
+        /// `BOUNDARY_*`.
+        boundary: u32,
+        /// Coulomb coefficient (friction boundary only).
+        friction: f32,
+        /// Nodes with a signed distance below this, m, are constrained (`BAND_CELLS` dx).
+        band: f32,
+        /// World-from-local rotation, row-major: world = rotation * local + center.
+        rotation: [f32; 9],
+        /// m.
+        center: [f32; 3],
+        /// Velocity of the centre, m/s.
+        velocity: [f32; 3],
+        /// rad/s, world frame; a point x moves at velocity + angular_velocity x (x - center).
+        angular_velocity: [f32; 3],
+        /// Box: half extents. Sphere: radius in [0]. Capsule, cylinder: radius in [0], half length
+        /// (along local y) in [1]. Mesh: unused.
+        size: [f32; 3],
+        /// Mesh: the local position of SDF sample (0, 0, 0).
+        sdf_origin: [f32; 3],
+        /// Mesh: SDF samples per axis (x fastest).
+        sdf_dims: [u32; 3],
+        /// Mesh: distance between SDF samples, m.
+        sdf_spacing: f32,
+        /// Mesh: index of the first sample in the frame's SDF buffer.
+        sdf_offset: u32,
+        /// Radius of a ball about the centre that holds the shape, m, with a margin for rounding: a
+        /// point farther than this (plus the band) is skipped without evaluating the shape.
+        reach: f32,
+        _pad: [u32; 2],
+    }
+
+    /// The viewer's mouse push, applied once (an impulse) between frames (src/sim/push.rs,
+    /// kernels/push.cu).
+    struct Push {
+        /// A point on the ray (the camera eye), m.
+        origin: [f32; 3],
+        /// Particles closer than this to the ray are pushed, m.
+        radius: f32,
+        /// Unit direction of the ray.
+        direction: [f32; 3],
+        _pad0: f32,
+        /// Velocity change at the ray itself, m/s; it falls off smoothly to zero at `radius`.
+        delta_v: [f32; 3],
+        _pad1: f32,
+    }
+
+    /// One fluid body of the device spawn (src/cuda/spawn.rs, kernels/spawn.cu).
+    struct SpawnBody {
+        /// Lattice index range visited, `[lo, hi)` per axis; for a block also its containment test.
+        range_lo: [i64; 3],
+        range_hi: [i64; 3],
+        /// Sphere: its centre, m.
+        center: [f64; 3],
+        /// Sphere: radius * radius, rounded as the host rounds it.
+        radius_sq: f64,
+        velocity: [f32; 3],
+        /// `BODY_BLOCK` or `BODY_SPHERE`.
+        kind: u32,
+        /// Offset of this body's range in the list of all candidates.
+        first_candidate: u64,
+    }
+
+    /// One block's partial statistics (kernels/stats.cu, src/cuda/stats.rs).
+    struct StatsPartial {
+        /// J.
+        kinetic_energy: f64,
+        /// m, for the centre of mass.
+        position_sum: [f64; 3],
+        density_ratio_sum: f64,
+        /// m/s.
+        max_speed: f32,
+        density_ratio_min: f32,
+        density_ratio_max: f32,
+        count: u32,
+    }
+
+    /// One listed chunk of a bin: the bin's node block and the chunk's range in the bin order
+    /// (kernels/bins.cu writes them, the tiled passes walk them).
+    struct BinEntry {
+        bin: u32,
+        start: u32,
+        count: u32,
+        _pad: u32,
+    }
+}
+
+device_constants! {
+    /// `Params::scatter_mode`: float atomics.
+    SCATTER_FLOAT: u32 = 0;
+    /// `Params::scatter_mode`: fixed-point integer atomics.
+    SCATTER_FIXED_POINT: u32 = 1;
+
+    /// `ColliderState::kind`.
+    COLLIDER_BOX: u32 = 0;
+    COLLIDER_SPHERE: u32 = 1;
+    COLLIDER_CAPSULE: u32 = 2;
+    COLLIDER_CYLINDER: u32 = 3;
+    COLLIDER_MESH: u32 = 4;
+    /// `ColliderState::boundary`.
+    BOUNDARY_SLIP: u32 = 0;
+    BOUNDARY_STICK: u32 = 1;
+    BOUNDARY_FRICTION: u32 = 2;
+
+    /// x.w of a parked particle slot (0 for a live particle).
+    PARKED_W: f32 = 1.0;
+    /// No particle: a nozzle point that has not emitted yet.
+    NO_PARTICLE: u32 = 0xffff_ffff;
+
+    /// `SpawnBody::kind`.
+    BODY_BLOCK: u32 = 0;
+    BODY_SPHERE: u32 = 1;
+
+    /// The quantity render_attributes writes into w (`ColourBy::code`).
+    COLOUR_BY_SPEED: u32 = 0;
+    COLOUR_BY_DENSITY: u32 = 1;
+
+    /// What mirror_walls mirrors (`MirrorQuantity`).
+    MIRROR_MASS: u32 = 0;
+    MIRROR_MOMENTUM: u32 = 1;
+
+    /// Nodes per axis of a node block: a bin of the binned pipeline.
+    NODE_BLOCK_EDGE: u32 = 4;
+    /// Nodes of a node block: the threads of a launch per block.
+    NODE_BLOCK_NODES: u32 = 64;
+    /// Nodes of a tiled pass's shared tile: a node block, the stencil's reach and a halo of two per
+    /// side, (4 + 2 + 2 * 2)^3.
+    TILE_NODES: i32 = 1000;
+    /// Threads of a tiled pass's block (its kernels' launch bounds).
+    TILE_THREADS: i32 = 128;
+    /// Slots of the work-count buffer: list lengths the passes read on the device, so no launch waits
+    /// for the host to learn them.
+    WORK_BINS: i32 = 0;
+    WORK_NODE_BLOCKS: i32 = 1;
+
+    /// Values each thread of scan_tiles scans.
+    SCAN_ITEMS_PER_THREAD: i32 = 8;
+    /// Threads per block of particle_stats.
+    STATS_THREADS: i32 = 256;
+}
