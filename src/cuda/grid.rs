@@ -44,31 +44,50 @@ pub struct DeviceGrid {
     pub work_counts: CudaSlice<u32>,
 }
 
-impl DeviceGrid {
-    /// A zeroed grid of `res` nodes with `num_node_blocks` blocks to list (0 in the report pipeline).
-    pub fn allocate(stream: &Arc<CudaStream>, res: [u32; 3], num_node_blocks: usize) -> Result<DeviceGrid> {
-        let nodes: usize = res.iter().map(|&r| r as usize).product();
-        let alloc_f32 = |len: usize, what: &str| {
-            stream
-                .alloc_zeros::<f32>(len)
-                .with_context(|| format!("allocating {what} ({len} floats)"))
-        };
-        let alloc_u32 = |len: usize, what: &str| {
+impl NodeBlockList {
+    /// The list lengths (`work_counts`) and a list of up to `num_node_blocks` blocks (0 in the report
+    /// pipeline), zeroed.
+    pub fn allocate(
+        stream: &Arc<CudaStream>,
+        num_node_blocks: usize,
+    ) -> Result<(CudaSlice<u32>, NodeBlockList)> {
+        let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<u32>(len.max(1))
                 .with_context(|| format!("allocating {what} ({len} values)"))
         };
+        Ok((
+            alloc(WORK_COUNTS, "work counts")?,
+            NodeBlockList {
+                marks: alloc(num_node_blocks, "node block marks")?,
+                list: alloc(num_node_blocks, "the node block list")?,
+            },
+        ))
+    }
+}
+
+impl DeviceGrid {
+    /// A zeroed grid of `res` nodes, with the node-block list and list lengths from
+    /// `NodeBlockList::allocate`.
+    pub fn allocate(
+        stream: &Arc<CudaStream>,
+        res: [u32; 3],
+        (work_counts, node_blocks): (CudaSlice<u32>, NodeBlockList),
+    ) -> Result<DeviceGrid> {
+        let nodes: usize = res.iter().map(|&r| r as usize).product();
+        let alloc = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<f32>(len)
+                .with_context(|| format!("allocating {what} ({len} floats)"))
+        };
         Ok(DeviceGrid {
             res,
-            acc: alloc_f32(4 * nodes, "grid accumulators")?,
-            vel: alloc_f32(4 * nodes, "grid velocities")?,
+            acc: alloc(4 * nodes, "grid accumulators")?,
+            vel: alloc(4 * nodes, "grid velocities")?,
             fixed: None,
             unused_fixed: stream.alloc_zeros::<u64>(1).context("allocating a placeholder")?,
-            node_blocks: NodeBlockList {
-                marks: alloc_u32(num_node_blocks, "node block marks")?,
-                list: alloc_u32(num_node_blocks, "the node block list")?,
-            },
-            work_counts: alloc_u32(WORK_COUNTS, "work counts")?,
+            node_blocks,
+            work_counts,
         })
     }
 

@@ -6,7 +6,7 @@ use super::bins::{Bins, NODE_BLOCK_EDGE};
 use super::colliders::DeviceColliders;
 use super::counters::CounterRing;
 use super::gpu::Gpu;
-use super::grid::{DeviceGrid, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
+use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 use super::lifecycle::DeviceFlow;
 use super::particles::{DeviceParticles, BYTES_PER_PARTICLE};
 use super::stats::ParticleStats;
@@ -65,8 +65,15 @@ impl DeviceState {
             if binned { NODE_BLOCK_EDGE } else { 1 },
             binned,
         )?;
-        let num_node_blocks = if binned { bins.num_bins() } else { 0 };
-        let mut grid = DeviceGrid::allocate(stream, scene.grid_res, num_node_blocks)?;
+        // Allocated in the order of the solver before its restructuring: the particle passes' speed
+        // depends on where the arrays land relative to each other (measured on the H200: the dam
+        // break's p2g ran 4 % slower with the grid allocated before the particles).
+        let colliders = DeviceColliders::allocate(stream)?;
+        let node_blocks = NodeBlockList::allocate(stream, if binned { bins.num_bins() } else { 0 })?;
+        let particles = DeviceParticles::allocate(stream, n)?;
+        let mut grid = DeviceGrid::allocate(stream, scene.grid_res, node_blocks)?;
+        let counters = CounterRing::allocate(&gpu.ctx, stream)?;
+        let stats = ParticleStats::allocate(stream)?;
         if fixed_scatter {
             grid.ensure_fixed(stream)?;
         }
@@ -85,13 +92,13 @@ impl DeviceState {
             None
         };
         Ok(DeviceState {
-            particles: DeviceParticles::allocate(stream, n)?,
+            particles,
             grid,
             bins,
-            counters: CounterRing::allocate(&gpu.ctx, stream)?,
-            colliders: DeviceColliders::allocate(stream)?,
+            counters,
+            colliders,
             flow,
-            stats: ParticleStats::allocate(stream)?,
+            stats,
         })
     }
 
