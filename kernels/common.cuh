@@ -6,6 +6,7 @@
 // messages still name this file and line. No standard headers: NVRTC ships none.
 
 #include "contract.cuh"
+#include "material.cuh"
 
 #include "colliders.cuh"
 
@@ -204,15 +205,13 @@ __device__ __forceinline__ ParticleImpulse particle_impulse(const Params& params
     const float m_p = mat.particle_mass;
     const float dx = params.dx;
     const float volume = m_p / rho;
-    const float pressure =
-        fmaxf(mat.eos_stiffness * (powf(rho / mat.rest_density, mat.eos_power) - 1.0f), mat.pressure_floor);
+    const float pressure = material_pressure(mat, rho);
     const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};  // C as cm[column][row]
     const float stress_factor = 4.0f * params.dt * volume / dx;
     ParticleImpulse out;
     for (int col = 0; col < 3; ++col) {
         for (int row = 0; row < 3; ++row) {
-            float stress = (cm[col][row] + cm[row][col]) * mat.viscosity;
-            if (row == col) stress += -pressure;
+            const float stress = material_stress(mat, pressure, cm, row, col);
             out.affine[col][row] = cm[col][row] * (m_p * dx) - stress * stress_factor;
         }
     }
@@ -277,9 +276,7 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
     r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
     r.x = make_float4(next[0], next[1], next[2], 0.0f);
     r.speed = sqrtf(speed_sq);
-    const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
-    const float ratio = fmaxf(rho / mat.rest_density, 0.0f);
-    r.signal = sound_speed * powf(ratio, 0.5f * (mat.eos_power - 1.0f)) + r.speed;
+    r.signal = material_signal_speed(mat, rho, r.speed);
     return r;
 }
 
@@ -307,8 +304,7 @@ __device__ __noinline__ Backstop collider_backstop_particle(const Params params,
     r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
     const Material mat = params.material;
     r.speed = sqrtf(speed_sq);
-    const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
-    r.signal = sound_speed * powf(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f)) + r.speed;
+    r.signal = material_signal_speed(mat, rho, r.speed);
     return Backstop{r, true};
 }
 

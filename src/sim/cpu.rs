@@ -176,7 +176,7 @@ pub fn p2g_particle(
     let rho = grid_mass * inv_cell_volume;
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
-    let stress = Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * mat.viscosity;
+    let stress = mat.stress(pressure, c);
     // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
     let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
     (rho, v * m_p, affine)
@@ -391,7 +391,7 @@ impl CpuSolver {
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let speed = v.length();
             max_speed = max_speed.max(speed);
-            max_signal = max_signal.max(params.material.sound_speed_at(p.rho[n]) + speed);
+            max_signal = max_signal.max(params.material.signal_speed(p.rho[n], speed));
         }
         self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
         self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);

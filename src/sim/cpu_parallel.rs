@@ -452,7 +452,7 @@ impl ParallelCpuSolver {
                     let moved;
                     (*x, *v, *c, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
                     let speed = v.length();
-                    (speed, material.sound_speed_at(rho) + speed, u64::from(moved))
+                    (speed, material.signal_speed(rho, speed), u64::from(moved))
                 })
                 .reduce(
                     || (0.0f32, 0.0f32, 0u64),

@@ -5,6 +5,7 @@ pub mod colliders;
 pub mod cpu;
 pub mod cpu_parallel;
 pub mod flow;
+pub mod material;
 pub mod mesh;
 pub mod params;
 pub mod phase;

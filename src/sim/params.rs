@@ -1,31 +1,12 @@
-//! What a substep needs: the material's equation of state, the scatter mode and pipeline choices,
-//! and `Params`. `Material` and `Params` themselves are defined in the host/device contract
-//! (src/contract/items.rs), which the kernels' header is written from.
+//! What a substep needs: the scatter mode and pipeline choices, and `Params`. `Material` and `Params`
+//! themselves are defined in the host/device contract (src/contract/items.rs), which the kernels'
+//! header is written from; the material's law is in `material.rs`.
 
 pub use crate::contract::{Material, Params};
 use crate::contract::{SCATTER_FIXED_POINT, SCATTER_FLOAT};
 
 /// Simulated seconds per displayed frame: the runner and the viewer advance one 60 Hz frame at a time.
 pub const FRAME_DT: f32 = 1.0 / 60.0;
-
-impl Material {
-    /// Sound speed at rest, c0 = sqrt(k gamma / rho0).
-    pub fn sound_speed(&self) -> f32 {
-        (self.eos_stiffness * self.eos_power / self.rest_density).sqrt()
-    }
-
-    /// Sound speed at density `rho`: c0 (rho/rho0)^((gamma-1)/2), from dp/drho of the Tait law.
-    pub fn sound_speed_at(&self, rho: f32) -> f32 {
-        let ratio = (rho / self.rest_density).max(0.0);
-        self.sound_speed() * ratio.powf(0.5 * (self.eos_power - 1.0))
-    }
-
-    /// Tait pressure, clamped to the floor.
-    pub fn pressure(&self, rho: f32) -> f32 {
-        let ratio = rho / self.rest_density;
-        (self.eos_stiffness * (ratio.powf(self.eos_power) - 1.0)).max(self.pressure_floor)
-    }
-}
 
 /// How p2g accumulates into the grid on the GPU. The CPU reference is sequential and ignores it.
 #[derive(

@@ -499,7 +499,10 @@ impl Simulation {
         let extremes = self.solver.wait_extremes(ticket)?;
         // The step is chosen from the pairing of the largest density with the largest speed; the
         // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
-        let bound = self.params.material.sound_speed_at(extremes.max_density) + extremes.max_speed;
+        let bound = self
+            .params
+            .material
+            .signal_speed(extremes.max_density, extremes.max_speed);
         self.signal_rise = (bound - self.signal_speed).max(0.0);
         self.signal_speed = bound;
         let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
