@@ -1,0 +1,733 @@
+//! A scene file's specification checked into a [`Scene`]: every value in range, every body inside the
+//! domain, the memory a run needs available. Every refusal names the file, the key and the fix.
+
+use super::spec::*;
+use super::{
+    default_name, fluid_region, Body, Scene, Shape, TimeStepPolicy, CPU_BYTES_PER_NODE,
+    CPU_BYTES_PER_PARTICLE, MAX_CFL,
+};
+use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
+use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
+use crate::sim::params::Material;
+use crate::sim::{mesh, presets};
+use glam::{DVec3, Vec3};
+use std::fmt;
+use std::path::Path;
+
+/// A scene that could not be loaded: where, which key, what is wrong, and how to fix it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    /// The file path or `preset NAME`.
+    pub source: String,
+    /// The offending key, in TOML path form (`material.rest_density`, `block[1].max`); empty for the file.
+    pub key: String,
+    pub problem: String,
+    pub fix: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "scene {}: {}", self.source, self.problem)?;
+        } else {
+            write!(f, "scene {}: `{}` {}", self.source, self.key, self.problem)?;
+        }
+        if !self.fix.is_empty() {
+            write!(f, "\n  fix: {}", self.fix)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+pub(super) struct Validator<'a> {
+    pub(super) source: &'a str,
+}
+
+impl Validator<'_> {
+    fn err(&self, key: impl Into<String>, problem: impl Into<String>, fix: impl Into<String>) -> SceneError {
+        SceneError {
+            source: self.source.to_string(),
+            key: key.into(),
+            problem: problem.into(),
+            fix: fix.into(),
+        }
+    }
+
+    fn positive(&self, key: &str, value: f32, fix: &str) -> Result<f32, SceneError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.err(key, format!("must be a positive number, got {value}"), fix))
+        }
+    }
+
+    fn finite3(&self, key: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        if v.iter().all(|c| c.is_finite()) {
+            Ok(Vec3::from(v))
+        } else {
+            Err(self.err(
+                key,
+                format!("must be finite, got {v:?}"),
+                "give three finite numbers",
+            ))
+        }
+    }
+
+    pub(super) fn scene(&self, spec: &SceneSpec) -> Result<Scene, SceneError> {
+        let (grid_res, dx) = self.domain(&spec.domain)?;
+        let band = spec.solver.boundary_band;
+        if band < 1 || 2 * band + 4 > grid_res.iter().copied().min().unwrap_or(0) {
+            return Err(self.err(
+                "solver.boundary_band",
+                format!("= {band} leaves no room for fluid in a grid of {grid_res:?} nodes"),
+                "use 2 (the default); it must be at least 1 and leave 4 free nodes on every axis",
+            ));
+        }
+        let particles_per_axis = self.particles_per_axis(spec)?;
+        let material = self.material(&spec.material, dx, particles_per_axis)?;
+        let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
+        let bodies = self.bodies(spec, grid_res, dx, band, spec.solver.soft_wall)?;
+        let emitter_speeds = spec
+            .emitters
+            .iter()
+            .map(|e| if e.speed.is_finite() { e.speed } else { 0.0 });
+        let max_body_speed = bodies
+            .iter()
+            .map(|b| b.velocity.length())
+            .chain(emitter_speeds)
+            .fold(0.0, f32::max);
+        let colliders = self.colliders(spec, grid_res, dx)?;
+        let max_speed = max_body_speed.max(colliders.max_speed());
+        let time_step = self.time_step(&spec.time_step, &material, dx, max_speed)?;
+
+        let mut scene = Scene {
+            name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
+            description: spec.description.clone().unwrap_or_default(),
+            source: self.source.to_string(),
+            grid_res,
+            dx: dx as f32,
+            material,
+            gravity,
+            boundary_band: band,
+            soft_wall: spec.solver.soft_wall,
+            mirror_wall_mass: spec.solver.mirror_wall_mass,
+            scatter: spec.solver.scatter,
+            pipeline: spec.solver.pipeline,
+            time_step,
+            particles_per_axis,
+            bodies,
+            colliders,
+            num_particles: 0,
+            flow: Flow::default(),
+            // A spec always serialises (plain numbers, strings and arrays).
+            toml: toml::to_string(spec).unwrap_or_default(),
+        };
+        // The exact count walks every lattice point: refuse absurd sizes from the volume estimate first.
+        self.fits_in_memory(&scene, self.estimate_particles(&scene))?;
+        scene.num_particles = self.count_particles(&scene, !spec.emitters.is_empty())?;
+        scene.flow = self.flow(spec, &scene)?;
+        self.fits_in_memory(&scene, scene.slots())?;
+        Ok(scene)
+    }
+
+    fn domain(&self, d: &DomainSpec) -> Result<([u32; 3], f64), SceneError> {
+        for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+            if !(d.size[a].is_finite() && d.size[a] > 0.0) {
+                return Err(self.err(
+                    "domain.size",
+                    format!("{axis} = {} must be a positive length in metres", d.size[a]),
+                    "give the tank size per axis, e.g. size = [1.0, 0.5, 0.5]",
+                ));
+            }
+            if d.resolution[a] < 8 {
+                return Err(self.err(
+                    "domain.resolution",
+                    format!("{axis} = {} is under 8 grid nodes", d.resolution[a]),
+                    "use at least 8 nodes per axis (the boundary band and stencil need room)",
+                ));
+            }
+        }
+        let dxs: Vec<f64> = (0..3).map(|a| d.size[a] / f64::from(d.resolution[a])).collect();
+        let dx = dxs[0];
+        if dxs.iter().any(|&h| ((h - dx) / dx).abs() > 1e-4) {
+            return Err(self.err(
+                "domain.resolution",
+                format!(
+                    "gives different cell sizes per axis (size / resolution = {:.6}, {:.6}, {:.6} m)",
+                    dxs[0], dxs[1], dxs[2]
+                ),
+                format!(
+                    "cells must be cubes: keep size / resolution equal, e.g. resolution = [{}, {}, {}]",
+                    d.resolution[0],
+                    (d.size[1] / dx).round(),
+                    (d.size[2] / dx).round()
+                ),
+            ));
+        }
+        Ok((d.resolution, dx))
+    }
+
+    fn particles_per_axis(&self, spec: &SceneSpec) -> Result<u32, SceneError> {
+        let ppcs = spec
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("block[{i}].particles_per_cell"), b.particles_per_cell))
+            .chain(
+                spec.spheres
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (format!("sphere[{i}].particles_per_cell"), s.particles_per_cell)),
+            )
+            .chain(
+                spec.emitters
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| (format!("emitter[{i}].particles_per_cell"), e.particles_per_cell)),
+            );
+        let mut chosen: Option<(String, u32)> = None;
+        for (key, ppc) in ppcs {
+            let n = (1..=4).find(|n| n * n * n == ppc).ok_or_else(|| {
+                self.err(
+                    &key,
+                    format!("= {ppc} is not a cube lattice"),
+                    "use 1, 8, 27 or 64 particles per cell (1 to 4 per axis); 8 is the usual choice",
+                )
+            })?;
+            match &chosen {
+                Some((first, m)) if *m != n => {
+                    return Err(self.err(
+                        &key,
+                        format!("= {ppc} differs from `{first}` = {}", m * m * m),
+                        "give every body the same particles_per_cell: the particle mass \
+                         m_p = rho0 dx^3 / ppc is one material constant",
+                    ))
+                }
+                Some(_) => {}
+                None => chosen = Some((key, n)),
+            }
+        }
+        chosen.map(|(_, n)| n).ok_or_else(|| {
+            self.err(
+                "block",
+                "the scene has no fluid bodies and no emitters, so it has zero particles",
+                "add at least one [[block]] (min, max), [[sphere]] (center, radius) or [[emitter]]",
+            )
+        })
+    }
+
+    fn material(&self, m: &MaterialSpec, dx: f64, n: u32) -> Result<Material, SceneError> {
+        let rho0 = self.positive(
+            "material.rest_density",
+            m.rest_density,
+            "give the rest density in kg/m^3, e.g. 1000 for water",
+        )?;
+        let gamma = self.positive("material.eos_power", m.eos_power, "use 7 (Tait, water)")?;
+        let stiffness = match (m.sound_speed, m.eos_stiffness) {
+            (Some(c0), None) => {
+                let c0 = self.positive(
+                    "material.sound_speed",
+                    c0,
+                    "give the sound speed in m/s; 10-20 for real-time water",
+                )?;
+                rho0 * c0 * c0 / gamma
+            }
+            (None, Some(k)) => self.positive("material.eos_stiffness", k, "give k in Pa")?,
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    "material.sound_speed",
+                    "and `material.eos_stiffness` are both given",
+                    "give one: the sound speed fixes the stiffness (k = rho0 c0^2 / gamma) and back",
+                ))
+            }
+            (None, None) => {
+                return Err(self.err(
+                    "material.sound_speed",
+                    "is missing",
+                    "give sound_speed (m/s) or eos_stiffness (Pa), e.g. sound_speed = 20.0",
+                ))
+            }
+        };
+        if !(m.viscosity.is_finite() && m.viscosity >= 0.0) {
+            return Err(self.err(
+                "material.viscosity",
+                format!("= {} must be zero or positive", m.viscosity),
+                "give the dynamic viscosity in Pa s, 1e-3 for water",
+            ));
+        }
+        if !(m.pressure_floor.is_finite() && m.pressure_floor <= 0.0) {
+            return Err(self.err(
+                "material.pressure_floor",
+                format!("= {} must be zero or negative", m.pressure_floor),
+                "use 0 (no tension) or a small negative pressure in Pa for surface cohesion",
+            ));
+        }
+        let ppc = f64::from(n * n * n);
+        Ok(Material {
+            rest_density: rho0,
+            eos_stiffness: stiffness,
+            eos_power: gamma,
+            viscosity: m.viscosity,
+            pressure_floor: m.pressure_floor,
+            particle_mass: (f64::from(rho0) * dx * dx * dx / ppc) as f32,
+            _pad: [0; 2],
+        })
+    }
+
+    fn bodies(
+        &self,
+        spec: &SceneSpec,
+        res: [u32; 3],
+        dx: f64,
+        band: u32,
+        soft_wall: bool,
+    ) -> Result<Vec<Body>, SceneError> {
+        let (lo, hi) = fluid_region(res, dx, band, soft_wall);
+        let region = format!(
+            "[{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}] m",
+            lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
+        );
+        let fix = format!(
+            "keep bodies inside the fluid region {region} (the domain less the {band}-node boundary band{})",
+            if soft_wall { " and the soft wall" } else { "" }
+        );
+        let mut bodies = Vec::new();
+        for (i, b) in spec.blocks.iter().enumerate() {
+            let (min, max) = (DVec3::from(b.min), DVec3::from(b.max));
+            if !(min.is_finite() && max.is_finite()) || min.cmpge(max).any() {
+                return Err(self.err(
+                    format!("block[{i}]"),
+                    format!("has min {:?} not below max {:?} on every axis", b.min, b.max),
+                    "give min < max on x, y and z",
+                ));
+            }
+            let eps = 1e-9 * dx;
+            if min.cmplt(lo - eps).any() || max.cmpgt(hi + eps).any() {
+                let key = if min.cmplt(lo - eps).any() { "min" } else { "max" };
+                return Err(self.err(
+                    format!("block[{i}].{key}"),
+                    "lies outside the domain's fluid region",
+                    fix.clone(),
+                ));
+            }
+            bodies.push(Body {
+                shape: Shape::Block { min, max },
+                velocity: self.finite3(&format!("block[{i}].velocity"), b.velocity)?,
+            });
+        }
+        for (i, s) in spec.spheres.iter().enumerate() {
+            let center = DVec3::from(s.center);
+            if !(s.radius.is_finite() && s.radius > 0.0) {
+                return Err(self.err(
+                    format!("sphere[{i}].radius"),
+                    format!("= {} must be positive", s.radius),
+                    "give the radius in metres",
+                ));
+            }
+            if !center.is_finite()
+                || (center - s.radius).cmplt(lo).any()
+                || (center + s.radius).cmpgt(hi).any()
+            {
+                return Err(self.err(
+                    format!("sphere[{i}]"),
+                    "reaches outside the domain's fluid region",
+                    fix.clone(),
+                ));
+            }
+            bodies.push(Body {
+                shape: Shape::Sphere {
+                    center,
+                    radius: s.radius,
+                },
+                velocity: self.finite3(&format!("sphere[{i}].velocity"), s.velocity)?,
+            });
+        }
+        Ok(bodies)
+    }
+
+    /// Emitters and sinks, validated against the domain, and the particle capacity.
+    fn flow(&self, spec: &SceneSpec, scene: &Scene) -> Result<Flow, SceneError> {
+        let (lo, hi) = scene.fluid_region();
+        let spacing = scene.lattice().spacing;
+        let region = format!(
+            "[{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}] m",
+            lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
+        );
+        if spec.emitters.len() > MAX_EMITTERS {
+            return Err(self.err(
+                "emitter",
+                format!(
+                    "{} emitters are more than the {MAX_EMITTERS} a scene may have",
+                    spec.emitters.len()
+                ),
+                "merge nozzles that share a speed and direction into one rectangle",
+            ));
+        }
+        let mut emitters = Vec::new();
+        for (i, e) in spec.emitters.iter().enumerate() {
+            emitters.push(self.emitter(i, e, spacing, (lo, hi), &region)?);
+        }
+        let domain = DVec3::from(scene.grid_res.map(f64::from)) * f64::from(scene.dx);
+        let mut sinks = Vec::new();
+        for (i, k) in spec.sinks.iter().enumerate() {
+            let (min, max) = (DVec3::from(k.min), DVec3::from(k.max));
+            if !(min.is_finite() && max.is_finite()) || min.cmpge(max).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!("has min {:?} not below max {:?} on every axis", k.min, k.max),
+                    "give min < max on x, y and z",
+                ));
+            }
+            if min.cmplt(DVec3::ZERO).any() || max.cmpgt(domain).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!(
+                        "reaches outside the domain [0, {:.4}] x [0, {:.4}] x [0, {:.4}] m",
+                        domain.x, domain.y, domain.z
+                    ),
+                    "keep the sink box inside the domain; a drain at the floor reaches down to 0",
+                ));
+            }
+            if min.cmpge(hi).any() || max.cmple(lo).any() {
+                return Err(self.err(
+                    format!("sink[{i}]"),
+                    format!("lies wholly in the boundary band, where no particle goes (the fluid region is {region})"),
+                    "let the box reach into the fluid region",
+                ));
+            }
+            sinks.push(Sink {
+                min: min.as_vec3(),
+                max: max.as_vec3(),
+            });
+        }
+        let initial = scene.num_particles;
+        let capacity = match &spec.particles {
+            Some(p) => {
+                let capacity = p.capacity;
+                if capacity == 0 || capacity < initial as u64 {
+                    return Err(self.err(
+                        "particles.capacity",
+                        format!("= {capacity} is below the {initial} particles the bodies spawn"),
+                        format!("give at least {initial}, plus room for what the emitters add"),
+                    ));
+                }
+                if capacity > u64::from(u32::MAX) {
+                    return Err(self.err(
+                        "particles.capacity",
+                        format!("= {capacity} is above the 2^32 limit of particle indices"),
+                        "give a smaller capacity",
+                    ));
+                }
+                capacity as usize
+            }
+            None if !emitters.is_empty() => {
+                return Err(self.err(
+                    "particles.capacity",
+                    "is missing: a scene with emitters allocates its particles up front",
+                    format!(
+                        "add [particles] capacity = N, N at least {initial} (the bodies' particles) plus what the emitters may add"
+                    ),
+                ))
+            }
+            None => initial,
+        };
+        Ok(Flow {
+            emitters,
+            sinks,
+            capacity,
+        })
+    }
+
+    fn emitter(
+        &self,
+        i: usize,
+        e: &EmitterSpec,
+        spacing: f64,
+        (lo, hi): (DVec3, DVec3),
+        region: &str,
+    ) -> Result<Emitter, SceneError> {
+        let key = |k: &str| format!("emitter[{i}].{k}");
+        let normal = Vec3::from(e.normal);
+        if !(normal.is_finite() && normal.length() > 1e-6) {
+            return Err(self.err(
+                key("normal"),
+                format!("= {:?} is not a direction", e.normal),
+                "give the direction the fluid leaves in, e.g. [0.0, -1.0, 0.0] for a tap",
+            ));
+        }
+        let normal = normal.normalize();
+        let nozzle = match (e.shape, e.radius, e.size) {
+            (NozzleShape::Disc, Some(radius), None) if radius.is_finite() && radius > 0.0 => {
+                Nozzle::Disc { radius }
+            }
+            (NozzleShape::Rectangle, None, Some(size)) if size.iter().all(|s| s.is_finite() && *s > 0.0) => {
+                Nozzle::Rectangle { size }
+            }
+            (NozzleShape::Disc, ..) => {
+                return Err(self.err(
+                    key("radius"),
+                    "must be given, positive, for a disc nozzle (and `size` left out)",
+                    "give radius = R in metres",
+                ))
+            }
+            (NozzleShape::Rectangle, ..) => {
+                return Err(self.err(
+                    key("size"),
+                    "must be given, two positive lengths, for a rectangle nozzle (and `radius` left out)",
+                    "give size = [A, B] in metres, the sides across the normal",
+                ))
+            }
+        };
+        if !(e.speed.is_finite() && e.speed > 0.0) {
+            return Err(self.err(
+                key("speed"),
+                format!("= {} must be a positive speed", e.speed),
+                "give the speed the fluid leaves the nozzle at, m/s",
+            ));
+        }
+        let center = DVec3::from(e.center);
+        let points = flow::nozzle_points(nozzle, center, normal, spacing);
+        if points.is_empty() {
+            return Err(self.err(
+                format!("emitter[{i}]"),
+                format!("has a nozzle smaller than the particle spacing {spacing:.4} m"),
+                "make the nozzle wider than one particle spacing",
+            ));
+        }
+        let (lo32, hi32) = (lo.as_vec3(), hi.as_vec3());
+        if !center.is_finite() || points.iter().any(|p| p.cmplt(lo32).any() || p.cmpgt(hi32).any()) {
+            return Err(self.err(
+                format!("emitter[{i}]"),
+                format!("reaches outside the domain's fluid region {region}"),
+                "move the nozzle inside the region, or make it smaller",
+            ));
+        }
+        let full = points.len() as f64 * spacing * spacing * f64::from(e.speed);
+        let rate = match e.rate {
+            None => full,
+            Some(rate) if rate.is_finite() && rate > 0.0 && rate <= full * (1.0 + 1e-9) => rate,
+            Some(rate) if rate.is_finite() && rate > full => {
+                return Err(self.err(
+                    key("rate"),
+                    format!(
+                        "= {rate:.3e} m^3/s is more than the nozzle passes at {} m/s ({full:.3e} m^3/s: its {} particle columns times the speed); particles would land on each other",
+                        e.speed,
+                        points.len()
+                    ),
+                    "raise the speed, widen the nozzle, or lower the rate",
+                ))
+            }
+            Some(rate) => {
+                return Err(self.err(
+                    key("rate"),
+                    format!("= {rate} must be a positive flow in m^3/s"),
+                    format!("give a rate up to {full:.3e} m^3/s, or leave it out for that full flow"),
+                ))
+            }
+        };
+        Ok(Emitter {
+            nozzle,
+            center,
+            normal,
+            speed: e.speed,
+            rate,
+            points,
+        })
+    }
+
+    fn colliders(&self, spec: &SceneSpec, res: [u32; 3], dx: f64) -> Result<Colliders, SceneError> {
+        if spec.colliders.len() > MAX_COLLIDERS {
+            return Err(self.err(
+                format!("collider[{MAX_COLLIDERS}]"),
+                format!(
+                    "is one of {} colliders, more than the {MAX_COLLIDERS} a scene may have",
+                    spec.colliders.len()
+                ),
+                "merge obstacles into one mesh collider, or drop some",
+            ));
+        }
+        // Mesh files are found beside the scene file; a preset's among the files embedded with it.
+        let dir = Path::new(self.source)
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let preset = self
+            .source
+            .strip_prefix("preset ")
+            .is_some_and(|name| presets::get(name).is_some());
+        let read_mesh = |file: &str, scale: f64| match presets::mesh(file).filter(|_| preset) {
+            Some(text) => mesh::parse_triangles(Path::new(file), text.as_bytes(), scale)
+                .map_err(|e| format!("{file} (embedded with the presets): {e}")),
+            None => {
+                let path = dir.join(file);
+                mesh::read_triangles(&path, scale).map_err(|e| format!("{}: {e}", path.display()))
+            }
+        };
+        let domain = DVec3::from(res.map(f64::from)) * dx;
+        let list = spec
+            .colliders
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                colliders::validate(c, &read_mesh, domain, dx)
+                    .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Colliders::new(list, dx as f32))
+    }
+
+    fn time_step(
+        &self,
+        t: &TimeStepSpec,
+        material: &Material,
+        dx: f64,
+        max_body_speed: f32,
+    ) -> Result<TimeStepPolicy, SceneError> {
+        let signal = material.sound_speed() + max_body_speed;
+        let dt_limit = MAX_CFL * dx as f32 / signal;
+        match (t.cfl, t.dt) {
+            (Some(_), Some(_)) => Err(self.err(
+                "time_step.dt",
+                "and `time_step.cfl` are both given",
+                "give cfl (substeps chosen from the stability limits) or a fixed dt, not both",
+            )),
+            (_, Some(dt)) => {
+                let dt = self.positive("time_step.dt", dt, "give the substep in seconds")?;
+                if dt > dt_limit {
+                    return Err(self.err(
+                        "time_step.dt",
+                        format!(
+                            "= {dt:.3e} s is above the stability limit {dt_limit:.3e} s \
+                             ({MAX_CFL} dx / (c0 + |v|max) with c0 = {:.2} m/s)",
+                            material.sound_speed()
+                        ),
+                        format!(
+                            "use dt <= {dt_limit:.3e}, or drop dt and set cfl = 0.4 to let the solver choose"
+                        ),
+                    ));
+                }
+                Ok(TimeStepPolicy::Fixed { dt })
+            }
+            (cfl, None) => {
+                let cfl = cfl.unwrap_or(0.4);
+                if !(cfl.is_finite() && cfl > 0.0 && cfl <= MAX_CFL) {
+                    return Err(self.err(
+                        "time_step.cfl",
+                        format!("= {cfl} is outside (0, {MAX_CFL}]"),
+                        "use 0.3 to 0.5; 0.4 is the default",
+                    ));
+                }
+                let max_substeps = t.max_substeps.unwrap_or(DEFAULT_MAX_SUBSTEPS);
+                if max_substeps == 0 {
+                    return Err(self.err(
+                        "time_step.max_substeps",
+                        "must be at least 1",
+                        format!("drop it (default {DEFAULT_MAX_SUBSTEPS})"),
+                    ));
+                }
+                Ok(TimeStepPolicy::Cfl { cfl, max_substeps })
+            }
+        }
+    }
+
+    /// The live particles the bodies spawn; zero only where emitters will bring fluid.
+    fn count_particles(&self, scene: &Scene, has_emitters: bool) -> Result<usize, SceneError> {
+        let lattice = scene.lattice();
+        let colliders = scene.colliders_at_start();
+        let mut total = 0usize;
+        for (k, body) in scene.bodies.iter().enumerate() {
+            let own = scene.own_points(&lattice, k, &colliders).count();
+            if own == 0 {
+                let blocks = scene.bodies[..k]
+                    .iter()
+                    .filter(|b| matches!(b.shape, Shape::Block { .. }))
+                    .count();
+                let key = match body.shape {
+                    Shape::Block { .. } => format!("block[{blocks}]"),
+                    Shape::Sphere { .. } => format!("sphere[{}]", k - blocks),
+                };
+                return Err(self.err(
+                    key,
+                    format!(
+                        "holds zero particles (smaller than the particle spacing {:.4} m, or inside an earlier body or a collider)",
+                        lattice.spacing
+                    ),
+                    "make it larger than one cell, or move it out of the bodies listed before it and the colliders",
+                ));
+            }
+            total += own;
+        }
+        if total == 0 && !has_emitters {
+            return Err(self.err(
+                "block",
+                "the scene spawns zero particles",
+                "add a [[block]] or [[sphere]] of fluid, or an [[emitter]]",
+            ));
+        }
+        if total > u32::MAX as usize {
+            return Err(self.err(
+                "block",
+                format!("the scene spawns {total} particles, above the 2^32 limit of particle indices"),
+                "use fewer particles per cell or smaller bodies",
+            ));
+        }
+        Ok(total)
+    }
+
+    /// Body volumes over the lattice cell volume, overlaps counted twice: cheap, and close enough to
+    /// refuse a scene that could never fit before counting its points one by one.
+    fn estimate_particles(&self, scene: &Scene) -> usize {
+        let cell = scene.lattice().spacing.powi(3);
+        let volume: f64 = scene
+            .bodies
+            .iter()
+            .map(|b| match b.shape {
+                Shape::Block { min, max } => (max - min).element_product(),
+                Shape::Sphere { radius, .. } => 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
+            })
+            .sum();
+        (volume / cell) as usize
+    }
+
+    fn fits_in_memory(&self, scene: &Scene, particles: usize) -> Result<(), SceneError> {
+        let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        let needed = particles.saturating_mul(CPU_BYTES_PER_PARTICLE) + nodes * CPU_BYTES_PER_NODE;
+        if nodes > u32::MAX as usize {
+            return Err(self.err(
+                "domain.resolution",
+                format!("gives {nodes} grid nodes, above the 2^32 limit of node indices"),
+                "use a coarser grid",
+            ));
+        }
+        if let Some(available) = available_host_memory() {
+            if needed as u64 > available {
+                return Err(self.err(
+                    "",
+                    format!(
+                        "needs {:.1} GiB ({} particles, {} grid nodes) but this machine has {:.1} GiB available",
+                        gib(needed as u64),
+                        particles,
+                        nodes,
+                        gib(available)
+                    ),
+                    "use a coarser domain.resolution, fewer particles_per_cell or smaller bodies",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn gib(bytes: u64) -> f64 {
+    bytes as f64 / (1u64 << 30) as f64
+}
+
+/// `MemAvailable` from /proc/meminfo; `None` where that is not there (the check is then skipped).
+fn available_host_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
