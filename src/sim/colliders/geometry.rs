@@ -1,0 +1,244 @@
+//! Collider geometry on the CPU, the twin of kernels/colliders.cuh function for function: each
+//! shape's signed distance and normal, the grid update's boundary condition and the particle
+//! backstop, evaluated from a frame's `ColliderState`s so both sides compute the same numbers.
+
+use super::*;
+
+#[inline(always)]
+fn row(m: &[f32; 9], r: usize) -> Vec3 {
+    Vec3::new(m[3 * r], m[3 * r + 1], m[3 * r + 2])
+}
+
+/// rotation^T v: world to local.
+#[inline(always)]
+fn to_local(m: &[f32; 9], v: Vec3) -> Vec3 {
+    Vec3::new(
+        m[0] * v.x + m[3] * v.y + m[6] * v.z,
+        m[1] * v.x + m[4] * v.y + m[7] * v.z,
+        m[2] * v.x + m[5] * v.y + m[8] * v.z,
+    )
+}
+
+/// rotation v: local to world.
+#[inline(always)]
+fn to_world(m: &[f32; 9], v: Vec3) -> Vec3 {
+    Vec3::new(row(m, 0).dot(v), row(m, 1).dot(v), row(m, 2).dot(v))
+}
+
+#[inline(always)]
+fn norm(v: Vec3) -> f32 {
+    (v.x * v.x + v.y * v.y + v.z * v.z).sqrt()
+}
+
+#[inline(always)]
+fn sign(x: f32) -> f32 {
+    if x < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+/// Signed distance (negative inside) and outward unit normal of a shape at local point p. The
+/// operations follow collider_local_distance in kernels/colliders.cuh one for one.
+fn local_distance(s: &ColliderState, sdf: &[f32], p: Vec3) -> (f32, Vec3) {
+    match s.kind {
+        COLLIDER_BOX => {
+            let q = p.abs() - Vec3::from(s.size);
+            let outside = q.max(Vec3::ZERO);
+            let out_len = norm(outside);
+            let inside = q.x.max(q.y.max(q.z)).min(0.0);
+            let normal = if out_len > 0.0 {
+                Vec3::new(
+                    outside.x * sign(p.x),
+                    outside.y * sign(p.y),
+                    outside.z * sign(p.z),
+                ) / out_len
+            } else if q.x >= q.y && q.x >= q.z {
+                Vec3::new(sign(p.x), 0.0, 0.0)
+            } else if q.y >= q.z {
+                Vec3::new(0.0, sign(p.y), 0.0)
+            } else {
+                Vec3::new(0.0, 0.0, sign(p.z))
+            };
+            (out_len + inside, normal)
+        }
+        COLLIDER_SPHERE => {
+            let len = norm(p);
+            let normal = if len > 0.0 { p / len } else { Vec3::Y };
+            (len - s.size[0], normal)
+        }
+        COLLIDER_CAPSULE => {
+            let a = p.y.clamp(-s.size[1], s.size[1]);
+            let d = Vec3::new(p.x, p.y - a, p.z);
+            let len = norm(d);
+            let normal = if len > 0.0 { d / len } else { Vec3::X };
+            (len - s.size[0], normal)
+        }
+        COLLIDER_CYLINDER => {
+            let radial = (p.x * p.x + p.z * p.z).sqrt();
+            let dr = radial - s.size[0];
+            let dy = p.y.abs() - s.size[1];
+            let (ox, oy) = (dr.max(0.0), dy.max(0.0));
+            let out_len = (ox * ox + oy * oy).sqrt();
+            let u = if radial > 0.0 {
+                Vec3::new(p.x / radial, 0.0, p.z / radial)
+            } else {
+                Vec3::X
+            };
+            let axial = Vec3::new(0.0, sign(p.y), 0.0);
+            let normal = if out_len > 0.0 {
+                (u * ox + axial * oy) / out_len
+            } else if dr > dy {
+                u
+            } else {
+                axial
+            };
+            (out_len + dr.max(dy).min(0.0), normal)
+        }
+        _ => mesh_distance(s, sdf, p),
+    }
+}
+
+/// Trilinear samples of a mesh's distance field and their gradient; far (+infinity) outside the
+/// sampled box, which reaches past the band on every side.
+fn mesh_distance(s: &ColliderState, sdf: &[f32], p: Vec3) -> (f32, Vec3) {
+    const FAR: (f32, Vec3) = (f32::INFINITY, Vec3::Y);
+    let inv = 1.0 / s.sdf_spacing;
+    let g = (p - Vec3::from(s.sdf_origin)) * inv;
+    let base = g.floor();
+    if base.x < 0.0 || base.y < 0.0 || base.z < 0.0 {
+        return FAR;
+    }
+    let (i, j, k) = (base.x as u32, base.y as u32, base.z as u32);
+    let [nx, ny, nz] = s.sdf_dims;
+    if i + 1 >= nx || j + 1 >= ny || k + 1 >= nz {
+        return FAR;
+    }
+    let f = g - base;
+    let at = |a: u32, b: u32, c: u32| sdf[(s.sdf_offset + a + nx * (b + ny * c)) as usize];
+    let c000 = at(i, j, k);
+    let c100 = at(i + 1, j, k);
+    let c010 = at(i, j + 1, k);
+    let c110 = at(i + 1, j + 1, k);
+    let c001 = at(i, j, k + 1);
+    let c101 = at(i + 1, j, k + 1);
+    let c011 = at(i, j + 1, k + 1);
+    let c111 = at(i + 1, j + 1, k + 1);
+    // Along x first, then y, then z.
+    let x00 = c000 + (c100 - c000) * f.x;
+    let x10 = c010 + (c110 - c010) * f.x;
+    let x01 = c001 + (c101 - c001) * f.x;
+    let x11 = c011 + (c111 - c011) * f.x;
+    let y0 = x00 + (x10 - x00) * f.y;
+    let y1 = x01 + (x11 - x01) * f.y;
+    let phi = y0 + (y1 - y0) * f.z;
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let gx = lerp(
+        lerp(c100 - c000, c110 - c010, f.y),
+        lerp(c101 - c001, c111 - c011, f.y),
+        f.z,
+    );
+    let gy = lerp(x10 - x00, x11 - x01, f.z);
+    let gz = y1 - y0;
+    let grad = Vec3::new(gx, gy, gz);
+    let len = norm(grad);
+    if len > 0.0 {
+        (phi, grad / len)
+    } else {
+        (phi, Vec3::Y)
+    }
+}
+
+/// Whether x lies farther than `margin` outside the collider's bounding ball (so farther than
+/// `margin` from the collider): the cheap test that spares most nodes and particles the shape.
+#[inline(always)]
+fn beyond(s: &ColliderState, x: Vec3, margin: f32) -> bool {
+    let r = x - Vec3::from(s.center);
+    let limit = s.reach + margin;
+    r.x * r.x + r.y * r.y + r.z * r.z > limit * limit
+}
+
+impl ColliderFrame {
+    pub fn is_empty(&self) -> bool {
+        self.states.is_empty()
+    }
+
+    /// Whether x lies inside a collider (where a scene spawns no fluid).
+    pub fn contains(&self, x: Vec3) -> bool {
+        self.states.iter().any(|s| self.distance(s, x).0 < 0.0)
+    }
+
+    /// Signed distance and outward unit normal (world frame) of collider `s` at world point x.
+    pub fn distance(&self, s: &ColliderState, x: Vec3) -> (f32, Vec3) {
+        let p = to_local(&s.rotation, x - Vec3::from(s.center));
+        let (phi, n) = local_distance(s, &self.sdf, p);
+        (phi, to_world(&s.rotation, n))
+    }
+
+    /// The collider's own velocity at world point x.
+    fn velocity_at(s: &ColliderState, x: Vec3) -> Vec3 {
+        Vec3::from(s.velocity) + Vec3::from(s.angular_velocity).cross(x - Vec3::from(s.center))
+    }
+
+    /// The grid update's boundary condition at a node at x with velocity v: for each collider in
+    /// turn (scene order) whose surface is within the band, the velocity relative to the collider
+    /// loses its part into the collider (slip), all of it (stick), or that and a Coulomb share of its
+    /// tangential part (friction). A relative velocity leaving the collider is left alone, so fluid
+    /// can separate from it.
+    pub fn project_node(&self, x: Vec3, mut v: Vec3) -> Vec3 {
+        for s in &self.states {
+            if beyond(s, x, s.band) {
+                continue;
+            }
+            let (phi, n) = self.distance(s, x);
+            if phi.is_nan() || phi >= s.band {
+                continue; // as the kernel's !(phi < band)
+            }
+            let vc = Self::velocity_at(s, x);
+            let mut rel = v - vc;
+            if s.boundary == BOUNDARY_STICK {
+                rel = Vec3::ZERO;
+            } else {
+                let vn = rel.dot(n);
+                if vn < 0.0 {
+                    let tangential = rel - n * vn;
+                    rel = if s.boundary == BOUNDARY_FRICTION {
+                        let vt = norm(tangential);
+                        if vt <= -s.friction * vn {
+                            Vec3::ZERO
+                        } else {
+                            tangential * (1.0 + s.friction * vn / vt)
+                        }
+                    } else {
+                        tangential
+                    };
+                }
+            }
+            v = vc + rel;
+        }
+        v
+    }
+
+    /// The particle backstop, after advection: a particle at x that ended inside a collider is put
+    /// back on its surface along the normal, and its velocity into the collider (relative to it) is
+    /// removed. Returns the new position and velocity where it did; `None` where no collider holds x.
+    pub fn backstop(&self, mut x: Vec3, mut v: Vec3) -> Option<(Vec3, Vec3)> {
+        let mut pushed = false;
+        for s in &self.states {
+            if beyond(s, x, 0.0) {
+                continue;
+            }
+            let (phi, n) = self.distance(s, x);
+            if phi < 0.0 {
+                x -= n * phi;
+                let vn = (v - Self::velocity_at(s, x)).dot(n);
+                if vn < 0.0 {
+                    v -= n * vn;
+                }
+                pushed = true;
+            }
+        }
+        pushed.then_some((x, v))
+    }
+}
