@@ -12,14 +12,17 @@ pub mod phase;
 pub mod presets;
 pub mod push;
 pub mod scene;
+pub mod simulation;
 pub mod solver;
+pub mod summary;
 
 pub use colliders::{ColliderFrame, Colliders};
 pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Particles, Scene, SceneError};
+pub use simulation::{FrameStats, FrameSteps, RunClock, Simulation};
 pub use solver::{
-    ExtremesTicket, FrameStats, FrameSteps, ParticleView, RunClock, Simulation, Solver, StepExtremes,
-    Summary, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
+    ExtremesTicket, ParticleView, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
 };
+pub use summary::Summary;

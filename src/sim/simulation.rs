@@ -1,0 +1,500 @@
+//! The frame driver: a [`Simulation`] owns a [`Solver`] and advances it frame by frame under the
+//! scene's time-step policy; the runner, the viewer, the tests and the benches all drive it.
+
+use super::colliders::ColliderFrame;
+use super::flow::{self, FlowCounts};
+use super::params::{Params, FRAME_DT};
+use super::phase::PhaseTimings;
+use super::push::Push;
+use super::scene::{Scene, MAX_CFL};
+use super::solver::{ExtremesTicket, Solver, SummaryTicket};
+use super::summary::Summary;
+use anyhow::{bail, ensure, Result};
+use glam::Vec3;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A NaN or infinity in the state: what to tell the user.
+fn diverged(frame: u64) -> anyhow::Error {
+    anyhow::anyhow!(
+        "the simulation diverged in frame {frame} (a NaN or infinity appeared); \
+         lower time_step.cfl or time_step.dt, or raise material.sound_speed"
+    )
+}
+
+/// One line of the runner's output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameStats {
+    pub frame: u64,
+    /// Simulated seconds at the end of the frame.
+    pub time: f64,
+    pub substeps: u32,
+    /// The smallest substep of the frame, s.
+    pub dt: f32,
+    /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
+    pub max_cfl: f32,
+    /// Substeps of the frame run in a stretch whose CFL number went above [`MAX_CFL`] (0 when the
+    /// bound held). The step cannot be taken back, so these are counted and reported instead.
+    pub substeps_over_cfl: u32,
+    /// Particles the colliders' backstop put back on a collider's surface in this frame
+    /// (see [`StepExtremes::backstop_pushes`]); 0 without colliders.
+    pub backstop_pushes: u64,
+    #[serde(flatten)]
+    pub summary: Summary,
+    /// What emitters and sinks did since the run began; `None` in a scene without them.
+    pub flow: Option<FlowCounts>,
+    /// Emitter layers that fell due more than once in a substep since the run began (the jet could not
+    /// keep its rate at that substep); 0 without emitters.
+    pub late_layers: u64,
+    /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
+    pub timings: Option<PhaseTimings>,
+}
+
+/// What one frame's substeps did, without the statistics pass (which copies every particle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameSteps {
+    pub substeps: u32,
+    /// The smallest substep of the frame, s.
+    pub dt: f32,
+    pub max_cfl: f32,
+    /// See [`FrameStats::substeps_over_cfl`].
+    pub substeps_over_cfl: u32,
+    /// See [`FrameStats::backstop_pushes`].
+    pub backstop_pushes: u64,
+    pub timings: Option<PhaseTimings>,
+}
+
+pub struct Simulation {
+    scene: Scene,
+    params: Params,
+    solver: Box<dyn Solver>,
+    frame: u64,
+    time: f64,
+    /// c(max density) + max speed over the last stretch of substeps, m/s: an upper bound of every
+    /// particle's signal speed, which the next substep is chosen from.
+    signal_speed: f32,
+    /// How much it rose over that stretch (0 if it fell): a rising trend is extrapolated one stretch on.
+    signal_rise: f32,
+    /// The last frame's per-substep timings, for the benches' medians.
+    last_step_timings: Vec<PhaseTimings>,
+    /// A frame begun by [`Simulation::step_frame_until`] and not finished yet.
+    in_progress: Option<FramePart>,
+    /// Set by [`Simulation::advance_frame`]: the frame's last stretch is followed by the statistics
+    /// request, so they arrive with its extremes, in the frame's one wait.
+    summary_wanted: bool,
+    summary_ticket: Option<SummaryTicket>,
+    /// See [`RunClock`].
+    emitter_phases: Vec<f64>,
+    late_layers: u64,
+    /// Backstop pushes since the start (see [`StepExtremes::backstop_pushes`]).
+    backstop_total: u64,
+}
+
+/// What a frame's substeps have done so far.
+#[derive(Debug, Clone)]
+struct FramePart {
+    substeps: u32,
+    smallest_dt: f32,
+    max_cfl: f32,
+    over_cfl: u32,
+    backstop_pushes: u64,
+    /// Simulated seconds of the frame so far.
+    simulated: f64,
+    /// Timing records of the frame's substeps read so far (`None` where the backend measures none).
+    /// They are read after each stretch's extremes, while the GPU runs the next stretch: read all at
+    /// the frame's end, after the wait for its last substep, they kept the GPU idle for 1.3 ms a
+    /// frame (dam break, H200: 75 substeps, six events each).
+    step_timings: Option<Vec<PhaseTimings>>,
+}
+
+impl FramePart {
+    const START: FramePart = FramePart {
+        substeps: 0,
+        smallest_dt: f32::INFINITY,
+        max_cfl: 0.0,
+        over_cfl: 0,
+        backstop_pushes: 0,
+        simulated: 0.0,
+        step_timings: None,
+    };
+
+    fn read_step_timings(&mut self, solver: &mut dyn Solver) -> Result<()> {
+        if let Some(records) = solver.take_step_timings()? {
+            self.step_timings.get_or_insert_with(Vec::new).extend(records);
+        }
+        Ok(())
+    }
+}
+
+/// Where a run stands between frames: its clock and the time-step policy's memory. With the particles,
+/// the parameters and the scene, this is all a run carries from one frame to the next (the stretches
+/// whose extremes are read asynchronously are all accounted by the end of a frame), so a checkpoint
+/// holds it and [`Simulation::resume`] goes on from it exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunClock {
+    /// Frames completed.
+    pub frame: u64,
+    /// Simulated seconds at the end of frame `frame`.
+    pub time: f64,
+    /// See [`Simulation`]'s fields of the same names.
+    pub signal_speed: f32,
+    pub signal_rise: f32,
+    /// Each emitter's layers owed (`flow::schedule`).
+    pub emitter_phases: Vec<f64>,
+    /// See [`FrameStats::late_layers`].
+    pub late_layers: u64,
+}
+
+impl Simulation {
+    /// Goes on from a saved state: `solver` already holds the saved particles, `params` are the
+    /// parameters the run had (live changes included), `clock` where it stood.
+    pub fn resume(scene: Scene, solver: Box<dyn Solver>, params: Params, clock: RunClock) -> Simulation {
+        let mut sim = Simulation::new(scene, solver);
+        sim.params = params;
+        sim.frame = clock.frame;
+        sim.time = clock.time;
+        sim.signal_speed = clock.signal_speed;
+        sim.signal_rise = clock.signal_rise;
+        sim.emitter_phases = clock.emitter_phases;
+        sim.late_layers = clock.late_layers;
+        sim
+    }
+
+    /// The clock between frames; `None` while a frame begun by [`Self::step_frame_until`] is unfinished
+    /// (finish it with [`Self::step_frame`] first).
+    pub fn clock(&self) -> Option<RunClock> {
+        self.in_progress.is_none().then_some(RunClock {
+            frame: self.frame,
+            time: self.time,
+            signal_speed: self.signal_speed,
+            signal_rise: self.signal_rise,
+            emitter_phases: self.emitter_phases.clone(),
+            late_layers: self.late_layers,
+        })
+    }
+
+    pub fn new(scene: Scene, solver: Box<dyn Solver>) -> Simulation {
+        let params = scene.params();
+        let signal_speed = scene.material.sound_speed() + scene.fastest_start();
+        let emitter_phases = vec![0.0; scene.flow.emitters.len()];
+        Simulation {
+            scene,
+            params,
+            solver,
+            frame: 0,
+            time: 0.0,
+            signal_speed,
+            signal_rise: 0.0,
+            last_step_timings: Vec::new(),
+            in_progress: None,
+            summary_wanted: false,
+            summary_ticket: None,
+            emitter_phases,
+            late_layers: 0,
+            backstop_total: 0,
+        }
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+    pub fn backend(&self) -> &'static str {
+        self.solver.name()
+    }
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    /// Simulated seconds including the part of a frame begun by [`Self::step_frame_until`].
+    pub fn time_stepped(&self) -> f64 {
+        self.time + self.in_progress.as_ref().map_or(0.0, |part| part.simulated)
+    }
+    /// One timing record per substep of the last frame (empty where the backend measures none).
+    pub fn last_step_timings(&self) -> &[PhaseTimings] {
+        &self.last_step_timings
+    }
+    /// Particles the colliders' backstop put back on a collider's surface since the start.
+    pub fn backstop_pushes(&self) -> u64 {
+        self.backstop_total
+    }
+    /// The scene's colliders, as the viewer draws and drags them.
+    pub fn colliders(&self) -> &super::Colliders {
+        &self.scene.colliders
+    }
+    /// The colliders as of the last substep's end (the current simulated time).
+    pub fn collider_frame(&self) -> ColliderFrame {
+        self.scene.colliders.frame(self.time_stepped())
+    }
+    /// Moves collider `index` kinematically from now on: its centre is at `center` now and goes on
+    /// at `velocity` (the viewer's drag). Its rotation stays as it is now.
+    pub fn drag_collider(&mut self, index: usize, center: glam::DVec3, velocity: glam::DVec3) -> Result<()> {
+        let now = self.time_stepped();
+        let collider = self
+            .scene
+            .colliders
+            .list
+            .get_mut(index)
+            .ok_or_else(|| anyhow::anyhow!("there is no collider {index}"))?;
+        ensure!(
+            center.is_finite() && velocity.is_finite(),
+            "a dragged collider's position and velocity must be finite"
+        );
+        let pose = collider.pose(now);
+        collider.center = center;
+        collider.rotation = pose.rotation;
+        collider.motion = super::colliders::Motion::Steady {
+            velocity,
+            angular_velocity: glam::DVec3::ZERO,
+            since: now,
+        };
+        self.signal_speed = self
+            .signal_speed
+            .max(self.params.material.sound_speed() + velocity.length() as f32);
+        Ok(())
+    }
+    pub fn solver(&self) -> &dyn Solver {
+        self.solver.as_ref()
+    }
+
+    pub fn solver_mut(&mut self) -> &mut dyn Solver {
+        self.solver.as_mut()
+    }
+
+    /// Substeps and substep to cover the next `span` seconds. The signal speed can grow meanwhile: by up
+    /// to |g| span from gravity, and, where it was rising (an impact compressing the fluid), by as much
+    /// again as it rose over the last substeps. Both are added, so the step stays safe. `unknown` is
+    /// the stretch of substeps already enqueued whose extremes are not yet known (its length in
+    /// seconds, or 0): the speed may grow over it too, by gravity and by one more rise.
+    fn steps_for(&self, span: f32, unknown: f32) -> Result<(u32, f32)> {
+        let gravity_gain = Vec3::from(self.params.gravity).length() * (span + unknown);
+        let rises = if unknown > 0.0 { 2.0 } else { 1.0 };
+        let expected = self.signal_speed + rises * self.signal_rise + gravity_gain;
+        match self.scene.time_step.substeps(span, expected, self.params.dx) {
+            Ok(steps) => Ok(steps),
+            Err(why) => bail!("frame {}: {why}", self.frame + 1),
+        }
+    }
+
+    /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
+    pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
+        self.steps_for(FRAME_DT, 0.0)
+    }
+
+    /// What a stretch of `n` substeps of `dt` tells the time-step policy once its extremes are in:
+    /// the signal speed and its rise, the frame's CFL number, and the substeps run above the bound.
+    fn account_stretch(
+        &mut self,
+        ticket: ExtremesTicket,
+        n: u32,
+        dt: f32,
+        part: &mut FramePart,
+    ) -> Result<()> {
+        let extremes = self.solver.wait_extremes(ticket)?;
+        // The step is chosen from the pairing of the largest density with the largest speed; the
+        // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
+        let bound = self
+            .params
+            .material
+            .signal_speed(extremes.max_density, extremes.max_speed);
+        self.signal_rise = (bound - self.signal_speed).max(0.0);
+        self.signal_speed = bound;
+        let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
+        part.max_cfl = part.max_cfl.max(stretch_cfl);
+        if stretch_cfl > MAX_CFL {
+            part.over_cfl += n; // the stretch's extremes are all there is: count all its substeps
+        }
+        part.backstop_pushes += extremes.backstop_pushes;
+        self.backstop_total += extremes.backstop_pushes;
+        Ok(())
+    }
+
+    /// Emits what the emitters owe before a substep of `dt` (nothing in a scene without them).
+    fn emit_due(&mut self, dt: f32) -> Result<()> {
+        if self.emitter_phases.is_empty() {
+            return Ok(());
+        }
+        let spacing = self.scene.lattice().spacing;
+        let (mask, late) = flow::schedule(&self.scene.flow, spacing, dt, &mut self.emitter_phases);
+        self.late_layers += late;
+        if mask != 0 {
+            self.solver.emit(&self.params, mask)?;
+        }
+        Ok(())
+    }
+
+    /// Advance one 60 Hz frame and return its statistics.
+    pub fn advance_frame(&mut self) -> Result<FrameStats> {
+        // A request left by a frame that failed part-way is of another state: never read it.
+        self.summary_ticket = None;
+        self.summary_wanted = true;
+        let steps = self.step_frame();
+        self.summary_wanted = false;
+        let steps = steps?;
+        let ticket = match self.summary_ticket.take() {
+            Some(ticket) => ticket,
+            None => self.solver.request_summary(&self.params.material)?,
+        };
+        let summary = self.solver.wait_summary(ticket)?;
+        if !summary.is_finite() {
+            return Err(diverged(self.frame));
+        }
+        Ok(FrameStats {
+            frame: self.frame,
+            time: self.time,
+            substeps: steps.substeps,
+            dt: steps.dt,
+            max_cfl: steps.max_cfl,
+            substeps_over_cfl: steps.substeps_over_cfl,
+            backstop_pushes: steps.backstop_pushes,
+            summary,
+            flow: self.solver.flow_counts()?,
+            late_layers: self.late_layers,
+            timings: steps.timings,
+        })
+    }
+
+    /// Advance one 60 Hz frame without the statistics pass (which copies every particle to the host):
+    /// what the viewer calls every frame. The substep is chosen anew every `substeps_per_choice`
+    /// substeps from the extremes of the ones before, always to cover what is left of the frame, so
+    /// the last choice ends exactly on it.
+    pub fn step_frame(&mut self) -> Result<FrameSteps> {
+        loop {
+            if let Some(steps) = self.step_frame_until(None)? {
+                return Ok(steps);
+            }
+        }
+    }
+
+    /// [`Self::step_frame`] that stops once `deadline` has passed (checked after every substep) and
+    /// returns `None`; the next call goes on with the same frame. The viewer uses it so that a frame
+    /// that takes seconds on a CPU never stops the window from answering for longer than a substep.
+    pub fn step_frame_until(&mut self, deadline: Option<Instant>) -> Result<Option<FrameSteps>> {
+        let per_choice = self.scene.time_step.substeps_per_choice();
+        let mut part = self.in_progress.take().unwrap_or(FramePart::START);
+        let late = || deadline.is_some_and(|d| Instant::now() >= d);
+        // The stretch enqueued last, whose extremes are still on their way: the next stretch is chosen
+        // without waiting for them (the GPU keeps working meanwhile), from the ones before, allowing
+        // for the speed to grow over it too. Which extremes a choice sees is fixed by the order of
+        // the stretches, never by timing, so runs stay reproducible.
+        let mut in_flight: Option<(ExtremesTicket, u32, f32)> = None;
+        loop {
+            let left = f64::from(FRAME_DT) - part.simulated;
+            let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
+            let (to_frame_end, dt) = self.steps_for(left as f32, unknown)?;
+            let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
+            self.params.dt = dt;
+            let mut n = 0;
+            while n < planned {
+                self.emit_due(dt)?;
+                if !self.scene.colliders.is_empty() {
+                    // Each substep's boundary conditions with the colliders where the substep ends.
+                    let end = self.time + part.simulated + f64::from(n + 1) * f64::from(dt);
+                    self.solver.set_colliders(&self.scene.colliders.frame(end))?;
+                }
+                self.solver.step(&self.params)?;
+                n += 1;
+                if late() {
+                    break;
+                }
+            }
+            let ticket = self.solver.request_extremes()?;
+            if let Some((earlier, earlier_n, earlier_dt)) = in_flight.replace((ticket, n, dt)) {
+                self.account_stretch(earlier, earlier_n, earlier_dt, &mut part)?;
+                part.read_step_timings(self.solver.as_mut())?;
+            }
+            part.substeps += n;
+            part.smallest_dt = part.smallest_dt.min(dt);
+            part.simulated += f64::from(n) * f64::from(dt);
+            // Decided once: a stretch left in flight when the frame pauses would lose its extremes.
+            let done = n == to_frame_end;
+            let pause = !done && late();
+            if done && self.summary_wanted {
+                self.summary_ticket = Some(self.solver.request_summary(&self.params.material)?);
+            }
+            if done || pause {
+                if let Some((ticket, n, dt)) = in_flight.take() {
+                    self.account_stretch(ticket, n, dt, &mut part)?;
+                }
+                part.read_step_timings(self.solver.as_mut())?;
+            }
+            if done {
+                break;
+            }
+            if pause {
+                self.in_progress = Some(part);
+                return Ok(None);
+            }
+        }
+        let FramePart {
+            substeps,
+            smallest_dt,
+            max_cfl,
+            over_cfl,
+            backstop_pushes,
+            simulated,
+            step_timings,
+        } = part;
+        self.frame += 1;
+        self.time += simulated;
+
+        let timings = step_timings.as_deref().map(PhaseTimings::sum);
+        self.last_step_timings = step_timings.unwrap_or_default();
+        if !self.signal_speed.is_finite() {
+            return Err(diverged(self.frame));
+        }
+        Ok(Some(FrameSteps {
+            substeps,
+            dt: smallest_dt,
+            max_cfl,
+            substeps_over_cfl: over_cfl,
+            backstop_pushes,
+            timings,
+        }))
+    }
+
+    /// Gives the particles near a ray a velocity change (the viewer's mouse push). The next frame's
+    /// step accounts for the speed it adds.
+    pub fn apply_push(&mut self, push: &Push) -> Result<()> {
+        self.solver.apply_push(push)?;
+        self.signal_speed += push.max_speed_gain();
+        Ok(())
+    }
+
+    /// Dynamic viscosity mu, Pa s (live control). Must be finite and non-negative.
+    pub fn set_viscosity(&mut self, viscosity: f32) -> Result<()> {
+        ensure!(
+            viscosity.is_finite() && viscosity >= 0.0,
+            "viscosity must be a finite number >= 0 Pa s, not {viscosity}"
+        );
+        self.params.material.viscosity = viscosity;
+        Ok(())
+    }
+
+    /// Sound speed at rest c0, m/s (live control): sets the Tait stiffness k = rho0 c0^2 / gamma, the
+    /// one quantity c0 derives from. The next frame's substep follows the new speed.
+    pub fn set_sound_speed(&mut self, sound_speed: f32) -> Result<()> {
+        ensure!(
+            sound_speed.is_finite() && sound_speed > 0.0,
+            "sound speed must be a finite number > 0 m/s, not {sound_speed}"
+        );
+        let material = &mut self.params.material;
+        let old = material.sound_speed();
+        material.eos_stiffness = material.rest_density * sound_speed * sound_speed / material.eos_power;
+        // The signal speed scales with c0 (its density factor stays the same).
+        self.signal_speed += material.sound_speed() - old;
+        self.signal_speed = self.signal_speed.max(material.sound_speed());
+        Ok(())
+    }
+
+    /// Gravity, m/s^2 (live control). Every component must be finite.
+    pub fn set_gravity(&mut self, gravity: Vec3) -> Result<()> {
+        ensure!(gravity.is_finite(), "gravity must be finite, not {gravity:?}");
+        self.params.gravity = gravity.to_array();
+        Ok(())
+    }
+}
