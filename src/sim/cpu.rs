@@ -383,19 +383,48 @@ impl CpuSolver {
             ..
         } = &self.grid;
         let p = &mut self.particles;
-        let (mut max_speed, mut max_signal) = (0.0f32, 0.0f32);
-        let mut pushed = 0u64;
+        let mut extremes = GatherExtremes::default();
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let (x, v, c, moved) = g2p_with_backstop(params, *shape, velocity, &self.colliders, p.x[n]);
-            pushed += u64::from(moved);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
-            let speed = v.length();
-            max_speed = max_speed.max(speed);
-            max_signal = max_signal.max(params.material.signal_speed(p.rho[n], speed));
+            extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], moved));
         }
-        self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
-        self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);
-        self.extremes.backstop_pushes += pushed;
+        extremes.add_to(&mut self.extremes);
+    }
+}
+
+/// What g2p adds to a substep's extremes: the largest speed and signal speed c(rho_p) + |v_p|, and
+/// the particles the colliders' backstop moved. Both CPU backends fold their particles' into one.
+#[derive(Clone, Copy, Default)]
+pub struct GatherExtremes {
+    max_speed: f32,
+    max_signal: f32,
+    pushed: u64,
+}
+
+impl GatherExtremes {
+    /// One particle's, after g2p gave it velocity `v` (its density `rho` from this substep's p2g).
+    pub fn of(params: &Params, v: Vec3, rho: f32, pushed: bool) -> GatherExtremes {
+        let speed = v.length();
+        GatherExtremes {
+            max_speed: speed,
+            max_signal: params.material.signal_speed(rho, speed),
+            pushed: u64::from(pushed),
+        }
+    }
+
+    pub fn max(self, other: GatherExtremes) -> GatherExtremes {
+        GatherExtremes {
+            max_speed: self.max_speed.max(other.max_speed),
+            max_signal: self.max_signal.max(other.max_signal),
+            pushed: self.pushed + other.pushed,
+        }
+    }
+
+    pub fn add_to(self, extremes: &mut StepExtremes) {
+        extremes.max_speed = extremes.max_speed.max(self.max_speed);
+        extremes.max_signal_speed = extremes.max_signal_speed.max(self.max_signal);
+        extremes.backstop_pushes += self.pushed;
     }
 }
 

@@ -29,7 +29,8 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, CpuSolver, Grid, GridShape, Stencil,
+    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, CpuSolver, GatherExtremes, Grid, GridShape,
+    Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
@@ -437,8 +438,7 @@ impl ParallelCpuSolver {
         } = &self.inner.grid;
         let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
-        let material = &params.material;
-        let (max_speed, max_signal, pushed) =
+        let extremes =
             p.x.par_iter_mut()
                 .with_min_len(MIN_PER_TASK)
                 .zip(p.v.par_iter_mut())
@@ -447,20 +447,14 @@ impl ParallelCpuSolver {
                 .zip(p.live.par_iter())
                 .map(|((((x, v), c), &rho), &live)| {
                     if !live {
-                        return (0.0, 0.0, 0);
+                        return GatherExtremes::default();
                     }
                     let moved;
                     (*x, *v, *c, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
-                    let speed = v.length();
-                    (speed, material.signal_speed(rho, speed), u64::from(moved))
+                    GatherExtremes::of(params, *v, rho, moved)
                 })
-                .reduce(
-                    || (0.0f32, 0.0f32, 0u64),
-                    |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 + b.2),
-                );
-        self.extremes.max_speed = self.extremes.max_speed.max(max_speed);
-        self.extremes.max_signal_speed = self.extremes.max_signal_speed.max(max_signal);
-        self.extremes.backstop_pushes += pushed;
+                .reduce(GatherExtremes::default, GatherExtremes::max);
+        extremes.add_to(&mut self.extremes);
     }
 }
 
