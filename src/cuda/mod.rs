@@ -1,16 +1,21 @@
-//! The CUDA backend: NVRTC-built kernels (kernels/*.cu) launched through cudarc on one stream.
+//! The CUDA backend: NVRTC-built kernels (kernels/*.cu) launched through cudarc, in three layers.
 //!
-//! - [`library`]: finding libcuda and NVRTC before cudarc touches them (missing = error, not panic).
-//! - [`modules`]: the PTX that build.rs embedded, or a run-time NVRTC compile where needed.
-//! - [`launch`]: the one launch helper (kernel name, NVTX range, errors naming the kernel).
-//! - [`solver`]: [`CudaSolver`], the device particle state and the substep, in either pipeline.
-//! - [`bins`]: particles binned by cell or node block (kernels/bins.cu), and the bin list.
-//! - [`lifecycle`]: emitters, sinks and the free particle slots (kernels/lifecycle.cu).
-//! - [`stats`]: the per-frame statistics as a device reduction (kernels/stats.cu).
-//! - [`spawn`]: the body table for spawning particles on the device in `Scene::spawn()` order.
-//! - [`interop`]: OpenGL buffers registered with CUDA, mapped for the render kernel each frame.
-//! - [`graph`]: the substep captured as a CUDA graph and replayed, one launch per substep.
-//! - [`timing`]: per-phase CUDA events, read back without stalling.
+//! **The bottom: one GPU and what it holds.** [`gpu::Gpu`] is one opened device (context, stream,
+//! loaded kernels; [`library`], [`modules`] and `nvrtc_search` find the driver and NVRTC and load the
+//! PTX build.rs embedded, or compile at run time). [`state::DeviceState`] holds every buffer of a
+//! scene on it: [`particles`], [`grid`], the bins ([`bins`]), the step [`counters`], the
+//! [`colliders`], the particle lifecycle ([`lifecycle`]) and the statistics ([`stats`]).
+//! [`timing`] and [`graph`] time and replay a substep on it. A second GPU is a second `Gpu` with its
+//! own `DeviceState`: nothing is global.
+//!
+//! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
+//! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`p2g_init`],
+//! [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`], [`g2p2g`], [`bins`],
+//! [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`].
+//!
+//! **On top: the substep.** [`solver::CudaSolver`] reads as the substep's phases (`Phase::ALL`) in
+//! either pipeline, and answers what a frame asks of a solver; `inspect` is the kernel tests' view of
+//! it. [`interop`] registers the renderer's GL buffers with CUDA.
 
 // The bottom: one GPU and the buffers it holds.
 pub mod colliders;
