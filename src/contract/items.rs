@@ -115,8 +115,8 @@ device_structs! {
         velocity: [f32; 3],
         /// rad/s, world frame; a point x moves at velocity + angular_velocity x (x - center).
         angular_velocity: [f32; 3],
-        /// Box: half extents. Sphere: radius in `size[0]`. Capsule, cylinder: radius in `size[0]`, half length
-        /// (along local y) in `size[1]`. Mesh: unused.
+        /// Box: half extents. Sphere: radius in `size[0]`. Capsule, cylinder: radius in `size[0]`,
+        /// half length (along local y) in `size[1]`. Mesh: unused.
         size: [f32; 3],
         /// Mesh: the local position of SDF sample (0, 0, 0).
         sdf_origin: [f32; 3],

@@ -1,5 +1,5 @@
 //! `CudaSolver`: one GPU's particle state and the substep as its phases, in either pipeline
-//! (`Pipeline`). The substep reads top to bottom in [`CudaSolver::enqueue_substep`]:
+//! (`Pipeline`). The substep reads top to bottom in `CudaSolver::enqueue_substep`:
 //!
 //! | phase (`PhaseTimings`) | report pipeline                         | binned pipeline (default)                    |
 //! |---|---|---|

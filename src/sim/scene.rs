@@ -1,8 +1,8 @@
 //! Scenes: what the solver runs ([`Scene`]), loaded from a preset or a TOML file.
 //!
-//! A scene file is parsed into the `*Spec` structs of [`spec`] (what the user wrote, every key
-//! optional where a default makes sense), then checked into a [`Scene`] by [`validate`] (every value
-//! checked; every refusal names the file, the key and the fix). [`lattice`] places the particles a
+//! A scene file is parsed into the `*Spec` structs of `spec` (what the user wrote, every key
+//! optional where a default makes sense), then checked into a [`Scene`] by `validate` (every value
+//! checked; every refusal names the file, the key and the fix). `lattice` places the particles a
 //! scene spawns.
 
 mod lattice;
