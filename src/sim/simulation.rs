@@ -37,7 +37,7 @@ pub struct FrameStats {
     /// bound held). The step cannot be taken back, so these are counted and reported instead.
     pub substeps_over_cfl: u32,
     /// Particles the colliders' backstop put back on a collider's surface in this frame
-    /// (see [`StepExtremes::backstop_pushes`]); 0 without colliders.
+    /// (see [`StepExtremes::backstop_pushes`](super::StepExtremes::backstop_pushes)); 0 without colliders.
     pub backstop_pushes: u64,
     #[serde(flatten)]
     pub summary: Summary,

@@ -85,7 +85,7 @@ pub trait Solver {
     fn read_particles(&mut self) -> Result<Particles>;
     /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
     fn apply_push(&mut self, push: &Push) -> Result<()>;
-    /// The colliders the next substeps apply (their pose at the end of the substep): [`Simulation`]
+    /// The colliders the next substeps apply (their pose at the end of the substep): [`Simulation`](super::Simulation)
     /// sets them before every substep of a scene that has colliders. A backend without colliders
     /// refuses them.
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
