@@ -3,7 +3,7 @@
 // momentum accumulated in a shared fixed-point tile and flushed once per tile node (tiles.cuh).
 // The binned pipeline runs it for the fixed-point scatter, where it is 4x faster than p2g.cu's 64-bit
 // global atomics; float momentum goes through p2g.cu's warp-aggregated float atomics, which beat the
-// tile on the H200 (src/cuda/solver.rs, `CudaSolver::p2g`, has the figures). The density is gathered from the global grid mass,
+// tile on the H200 (src/cuda/solver.rs, `CudaSolver::scatter_momentum`, has the figures). The density is gathered from the global grid mass,
 // which the previous substep's g2p2g (or p2g_mass) scattered and mirror_walls completed.
 #include "tiles.cuh"
 

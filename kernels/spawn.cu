@@ -1,4 +1,4 @@
-// Particle spawn on the device, in exactly the order of Scene::spawn() (src/sim/scene.rs): bodies in
+// Particle spawn on the device, in exactly the order of Scene::spawn() (src/sim/scene/lattice.rs): bodies in
 // order, each body's lattice points x fastest, skipping points an earlier body already covers.
 //
 // All bodies' visited lattice ranges are laid end to end as one list of "candidate" points. Two passes

@@ -2,7 +2,7 @@
 //! is, with the same points, triangles, volume and normals. Needs python3 with meshio (`.ci/run`
 //! installs it into `.ci-cache/python`); where it is missing the test shows as ignored, with the
 //! reason (tests/harness: `harness = false`). Blender and ParaView have scripts of their own beside
-//! the meshio one in tests/mesh_tools/ (README: "Surface meshes").
+//! the meshio one in tests/mesh_tools/ (docs/export.md, "Surface meshes").
 
 mod common;
 mod harness;

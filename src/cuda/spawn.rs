@@ -1,6 +1,6 @@
 //! Spawning a scene's particles on the device (kernels/spawn.cu), in the order of `Scene::spawn()`:
 //! the body table (each body's lattice range and shape, computed here with the same f64 arithmetic as
-//! `Lattice` in src/sim/scene.rs, so the device visits the same points), a count pass, a prefix sum
+//! `Lattice` in src/sim/scene/lattice.rs, so the device visits the same points), a count pass, a prefix sum
 //! of the per-block counts here, and a write pass.
 
 use super::gpu::Gpu;

@@ -188,7 +188,7 @@ impl Scene {
             source: source.to_string(),
             key: String::new(),
             problem: format!("is not a valid scene file:\n{}", e.to_string().trim_end()),
-            fix: "see the scene file reference in README.md; `mpm scenes --show dam-break` prints a complete example".into(),
+            fix: "see the scene file reference in docs/scenes.md; `mpm scenes --show dam-break` prints a complete example".into(),
         })?;
         let mut scene = Scene::from_spec(&spec, source)?;
         scene.toml = text.to_string();
