@@ -4,7 +4,7 @@
 
 use super::mirror_walls::MirrorQuantity;
 use super::solver::CudaSolver;
-use crate::sim::Params;
+use crate::sim::{Params, Pipeline};
 use anyhow::Result;
 use glam::Vec3;
 
@@ -17,9 +17,13 @@ impl CudaSolver {
     }
 
     /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
-    /// (which g2p2g does as its second half on every substep after the first).
+    /// (which g2p2g does as its second half on every substep after the first). Where the binned
+    /// pipeline's bins were never built, the sort phase runs first, as in a solver's first substep.
     pub fn p2g_init(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
+        if self.pipeline() == Pipeline::Binned && self.binnings() == 0 {
+            self.sort()?;
+        }
         self.scatter_mass()
     }
 

@@ -230,10 +230,11 @@ impl CudaSolver {
         match self.pipeline {
             Pipeline::Report => k.p2g_init.launch(l, &self.params, &self.state),
             Pipeline::Binned => {
-                if !self.schedule.built() {
-                    self.sort()?;
-                }
-                let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
+                // The substep's sort phase runs first whenever the bins are stale (`BinSchedule::due`).
+                ensure!(
+                    self.schedule.built(),
+                    "the binned mass scatter walks the bins, which were never built: sort first"
+                );
                 k.p2g_mass.launch(l, &self.params, &self.state)?;
                 self.mass_scattered = Some(self.params.scatter_mode);
                 Ok(())
