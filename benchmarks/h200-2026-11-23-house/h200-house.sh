@@ -4,7 +4,8 @@
 # restructuring (.gpu/bin/mpm-base, 3a153e5), in one run on one device:
 #   1. fixed-point runs of five presets are byte-identical (every exported PLY, cmp);
 #   2. `mpm bench` float medians, old and new alternated twice, so the spread between the two runs
-#      of one binary is the noise the old/new difference is read against.
+#      of one binary is the noise the old/new difference is read against;
+#   3. the dam break's frame time headless and `mpm run`'s wall time against its GPU step time.
 # Run from a checkout with the built executables in .gpu/ (docs/gpu.md, "Running the benchmark
 # scripts"); set OUT to a folder for the results.
 set -uo pipefail
@@ -46,9 +47,24 @@ echo "=== 2. mpm bench --steps 2000 medians (float), old/new/old/new"
       echo "## $s, new, round $round"; $mpm bench --scene $s --steps 2000
     done
   done
+  echo "## bench-655k, new, fixed point"; $mpm bench --scene bench-655k --steps 2000 --scatter fixed-point
   echo "## 16.8M particles, grid 256, old"; $base bench --particles 16777216 --grid 256 --steps 300 --warmup 100
   echo "## 16.8M particles, grid 256, new"; $mpm bench --particles 16777216 --grid 256 --steps 300 --warmup 100
 } >"$out/bench.md" 2>&1
 grep -E "^## |^\| \*\*total" "$out/bench.md"
+
+echo "=== 3. frame time and run overhead (new; old beside it)"
+for b in "$base" "$mpm"; do
+  printf '%s render: ' "$b"
+  $b render --scene dam-break --frames 90 --size 960x540 --no-images 2>&1 | grep "frames via"
+  start=$(date +%s%N); $b run --frames 300 >/tmp/run.txt 2>&1; end=$(date +%s%N)
+  python3 - /tmp/run.txt "$start" "$end" "$b run --frames 300" <<'PY'
+import re, sys
+text = open(sys.argv[1]).read()
+gpu = sum(int(n) * float(ms) for n, ms in re.findall(r"substeps=\s*(\d+).*?step=([0-9.]+) ms", text))
+wall = (int(sys.argv[3]) - int(sys.argv[2])) / 1e9
+print(f"{sys.argv[4]}: wall {wall:.2f} s, summed GPU step time {gpu / 1000:.2f} s, ratio {wall / (gpu / 1000):.2f}")
+PY
+done
 date -u
 exit $status
