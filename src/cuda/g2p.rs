@@ -1,20 +1,15 @@
 //! kernels/g2p.cu: the report pipeline's gather: velocity and C from the grid, soft wall, advection,
 //! clamp.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::DeviceState;
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-pub struct G2p(Kernel);
+host_kernel!(G2p = "g2p" / "g2p");
 
 impl G2p {
-    pub fn load(modules: &LoadedModules) -> Result<G2p> {
-        Ok(G2p(Kernel::load(modules, "g2p", "g2p")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let p = &d.particles;
         // SAFETY: the arguments match g2p in kernels/g2p.cu; buffers are sized for params.

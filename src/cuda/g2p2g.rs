@@ -3,8 +3,7 @@
 //! position through a shared tile for the next substep; `p2g_mass` is its second half alone, for the
 //! first substep (nothing to gather yet) and after emission.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
@@ -13,13 +12,9 @@ use cudarc::driver::PushKernelArg;
 /// One channel per tile node: the mass.
 const MASS_CHANNELS: u32 = 1;
 
-pub struct G2p2g(Kernel);
+host_kernel!(G2p2g = "g2p2g" / "g2p2g");
 
 impl G2p2g {
-    pub fn load(modules: &LoadedModules) -> Result<G2p2g> {
-        Ok(G2p2g(Kernel::load(modules, "g2p2g", "g2p2g")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
@@ -56,13 +51,9 @@ impl G2p2g {
     }
 }
 
-pub struct P2gMass(Kernel);
+host_kernel!(P2gMass = "g2p2g" / "p2g_mass");
 
 impl P2gMass {
-    pub fn load(modules: &LoadedModules) -> Result<P2gMass> {
-        Ok(P2gMass(Kernel::load(modules, "g2p2g", "p2g_mass")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let g = &d.grid;
         let list = d.bins.list()?;

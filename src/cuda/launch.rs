@@ -49,6 +49,24 @@ impl Kernel {
     }
 }
 
+/// The host type of one kernel, `host_kernel!(P2g = "p2g" / "p2g")`: a struct holding kernel `p2g`
+/// of kernels/p2g.cu, and its `load`. The host file beside the kernel file adds the launch, which
+/// alone knows the kernel's arguments.
+macro_rules! host_kernel {
+    ($host:ident = $module:literal / $function:literal) => {
+        pub struct $host(crate::cuda::launch::Kernel);
+
+        impl $host {
+            pub fn load(modules: &crate::cuda::modules::LoadedModules) -> anyhow::Result<$host> {
+                Ok($host(crate::cuda::launch::Kernel::load(
+                    modules, $module, $function,
+                )?))
+            }
+        }
+    };
+}
+pub(crate) use host_kernel;
+
 /// The stream every launch goes to, and how launches are sized.
 pub struct Launcher {
     pub stream: Arc<CudaStream>,

@@ -2,8 +2,7 @@
 //! grid update so that fluid at a wall is not read as a free surface. All three axes in one launch,
 //! one thread per reflection orbit.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
 use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM};
 use crate::sim::{Params, Pipeline};
@@ -19,17 +18,9 @@ pub enum MirrorQuantity {
     Momentum,
 }
 
-pub struct MirrorWalls(Kernel);
+host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
 
 impl MirrorWalls {
-    pub fn load(modules: &LoadedModules) -> Result<MirrorWalls> {
-        Ok(MirrorWalls(Kernel::load(
-            modules,
-            "mirror_walls",
-            "mirror_walls",
-        )?))
-    }
-
     /// Nothing where the mirror is off (`wall_mirror_lo == 0`).
     pub fn launch(
         &self,

@@ -1,21 +1,16 @@
 //! kernels/p2g.cu: density from the grid mass, pressure and stress, momentum scatter, by warp runs of
 //! one cell summed before global atomics (integers for fixed point). The report pipeline's p2g, and
-//! the binned pipeline's for float momentum without a flow (see `CudaSolver::p2g` for why each).
+//! the binned pipeline's for float momentum without a flow (see `CudaSolver::scatter_momentum` for why each).
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-pub struct P2g(Kernel);
+host_kernel!(P2g = "p2g" / "p2g");
 
 impl P2g {
-    pub fn load(modules: &LoadedModules) -> Result<P2g> {
-        Ok(P2g(Kernel::load(modules, "p2g", "p2g")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         // SAFETY: the arguments match p2g in kernels/p2g.cu; buffers are sized for params. In the

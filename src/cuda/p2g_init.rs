@@ -1,20 +1,15 @@
 //! kernels/p2g_init.cu: the report pipeline's mass scatter, m_i += w m_p, warp runs of one cell summed
 //! before global atomics.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::DeviceState;
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-pub struct P2gInit(Kernel);
+host_kernel!(P2gInit = "p2g_init" / "p2g_init");
 
 impl P2gInit {
-    pub fn load(modules: &LoadedModules) -> Result<P2gInit> {
-        Ok(P2gInit(Kernel::load(modules, "p2g_init", "p2g_init")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         // SAFETY: the arguments match p2g_init in kernels/p2g_init.cu; buffers are sized for params.

@@ -1,20 +1,15 @@
 //! kernels/p2g_tiled.cu: p2g through a shared tile per listed bin chunk, flushed once per node: the
 //! binned pipeline's fixed-point momentum scatter (and any scatter of a scene with a flow).
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
 use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-pub struct P2gTiled(Kernel);
+host_kernel!(P2gTiled = "p2g_tiled" / "p2g_tiled");
 
 impl P2gTiled {
-    pub fn load(modules: &LoadedModules) -> Result<P2gTiled> {
-        Ok(P2gTiled(Kernel::load(modules, "p2g_tiled", "p2g_tiled")?))
-    }
-
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;

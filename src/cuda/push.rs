@@ -1,19 +1,14 @@
 //! kernels/push.cu: the viewer's mouse push, a velocity change inside a capsule along the ray.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
 use crate::sim::Push;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-pub struct PushParticles(Kernel);
+host_kernel!(PushParticles = "push" / "push_particles");
 
 impl PushParticles {
-    pub fn load(modules: &LoadedModules) -> Result<PushParticles> {
-        Ok(PushParticles(Kernel::load(modules, "push", "push_particles")?))
-    }
-
     pub fn launch(&self, l: &Launcher, push: &Push, particles: &DeviceParticles) -> Result<()> {
         let n = particles.count as u32;
         // SAFETY: the arguments match push_particles; x and v hold n float4.

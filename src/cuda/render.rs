@@ -2,24 +2,15 @@
 //! a device buffer, usually a GL vertex buffer mapped through interop, so the particles are drawn
 //! without a trip through the host.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
 use crate::render::ColourBy;
 use anyhow::Result;
 use cudarc::driver::{sys::CUdeviceptr, PushKernelArg};
 
-pub struct RenderAttributes(Kernel);
+host_kernel!(RenderAttributes = "render" / "render_attributes");
 
 impl RenderAttributes {
-    pub fn load(modules: &LoadedModules) -> Result<RenderAttributes> {
-        Ok(RenderAttributes(Kernel::load(
-            modules,
-            "render",
-            "render_attributes",
-        )?))
-    }
-
     /// Writes `16 * particles.count` bytes at `out`. Asynchronous on the launcher's stream.
     ///
     /// # Safety

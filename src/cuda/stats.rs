@@ -3,8 +3,7 @@
 //! figures are the same on every run. The reduction and the copy are enqueued behind a frame's last
 //! substeps (`request`) and arrive with them, so a frame of `mpm run` waits for the GPU once.
 
-use super::launch::{Kernel, Launcher};
-use super::modules::LoadedModules;
+use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
 use crate::contract::{StatsPartial, STATS_THREADS};
 use crate::sim::{Params, Summary};
@@ -14,13 +13,7 @@ use std::sync::Arc;
 
 /// Blocks of the reduction (a fixed count: the partials do not depend on the device).
 pub const STATS_BLOCKS: usize = 256;
-pub struct StatsKernel(Kernel);
-
-impl StatsKernel {
-    pub fn load(modules: &LoadedModules) -> Result<StatsKernel> {
-        Ok(StatsKernel(Kernel::load(modules, "stats", "particle_stats")?))
-    }
-}
+host_kernel!(StatsKernel = "stats" / "particle_stats");
 
 /// The partials on the device and their pinned host copy.
 pub struct ParticleStats {

@@ -428,34 +428,57 @@ impl GatherExtremes {
     }
 }
 
+/// A CPU backend's substep as its phases: the reference and cpu-parallel differ only in how each
+/// phase runs, and share the loop that runs and times them ([`step_phases`]).
+pub trait CpuPhases {
+    fn run_phase(&mut self, phase: Phase, params: &Params);
+    /// The per-substep timing records not yet taken.
+    fn pending_timings(&mut self) -> &mut Vec<PhaseTimings>;
+}
+
+/// One substep: every phase in step order (`Phase::ALL`), each timed with the host clock.
+pub fn step_phases(backend: &mut impl CpuPhases, params: &Params) {
+    let mut clock = PhaseClock::start();
+    for phase in Phase::ALL {
+        backend.run_phase(phase, params);
+        clock.lap(phase);
+    }
+    push_step_timing(backend.pending_timings(), clock.finish());
+}
+
+impl CpuPhases for CpuSolver {
+    fn run_phase(&mut self, phase: Phase, params: &Params) {
+        match phase {
+            Phase::GridClear => self.clear_grid(),
+            Phase::Sort => {} // the reference walks the particles in index order
+            Phase::P2gInit => {
+                self.p2g_init(params);
+                self.mirror_mass(params);
+            }
+            Phase::P2g => self.p2g(params),
+            Phase::GridUpdate => {
+                self.mirror_momentum(params);
+                self.grid_update(params);
+            }
+            Phase::G2p => {
+                self.g2p(params);
+                self.drain();
+            }
+        }
+    }
+
+    fn pending_timings(&mut self) -> &mut Vec<PhaseTimings> {
+        &mut self.timings
+    }
+}
+
 impl Solver for CpuSolver {
     fn name(&self) -> &'static str {
         "cpu"
     }
 
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
-        let mut clock = PhaseClock::start();
-        for phase in Phase::ALL {
-            match phase {
-                Phase::GridClear => self.clear_grid(),
-                Phase::Sort => {} // the reference walks the particles in index order
-                Phase::P2gInit => {
-                    self.p2g_init(params);
-                    self.mirror_mass(params);
-                }
-                Phase::P2g => self.p2g(params),
-                Phase::GridUpdate => {
-                    self.mirror_momentum(params);
-                    self.grid_update(params);
-                }
-                Phase::G2p => {
-                    self.g2p(params);
-                    self.drain();
-                }
-            }
-            clock.lap(phase);
-        }
-        push_step_timing(&mut self.timings, clock.finish());
+        step_phases(self, params);
         Ok(())
     }
 

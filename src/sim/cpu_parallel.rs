@@ -29,15 +29,15 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, CpuSolver, GatherExtremes, Grid, GridShape,
-    Stencil,
+    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, step_phases, CpuPhases, CpuSolver,
+    GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
-use super::phase::{Phase, PhaseClock, PhaseTimings};
+use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, ParticleView, Solver, StepExtremes};
+use super::solver::{ParticleView, Solver, StepExtremes};
 use glam::{IVec3, UVec3, Vec3};
 use rayon::prelude::*;
 
@@ -458,6 +458,26 @@ impl ParallelCpuSolver {
     }
 }
 
+impl CpuPhases for ParallelCpuSolver {
+    fn run_phase(&mut self, phase: Phase, params: &Params) {
+        match phase {
+            Phase::GridClear => self.clear_grid(),
+            Phase::Sort => self.bin(params),
+            Phase::P2gInit => self.p2g_init(params),
+            Phase::P2g => self.p2g(params),
+            Phase::GridUpdate => self.grid_update(params),
+            Phase::G2p => {
+                self.g2p(params);
+                self.drain();
+            }
+        }
+    }
+
+    fn pending_timings(&mut self) -> &mut Vec<PhaseTimings> {
+        &mut self.timings
+    }
+}
+
 impl Solver for ParallelCpuSolver {
     fn name(&self) -> &'static str {
         "cpu-parallel"
@@ -467,22 +487,7 @@ impl Solver for ParallelCpuSolver {
         if self.sequential() {
             return self.inner.step(params);
         }
-        let mut clock = PhaseClock::start();
-        for phase in Phase::ALL {
-            match phase {
-                Phase::GridClear => self.clear_grid(),
-                Phase::Sort => self.bin(params),
-                Phase::P2gInit => self.p2g_init(params),
-                Phase::P2g => self.p2g(params),
-                Phase::GridUpdate => self.grid_update(params),
-                Phase::G2p => {
-                    self.g2p(params);
-                    self.drain();
-                }
-            }
-            clock.lap(phase);
-        }
-        push_step_timing(&mut self.timings, clock.finish());
+        step_phases(self, params);
         Ok(())
     }
 
