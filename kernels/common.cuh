@@ -350,8 +350,10 @@ __device__ __forceinline__ void update_node(const Params& params, u32 i, float4*
             const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);
             collider_project_node(colliders, x, vel);
         }
+        // Only motion into the wall is removed (as a collider's boundary does): fluid leaves freely.
         for (int a = 0; a < 3; ++a) {
-            if (node[a] < band || node[a] >= res[a] - band) vel[a] = 0.0f;
+            if (node[a] < band) vel[a] = fmaxf(vel[a], 0.0f);
+            else if (node[a] >= res[a] - band) vel[a] = fminf(vel[a], 0.0f);
         }
     }
     grid_vel[i] = make_float4(vel[0], vel[1], vel[2], m);

@@ -2,18 +2,17 @@
 // mass (after the mass scatter) or the momentum (after p2g); the rule of `mirror_walls` in
 // src/sim/cpu.rs. There, for each axis in turn (x, then y, then z) and each wall plane W of it, the
 // pair of nodes (W - d, W + d), d up to the wall's reach, ends with the sum of both, W itself with
-// twice its own, and momentum is reflected (its wall-normal component negated), so the normal momentum
-// cancels on the plane; doing the axes in turn gives the images at edges and corners.
+// twice its own, the image of momentum given by `momentum_image` (`wall_image` here): it pushes fluid
+// off the wall and never pulls it back. Doing the axes in turn gives the images at edges and corners.
 //
-// Here in one launch: the three passes are linear and the reflections of different axes commute, so a
-// node n ends with the sum, over the subsets U of the axes on which it lies within a wall's reach, of
-// its reflection R_U(n)'s value reflected on U. The nodes R_T(n) form an orbit of up to 8 nodes, each
-// ending with such a sum over the same orbit: one thread per orbit reads its values, writes the sums,
-// and touches no other thread's nodes. (Floats add in another order than the per-axis passes; fixed
-// point gives the same integers.) The orbit's thread is the one at its representative, the node on
-// the fluid's side of every wall it is near; the launch covers, per axis, the slabs of the fluid's
-// side of that axis's two walls, and a node in several slabs (an edge or corner) is taken by the
-// slab of its lowest such axis.
+// Here in one launch: the reflections of different axes map a node n's orbit {R_T(n)} (up to 8
+// nodes, T a subset of the axes on which n lies within a wall's reach) onto itself, so each pass
+// changes an orbit's values from the orbit's values alone. One thread per orbit reads its values, does
+// the three passes on them in the same order as the CPU, writes them back, and touches no other
+// thread's nodes: the same integers in fixed point, the same floats added in the same order. The
+// orbit's thread is the one at its representative, the node on the fluid's side of every wall it is
+// near; the launch covers, per axis, the slabs of the fluid's side of that axis's two walls, and a node
+// in several slabs (an edge or corner) is taken by the slab of its lowest such axis.
 //
 // In the binned pipeline (marks given), an orbit whose node blocks no scatter touched holds zeros and
 // is skipped, and one written marks its blocks, so grid_update_blocks consumes what the images add;
@@ -45,6 +44,29 @@ __device__ __forceinline__ bool mirror_fluid_side(const MirrorAxis& m, int zone,
 
 __device__ __forceinline__ u32 mirror_reflect(const MirrorAxis& m, int zone, u32 c) {
     return zone == 1 ? 2 * m.lo - c : 2 * m.hi - c;
+}
+
+// Where a node lies against one wall's plane: on the plane or the fluid's side of it, or beyond it,
+// of the low wall or the high one.
+struct WallSide {
+    bool fluid, low;
+};
+
+// What `partner` adds across a wall's plane to a node holding `own` (`momentum_image` in
+// src/sim/cpu.rs, operation for operation): the mass and the tangential momentum as they are; the
+// wall-normal momentum so that the image pushes fluid off the wall and never pulls it back: on the
+// fluid's side pointing off the wall whatever its sign, beyond the plane reflected while the fluid
+// there presses on the wall and as it is where the fluid moves off it.
+template <typename T>
+__device__ __forceinline__ T wall_image(T own, T partner, bool normal, WallSide side) {
+    if (!normal) return partner;
+    const T zero = T(0);
+    if (side.fluid) {
+        const T magnitude = partner < zero ? -partner : partner;
+        return side.low ? magnitude : -magnitude;
+    }
+    const bool off_the_wall = side.low ? own > zero : own < zero;
+    return off_the_wall ? partner : -partner;
 }
 
 // Fluid-side coordinates of an axis's two walls: lo..lo + lo_reach, then hi - hi_reach..hi.
@@ -113,8 +135,10 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
         }
         if (!touched) continue;  // every node of the orbit holds zeros
 
-        // Read the orbit, then write each node the sum over U of its reflection R_U's value, reflected
-        // on U (mass: the orbit's total; momentum: components on U negated).
+        // Read the orbit, then add the images axis by axis (x, y, z), as src/sim/cpu.rs's passes over
+        // the whole grid do: in each, every node of the orbit gains its partner's image across that
+        // axis's plane (the plane's own node, its own). The passes see only the orbit's values, so
+        // doing them here gives the same integers, and the same floats added in the same order.
         const int channels = quantity == MIRROR_MASS ? 1 : 3;
         i64 q[8][3];
         float f[8][3];
@@ -132,35 +156,50 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
             }
         }
 #pragma unroll
-        for (u32 T = 0; T < 8; ++T) {
-            if (T & ~axes) continue;
-            i64 qs[3] = {0, 0, 0};
-            float fs[3] = {0.0f, 0.0f, 0.0f};
+        for (int b = 0; b < 3; ++b) {
+            if (!((axes >> b) & 1u)) continue;
+            const bool low = zone[b] == 1;
+            const bool on_plane = c[b] == (low ? m[b].lo : m[b].hi);
 #pragma unroll
-            for (u32 U = 0; U < 8; ++U) {
-                if (U & ~axes) continue;
+            for (u32 T = 0; T < 8; ++T) {
+                const u32 P = T ^ (1u << b);
+                if ((T & ~axes) || P < T) continue;  // each pair once: T on the fluid's side, P beyond
+                // On the plane T and P are the same node, on the fluid's side: it gains its own image.
+                const WallSide beyond = on_plane ? WallSide{true, low} : WallSide{false, low};
+                const WallSide fluid_side{true, low};
 #pragma unroll
                 for (int k = 0; k < 3; ++k) {
                     if (k >= channels) break;
-                    const bool negate = quantity == MIRROR_MOMENTUM && ((U >> k) & 1u);
-                    if (fixed) qs[k] += negate ? -q[T ^ U][k] : q[T ^ U][k];
-                    else fs[k] += negate ? -f[T ^ U][k] : f[T ^ U][k];
+                    const bool normal = quantity == MIRROR_MOMENTUM && k == b;
+                    if (fixed) {
+                        const i64 own = q[T][k], partner = q[P][k];
+                        q[T][k] = own + wall_image(own, partner, normal, fluid_side);
+                        q[P][k] = partner + wall_image(partner, own, normal, beyond);
+                    } else {
+                        const float own = f[T][k], partner = f[P][k];
+                        f[T][k] = own + wall_image(own, partner, normal, fluid_side);
+                        f[P][k] = partner + wall_image(partner, own, normal, beyond);
+                    }
                 }
             }
+        }
+#pragma unroll
+        for (u32 T = 0; T < 8; ++T) {
+            if (T & ~axes) continue;
 #pragma unroll
             for (int k = 0; k < 3; ++k) {
                 if (k >= channels) break;
                 if (fixed) {
-                    if (quantity == MIRROR_MASS) fixed_mass[node[T]] = (u64)qs[k];
-                    else fixed_momentum[3 * node[T] + k] = (u64)qs[k];
+                    if (quantity == MIRROR_MASS) fixed_mass[node[T]] = (u64)q[T][k];
+                    else fixed_momentum[3 * node[T] + k] = (u64)q[T][k];
                 }
             }
             if (!fixed) {
-                if (quantity == MIRROR_MASS) grid_acc[node[T]].w = fs[0];
+                if (quantity == MIRROR_MASS) grid_acc[node[T]].w = f[T][0];
                 else {
-                    grid_acc[node[T]].x = fs[0];
-                    grid_acc[node[T]].y = fs[1];
-                    grid_acc[node[T]].z = fs[2];
+                    grid_acc[node[T]].x = f[T][0];
+                    grid_acc[node[T]].y = f[T][1];
+                    grid_acc[node[T]].z = f[T][2];
                 }
             }
             // An image written into an unmarked block: list it (mark_node_block, less its plain read).

@@ -15,6 +15,7 @@ use mpm::sim::cpu::{CpuSolver, Stencil};
 use mpm::sim::params::{Pipeline, ScatterMode};
 use mpm::sim::{presets, Params, Particles, Phase, Scene, Solver};
 
+mod common;
 mod harness;
 
 fn main() -> std::process::ExitCode {
@@ -40,6 +41,7 @@ fn main() -> std::process::ExitCode {
             colliders_grid_update_and_backstop_match_cpu,
             colliders_trajectory_follows_cpu,
             colliders_fixed_point_runs_are_byte_identical,
+            a_block_leaving_a_wall_keeps_its_speed,
         ],
     )
 }
@@ -989,4 +991,24 @@ fn colliders_fixed_point_runs_are_byte_identical() {
         particle_bytes(&first) == particle_bytes(&second),
         "two fixed-point runs with colliders differ"
     );
+}
+
+/// The walls' mirror pushes fluid off a wall and never pulls it back (tests/walls.rs holds the CPU
+/// backends to the same): a block leaving the low x wall at 1 m/s keeps its speed, on average and in
+/// its wall layer, to 5 %, in both pipelines and both scatter modes.
+fn a_block_leaving_a_wall_keeps_its_speed() {
+    for (pipeline, scatter) in VARIANTS {
+        let mut scene = common::block_leaving_the_low_x_wall(1.0);
+        (scene.pipeline, scene.scatter) = (pipeline, scatter);
+        let (mean, wall_layer) = common::leaving_speeds(&scene, mpm::backend::BackendKind::Cuda, 3);
+        println!("{pipeline:?} {scatter:?}: mean vx {mean:.4} m/s, wall layer {wall_layer:.4} m/s");
+        assert!(
+            (mean - 1.0).abs() < 0.05,
+            "{pipeline:?} {scatter:?}: the block slowed to {mean} m/s"
+        );
+        assert!(
+            (wall_layer - 1.0).abs() < 0.05,
+            "{pipeline:?} {scatter:?}: the wall layer slowed to {wall_layer} m/s"
+        );
+    }
 }

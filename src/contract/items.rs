@@ -40,7 +40,7 @@ device_structs! {
         /// Node spacing, m.
         dx: f32,
         inv_dx: f32,
-        /// Outer node layers in which the wall-normal velocity is zeroed (free slip).
+        /// Outer node layers in which velocity into the wall is removed (free slip; fluid may leave).
         boundary_band: u32,
         /// Time constant of the soft wall, s; 0 turns it off.
         soft_wall_tau: f32,

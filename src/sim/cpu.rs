@@ -107,13 +107,43 @@ impl Grid {
     }
 }
 
+/// Where a node lies against one wall's mirror plane, of the low wall (`low`) or the high one: what
+/// decides the image it receives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum WallSide {
+    /// On the plane or on the fluid's side of it.
+    Fluid { low: bool },
+    /// Beyond the plane, inside the wall.
+    Beyond { low: bool },
+}
+
+/// The image `partner` adds, across the plane of an `axis` wall, to the momentum `own` of a node on
+/// `side`: the wall-normal component of the partner's momentum, reflected (a mirror-image fluid
+/// moving the other way), or as it is (an image moving with the fluid), so that the image pushes
+/// fluid off the wall and never pulls it back, as a collider's boundary does:
+/// - on the fluid's side (the plane included) the image's normal momentum points off the wall
+///   whatever its sign: fluid pressed on the wall gets the reflected push it always got, and fluid
+///   leaving it gets a push along, not the reflected pull that would hold it there;
+/// - beyond the plane it is reflected while the fluid there presses on the wall (so the band then
+///   stops it), and moves with the fluid where the fluid moves off the wall.
+pub fn momentum_image(own: Vec3, mut partner: Vec3, axis: usize, side: WallSide) -> Vec3 {
+    let off_the_wall = |low: bool, p: f32| if low { p > 0.0 } else { p < 0.0 };
+    partner[axis] = match side {
+        WallSide::Fluid { low: true } => partner[axis].abs(),
+        WallSide::Fluid { low: false } => -partner[axis].abs(),
+        WallSide::Beyond { low } if off_the_wall(low, own[axis]) => partner[axis],
+        WallSide::Beyond { .. } => -partner[axis],
+    };
+    partner
+}
+
 /// Adds the mirror image of the fluid beyond every wall to a grid quantity, in place.
 ///
 /// A fluid resting against the wall plane at node W has an image beyond it: what the particles put on
 /// node W + d, their images put on node W - d, and the reverse. Each pair (W - d, W + d) on the grid
-/// therefore ends with the sum of both, and W itself with twice its own. Momentum is reflected
-/// (`reflect` negates its component normal to the wall), so the wall-normal momentum cancels on the
-/// plane. Axis by axis in turn, which also gives the images at edges and corners.
+/// therefore ends with the sum of both, and W itself with twice its own: `image(own, partner, axis,
+/// side)` is what the partner adds to a node (the mass as it is, momentum by [`momentum_image`]).
+/// Axis by axis in turn (x, y, z), which also gives the images at edges and corners.
 ///
 /// Without it the particles next to a wall miss the mass beyond it (their density reads like a free
 /// surface's: 0.62, 0.85, 0.97 rho0 in the outer layers), and the first free node layer misses the
@@ -122,7 +152,7 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     shape: GridShape,
     params: &Params,
     values: &mut [T],
-    reflect: impl Fn(T, usize) -> T,
+    image: impl Fn(T, T, usize, WallSide) -> T,
 ) {
     if params.wall_mirror_lo == 0 {
         return;
@@ -136,19 +166,24 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
             1 => (2, 0),
             _ => (1, 0),
         };
-        for wall in [params.wall_mirror_lo, params.wall_mirror_hi[a]] {
+        for (wall, low) in [(params.wall_mirror_lo, true), (params.wall_mirror_hi[a], false)] {
             let reach = wall.min(res[a] - 1 - wall);
+            let (fluid, beyond_plane) = (WallSide::Fluid { low }, WallSide::Beyond { low });
             for u in 0..res[outer] as usize {
                 for v in 0..res[inner] as usize {
                     let line = u * stride[outer] + v * stride[inner];
                     let at = |i: u32| line + i as usize * stride[a];
                     let on_plane = at(wall);
-                    values[on_plane] = values[on_plane] + reflect(values[on_plane], a);
+                    let own = values[on_plane];
+                    values[on_plane] = own + image(own, own, a, fluid);
                     for d in 1..=reach {
-                        let (outside, inside) = (at(wall - d), at(wall + d));
-                        let (x, y) = (values[outside], values[inside]);
-                        values[outside] = x + reflect(y, a);
-                        values[inside] = y + reflect(x, a);
+                        let (beyond, inside) = match low {
+                            true => (at(wall - d), at(wall + d)),
+                            false => (at(wall + d), at(wall - d)),
+                        };
+                        let (x, y) = (values[beyond], values[inside]);
+                        values[beyond] = x + image(x, y, a, beyond_plane);
+                        values[inside] = y + image(y, x, a, fluid);
                     }
                 }
             }
@@ -199,10 +234,14 @@ pub fn node_velocity(
     if !colliders.is_empty() {
         v = colliders.project_node(node.as_vec3() * params.dx, v);
     }
+    // The band removes only motion into the wall (as a collider's boundary does), so fluid leaves a
+    // wall freely.
     let (band, res) = (params.boundary_band, shape.res);
     for a in 0..3 {
-        if node[a] < band || node[a] >= res[a] - band {
-            v[a] = 0.0;
+        if node[a] < band {
+            v[a] = v[a].max(0.0);
+        } else if node[a] >= res[a] - band {
+            v[a] = v[a].min(0.0);
         }
     }
     v
@@ -325,20 +364,12 @@ impl CpuSolver {
 
     /// The walls' image mass (see [`mirror_walls`]), between p2g_init and p2g.
     pub fn mirror_mass(&mut self, params: &Params) {
-        mirror_walls(self.grid.shape, params, &mut self.grid.mass, |m, _| m);
+        mirror_walls(self.grid.shape, params, &mut self.grid.mass, |_, m, _, _| m);
     }
 
-    /// The walls' image momentum, wall-normal component reflected, between p2g and grid_update.
+    /// The walls' image momentum ([`momentum_image`]), between p2g and grid_update.
     pub fn mirror_momentum(&mut self, params: &Params) {
-        mirror_walls(
-            self.grid.shape,
-            params,
-            &mut self.grid.momentum,
-            |mut mv, axis| {
-                mv[axis] = -mv[axis];
-                mv
-            },
-        );
+        mirror_walls(self.grid.shape, params, &mut self.grid.momentum, momentum_image);
     }
 
     /// Density from grid mass, Tait pressure, viscous stress; then momentum and stress to the grid.

@@ -29,8 +29,8 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_with_backstop, mirror_walls, node_velocity, p2g_particle, step_phases, CpuPhases, CpuSolver,
-    GatherExtremes, Grid, GridShape, Stencil,
+    g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle, step_phases, CpuPhases,
+    CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::Params;
@@ -336,7 +336,12 @@ impl ParallelCpuSolver {
             &self.block_mass,
             &mut self.inner.grid.mass,
         );
-        mirror_walls(self.inner.grid.shape, params, &mut self.inner.grid.mass, |m, _| m);
+        mirror_walls(
+            self.inner.grid.shape,
+            params,
+            &mut self.inner.grid.mass,
+            |_, m, _, _| m,
+        );
     }
 
     /// Density from grid mass, pressure and stress (`p2g_particle`), momentum per tile block, merged.
@@ -400,10 +405,7 @@ impl ParallelCpuSolver {
             self.inner.grid.shape,
             params,
             &mut self.inner.grid.momentum,
-            |mut mv, axis| {
-                mv[axis] = -mv[axis];
-                mv
-            },
+            momentum_image,
         );
         let slab = self.slab_nodes();
         let dirty = &self.bins.dirty;

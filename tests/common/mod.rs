@@ -1,4 +1,4 @@
-//! Helpers shared by the CPU test files.
+//! Helpers shared by the test files.
 #![allow(dead_code)]
 
 use mpm::sim::cpu::CpuSolver;
@@ -102,3 +102,44 @@ pub const JET_TANK_DRAIN: &str = r#"
 min = [0.28, 0.0, 0.06]
 max = [0.34, 0.04, 0.14]
 "#;
+
+/// A block 10 x 8 x 8 cells (0.02 to 0.12 m along x) against the low x wall of a 0.4 m box at
+/// dx = 2 cm, 8 particles per cell, no gravity, moving away from the wall at `speed` m/s.
+pub fn block_leaving_the_low_x_wall(speed: f32) -> Scene {
+    scene(&format!(
+        r#"
+[domain]
+size = [0.4, 0.4, 0.4]
+resolution = [20, 20, 20]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[solver]
+gravity = [0.0, 0.0, 0.0]
+[time_step]
+cfl = 0.35
+[[block]]
+min = [0.02, 0.12, 0.12]
+max = [0.12, 0.28, 0.28]
+velocity = [{speed}, 0.0, 0.0]
+"#
+    ))
+}
+
+/// Mean x velocity of the whole block and of its wall layer (the particles that started within one
+/// cell of the wall) after `frames` 60 Hz frames on `backend`.
+pub fn leaving_speeds(scene: &Scene, backend: mpm::backend::BackendKind, frames: u32) -> (f32, f32) {
+    let scene = scene.clone();
+    let start = scene.spawn();
+    let solver = mpm::backend::create(backend, &scene).expect("backend");
+    let mut sim = mpm::sim::Simulation::new(scene, solver);
+    for _ in 0..frames {
+        sim.advance_frame().expect("frame");
+    }
+    let p = sim.solver_mut().read_particles().expect("particles");
+    let mean = |keep: &dyn Fn(usize) -> bool| {
+        let v: Vec<f32> = (0..p.len()).filter(|&i| keep(i)).map(|i| p.v[i].x).collect();
+        v.iter().sum::<f32>() / v.len() as f32
+    };
+    (mean(&|_| true), mean(&|i| start.x[i].x < 0.04))
+}
