@@ -515,7 +515,17 @@ fn run(args: RunArgs) -> Result<()> {
         ),
     };
     args.solver.apply(&mut scene);
-    // Open every output before the first step, so a bad path fails at once, not after a long run.
+    // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
+    // it) fails before any output exists, so nothing is left behind to block the retry.
+    let mut sim = match &resumed {
+        Some(checkpoint) => checkpoint.resume(scene, backend_kind)?,
+        None => {
+            let solver = backend::create(backend_kind, &scene)?;
+            Simulation::new(scene, solver)
+        }
+    };
+    // Then every output, before the first step, so a bad path fails at once, not after a long run.
+    let scene = sim.scene();
     let export = args
         .export
         .as_deref()
@@ -525,7 +535,7 @@ fn run(args: RunArgs) -> Result<()> {
         .export_surface
         .as_deref()
         .map(|dir| -> Result<SurfaceExporter> {
-            let settings = SurfaceSettings::for_scene(&scene, args.surface.overrides())?;
+            let settings = SurfaceSettings::for_scene(scene, args.surface.overrides())?;
             SurfaceExporter::new(dir, args.every, args.surface_format, settings, args.overwrite)
         })
         .transpose()?;
@@ -547,14 +557,6 @@ fn run(args: RunArgs) -> Result<()> {
     for note in notes.into_iter().flatten() {
         writeln!(std::io::stdout(), "{note}")?;
     }
-    let mut sim = match &resumed {
-        Some(checkpoint) => checkpoint.resume(scene, backend_kind)?,
-        None => {
-            let solver = backend::create(backend_kind, &scene)?;
-            Simulation::new(scene, solver)
-        }
-    };
-    let scene = sim.scene();
     writeln!(
         std::io::stdout(),
         "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",

@@ -26,42 +26,71 @@ pub struct RunOptions {
     pub progress: bool,
 }
 
-/// The JSON-lines stats file: one [`FrameStats`] object per line.
+/// The JSON-lines stats file: one [`FrameStats`] object per line. Checked when made, created with
+/// its first line: a run that stops before its first frame leaves no empty file behind.
 pub struct StatsFile {
-    file: BufWriter<File>,
+    file: Option<BufWriter<File>>,
     path: PathBuf,
+    /// It existed, and `--overwrite` said to replace it.
+    replaces: bool,
 }
 
 impl StatsFile {
-    /// Refuses to replace an existing file unless `overwrite`.
+    /// Refuses to replace an existing file unless `overwrite`, and a path that cannot be a file.
     pub fn create(path: &Path, overwrite: bool) -> Result<StatsFile> {
-        if !overwrite && path.exists() {
+        if path.is_dir() {
+            anyhow::bail!("--stats {} is a directory; give a file name", path.display());
+        }
+        let exists = path.exists();
+        if !overwrite && exists {
             anyhow::bail!(
                 "{} already exists; choose another --stats file, or pass --overwrite to replace it",
                 path.display()
             );
         }
-        if path.is_dir() {
-            anyhow::bail!("--stats {} is a directory; give a file name", path.display());
-        }
-        let file = File::create(path).map_err(|e| {
-            anyhow::anyhow!(
-                "cannot create the stats file {}: {}",
+        let folder = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if !folder.is_dir() {
+            anyhow::bail!(
+                "cannot create the stats file {}: its folder {} does not exist",
                 path.display(),
-                crate::text::io_reason(&e)
-            )
-        })?;
+                folder.display()
+            );
+        }
         Ok(StatsFile {
-            file: BufWriter::new(file),
+            file: None,
             path: path.to_path_buf(),
+            replaces: exists,
         })
     }
 
-    fn append(&mut self, stats: &FrameStats) -> Result<()> {
-        serde_json::to_writer(&mut self.file, stats)
+    fn append(&mut self, stats: &FrameStats, out: &mut dyn Write) -> Result<()> {
+        let file = match &mut self.file {
+            Some(file) => file,
+            None => {
+                let created = File::create(&self.path).map_err(|e| {
+                    anyhow::anyhow!(
+                        "cannot create the stats file {}: {}",
+                        self.path.display(),
+                        crate::text::io_reason(&e)
+                    )
+                })?;
+                if self.replaces {
+                    writeln!(
+                        out,
+                        "--overwrite: replaced the stats file {}",
+                        self.path.display()
+                    )?;
+                }
+                self.file.insert(BufWriter::new(created))
+            }
+        };
+        serde_json::to_writer(&mut *file, stats)
             .map_err(anyhow::Error::from)
-            .and_then(|_| writeln!(self.file).map_err(Into::into))
-            .and_then(|_| self.file.flush().map_err(Into::into))
+            .and_then(|_| writeln!(file).map_err(Into::into))
+            .and_then(|_| file.flush().map_err(Into::into))
             .with_context(|| format!("cannot write the stats file {}", self.path.display()))
     }
 }
@@ -294,7 +323,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             bar.inc(1);
         }
         if let Some(file) = &mut stats {
-            file.append(&frame_stats)?;
+            file.append(&frame_stats, out)?;
         }
         export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
         // Meshes finished during this frame are reported now, not at the next exported frame.
@@ -308,6 +337,13 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             }
         }
         all.push(frame_stats);
+    }
+    // No frame to step: the state as it is, as the checkpoint after the last frame it then is.
+    if frames == 0 {
+        if let Some(series) = &checkpoints {
+            let path = series.write(sim)?;
+            say(out, &format!("checkpoint {}", path.display()))?;
+        }
     }
     let surface_line = match surface {
         Some(queue) => {

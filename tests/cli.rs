@@ -205,3 +205,72 @@ fn an_unused_frame_sequence_removes_its_folders() {
     drop(sequence);
     assert!(dir.path().is_dir());
 }
+
+/// A run that cannot start (here the CUDA backend refuses a collider scene in the report pipeline,
+/// or has no GPU) creates none of its outputs, so the same command on another backend is not refused
+/// for files a failed start left (issue 17, item 3).
+#[test]
+fn a_run_that_cannot_start_leaves_no_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |p: &str| dir.path().join(p).display().to_string();
+    let (export, checkpoint, stats) = (at("p"), at("c"), at("s.jsonl"));
+    let run = |backend: &str, pipeline: &str| {
+        mpm(&[
+            "run",
+            "--backend",
+            backend,
+            "--pipeline",
+            pipeline,
+            "--scene",
+            "dam-break-obstacle",
+            "--frames",
+            "0",
+            "--export",
+            &export,
+            "--checkpoint",
+            &checkpoint,
+            "--stats",
+            &stats,
+        ])
+    };
+    let failed = run("cuda", "report");
+    assert!(!failed.status.success(), "{}", stdout(&failed));
+    for path in [&export, &checkpoint, &stats] {
+        assert!(
+            !std::path::Path::new(path).exists(),
+            "{path} was left behind: {}",
+            stderr(&failed)
+        );
+    }
+    let retry = run("cpu", "binned");
+    assert!(retry.status.success(), "{}", stderr(&retry));
+}
+
+/// `--frames 0` writes the checkpoint after the last frame, which is the start, and leaves no empty
+/// stats file (issue 17, item 5).
+#[test]
+fn zero_frames_write_the_start_as_the_last_checkpoint_and_no_empty_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let checkpoints = dir.path().join("c");
+    let stats = dir.path().join("s.jsonl");
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "0",
+        "--checkpoint",
+        checkpoints.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        checkpoints.join("checkpoint_000000.mpmck").is_file(),
+        "{}",
+        stdout(&out)
+    );
+    assert!(!stats.exists(), "an empty stats file");
+}
