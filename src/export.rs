@@ -13,6 +13,7 @@ use anyhow::{bail, Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// One kind of numbered frame file in one directory: `{prefix}NNNNNN.{extension}`, names that sort
 /// in frame order. Opening it refuses a directory that already holds files of this kind (in any of
@@ -25,6 +26,8 @@ pub struct FrameDir {
     extension: &'static str,
     /// The files of an earlier run that `--overwrite` removed, in name order.
     removed: Vec<PathBuf>,
+    /// The half-written files of a killed run, removed.
+    unfinished: Vec<PathBuf>,
 }
 
 /// What a [`FrameDir`] holds, in the words its messages use.
@@ -60,6 +63,7 @@ impl FrameDir {
             format!("exported {}", kind.noun.0),
             format!("exported {}", kind.noun.1),
         );
+        let unfinished = remove_unfinished(dir, |name| kind.unfinished(name))?;
         let removed = claim_output_dir(
             dir,
             kind.flag,
@@ -73,6 +77,7 @@ impl FrameDir {
             kind,
             extension,
             removed,
+            unfinished,
         })
     }
 
@@ -85,8 +90,24 @@ impl FrameDir {
         &self.removed
     }
 
-    /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
+    /// What opening the folder removed, for the user: the unfinished files of a killed run, and
+    /// [`Self::removed`]; `None` when nothing was removed.
     pub fn removed_note(&self) -> Option<String> {
+        let unfinished = (!self.unfinished.is_empty()).then(|| {
+            format!(
+                "removed {} that a killed run left unfinished in {}",
+                crate::text::count(self.unfinished.len(), "file", "files"),
+                self.dir.display()
+            )
+        });
+        let overwritten = self.overwritten_note();
+        match (unfinished, overwritten) {
+            (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
+            (a, b) => a.or(b),
+        }
+    }
+
+    fn overwritten_note(&self) -> Option<String> {
         let (first, last) = (self.removed.first()?, self.removed.last()?);
         let name = |p: &PathBuf| {
             p.file_name()
@@ -117,15 +138,17 @@ impl FrameDir {
     }
 
     /// Writes frame `frame` through `write` to a temporary name, then renames it, so a failed write
-    /// never leaves a truncated file under a frame's name. A failure names the path, the reason and
-    /// the fix for that reason (a full disk, a refused permission, a read-only file system).
+    /// never leaves a truncated file under a frame's name, and an interrupt removes it
+    /// ([`remove_unfinished_on_interrupt`]). A failure names the path, the reason and the fix for that
+    /// reason (a full disk, a refused permission, a read-only file system).
     pub fn write(
         &self,
         frame: u64,
         write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
     ) -> Result<PathBuf> {
         let path = self.path_of(frame);
-        let tmp = path.with_extension(format!("{}.partial", self.extension));
+        let tmp = path.with_extension(format!("{}{PARTIAL}", self.extension));
+        let _unfinished = Unfinished::new(&tmp);
         let result = File::create(&tmp).map_err(anyhow::Error::from).and_then(|f| {
             let mut out = BufWriter::new(f);
             write(&mut out)?;
@@ -146,16 +169,77 @@ impl FrameDir {
 }
 
 impl FrameKind {
-    /// Whether a file of this name belongs to this kind (a finished frame, or a write cut short).
+    /// Whether a file of this name is a finished file of this kind.
     fn owns(&self, name: &str) -> bool {
         let Some(rest) = name.strip_prefix(self.prefix) else {
             return false;
         };
-        let rest = rest.strip_suffix(".partial").unwrap_or(rest);
         self.extensions
             .iter()
             .any(|ext| rest.strip_suffix(ext).is_some_and(|r| r.ends_with('.')))
     }
+
+    /// Whether a file of this name is one of this kind that a run was still writing when it was
+    /// killed: never a finished file, so never counted, and removed when the folder is opened again.
+    fn unfinished(&self, name: &str) -> bool {
+        name.strip_suffix(PARTIAL)
+            .is_some_and(|finished| self.owns(finished))
+    }
+}
+
+/// The suffix of a file still being written.
+const PARTIAL: &str = ".partial";
+
+/// The files being written now, for the Ctrl-C handler to remove.
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A file being written, listed in [`UNFINISHED`] while it is.
+struct Unfinished(PathBuf);
+
+impl Unfinished {
+    fn new(path: &Path) -> Unfinished {
+        if let Ok(mut list) = UNFINISHED.lock() {
+            list.push(path.to_path_buf());
+        }
+        Unfinished(path.to_path_buf())
+    }
+}
+
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        if let Ok(mut list) = UNFINISHED.lock() {
+            list.retain(|p| p != &self.0);
+        }
+    }
+}
+
+/// Makes Ctrl-C (SIGINT, SIGTERM) remove the export files still being written before the program
+/// exits, saying so: an interrupted run leaves only finished files. For `mpm run`, whose exports write
+/// from several threads.
+pub fn remove_unfinished_on_interrupt() -> Result<()> {
+    ctrlc::set_handler(|| {
+        let removed: Vec<PathBuf> = UNFINISHED
+            .lock()
+            .map(|list| {
+                list.iter()
+                    .filter(|p| std::fs::remove_file(p).is_ok())
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default();
+        eprintln!(
+            "error: interrupted{}",
+            match removed.len() {
+                0 => String::new(),
+                n => format!(
+                    "; removed {} being written",
+                    crate::text::count(n, "file", "files")
+                ),
+            }
+        );
+        std::process::exit(130);
+    })
+    .context("installing the Ctrl-C handler")
 }
 
 /// Writes `frame_NNNNNN.ply` files of the particles into one directory.
@@ -253,6 +337,30 @@ pub fn claim_output_dir(
         })?;
     }
     Ok(existing)
+}
+
+/// Removes the files of `dir` that `unfinished` names (a killed run's half-written files), returning
+/// them; nothing where `dir` does not exist yet.
+fn remove_unfinished(dir: &Path, unfinished: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(Vec::new());
+    };
+    let mut removed: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| unfinished(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .collect();
+    removed.sort();
+    for path in &removed {
+        std::fs::remove_file(path).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot remove the unfinished {}: {}",
+                path.display(),
+                io_reason(&e)
+            )
+        })?;
+    }
+    Ok(removed)
 }
 
 pub fn check_every(every: u64) -> Result<()> {

@@ -557,6 +557,7 @@ fn run(args: RunArgs) -> Result<()> {
     for note in notes.into_iter().flatten() {
         writeln!(std::io::stdout(), "{note}")?;
     }
+    mpm::export::remove_unfinished_on_interrupt()?;
     writeln!(
         std::io::stdout(),
         "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",

@@ -274,3 +274,32 @@ fn zero_frames_write_the_start_as_the_last_checkpoint_and_no_empty_stats() {
     );
     assert!(!stats.exists(), "an empty stats file");
 }
+
+/// A file a killed run was still writing (`*.partial`) is not an exported frame: the next run into
+/// the folder neither counts it nor refuses for it, and removes it, saying so (issue 17, item 6).
+#[test]
+fn a_killed_runs_unfinished_file_is_removed_not_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    std::fs::write(frames.join("frame_000000.ply.partial"), b"cut short").unwrap();
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "0",
+        "--export",
+        frames.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("removed 1 file that a killed run left unfinished"),
+        "{}",
+        stdout(&out)
+    );
+    assert!(!frames.join("frame_000000.ply.partial").exists());
+    assert!(frames.join("frame_000000.ply").is_file());
+}
