@@ -12,8 +12,15 @@
 //!   compile options). Its builtins library, which libnvrtc opens by bare name, is loaded first from
 //!   the same folder, so LD_LIBRARY_PATH is not needed.
 //! - A kernel that does not compile fails the build with NVRTC's log.
-//! - No NVRTC: the build succeeds with a warning and the program compiles the embedded sources at run
-//!   time, unless `MPM_REQUIRE_NVRTC=1` (CI), which makes a missing NVRTC an error.
+//! - The PTX of the pinned NVRTC (13.0) is also committed, in `kernels/ptx/`, with a manifest of the
+//!   sources it was compiled from (a fingerprint of each module's pasted source, options and target).
+//!   A build without NVRTC (a machine with only the NVIDIA driver, the common desktop and cloud image)
+//!   embeds that PTX wherever its fingerprint matches the sources, so `cargo run --release` needs no
+//!   toolkit. A build with NVRTC 13.0 checks that the committed PTX is what it compiled; CI
+//!   (`MPM_REQUIRE_NVRTC=1`) fails where it is stale, and `MPM_UPDATE_PTX=1 cargo build` rewrites it.
+//! - No NVRTC and no matching committed PTX for a module: the build succeeds with a warning and the
+//!   program compiles that module's embedded source at run time, unless `MPM_REQUIRE_NVRTC=1` (CI),
+//!   which makes a missing NVRTC an error.
 
 #[path = "src/contract/header.rs"]
 mod contract_header;
@@ -30,6 +37,11 @@ const KERNEL_DIR: &str = "kernels";
 const ARCHS: [&str; 2] = ["compute_75", "compute_90"];
 /// The header written from src/contract/items.rs, pasted where a kernel includes it.
 const CONTRACT_HEADER: &str = "contract.cuh";
+/// The committed PTX and its manifest.
+const COMMITTED_PTX_DIR: &str = "kernels/ptx";
+const MANIFEST: &str = "manifest.txt";
+/// The NVRTC release whose PTX is committed (the pinned one: its PTX loads on a CUDA 13.0 driver).
+const COMMITTED_NVRTC: (i32, i32) = (13, 0);
 
 fn main() {
     println!("cargo:rerun-if-changed={KERNEL_DIR}");
@@ -42,6 +54,7 @@ fn main() {
         "CUDA_PATH",
         "MPM_NVRTC_CACHE",
         "MPM_REQUIRE_NVRTC",
+        "MPM_UPDATE_PTX",
         "LD_LIBRARY_PATH",
     ] {
         println!("cargo:rerun-if-env-changed={var}");
@@ -65,7 +78,7 @@ fn run() -> Result<(), String> {
     let require = std::env::var("MPM_REQUIRE_NVRTC").is_ok_and(|v| v == "1");
 
     let checkout = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
-    let nvrtc = find_nvrtc(&[checkout]);
+    let nvrtc = find_nvrtc(std::slice::from_ref(&checkout));
     let compiled = match &nvrtc {
         Ok(found) => {
             let mut ptx = Vec::new();
@@ -76,6 +89,9 @@ fn run() -> Result<(), String> {
             }
             check_contract_layout()?;
             let (major, minor) = nvrtc_version()?;
+            if (major, minor) == COMMITTED_NVRTC {
+                check_committed_ptx(&checkout, &modules, &ptx, require)?;
+            }
             // Said aloud only where NVRTC is required (CI), so the log shows that every kernel compiled.
             if require {
                 println!(
@@ -92,28 +108,52 @@ fn run() -> Result<(), String> {
             ))
         }
         Err(why) => {
-            println!(
-                "cargo:warning=NVRTC not found ({why}); the CUDA kernels are embedded as source and \
-                 compiled when the program first uses the GPU. To compile them now, set NVRTC_LIB or \
-                 CUDA_HOME, or run .ci/install-nvrtc"
-            );
-            None
+            let committed = committed_ptx(&checkout, &modules);
+            let stale: Vec<&str> = modules
+                .iter()
+                .zip(&committed)
+                .filter(|(_, ptx)| ptx.iter().any(Option::is_none))
+                .map(|(m, _)| m.name.as_str())
+                .collect();
+            if !stale.is_empty() {
+                println!(
+                    "cargo:warning=NVRTC not found ({why}), and the committed PTX in {COMMITTED_PTX_DIR}/ \
+                     does not match the sources of {stale:?}; those kernels are embedded as source and \
+                     compiled when the program first uses the GPU. To compile them now, set NVRTC_LIB or \
+                     CUDA_HOME, or run .ci/install-nvrtc"
+                );
+            }
+            return write_modules(&out_dir, &modules, |index, arch_index| {
+                Ok(committed[index][arch_index].clone())
+            });
         }
     };
 
+    let compiled = compiled.unwrap_or_default();
+    write_modules(&out_dir, &modules, |index, arch_index| {
+        let module = &modules[index];
+        let ptx_file = out_dir.join(format!("{}.{}.ptx", module.name, ARCHS[arch_index]));
+        write(&ptx_file, &compiled[index][arch_index])?;
+        Ok(Some(ptx_file))
+    })
+}
+
+/// Writes `$OUT_DIR/kernels.rs`: each module's pasted source, and the PTX file `ptx(module, arch)`
+/// names (`None`: compiled at run time).
+fn write_modules(
+    out_dir: &Path,
+    modules: &[Module],
+    mut ptx_of: impl FnMut(usize, usize) -> Result<Option<PathBuf>, String>,
+) -> Result<(), String> {
     let mut rust = String::from("// Generated by build.rs from kernels/*.cu: one module per file.\n\n");
     let mut list = String::new();
     for (index, module) in modules.iter().enumerate() {
         let source_file = out_dir.join(format!("{}.cu", module.name));
         write(&source_file, &module.source)?;
         let mut ptx = Vec::new();
-        for (arch_index, arch) in ARCHS.iter().enumerate() {
-            ptx.push(match &compiled {
-                Some(compiled) => {
-                    let ptx_file = out_dir.join(format!("{}.{arch}.ptx", module.name));
-                    write(&ptx_file, &compiled[index][arch_index])?;
-                    format!("Some(include_str!({:?}))", ptx_file.display().to_string())
-                }
+        for arch_index in 0..ARCHS.len() {
+            ptx.push(match ptx_of(index, arch_index)? {
+                Some(file) => format!("Some(include_str!({:?}))", file.display().to_string()),
                 None => "None".to_string(),
             });
         }
@@ -131,6 +171,100 @@ fn run() -> Result<(), String> {
     }
     let _ = writeln!(rust, "\npub const ALL: &[KernelModule] = &[{list}];");
     write(&out_dir.join("kernels.rs"), &rust)
+}
+
+/// What a module's PTX for `arch` was compiled from: a fingerprint (FNV-1a, 64 bits) of its pasted
+/// source, the compile options and the target, the same on every machine.
+fn fingerprint(module: &Module, arch: &str) -> String {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for part in [module.source.as_str(), &COMPILE_OPTIONS.join(" "), arch] {
+        for byte in part.bytes().chain([0]) {
+            hash = (hash ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    format!("{hash:016x}")
+}
+
+/// The manifest's line for one module's PTX.
+fn manifest_line(module: &Module, arch: &str) -> String {
+    let (major, minor) = COMMITTED_NVRTC;
+    format!("{} {arch} {} nvrtc-{major}.{minor}", module.name, fingerprint(module, arch))
+}
+
+/// The committed PTX file of each module and target whose manifest line matches the sources now.
+fn committed_ptx(checkout: &Path, modules: &[Module]) -> Vec<Vec<Option<PathBuf>>> {
+    let dir = checkout.join(COMMITTED_PTX_DIR);
+    let manifest = std::fs::read_to_string(dir.join(MANIFEST)).unwrap_or_default();
+    println!("cargo:rerun-if-changed={COMMITTED_PTX_DIR}");
+    modules
+        .iter()
+        .map(|module| {
+            ARCHS
+                .iter()
+                .map(|arch| {
+                    let file = dir.join(format!("{}.{arch}.ptx", module.name));
+                    let fresh = manifest.lines().any(|l| l == manifest_line(module, arch));
+                    (fresh && file.is_file()).then_some(file)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Compares what NVRTC 13.0 compiled (`compiled[module][arch]`) with the committed PTX:
+/// `MPM_UPDATE_PTX=1` rewrites it; otherwise a difference is an error where NVRTC is `required` (CI)
+/// and a warning elsewhere, each naming the fix.
+fn check_committed_ptx(
+    checkout: &Path,
+    modules: &[Module],
+    compiled: &[Vec<String>],
+    required: bool,
+) -> Result<(), String> {
+    let dir = checkout.join(COMMITTED_PTX_DIR);
+    if std::env::var("MPM_UPDATE_PTX").is_ok_and(|v| v == "1") {
+        std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let mut manifest = String::from(
+            "# Written by `MPM_UPDATE_PTX=1 cargo build` (build.rs): module, target, fingerprint of the\n\
+             # pasted source, options and target, and the NVRTC that compiled kernels/ptx/MODULE.TARGET.ptx.\n",
+        );
+        for (module, ptx) in modules.iter().zip(compiled) {
+            for (arch, text) in ARCHS.iter().zip(ptx) {
+                write(&dir.join(format!("{}.{arch}.ptx", module.name)), text)?;
+                manifest.push_str(&manifest_line(module, arch));
+                manifest.push('\n');
+            }
+        }
+        return write(&dir.join(MANIFEST), &manifest);
+    }
+    let committed = committed_ptx(checkout, modules);
+    let stale: Vec<String> = modules
+        .iter()
+        .zip(compiled)
+        .zip(&committed)
+        .flat_map(|((module, ptx), files)| {
+            ARCHS.iter().zip(ptx).zip(files).filter_map(move |((arch, text), file)| {
+                let same = file
+                    .as_ref()
+                    .and_then(|f| std::fs::read_to_string(f).ok())
+                    .is_some_and(|committed| committed == *text);
+                (!same).then(|| format!("{}.{arch}", module.name))
+            })
+        })
+        .collect();
+    if stale.is_empty() {
+        return Ok(());
+    }
+    let message = format!(
+        "the committed PTX in {COMMITTED_PTX_DIR}/ is not what NVRTC compiled from kernels/ now ({}); \
+         run `MPM_UPDATE_PTX=1 cargo build` with NVRTC 13.0 (.ci/install-nvrtc) and commit {COMMITTED_PTX_DIR}/, \
+         so that machines without NVRTC get these kernels compiled",
+        stale.join(", ")
+    );
+    if required {
+        return Err(message);
+    }
+    println!("cargo:warning={message}");
+    Ok(())
 }
 
 fn write(path: &Path, text: &str) -> Result<(), String> {
