@@ -188,7 +188,11 @@ fn fingerprint(module: &Module, arch: &str) -> String {
 /// The manifest's line for one module's PTX.
 fn manifest_line(module: &Module, arch: &str) -> String {
     let (major, minor) = COMMITTED_NVRTC;
-    format!("{} {arch} {} nvrtc-{major}.{minor}", module.name, fingerprint(module, arch))
+    format!(
+        "{} {arch} {} nvrtc-{major}.{minor}",
+        module.name,
+        fingerprint(module, arch)
+    )
 }
 
 /// The committed PTX file of each module and target whose manifest line matches the sources now.
@@ -242,13 +246,17 @@ fn check_committed_ptx(
         .zip(compiled)
         .zip(&committed)
         .flat_map(|((module, ptx), files)| {
-            ARCHS.iter().zip(ptx).zip(files).filter_map(move |((arch, text), file)| {
-                let same = file
-                    .as_ref()
-                    .and_then(|f| std::fs::read_to_string(f).ok())
-                    .is_some_and(|committed| committed == *text);
-                (!same).then(|| format!("{}.{arch}", module.name))
-            })
+            ARCHS
+                .iter()
+                .zip(ptx)
+                .zip(files)
+                .filter_map(move |((arch, text), file)| {
+                    let same = file
+                        .as_ref()
+                        .and_then(|f| std::fs::read_to_string(f).ok())
+                        .is_some_and(|committed| committed == *text);
+                    (!same).then(|| format!("{}.{arch}", module.name))
+                })
         })
         .collect();
     if stale.is_empty() {

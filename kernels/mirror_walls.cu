@@ -56,16 +56,17 @@ struct WallSide {
 // src/sim/cpu.rs, operation for operation): the mass and the tangential momentum as they are; the
 // wall-normal momentum so that the image pushes fluid off the wall and never pulls it back: on the
 // fluid's side pointing off the wall whatever its sign, beyond the plane reflected while the fluid
-// there presses on the wall and as it is where the fluid moves off it.
+// there presses on the wall and as it is where its own momentum points off the wall by more than a
+// millionth of the partner's (OFF_THE_WALL: a margin far above any backend's rounding).
+__device__ __forceinline__ float off_the_wall_margin(float partner) { return fabsf(partner) * 1e-6f; }
+__device__ __forceinline__ i64 off_the_wall_margin(i64 partner) { return (partner < 0 ? -partner : partner) / 1000000; }
+
 template <typename T>
 __device__ __forceinline__ T wall_image(T own, T partner, bool normal, WallSide side) {
     if (!normal) return partner;
-    const T zero = T(0);
-    if (side.fluid) {
-        const T magnitude = partner < zero ? -partner : partner;
-        return side.low ? magnitude : -magnitude;
-    }
-    const bool off_the_wall = side.low ? own > zero : own < zero;
+    const T magnitude = partner < T(0) ? -partner : partner;
+    if (side.fluid) return side.low ? magnitude : -magnitude;
+    const bool off_the_wall = (side.low ? own : -own) > off_the_wall_margin(partner);
     return off_the_wall ? partner : -partner;
 }
 

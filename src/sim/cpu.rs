@@ -125,17 +125,31 @@ pub enum WallSide {
 ///   whatever its sign: fluid pressed on the wall gets the reflected push it always got, and fluid
 ///   leaving it gets a push along, not the reflected pull that would hold it there;
 /// - beyond the plane it is reflected while the fluid there presses on the wall (so the band then
-///   stops it), and moves with the fluid where the fluid moves off the wall.
+///   stops it), and moves with the fluid where the fluid moves off the wall: where the node's own
+///   momentum points off the wall by more than [`OFF_THE_WALL`] of the partner's. (The margin keeps
+///   the choice the same on every backend: float and fixed-point sums of a node that holds next to no
+///   momentum differ in their last bits, and a choice at exactly zero would follow them.)
 pub fn momentum_image(own: Vec3, mut partner: Vec3, axis: usize, side: WallSide) -> Vec3 {
-    let off_the_wall = |low: bool, p: f32| if low { p > 0.0 } else { p < 0.0 };
+    let (own, p) = (own[axis], partner[axis]);
     partner[axis] = match side {
-        WallSide::Fluid { low: true } => partner[axis].abs(),
-        WallSide::Fluid { low: false } => -partner[axis].abs(),
-        WallSide::Beyond { low } if off_the_wall(low, own[axis]) => partner[axis],
-        WallSide::Beyond { .. } => -partner[axis],
+        WallSide::Fluid { low: true } => p.abs(),
+        WallSide::Fluid { low: false } => -p.abs(),
+        WallSide::Beyond { low } => {
+            let off_the_wall = if low { own } else { -own } > p.abs() * OFF_THE_WALL;
+            if off_the_wall {
+                p
+            } else {
+                -p
+            }
+        }
     };
     partner
 }
+
+/// How far, as a fraction of its partner's, a beyond-the-plane node's own wall-normal momentum must
+/// point off the wall for the image to move with it (`momentum_image`): a millionth, far above the
+/// rounding of any backend's sums and far below any flow.
+pub const OFF_THE_WALL: f32 = 1e-6;
 
 /// Adds the mirror image of the fluid beyond every wall to a grid quantity, in place.
 ///
