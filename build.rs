@@ -173,6 +173,25 @@ fn write_modules(
     write(&out_dir.join("kernels.rs"), &rust)
 }
 
+/// NVRTC names each source file of the line table after the build's working folder
+/// (`.file 1 "/home/me/mpm/p2g.cu"`): PTX that differs from checkout to checkout, which could be
+/// neither committed nor compared. The folder is dropped (`.file 1 "p2g.cu"`), as profilers find
+/// the files by name (`ncu --source-folders kernels`).
+fn without_build_folder(ptx: &str) -> String {
+    let Ok(folder) = std::env::current_dir() else {
+        return ptx.to_string();
+    };
+    let prefix = format!("\"{}/", folder.display());
+    ptx.lines()
+        .map(|line| match line.trim_start().starts_with(".file") {
+            true => line.replacen(&prefix, "\"", 1),
+            false => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + if ptx.ends_with('\n') { "\n" } else { "" }
+}
+
 /// What a module's PTX for `arch` was compiled from: a fingerprint (FNV-1a, 64 bits) of its pasted
 /// source, the compile options and the target, the same on every machine.
 fn fingerprint(module: &Module, arch: &str) -> String {
@@ -399,11 +418,7 @@ fn compile(module: &Module, arch: &str) -> Result<String, String> {
         .unwrap_or_default();
     let ptx = match compiled {
         Ok(()) => unsafe { result::get_ptx(program) }
-            .map(|raw| {
-                unsafe { CStr::from_ptr(raw.as_ptr()) }
-                    .to_string_lossy()
-                    .into_owned()
-            })
+            .map(|raw| without_build_folder(&unsafe { CStr::from_ptr(raw.as_ptr()) }.to_string_lossy()))
             .map_err(|e| format!("NVRTC compiled {file_name} but returned no PTX: {e:?}")),
         Err(e) => Err(format!(
             "CUDA kernel {KERNEL_DIR}/{file_name} does not compile ({e:?}, options {options:?}):\n{log}"

@@ -515,20 +515,42 @@ pub struct CheckpointSeries {
 
 impl CheckpointSeries {
     /// Claims `dir` (created if needed). A run from the start refuses a directory that already holds
-    /// checkpoints; a run resumed at frame F keeps those up to F (the run it continues) and refuses
-    /// later ones, which it would replace. `overwrite` removes the ones refused instead.
-    pub fn new(dir: &Path, every: u64, resumed_at: Option<u64>, overwrite: bool) -> Result<CheckpointSeries> {
+    /// checkpoints; a run resumed from `resumed` (a checkpoint at frame F) keeps those up to F of the
+    /// same scene (the run it continues) and refuses later ones, which it would replace, and any of
+    /// another scene, which it would mix with its own. `overwrite` removes the ones refused instead.
+    pub fn new(
+        dir: &Path,
+        every: u64,
+        resumed: Option<&Checkpoint>,
+        overwrite: bool,
+    ) -> Result<CheckpointSeries> {
         ensure!(every >= 1, "--checkpoint-every must be at least 1");
-        let clashes = |name: &str| match (checkpoint_frame(name), resumed_at) {
-            (Some(frame), Some(start)) => frame > start,
+        let same_scene = |name: &str| {
+            Checkpoint::read(&dir.join(name)).is_ok_and(|other| {
+                resumed
+                    .is_some_and(|r| other.scene_source == r.scene_source && other.scene_toml == r.scene_toml)
+            })
+        };
+        let clashes = |name: &str| match (checkpoint_frame(name), resumed) {
+            (Some(frame), Some(start)) => frame > start.clock.frame || !same_scene(name),
             (Some(_), None) => true,
             (None, _) => false,
+        };
+        let what = match resumed {
+            Some(start) => (
+                format!("checkpoint after frame {} or of another scene", start.clock.frame),
+                format!(
+                    "checkpoints after frame {} or of another scene",
+                    start.clock.frame
+                ),
+            ),
+            None => ("checkpoint".to_string(), "checkpoints".to_string()),
         };
         claim_output_dir(
             dir,
             "--checkpoint",
             "checkpoint",
-            ("checkpoint", "checkpoints"),
+            (&what.0, &what.1),
             clashes,
             overwrite,
         )?;

@@ -544,11 +544,10 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
-    let resumed_at = resumed.as_ref().map(|c| c.clock.frame);
     let checkpoints = args
         .checkpoint
         .as_deref()
-        .map(|dir| CheckpointSeries::new(dir, args.checkpoint_every, resumed_at, args.overwrite))
+        .map(|dir| CheckpointSeries::new(dir, args.checkpoint_every, resumed.as_ref(), args.overwrite))
         .transpose()?;
     let notes = [
         export.as_ref().and_then(PlyExporter::removed_note),

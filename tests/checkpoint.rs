@@ -385,3 +385,62 @@ fn the_fountain_resumed_from_the_command_line_is_byte_identical() {
         "the resumed fountain's state differs"
     );
 }
+
+/// A run resumed into a folder holding another scene's checkpoints is refused: it would mix the two
+/// runs' files, though none of the other run's frames come after the one it resumes from; and the
+/// refusal counts what it refuses for, in words that say which (issue 17, item 4).
+#[test]
+fn a_resumed_run_is_not_mixed_with_another_scenes_checkpoints() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mixed, own) = (dir.path().join("mix"), dir.path().join("own"));
+    ok(&mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "2",
+        "--checkpoint-every",
+        "1",
+        "--checkpoint",
+        path(&mixed),
+    ]));
+    // Another scene: the same preset saved as a file (its source is the file, not the preset).
+    let scene_file = dir.path().join("coarse.toml");
+    std::fs::write(&scene_file, mpm::sim::presets::get("dam-break-coarse").unwrap()).unwrap();
+    ok(&mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        path(&scene_file),
+        "--frames",
+        "3",
+        "--checkpoint-every",
+        "3",
+        "--checkpoint",
+        path(&own),
+    ]));
+    let resume = own.join("checkpoint_000003.mpmck");
+    let out = mpm(&[
+        "run",
+        "--resume",
+        path(&resume),
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(&mixed),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "mixed in:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(
+        stderr.contains("holds 2 checkpoints after frame 3 or of another scene"),
+        "{stderr}"
+    );
+    assert!(!mixed.join("checkpoint_000004.mpmck").exists());
+}
