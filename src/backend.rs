@@ -31,6 +31,26 @@ impl BackendKind {
     }
 }
 
+impl BackendKind {
+    /// `Auto` made concrete for a caller that needs to know which backend runs (`mpm bench`): CUDA
+    /// where a device works, else cpu-parallel, saying why on stderr; any other kind as it is.
+    pub fn resolve(self) -> BackendKind {
+        if self != BackendKind::Auto {
+            return self;
+        }
+        match crate::cuda::library::device_available() {
+            Ok(()) => BackendKind::Cuda,
+            Err(why) => {
+                eprintln!(
+                    "note: no usable CUDA device ({why:#}); timing the CPU on {} (cpu-parallel)",
+                    crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
+                );
+                BackendKind::CpuParallel
+            }
+        }
+    }
+}
+
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU
 /// backend with a one-line notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
@@ -87,9 +107,8 @@ fn create_with(
                 let why = format!("{why:#}");
                 let first_line = why.lines().next().unwrap_or_default();
                 eprintln!(
-                    "note: CUDA backend unavailable ({first_line}); using the CPU on {} threads \
-                     (cpu-parallel)",
-                    ParallelCpuSolver::threads()
+                    "note: CUDA backend unavailable ({first_line}); using the CPU on {} (cpu-parallel)",
+                    crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
                 );
                 Ok(parallel())
             }

@@ -216,8 +216,12 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
         BackendKind::CpuParallel => Ok((
             backend::create(BackendKind::CpuParallel, scene)?,
             format!(
-                "CPU, {} threads (cpu-parallel)",
-                crate::sim::cpu_parallel::ParallelCpuSolver::threads()
+                "CPU, {} (cpu-parallel)",
+                crate::text::count(
+                    crate::sim::cpu_parallel::ParallelCpuSolver::threads(),
+                    "thread",
+                    "threads"
+                )
             ),
         )),
         BackendKind::Auto => bail!("choose the benchmark's backend: --backend cuda, cpu or cpu-parallel"),

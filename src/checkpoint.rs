@@ -271,8 +271,14 @@ impl Checkpoint {
     /// Reads a checkpoint, refusing (with what is wrong and what to do) a file that is not one, one
     /// of another format version, a truncated one and one whose checksum does not match.
     pub fn read(path: &Path) -> Result<Checkpoint> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| anyhow!("cannot read the checkpoint {}: {}", path.display(), io_reason(&e)))?;
+        let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => anyhow!(
+                "there is no checkpoint {}: give the path of a checkpoint_NNNNNN.mpmck that \
+                 `mpm run --checkpoint DIR` wrote, or a viewer snapshot",
+                path.display()
+            ),
+            _ => anyhow!("cannot read the checkpoint {}: {}", path.display(), io_reason(&e)),
+        })?;
         Checkpoint::from_bytes(&bytes).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
     }
 
@@ -511,6 +517,8 @@ impl<W: Write> Write for Crc32Writer<W> {
 pub struct CheckpointSeries {
     dir: PathBuf,
     every: u64,
+    /// Checkpoints of an earlier run that `--overwrite` removed.
+    removed: usize,
 }
 
 impl CheckpointSeries {
@@ -546,7 +554,7 @@ impl CheckpointSeries {
             ),
             None => ("checkpoint".to_string(), "checkpoints".to_string()),
         };
-        claim_output_dir(
+        let removed = claim_output_dir(
             dir,
             "--checkpoint",
             "checkpoint",
@@ -557,6 +565,18 @@ impl CheckpointSeries {
         Ok(CheckpointSeries {
             dir: dir.to_path_buf(),
             every,
+            removed: removed.len(),
+        })
+    }
+
+    /// What `--overwrite` removed, for the user; `None` when nothing was.
+    pub fn removed_note(&self) -> Option<String> {
+        (self.removed > 0).then(|| {
+            format!(
+                "--overwrite: removed {} from {}",
+                crate::text::count(self.removed, "checkpoint", "checkpoints"),
+                self.dir.display()
+            )
         })
     }
 

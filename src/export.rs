@@ -263,6 +263,10 @@ impl PlyExporter {
         self.frames.removed()
     }
 
+    pub fn dir(&self) -> &Path {
+        self.frames.dir()
+    }
+
     /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
     pub fn removed_note(&self) -> Option<String> {
         self.frames.removed_note()

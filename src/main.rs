@@ -62,6 +62,30 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
             options.join(" ")
         ));
     }
+    // An option of `mpm run` alone, given to the viewer: say where it goes.
+    let run_only = [
+        "--frames",
+        "--export",
+        "--export-surface",
+        "--stats",
+        "--checkpoint",
+        "--resume",
+        "--every",
+    ];
+    if let Some(option) = words
+        .iter()
+        .find(|w| run_only.contains(&w.split('=').next().unwrap_or(w)))
+    {
+        let given: Vec<String> = args[1..]
+            .iter()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect();
+        return Err(format!(
+            "{} is an option of `mpm run` (a headless run), not of the viewer: write `mpm run {}`",
+            option.split('=').next().unwrap_or(option),
+            given.join(" ")
+        ));
+    }
     args.insert(1.min(args.len()), "view".into());
     Ok(args)
 }
@@ -82,6 +106,10 @@ enum Command {
         /// Print this preset's scene file (without a name: list the presets).
         #[arg(long, value_name = "PRESET", num_args = 0..=1)]
         show: Option<Option<String>>,
+        /// Print a mesh file a preset uses (`glass.obj`, the tap's glass), to save beside a scene file
+        /// saved with --show.
+        #[arg(long, value_name = "FILE", conflicts_with = "show")]
+        mesh: Option<String>,
     },
 }
 
@@ -402,7 +430,8 @@ struct BenchArgs {
     /// Substeps run and dropped before measuring.
     #[arg(long, default_value_t = 200, allow_negative_numbers = true, value_parser = count::<0>)]
     warmup: u64,
-    #[arg(long, value_enum, default_value_t = BackendKind::Cuda)]
+    /// The backend [default: auto: CUDA where a device works, else cpu-parallel].
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto, hide_default_value = true)]
     backend: BackendKind,
     /// CUDA threads per block (a multiple of 32); default MPM_CUDA_BLOCK_SIZE or 128.
     #[arg(long, value_name = "THREADS")]
@@ -481,7 +510,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         scenes,
         options: bench::PhaseBenchOptions {
-            backend: args.backend,
+            backend: args.backend.resolve(),
             warmup_steps: steps(args.warmup, "warmup")?,
             steps: steps(args.steps, "steps")?,
             block_size: args.block_size,
@@ -552,6 +581,7 @@ fn run(args: RunArgs) -> Result<()> {
     let notes = [
         export.as_ref().and_then(PlyExporter::removed_note),
         surface.as_ref().and_then(SurfaceExporter::removed_note),
+        checkpoints.as_ref().and_then(CheckpointSeries::removed_note),
     ];
     for note in notes.into_iter().flatten() {
         writeln!(std::io::stdout(), "{note}")?;
@@ -607,10 +637,29 @@ fn run(args: RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn scenes(show: Option<Option<String>>) -> Result<()> {
+fn scenes(show: Option<Option<String>>, mesh: Option<String>) -> Result<()> {
+    if let Some(file) = mesh {
+        let text = presets::mesh(&file).with_context(|| {
+            format!(
+                "no preset uses a mesh named `{file}`; the presets' meshes are {}",
+                presets::MESH_NAMES.join(", ")
+            )
+        })?;
+        write!(std::io::stdout(), "{text}")?;
+        return Ok(());
+    }
     match show.flatten() {
         Some(name) => match presets::get(&name) {
-            Some(text) => write!(std::io::stdout(), "{text}")?,
+            Some(text) => {
+                write!(std::io::stdout(), "{text}")?;
+                // A mesh the preset names is read beside the scene file: say how to save it there.
+                for file in presets::MESH_NAMES.iter().filter(|f| text.contains(*f)) {
+                    eprintln!(
+                        "note: this scene reads the mesh {file} from the folder it is saved in: \
+                         `mpm scenes --mesh {file} > {file}` writes it there"
+                    );
+                }
+            }
             None => anyhow::bail!(
                 "no preset named `{name}`; the presets are {}",
                 presets::NAMES.join(", ")
@@ -650,7 +699,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render_frames(args),
         Command::Run(args) => run(args),
         Command::Bench(args) => bench(args),
-        Command::Scenes { show } => scenes(show),
+        Command::Scenes { show, mesh } => scenes(show, mesh),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

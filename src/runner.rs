@@ -227,12 +227,12 @@ fn export_frame(
     exporter: Option<&PlyExporter>,
     surface: Option<&mut SurfaceQueue>,
     on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
-) -> Result<()> {
+) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
     let surface = surface.filter(|q| q.exporter().wants(frame));
     if ply.is_none() && surface.is_none() {
-        return Ok(());
+        return Ok(false);
     }
     let comment = frame_comment(sim);
     let particles = sim.solver_mut().read_particles()?.live_only();
@@ -247,7 +247,7 @@ fn export_frame(
         };
         queue.submit(job, on_mesh)?;
     }
-    Ok(())
+    Ok(ply.is_some())
 }
 
 /// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
@@ -306,7 +306,12 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             progress.status()
         ),
     };
-    export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
+    let mut exported = u64::from(export_frame(
+        sim,
+        export.as_ref(),
+        surface.as_mut(),
+        &mut on_mesh,
+    )?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
     let say = |out: &mut dyn Write, line: &str| -> Result<()> {
@@ -325,7 +330,12 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         if let Some(file) = &mut stats {
             file.append(&frame_stats, out)?;
         }
-        export_frame(sim, export.as_ref(), surface.as_mut(), &mut on_mesh)?;
+        exported += u64::from(export_frame(
+            sim,
+            export.as_ref(),
+            surface.as_mut(),
+            &mut on_mesh,
+        )?);
         // Meshes finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
             queue.collect(&mut on_mesh, false)?;
@@ -367,6 +377,14 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     };
     if let Some(bar) = bar {
         bar.finish_and_clear();
+    }
+    if let Some(exporter) = &export {
+        writeln!(
+            out,
+            "exported {} into {}",
+            crate::text::count(exported, "particle frame", "particle frames"),
+            exporter.dir().display()
+        )?;
     }
     if let Some(line) = surface_line {
         writeln!(out, "{line}")?;

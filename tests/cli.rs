@@ -303,3 +303,115 @@ fn a_killed_runs_unfinished_file_is_removed_not_counted() {
     assert!(!frames.join("frame_000000.ply.partial").exists());
     assert!(frames.join("frame_000000.ply").is_file());
 }
+
+/// Help and defaults a newcomer meets (issue 17, item 9): `mpm bench` runs on a machine without a
+/// GPU (its backend is auto), a run's option given to the viewer says where it goes, and `--export`
+/// ends with a line saying what it wrote.
+#[test]
+fn bench_defaults_to_auto_run_options_point_to_run_and_export_says_what_it_wrote() {
+    let bench = mpm(&[
+        "bench",
+        "--scene",
+        "dam-break-coarse",
+        "--steps",
+        "2",
+        "--warmup",
+        "0",
+    ]);
+    assert!(bench.status.success(), "{}", stderr(&bench));
+    if mpm::cuda::library::device_available().is_err() {
+        assert!(stdout(&bench).contains("cpu-parallel"), "{}", stdout(&bench));
+    }
+    let misplaced = mpm(&["--frames", "10"]);
+    assert!(!misplaced.status.success());
+    assert!(
+        stderr(&misplaced).contains("`mpm run --frames 10`"),
+        "{}",
+        stderr(&misplaced)
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("f");
+    let run = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "2",
+        "--export",
+        frames.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(
+        stdout(&run).contains("exported 3 particle frames into"),
+        "{}",
+        stdout(&run)
+    );
+}
+
+/// Messages that point the right way (issue 17, item 8): a missing mesh file names the path it was
+/// looked for at and how to get a preset's; a missing `--resume` file is named as missing; a scene
+/// file without `.toml` loads.
+#[test]
+fn messages_point_the_right_way() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("tap.toml");
+    let shown = mpm(&["scenes", "--show", "tap"]);
+    std::fs::write(&scene, &shown.stdout).unwrap();
+    assert!(
+        stderr(&shown).contains("mpm scenes --mesh glass.obj > glass.obj"),
+        "{}",
+        stderr(&shown)
+    );
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--frames",
+        "0",
+    ]);
+    let text = stderr(&out);
+    assert!(!out.status.success());
+    assert!(
+        text.contains(&dir.path().join("glass.obj").display().to_string()),
+        "{text}"
+    );
+    assert!(text.contains("mpm scenes --mesh glass.obj > glass.obj"), "{text}");
+    let mesh = mpm(&["scenes", "--mesh", "glass.obj"]);
+    std::fs::write(dir.path().join("glass.obj"), &mesh.stdout).unwrap();
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--frames",
+        "0",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    let missing = dir.path().join("checkpoint_000007.mpmck");
+    let out = mpm(&["run", "--resume", missing.to_str().unwrap()]);
+    assert!(
+        stderr(&out).contains("there is no checkpoint"),
+        "{}",
+        stderr(&out)
+    );
+
+    let bare = dir.path().join("coarse");
+    std::fs::write(&bare, mpm::sim::presets::get("dam-break-coarse").unwrap()).unwrap();
+    let out = mpm(&[
+        "run",
+        "--backend",
+        "cpu",
+        "--scene",
+        bare.to_str().unwrap(),
+        "--frames",
+        "0",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+}

@@ -15,7 +15,7 @@ pub fn ensure_driver() -> Result<()> {
     } else {
         bail!(
             "the NVIDIA driver library (libcuda.so) was not found: this machine has no NVIDIA driver, \
-             or it is not on the loader path. Install the NVIDIA driver, or use --backend cpu"
+             or it is not on the loader path. Install the NVIDIA driver, or use --backend cpu-parallel"
         )
     }
 }

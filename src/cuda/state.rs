@@ -53,7 +53,7 @@ impl DeviceState {
         gpu.ensure_fits(
             needed,
             &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
-            "use a coarser domain.resolution, fewer particles, or --backend cpu",
+            "use a coarser domain.resolution, fewer particles, or --backend cpu-parallel",
         )?;
 
         let (l, stream) = (&gpu.launcher, gpu.stream());

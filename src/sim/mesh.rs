@@ -140,8 +140,11 @@ pub fn check_closed(triangles: &[[u32; 3]]) -> Result<(), String> {
         None => Ok(()),
         Some((a, b, count, back)) => Err(format!(
             "is not a closed mesh: {open} edges are not shared by exactly two opposite triangles (e.g. the \
-             edge between vertices {a} and {b} is used {count} time(s) one way and {back} the other); \
-             it has holes, loose faces or flipped triangles"
+             edge between vertices {} and {} is used {count} time(s) one way and {back} the other, \
+             counting vertices from 1 as OBJ does, once those at one position are merged); it has holes, \
+             loose faces or flipped triangles",
+            a + 1,
+            b + 1
         )),
     }
 }

@@ -41,6 +41,17 @@ pub fn get(name: &str) -> Option<&'static str> {
 /// The mesh files the presets name, by the name they give (`file = "glass.obj"`).
 const MESHES: [(&str, &str); 1] = [("glass.obj", include_str!("../../scenes/glass.obj"))];
 
+/// The names of the mesh files the presets use.
+pub const MESH_NAMES: [&str; MESHES.len()] = {
+    let mut names = [""; MESHES.len()];
+    let mut i = 0;
+    while i < MESHES.len() {
+        names[i] = MESHES[i].0;
+        i += 1;
+    }
+    names
+};
+
 /// The text of a mesh file a preset names.
 pub fn mesh(file: &str) -> Option<&'static str> {
     MESHES

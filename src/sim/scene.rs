@@ -136,7 +136,7 @@ impl Scene {
             return Scene::from_toml(text, &format!("preset {name_or_path}"));
         }
         let path = Path::new(name_or_path);
-        let looks_like_file = path.extension().is_some() || name_or_path.contains('/');
+        let looks_like_file = path.is_file() || path.extension().is_some() || name_or_path.contains('/');
         if !looks_like_file {
             return Err(SceneError {
                 source: name_or_path.to_string(),

@@ -225,11 +225,15 @@ pub fn validate(
                 Some(s) => positive("scale", Some(s), "a positive scale factor")?,
             };
             let fail = |problem: String| {
-                spec_err(
-                    "file",
-                    problem,
-                    "give a closed (watertight) triangle mesh in an .obj or .stl file",
-                )
+                let fix = if problem.contains("cannot be opened") {
+                    format!(
+                        "a mesh file is read from the scene file's folder: put {file} there or give its \
+                         path relative to it (a preset's mesh: `mpm scenes --mesh {file} > {file}`)"
+                    )
+                } else {
+                    "give a closed (watertight) triangle mesh in an .obj or .stl file".to_string()
+                };
+                spec_err("file", problem, fix)
             };
             let (vertices, triangles) = read_mesh(file, scale).map_err(fail)?;
             crate::sim::mesh::check_closed(&triangles).map_err(|e| fail(format!("{file}: {e}")))?;
