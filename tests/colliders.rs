@@ -571,3 +571,40 @@ fn a_dragged_collider_moves_and_pushes_the_water() {
         "a collider that is not there"
     );
 }
+
+/// A mesh far larger than the tank (issue 17, item 2): a static one is sampled only where it can
+/// touch the fluid, so it loads at once; a moving one whose field would not fit in memory is refused,
+/// naming its scale, instead of hanging while memory grows.
+#[test]
+fn a_mesh_larger_than_the_tank_loads_or_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cube.obj"), cube_obj(0.03, false)).unwrap();
+    let scene_path = dir.path().join("scene.toml");
+    let started = std::time::Instant::now();
+    std::fs::write(
+        &scene_path,
+        water_with("shape = \"mesh\"\nfile = \"cube.obj\"\nscale = 100.0\ncenter = [0.15, -2.95, 0.1]"),
+    )
+    .unwrap();
+    let scene = Scene::load(scene_path.to_str().unwrap()).expect("a static mesh larger than the tank");
+    let elapsed = started.elapsed().as_secs_f64();
+    println!("a 6 m static cube under a 0.2 m tank loads in {elapsed:.2} s");
+    assert_eq!(scene.colliders.len(), 1);
+
+    std::fs::write(
+        &scene_path,
+        water_with(
+            "shape = \"mesh\"\nfile = \"cube.obj\"\nscale = 100000.0\ncenter = [0.15, 0.1, 0.1]\n\
+             [collider.motion]\nvelocity = [0.1, 0.0, 0.0]",
+        ),
+    )
+    .unwrap();
+    let e = Scene::load(scene_path.to_str().unwrap()).expect_err("a 6 km moving mesh");
+    let message = e.to_string();
+    println!("{message}");
+    assert_eq!(e.key, "collider[0].scale", "{message}");
+    assert!(
+        message.contains("GiB") && message.contains("cube.obj"),
+        "{message}"
+    );
+}

@@ -149,45 +149,93 @@ pub fn check_closed(triangles: &[[u32; 3]]) -> Result<(), String> {
     }
 }
 
+/// Distance samples a mesh collider's field may hold at most: the kernels index them with 32 bits.
+pub const MAX_SDF_SAMPLES: u64 = u32::MAX as u64;
+
 /// The signed distance field of a closed mesh on a lattice of `spacing` that reaches `margin` past
-/// its bounding box on every side.
-pub fn build_sdf(vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>, spacing: f64, margin: f64) -> MeshSdf {
+/// its bounding box on every side, sampled only inside `clip` (a box in the mesh's own frame: the
+/// part of space the collider can reach in the tank) where given. Refuses a field of more than
+/// `max_bytes` (or [`MAX_SDF_SAMPLES`] samples), naming `name`; says how far it has come on stderr
+/// when it takes more than a second (each sample visits every triangle).
+pub fn build_sdf(
+    name: &str,
+    vertices: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    spacing: f64,
+    margin: f64,
+    clip: Option<(DVec3, DVec3)>,
+    max_bytes: u64,
+) -> Result<MeshSdf, String> {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for v in &vertices {
         lo = lo.min(*v);
         hi = hi.max(*v);
     }
-    let origin = lo - margin;
-    let dims = ((hi + margin - origin) / spacing).ceil().as_uvec3() + 1;
+    let (mut lo, mut hi) = (lo - margin, hi + margin);
+    if let Some((clip_lo, clip_hi)) = clip {
+        (lo, hi) = (lo.max(clip_lo), hi.min(clip_hi));
+        // A mesh wholly outside the tank still gets a (tiny) field: it never touches the fluid.
+        hi = hi.max(lo);
+    }
+    let origin = lo;
+    // In f64 and u64: a mesh far larger than the tank must be refused, not wrap around.
+    let cells = ((hi - origin) / spacing).ceil() + 1.0;
+    let samples = cells.x * cells.y * cells.z;
+    let bytes = samples * 4.0;
+    if samples > MAX_SDF_SAMPLES as f64 || bytes > max_bytes as f64 {
+        let size = hi - origin;
+        return Err(format!(
+            "{name}: its distance field would hold {samples:.3e} samples ({:.1} GiB) for the {:.2} x \
+             {:.2} x {:.2} m of it that can reach the tank, more than fits (at most {:.1} GiB of this \
+             machine's memory and {MAX_SDF_SAMPLES} samples)",
+            bytes / (1u64 << 30) as f64,
+            size.x,
+            size.y,
+            size.z,
+            max_bytes as f64 / (1u64 << 30) as f64
+        ));
+    }
+    let dims = cells.as_uvec3();
     let tris: Vec<[DVec3; 3]> = triangles
         .iter()
         .map(|t| t.map(|i| vertices[i as usize]))
         .collect();
-    let count = (dims.x * dims.y * dims.z) as usize;
-    let values: Vec<f32> = (0..count)
-        .into_par_iter()
-        .with_min_len(64)
-        .map(|i| {
-            let i = i as u32;
-            let ijk = DVec3::new(
-                f64::from(i % dims.x),
-                f64::from((i / dims.x) % dims.y),
-                f64::from(i / (dims.x * dims.y)),
+    let sample = |x: u32, y: u32, z: u32| {
+        let p = origin + DVec3::new(f64::from(x), f64::from(y), f64::from(z)) * spacing;
+        let mut nearest = f64::INFINITY;
+        let mut solid_angle = 0.0;
+        for t in &tris {
+            nearest = nearest.min((closest_on_triangle(p, t) - p).length_squared());
+            solid_angle += triangle_solid_angle(p, t);
+        }
+        let inside = (solid_angle / (4.0 * std::f64::consts::PI)).abs() > 0.5;
+        let d = nearest.sqrt();
+        (if inside { -d } else { d }) as f32
+    };
+    let started = std::time::Instant::now();
+    let mut said = false;
+    let mut values = Vec::with_capacity(samples as usize);
+    for z in 0..dims.z {
+        let plane: Vec<f32> = (0..dims.x * dims.y)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|i| sample(i % dims.x, i / dims.x, z))
+            .collect();
+        values.extend(plane);
+        if started.elapsed().as_secs_f64() > 1.0 {
+            eprint!(
+                "\rbuilding the distance field of {name}: {}% of {:.1e} samples",
+                100 * (z + 1) / dims.z,
+                samples
             );
-            let p = origin + ijk * spacing;
-            let mut nearest = f64::INFINITY;
-            let mut solid_angle = 0.0;
-            for t in &tris {
-                nearest = nearest.min((closest_on_triangle(p, t) - p).length_squared());
-                solid_angle += triangle_solid_angle(p, t);
-            }
-            let inside = (solid_angle / (4.0 * std::f64::consts::PI)).abs() > 0.5;
-            let d = nearest.sqrt();
-            (if inside { -d } else { d }) as f32
-        })
-        .collect();
+            said = true;
+        }
+    }
+    if said {
+        eprintln!();
+    }
     let bounding_radius = vertices.iter().map(|v| v.length()).fold(0.0, f64::max);
-    MeshSdf {
+    Ok(MeshSdf {
         vertices: vertices.iter().map(|v| v.as_vec3()).collect(),
         triangles,
         origin: origin.as_vec3(),
@@ -195,7 +243,7 @@ pub fn build_sdf(vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>, spacing: f64, m
         dims: dims.to_array(),
         values,
         bounding_radius,
-    }
+    })
 }
 
 /// Closest point of triangle t to p (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -271,7 +319,7 @@ mod tests {
     fn a_cube_is_closed_and_its_field_is_the_box_distance() {
         let (v, t) = cube();
         check_closed(&t).unwrap();
-        let sdf = build_sdf(v, t, 0.1, 0.3);
+        let sdf = build_sdf("cube", v, t, 0.1, 0.3, None, u64::MAX).unwrap();
         let at = |i: u32, j: u32, k: u32| {
             let d = sdf.dims;
             let p = sdf.origin + Vec3::new(i as f32, j as f32, k as f32) * sdf.spacing;

@@ -11,6 +11,7 @@ mod validate;
 
 pub use lattice::Lattice;
 pub use spec::*;
+pub(crate) use validate::available_host_memory;
 pub use validate::SceneError;
 use validate::Validator;
 

@@ -237,13 +237,44 @@ pub fn validate(
             };
             let (vertices, triangles) = read_mesh(file, scale).map_err(fail)?;
             crate::sim::mesh::check_closed(&triangles).map_err(|e| fail(format!("{file}: {e}")))?;
-            let band = f64::from(BAND_CELLS) * dx;
-            Shape::Mesh(Arc::new(crate::sim::mesh::build_sdf(
-                vertices,
-                triangles,
-                dx,
-                band + 2.0 * dx,
-            )))
+            let margin = f64::from(BAND_CELLS) * dx + 2.0 * dx;
+            // A collider that stays put can only ever touch the tank: its field is sampled there
+            // alone (the tank, plus the margin, in the mesh's own frame). A moving one may bring any
+            // of itself into the tank.
+            let moving = spec.motion.as_ref().is_some_and(|m| {
+                m.velocity.is_some() || m.angular_velocity.is_some() || m.piston.is_some() || m.flap.is_some()
+            });
+            let clip = (!moving).then(|| {
+                let local = |p: DVec3| rotation.inverse() * (p - center);
+                let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+                for corner in 0..8 {
+                    let pick = |bit: u32, a: f64| {
+                        if corner & (1 << bit) == 0 {
+                            -margin
+                        } else {
+                            a + margin
+                        }
+                    };
+                    let p = local(DVec3::new(
+                        pick(0, domain.x),
+                        pick(1, domain.y),
+                        pick(2, domain.z),
+                    ));
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+                (lo, hi)
+            });
+            let memory = crate::sim::scene::available_host_memory().unwrap_or(u64::MAX) / 2;
+            let sdf = crate::sim::mesh::build_sdf(file, vertices, triangles, dx, margin, clip, memory)
+                .map_err(|e| {
+                    spec_err(
+                    "scale",
+                    format!("= {scale}: {e}"),
+                    "use a smaller scale, or a mesh closer to the tank's size (a static mesh's field covers \
+                     only the part of it in the tank)",
+                )
+                })?;
+            Shape::Mesh(Arc::new(sdf))
         }
         other => {
             return Err(spec_err(

@@ -725,7 +725,7 @@ fn gib(bytes: u64) -> f64 {
 }
 
 /// `MemAvailable` from /proc/meminfo; `None` where that is not there (the check is then skipped).
-fn available_host_memory() -> Option<u64> {
+pub(crate) fn available_host_memory() -> Option<u64> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
