@@ -196,6 +196,28 @@ pub fn cfl_warning(all: &[FrameStats]) -> Option<String> {
     ))
 }
 
+/// What a long run on a CPU backend will roughly cost, from its first frames (`per_frame`), said once
+/// so a user can stop it early; `None` on the GPU or where the whole run takes under a minute.
+fn cost_note(sim: &Simulation, per_frame: Duration, frames: u64) -> Option<String> {
+    let total = per_frame.as_secs_f64() * frames as f64;
+    if sim.backend() == "cuda" || total < 60.0 {
+        return None;
+    }
+    let light = if sim.scene().name == "dam-break-coarse" {
+        String::new()
+    } else {
+        " (`--scene dam-break-coarse` is the dam break at a size a CPU runs at about half of real time)"
+            .to_string()
+    };
+    Some(format!(
+        "note: on the CPU ({}) a frame takes about {:.1} s, so these {frames} frames take about {:.0} \
+         minutes{light}",
+        sim.backend(),
+        per_frame.as_secs_f64(),
+        total / 60.0
+    ))
+}
+
 /// Worker threads that reconstruct surfaces; each also runs its reconstruction on rayon's pool.
 /// Two keep the pool busy while one of them writes its file.
 pub const SURFACE_WORKERS: usize = 2;
@@ -321,9 +343,15 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
         Ok(())
     };
+    let started = Instant::now();
     for done in 1..=frames {
         let frame_stats = sim.advance_frame()?;
         say(out, &format_frame(&frame_stats))?;
+        if done == 2 && frames > 2 {
+            if let Some(note) = cost_note(sim, started.elapsed() / 2, frames) {
+                say(out, &note)?;
+            }
+        }
         if let Some(bar) = &bar {
             bar.inc(1);
         }
