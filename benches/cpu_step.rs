@@ -8,7 +8,11 @@ use mpm::backend::BackendKind;
 use mpm::bench::{self, BenchPlan, PhaseBenchOptions};
 use mpm::sim::Scene;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    mpm::text::exit_code(bench_main())
+}
+
+fn bench_main() -> anyhow::Result<()> {
     // `cargo bench` passes `--bench`; the positional arguments are ours.
     let args: Vec<String> = std::env::args()
         .skip(1)

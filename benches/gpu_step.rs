@@ -9,7 +9,11 @@ use mpm::bench::{self, BenchPlan, PhaseBenchOptions};
 use mpm::cuda::library;
 use mpm::sim::Scene;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    mpm::text::exit_code(bench_main())
+}
+
+fn bench_main() -> anyhow::Result<()> {
     if let Err(why) = library::device_available() {
         println!("gpu_step: skipped: {why:#}");
         return Ok(());

@@ -117,7 +117,7 @@ enum Command {
 #[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
-    #[arg(long, default_value = presets::DEFAULT)]
+    #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
     scene: String,
     /// Number of 60 Hz frames to simulate (with --resume: frames after the checkpoint's).
     #[arg(long, default_value_t = 60, allow_negative_numbers = true, value_parser = count::<0>)]
@@ -238,7 +238,7 @@ struct LookArgs {
 #[derive(clap::Args)]
 struct ViewArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
-    #[arg(long, default_value = presets::DEFAULT)]
+    #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
     scene: String,
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
@@ -270,7 +270,7 @@ struct ViewArgs {
 #[derive(clap::Args)]
 struct RenderArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
-    #[arg(long, default_value = presets::DEFAULT)]
+    #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
     scene: String,
     /// Number of 60 Hz frames after the initial state (frame-00000.png is the initial state; at most
     /// 99999, the five digits of the names).
@@ -307,6 +307,20 @@ fn count<const MIN: u64>(text: &str) -> Result<u64, String> {
         Ok(n) if n < i128::from(MIN) => Err(format!("{n} is too small: give a whole number from {MIN} up")),
         _ => Err(format!("`{text}` is not a whole number from {MIN} up")),
     }
+}
+
+/// `--scene`: a preset name or a path. A scene's path is kept as text (in checkpoints, exports and
+/// messages), so a path that is not UTF-8 is refused here, saying so, not with clap's generic
+/// "invalid UTF-8" that names no option.
+fn scene_arg() -> impl clap::builder::TypedValueParser<Value = String> {
+    use clap::builder::TypedValueParser;
+    clap::builder::OsStringValueParser::new().try_map(|path| {
+        // clap's message shows the path, with � where its bytes are not UTF-8.
+        path.into_string().map_err(|_| {
+            "the path is not valid UTF-8 (the � marks where), and mpm keeps a scene's path as \
+             text: rename the file or folder, or give a link to it with a UTF-8 name (`ln -s`)"
+        })
+    })
 }
 
 /// A positive, finite number (a length, a fraction).
@@ -680,12 +694,6 @@ fn scenes(show: Option<Option<String>>, mesh: Option<String>) -> Result<()> {
     Ok(())
 }
 
-fn is_broken_pipe(e: &anyhow::Error) -> bool {
-    e.chain()
-        .filter_map(|cause| cause.downcast_ref::<std::io::Error>())
-        .any(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-}
-
 fn main() -> ExitCode {
     let cli = match arguments() {
         Ok(args) => Cli::parse_from(args),
@@ -701,13 +709,5 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench(args),
         Command::Scenes { show, mesh } => scenes(show, mesh),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        // `mpm run | head`: the reader has all it wanted; stop quietly, as other tools do.
-        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
+    mpm::text::exit_code(result)
 }

@@ -1,5 +1,5 @@
-//! Words for the user: what a failed file operation means and what to do, and counts with the right
-//! noun ("1 frame", "2 frames").
+//! Words for the user: what a failed file operation means and what to do, how a failed command
+//! ends, and counts with the right noun ("1 frame", "2 frames").
 
 /// What went wrong with a file operation, and what to do about it: a full disk and a refused
 /// permission call for different fixes.
@@ -29,4 +29,24 @@ pub fn plural<'a>(n: impl TryInto<u64>, singular: &'a str, plural: &'a str) -> &
 /// A count and its noun: `count(1, "frame", "frames")` is "1 frame".
 pub fn count(n: impl TryInto<u64> + std::fmt::Display + Copy, singular: &str, plural_: &str) -> String {
     format!("{n} {}", plural(n, singular, plural_))
+}
+
+/// How a command of `mpm` (or a bench binary) ends: an error is printed once as `error: ...` with its
+/// causes, never as the `Error: ...` debug dump a `main` returning `Result` would print.
+pub fn exit_code(result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        // `mpm run | head`: the reader has all it wanted; stop quietly, as other tools do.
+        Err(e) if is_broken_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain()
+        .filter_map(|cause| cause.downcast_ref::<std::io::Error>())
+        .any(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
 }

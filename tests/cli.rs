@@ -414,4 +414,20 @@ fn messages_point_the_right_way() {
         "0",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
+
+    // A path that is not UTF-8 is refused as a --scene path, saying why and what to do.
+    use std::os::unix::ffi::OsStrExt;
+    let latin1 = dir.path().join(std::ffi::OsStr::from_bytes(b"d\xe9mo.toml"));
+    let out = Command::new(common::mpm_binary())
+        .args(["run", "--backend", "cpu", "--frames", "0", "--scene"])
+        .arg(&latin1)
+        .output()
+        .expect("running mpm");
+    let text = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{text}");
+    assert!(
+        text.contains("--scene") && text.contains("not valid UTF-8") && text.contains("ln -s"),
+        "{text}"
+    );
+    assert!(!text.contains("Error:"), "{text}");
 }
