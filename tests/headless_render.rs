@@ -23,6 +23,7 @@ fn main() -> std::process::ExitCode {
             surface_frames_show_water_and_time_their_passes,
             surface_follows_viewport_changes,
             colour_bar_carries_its_numbers,
+            a_narrow_view_frames_the_tank_clear_of_the_colour_bar,
         ],
     )
 }
@@ -127,7 +128,7 @@ fn surface_follows_viewport_changes() {
     let count = feed
         .update(&mut sim, &mut renderer, settings.colouring)
         .expect("particles");
-    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let camera = settings.framing(domain.0, domain.1, Viewport::full([320, 180]));
     let mut draw = |viewport: Viewport| {
         use glow::HasContext;
         // Magenta outside the viewport shows whether anything was drawn there.
@@ -193,7 +194,7 @@ fn colour_bar_carries_its_numbers() {
     let scene = Scene::load("dam-break-coarse").expect("preset");
     let (lo, hi) = scene.fluid_region();
     let domain = (lo.as_vec3(), hi.as_vec3());
-    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let camera = OrbitCamera::framing(domain.0, domain.1, glam::Vec2::new(640.0, 360.0), 0.0);
     let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
     // No particles: only the box, the bar and its labels are drawn.
     renderer.upload(&[[0.0; 4]]);
@@ -226,4 +227,62 @@ fn colour_bar_carries_its_numbers() {
         "ρ/ρ0 and two decimals take more ink than m/s and one"
     );
     assert_eq!(solid, 0, "solid colouring has no scale, so no numbers");
+}
+
+/// A view narrower than tall (the scene's part of a small window beside the panel) frames the whole
+/// tank by its width, and the colour bar and its numbers keep to a strip at the right edge that the
+/// camera leaves free.
+fn a_narrow_view_frames_the_tank_clear_of_the_colour_bar() {
+    let size = [320, 450];
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = Scene::load("dam-break-coarse").expect("preset");
+    let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let viewport = Viewport::full(size);
+    let look = |colouring| RenderSettings::for_scene(&scene, DrawMode::Points, colouring, None);
+    let (with_bar, without_bar) = (
+        look(Colouring::Speed).expect("settings"),
+        look(Colouring::Solid).expect("settings"),
+    );
+    let camera = with_bar.framing(domain.0, domain.1, viewport);
+    let mut sim = Simulation::new(scene.clone(), solver);
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let count = feed
+        .update(&mut sim, &mut renderer, without_bar.colouring)
+        .expect("particles");
+    let mut image = |settings: &RenderSettings, count: usize| {
+        renderer
+            .draw(viewport, &camera, settings, count, domain)
+            .expect("draw");
+        headless.read_image()
+    };
+    let tank = image(&without_bar, count);
+    let box_alone = image(&without_bar, 0);
+    let box_and_bar = image(&with_bar, 0);
+    renderer.destroy();
+
+    let strip = mpm::render::legend::clearance(viewport).ceil() as u32;
+    let background = mpm::render::renderer::BACKGROUND.map(|c| (c * 255.0).round() as i32);
+    let drawn = |image: &Image, x: u32, w: u32| {
+        crop(image, x, 0, w, size[1])
+            .rgba
+            .chunks_exact(4)
+            .filter(|p| (0..3).any(|c| (i32::from(p[c]) - background[c]).abs() > 2))
+            .count()
+    };
+    let (left_edge, in_strip) = (drawn(&tank, 0, 2), drawn(&tank, size[0] - strip, strip));
+    let inside = drawn(&tank, 0, size[0]);
+    println!("narrow view: {inside} pixels drawn, {left_edge} at the left edge, {in_strip} in the {strip} px strip");
+    assert!(inside > 2000, "the tank is missing ({inside} pixels drawn)");
+    assert_eq!(left_edge, 0, "the tank is cut off at the left edge");
+    assert_eq!(in_strip, 0, "the tank reaches into the colour bar's strip");
+    let bar = drawn(&box_and_bar, size[0] - strip, strip);
+    assert!(bar > 100, "the colour bar is missing ({bar} pixels)");
+    let left = size[0] - strip;
+    assert!(
+        crop(&box_and_bar, 0, 0, left, size[1]).rgba == crop(&box_alone, 0, 0, left, size[1]).rgba,
+        "the colour bar or its numbers reach left of its {strip} px strip"
+    );
 }

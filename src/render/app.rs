@@ -186,6 +186,9 @@ struct ViewerApp {
     recording: Option<Recording>,
     /// Where the scene is drawn: the window right of the panel (GL convention, bottom-left origin).
     scene_viewport: Viewport,
+    /// The camera frames the domain anew at each draw (so a resized window, the panel shown or hidden
+    /// and the colour bar are allowed for) until the user turns, slides or zooms it.
+    camera_follows_view: bool,
     /// The last error or notice, shown in the panel (a bad scene file, a refused value...).
     message: Option<String>,
     /// An error that ends the viewer (no GL context, no backend).
@@ -239,6 +242,7 @@ impl ViewerApp {
             screenshot_requested: false,
             recording: None,
             scene_viewport: Viewport::full(options.size),
+            camera_follows_view: true,
             message: None,
             fatal: None,
             started: Instant::now(),
@@ -258,9 +262,10 @@ impl ViewerApp {
 
     fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> Result<(OrbitCamera, Controls)> {
         let (lo, hi) = scene.fluid_region();
-        let camera = OrbitCamera::framing(lo.as_vec3(), hi.as_vec3());
         let render =
             RenderSettings::for_scene(scene, options.mode, options.colouring, options.particle_radius)?;
+        // The window's whole size until the panel's width is known; the first draw frames it anew.
+        let camera = render.framing(lo.as_vec3(), hi.as_vec3(), Viewport::full(options.size));
         let controls = Controls {
             paused: false,
             render,
@@ -278,11 +283,6 @@ impl ViewerApp {
             push_radius: 0.1,
         };
         Ok((camera, controls))
-    }
-
-    fn domain(&self) -> (Vec3, Vec3) {
-        let (lo, hi) = self.scene.fluid_region();
-        (lo.as_vec3(), hi.as_vec3())
     }
 
     /// Starts `scene` afresh on the chosen backend; on failure the old simulation keeps running.
@@ -322,6 +322,7 @@ impl ViewerApp {
             controls.render.scale_range = self.controls.render.scale_range;
             controls.paused = self.controls.paused;
             self.camera = camera;
+            self.camera_follows_view = true;
             self.controls = controls;
         }
         // The live sliders follow the simulation's parameters (a checkpoint's may differ from its scene).
@@ -499,8 +500,7 @@ impl ViewerApp {
             Action::SaveSnapshot => self.save_snapshot(),
             Action::LoadSnapshot => self.load_snapshot(),
             Action::FrameCamera => {
-                let (lo, hi) = self.domain();
-                self.camera = OrbitCamera::framing(lo, hi);
+                self.camera_follows_view = true;
                 Ok(())
             }
             Action::SetViscosity(mu) => self.with_sim(|sim| sim.set_viscosity(mu)),
@@ -682,6 +682,12 @@ impl ViewerApp {
                 gpu.colliders_built = true;
             }
             gpu.renderer.set_collider_frame(sim.collider_frame());
+        }
+        if self.camera_follows_view {
+            self.camera = self
+                .controls
+                .render
+                .framing(domain.0, domain.1, self.scene_viewport);
         }
         if let Err(e) = gpu.renderer.draw(
             self.scene_viewport,
@@ -932,8 +938,10 @@ impl ApplicationHandler for ViewerApp {
                     self.mouse.push_drag += delta;
                 } else if self.mouse.left {
                     self.camera.orbit(delta);
+                    self.camera_follows_view = false;
                 } else if self.mouse.right {
                     self.camera.pan(delta, height);
+                    self.camera_follows_view = false;
                 }
             }
             WindowEvent::MouseWheel { delta, .. } if !consumed => {
@@ -942,6 +950,7 @@ impl ApplicationHandler for ViewerApp {
                     MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
                 };
                 self.camera.zoom(steps);
+                self.camera_follows_view = false;
             }
             _ => {}
         }

@@ -19,18 +19,25 @@ pub struct OrbitCamera {
 const PITCH_LIMIT: f32 = 89.0 * std::f32::consts::PI / 180.0;
 
 impl OrbitCamera {
-    /// Looks at the box [lo, hi] from the front, a little above and to the side, at a distance that
-    /// fits its bounding sphere in view.
-    pub fn framing(lo: Vec3, hi: Vec3) -> OrbitCamera {
+    /// Looks at the box [lo, hi] from the front, a little above and to the side, from a distance at
+    /// which its bounding sphere fits a viewport of `size` pixels both ways, centred in what is left
+    /// of it after a strip `clear_right` pixels wide at the right edge (where the colour bar goes).
+    pub fn framing(lo: Vec3, hi: Vec3, size: Vec2, clear_right: f32) -> OrbitCamera {
         let fov_y = 40f32.to_radians();
         let radius = 0.5 * (hi - lo).length();
-        OrbitCamera {
+        let free = Vec2::new((size.x - clear_right).max(1.0), size.y.max(1.0));
+        // A window narrower than the box (a small one beside the panel) is fitted by its width.
+        let half_x = (free.x / free.y * (0.5 * fov_y).tan()).atan();
+        let half = half_x.min(0.5 * fov_y);
+        let mut camera = OrbitCamera {
             target: 0.5 * (lo + hi),
-            distance: 1.1 * radius / (0.5 * fov_y).sin(),
+            distance: 1.1 * radius / half.sin(),
             yaw: 25f32.to_radians(),
             pitch: 20f32.to_radians(),
             fov_y,
-        }
+        };
+        camera.pan(Vec2::new(-0.5 * clear_right, 0.0), size.y);
+        camera
     }
 
     pub fn eye(&self) -> Vec3 {
@@ -121,23 +128,44 @@ mod tests {
     use super::*;
 
     #[test]
-    fn framing_sees_the_whole_box() {
-        let camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.5));
-        let clip = camera.projection(16.0 / 9.0) * camera.view();
-        for corner in 0..8 {
-            let p = Vec3::new(
-                (corner & 1) as f32,
-                0.5 * ((corner >> 1) & 1) as f32,
-                0.5 * ((corner >> 2) & 1) as f32,
+    fn framing_sees_the_whole_box_left_of_the_strip() {
+        // A wide window, a small one beside the panel (narrower than tall), and a tall one.
+        for (size, clear) in [
+            ((1600.0, 900.0), 0.0),
+            ((500.0, 450.0), 60.0),
+            ((400.0, 900.0), 40.0),
+        ] {
+            let size = Vec2::new(size.0, size.1);
+            let camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.5), size, clear);
+            let clip = camera.projection(size.x / size.y) * camera.view();
+            let right_edge = 1.0 - 2.0 * clear / size.x;
+            let mut xs = (f32::MAX, f32::MIN);
+            for corner in 0..8 {
+                let p = Vec3::new(
+                    (corner & 1) as f32,
+                    0.5 * ((corner >> 1) & 1) as f32,
+                    0.5 * ((corner >> 2) & 1) as f32,
+                );
+                let ndc = clip.project_point3(p);
+                assert!(
+                    ndc.x >= -1.0 && ndc.x <= right_edge && ndc.y.abs() <= 1.0,
+                    "{size} with {clear} px kept clear: corner {p} falls outside: {ndc}"
+                );
+                xs = (xs.0.min(ndc.x), xs.1.max(ndc.x));
+            }
+            // Centred in the free part, not pushed against one side.
+            let centre = 0.5 * (xs.0 + xs.1);
+            let free_centre = 0.5 * (right_edge - 1.0);
+            assert!(
+                (centre - free_centre).abs() < 0.1,
+                "{size}: box centred at {centre}, free part at {free_centre}"
             );
-            let ndc = clip.project_point3(p);
-            assert!(ndc.abs().max_element() <= 1.0, "corner {p} falls outside: {ndc}");
         }
     }
 
     #[test]
     fn ray_through_the_centre_hits_the_target() {
-        let camera = OrbitCamera::framing(Vec3::ZERO, Vec3::ONE);
+        let camera = OrbitCamera::framing(Vec3::ZERO, Vec3::ONE, Vec2::new(800.0, 600.0), 0.0);
         let (origin, direction) = camera.ray(Vec2::new(400.0, 300.0), Vec2::new(800.0, 600.0));
         let to_target = (camera.target - origin).normalize();
         assert!(direction.dot(to_target) > 0.9999);

@@ -137,8 +137,7 @@ impl Legend {
     /// Draws the bar and its labels into `viewport` of the bound framebuffer.
     pub fn draw(&mut self, viewport: Viewport, scale: &Scale) -> Result<()> {
         let (w, h) = (viewport.width.max(1) as i32, viewport.height.max(1) as i32);
-        // A bar 2% wide, the middle 60% of the height, one bar width from the right edge.
-        let bar_w = (w / 50).max(6);
+        let bar_w = bar_width(w);
         let bar_h = h * 3 / 5;
         let bar_x = w - 2 * bar_w;
         let bar_y = (h - bar_h) / 2;
@@ -156,7 +155,7 @@ impl Legend {
         }
 
         // Numbers left of the bar, at its top, middle and bottom; the unit above it.
-        let px = (h as f32 * 0.022).round().clamp(10.0, 40.0) as u32;
+        let px = text_pixels(h);
         let [lo, hi] = scale.range;
         let decimals = decimals_for(hi - lo);
         let texts = vec![
@@ -333,6 +332,25 @@ impl Legend {
             gl.delete_buffer(self.text_vbo);
         }
     }
+}
+
+/// The bar is 2% of the viewport wide (at least 6 px), the middle 60% of its height, one bar width
+/// from the right edge.
+fn bar_width(viewport_width: i32) -> i32 {
+    (viewport_width / 50).max(6)
+}
+
+/// The labels' height in pixels.
+fn text_pixels(viewport_height: i32) -> u32 {
+    (viewport_height as f32 * 0.022).round().clamp(10.0, 40.0) as u32
+}
+
+/// Pixels at the right edge of `viewport` that the bar and its numbers take, for the camera to keep
+/// the water out of: the bar, its margin, and labels of up to six glyphs (`1.234`, `kg/m³`) left of it.
+pub fn clearance(viewport: Viewport) -> f32 {
+    let bar_w = bar_width(viewport.width.max(1) as i32) as f32;
+    let px = text_pixels(viewport.height.max(1) as i32) as f32;
+    2.5 * bar_w + 2.0 + 6.0 * 0.6 * px
 }
 
 /// Decimals that tell the bar's three values apart: 0 to 3 m/s reads 0.0, 1.5, 3.0; 0.9 to 1.1

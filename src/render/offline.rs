@@ -2,7 +2,6 @@
 //! window into an EGL device framebuffer, written as numbered PNGs (and optionally an MP4 by ffmpeg).
 //! Every output is checked before the first step, so a bad path fails at once.
 
-use super::camera::OrbitCamera;
 use super::capture::FrameSequence;
 use super::feed::{ParticleFeed, Transfer};
 use super::headless::HeadlessGl;
@@ -95,7 +94,7 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     )?;
     let (lo, hi) = scene.fluid_region();
     let domain = (lo.as_vec3(), hi.as_vec3());
-    let camera = OrbitCamera::framing(domain.0, domain.1);
+    let camera = settings.framing(domain.0, domain.1, Viewport::full(headless.size()));
     renderer.set_colliders(&scene.colliders)?;
     renderer.set_flow(&scene.flow, domain);
     let mut sim = Simulation::new(scene, solver);

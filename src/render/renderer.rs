@@ -175,6 +175,17 @@ impl RenderSettings {
         })
     }
 
+    /// The camera that frames the box [lo, hi] in `viewport`, keeping the water clear of the colour
+    /// bar when there is one.
+    pub fn framing(&self, lo: Vec3, hi: Vec3, viewport: Viewport) -> OrbitCamera {
+        let clear = match self.legend() {
+            Some(_) => super::legend::clearance(viewport),
+            None => 0.0,
+        };
+        let size = glam::Vec2::new(viewport.width as f32, viewport.height as f32);
+        OrbitCamera::framing(lo, hi, size, clear)
+    }
+
     /// A sensible scale for the colouring: 0..3 m/s for speed, 0.9..1.1 for density.
     pub fn default_range(colouring: Colouring) -> [f32; 2] {
         match colouring {

@@ -585,7 +585,8 @@ mod tests {
 
     #[test]
     fn depth_pass_draws_the_spawn_order_from_the_front() {
-        let mut camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.3));
+        let size = glam::Vec2::new(1600.0, 900.0);
+        let mut camera = OrbitCamera::framing(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.3), size, 0.0);
         // The default view looks from +z (and above, and +x) at the tank: the last spawned particles
         // (highest z) are the nearest, so the buffer runs back to front.
         assert!(draws_back_first(&camera.view()));
