@@ -162,6 +162,18 @@ __device__ __forceinline__ void atomic_add_momentum(float4* acc, float x, float 
 #endif
 }
 
+// The same for a whole scatter, momentum xyz and mass w, in one vector atomic on sm_90.
+__device__ __forceinline__ void atomic_add_mass_momentum(float4* acc, float x, float y, float z, float m) {
+#if __CUDA_ARCH__ >= 900
+    atomicAdd(acc, make_float4(x, y, z, m));
+#else
+    atomicAdd(&acc->x, x);
+    atomicAdd(&acc->y, y);
+    atomicAdd(&acc->z, z);
+    atomicAdd(&acc->w, m);
+#endif
+}
+
 // ---------------------------------------------------------------------------------------------
 // Block-wide max of a non-negative float into a counter, one atomic per warp. Every thread of the
 // block must call it (it shuffles with a full mask), after its grid-stride loop.
@@ -237,7 +249,16 @@ struct G2pResult {
     float speed, signal;
 };
 
-__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float rho, const float4* grid_vel) {
+// What the fused pipeline's density needs from the same gather (g2p_particle_and_density): the grid
+// mass at the particle's position before the advection, sum w m_i (grid_vel.w), and the fluid's
+// velocity divergence there (DensityRule::fluid_divergence in src/sim/params.rs).
+struct GridDensity {
+    float mass, divergence;
+};
+
+template <bool DENSITY>
+__device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp, float rho, const float4* grid_vel,
+                                                GridDensity* density) {
     const float dx = params.dx, dt = params.dt, tau = params.soft_wall_tau;
     const float res[3] = {(float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]};
     const float wall_lo = (float)(params.boundary_band + 1) * dx;
@@ -246,8 +267,18 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
     const Stencil s = make_stencil(xp, params);
     float vel[3] = {0.0f, 0.0f, 0.0f};
     float b[3][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // b[column][row]
+    float grid_mass = 0.0f;
+    float filled_w_d[3] = {0.0f, 0.0f, 0.0f};
     FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
         const float4 vi = grid_vel[node];
+        if (DENSITY) {
+            grid_mass += w * vi.w;
+            if (vi.w > 0.0f) {
+                filled_w_d[0] += w * d0;
+                filled_w_d[1] += w * d1;
+                filled_w_d[2] += w * d2;
+            }
+        }
         const float wv[3] = {w * vi.x, w * vi.y, w * vi.z};
         const float d[3] = {d0, d1, d2};
         for (int row = 0; row < 3; ++row) {
@@ -255,6 +286,12 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
             for (int col = 0; col < 3; ++col) b[col][row] += wv[row] * d[col];
         }
     })
+    if (DENSITY) {
+        const float drift = vel[0] * filled_w_d[0] + vel[1] * filled_w_d[1] + vel[2] * filled_w_d[2];
+        const float sum_v_dot_d = b[0][0] + b[1][1] + b[2][2];  // sum w v_i . d
+        density->mass = grid_mass;
+        density->divergence = 4.0f * params.inv_dx * (sum_v_dot_d - drift);
+    }
     const float pos[3] = {xp.x, xp.y, xp.z};
     float next[3];
     float speed_sq = 0.0f;
@@ -278,6 +315,25 @@ __device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 x
     r.speed = sqrtf(speed_sq);
     r.signal = material_signal_speed(mat, rho, r.speed);
     return r;
+}
+
+__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float rho, const float4* grid_vel) {
+    return g2p_gather<false>(params, xp, rho, grid_vel, nullptr);
+}
+
+__device__ __forceinline__ G2pResult g2p_particle_and_density(const Params& params, float4 xp, const float4* grid_vel,
+                                                              GridDensity& density) {
+    return g2p_gather<true>(params, xp, 0.0f, grid_vel, &density);
+}
+
+// DensityRule::advect (src/sim/params.rs): the grid's density at the particle's position before the
+// advection, carried over the substep by the fluid's velocity divergence there, the volume factor
+// held within MAX_VOLUME_CHANGE of 1.
+__device__ __forceinline__ float advected_density(const Params& params, const GridDensity& g) {
+    const float rho_grid = g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
+    const float volume_factor =
+        fminf(fmaxf(1.0f + params.dt * g.divergence, 1.0f - MAX_VOLUME_CHANGE), 1.0f + MAX_VOLUME_CHANGE);
+    return rho_grid / volume_factor;
 }
 
 // The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a

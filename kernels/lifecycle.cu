@@ -59,8 +59,10 @@ extern "C" __global__ void __launch_bounds__(1024) settle_free(u32* __restrict__
 // One emission: each point of each emitter in `mask` takes the top free slot, in point order, unless
 // its last particle is live and within the clearance of it (judged on the state before the emission,
 // as the reference does). A point past the stack's end counts as exhausted. Where the grid already
-// holds the next substep's mass (g2p2g scattered it), the new particles' mass is added, rounded as the
-// tiles round, and their node blocks listed; otherwise the next mass scatter covers them.
+// holds the next substep's mass (g2p2g or one_pass scattered it), the new particles' mass is added,
+// rounded as the tiles round, and their node blocks listed; under the fused pipeline (whose one_pass
+// scattered the momentum too) so is their momentum, m_p u: at rest density with C = 0 a particle's
+// stress impulse is zero. Otherwise the next scatter covers them.
 extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const Params params, const u32 mask,
     const float4* __restrict__ points,      // xyz, w = the emitter's index as bits
@@ -71,7 +73,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     u32* __restrict__ last,                 // per point: its last slot, or NO_PARTICLE
     const u32* __restrict__ free_slots, FlowCounters* __restrict__ flow,
     float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
-    const u32 scatter_mass, float4* grid_acc, u64* fixed_mass,
+    const u32 scatter_mass, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum,
     u32* block_marks, u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
     __shared__ u32 scan[1024];
     __shared__ u32 carried;
@@ -101,6 +103,8 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const u32 available = (u32)flow->free_count;
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float momentum_tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const bool scatter_momentum = params.density_rule == DENSITY_ADVECTED;
     const float m_p = params.material.particle_mass;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -132,6 +136,13 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
                 FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
                     const float mass = w * m_p;
                     grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, mass * tile_scale, mass, counters);
+                    if (scatter_momentum) {
+                        const float momentum[3] = {w * (u.x * m_p), w * (u.y * m_p), w * (u.z * m_p)};
+                        for (int a = 0; a < 3; ++a) {
+                            grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed,
+                                     momentum[a] * momentum_tile_scale, momentum[a], counters);
+                        }
+                    }
                 })
             }
         }

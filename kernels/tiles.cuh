@@ -42,6 +42,7 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // at 6 (80, from 130, a few spill) runs bench-655k 0.172 ms against 0.190 at 8, where it spills more.
 #define G2P2G_MIN_BLOCKS 8
 #define P2G_TILED_MIN_BLOCKS 6
+#define ONE_PASS_MIN_BLOCKS 6
 
 // Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
@@ -147,12 +148,17 @@ __device__ __forceinline__ bool tile_place(const Tile& t, const Stencil& s, u32&
 // the host sizes it at 4 CHANNELS TILE_NODES bytes.
 extern __shared__ __align__(16) int tile_memory[];
 
+// Zeroes the tile's marks alone, for a pass that accumulates elsewhere. Ends with a barrier.
+__device__ __forceinline__ void tile_clear_marks(u32* tile_marks) {
+    for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
+    __syncthreads();
+}
+
 // Zeroes the accumulators and the tile's marks. Ends with a barrier.
 template <int CHANNELS>
 __device__ __forceinline__ int* tile_clear(u32* tile_marks) {
     for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
-    for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
-    __syncthreads();
+    tile_clear_marks(tile_marks);
     return tile_memory;
 }
 
@@ -193,6 +199,20 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
 
 
 
+// Lists, once per substep, the node blocks marked in the tile's marks (global atomics). Every thread of
+// the block calls it after a barrier; it ends with one, so the marks can be cleared for the next bin.
+__device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const NodeBlocks& blocks, const BlockMarks& marks,
+                                                        const u32* tile_marks) {
+    for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) {
+        if (tile_marks[k]) {
+            mark_node_block(marks, node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1,
+                                                    t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
+                                                    t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1));
+        }
+    }
+    __syncthreads();
+}
+
 // Calls body(k, node) for each tile node k inside the grid, `node` its grid index; then lists the
 // marked node blocks. Starts and ends with a barrier, so the tile can be cleared for the next bin.
 #define FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, block_marks, tile_marks, k, node, ...)                     \
@@ -207,13 +227,6 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
             const u32 node = (u32)_g[0] + (params).grid_res[0] * ((u32)_g[1] + (params).grid_res[1] * (u32)_g[2]); \
             __VA_ARGS__                                                                                          \
         }                                                                                                        \
-        for (u32 _k = threadIdx.x; _k < TILE_SPAN_BLOCKS; _k += blockDim.x) {                                    \
-            if (tile_marks[_k]) {                                                                                \
-                mark_node_block((block_marks), node_block_index((blocks), (t).bin[0] + _k % TILE_SPAN - 1,         \
-                                                                (t).bin[1] + (_k / TILE_SPAN) % TILE_SPAN - 1,     \
-                                                                (t).bin[2] + _k / (TILE_SPAN * TILE_SPAN) - 1));   \
-            }                                                                                                    \
-        }                                                                                                        \
-        __syncthreads();                                                                                         \
+        tile_list_marked_blocks((t), (blocks), (block_marks), tile_marks);                                       \
     }
 

@@ -6,9 +6,10 @@
 //! options (backend, GPU pipeline, scatter mode), the parameters as the run had them (live changes
 //! included), the clock and the time-step policy's memory ([`RunClock`]), and every particle's x, v,
 //! C and density. Nothing else carries from one frame to the next: the CPU backends rebuild their
-//! grid every substep, and the CUDA solver's between-substep state (the particle bins, the binned
-//! pipeline's grid mass of the next substep) is rebuilt from the particles on the first substep
-//! after a resume, which gives the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
+//! grid every substep, and the CUDA solver's between-substep state (the particle bins, the grid mass
+//! (and under the fused pipeline momentum) of the next substep, scattered from the particles' saved
+//! state and density) is rebuilt from the particles on the first substep after a resume, which gives
+//! the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
 //! checks a resumed run byte for byte against an uninterrupted one).
 //!
 //! # File format (version 1), all numbers little-endian
@@ -157,13 +158,15 @@ impl Checkpoint {
     /// (from [`Self::scene`], solver options possibly overridden).
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
         let solver = backend::restore(backend, &scene, &self.particles, self.flow.as_ref())?;
-        // The scatter's mode and scales are the scene's (whose solver options --scatter may override);
-        // checkpoints written before the scene authored the scales hold zeros there.
+        // The scatter's mode and scales and the density rule are the scene's (whose solver options
+        // --scatter and --pipeline may override); checkpoints written before the scene authored the
+        // scales hold zeros there.
         let authored = scene.params();
         let params = Params {
             scatter_mode: authored.scatter_mode,
             fixed_mass_scale: authored.fixed_mass_scale,
             fixed_momentum_scale: authored.fixed_momentum_scale,
+            density_rule: authored.density_rule,
             ..self.params
         };
         Ok(Simulation::resume(scene, solver, params, self.clock.clone()))

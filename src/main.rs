@@ -203,7 +203,8 @@ struct SolverArgs {
     /// GPU scatter mode, overriding the scene's `solver.scatter`.
     #[arg(long, value_enum)]
     scatter: Option<ScatterMode>,
-    /// GPU kernel sequence, overriding the scene's `solver.pipeline`: binned (default) or report.
+    /// Kernel sequence and density rule, overriding the scene's `solver.pipeline`: fused (default: one
+    /// particle pass, the density advected), binned (two passes, the report's density) or report.
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
 }

@@ -397,20 +397,20 @@ fn bad_colliders_are_refused_with_the_key_and_the_fix() {
 }
 
 #[test]
-fn colliders_on_the_report_pipeline_are_refused_naming_the_binned_pipeline() {
+fn colliders_on_the_report_pipeline_are_refused_naming_the_fused_pipeline() {
     let mut scene = common::scene(&water_with(
         "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03",
     ));
     assert!(scene.check_pipeline().is_ok());
     scene.pipeline = mpm::sim::Pipeline::Report;
     let e = scene.check_pipeline().unwrap_err().to_string();
-    assert!(e.contains("--pipeline binned"), "{e}");
+    assert!(e.contains("--pipeline fused"), "{e}");
     let e = backend::create(BackendKind::Cuda, &scene)
         .err()
         .expect("refused")
         .to_string();
     assert!(
-        e.contains("--pipeline binned"),
+        e.contains("--pipeline fused"),
         "refused before any device work: {e}"
     );
 }

@@ -69,7 +69,7 @@ fn a_resumed_fixed_point_run_is_byte_identical() {
     // 29 substeps a frame or so: the checkpoints fall between two of the 8-substep rebinnings.
     const BEFORE: u64 = 3;
     const AFTER: u64 = 7;
-    for pipeline in [Pipeline::Binned, Pipeline::Report] {
+    for pipeline in Pipeline::ALL {
         // A folder per pipeline: both checkpoint the same frame, and files are never overwritten.
         let dir = tempfile::tempdir().unwrap();
         let scene = scene(pipeline);
@@ -95,9 +95,15 @@ fn a_resumed_fixed_point_run_is_byte_identical() {
         let got = resumed.solver_mut().read_particles().unwrap();
         let (a, b) = (particle_bits(&expected), particle_bits(&got));
         let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        let n = expected.len();
+        let in_field = |range: std::ops::Range<usize>| range.filter(|&i| a[i] != b[i]).count();
         println!(
-            "{pipeline:?}: {differing} of {} words differ after the resume",
-            a.len()
+            "{pipeline:?}: {differing} of {} words differ after the resume (x {}, v {}, C {}, rho {})",
+            a.len(),
+            in_field(0..3 * n),
+            in_field(3 * n..6 * n),
+            in_field(6 * n..15 * n),
+            in_field(15 * n..16 * n)
         );
         assert!(
             differing == 0,

@@ -136,10 +136,14 @@ fn bad_scenes_name_the_file_the_key_and_the_fix() {
 }
 
 #[test]
-fn the_gpu_pipeline_is_binned_unless_the_scene_says_report() {
+fn the_gpu_pipeline_is_fused_unless_the_scene_says_otherwise() {
     let parse =
         |solver: &str| Scene::from_toml(&common::water_box(20, &format!("{solver}{BLOCK}")), "ok.toml");
-    assert_eq!(parse("").unwrap().pipeline, Pipeline::Binned);
+    assert_eq!(parse("").unwrap().pipeline, Pipeline::Fused);
+    assert_eq!(
+        parse("[solver]\npipeline = \"fused\"\n").unwrap().pipeline,
+        Pipeline::Fused
+    );
     assert_eq!(
         parse("[solver]\npipeline = \"report\"\n").unwrap().pipeline,
         Pipeline::Report

@@ -4,20 +4,24 @@ mod common;
 
 use glam::{DVec3, Vec3};
 use mpm::sim::cpu::{CpuSolver, GridShape, Stencil};
-use mpm::sim::Params;
+use mpm::sim::{DensityRule, Params};
 
 const RES: u32 = 16;
 const DX: f32 = 0.01;
 
 /// Parameters for a 16^3 grid at dx = 1 cm. The random clouds are about 1450 kg/m^3; a rest density
 /// of 700 gives every particle pressure (the stress term is live), and a soft EOS keeps the velocity
-/// kick per step near 0.1 m/s, so nothing reaches the walls and gets clamped.
+/// kick per step near 0.1 m/s, so nothing reaches the walls and gets clamped. The density is the
+/// report's, gathered from the cloud in p2g (`DensityRule::Gathered`), which makes every particle's
+/// stress live; the fused pipeline's rule feeds the same stress expression (`p2g_particle`) the
+/// particle's own density instead, and its g2p is checked against the GPU in tests/gpu_kernels.rs.
 fn params() -> Params {
     let scene = common::scene(&common::water_box(
         RES,
         "[solver]\ngravity = [0.0, 0.0, 0.0]\n[[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.1, 0.1, 0.1]",
     ));
     let mut params = scene.params();
+    params.density_rule = DensityRule::Gathered.code();
     params.dt = 1.0e-4;
     params.material.rest_density = 700.0;
     params.material.eos_stiffness = 100.0;

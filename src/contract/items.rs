@@ -58,7 +58,9 @@ device_structs! {
         /// at node 1).
         wall_mirror_lo: u32,
         wall_mirror_hi: [u32; 3],
-        _pad: u32,
+        /// How a particle's density is estimated (`DensityRule::code()`): `DENSITY_GATHERED` (the
+        /// report's scheme) or `DENSITY_ADVECTED` (the fused pipeline's one particle pass).
+        density_rule: u32,
     }
 
     /// What the kernels count and reduce between substep choices; the host reads it back once per
@@ -192,6 +194,16 @@ device_constants! {
     SCATTER_FLOAT: u32 = 0;
     /// `Params::scatter_mode`: fixed-point integer atomics.
     SCATTER_FIXED_POINT: u32 = 1;
+
+    /// `Params::density_rule`: rho_p re-estimated from the grid mass at the particle's new position,
+    /// which needs the mass scattered before the momentum (two particle passes a substep).
+    DENSITY_GATHERED: u32 = 0;
+    /// `Params::density_rule`: rho_p gathered from the grid mass at the particle's previous position
+    /// with its velocity, and carried over the substep by the velocity divergence (one pass).
+    DENSITY_ADVECTED: u32 = 1;
+    /// `DENSITY_ADVECTED`: the largest relative volume change a particle's density is carried over
+    /// in one substep (`DensityRule::advect`).
+    MAX_VOLUME_CHANGE: f32 = 0.1;
 
     /// `ColliderState::kind`.
     COLLIDER_BOX: u32 = 0;

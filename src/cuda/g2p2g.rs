@@ -19,8 +19,6 @@ impl G2p2g {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
         let config = d.bins.tiled_pass(l, MASS_CHANNELS);
-        let null: u64 = 0;
-        let num_sinks = d.flow.as_ref().map_or(0, |f| f.num_sinks);
         // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; the bin list, order and node-block
         // list are sized for this grid and these particles. Without a flow the sink and free-slot
         // pointers are null and never read (no sinks).
@@ -37,15 +35,8 @@ impl G2p2g {
                     .arg(&g.acc)
                     .arg(g.fixed_mass())
                     .node_block_list(d)
-                    .colliders(&d.colliders);
-                match &d.flow {
-                    Some(flow) => a
-                        .arg(&flow.sinks)
-                        .arg(&num_sinks)
-                        .arg(&flow.free)
-                        .arg(&flow.counters),
-                    None => a.arg(&null).arg(&num_sinks).arg(&null).arg(&null),
-                };
+                    .colliders(&d.colliders)
+                    .sinks(d.flow.as_ref());
             })
         }
     }

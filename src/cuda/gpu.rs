@@ -12,6 +12,7 @@ use super::library;
 use super::lifecycle::LifecycleKernels;
 use super::mirror_walls::MirrorWalls;
 use super::modules::{LoadedModules, Origin};
+use super::one_pass::OnePass;
 use super::p2g::P2g;
 use super::p2g_init::P2gInit;
 use super::p2g_tiled::P2gTiled;
@@ -94,6 +95,7 @@ pub struct Kernels {
     pub grid_update: GridUpdate,
     pub g2p: G2p,
     pub g2p2g: G2p2g,
+    pub one_pass: OnePass,
     pub lifecycle: LifecycleKernels,
     pub spawn: SpawnKernels,
     pub stats: StatsKernel,
@@ -113,6 +115,7 @@ impl Kernels {
             grid_update: GridUpdate::load(modules)?,
             g2p: G2p::load(modules)?,
             g2p2g: G2p2g::load(modules)?,
+            one_pass: OnePass::load(modules)?,
             lifecycle: LifecycleKernels::load(modules)?,
             spawn: SpawnKernels::load(modules)?,
             stats: StatsKernel::load(modules)?,

@@ -39,7 +39,7 @@ impl GridUpdate {
                         .arg(&d.counters.device);
                 })
             },
-            Pipeline::Binned => {
+            Pipeline::Fused | Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
                 // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
                 unsafe {

@@ -4,7 +4,7 @@
 
 use super::mirror_walls::MirrorQuantity;
 use super::solver::CudaSolver;
-use crate::sim::{Params, Pipeline};
+use crate::sim::Params;
 use anyhow::Result;
 use glam::Vec3;
 
@@ -17,11 +17,12 @@ impl CudaSolver {
     }
 
     /// Mass scatter, m_i += w m_p: the report's p2g_init, or the binned pipeline's tiled p2g_mass
-    /// (which g2p2g does as its second half on every substep after the first). Where the binned
-    /// pipeline's bins were never built, the sort phase runs first, as in a solver's first substep.
+    /// (which g2p2g does as its second half on every substep after the first), or the fused
+    /// pipeline's one_pass without its gather, which scatters the momentum too (so its `p2g` does nothing). Where
+    /// the bins were never built, the sort phase runs first, as in a solver's first substep.
     pub fn p2g_init(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        if self.pipeline() == Pipeline::Binned && self.binnings() == 0 {
+        if self.pipeline().is_binned() && self.binnings() == 0 {
             self.sort()?;
         }
         self.scatter_mass()
@@ -52,7 +53,8 @@ impl CudaSolver {
     }
 
     /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned
-    /// pipeline's g2p2g, which also scatters the mass of the new positions for the next substep.
+    /// pipeline's g2p2g, which also scatters the mass of the new positions for the next substep, or
+    /// the fused pipeline's one_pass, which also advects the density and scatters mass and momentum.
     pub fn g2p(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
         self.gather()

@@ -43,7 +43,8 @@ impl LifecycleKernels {
     }
 
     /// Emits a layer from each emitter whose bit is set in `mask` into free slots; where the grid
-    /// already holds the next substep's mass (`scatter_mass`), the new particles' mass is added to it.
+    /// already holds the next substep's scatter (`scatter_mass`), the new particles' mass is added to
+    /// it, and under the fused pipeline their momentum too.
     pub fn emit(
         &self,
         l: &Launcher,
@@ -74,8 +75,7 @@ impl LifecycleKernels {
                     .arg(&p.c)
                     .arg(&p.rho)
                     .arg(&scatter_mass)
-                    .arg(&g.acc)
-                    .arg(g.fixed_mass())
+                    .accumulators(g)
                     .node_block_list(d);
             })
         }

@@ -46,7 +46,7 @@ impl MirrorWalls {
         unsafe {
             self.0.launch(l, l.cover(threads), |a| {
                 a.arg(params).arg(&quantity_code).accumulators(g);
-                if pipeline == Pipeline::Binned {
+                if pipeline.is_binned() {
                     a.arg(&g.node_blocks.marks)
                         .arg(&g.node_blocks.list)
                         .arg(&g.work_counts);

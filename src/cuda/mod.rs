@@ -10,11 +10,11 @@
 //!
 //! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
 //! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`p2g_init`],
-//! [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`], [`g2p2g`], [`bins`],
+//! [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`], [`g2p2g`], [`one_pass`], [`bins`],
 //! [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`].
 //!
 //! **On top: the substep.** [`solver::CudaSolver`] reads as the substep's phases (`Phase::ALL`) in
-//! either pipeline, and answers what a frame asks of a solver; `inspect` is the kernel tests' view of
+//! any pipeline, and answers what a frame asks of a solver; `inspect` is the kernel tests' view of
 //! it. [`interop`] registers the renderer's GL buffers with CUDA.
 
 // The bottom: one GPU and the buffers it holds.
@@ -39,6 +39,7 @@ pub mod g2p2g;
 pub mod grid_update;
 pub mod lifecycle;
 pub mod mirror_walls;
+pub mod one_pass;
 pub mod p2g;
 pub mod p2g_init;
 pub mod p2g_tiled;

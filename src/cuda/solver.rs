@@ -1,17 +1,19 @@
-//! `CudaSolver`: one GPU's particle state and the substep as its phases, in either pipeline
+//! `CudaSolver`: one GPU's particle state and the substep as its phases, in any pipeline
 //! (`Pipeline`). The substep reads top to bottom in `CudaSolver::enqueue_substep`:
 //!
-//! | phase (`PhaseTimings`) | report pipeline                         | binned pipeline (default)                    |
-//! |---|---|---|
-//! | sort                  | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell |
-//! | p2g_init              | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)       |
-//! | p2g                   | p2g                                     | p2g (float), p2g_tiled (fixed point)         |
-//! | grid_update           | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) |
-//! | g2p                   | g2p                                     | g2p2g (g2p + the next substep's mass scatter) |
+//! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
+//! |---|---|---|---|
+//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned |
+//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | mirror mass (mass and momentum came with one_pass) |
+//! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
+//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | as binned                              |
+//! | g2p         | g2p                                     | g2p2g (g2p + the next substep's mass scatter) | one_pass (g2p + the next substep's whole scatter) |
 //!
-//! Each phase is an NVTX range and a pair of CUDA events. Each kernel's arguments live in the host file
-//! beside it (`p2g.rs` beside kernels/p2g.cu, ...); the buffers in `state.rs`. Neither pipeline has a
-//! grid-clear launch: the grid update zeroes each accumulator it reads, so `grid_clear` stays 0 here.
+//! The first substep (nothing scattered yet) scatters in p2g_init: p2g_mass in the binned pipeline,
+//! one_pass without its gather in the fused one. Each phase is an NVTX range and a pair of CUDA events. Each
+//! kernel's arguments live in the host file beside it (`p2g.rs` beside kernels/p2g.cu, ...); the
+//! buffers in `state.rs`. No pipeline has a grid-clear launch: the grid update zeroes each
+//! accumulator it reads, so `grid_clear` stays 0 here.
 
 use super::bins::BinSchedule;
 use super::gpu::{CudaOptions, Gpu};
@@ -19,6 +21,7 @@ use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
 use super::modules::Origin;
+use super::one_pass::Gather;
 use super::particles::DeviceParticlesView;
 use super::spawn::spawn_on_device;
 use super::state::DeviceState;
@@ -43,8 +46,9 @@ pub struct CudaSolver {
     /// checked when they change (`accept`).
     pub(super) params: Params,
     schedule: BinSchedule,
-    /// Binned pipeline: the grid already holds the mass of the particles' current positions (g2p2g
-    /// scattered it), with this scatter mode.
+    /// Binned and fused pipelines: the grid already holds the next substep's scatter at the
+    /// particles' current positions, with this scatter mode: the mass (g2p2g, p2g_mass), or under the
+    /// fused pipeline mass and momentum (one_pass).
     mass_scattered: Option<u32>,
     /// Particles scattered outside their tile since the solver was made (binned pipeline).
     tile_misses: u64,
@@ -53,6 +57,9 @@ pub struct CudaSolver {
     graphs: SubstepGraphs,
     /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
     substeps: u64,
+    /// Fused pipeline: the step of the substep before a restored state (`Solver::resume_after`),
+    /// which its first scatter takes, as the uninterrupted run's last one_pass did.
+    resumed_dt: Option<f32>,
 }
 
 impl CudaSolver {
@@ -116,6 +123,7 @@ impl CudaSolver {
             tile_misses: 0,
             graphs: SubstepGraphs::default(),
             substeps: 0,
+            resumed_dt: None,
         };
         let params = solver.params;
         solver.check_params(&params)?;
@@ -227,19 +235,24 @@ impl CudaSolver {
 
     pub(super) fn scatter_mass(&mut self) -> Result<()> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        match self.pipeline {
-            Pipeline::Report => k.p2g_init.launch(l, &self.params, &self.state),
-            Pipeline::Binned => {
-                // The substep's sort phase runs first whenever the bins are stale (`BinSchedule::due`).
-                ensure!(
-                    self.schedule.built(),
-                    "the binned mass scatter walks the bins, which were never built: sort first"
-                );
-                k.p2g_mass.launch(l, &self.params, &self.state)?;
-                self.mass_scattered = Some(self.params.scatter_mode);
-                Ok(())
-            }
+        if self.pipeline == Pipeline::Report {
+            return k.p2g_init.launch(l, &self.params, &self.state);
         }
+        // The substep's sort phase runs first whenever the bins are stale (`BinSchedule::due`).
+        ensure!(
+            self.schedule.built(),
+            "the binned mass scatter walks the bins, which were never built: sort first"
+        );
+        match self.pipeline {
+            Pipeline::Fused => {
+                let dt = self.resumed_dt.take().unwrap_or(self.params.dt);
+                k.one_pass
+                    .launch(l, Gather::None, &Params { dt, ..self.params }, &self.state)?
+            }
+            _ => k.p2g_mass.launch(l, &self.params, &self.state)?,
+        }
+        self.mass_scattered = Some(self.params.scatter_mode);
+        Ok(())
     }
 
     pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
@@ -256,8 +269,13 @@ impl CudaSolver {
     /// tiled (the L2 adds floats natively, a tile must round every contribution); fixed point 0.17 ms
     /// tiled, 0.20 ms by integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48
     /// against 3.86 ms).
+    /// The fused pipeline has nothing left to scatter here: one_pass scattered the momentum with the
+    /// mass.
     pub(super) fn scatter_momentum(&self) -> Result<()> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
+        if self.pipeline == Pipeline::Fused {
+            return Ok(());
+        }
         let tiled = self.pipeline == Pipeline::Binned
             && (self.params.scatter_mode == ScatterMode::FixedPoint.code() || self.state.flow.is_some());
         if tiled {
@@ -271,7 +289,7 @@ impl CudaSolver {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         k.grid_update
             .launch(l, self.pipeline, &self.params, &self.state)?;
-        if self.pipeline == Pipeline::Binned {
+        if self.pipeline.is_binned() {
             self.state.grid.clear_node_block_list(self.gpu.stream())?;
         }
         Ok(())
@@ -280,16 +298,15 @@ impl CudaSolver {
     pub(super) fn gather(&mut self) -> Result<()> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         match self.pipeline {
-            Pipeline::Report => k.g2p.launch(l, &self.params, &self.state),
-            Pipeline::Binned => {
-                k.g2p2g.launch(l, &self.params, &self.state)?;
-                self.mass_scattered = Some(self.params.scatter_mode);
-                if let Some(flow) = self.state.flow.as_ref().filter(|f| f.num_sinks > 0) {
-                    k.lifecycle.settle(l, flow)?;
-                }
-                Ok(())
-            }
+            Pipeline::Report => return k.g2p.launch(l, &self.params, &self.state),
+            Pipeline::Binned => k.g2p2g.launch(l, &self.params, &self.state)?,
+            Pipeline::Fused => k.one_pass.launch(l, Gather::Substep, &self.params, &self.state)?,
         }
+        self.mass_scattered = Some(self.params.scatter_mode);
+        if let Some(flow) = self.state.flow.as_ref().filter(|f| f.num_sinks > 0) {
+            k.lifecycle.settle(l, flow)?;
+        }
+        Ok(())
     }
 
     /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
@@ -345,6 +362,10 @@ impl Solver for CudaSolver {
         launched
     }
 
+    fn resume_after(&mut self, last: &Params) {
+        self.resumed_dt = Some(last.dt);
+    }
+
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
         self.accept(params)?;
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
@@ -398,8 +419,8 @@ impl Solver for CudaSolver {
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
         ensure!(
-            frame.is_empty() || self.pipeline == Pipeline::Binned,
-            "the report pipeline applies no colliders; use --pipeline binned (or solver.pipeline = \"binned\")"
+            frame.is_empty() || self.pipeline.is_binned(),
+            "the report pipeline applies no colliders; use --pipeline fused (or solver.pipeline = \"fused\", the default)"
         );
         self.state.colliders.set(self.gpu.stream(), frame)
     }

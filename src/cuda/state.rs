@@ -33,9 +33,9 @@ impl DeviceState {
     pub fn check_scene(scene: &Scene) -> Result<()> {
         scene.check_pipeline()?;
         ensure!(
-            !scene.flow.is_active() || scene.pipeline == Pipeline::Binned,
-            "scene {}: emitters and sinks run in the binned GPU pipeline; drop solver.pipeline = \
-             \"report\" (or --pipeline report), or use a CPU backend",
+            !scene.flow.is_active() || scene.pipeline.is_binned(),
+            "scene {}: emitters and sinks run in the fused and binned GPU pipelines; drop \
+             solver.pipeline = \"report\" (or --pipeline report), or use a CPU backend",
             scene.source
         );
         ensure!(scene.slots() > 0, "scene {}: no particles", scene.source);
@@ -57,7 +57,7 @@ impl DeviceState {
         )?;
 
         let (l, stream) = (&gpu.launcher, gpu.stream());
-        let binned = scene.pipeline == Pipeline::Binned;
+        let binned = scene.pipeline.is_binned();
         let bins = Bins::new(
             l,
             scene.grid_res,
@@ -133,7 +133,7 @@ impl DeviceState {
         // The binned pipeline's tiles accumulate fixed point in either scatter mode (tiles.cuh).
         let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
         ensure!(
-            !(fixed || pipeline == Pipeline::Binned)
+            !(fixed || pipeline.is_binned())
                 || (params.fixed_mass_scale > 0.0 && params.fixed_momentum_scale > 0.0),
             "Params without fixed-point scales: take them from Scene::params()"
         );
@@ -154,6 +154,9 @@ pub trait StateArgs<'a> {
     fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self;
     /// `collider_states, num_colliders, collider_sdf` (`Colliders` in kernels/colliders.cuh).
     fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self;
+    /// `sinks, num_sinks, free_slots, flow`: the sinks a gather drains into and the stack of free
+    /// slots; without a flow, null pointers and no sinks (never read).
+    fn sinks(&mut self, flow: Option<&'a DeviceFlow>) -> &mut Self;
 }
 
 impl<'a> StateArgs<'a> for LaunchArgs<'a> {
@@ -175,5 +178,14 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
         self.arg(&colliders.states)
             .arg(&colliders.count)
             .arg(&colliders.sdf)
+    }
+
+    fn sinks(&mut self, flow: Option<&'a DeviceFlow>) -> &mut Self {
+        static NULL: u64 = 0;
+        static NO_SINKS: u32 = 0;
+        match flow {
+            Some(f) => self.arg(&f.sinks).arg(&f.num_sinks).arg(&f.free).arg(&f.counters),
+            None => self.arg(&NULL).arg(&NO_SINKS).arg(&NULL).arg(&NULL),
+        }
     }
 }

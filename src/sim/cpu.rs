@@ -4,7 +4,7 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
-use super::params::Params;
+use super::params::{DensityRule, Params};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -205,30 +205,73 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     }
 }
 
-/// p2g for one particle with stencil `st`: its density gathered from the grid mass, and what it adds
-/// to the grid momentum, `w (mv + affine d)` on each stencil node. Returns `(rho, mv, affine)`.
-/// Shared by the reference and the parallel backend, so both compute the same expressions.
+/// p2g for one particle with stencil `st`: its density, and what it adds to the grid momentum,
+/// `w (mv + affine d)` on each stencil node. Returns `(rho, mv, affine)`. The density is gathered from
+/// the grid mass (`DensityRule::Gathered`), or the particle's own `rho_p`, which its last g2p advected
+/// (`DensityRule::Advected`, [`density_after_g2p`]). Shared by the reference and the parallel
+/// backend, so both compute the same expressions.
 #[inline(always)]
 pub fn p2g_particle(
     params: &Params,
     st: &Stencil,
     shape: GridShape,
     mass: &[f32],
+    rho_p: f32,
     v: Vec3,
     c: Mat3,
 ) -> (f32, Vec3, Mat3) {
     let mat = &params.material;
     let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
-    let inv_cell_volume = params.inv_dx * params.inv_dx * params.inv_dx;
-    let mut grid_mass = 0.0;
-    st.for_each_node(shape, |i, w, _| grid_mass += w * mass[i]);
-    let rho = grid_mass * inv_cell_volume;
+    let rho = match DensityRule::of(params) {
+        DensityRule::Gathered => grid_density(params, st, shape, mass),
+        DensityRule::Advected => rho_p,
+    };
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
     let stress = mat.stress(pressure, c);
     // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
     let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
     (rho, v * m_p, affine)
+}
+
+/// rho = sum w m_i / dx^3 over the stencil `st`.
+#[inline(always)]
+pub fn grid_density(params: &Params, st: &Stencil, shape: GridShape, mass: &[f32]) -> f32 {
+    let mut grid_mass = 0.0;
+    st.for_each_node(shape, |i, w, _| grid_mass += w * mass[i]);
+    grid_mass * (params.inv_dx * params.inv_dx * params.inv_dx)
+}
+
+/// The density a particle leaves g2p with. Under `DensityRule::Advected`: gathered from the grid mass
+/// (`mass`, as the substep scattered and mirrored it) at the particle's position before the advection,
+/// `x_before`, and carried over the substep by the fluid's velocity divergence gathered there from
+/// the node velocities `velocity` (`DensityRule::advect`, `DensityRule::fluid_divergence`). Otherwise
+/// the density its p2g gathered, `rho`, unchanged.
+#[inline(always)]
+pub fn density_after_g2p(
+    params: &Params,
+    shape: GridShape,
+    mass: &[f32],
+    velocity: &[Vec3],
+    x_before: Vec3,
+    rho: f32,
+) -> f32 {
+    if DensityRule::of(params) == DensityRule::Gathered {
+        return rho;
+    }
+    let (mut grid_mass, mut v_p, mut sum_v_dot_d, mut filled_w_d) = (0.0, Vec3::ZERO, 0.0, Vec3::ZERO);
+    Stencil::new(x_before, params.inv_dx).for_each_node(shape, |i, w, d| {
+        grid_mass += w * mass[i];
+        v_p += w * velocity[i];
+        sum_v_dot_d += w * velocity[i].dot(d);
+        if mass[i] > 0.0 {
+            filled_w_d += w * d;
+        }
+    });
+    let inv_dx = params.inv_dx;
+    let divergence =
+        DensityRule::fluid_divergence(sum_v_dot_d, filled_w_d.to_array(), v_p.to_array(), inv_dx);
+    DensityRule::advect(grid_mass * (inv_dx * inv_dx * inv_dx), divergence, params.dt)
 }
 
 /// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, the colliders'
@@ -324,6 +367,9 @@ pub struct CpuSolver {
     extremes: StepExtremes,
     /// One record per substep, until taken.
     timings: Vec<PhaseTimings>,
+    /// `DensityRule::Advected`: the step the next p2g's stress impulse takes, the last substep's (see
+    /// `Solver::step`); `None` before the first substep.
+    pub scatter_dt: Option<f32>,
 }
 
 impl CpuSolver {
@@ -335,6 +381,16 @@ impl CpuSolver {
             colliders: ColliderFrame::default(),
             extremes: StepExtremes::default(),
             timings: Vec::new(),
+            scatter_dt: None,
+        }
+    }
+
+    /// `params` as p2g scatters with them: under `DensityRule::Advected`, with the step of the last
+    /// substep where there was one (`Solver::step`).
+    pub fn scatter_params(&self, params: &Params) -> Params {
+        match (DensityRule::of(params), self.scatter_dt) {
+            (DensityRule::Advected, Some(dt)) => Params { dt, ..*params },
+            _ => *params,
         }
     }
 
@@ -386,8 +442,10 @@ impl CpuSolver {
         mirror_walls(self.grid.shape, params, &mut self.grid.momentum, momentum_image);
     }
 
-    /// Density from grid mass, Tait pressure, viscous stress; then momentum and stress to the grid.
+    /// Density (from grid mass, or the particle's advected one), Tait pressure, viscous stress; then
+    /// momentum and stress to the grid.
     pub fn p2g(&mut self, params: &Params) {
+        let params = &self.scatter_params(params);
         let Grid {
             shape,
             mass,
@@ -397,12 +455,14 @@ impl CpuSolver {
         let mut max_rho = 0.0f32;
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let st = Stencil::new(p.x[n], params.inv_dx);
-            let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.v[n], p.c[n]);
+            let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.rho[n], p.v[n], p.c[n]);
             p.rho[n] = rho;
             max_rho = max_rho.max(rho);
             st.for_each_node(*shape, |i, w, d| momentum[i] += w * (mv + affine * d));
         }
-        self.extremes.max_density = self.extremes.max_density.max(max_rho);
+        if DensityRule::of(params) == DensityRule::Gathered {
+            self.extremes.max_density = self.extremes.max_density.max(max_rho);
+        }
     }
 
     /// Momentum to velocity, gravity, colliders, free-slip walls in the boundary band.
@@ -419,41 +479,48 @@ impl CpuSolver {
         }
     }
 
-    /// Velocity and C from the grid, then advection, soft wall and clamp; and the extremes the next
-    /// substep is chosen from (each particle's own signal speed c(rho_p) + |v_p|).
+    /// Velocity and C from the grid, then advection, soft wall and clamp, and the density the particle
+    /// carries on ([`density_after_g2p`]); and the extremes the next substep is chosen from (each
+    /// particle's own signal speed c(rho_p) + |v_p|).
     pub fn g2p(&mut self, params: &Params) {
         let Grid {
             shape,
+            mass,
             momentum: velocity,
-            ..
         } = &self.grid;
         let p = &mut self.particles;
         let mut extremes = GatherExtremes::default();
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let (x, v, c, moved) = g2p_with_backstop(params, *shape, velocity, &self.colliders, p.x[n]);
+            p.rho[n] = density_after_g2p(params, *shape, mass, velocity, p.x[n], p.rho[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], moved));
         }
         extremes.add_to(&mut self.extremes);
+        self.scatter_dt = Some(params.dt);
     }
 }
 
-/// What g2p adds to a substep's extremes: the largest speed and signal speed c(rho_p) + |v_p|, and
-/// the particles the colliders' backstop moved. Both CPU backends fold their particles' into one.
+/// What g2p adds to a substep's extremes: the largest speed and signal speed c(rho_p) + |v_p|, the
+/// particles the colliders' backstop moved, and (`DensityRule::Advected`, where g2p sets the density)
+/// the largest density. Both CPU backends fold their particles' into one.
 #[derive(Clone, Copy, Default)]
 pub struct GatherExtremes {
     max_speed: f32,
     max_signal: f32,
+    max_density: f32,
     pushed: u64,
 }
 
 impl GatherExtremes {
-    /// One particle's, after g2p gave it velocity `v` (its density `rho` from this substep's p2g).
+    /// One particle's, after g2p gave it velocity `v` and density `rho` ([`density_after_g2p`]).
     pub fn of(params: &Params, v: Vec3, rho: f32, pushed: bool) -> GatherExtremes {
         let speed = v.length();
+        let advected = DensityRule::of(params) == DensityRule::Advected;
         GatherExtremes {
             max_speed: speed,
             max_signal: params.material.signal_speed(rho, speed),
+            max_density: if advected { rho } else { 0.0 },
             pushed: u64::from(pushed),
         }
     }
@@ -462,6 +529,7 @@ impl GatherExtremes {
         GatherExtremes {
             max_speed: self.max_speed.max(other.max_speed),
             max_signal: self.max_signal.max(other.max_signal),
+            max_density: self.max_density.max(other.max_density),
             pushed: self.pushed + other.pushed,
         }
     }
@@ -469,6 +537,7 @@ impl GatherExtremes {
     pub fn add_to(self, extremes: &mut StepExtremes) {
         extremes.max_speed = extremes.max_speed.max(self.max_speed);
         extremes.max_signal_speed = extremes.max_signal_speed.max(self.max_signal);
+        extremes.max_density = extremes.max_density.max(self.max_density);
         extremes.backstop_pushes += self.pushed;
     }
 }
@@ -525,6 +594,10 @@ impl Solver for CpuSolver {
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
         step_phases(self, params);
         Ok(())
+    }
+
+    fn resume_after(&mut self, last: &Params) {
+        self.scatter_dt = Some(last.dt);
     }
 
     fn take_extremes(&mut self) -> anyhow::Result<StepExtremes> {

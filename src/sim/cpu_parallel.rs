@@ -29,11 +29,11 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle, step_phases, CpuPhases,
-    CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
+    density_after_g2p, g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle,
+    step_phases, CpuPhases, CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
-use super::params::Params;
+use super::params::{DensityRule, Params};
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -346,6 +346,7 @@ impl ParallelCpuSolver {
 
     /// Density from grid mass, pressure and stress (`p2g_particle`), momentum per tile block, merged.
     pub fn p2g(&mut self, params: &Params) {
+        let params = &self.inner.scatter_params(params);
         let bins = &self.bins;
         let Grid { shape, mass, .. } = &self.inner.grid;
         let p = &self.inner.particles;
@@ -372,7 +373,7 @@ impl ParallelCpuSolver {
                 for (&i, rho_out) in bins.particles(k).iter().zip(rho_run.iter_mut()) {
                     let i = i as usize;
                     let st = Stencil::new(p.x[i], params.inv_dx);
-                    let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.v[i], p.c[i]);
+                    let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.rho[i], p.v[i], p.c[i]);
                     *rho_out = rho;
                     max_rho = max_rho.max(rho);
                     in_block(&st, origin)
@@ -396,7 +397,9 @@ impl ParallelCpuSolver {
             &self.block_momentum,
             &mut self.inner.grid.momentum,
         );
-        self.extremes.max_density = self.extremes.max_density.max(max_rho);
+        if DensityRule::of(params) == DensityRule::Gathered {
+            self.extremes.max_density = self.extremes.max_density.max(max_rho);
+        }
     }
 
     /// The walls' mirror momentum, then momentum to velocity per node (`node_velocity`).
@@ -431,32 +434,36 @@ impl ParallelCpuSolver {
             });
     }
 
-    /// Velocity and C from the grid, advection (`g2p_particle`), and the extremes.
+    /// Velocity and C from the grid, advection (`g2p_particle`), the density carried on
+    /// (`density_after_g2p`), and the extremes.
     pub fn g2p(&mut self, params: &Params) {
         let Grid {
             shape,
+            mass,
             momentum: velocity,
-            ..
         } = &self.inner.grid;
         let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
-        let extremes =
-            p.x.par_iter_mut()
-                .with_min_len(MIN_PER_TASK)
-                .zip(p.v.par_iter_mut())
-                .zip(p.c.par_iter_mut())
-                .zip(p.rho.par_iter())
-                .zip(p.live.par_iter())
-                .map(|((((x, v), c), &rho), &live)| {
-                    if !live {
-                        return GatherExtremes::default();
-                    }
-                    let moved;
-                    (*x, *v, *c, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
-                    GatherExtremes::of(params, *v, rho, moved)
-                })
-                .reduce(GatherExtremes::default, GatherExtremes::max);
+        let extremes = p
+            .x
+            .par_iter_mut()
+            .with_min_len(MIN_PER_TASK)
+            .zip(p.v.par_iter_mut())
+            .zip(p.c.par_iter_mut())
+            .zip(p.rho.par_iter_mut())
+            .zip(p.live.par_iter())
+            .map(|((((x, v), c), rho), &live)| {
+                if !live {
+                    return GatherExtremes::default();
+                }
+                let (x_new, v_new, c_new, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
+                *rho = density_after_g2p(params, *shape, mass, velocity, *x, *rho);
+                (*x, *v, *c) = (x_new, v_new, c_new);
+                GatherExtremes::of(params, *v, *rho, moved)
+            })
+            .reduce(GatherExtremes::default, GatherExtremes::max);
         extremes.add_to(&mut self.extremes);
+        self.inner.scatter_dt = Some(params.dt);
     }
 }
 
@@ -491,6 +498,10 @@ impl Solver for ParallelCpuSolver {
         }
         step_phases(self, params);
         Ok(())
+    }
+
+    fn resume_after(&mut self, last: &Params) {
+        self.inner.resume_after(last);
     }
 
     fn take_extremes(&mut self) -> anyhow::Result<StepExtremes> {

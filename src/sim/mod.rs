@@ -17,7 +17,7 @@ pub mod solver;
 pub mod summary;
 
 pub use colliders::{ColliderFrame, Colliders};
-pub use params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
+pub use params::{DensityRule, Material, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Particles, Scene, SceneError};

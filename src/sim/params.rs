@@ -2,8 +2,9 @@
 //! themselves are defined in the host/device contract (src/contract/items.rs), which the kernels'
 //! header is written from; the material's law is in `material.rs`.
 
+pub use crate::contract::MAX_VOLUME_CHANGE;
 pub use crate::contract::{Material, Params};
-use crate::contract::{SCATTER_FIXED_POINT, SCATTER_FLOAT};
+use crate::contract::{DENSITY_ADVECTED, DENSITY_GATHERED, SCATTER_FIXED_POINT, SCATTER_FLOAT};
 
 /// Simulated seconds per displayed frame: the runner and the viewer advance one 60 Hz frame at a time.
 pub const FRAME_DT: f32 = 1.0 / 60.0;
@@ -31,15 +32,21 @@ impl ScatterMode {
     }
 }
 
-/// Which sequence of GPU kernels takes a substep. The CPU reference always runs the report's phases.
+/// Which sequence of GPU kernels takes a substep, and with it the density rule ([`DensityRule`]) that
+/// every backend, the CPU ones included, follows for the scene.
 #[derive(
     Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize, clap::ValueEnum,
 )]
 #[serde(rename_all = "kebab-case")]
 pub enum Pipeline {
-    /// Particles binned by 4x4x4-node block, scatters through shared-memory tiles, g2p fused with the
-    /// next substep's mass scatter, grid update over the touched blocks only (the default).
+    /// One particle pass per substep (the default): the binned pipeline's bins and tiles, with g2p,
+    /// advection and the next substep's whole scatter (mass and momentum) in one kernel, the density
+    /// carried by the particle ([`DensityRule::Advected`]).
     #[default]
+    Fused,
+    /// Particles binned by 4x4x4-node block, scatters through shared-memory tiles, g2p fused with the
+    /// next substep's mass scatter, then the report's density gather and momentum scatter: two
+    /// particle passes per substep, the report's scheme.
     Binned,
     /// The report's four kernels, p2g_init, p2g, grid_update (whole grid), g2p, with global atomics:
     /// the baseline the benchmark tables compare with.
@@ -47,11 +54,87 @@ pub enum Pipeline {
 }
 
 impl Pipeline {
+    pub const ALL: [Pipeline; 3] = [Pipeline::Fused, Pipeline::Binned, Pipeline::Report];
+
     pub fn name(self) -> &'static str {
         match self {
+            Pipeline::Fused => "fused",
             Pipeline::Binned => "binned",
             Pipeline::Report => "report",
         }
+    }
+
+    /// Whether the particles are binned by node block and scattered through shared tiles (every
+    /// pipeline but the report's).
+    pub fn is_binned(self) -> bool {
+        self != Pipeline::Report
+    }
+
+    pub fn density_rule(self) -> DensityRule {
+        match self {
+            Pipeline::Fused => DensityRule::Advected,
+            Pipeline::Binned | Pipeline::Report => DensityRule::Gathered,
+        }
+    }
+}
+
+/// How a particle's density rho_p, which sets its pressure, is estimated each substep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DensityRule {
+    /// The report's scheme: rho_p = sum w m_i / dx^3 from the grid mass scattered at the particle's
+    /// current position. The mass must be on the grid before the momentum scatter reads it: two
+    /// particle passes a substep.
+    Gathered,
+    /// rho_p gathered the same way, but from the grid mass at the particle's previous position (the
+    /// mass the last substep scattered, read in the same gather as the node velocities), then carried
+    /// over the substep by the continuity equation, rho_p = rho_grid / (1 + dt div v), with the
+    /// velocity divergence of the fluid around the particle gathered there too
+    /// ([`DensityRule::fluid_divergence`]). It differs from the gathered density by O(dt^2) per
+    /// substep and never drifts (each substep starts again from the grid), and the substep needs one
+    /// particle pass: gather, advect, then scatter mass and momentum together.
+    Advected,
+}
+
+impl DensityRule {
+    /// The value of `Params::density_rule` that the kernels switch on.
+    pub fn code(self) -> u32 {
+        match self {
+            DensityRule::Gathered => DENSITY_GATHERED,
+            DensityRule::Advected => DENSITY_ADVECTED,
+        }
+    }
+
+    /// The rule `params` carry (`Scene::params` writes it from the pipeline).
+    pub fn of(params: &Params) -> DensityRule {
+        if params.density_rule == DENSITY_ADVECTED {
+            DensityRule::Advected
+        } else {
+            DensityRule::Gathered
+        }
+    }
+
+    /// The advected density from the grid's `rho_grid` at the particle's previous position and the
+    /// fluid's velocity divergence `divergence` there. The volume factor 1 + dt div v is held within
+    /// [`MAX_VOLUME_CHANGE`] of 1: a resolved flow within the CFL bound changes a particle's volume by
+    /// far less in one substep, and a shock past it (an impact at several times the sound speed) must
+    /// not be amplified by a first-order prediction; the next substep's gather corrects what the bound
+    /// held back. kernels/common.cuh `advected_density` is the twin.
+    #[inline(always)]
+    pub fn advect(rho_grid: f32, divergence: f32, dt: f32) -> f32 {
+        rho_grid / (1.0 + dt * divergence).clamp(1.0 - MAX_VOLUME_CHANGE, 1.0 + MAX_VOLUME_CHANGE)
+    }
+
+    /// The velocity divergence of the fluid around a particle, from its stencil's gather:
+    /// `(4/dx) sum_{m_i > 0} w (v_i - v_p) . d`, where `sum_v_dot_d` is `sum w v_i . d` over the
+    /// stencil (tr of the gathered `C` dx/4), `filled_w_d` is `sum w d` over the nodes that hold mass,
+    /// and `v_p` the gathered velocity. Nodes without mass hold no velocity (0): counting them as fluid
+    /// at rest would read a particle moving into empty space as compressed (at the surge front of a
+    /// dam break, by 10 % a substep), so they count as moving with the particle. Where every node
+    /// holds mass, `sum w d = 0` and this is tr C.
+    #[inline(always)]
+    pub fn fluid_divergence(sum_v_dot_d: f32, filled_w_d: [f32; 3], v_p: [f32; 3], inv_dx: f32) -> f32 {
+        let drift = v_p[0] * filled_w_d[0] + v_p[1] * filled_w_d[1] + v_p[2] * filled_w_d[2];
+        4.0 * inv_dx * (sum_v_dot_d - drift)
     }
 }
 

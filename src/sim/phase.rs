@@ -61,18 +61,23 @@ impl Phase {
         match (pipeline, self) {
             (_, Phase::GridClear) => "grid_clear (inside grid_update on the GPU)".into(),
             (Pipeline::Report, Phase::Sort) => format!("sort (GPU only, every {sort_interval} substeps)"),
-            (Pipeline::Binned, Phase::Sort) => {
+            (Pipeline::Binned | Pipeline::Fused, Phase::Sort) => {
                 format!("rebin (every {sort_interval} substeps, or when a particle moved a cell)")
             }
             (Pipeline::Report, Phase::P2gInit) => "p2g_init (+ mirror mass)".into(),
             (Pipeline::Binned, Phase::P2gInit) => "mirror mass (mass scattered by g2p2g)".into(),
+            (Pipeline::Fused, Phase::P2gInit) => "mirror mass (mass, momentum scattered by one_pass)".into(),
+            (Pipeline::Fused, Phase::P2g) => "(none: scattered by one_pass)".into(),
             (Pipeline::Report, Phase::P2g) => "p2g".into(),
             (Pipeline::Binned, Phase::P2g) if fixed_point => "p2g_tiled".into(),
             (Pipeline::Binned, Phase::P2g) => "p2g (warp runs, global atomics)".into(),
             (Pipeline::Report, Phase::GridUpdate) => "grid_update (+ mirror momentum)".into(),
-            (Pipeline::Binned, Phase::GridUpdate) => "grid_update_blocks (+ mirror momentum)".into(),
+            (Pipeline::Binned | Pipeline::Fused, Phase::GridUpdate) => {
+                "grid_update_blocks (+ mirror momentum)".into()
+            }
             (Pipeline::Report, Phase::G2p) => "g2p".into(),
             (Pipeline::Binned, Phase::G2p) => "g2p2g (g2p + next mass scatter)".into(),
+            (Pipeline::Fused, Phase::G2p) => "one_pass (g2p + density + next whole scatter)".into(),
         }
     }
 
@@ -100,6 +105,11 @@ impl Phase {
     /// - p2g (p2g_tiled): as the report's, 88 B per particle.
     /// - g2p (g2p2g): order, x and rho read, x, v, C written: 4 + 16 + 4 + 16 + 16 + 48 = 104 B per
     ///   particle.
+    ///
+    /// The fused pipeline is the binned one with the p2g pass gone:
+    /// - p2g: nothing.
+    /// - g2p (one_pass): order and x read, x, v, C and rho written: 4 + 16 + 16 + 16 + 48 + 4 = 104 B
+    ///   per particle: the whole substep's particle traffic.
     pub fn traffic_floor(self, t: &Traffic) -> f64 {
         let (n, g) = (t.particles as f64, t.nodes as f64);
         let grid_update_per_node = if t.fixed_point { 80.0 } else { 48.0 };
@@ -109,9 +119,12 @@ impl Phase {
             (Pipeline::Report, Phase::P2gInit) => 20.0 * n,
             (Pipeline::Report, Phase::GridUpdate) => grid_update_per_node * g,
             (Pipeline::Report, Phase::G2p) => 96.0 * n,
-            (Pipeline::Binned, Phase::Sort | Phase::P2gInit) => 0.0,
-            (Pipeline::Binned, Phase::GridUpdate) => grid_update_per_node * (n / 8.0).min(g),
-            (Pipeline::Binned, Phase::G2p) => 104.0 * n,
+            (Pipeline::Binned | Pipeline::Fused, Phase::Sort | Phase::P2gInit) => 0.0,
+            (Pipeline::Binned | Pipeline::Fused, Phase::GridUpdate) => {
+                grid_update_per_node * (n / 8.0).min(g)
+            }
+            (Pipeline::Binned | Pipeline::Fused, Phase::G2p) => 104.0 * n,
+            (Pipeline::Fused, Phase::P2g) => 0.0,
             (_, Phase::P2g) => 88.0 * n,
         }
     }

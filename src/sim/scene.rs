@@ -220,7 +220,7 @@ impl Scene {
             fixed_momentum_scale,
             wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
-            _pad: 0,
+            density_rule: self.pipeline.density_rule().code(),
         }
     }
 
@@ -268,10 +268,10 @@ impl Scene {
                 source: self.source.clone(),
                 key: "solver.pipeline".into(),
                 problem: format!(
-                    "= \"report\" cannot run this scene's {} collider(s): only the binned pipeline applies colliders",
+                    "= \"report\" cannot run this scene's {} collider(s): only the fused and binned pipelines apply colliders",
                     self.colliders.len()
                 ),
-                fix: "use --pipeline binned (or solver.pipeline = \"binned\", the default)".into(),
+                fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default)".into(),
             });
         }
         Ok(())

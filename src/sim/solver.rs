@@ -57,7 +57,16 @@ pub enum SummaryTicket {
 pub trait Solver {
     fn name(&self) -> &'static str;
     /// One substep of `params.dt`: its phases (`Phase::ALL`) in step order.
+    ///
+    /// Under the fused pipeline's density rule (`DensityRule::Advected`) a substep's momentum is
+    /// scattered at the end of the substep before it, so its stress impulse (which is linear in the
+    /// step) is scattered with that substep's dt: where the time-step policy changes the step between
+    /// two substeps, the first of the new step still kicks with the old one. Every backend does so
+    /// (the first substep a solver takes uses its own dt, or [`Self::resume_after`]'s).
     fn step(&mut self, params: &Params) -> Result<()>;
+    /// Tells a solver restored from a checkpoint the parameters of the run's last substep before it,
+    /// so that its first substep scatters as the uninterrupted run did (see [`Self::step`]).
+    fn resume_after(&mut self, last: &Params);
     /// The extremes since the last call, then reset.
     fn take_extremes(&mut self) -> Result<StepExtremes>;
     /// `take_extremes` without waiting for the device: the extremes of the substeps enqueued so far

@@ -119,7 +119,7 @@ pub struct SolverSpec {
     pub mirror_wall_mass: bool,
     #[serde(default)]
     pub scatter: ScatterMode,
-    /// The GPU's kernel sequence: "binned" (default) or "report".
+    /// The GPU's kernel sequence and density rule: "fused" (default), "binned" or "report".
     #[serde(default)]
     pub pipeline: Pipeline,
 }

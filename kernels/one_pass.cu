@@ -1,0 +1,166 @@
+// one_pass: the fused pipeline's particle pass, all of a substep's particle work in one kernel.
+// g2p of substep n (g2p_particle in common.cuh: gather v, C and the grid mass, soft wall, colliders'
+// backstop, advect, clamp, sinks), the particle's density for substep n + 1 (advected_density: the
+// grid's density at its old position carried over the substep by the fluid's divergence,
+// docs/physics.md), then the whole scatter of substep n + 1 at the new position: mass and momentum
+// with the stress impulse (particle_impulse). Each particle's state is read and written once per
+// substep and its stencil gathered once, where the binned pipeline reads it twice and gathers twice
+// (g2p2g.cu, then p2g.cu's density gather).
+//
+// One CUDA block per listed bin chunk, a thread per particle, every lane kept in the loop (its
+// particle `live` or not) because the float scatter sums runs of lanes in registers:
+// - float scatter: each node's mass and momentum summed over a warp's runs of particles in one cell
+//   (warp_run, as p2g.cu), then one 16-byte vector atomic per run and node (sm_90);
+// - fixed-point scatter: four channels of a shared fixed-point tile per bin (tiles.cuh), flushed once
+//   per tile node, as p2g_tiled.cu (integer runs measured slower there).
+// Measured on the H200 (2026-11-24, ncu at bench-655k): the four-channel tile in both modes took
+// 222 us, the float runs ... us.
+//
+// With `gather` 0 the kernel is the scatter half alone, with the state and density the particles
+// carry: the first substep after they were spawned or uploaded (nothing to gather yet). The same
+// instructions scatter in both uses, so a run resumed from a checkpoint scatters the bits the
+// uninterrupted run scattered. Also flags `rebin_needed` where a particle moved about a cell since
+// binning.
+#include "tiles.cuh"
+
+#define SCATTER_CHANNELS 4  // mass, then momentum x, y, z: channel-major in the fixed-point tile
+
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) one_pass(
+    const Params params, const u32 gather, const BinEntry* __restrict__ bins, const u32* __restrict__ order,
+    float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
+    const float4* __restrict__ grid_vel, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum, u32* block_marks,
+    u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
+    const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+    const float* __restrict__ collider_sdf, const float4* __restrict__ sinks, u32 num_sinks,
+    u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
+    __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
+    const Colliders colliders{collider_states, num_colliders, collider_sdf};
+    const BlockMarks marks{block_marks, block_list, work_counts};
+    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
+    const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
+    const float mass_tile_scale = params.fixed_mass_scale * unit;
+    const float momentum_tile_scale = params.fixed_momentum_scale * unit;
+    const float m_p = params.material.particle_mass;
+    const u32 n = params.num_particles;
+    const NodeBlocks blocks = node_blocks(params);
+    float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
+    u32 misses = 0, pushes = 0;
+    bool far = false;
+
+    const u32 listed = work_counts[WORK_BINS];
+    for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
+        const BinEntry bin = bins[entry];
+        const Tile t = make_tile(blocks, bin.bin);
+        int* tile = tile_memory;
+        if (fixed) tile_clear<SCATTER_CHANNELS>(tile_marks);
+        else tile_clear_marks(tile_marks);
+
+        // Converged: the bound is the chunk's, the same for every lane of the block.
+        for (u32 j0 = 0; j0 < bin.count; j0 += blockDim.x) {
+            const u32 j = j0 + threadIdx.x;
+            bool live = j < bin.count;
+            const u32 p = order[bin.start + (live ? j : 0u)];  // past the end: a copy of the first
+            float4 xp = x[p];
+            live &= !is_parked(xp);  // parked since the last binning: nothing to move or scatter
+            float rho_p;
+            float4 vp, c0, c1, c2;
+            if (gather) {
+                GridDensity density;
+                G2pResult r = g2p_particle_and_density(params, xp, grid_vel, density);
+                rho_p = advected_density(params, density);
+                r.signal = material_signal_speed(params.material, rho_p, r.speed);
+                if (live && colliders.count) {
+                    const Backstop b = collider_backstop_particle(params, colliders, rho_p, r);
+                    r = b.r;
+                    pushes += b.pushed;
+                }
+                xp = r.x;
+                vp = r.v;
+                c0 = r.c[0];
+                c1 = r.c[1];
+                c2 = r.c[2];
+                if (live) {
+                    for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
+                    v[p] = r.v;
+                    x[p] = r.x;
+                    rho[p] = rho_p;
+                    max_speed = fmaxf(max_speed, r.speed);
+                    max_signal = fmaxf(max_signal, r.signal);
+                    max_rho = fmaxf(max_rho, rho_p);
+                    if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
+                        // Drained: parked, its slot pushed on the free stack (settle_free orders them).
+                        x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
+                        free_slots[atomicAdd(&flow->free_count, 1ull)] = p;
+                        atomicAdd(&flow->drained, 1ull);
+                        live = false;
+                    }
+                }
+            } else {
+                rho_p = rho[p];
+                vp = v[p];
+                c0 = c[p];
+                c1 = c[n + p];
+                c2 = c[2 * (size_t)n + p];
+            }
+            const ParticleImpulse q = particle_impulse(params, rho_p, vp, c0, c1, c2);
+            const Stencil s = make_stencil(xp, params);
+            u32 first = 0;
+            bool in_tile = false;
+            if (live) in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            if (fixed) {
+                if (!live) continue;  // no warp-wide operations below
+                FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+                    const float mass = w * m_p;
+                    if (!(in_tile && tile_add(&tile[k], mass * mass_tile_scale, counters))) {
+                        const u32 node = stencil_node(s, params, k - first);
+                        grid_add(&grid_acc[node].w, &fixed_mass[node], true, mass * mass_tile_scale, mass, counters);
+                    }
+                    float impulse[3];
+                    impulse_at(q, w, d0, d1, d2, impulse);
+                    for (int a = 0; a < 3; ++a) {
+                        const float scaled = impulse[a] * momentum_tile_scale;
+                        if (in_tile && tile_add(&tile[(1 + a) * TILE_NODES + k], scaled, counters)) continue;
+                        const u32 node = stencil_node(s, params, k - first);
+                        grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], true, scaled,
+                                 impulse[a], counters);
+                    }
+                })
+            } else {
+                // A lane that scatters nothing joins its neighbours' run with zeros.
+                const WarpRun run = warp_run(s.base_index);
+                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+                    float impulse[3];
+                    impulse_at(q, w, d0, d1, d2, impulse);
+                    float sums[4] = {impulse[0], impulse[1], impulse[2], w * m_p};
+                    if (!live) sums[0] = sums[1] = sums[2] = sums[3] = 0.0f;
+                    warp_run_sum(run, sums);
+                    if (run.head && live) atomic_add_mass_momentum(&grid_acc[node], sums[0], sums[1], sums[2], sums[3]);
+                })
+            }
+        }
+
+        // Lists the node blocks this chunk's particles covered; in fixed point, flushes the tile first.
+        if (!fixed) {
+            __syncthreads();
+            tile_list_marked_blocks(t, blocks, marks, tile_marks);
+            continue;
+        }
+        FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
+            const u64 units[SCATTER_CHANNELS] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),
+                                                 tile_global_units(tile[2 * TILE_NODES + k]),
+                                                 tile_global_units(tile[3 * TILE_NODES + k])};
+            if (units[0] != 0) atomicAdd(&fixed_mass[node], units[0]);
+            for (int a = 0; a < 3; ++a) {
+                if (units[1 + a] != 0) atomicAdd(&fixed_momentum[3 * (size_t)node + a], units[1 + a]);
+            }
+        })
+    }
+    if (gather) {
+        atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
+        atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
+        atomic_max_nonnegative(&counters->max_density_bits, max_rho);
+    }
+    if (misses) atomicAdd(&counters->tile_misses, misses);
+    if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
+    if (far) counters->rebin_needed = 1u;
+}

@@ -1,0 +1,57 @@
+//! kernels/one_pass.cu: the fused pipeline's particle pass. With `Gather::Substep` it gathers
+//! velocity, C and the grid mass, applies the soft wall, colliders and sinks, advects, advances the
+//! particle's density, and scatters the next substep's mass and momentum; with `Gather::None` it is
+//! the scatter alone, from the state and density the particles carry (the first substep after they
+//! were spawned or uploaded). One kernel for both, so both scatter with the same instructions.
+
+use super::launch::{host_kernel, Launcher};
+use super::state::{DeviceState, StateArgs};
+use crate::sim::{Params, ScatterMode};
+use anyhow::Result;
+use cudarc::driver::PushKernelArg;
+
+/// Channels per tile node of the fixed-point scatter: mass, momentum xyz.
+const SCATTER_CHANNELS: u32 = 4;
+
+/// What the pass does before it scatters.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Gather {
+    /// Nothing: scatter the particles as they are.
+    None,
+    /// The end of a substep: g2p, advection and the density, from the grid the substep updated.
+    Substep,
+}
+
+host_kernel!(OnePass = "one_pass" / "one_pass");
+
+impl OnePass {
+    pub fn launch(&self, l: &Launcher, gather: Gather, params: &Params, d: &DeviceState) -> Result<()> {
+        let (p, g) = (&d.particles, &d.grid);
+        let list = d.bins.list()?;
+        // The float scatter sums in registers and needs no tile.
+        let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
+        let config = d.bins.tiled_pass(l, if fixed { SCATTER_CHANNELS } else { 0 });
+        let gather = u32::from(gather == Gather::Substep);
+        // SAFETY: the arguments match one_pass in kernels/one_pass.cu; the bin list, order and
+        // node-block list are sized for this grid and these particles. Without a flow the sink and
+        // free-slot pointers are null and never read (no sinks); without `gather` the node
+        // velocities are not read.
+        unsafe {
+            self.0.launch(l, config, |a| {
+                a.arg(params)
+                    .arg(&gather)
+                    .arg(list)
+                    .arg(&d.bins.order)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&p.rho)
+                    .arg(&g.vel)
+                    .accumulators(g)
+                    .node_block_list(d)
+                    .colliders(&d.colliders)
+                    .sinks(d.flow.as_ref());
+            })
+        }
+    }
+}
