@@ -4,8 +4,9 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 10] = [
+pub const NAMES: [&str; 11] = [
     "dam-break",
+    "dam-break-1m",
     "dam-break-coarse",
     "dam-break-obstacle",
     "wave-tank",
@@ -17,8 +18,9 @@ pub const NAMES: [&str; 10] = [
     "bench-655k",
 ];
 
-const FILES: [&str; 10] = [
+const FILES: [&str; 11] = [
     include_str!("../../scenes/dam-break.toml"),
+    include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
     include_str!("../../scenes/dam-break-obstacle.toml"),
     include_str!("../../scenes/wave-tank.toml"),
