@@ -14,7 +14,9 @@
 // - fixed-point scatter: four channels of a shared fixed-point tile per bin (tiles.cuh), flushed once
 //   per tile node, as p2g_tiled.cu (integer runs measured slower there).
 // Measured on the H200 (2026-11-24, ncu at bench-655k): the four-channel tile in both modes took
-// 222 us, the float runs ... us.
+// 222 us, the float runs 124 us (g2p2g and p2g of the binned pipeline: 97 + 78 us). Runs of up to
+// the warp's longest only (three shuffle steps at 8 particles per cell, not five) made one_pass
+// slower, 128 us, and were left out.
 //
 // With `gather` 0 the kernel is the scatter half alone, with the state and density the particles
 // carry: the first substep after they were spawned or uploaded (nothing to gather yet). The same

@@ -69,10 +69,11 @@ fn run(scene: &Scene, frames: u64, every: u64) -> Vec<Sample> {
 /// height at two gauges, sampled every 0.05 s. The bound, 2 % (of the front's run, of the
 /// column's 0.40 m height), holds for the front and the downstream gauge throughout, and for the
 /// gauge in the reservoir until 0.65 s. After that the wave reflected from the far wall runs back
-/// over the reservoir and splashes, and there the measure's own spread is above 2 %: the report's
-/// pipeline, the same physics as the binned one in other kernels, differs from it by 2.6 % there
-/// (H200, 2026-11-24; the fused one by 3.8 %). So there the fused pipeline is held to twice that
-/// spread, measured in the same test. BENCHMARKS.md section 0e has the figures.
+/// over the reservoir and splashes, and there the fused pipeline is 3.8 to 4.0 % from the binned one
+/// (three runs on the H200, 2026-11-24), where pipelines of the same physics differ by 1.3 to 2.6 %
+/// (report against binned, binned float against fixed point): the 2 % is not met there, and
+/// this test holds the fused pipeline to 5 %, a guard against it getting worse, not the target.
+/// The report's pipeline runs beside them and its spread is printed. BENCHMARKS.md section 0e.
 fn the_fused_dam_break_follows_the_binned_one() {
     let scene = Scene::load("dam-break").unwrap();
     let column = 0.40f32;
@@ -135,8 +136,8 @@ fn the_fused_dam_break_follows_the_binned_one() {
         100.0 * early[0]
     );
     assert!(
-        all[0] <= 2.0 * kin[0],
-        "gauge at {} m: fused {:.2} % from binned, over twice report's {:.2} %",
+        all[0] <= 0.05,
+        "gauge at {} m: fused {:.2} % from binned over 1.5 s (report against binned: {:.2} %)",
         GAUGES[0],
         100.0 * all[0],
         100.0 * kin[0]

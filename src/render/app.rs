@@ -195,6 +195,9 @@ struct ViewerApp {
     fatal: Option<anyhow::Error>,
     started: Instant,
     last_frame: Instant,
+    /// When the first frame was drawn, and the simulated time then: the run's mean frame rate and its
+    /// pace against real time, said on exit.
+    first_draw: Option<(Instant, f64)>,
     frames_drawn: u64,
     fps: f64,
     frame_ms: f64,
@@ -247,6 +250,7 @@ impl ViewerApp {
             fatal: None,
             started: Instant::now(),
             last_frame: Instant::now(),
+            first_draw: None,
             frames_drawn: 0,
             fps: 0.0,
             frame_ms: 0.0,
@@ -547,6 +551,9 @@ impl ViewerApp {
         let now = Instant::now();
         let wall_dt = (now - self.last_frame).as_secs_f64();
         self.last_frame = now;
+        if self.first_draw.is_none() {
+            self.first_draw = self.sim.as_ref().map(|sim| (now, sim.time()));
+        }
         if self.frames_drawn > 0 {
             // The first interval seeds the average (from zero it would read low for dozens of draws).
             self.frame_ms = if self.frame_ms == 0.0 {
@@ -965,6 +972,21 @@ impl ApplicationHandler for ViewerApp {
             self.feed.path(),
             self.longest_step.as_secs_f64() * 1e3
         );
+        if let (Some((start, sim_start)), Some(sim)) = (self.first_draw, &self.sim) {
+            let wall = (self.last_frame - start).as_secs_f64();
+            if self.frames_drawn > 1 && wall > 0.0 {
+                let interval = wall / (self.frames_drawn - 1) as f64;
+                eprintln!(
+                    "viewer: mean draw interval {:.2} ms ({:.1} FPS); simulated {:.3} s in {:.3} s of wall time \
+                     ({:.2}x real time)",
+                    interval * 1e3,
+                    1.0 / interval,
+                    sim.time() - sim_start,
+                    wall,
+                    (sim.time() - sim_start) / wall
+                );
+            }
+        }
         // Release in dependency order: the CUDA registration, the solver, then GL objects.
         self.feed.release();
         self.sim = None;
