@@ -168,7 +168,8 @@ fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
 }
 
 /// One row per phase (`Phase::ALL`) and the total. `label` names what each phase holds on the
-/// backend measured; `floor` gives each phase's traffic floor (CUDA only).
+/// backend measured; `floor` gives each phase's traffic floor (CUDA only). The exchanges between
+/// ranks have rows only where they ran (a run on several ranks).
 fn phase_rows(
     samples: &[PhaseTimings],
     label: impl Fn(Phase) -> String,
@@ -177,6 +178,7 @@ fn phase_rows(
 ) -> (Vec<PhaseRow>, PhaseRow) {
     let rows = Phase::ALL
         .into_iter()
+        .filter(|phase| !phase.is_exchange() || samples.iter().any(|t| t[*phase] > 0.0))
         .map(|phase| {
             let values = samples.iter().map(|t| t[phase]).collect();
             row(

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod checkpoint;
 pub mod contract;
 pub mod cuda;
+pub mod dist;
 pub mod export;
 pub mod render;
 pub mod runner;

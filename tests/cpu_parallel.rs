@@ -12,7 +12,7 @@ mod common;
 use glam::{Mat3, Vec3};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::cpu_parallel::ParallelCpuSolver;
-use mpm::sim::{Params, Particles, Scene, Solver};
+use mpm::sim::{Particles, Scene, Solver};
 
 /// A 32 x 24 x 24 tank, dx = 1/32 m, the block flush against the floor and two walls.
 fn tank() -> Scene {
@@ -29,16 +29,6 @@ min = [0.03125, 0.03125, 0.03125]
 max = [0.6, 0.5, 0.5]
 "#,
     )
-}
-
-fn params(scene: &Scene) -> Params {
-    let mut params = scene.params();
-    let (_, dt) = scene
-        .time_step
-        .substeps(mpm::sim::FRAME_DT, scene.material.sound_speed() + 2.0, scene.dx)
-        .unwrap();
-    params.dt = dt;
-    params
 }
 
 /// The scene's lattice jittered by up to 0.2 particle spacings, with random velocities and C.
@@ -74,7 +64,7 @@ fn max_diff_mat3(a: &[Mat3], b: &[Mat3]) -> f32 {
 #[test]
 fn each_phase_matches_the_reference() {
     let scene = tank();
-    let params = params(&scene);
+    let params = common::cfl_params(&scene);
     let particles = jittered(&scene, 7);
     let mut reference = CpuSolver::new(particles.clone(), scene.grid_res);
     let mut parallel = ParallelCpuSolver::new(particles, scene.grid_res);
@@ -151,7 +141,7 @@ fn each_phase_matches_the_reference() {
 #[test]
 fn a_dam_break_follows_the_reference() {
     let scene = tank();
-    let params = params(&scene);
+    let params = common::cfl_params(&scene);
     let mut reference = CpuSolver::new(scene.spawn(), scene.grid_res);
     let mut parallel = ParallelCpuSolver::new(scene.spawn(), scene.grid_res);
     for _ in 0..200 {
@@ -169,7 +159,7 @@ fn a_dam_break_follows_the_reference() {
 #[test]
 fn the_result_does_not_depend_on_the_thread_count() {
     let scene = tank();
-    let params = params(&scene);
+    let params = common::cfl_params(&scene);
     let run = |threads: usize| -> Vec<u32> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -216,7 +206,7 @@ fn a_small_scene_runs_the_reference_on_one_thread() {
         "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.08, 0.1, 0.08]",
     ));
     assert!(scene.num_particles < mpm::sim::cpu_parallel::SEQUENTIAL_BELOW);
-    let params = params(&scene);
+    let params = common::cfl_params(&scene);
     let mut reference = CpuSolver::new(scene.spawn(), scene.grid_res);
     let mut parallel = ParallelCpuSolver::new(scene.spawn(), scene.grid_res);
     assert!(parallel.sequential());

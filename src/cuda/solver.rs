@@ -194,8 +194,9 @@ impl CudaSolver {
         for phase in Phase::ALL.into_iter().filter(|p| p.runs_on_gpu()) {
             let _range = NvtxRange::new(phase.name());
             match phase {
-                // Folded into the grid update, which zeroes what it reads (consume-and-zero).
-                Phase::GridClear => {}
+                // Folded into the grid update, which zeroes what it reads (consume-and-zero); one
+                // GPU has no ranks to exchange with.
+                Phase::GridClear | Phase::HaloSum | Phase::HaloFill => {}
                 Phase::Sort => {
                     if sort {
                         self.sort()?;

@@ -565,6 +565,7 @@ impl CpuPhases for CpuSolver {
         match phase {
             Phase::GridClear => self.clear_grid(),
             Phase::Sort => {} // the reference walks the particles in index order
+            Phase::HaloSum | Phase::HaloFill => {} // one rank (`dist::CpuRanks` runs several)
             Phase::P2gInit => {
                 self.p2g_init(params);
                 self.mirror_mass(params);

@@ -19,20 +19,27 @@ pub enum Phase {
     P2gInit,
     /// Density from the grid mass, pressure and stress, the momentum scatter.
     P2g,
+    /// Several ranks only: the partial sums on each rank's ghost planes, sent to the planes' owner and
+    /// added there (`dist::halo`).
+    HaloSum,
     /// The walls' image momentum, momentum to velocity, gravity, boundaries and colliders.
     GridUpdate,
+    /// Several ranks only: the owners' updated nodes, sent back to the ranks that hold them as ghosts.
+    HaloFill,
     /// Velocity and C from the grid, advection, boundaries, sinks.
     G2p,
 }
 
 impl Phase {
-    pub const COUNT: usize = 6;
+    pub const COUNT: usize = 8;
     pub const ALL: [Phase; Phase::COUNT] = [
         Phase::GridClear,
         Phase::Sort,
         Phase::P2gInit,
         Phase::P2g,
+        Phase::HaloSum,
         Phase::GridUpdate,
+        Phase::HaloFill,
         Phase::G2p,
     ];
 
@@ -43,15 +50,23 @@ impl Phase {
             Phase::Sort => "sort",
             Phase::P2gInit => "p2g_init",
             Phase::P2g => "p2g",
+            Phase::HaloSum => "halo_sum",
             Phase::GridUpdate => "grid_update",
+            Phase::HaloFill => "halo_fill",
             Phase::G2p => "g2p",
         }
     }
 
     /// Whether the CUDA backend runs (and times) the phase with work of its own; grid_clear is
-    /// folded into the grid update there.
+    /// folded into the grid update there, and the halo exchanges belong to runs on several ranks,
+    /// which only the CPU backend splits today.
     pub const fn runs_on_gpu(self) -> bool {
-        !matches!(self, Phase::GridClear)
+        !matches!(self, Phase::GridClear | Phase::HaloSum | Phase::HaloFill)
+    }
+
+    /// Whether the phase is one of the exchanges between ranks.
+    pub const fn is_exchange(self) -> bool {
+        matches!(self, Phase::HaloSum | Phase::HaloFill)
     }
 
     /// What the phase holds in a GPU `pipeline`, for the bench tables: the kernels that run in it
@@ -60,6 +75,7 @@ impl Phase {
     pub fn gpu_label(self, pipeline: Pipeline, fixed_point: bool, sort_interval: u32) -> String {
         match (pipeline, self) {
             (_, Phase::GridClear) => "grid_clear (inside grid_update on the GPU)".into(),
+            (_, Phase::HaloSum | Phase::HaloFill) => format!("{} (several ranks only)", self.name()),
             (Pipeline::Report, Phase::Sort) => format!("sort (GPU only, every {sort_interval} substeps)"),
             (Pipeline::Binned | Pipeline::Fused, Phase::Sort) => {
                 format!("rebin (every {sort_interval} substeps, or when a particle moved a cell)")
@@ -114,7 +130,7 @@ impl Phase {
         let (n, g) = (t.particles as f64, t.nodes as f64);
         let grid_update_per_node = if t.fixed_point { 80.0 } else { 48.0 };
         match (t.pipeline, self) {
-            (_, Phase::GridClear) => 0.0,
+            (_, Phase::GridClear | Phase::HaloSum | Phase::HaloFill) => 0.0,
             (Pipeline::Report, Phase::Sort) => (36.0 * n + 16.0 * g) / f64::from(t.sort_interval),
             (Pipeline::Report, Phase::P2gInit) => 20.0 * n,
             (Pipeline::Report, Phase::GridUpdate) => grid_update_per_node * g,
@@ -132,7 +148,8 @@ impl Phase {
     /// What the phase holds on a CPU backend, for the bench tables.
     pub fn cpu_label(self) -> String {
         match self {
-            Phase::Sort => "sort (cpu-parallel's binning; none in the reference)".into(),
+            Phase::Sort => "sort (cpu-parallel's binning; migration between ranks)".into(),
+            Phase::HaloSum | Phase::HaloFill => format!("{} (several ranks only)", self.name()),
             phase => phase.name().into(),
         }
     }
@@ -276,7 +293,7 @@ mod tests {
         let json = serde_json::to_string(&t).unwrap();
         assert_eq!(
             json,
-            r#"{"steps":1,"grid_clear":0.0,"sort":0.0,"p2g_init":0.0,"p2g":1.5,"grid_update":0.0,"g2p":0.0}"#
+            r#"{"steps":1,"grid_clear":0.0,"sort":0.0,"p2g_init":0.0,"p2g":1.5,"halo_sum":0.0,"grid_update":0.0,"halo_fill":0.0,"g2p":0.0}"#
         );
     }
 }

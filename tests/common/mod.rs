@@ -24,6 +24,17 @@ pub fn cpu(scene: &Scene, dt: f32) -> (CpuSolver, Params) {
     (CpuSolver::new(scene.spawn(), scene.grid_res), params)
 }
 
+/// The scene's parameters with the substep its time-step policy takes at a signal speed of c0 + 2 m/s.
+pub fn cfl_params(scene: &Scene) -> Params {
+    let mut params = scene.params();
+    let (_, dt) = scene
+        .time_step
+        .substeps(mpm::sim::FRAME_DT, scene.material.sound_speed() + 2.0, scene.dx)
+        .unwrap();
+    params.dt = dt;
+    params
+}
+
 /// `n` particles with random positions in `[lo, hi)` (m), velocities up to `speed` per component and
 /// C entries up to `shear` (1/s).
 pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed: u64) -> Particles {

@@ -1,0 +1,213 @@
+//! The decomposition on the CPU: the reference split into 2 and 3 thread ranks (slabs, ghost
+//! exchange, migration, load balancing, all-reduced extremes) against the one-rank reference.
+//!
+//! Tolerances: each rank computes the reference's own per-particle and per-node expressions; only a
+//! boundary node's sum adds its terms in another order (the neighbour's part arrives as one partial
+//! sum), so the runs agree to float rounding. After one substep that is 1e-5 dx. Over 200 substeps of
+//! a stirred dam break rounding grows (to about 1e-4 dx): the yardstick there is cpu-parallel, whose
+//! tiles reorder the same sums, on the same run. A wrong ghost or mirror moves particles by
+//! hundredths of a cell from the first substep.
+
+mod common;
+
+use glam::Vec3;
+use mpm::dist::{CpuRanks, Slabs};
+use mpm::sim::cpu::CpuSolver;
+use mpm::sim::cpu_parallel::ParallelCpuSolver;
+use mpm::sim::{Particles, Phase, Pipeline, Scene, Solver};
+
+/// A 48 x 24 x 24 tank, the water in its low x third: the slabs cut across x, the surge crosses
+/// their bounds and the counts start far out of balance.
+fn tank(pipeline: Pipeline) -> Scene {
+    let mut scene = common::scene(
+        r#"
+[domain]
+size = [1.5, 0.75, 0.75]
+resolution = [48, 24, 24]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[[block]]
+min = [0.03125, 0.03125, 0.03125]
+max = [0.5, 0.5, 0.6]
+"#,
+    );
+    scene.pipeline = pipeline;
+    scene
+}
+
+/// The spawn with random velocities (up to 2 m/s), so particles cross the slab bounds both ways
+/// from the first substeps.
+fn stirred(scene: &Scene) -> Particles {
+    let mut p = scene.spawn();
+    let noise = common::random_particles(p.len(), 0.0, 1.0, 2.0, 5.0, 11);
+    p.v.copy_from_slice(&noise.v);
+    p
+}
+
+fn max_diff(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter()
+        .zip(b)
+        .fold(0.0, |m, (a, b)| m.max((*a - *b).abs().max_element()))
+}
+
+/// `ranks` ranks against the reference over `substeps`: (position gap in dx, cpu-parallel's gap in dx,
+/// largest move in dx, the ranks).
+fn compare(pipeline: Pipeline, ranks: usize, substeps: u32) -> (f32, f32, f32, CpuRanks) {
+    let scene = tank(pipeline);
+    let mut params = common::cfl_params(&scene);
+    params.density_rule = pipeline.density_rule().code();
+    let mut reference = CpuSolver::new(stirred(&scene), scene.grid_res);
+    let mut parallel = ParallelCpuSolver::new(stirred(&scene), scene.grid_res);
+    let mut split = CpuRanks::new(&scene, stirred(&scene), ranks).unwrap();
+    for _ in 0..substeps {
+        reference.step(&params).unwrap();
+        parallel.step(&params).unwrap();
+        split.step(&params).unwrap();
+    }
+    let (a, b) = (&reference.particles, split.read_particles().unwrap());
+    assert_eq!(b.num_live(), a.num_live(), "particles lost or gained");
+    assert!(b.live.iter().all(|&l| l), "a particle is missing from every rank");
+    let dx = scene.dx;
+    let gap = max_diff(&a.x, &b.x) / dx;
+    let yardstick = max_diff(&a.x, &parallel.particles().x) / dx;
+    let moved = max_diff(&a.x, &scene.spawn().x) / dx;
+    let e = (reference.take_extremes().unwrap(), split.take_extremes().unwrap());
+    assert!(
+        (e.0.max_speed - e.1.max_speed).abs() <= 1e-4 * e.0.max_speed
+            && (e.0.max_signal_speed - e.1.max_signal_speed).abs() <= 1e-4 * e.0.max_signal_speed,
+        "extremes {:?} vs {:?}",
+        e.0,
+        e.1
+    );
+    (gap, yardstick, moved, split)
+}
+
+/// One substep, both density rules, 2 and 3 ranks: rounding apart.
+#[test]
+fn one_substep_on_ranks_is_the_reference_s() {
+    for pipeline in [Pipeline::Fused, Pipeline::Binned] {
+        for ranks in [2, 3] {
+            let (gap, _, _, _) = compare(pipeline, ranks, 1);
+            assert!(
+                gap <= 1e-5,
+                "{pipeline:?}, {ranks} ranks: apart by {gap} dx after one substep"
+            );
+        }
+    }
+}
+
+/// 200 substeps: within 4 times cpu-parallel's rounding gap on the same run.
+fn follows_the_reference(pipeline: Pipeline, ranks: usize) {
+    let (gap, yardstick, moved, split) = compare(pipeline, ranks, 200);
+    let (rebins, migrated) = split.migrated();
+    println!(
+        "{pipeline:?}, {ranks} ranks: moved up to {moved:.2} dx, apart by {gap:.2e} dx (cpu-parallel: \
+         {yardstick:.2e}); {rebins} rebins moved {} particles; slabs {:?}, counts {:?}",
+        migrated.sent,
+        split.slabs().bounds,
+        split.counts()
+    );
+    assert!(moved > 2.0, "the water did not move");
+    assert!(
+        rebins > 0 && migrated.sent > 0,
+        "no particle crossed a slab bound"
+    );
+    assert!(
+        gap <= (4.0 * yardstick).max(1e-5) && gap <= 1e-3,
+        "{ranks} ranks and one apart by {gap} dx, cpu-parallel by {yardstick}"
+    );
+}
+
+#[test]
+fn two_and_three_ranks_follow_the_reference_with_the_advected_density() {
+    follows_the_reference(Pipeline::Fused, 2);
+    follows_the_reference(Pipeline::Fused, 3);
+}
+
+#[test]
+fn two_ranks_follow_the_reference_with_the_gathered_density() {
+    follows_the_reference(Pipeline::Binned, 2);
+}
+
+/// Whole block layers are the finest step a bound takes: the busiest rank within 10 % of the mean,
+/// or within half the fullest layer of it.
+fn balanced(split: &CpuRanks) -> bool {
+    let counts = split.counts();
+    let mean = counts.iter().sum::<usize>() as f64 / counts.len() as f64;
+    let layer = *split.layer_counts().iter().max().unwrap() as f64;
+    (*counts.iter().max().unwrap() as f64) <= (1.1 * mean).max(mean + layer / 2.0)
+}
+
+/// The water starts in the low third (4 of 12 block layers): `CpuRanks::new` cuts the slabs where it
+/// lies, as finely as the thinnest slab (2 layers) allows.
+#[test]
+fn the_slabs_start_where_the_water_is() {
+    let scene = tank(Pipeline::Fused);
+    let two = CpuRanks::new(&scene, scene.spawn(), 2).unwrap();
+    println!(
+        "2 ranks: bounds {:?}, counts {:?}",
+        two.slabs().bounds,
+        two.counts()
+    );
+    assert!(balanced(&two), "{:?}", two.counts());
+    let three = CpuRanks::new(&scene, scene.spawn(), 3).unwrap();
+    println!(
+        "3 ranks: bounds {:?}, counts {:?}",
+        three.slabs().bounds,
+        three.counts()
+    );
+    assert_eq!(three.slabs().bounds, vec![0, 2, 4, 12]);
+}
+
+/// Even slabs over water in the low third: the first rebin moves the bounds and migrates the
+/// particles to their new owners, nothing lost.
+#[test]
+fn the_first_rebin_balances_even_slabs() {
+    let scene = tank(Pipeline::Fused);
+    let mut params = common::cfl_params(&scene);
+    params.density_rule = Pipeline::Fused.density_rule().code();
+    let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
+    let mut split = CpuRanks::with_slabs(&scene, stirred(&scene), even.clone()).unwrap();
+    let before = split.counts();
+    for _ in 0..mpm::cuda::bins::SORT_INTERVAL {
+        split.step(&params).unwrap();
+    }
+    let after = split.counts();
+    println!(
+        "bounds {:?} -> {:?}, counts {before:?} -> {after:?}",
+        even.bounds,
+        split.slabs().bounds
+    );
+    assert!(
+        before[1] * 10 < before[0],
+        "the start is not out of balance: {before:?}"
+    );
+    assert_ne!(split.slabs().bounds, even.bounds, "the bounds never moved");
+    assert!(balanced(&split), "{after:?}");
+    assert_eq!(after.iter().sum::<usize>(), before.iter().sum::<usize>());
+    assert!(split.migrated().1.sent as usize >= before[0] - after[0]);
+}
+
+/// The exchanges are phases of their own: timed on ranks, zero on one.
+#[test]
+fn the_halo_phases_are_timed() {
+    let scene = tank(Pipeline::Fused);
+    let params = common::cfl_params(&scene);
+    let mut split = CpuRanks::new(&scene, scene.spawn(), 2).unwrap();
+    split.step(&params).unwrap();
+    let t = split.take_step_timings().unwrap().unwrap();
+    assert_eq!(t.len(), 1);
+    assert!(
+        t[0][Phase::HaloSum] > 0.0 && t[0][Phase::HaloFill] > 0.0,
+        "{:?}",
+        t[0]
+    );
+}
+
+#[test]
+fn more_ranks_than_the_grid_holds_is_a_clear_error() {
+    let scene = tank(Pipeline::Fused);
+    let err = CpuRanks::new(&scene, scene.spawn(), 7).err().unwrap().to_string();
+    assert!(err.contains("at most 6 ranks"), "{err}");
+}
