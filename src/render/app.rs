@@ -311,10 +311,12 @@ impl ViewerApp {
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
-        let sim = match checkpoint {
+        let mut sim = match checkpoint {
             Some(checkpoint) => checkpoint.resume(scene.clone(), self.options.backend)?,
             None => Simulation::new(scene.clone(), backend::create(self.options.backend, &scene)?),
         };
+        // The window draws a frame while the GPU finishes simulating it (Simulation::overlap_frames).
+        sim.overlap_frames(true)?;
         if let Some((camera, mut controls)) = defaults {
             // The look carries over; the radius follows the new scene's particle spacing.
             controls.render.surface = SurfaceSettings {

@@ -83,6 +83,13 @@ pub struct Simulation {
     /// request, so they arrive with its extremes, in the frame's one wait.
     summary_wanted: bool,
     summary_ticket: Option<SummaryTicket>,
+    /// See [`Simulation::overlap_frames`].
+    overlap_frames: bool,
+    /// The last frame's last stretch of substeps (ticket, substeps, dt), left in flight by
+    /// [`Simulation::overlap_frames`]: accounted in the next frame, or by `settle`.
+    trailing: Option<(ExtremesTicket, u32, f32)>,
+    /// What a settled trailing stretch adds to the next frame's statistics.
+    settled: Option<FramePart>,
     /// See [`RunClock`].
     emitter_phases: Vec<f64>,
     late_layers: u64,
@@ -162,9 +169,10 @@ impl Simulation {
     }
 
     /// The clock between frames; `None` while a frame begun by [`Self::step_frame_until`] is unfinished
-    /// (finish it with [`Self::step_frame`] first).
+    /// (finish it with [`Self::step_frame`] first) or its last stretch is in flight
+    /// ([`Self::overlap_frames`]; [`Self::settle`] first).
     pub fn clock(&self) -> Option<RunClock> {
-        self.in_progress.is_none().then_some(RunClock {
+        (self.in_progress.is_none() && self.trailing.is_none()).then_some(RunClock {
             frame: self.frame,
             time: self.time,
             signal_speed: self.signal_speed,
@@ -190,6 +198,9 @@ impl Simulation {
             in_progress: None,
             summary_wanted: false,
             summary_ticket: None,
+            overlap_frames: false,
+            trailing: None,
+            settled: None,
             emitter_phases,
             late_layers: 0,
             backstop_total: 0,
@@ -260,6 +271,32 @@ impl Simulation {
     }
     pub fn solver(&self) -> &dyn Solver {
         self.solver.as_ref()
+    }
+
+    /// Whether [`Self::step_frame_until`] returns as soon as a frame's last stretch of substeps is
+    /// enqueued, rather than once its extremes are in: the caller (the viewer) draws the frame while
+    /// the GPU finishes it, and the wait moves to the next frame, after its first stretch is enqueued,
+    /// so the GPU is never idle between frames. The next frame's first stretch is then chosen without
+    /// the last one's extremes, as every stretch after a frame's first already is (`steps_for`'s
+    /// `unknown`), and the frame's statistics take the trailing stretch's in with the next frame's.
+    /// The sequence of choices still follows the order of the stretches, not timing.
+    pub fn overlap_frames(&mut self, on: bool) -> Result<()> {
+        if !on {
+            self.settle()?;
+        }
+        self.overlap_frames = on;
+        Ok(())
+    }
+
+    /// Accounts the last frame's trailing stretch now ([`Self::overlap_frames`]): before anything that
+    /// changes the state the next choice is made from.
+    pub fn settle(&mut self) -> Result<()> {
+        if let Some((ticket, n, dt)) = self.trailing.take() {
+            let mut part = self.settled.take().unwrap_or(FramePart::START);
+            self.account_stretch(ticket, n, dt, &mut part)?;
+            self.settled = Some(part);
+        }
+        Ok(())
     }
 
     pub fn solver_mut(&mut self) -> &mut dyn Solver {
@@ -341,6 +378,7 @@ impl Simulation {
     pub fn advance_frame(&mut self) -> Result<FrameStats> {
         // A request left by a frame that failed part-way is of another state: never read it.
         self.summary_ticket = None;
+        self.settle()?;
         self.summary_wanted = true;
         let steps = self.step_frame();
         self.summary_wanted = false;
@@ -385,13 +423,17 @@ impl Simulation {
     /// that takes seconds on a CPU never stops the window from answering for longer than a substep.
     pub fn step_frame_until(&mut self, deadline: Option<Instant>) -> Result<Option<FrameSteps>> {
         let per_choice = self.scene.time_step.substeps_per_choice();
-        let mut part = self.in_progress.take().unwrap_or(FramePart::START);
+        let mut part = self
+            .in_progress
+            .take()
+            .or_else(|| self.settled.take())
+            .unwrap_or(FramePart::START);
         let late = || deadline.is_some_and(|d| Instant::now() >= d);
         // The stretch enqueued last, whose extremes are still on their way: the next stretch is chosen
         // without waiting for them (the GPU keeps working meanwhile), from the ones before, allowing
         // for the speed to grow over it too. Which extremes a choice sees is fixed by the order of
         // the stretches, never by timing, so runs stay reproducible.
-        let mut in_flight: Option<(ExtremesTicket, u32, f32)> = None;
+        let mut in_flight: Option<(ExtremesTicket, u32, f32)> = self.trailing.take();
         loop {
             let left = f64::from(FRAME_DT) - part.simulated;
             let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
@@ -427,7 +469,11 @@ impl Simulation {
                 self.summary_ticket = Some(self.solver.request_summary(&self.params.material)?);
             }
             if done || pause {
-                if let Some((ticket, n, dt)) = in_flight.take() {
+                // Overlapping frames, the frame's last stretch stays in flight (not when its
+                // statistics are wanted: they wait for it anyway).
+                if done && self.overlap_frames && !self.summary_wanted {
+                    self.trailing = in_flight.take();
+                } else if let Some((ticket, n, dt)) = in_flight.take() {
                     self.account_stretch(ticket, n, dt, &mut part)?;
                 }
                 part.read_step_timings(self.solver.as_mut())?;
@@ -470,6 +516,7 @@ impl Simulation {
     /// Gives the particles near a ray a velocity change (the viewer's mouse push). The next frame's
     /// step accounts for the speed it adds.
     pub fn apply_push(&mut self, push: &Push) -> Result<()> {
+        self.settle()?;
         self.solver.apply_push(push)?;
         self.signal_speed += push.max_speed_gain();
         Ok(())
@@ -492,6 +539,7 @@ impl Simulation {
             sound_speed.is_finite() && sound_speed > 0.0,
             "sound speed must be a finite number > 0 m/s, not {sound_speed}"
         );
+        self.settle()?;
         let material = &mut self.params.material;
         let old = material.sound_speed();
         material.eos_stiffness = material.rest_density * sound_speed * sound_speed / material.eos_power;
