@@ -231,6 +231,10 @@ struct LookArgs {
     particle_radius: Option<f32>,
     #[arg(long, value_enum, default_value_t = Colouring::Speed)]
     colour: Colouring,
+    /// Smooth the water surface's depth at full resolution (slower; by default it is smoothed at half
+    /// resolution and brought back with a depth-aware upsample, silhouettes kept sharp).
+    #[arg(long)]
+    full_res_smoothing: bool,
     /// How particle data reaches OpenGL with the CUDA backend (host-copy: for comparison).
     #[arg(long, value_enum, default_value_t = Transfer::Interop)]
     transfer: Transfer,
@@ -382,6 +386,7 @@ fn view(args: ViewArgs) -> Result<()> {
         mode: args.look.draw,
         colouring: args.look.colour,
         particle_radius: args.look.particle_radius,
+        full_res_smoothing: args.look.full_res_smoothing,
         transfer: args.look.transfer,
         fixed_frames: args.fixed_frames,
         capture_dir: args.capture_dir,
@@ -410,6 +415,7 @@ fn render_frames(args: RenderArgs) -> Result<()> {
             mode: args.look.draw,
             colouring: args.look.colour,
             particle_radius: args.look.particle_radius,
+            full_res_smoothing: args.look.full_res_smoothing,
             transfer: args.look.transfer,
             video: args.video,
         },

@@ -141,6 +141,7 @@ fn headless_render_matches_reference() {
         mode: DrawMode::Spheres,
         colouring: Colouring::Speed,
         particle_radius: None,
+        full_res_smoothing: false,
         transfer: Transfer::Interop,
         video: None,
     };
@@ -200,6 +201,7 @@ fn surface_frame(transfer: Transfer) -> ImageStats {
         mode: DrawMode::Surface,
         colouring: Colouring::Speed,
         particle_radius: None,
+        full_res_smoothing: false,
         transfer,
         video: None,
     };

@@ -75,6 +75,7 @@ fn surface_frames_show_water_and_time_their_passes() {
         mode: DrawMode::Surface,
         colouring: Colouring::Speed,
         particle_radius: None,
+        full_res_smoothing: false,
         transfer: Transfer::HostCopy,
         video: None,
     };

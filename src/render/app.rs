@@ -44,6 +44,8 @@ pub struct ViewerOptions {
     pub colouring: Colouring,
     /// Replaces the particle radius derived from the scene (spheres and surface), m.
     pub particle_radius: Option<f32>,
+    /// Smooth the surface's depth at full resolution (`SurfaceSettings::half_res_smoothing` off).
+    pub full_res_smoothing: bool,
     pub transfer: Transfer,
     /// Step this many 60 Hz frames per drawn frame instead of following wall time.
     pub fixed_frames: Option<u32>,
@@ -266,8 +268,9 @@ impl ViewerApp {
 
     fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> Result<(OrbitCamera, Controls)> {
         let (lo, hi) = scene.fluid_region();
-        let render =
+        let mut render =
             RenderSettings::for_scene(scene, options.mode, options.colouring, options.particle_radius)?;
+        render.surface.half_res_smoothing = !options.full_res_smoothing;
         // The window's whole size until the panel's width is known; the first draw frames it anew.
         let camera = render.framing(lo.as_vec3(), hi.as_vec3(), Viewport::full(options.size));
         let controls = Controls {

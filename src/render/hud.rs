@@ -304,6 +304,7 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             ui.add(egui::Slider::new(&mut s.absorption, 0.0..=5.0).text("absorption (colour depth)"));
             ui.add(egui::Slider::new(&mut s.refraction, 0.0..=2.0).text("refraction"));
             // Speed against quality: each cuts the surface's GPU time (docs/viewer.md, "Surface speed").
+            ui.checkbox(&mut s.half_res_smoothing, "smooth at half resolution");
             ui.add(egui::Slider::new(&mut s.max_filter_px, 1..=48).text("smoothing reach (px, at most)"));
             ui.add(
                 egui::Slider::new(&mut s.thickness_downsample, 1..=MAX_THICKNESS_DOWNSAMPLE)

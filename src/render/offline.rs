@@ -25,6 +25,8 @@ pub struct RenderOptions {
     pub colouring: Colouring,
     /// Replaces the particle radius derived from the scene (spheres and surface), m.
     pub particle_radius: Option<f32>,
+    /// Smooth the surface's depth at full resolution (`SurfaceSettings::half_res_smoothing` off).
+    pub full_res_smoothing: bool,
     pub transfer: Transfer,
     pub video: Option<PathBuf>,
 }
@@ -79,8 +81,9 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     writeln!(log, "OpenGL: {}", headless.description)?;
     let mut renderer = Renderer::new(headless.gl().clone())?;
     let scene = options.scene;
-    let settings =
+    let mut settings =
         RenderSettings::for_scene(&scene, options.mode, options.colouring, options.particle_radius)?;
+    settings.surface.half_res_smoothing = !options.full_res_smoothing;
     let solver = backend::create(options.backend, &scene)?;
     writeln!(
         log,

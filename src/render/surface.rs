@@ -77,6 +77,10 @@ pub struct SurfaceSettings {
     /// Speed against quality: the smallest thickness splat's radius, in pixels of its texture (a
     /// smaller splat is cheaper but noisier; its mass is kept on average either way).
     pub thickness_min_splat_px: f32,
+    /// Speed against quality: smooth the depth at half resolution (a quarter of the pixels, the
+    /// filter half as wide in pixels) and bring it back with a depth-aware upsample; silhouettes
+    /// stay at full resolution.
+    pub half_res_smoothing: bool,
 }
 
 impl SurfaceSettings {
@@ -92,6 +96,7 @@ impl SurfaceSettings {
             max_filter_px: 24,
             thickness_downsample: 4,
             thickness_min_splat_px: 1.0,
+            half_res_smoothing: true,
         }
     }
 }
@@ -125,6 +130,8 @@ struct Programs {
     depth: glow::Program,
     thickness: glow::Program,
     smooth: glow::Program,
+    depth_down: glow::Program,
+    depth_up: glow::Program,
     shade: glow::Program,
 }
 
@@ -141,6 +148,10 @@ struct Targets {
     depth_test: glow::Renderbuffer,
     thickness_fbo: glow::Framebuffer,
     thickness: glow::Texture,
+    /// Half resolution: the ping-pong pair the smoothing runs in when `half_res_smoothing` is on.
+    half_size: (i32, i32),
+    half_fbos: [glow::Framebuffer; 2],
+    half: [glow::Texture; 2],
 }
 
 pub struct Surface {
@@ -184,6 +195,20 @@ impl Surface {
                     "surface smoothing",
                     &[FULLSCREEN_VS],
                     &[include_str!("shaders/surface_smooth.frag")],
+                    prelude,
+                )?,
+                depth_down: link(
+                    &gl,
+                    "surface depth to half resolution",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_depth_down.frag")],
+                    prelude,
+                )?,
+                depth_up: link(
+                    &gl,
+                    "surface depth to full resolution",
+                    &[FULLSCREEN_VS],
+                    &[include_str!("shaders/surface_depth_up.frag")],
                     prelude,
                 )?,
                 shade: link(
@@ -310,25 +335,56 @@ impl Surface {
             gl.disable(glow::PROGRAM_POINT_SIZE);
 
             timer.begin(Pass::Smoothing);
+            gl.bind_vertex_array(Some(self.empty_vao));
+            // Depths within a few particle radii of each other belong to one surface.
+            let range = 4.0 * s.radius;
+            // The smoothing's ping-pong pair, its size and pixels per metre: full resolution, or half
+            // with the depth brought down first.
+            let (fbos, textures, (sw, sh), scale) = if s.half_res_smoothing {
+                let p = self.programs.depth_down;
+                gl.use_program(Some(p));
+                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.half_fbos[0]));
+                gl.viewport(0, 0, targets.half_size.0, targets.half_size.1);
+                bind_texture(gl, p, "u_depth", 0, targets.depth[0]);
+                set_f32(gl, p, "u_range", range);
+                gl.draw_arrays(glow::TRIANGLES, 0, 3);
+                (targets.half_fbos, targets.half, targets.half_size, 0.5)
+            } else {
+                (targets.depth_fbos, targets.depth, (w, h), 1.0)
+            };
             let p = self.programs.smooth;
             gl.use_program(Some(p));
-            gl.bind_vertex_array(Some(self.empty_vao));
-            gl.viewport(0, 0, w, h);
+            gl.viewport(0, 0, sw, sh);
             set_f32(gl, p, "u_radius", s.radius);
-            set_f32(gl, p, "u_pixels_per_metre", frame.pixels_per_metre);
+            set_f32(gl, p, "u_pixels_per_metre", frame.pixels_per_metre * scale);
             set_f32(gl, p, "u_filter_radii", s.smoothing);
-            set_i32(gl, p, "u_max_filter_px", s.max_filter_px.max(1) as i32);
-            // Depths within a few particle radii of each other belong to one surface.
-            set_f32(gl, p, "u_range", 4.0 * s.radius);
+            let max_px = (s.max_filter_px.max(1) as f32 * scale).ceil() as i32;
+            set_i32(gl, p, "u_max_filter_px", max_px);
+            set_f32(gl, p, "u_range", range);
             for _ in 0..s.iterations {
                 for (from, to, direction) in [(0, 1, (1, 0)), (1, 0, (0, 1))] {
-                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.depth_fbos[to]));
-                    bind_texture(gl, p, "u_depth", 0, targets.depth[from]);
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbos[to]));
+                    bind_texture(gl, p, "u_depth", 0, textures[from]);
                     let loc = gl.get_uniform_location(p, "u_direction");
                     gl.uniform_2_i32(loc.as_ref(), direction.0, direction.1);
                     gl.draw_arrays(glow::TRIANGLES, 0, 3);
                 }
             }
+            // The smoothed depth at full resolution: depth[0] (smoothed in place), or depth[1] from
+            // the half-resolution result and the unsmoothed depth[0].
+            let smoothed = if s.half_res_smoothing {
+                let p = self.programs.depth_up;
+                gl.use_program(Some(p));
+                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.depth_fbos[1]));
+                gl.viewport(0, 0, w, h);
+                bind_texture(gl, p, "u_depth", 0, targets.depth[0]);
+                bind_texture(gl, p, "u_smoothed", 1, targets.half[0]);
+                set_f32(gl, p, "u_range", range);
+                gl.draw_arrays(glow::TRIANGLES, 0, 3);
+                targets.depth[1]
+            } else {
+                targets.depth[0]
+            };
 
             timer.begin(Pass::Shading);
             gl.bind_framebuffer(glow::FRAMEBUFFER, target);
@@ -337,7 +393,7 @@ impl Surface {
             gl.use_program(Some(p));
             bind_texture(gl, p, "u_scene", 0, targets.scene_colour);
             bind_texture(gl, p, "u_scene_depth", 1, targets.scene_depth);
-            bind_texture(gl, p, "u_depth", 2, targets.depth[0]);
+            bind_texture(gl, p, "u_depth", 2, smoothed);
             bind_texture(gl, p, "u_thickness", 3, targets.thickness);
             set_mat4(gl, p, "u_proj", &frame.proj);
             let view_to_world = Mat3::from_mat4(frame.view).transpose();
@@ -435,6 +491,25 @@ impl Surface {
             // Half floats: blended at full rate where 32-bit floats blend at a fraction of it; 11 bits
             // of mantissa are plenty for a thickness that only tints and absorbs.
             let thickness = texture(glow::RG16F, glow::RG, glow::FLOAT, thick_w, thick_h, glow::LINEAR)?;
+            let half_size = downsampled(size, 2);
+            let half = [
+                texture(
+                    glow::R32F,
+                    glow::RED,
+                    glow::FLOAT,
+                    half_size.0,
+                    half_size.1,
+                    glow::LINEAR,
+                )?,
+                texture(
+                    glow::R32F,
+                    glow::RED,
+                    glow::FLOAT,
+                    half_size.0,
+                    half_size.1,
+                    glow::LINEAR,
+                )?,
+            ];
             gl.bind_texture(glow::TEXTURE_2D, None);
             let depth_test = gl.create_renderbuffer().map_err(gl_error("a renderbuffer"))?;
             gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth_test));
@@ -473,6 +548,7 @@ impl Surface {
                 Some(depth_test),
             );
             let thickness_fbo = framebuffer(thickness, None)?;
+            let half_fbos = [framebuffer(half[0], None)?, framebuffer(half[1], None)?];
             let targets = Targets {
                 size,
                 thickness_downsample,
@@ -484,12 +560,17 @@ impl Surface {
                 depth_test,
                 thickness_fbo,
                 thickness,
+                half_size,
+                half_fbos,
+                half,
             };
             for (name, fbo) in [
                 ("scene", scene_fbo),
                 ("depth", depth_fbos[0]),
                 ("smoothing", depth_fbos[1]),
                 ("thickness", thickness_fbo),
+                ("half-resolution smoothing", half_fbos[0]),
+                ("half-resolution smoothing", half_fbos[1]),
             ] {
                 gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
                 let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
@@ -508,10 +589,25 @@ impl Surface {
     unsafe fn delete_targets(&self, t: &Targets) {
         let gl = &self.gl;
         unsafe {
-            for f in [t.scene_fbo, t.depth_fbos[0], t.depth_fbos[1], t.thickness_fbo] {
+            for f in [
+                t.scene_fbo,
+                t.depth_fbos[0],
+                t.depth_fbos[1],
+                t.thickness_fbo,
+                t.half_fbos[0],
+                t.half_fbos[1],
+            ] {
                 gl.delete_framebuffer(f);
             }
-            for tex in [t.scene_colour, t.scene_depth, t.depth[0], t.depth[1], t.thickness] {
+            for tex in [
+                t.scene_colour,
+                t.scene_depth,
+                t.depth[0],
+                t.depth[1],
+                t.thickness,
+                t.half[0],
+                t.half[1],
+            ] {
                 gl.delete_texture(tex);
             }
             gl.delete_renderbuffer(t.depth_test);
@@ -526,7 +622,7 @@ impl Surface {
         // SAFETY: as above.
         unsafe {
             let p = &self.programs;
-            for program in [p.depth, p.thickness, p.smooth, p.shade] {
+            for program in [p.depth, p.thickness, p.smooth, p.depth_down, p.depth_up, p.shade] {
                 self.gl.delete_program(program);
             }
             self.gl.delete_vertex_array(self.empty_vao);
