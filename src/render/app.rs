@@ -4,7 +4,7 @@
 
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
-use super::clock::{Pacing, SimClock};
+use super::clock::{DrawCosts, DrawSection, Pacing, SimClock};
 use super::colliders::ColliderDrag;
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
@@ -214,6 +214,8 @@ struct ViewerApp {
     fixed_owed: u32,
     /// The longest wall time one draw spent stepping (reported on exit).
     longest_step: std::time::Duration,
+    /// Host time per section of a draw, for the exit line.
+    draw_costs: DrawCosts,
 }
 
 /// Wall time a draw may spend stepping before it draws what it has: a frame that costs more is
@@ -262,6 +264,7 @@ impl ViewerApp {
             step_owed: false,
             fixed_owed: 0,
             longest_step: std::time::Duration::ZERO,
+            draw_costs: DrawCosts::default(),
             options,
         })
     }
@@ -600,7 +603,9 @@ impl ViewerApp {
             }
         };
         let time_before = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
+        self.draw_costs.begin();
         let completed = self.step(frames)?;
+        self.draw_costs.lap(DrawSection::Step);
         let time_after = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
         if !self.controls.paused {
             self.clock.record(time_after - time_before, wall_dt);
@@ -628,6 +633,7 @@ impl ViewerApp {
                 .update(sim, &mut gpu.renderer, self.controls.render.colouring)?,
             None => 0,
         };
+        self.draw_costs.lap(DrawSection::Feed);
         let domain = {
             let (lo, hi) = self.scene.fluid_region();
             (lo.as_vec3(), hi.as_vec3())
@@ -672,6 +678,7 @@ impl ViewerApp {
                 scene_rect = Some((ctx.available_rect(), ctx.pixels_per_point()));
             });
         }
+        self.draw_costs.lap(DrawSection::Panel);
         self.scene_viewport = match scene_rect {
             Some((rect, ppp)) => {
                 let left = (rect.min.x * ppp).round().clamp(0.0, size[0] as f32 - 1.0) as u32;
@@ -743,6 +750,7 @@ impl ViewerApp {
             }
         }
 
+        self.draw_costs.lap(DrawSection::Draw);
         if self.show_panel {
             gpu.egui.paint(&gpu.window);
         }
@@ -752,9 +760,11 @@ impl ViewerApp {
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
+        self.draw_costs.lap(DrawSection::Paint);
         gpu.surface
             .swap_buffers(&gpu.context)
             .context("presenting the frame (swap buffers)")?;
+        self.draw_costs.lap(DrawSection::Present);
         self.frames_drawn += 1;
         if last_frame {
             event_loop.exit();
@@ -977,6 +987,10 @@ impl ApplicationHandler for ViewerApp {
             self.feed.path(),
             self.longest_step.as_secs_f64() * 1e3
         );
+        if let Some(costs) = self.draw_costs.summary() {
+            // Where the host's time goes: what is neither stepping nor drawing is waiting or overhead.
+            eprintln!("viewer: host ms per draw: {costs}");
+        }
         if let (Some((start, sim_start)), Some(sim)) = (self.first_draw, &self.sim) {
             let wall = (self.last_frame - start).as_secs_f64();
             if self.frames_drawn > 1 && wall > 0.0 {
