@@ -8,7 +8,7 @@ use super::halo::HaloNodes;
 use super::migrate::{base, layer_counts, Migration, RankParticles};
 use super::slabs::Slabs;
 use crate::sim::colliders::ColliderFrame;
-use crate::sim::cpu::CpuSolver;
+use crate::sim::cpu::{is_fixed_point, CpuSolver};
 use crate::sim::params::{DensityRule, Params};
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::push::Push;
@@ -55,6 +55,8 @@ impl Rank {
     }
 
     /// One substep of the reference, its phases in step order, the ghost exchanges between them.
+    /// Scatters are summed over the ranks before they become floats (`CpuSolver::settle_mass`), so
+    /// the fixed-point scatter's integer sums reach every owner whole.
     pub fn substep(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<PhaseTimings> {
         // The gathered density reads the grid mass in p2g, so mass is summed and filled before it;
         // the advected one needs it only in g2p, so both quantities travel together after p2g.
@@ -64,28 +66,29 @@ impl Rank {
         clock.lap(Phase::GridClear);
         self.rebin(comm, params.inv_dx)?;
         clock.lap(Phase::Sort);
-        self.solver.p2g_init(params);
+        self.solver.scatter_mass(params);
         clock.lap(Phase::P2gInit);
-        let (halo, grid) = (&self.halo, &mut self.solver.grid);
         if gathered {
-            halo.sum_into_owners(comm, &mut grid.mass)?;
+            self.sum_mass(comm, params)?;
             clock.lap(Phase::HaloSum);
+            self.solver.settle_mass(params);
             self.solver.mirror_mass(params);
             clock.lap(Phase::P2gInit);
             self.halo.fill_ghosts(comm, &mut self.solver.grid.mass)?;
             clock.lap(Phase::HaloFill);
         }
-        self.solver.p2g(params);
+        self.solver.scatter_momentum(params);
         clock.lap(Phase::P2g);
-        let (halo, grid) = (&self.halo, &mut self.solver.grid);
         if !gathered {
-            halo.sum_into_owners(comm, &mut grid.mass)?;
+            self.sum_mass(comm, params)?;
         }
-        halo.sum_into_owners(comm, &mut grid.momentum)?;
+        self.sum_momentum(comm, params)?;
         clock.lap(Phase::HaloSum);
         if !gathered {
+            self.solver.settle_mass(params);
             self.solver.mirror_mass(params);
         }
+        self.solver.settle_momentum(params);
         self.solver.mirror_momentum(params);
         self.solver.grid_update(params);
         clock.lap(Phase::GridUpdate);
@@ -98,6 +101,27 @@ impl Rank {
         self.solver.g2p(params);
         clock.lap(Phase::G2p);
         Ok(clock.finish())
+    }
+
+    /// The mass scatter's ghost sums to their owners: its integer units under the fixed-point
+    /// scatter, else the float mass.
+    fn sum_mass(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<()> {
+        let grid = &mut self.solver.grid;
+        if is_fixed_point(params) {
+            self.halo.sum_into_owners(comm, &mut grid.fixed_mut().mass)
+        } else {
+            self.halo.sum_into_owners(comm, &mut grid.mass)
+        }
+    }
+
+    /// The momentum scatter's ghost sums to their owners, as `sum_mass`.
+    fn sum_momentum(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<()> {
+        let grid = &mut self.solver.grid;
+        if is_fixed_point(params) {
+            self.halo.sum_into_owners(comm, &mut grid.fixed_mut().momentum)
+        } else {
+            self.halo.sum_into_owners(comm, &mut grid.momentum)
+        }
     }
 
     /// At the GPU's rebinning cadence (`cuda::bins::SORT_INTERVAL`), or where any rank holds a

@@ -11,7 +11,40 @@ use super::slabs::Slabs;
 use crate::sim::cpu::GridShape;
 use anyhow::Result;
 use bytemuck::Pod;
-use std::ops::{AddAssign, Range};
+use glam::Vec3;
+use std::ops::Range;
+
+/// A node value that ranks' partial sums add up to: float mass and momentum, or the fixed-point
+/// scatter's integer units (whose sums do not depend on the order, so N ranks give one rank's bits).
+pub trait NodeSum: Pod {
+    fn add(&mut self, other: Self);
+}
+
+impl NodeSum for f32 {
+    fn add(&mut self, other: f32) {
+        *self += other;
+    }
+}
+
+impl NodeSum for Vec3 {
+    fn add(&mut self, other: Vec3) {
+        *self += other;
+    }
+}
+
+impl NodeSum for i64 {
+    fn add(&mut self, other: i64) {
+        *self += other;
+    }
+}
+
+impl NodeSum for [i64; 3] {
+    fn add(&mut self, other: [i64; 3]) {
+        for (a, b) in self.iter_mut().zip(other) {
+            *a += b;
+        }
+    }
+}
 
 /// The node indices of planes `planes` across the slab axis, in node order.
 pub fn plane_nodes(shape: GridShape, axis: usize, planes: Range<u32>) -> Vec<usize> {
@@ -81,7 +114,7 @@ impl HaloNodes {
 
     /// Sends the partial sums on this rank's ghost planes to their owners, zeroes them, and adds what
     /// the neighbours sent to this rank's own edge planes.
-    pub fn sum_into_owners<T: Pod + AddAssign>(&self, comm: &mut dyn Comm, values: &mut [T]) -> Result<()> {
+    pub fn sum_into_owners<T: NodeSum>(&self, comm: &mut dyn Comm, values: &mut [T]) -> Result<()> {
         let pick = |nodes: &[usize]| nodes.iter().map(|&i| values[i]).collect::<Vec<T>>();
         let (to_below, to_above) = (pick(&self.low_ghost), pick(&self.high_ghost));
         let mut from_below = vec![T::zeroed(); self.low_edge.len()];
@@ -92,7 +125,7 @@ impl HaloNodes {
         }
         for (nodes, got) in [(&self.low_edge, &from_below), (&self.high_edge, &from_above)] {
             for (&i, &v) in nodes.iter().zip(got.iter()) {
-                values[i] += v;
+                values[i].add(v);
             }
         }
         Ok(())

@@ -4,7 +4,7 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
-use super::params::{DensityRule, Params};
+use super::params::{DensityRule, Params, ScatterMode};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -92,6 +92,8 @@ pub struct Grid {
     pub shape: GridShape,
     pub mass: Vec<f32>,
     pub momentum: Vec<Vec3>,
+    /// The fixed-point scatter's sums (`ScatterMode::FixedPoint`), made on its first use.
+    pub fixed: Option<FixedGrid>,
 }
 
 impl Grid {
@@ -103,9 +105,50 @@ impl Grid {
             shape,
             mass: vec![0.0; shape.num_nodes()],
             momentum: vec![Vec3::ZERO; shape.num_nodes()],
+            fixed: None,
         }
     }
+
+    /// The fixed-point sums, zeroed where they were just made.
+    pub fn fixed_mut(&mut self) -> &mut FixedGrid {
+        let n = self.shape.num_nodes();
+        self.fixed.get_or_insert_with(|| FixedGrid {
+            mass: vec![0; n],
+            momentum: vec![[0; 3]; n],
+        })
+    }
 }
+
+/// The fixed-point scatter's accumulators, as the GPU's (kernels/common.cuh): each contribution
+/// rounded to an integer number of units (`Params::fixed_mass_scale`, `fixed_momentum_scale` per kg
+/// and per kg m/s) and summed as integers, so a node's sum does not depend on the order of its
+/// contributions (nor on how they are split between ranks). The sums become the float mass and
+/// momentum before anything reads them (`CpuSolver::settle_mass`, `settle_momentum`).
+#[derive(Debug, Clone, Default)]
+pub struct FixedGrid {
+    pub mass: Vec<i64>,
+    pub momentum: Vec<[i64; 3]>,
+}
+
+/// A contribution's fixed-point units (`scaled` = value times its scale), rounded to nearest even as
+/// CUDA's `__float2ll_rn`; 0 where out of range (beyond 2^52 units, or NaN), as on the GPU.
+#[inline(always)]
+pub fn fixed_point_units(scaled: f32) -> i64 {
+    if scaled.abs() < FIXED_CONTRIBUTION_LIMIT {
+        scaled.round_ties_even() as i64
+    } else {
+        0
+    }
+}
+
+/// A fixed-point sum as a float: `__ll2float_rn(units) * inv_scale`.
+#[inline(always)]
+pub fn fixed_point_value(units: i64, inv_scale: f32) -> f32 {
+    units as f32 * inv_scale
+}
+
+/// 2^52 units: a contribution beyond it is dropped (kernels/common.cuh's FIXED_CONTRIBUTION_LIMIT).
+const FIXED_CONTRIBUTION_LIMIT: f32 = 4_503_599_627_370_496.0;
 
 /// Where a node lies against one wall's mirror plane, of the low wall (`low`) or the high one: what
 /// decides the image it receives.
@@ -420,15 +463,57 @@ impl CpuSolver {
     pub fn clear_grid(&mut self) {
         self.grid.mass.fill(0.0);
         self.grid.momentum.fill(Vec3::ZERO);
+        if let Some(fixed) = &mut self.grid.fixed {
+            fixed.mass.fill(0);
+            fixed.momentum.fill([0; 3]);
+        }
     }
 
-    /// m_i += w m_p.
+    /// m_i += w m_p, as floats or (fixed-point scatter) integer units, which `settle_mass` turns into
+    /// the float mass.
     pub fn p2g_init(&mut self, params: &Params) {
+        self.scatter_mass(params);
+        self.settle_mass(params);
+    }
+
+    /// The mass scatter alone: [`Self::p2g_init`] without `settle_mass`.
+    pub fn scatter_mass(&mut self, params: &Params) {
         let m_p = params.material.particle_mass;
-        let Grid { shape, mass, .. } = &mut self.grid;
+        let shape = self.grid.shape;
         let p = &self.particles;
-        for (&x, _) in p.x.iter().zip(&p.live).filter(|(_, &live)| live) {
-            Stencil::new(x, params.inv_dx).for_each_node(*shape, |i, w, _| mass[i] += w * m_p);
+        let live = p.x.iter().zip(&p.live).filter(|(_, &live)| live).map(|(x, _)| *x);
+        if is_fixed_point(params) {
+            let (scale, mass) = (params.fixed_mass_scale, &mut self.grid.fixed_mut().mass);
+            for x in live {
+                Stencil::new(x, params.inv_dx)
+                    .for_each_node(shape, |i, w, _| mass[i] += fixed_point_units(w * m_p * scale));
+            }
+        } else {
+            let mass = &mut self.grid.mass;
+            for x in live {
+                Stencil::new(x, params.inv_dx).for_each_node(shape, |i, w, _| mass[i] += w * m_p);
+            }
+        }
+    }
+
+    /// The fixed-point scatter's mass sums as the float mass (nothing under the float scatter).
+    pub fn settle_mass(&mut self, params: &Params) {
+        if let (true, Some(fixed)) = (is_fixed_point(params), &self.grid.fixed) {
+            let inv_scale = 1.0 / params.fixed_mass_scale;
+            for (m, &q) in self.grid.mass.iter_mut().zip(&fixed.mass) {
+                *m = fixed_point_value(q, inv_scale);
+            }
+        }
+    }
+
+    /// The fixed-point scatter's momentum sums as the float momentum (nothing under the float
+    /// scatter).
+    pub fn settle_momentum(&mut self, params: &Params) {
+        if let (true, Some(fixed)) = (is_fixed_point(params), &self.grid.fixed) {
+            let inv_scale = 1.0 / params.fixed_momentum_scale;
+            for (mv, q) in self.grid.momentum.iter_mut().zip(&fixed.momentum) {
+                *mv = Vec3::from(q.map(|q| fixed_point_value(q, inv_scale)));
+            }
         }
     }
 
@@ -443,22 +528,44 @@ impl CpuSolver {
     }
 
     /// Density (from grid mass, or the particle's advected one), Tait pressure, viscous stress; then
-    /// momentum and stress to the grid.
+    /// momentum and stress to the grid (as floats, or fixed-point units made floats by
+    /// `settle_momentum`).
     pub fn p2g(&mut self, params: &Params) {
+        self.scatter_momentum(params);
+        self.settle_momentum(params);
+    }
+
+    /// [`Self::p2g`] without `settle_momentum`.
+    pub fn scatter_momentum(&mut self, params: &Params) {
         let params = &self.scatter_params(params);
+        let fixed = is_fixed_point(params);
+        if fixed {
+            self.grid.fixed_mut();
+        }
         let Grid {
             shape,
             mass,
             momentum,
+            fixed: fixed_grid,
         } = &mut self.grid;
         let p = &mut self.particles;
+        let scale = params.fixed_momentum_scale;
         let mut max_rho = 0.0f32;
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let st = Stencil::new(p.x[n], params.inv_dx);
             let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.rho[n], p.v[n], p.c[n]);
             p.rho[n] = rho;
             max_rho = max_rho.max(rho);
-            st.for_each_node(*shape, |i, w, d| momentum[i] += w * (mv + affine * d));
+            match fixed_grid.as_mut().filter(|_| fixed) {
+                Some(f) => st.for_each_node(*shape, |i, w, d| {
+                    let q = &mut f.momentum[i];
+                    let c = w * (mv + affine * d);
+                    for a in 0..3 {
+                        q[a] += fixed_point_units(c[a] * scale);
+                    }
+                }),
+                None => st.for_each_node(*shape, |i, w, d| momentum[i] += w * (mv + affine * d)),
+            }
         }
         if DensityRule::of(params) == DensityRule::Gathered {
             self.extremes.max_density = self.extremes.max_density.max(max_rho);
@@ -471,6 +578,7 @@ impl CpuSolver {
             shape,
             mass,
             momentum,
+            ..
         } = &mut self.grid;
         for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
             if m > 0.0 {
@@ -487,6 +595,7 @@ impl CpuSolver {
             shape,
             mass,
             momentum: velocity,
+            ..
         } = &self.grid;
         let p = &mut self.particles;
         let mut extremes = GatherExtremes::default();
@@ -499,6 +608,12 @@ impl CpuSolver {
         extremes.add_to(&mut self.extremes);
         self.scatter_dt = Some(params.dt);
     }
+}
+
+/// Whether `params` ask for the fixed-point scatter.
+#[inline]
+pub fn is_fixed_point(params: &Params) -> bool {
+    params.scatter_mode == ScatterMode::FixedPoint.code()
 }
 
 /// What g2p adds to a substep's extremes: the largest speed and signal speed c(rho_p) + |v_p|, the
@@ -652,5 +767,23 @@ impl Solver for CpuSolver {
 
     fn flow_state(&mut self) -> anyhow::Result<Option<FlowState>> {
         Ok(self.lifecycle.as_ref().map(|l| l.state.clone()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_point_units_round_as_cuda_does() {
+        // __float2ll_rn: to nearest, ties to even; out of range and NaN give 0.
+        assert_eq!(
+            [2.5f32, 3.5, -2.5, 0.49, -0.51].map(fixed_point_units),
+            [2, 4, -2, 0, -1]
+        );
+        assert_eq!(fixed_point_units(f32::NAN), 0);
+        assert_eq!(fixed_point_units(5.0e15), 0);
+        assert_eq!(fixed_point_units(2_251_799_813_685_248.0), 1 << 51);
+        assert_eq!(fixed_point_value(3, 0.5), 1.5);
     }
 }

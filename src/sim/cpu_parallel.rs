@@ -24,7 +24,8 @@
 //!
 //! Every node's sum is taken in the same order whatever the number of threads (tiles in index order,
 //! particles in index order within a tile), so a run is deterministic and independent of the thread
-//! count. The order differs from the reference's (particle index order), so results agree with the
+//! count. It therefore scatters floats whatever `--scatter` says (the reference's fixed-point mode
+//! is for sums that must not depend on the order at all). The order differs from the reference's (particle index order), so results agree with the
 //! reference to float rounding (tests/cpu_parallel.rs), not bit for bit.
 
 use super::colliders::ColliderFrame;
@@ -33,7 +34,7 @@ use super::cpu::{
     step_phases, CpuPhases, CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
-use super::params::{DensityRule, Params};
+use super::params::{DensityRule, Params, ScatterMode};
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -417,6 +418,7 @@ impl ParallelCpuSolver {
             shape,
             mass,
             momentum,
+            ..
         } = &mut self.inner.grid;
         let shape = *shape;
         momentum
@@ -441,6 +443,7 @@ impl ParallelCpuSolver {
             shape,
             mass,
             momentum: velocity,
+            ..
         } = &self.inner.grid;
         let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
@@ -495,7 +498,12 @@ impl Solver for ParallelCpuSolver {
 
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
         if self.sequential() {
-            return self.inner.step(params);
+            // Float sums whatever the scatter mode, as the tiles' (whose order is fixed already).
+            let float = Params {
+                scatter_mode: ScatterMode::Float.code(),
+                ..*params
+            };
+            return self.inner.step(&float);
         }
         step_phases(self, params);
         Ok(())
