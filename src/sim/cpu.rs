@@ -119,7 +119,7 @@ impl Grid {
     }
 }
 
-/// The fixed-point scatter's accumulators, as the GPU's (kernels/common.cuh): each contribution
+/// The fixed-point scatter's accumulators, like the GPU's (kernels/common.cuh): each contribution
 /// rounded to an integer number of units (`Params::fixed_mass_scale`, `fixed_momentum_scale` per kg
 /// and per kg m/s) and summed as integers, so a node's sum does not depend on the order of its
 /// contributions (nor on how they are split between ranks). The sums become the float mass and
