@@ -665,10 +665,11 @@ pub trait CpuPhases {
     fn pending_timings(&mut self) -> &mut Vec<PhaseTimings>;
 }
 
-/// One substep: every phase in step order (`Phase::ALL`), each timed with the host clock.
+/// One substep: every phase in step order (`Phase::ALL`), each timed with the host clock; one rank has
+/// no exchanges (`dist::CpuRanks` runs them), so they stay at 0.
 pub fn step_phases(backend: &mut impl CpuPhases, params: &Params) {
     let mut clock = PhaseClock::start();
-    for phase in Phase::ALL {
+    for phase in Phase::ALL.into_iter().filter(|p| !p.is_exchange()) {
         backend.run_phase(phase, params);
         clock.lap(phase);
     }
@@ -680,7 +681,7 @@ impl CpuPhases for CpuSolver {
         match phase {
             Phase::GridClear => self.clear_grid(),
             Phase::Sort => {} // the reference walks the particles in index order
-            Phase::HaloSum | Phase::HaloFill => {} // one rank (`dist::CpuRanks` runs several)
+            Phase::HaloSum | Phase::HaloFill => {} // one rank: `step_phases` skips them
             Phase::P2gInit => {
                 self.p2g_init(params);
                 self.mirror_mass(params);

@@ -475,7 +475,7 @@ impl CpuPhases for ParallelCpuSolver {
         match phase {
             Phase::GridClear => self.clear_grid(),
             Phase::Sort => self.bin(params),
-            Phase::HaloSum | Phase::HaloFill => {} // one rank
+            Phase::HaloSum | Phase::HaloFill => {} // one rank: `step_phases` skips them
             Phase::P2gInit => self.p2g_init(params),
             Phase::P2g => self.p2g(params),
             Phase::GridUpdate => self.grid_update(params),
