@@ -265,6 +265,8 @@ impl CpuRanks {
 }
 
 impl Solver for CpuRanks {
+    /// The reference's name: what the ranks hand over (particles by id, extremes, checkpoints) is
+    /// what one rank would, so a checkpoint of theirs resumes on the reference.
     fn name(&self) -> &'static str {
         "cpu"
     }
