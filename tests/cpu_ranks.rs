@@ -45,6 +45,18 @@ fn stirred(scene: &Scene) -> Particles {
     p
 }
 
+/// Every slot's x, v, C and density, as bits.
+fn bits(p: &Particles) -> Vec<u32> {
+    let mut bits = Vec::new();
+    for i in 0..p.len() {
+        bits.extend(p.x[i].to_array().map(f32::to_bits));
+        bits.extend(p.v[i].to_array().map(f32::to_bits));
+        bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
+        bits.push(p.rho[i].to_bits());
+    }
+    bits
+}
+
 fn max_diff(a: &[Vec3], b: &[Vec3]) -> f32 {
     a.iter()
         .zip(b)
@@ -224,16 +236,6 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
         let mut params = common::cfl_params(&scene);
         params.density_rule = pipeline.density_rule().code();
         assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());
-        let bits = |p: &Particles| -> Vec<u32> {
-            let mut bits = Vec::new();
-            for i in 0..p.len() {
-                bits.extend(p.x[i].to_array().map(f32::to_bits));
-                bits.extend(p.v[i].to_array().map(f32::to_bits));
-                bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
-                bits.push(p.rho[i].to_bits());
-            }
-            bits
-        };
         let mut one = CpuSolver::new(stirred(&scene), scene.grid_res);
         let mut float = CpuSolver::new(stirred(&scene), scene.grid_res);
         let float_params = mpm::sim::Params {
@@ -283,4 +285,59 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
             );
         }
     }
+}
+
+/// A moving box across the cut between two ranks (after the first rebin moves the cut into it):
+/// its boundary acts on nodes of both slabs and its backstop on particles of both ranks, and the
+/// fixed-point run on 2 ranks still gives one rank's bits, backstop counts included.
+#[test]
+fn a_moving_collider_across_the_cut_gives_one_rank_s_bits() {
+    let toml = r#"
+[domain]
+size = [1.5, 0.75, 0.75]
+resolution = [48, 24, 24]
+[material]
+rest_density = 1000.0
+sound_speed = 10.0
+[solver]
+scatter = "fixed-point"
+[[block]]
+min = [0.03125, 0.03125, 0.03125]
+max = [0.5, 0.5, 0.6]
+[[collider]]
+shape = "box"
+center = [0.25, 0.12, 0.375]
+size = [0.1, 0.24, 0.2]
+[collider.motion]
+velocity = [0.0, 0.0, 0.3]
+"#;
+    let scene = common::scene(toml);
+    let mut params = common::cfl_params(&scene);
+    params.density_rule = Pipeline::Fused.density_rule().code();
+    assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());
+    let mut one = CpuSolver::new(stirred(&scene), scene.grid_res);
+    let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
+    let mut split = CpuRanks::with_slabs(&scene, stirred(&scene), even).unwrap();
+    let (mut pushes_one, mut pushes_split) = (0, 0);
+    for n in 1..=200 {
+        let frame = scene.colliders.frame(f64::from(n) * f64::from(params.dt));
+        one.set_colliders(&frame).unwrap();
+        split.set_colliders(&frame).unwrap();
+        one.step(&params).unwrap();
+        split.step(&params).unwrap();
+        pushes_one += one.take_extremes().unwrap().backstop_pushes;
+        pushes_split += split.take_extremes().unwrap().backstop_pushes;
+    }
+    let bounds = split.slabs().bounds.clone();
+    let cut = bounds[1] as f32 * 4.0 * scene.dx;
+    println!("cut at x = {cut} m (bounds {bounds:?}); backstop pushes {pushes_one} / {pushes_split}");
+    assert!(
+        (0.2..=0.3).contains(&cut),
+        "the cut is not inside the box (x 0.2 to 0.3 m): {cut}"
+    );
+    assert_eq!(pushes_one, pushes_split);
+    assert!(
+        bits(&one.particles) == bits(&split.read_particles().unwrap()),
+        "2 ranks differ from one with a collider across the cut"
+    );
 }
