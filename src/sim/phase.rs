@@ -148,7 +148,9 @@ impl Phase {
     /// What the phase holds on a CPU backend, for the bench tables.
     pub fn cpu_label(self) -> String {
         match self {
-            Phase::Sort => "sort (cpu-parallel's binning; migration between ranks)".into(),
+            Phase::Sort => {
+                "sort (cpu-parallel's binning; the ranks' migration; none in the reference)".into()
+            }
             Phase::HaloSum | Phase::HaloFill => format!("{} (several ranks only)", self.name()),
             phase => phase.name().into(),
         }
