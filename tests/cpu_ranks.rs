@@ -18,9 +18,7 @@ use mpm::sim::{Particles, Phase, Pipeline, Scene, Solver};
 
 /// A 48 x 24 x 24 tank, the water in its low x third: the slabs cut across x, the surge crosses
 /// their bounds and the counts start far out of balance.
-fn tank(pipeline: Pipeline) -> Scene {
-    let mut scene = common::scene(
-        r#"
+const TANK: &str = r#"
 [domain]
 size = [1.5, 0.75, 0.75]
 resolution = [48, 24, 24]
@@ -30,8 +28,10 @@ sound_speed = 10.0
 [[block]]
 min = [0.03125, 0.03125, 0.03125]
 max = [0.5, 0.5, 0.6]
-"#,
-    );
+"#;
+
+fn tank(pipeline: Pipeline) -> Scene {
+    let mut scene = common::scene(TANK);
     scene.pipeline = pipeline;
     scene
 }
@@ -292,26 +292,19 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
 /// fixed-point run on 2 ranks still gives one rank's bits, backstop counts included.
 #[test]
 fn a_moving_collider_across_the_cut_gives_one_rank_s_bits() {
-    let toml = r#"
-[domain]
-size = [1.5, 0.75, 0.75]
-resolution = [48, 24, 24]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+    let toml = format!(
+        r#"{TANK}
 [solver]
 scatter = "fixed-point"
-[[block]]
-min = [0.03125, 0.03125, 0.03125]
-max = [0.5, 0.5, 0.6]
 [[collider]]
 shape = "box"
 center = [0.25, 0.12, 0.375]
 size = [0.1, 0.24, 0.2]
 [collider.motion]
 velocity = [0.0, 0.0, 0.3]
-"#;
-    let scene = common::scene(toml);
+"#
+    );
+    let scene = common::scene(&toml);
     let mut params = common::cfl_params(&scene);
     params.density_rule = Pipeline::Fused.density_rule().code();
     assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());

@@ -492,24 +492,9 @@ impl Surface {
             // of mantissa are plenty for a thickness that only tints and absorbs.
             let thickness = texture(glow::RG16F, glow::RG, glow::FLOAT, thick_w, thick_h, glow::LINEAR)?;
             let half_size = downsampled(size, 2);
-            let half = [
-                texture(
-                    glow::R32F,
-                    glow::RED,
-                    glow::FLOAT,
-                    half_size.0,
-                    half_size.1,
-                    glow::LINEAR,
-                )?,
-                texture(
-                    glow::R32F,
-                    glow::RED,
-                    glow::FLOAT,
-                    half_size.0,
-                    half_size.1,
-                    glow::LINEAR,
-                )?,
-            ];
+            let (half_w, half_h) = half_size;
+            let half_texture = || texture(glow::R32F, glow::RED, glow::FLOAT, half_w, half_h, glow::LINEAR);
+            let half = [half_texture()?, half_texture()?];
             gl.bind_texture(glow::TEXTURE_2D, None);
             let depth_test = gl.create_renderbuffer().map_err(gl_error("a renderbuffer"))?;
             gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth_test));
