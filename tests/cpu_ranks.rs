@@ -14,47 +14,12 @@ use glam::Vec3;
 use mpm::dist::{CpuRanks, Slabs};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::cpu_parallel::ParallelCpuSolver;
-use mpm::sim::{Particles, Phase, Pipeline, Scene, Solver};
-
-/// A 48 x 24 x 24 tank, the water in its low x third: the slabs cut across x, the surge crosses
-/// their bounds and the counts start far out of balance.
-const TANK: &str = r#"
-[domain]
-size = [1.5, 0.75, 0.75]
-resolution = [48, 24, 24]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
-[[block]]
-min = [0.03125, 0.03125, 0.03125]
-max = [0.5, 0.5, 0.6]
-"#;
+use mpm::sim::{Phase, Pipeline, Scene, Solver};
 
 fn tank(pipeline: Pipeline) -> Scene {
-    let mut scene = common::scene(TANK);
+    let mut scene = common::scene(common::STIRRED_TANK);
     scene.pipeline = pipeline;
     scene
-}
-
-/// The spawn with random velocities (up to 2 m/s), so particles cross the slab bounds both ways
-/// from the first substeps.
-fn stirred(scene: &Scene) -> Particles {
-    let mut p = scene.spawn();
-    let noise = common::random_particles(p.len(), 0.0, 1.0, 2.0, 5.0, 11);
-    p.v.copy_from_slice(&noise.v);
-    p
-}
-
-/// Every slot's x, v, C and density, as bits.
-fn bits(p: &Particles) -> Vec<u32> {
-    let mut bits = Vec::new();
-    for i in 0..p.len() {
-        bits.extend(p.x[i].to_array().map(f32::to_bits));
-        bits.extend(p.v[i].to_array().map(f32::to_bits));
-        bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
-        bits.push(p.rho[i].to_bits());
-    }
-    bits
 }
 
 fn max_diff(a: &[Vec3], b: &[Vec3]) -> f32 {
@@ -69,9 +34,9 @@ fn compare(pipeline: Pipeline, ranks: usize, substeps: u32) -> (f32, f32, f32, C
     let scene = tank(pipeline);
     let mut params = common::cfl_params(&scene);
     params.density_rule = pipeline.density_rule().code();
-    let mut reference = CpuSolver::new(stirred(&scene), scene.grid_res);
-    let mut parallel = ParallelCpuSolver::new(stirred(&scene), scene.grid_res);
-    let mut split = CpuRanks::new(&scene, stirred(&scene), ranks).unwrap();
+    let mut reference = CpuSolver::new(common::stirred(&scene), scene.grid_res);
+    let mut parallel = ParallelCpuSolver::new(common::stirred(&scene), scene.grid_res);
+    let mut split = CpuRanks::new(&scene, common::stirred(&scene), ranks).unwrap();
     for _ in 0..substeps {
         reference.step(&params).unwrap();
         parallel.step(&params).unwrap();
@@ -180,7 +145,7 @@ fn the_first_rebin_balances_even_slabs() {
     let mut params = common::cfl_params(&scene);
     params.density_rule = Pipeline::Fused.density_rule().code();
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
-    let mut split = CpuRanks::with_slabs(&scene, stirred(&scene), even.clone()).unwrap();
+    let mut split = CpuRanks::with_slabs(&scene, common::stirred(&scene), even.clone()).unwrap();
     let before = split.counts();
     for _ in 0..mpm::cuda::bins::SORT_INTERVAL {
         split.step(&params).unwrap();
@@ -236,8 +201,8 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
         let mut params = common::cfl_params(&scene);
         params.density_rule = pipeline.density_rule().code();
         assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());
-        let mut one = CpuSolver::new(stirred(&scene), scene.grid_res);
-        let mut float = CpuSolver::new(stirred(&scene), scene.grid_res);
+        let mut one = CpuSolver::new(common::stirred(&scene), scene.grid_res);
+        let mut float = CpuSolver::new(common::stirred(&scene), scene.grid_res);
         let float_params = mpm::sim::Params {
             scatter_mode: mpm::sim::ScatterMode::Float.code(),
             ..params
@@ -246,7 +211,7 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
             one.step(&params).unwrap();
             float.step(&float_params).unwrap();
         }
-        let reference = bits(&one.particles);
+        let reference = common::particle_bits(&one.particles);
         let gap = max_diff(&one.particles.x, &float.particles.x) / scene.dx;
         println!("{pipeline:?}: fixed point and float apart by {gap:.2e} dx after 200 substeps");
         assert!(
@@ -260,9 +225,9 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
         for ranks in [2, 3] {
             let mut split = if ranks == 2 {
                 let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
-                CpuRanks::with_slabs(&scene, stirred(&scene), even).unwrap()
+                CpuRanks::with_slabs(&scene, common::stirred(&scene), even).unwrap()
             } else {
-                CpuRanks::new(&scene, stirred(&scene), ranks).unwrap()
+                CpuRanks::new(&scene, common::stirred(&scene), ranks).unwrap()
             };
             let start = split.slabs().bounds.clone();
             for _ in 0..200 {
@@ -280,7 +245,7 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
                 "the even slabs never moved"
             );
             assert!(
-                bits(&split.read_particles().unwrap()) == reference,
+                common::particle_bits(&split.read_particles().unwrap()) == reference,
                 "{pipeline:?}: {ranks} ranks differ from one in fixed point"
             );
         }
@@ -292,25 +257,13 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
 /// fixed-point run on 2 ranks still gives one rank's bits, backstop counts included.
 #[test]
 fn a_moving_collider_across_the_cut_gives_one_rank_s_bits() {
-    let toml = format!(
-        r#"{TANK}
-[solver]
-scatter = "fixed-point"
-[[collider]]
-shape = "box"
-center = [0.25, 0.12, 0.375]
-size = [0.1, 0.24, 0.2]
-[collider.motion]
-velocity = [0.0, 0.0, 0.3]
-"#
-    );
-    let scene = common::scene(&toml);
+    let scene = common::scene(&common::stirred_tank_with_moving_box());
     let mut params = common::cfl_params(&scene);
     params.density_rule = Pipeline::Fused.density_rule().code();
     assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());
-    let mut one = CpuSolver::new(stirred(&scene), scene.grid_res);
+    let mut one = CpuSolver::new(common::stirred(&scene), scene.grid_res);
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
-    let mut split = CpuRanks::with_slabs(&scene, stirred(&scene), even).unwrap();
+    let mut split = CpuRanks::with_slabs(&scene, common::stirred(&scene), even).unwrap();
     let (mut pushes_one, mut pushes_split) = (0, 0);
     for n in 1..=200 {
         let frame = scene.colliders.frame(f64::from(n) * f64::from(params.dt));
@@ -330,7 +283,7 @@ velocity = [0.0, 0.0, 0.3]
     );
     assert_eq!(pushes_one, pushes_split);
     assert!(
-        bits(&one.particles) == bits(&split.read_particles().unwrap()),
+        common::particle_bits(&one.particles) == common::particle_bits(&split.read_particles().unwrap()),
         "2 ranks differ from one with a collider across the cut"
     );
 }

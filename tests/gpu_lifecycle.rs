@@ -11,7 +11,7 @@
 use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
 use mpm::sim::params::{Pipeline, ScatterMode};
-use mpm::sim::{Particles, Scene, Simulation};
+use mpm::sim::{Scene, Simulation};
 
 mod common;
 mod harness;
@@ -49,15 +49,6 @@ fn frames(sim: &mut Simulation, n: u64) {
     }
 }
 
-fn particle_bits(p: &Particles) -> Vec<u32> {
-    let mut bits = Vec::new();
-    bits.extend(p.x.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
-    bits.extend(p.v.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
-    bits.extend(p.c.iter().flat_map(|c| c.to_cols_array()).map(f32::to_bits));
-    bits.extend(p.rho.iter().map(|r| r.to_bits()));
-    bits
-}
-
 /// Through a file, as `mpm run --resume` does.
 fn save_and_read(sim: &mut Simulation, dir: &std::path::Path) -> Checkpoint {
     let file = dir.join(format!("frame-{}.mpmck", sim.frame()));
@@ -93,7 +84,7 @@ fn a_resumed_fixed_point_run_is_byte_identical() {
             "{pipeline:?}: times differ"
         );
         let got = resumed.solver_mut().read_particles().unwrap();
-        let (a, b) = (particle_bits(&expected), particle_bits(&got));
+        let (a, b) = (common::particle_bits(&expected), common::particle_bits(&got));
         let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
         let n = expected.len();
         let in_field = |range: std::ops::Range<usize>| range.filter(|&i| a[i] != b[i]).count();
@@ -211,7 +202,7 @@ fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
     );
     assert_eq!(sa.flow, sb.flow, "two fixed-point runs' lifecycles differ");
     assert!(
-        particle_bits(&sa.particles) == particle_bits(&sb.particles)
+        common::particle_bits(&sa.particles) == common::particle_bits(&sb.particles)
             && sa.particles.live == sb.particles.live,
         "two fixed-point runs with emitters and sinks differ"
     );
@@ -224,7 +215,7 @@ fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
     let sr = Checkpoint::capture(&mut resumed).unwrap();
     assert_eq!(sa.flow, sr.flow, "the resumed lifecycle differs");
     assert!(
-        particle_bits(&sa.particles) == particle_bits(&sr.particles)
+        common::particle_bits(&sa.particles) == common::particle_bits(&sr.particles)
             && sa.particles.live == sr.particles.live,
         "the resumed run with emitters and sinks differs from the uninterrupted one"
     );

@@ -7,6 +7,7 @@ use super::comm::{all_sum, any, Comm, LocalComm};
 use super::halo::HaloNodes;
 use super::migrate::{base, layer_counts, Migration, RankParticles};
 use super::slabs::Slabs;
+use super::{check_ranks, starting_slabs};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::cpu::{is_fixed_point, CpuSolver};
 use crate::sim::params::{DensityRule, Params};
@@ -139,16 +140,9 @@ impl Rank {
             return Ok(());
         }
         let per_layer = all_sum(comm, &layer_counts(&self.solver.particles, &self.slabs, inv_dx))?;
-        let now = self.slabs.rank_counts(&per_layer);
-        if Slabs::unbalanced(&now) {
-            let balanced = self.slabs.balanced(&per_layer)?;
-            let (lo, hi) = self.mirror_walls;
-            let busiest = |counts: Vec<u64>| counts.into_iter().max().unwrap_or(0);
-            let better = busiest(balanced.rank_counts(&per_layer)) < busiest(now);
-            if better && balanced.holds_mirror(lo, hi) {
-                self.halo = HaloNodes::new(&balanced, self.solver.grid.shape, self.rank);
-                self.slabs = balanced;
-            }
+        if let Some(balanced) = self.slabs.rebalanced(&per_layer, self.mirror_walls)? {
+            self.halo = HaloNodes::new(&balanced, self.solver.grid.shape, self.rank);
+            self.slabs = balanced;
         }
         self.store.particles = std::mem::take(&mut self.solver.particles);
         let moved = self.store.migrate(comm, &self.slabs, inv_dx);
@@ -177,31 +171,15 @@ pub struct CpuRanks {
 impl CpuRanks {
     /// `ranks` ranks, the slabs balanced for `particles` (to whole block layers).
     pub fn new(scene: &Scene, particles: Particles, ranks: usize) -> Result<CpuRanks> {
-        let even = Slabs::even(glam::UVec3::from(scene.grid_res), ranks)?;
-        let params = scene.params();
-        let balanced = even.balanced(&layer_counts(&particles, &even, params.inv_dx))?;
-        let walls = (params.wall_mirror_lo, params.wall_mirror_hi[even.axis]);
-        let slabs = if balanced.holds_mirror(walls.0, walls.1) {
-            balanced
-        } else {
-            even
-        };
+        let slabs = starting_slabs(scene, &particles, ranks)?;
         CpuRanks::with_slabs(scene, particles, slabs)
     }
 
     /// Ranks on the given slabs (one per slab), whatever their balance: the next rebin moves them.
     pub fn with_slabs(scene: &Scene, particles: Particles, slabs: Slabs) -> Result<CpuRanks> {
-        if scene.flow.is_active() {
-            bail!("emitters and sinks do not run on several ranks yet: run this scene on one rank");
-        }
+        check_ranks(scene, &slabs)?;
         let params = scene.params();
         let ranks = slabs.ranks();
-        if !slabs.holds_mirror(params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]) {
-            bail!(
-                "{ranks} ranks leave the walls' mirror layers ({} nodes) wider than an end slab: use fewer ranks",
-                params.wall_mirror_lo
-            );
-        }
         let per_rank = (0..ranks)
             .map(|r| Rank::new(&particles, scene, &slabs, r))
             .collect();
@@ -307,14 +285,9 @@ impl Solver for CpuRanks {
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
-        // Maxima and an integer sum: the same whatever the order.
         let mut all = StepExtremes::default();
         for rank in &mut self.ranks {
-            let e = rank.solver.take_extremes()?;
-            all.max_density = all.max_density.max(e.max_density);
-            all.max_speed = all.max_speed.max(e.max_speed);
-            all.max_signal_speed = all.max_signal_speed.max(e.max_signal_speed);
-            all.backstop_pushes += e.backstop_pushes;
+            all.merge(&rank.solver.take_extremes()?);
         }
         Ok(all)
     }

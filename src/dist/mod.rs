@@ -20,3 +20,36 @@ pub mod slabs;
 pub use comm::{Comm, LocalComm};
 pub use cpu_ranks::CpuRanks;
 pub use slabs::Slabs;
+
+use crate::sim::{Particles, Scene};
+use anyhow::{bail, Result};
+
+/// The slabs a run on `ranks` ranks starts with: balanced for `particles` (to whole block layers)
+/// where that keeps the walls' mirror pairs in the end slabs, else even.
+pub fn starting_slabs(scene: &Scene, particles: &Particles, ranks: usize) -> Result<Slabs> {
+    let even = Slabs::even(glam::UVec3::from(scene.grid_res), ranks)?;
+    let params = scene.params();
+    let balanced = even.balanced(&migrate::layer_counts(particles, &even, params.inv_dx))?;
+    let walls = (params.wall_mirror_lo, params.wall_mirror_hi[even.axis]);
+    Ok(if balanced.holds_mirror(walls.0, walls.1) {
+        balanced
+    } else {
+        even
+    })
+}
+
+/// What a run on ranks cannot do yet, or on these slabs, refused before anything is allocated.
+pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
+    if scene.flow.is_active() {
+        bail!("emitters and sinks do not run on several ranks yet: run this scene on one rank");
+    }
+    let params = scene.params();
+    if !slabs.holds_mirror(params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]) {
+        bail!(
+            "{} ranks leave the walls' mirror layers ({} nodes) wider than an end slab: use fewer ranks",
+            slabs.ranks(),
+            params.wall_mirror_lo
+        );
+    }
+    Ok(())
+}

@@ -135,6 +135,20 @@ impl Slabs {
                 && wall_hi - reach(wall_hi) >= self.owned(self.ranks() - 1).start)
     }
 
+    /// At a rebin: the slabs [`Slabs::balanced`] for `per_layer`, where the counts are out of balance
+    /// and the move lowers the busiest rank's count and keeps the walls' mirror pairs (`walls`: low
+    /// and high plane along the axis) in the end slabs; `None` keeps these.
+    pub fn rebalanced(&self, per_layer: &[u64], (wall_lo, wall_hi): (u32, u32)) -> Result<Option<Slabs>> {
+        let now = self.rank_counts(per_layer);
+        if !Slabs::unbalanced(&now) {
+            return Ok(None);
+        }
+        let balanced = self.balanced(per_layer)?;
+        let busiest = |counts: Vec<u64>| counts.into_iter().max().unwrap_or(0);
+        let better = busiest(balanced.rank_counts(per_layer)) < busiest(now);
+        Ok((better && balanced.holds_mirror(wall_lo, wall_hi)).then_some(balanced))
+    }
+
     /// Whether the busiest count in `per_rank` lies more than [`BALANCE_TOLERANCE`] above the mean.
     pub fn unbalanced(per_rank: &[u64]) -> bool {
         let total: u64 = per_rank.iter().sum();
@@ -170,7 +184,7 @@ fn check_fits(axis: usize, blocks: u32, ranks: usize) -> Result<()> {
     if ranks > most {
         bail!(
             "{ranks} ranks do not fit: the grid's longest axis ({}) holds {blocks} blocks of {BLOCK} nodes \
-             and each rank needs at least {MIN_SLAB_BLOCKS}, so at most {most} ranks; use fewer GPUs \
+             and each rank needs at least {MIN_SLAB_BLOCKS}, so at most {most} ranks; use fewer ranks \
              or a finer grid",
             ["x", "y", "z"][axis]
         );

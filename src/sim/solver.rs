@@ -24,6 +24,16 @@ pub struct StepExtremes {
     pub backstop_pushes: u64,
 }
 
+impl StepExtremes {
+    /// Takes in another rank's extremes: maxima and an integer sum, the same in any order.
+    pub fn merge(&mut self, other: &StepExtremes) {
+        self.max_density = self.max_density.max(other.max_density);
+        self.max_speed = self.max_speed.max(other.max_speed);
+        self.max_signal_speed = self.max_signal_speed.max(other.max_signal_speed);
+        self.backstop_pushes += other.backstop_pushes;
+    }
+}
+
 /// Per-substep timing records a backend keeps until they are taken; beyond that the oldest are
 /// dropped (a caller that never takes timings must not grow memory without bound).
 pub const MAX_PENDING_STEP_TIMINGS: usize = 1 << 14;
