@@ -7,6 +7,7 @@ use super::bins::BinKernels;
 use super::g2p::G2p;
 use super::g2p2g::{G2p2g, P2gMass};
 use super::grid_update::GridUpdate;
+use super::halo::HaloKernels;
 use super::launch::Launcher;
 use super::library;
 use super::lifecycle::LifecycleKernels;
@@ -17,6 +18,7 @@ use super::p2g::P2g;
 use super::p2g_init::P2gInit;
 use super::p2g_tiled::P2gTiled;
 use super::push::PushParticles;
+use super::ranks::RanksKernels;
 use super::render::RenderAttributes;
 use super::spawn::SpawnKernels;
 use super::stats::StatsKernel;
@@ -101,6 +103,8 @@ pub struct Kernels {
     pub stats: StatsKernel,
     pub render_attributes: RenderAttributes,
     pub push: PushParticles,
+    pub halo: HaloKernels,
+    pub ranks: RanksKernels,
 }
 
 impl Kernels {
@@ -121,6 +125,8 @@ impl Kernels {
             stats: StatsKernel::load(modules)?,
             render_attributes: RenderAttributes::load(modules)?,
             push: PushParticles::load(modules)?,
+            halo: HaloKernels::load(modules)?,
+            ranks: RanksKernels::load(modules)?,
         })
     }
 }

@@ -121,6 +121,19 @@ impl DeviceGrid {
         self.fixed.as_ref().map_or(&self.unused_fixed, |f| &f.momentum)
     }
 
+    /// Zeroes every accumulator and empties the node-block list with its marks: the grid as before
+    /// any scatter.
+    pub fn clear(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        let zero = "zeroing the grid";
+        stream.memset_zeros(&mut self.acc).context(zero)?;
+        if let Some(fixed) = &mut self.fixed {
+            stream.memset_zeros(&mut fixed.mass).context(zero)?;
+            stream.memset_zeros(&mut fixed.momentum).context(zero)?;
+        }
+        stream.memset_zeros(&mut self.node_blocks.marks).context(zero)?;
+        self.clear_node_block_list(stream)
+    }
+
     /// Empties the list of touched node blocks (after the grid update visited and unmarked them all).
     pub fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
         stream

@@ -11,11 +11,13 @@
 //! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
 //! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`p2g_init`],
 //! [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`], [`g2p2g`], [`one_pass`], [`bins`],
-//! [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`].
+//! [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`].
 //!
 //! **On top: the substep.** [`solver::CudaSolver`] reads as the substep's phases (`Phase::ALL`) in
 //! any pipeline, and answers what a frame asks of a solver; `inspect` is the kernel tests' view of
-//! it. [`interop`] registers the renderer's GL buffers with CUDA.
+//! it. [`ranks::CudaRanks`] runs several solvers as the ranks of one run, each over its slab
+//! (`crate::dist`), with the ghost exchanges between their phases. [`interop`] registers the
+//! renderer's GL buffers with CUDA.
 
 // The bottom: one GPU and the buffers it holds.
 pub mod colliders;
@@ -37,6 +39,7 @@ pub mod bins;
 pub mod g2p;
 pub mod g2p2g;
 pub mod grid_update;
+pub mod halo;
 pub mod lifecycle;
 pub mod mirror_walls;
 pub mod one_pass;
@@ -48,8 +51,9 @@ pub mod render;
 pub mod spawn;
 pub mod stats;
 
-// On top: the substep.
+// On top: the substep, on one GPU or as several ranks.
 mod inspect;
+pub mod ranks;
 pub mod solver;
 
 pub use bins::SORT_INTERVAL;
@@ -58,4 +62,5 @@ pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
 pub use particles::BYTES_PER_PARTICLE;
+pub use ranks::CudaRanks;
 pub use solver::CudaSolver;

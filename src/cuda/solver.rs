@@ -197,16 +197,9 @@ impl CudaSolver {
                 // Folded into the grid update, which zeroes what it reads (consume-and-zero); one
                 // GPU has no ranks to exchange with.
                 Phase::GridClear | Phase::HaloSum | Phase::HaloFill => {}
-                Phase::Sort => {
-                    if sort {
-                        self.sort()?;
-                    }
-                    self.schedule.note_substep();
-                }
+                Phase::Sort => self.sort_phase(sort)?,
                 Phase::P2gInit => {
-                    if self.mass_scattered.is_none() {
-                        self.scatter_mass()?;
-                    }
+                    self.scatter_first()?;
                     self.mirror(MirrorQuantity::Mass)?;
                 }
                 Phase::P2g => self.scatter_momentum()?,
@@ -217,6 +210,47 @@ impl CudaSolver {
                 Phase::G2p => self.gather()?,
             }
             self.timing.end_phase(&stream, phase)?;
+        }
+        Ok(())
+    }
+
+    /// The sort phase: bins the particles where `sort` (the schedule's `sort_due` when the substep
+    /// was enqueued), and counts the substep.
+    pub(super) fn sort_phase(&mut self, sort: bool) -> Result<()> {
+        if sort {
+            self.sort()?;
+        }
+        self.schedule.note_substep();
+        Ok(())
+    }
+
+    /// Whether the coming substep sorts (`BinSchedule::due`).
+    pub(super) fn sort_due(&self) -> bool {
+        self.schedule.due()
+    }
+
+    /// Bins the particles in the next sort phase (ranks.rs: a migration changed which slots are
+    /// live).
+    pub(super) fn rebin_next(&mut self) {
+        self.schedule.invalidate();
+    }
+
+    /// Drops the scatter the grid holds, so the next substep scatters again as a first one does,
+    /// with `last_dt`, the step of the substep that made it (ranks.rs: after the slabs moved, a
+    /// rank's partial sums may lie beyond its new ghost planes). Fixed point scatters the same units.
+    pub(super) fn discard_scatter(&mut self, last_dt: f32) -> Result<()> {
+        if self.mass_scattered.take().is_some() {
+            self.state.grid.clear(self.gpu.stream())?;
+            self.resumed_dt = Some(last_dt);
+        }
+        Ok(())
+    }
+
+    /// The first substep's scatter, where the grid holds none yet (the binned and fused pipelines
+    /// scatter the next substep's mass in the gather; the report's every substep).
+    pub(super) fn scatter_first(&mut self) -> Result<()> {
+        if self.mass_scattered.is_none() {
+            self.scatter_mass()?;
         }
         Ok(())
     }
@@ -330,7 +364,7 @@ impl Solver for CudaSolver {
     /// (`enqueue_substep`), or as one launch of a captured graph of exactly that work (graph.rs).
     fn step(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        let sort = self.schedule.due();
+        let sort = self.sort_due();
         let graphs = self.options.graphs && !self.gpu.launcher.sync_each_launch && self.substeps > 0;
         self.substeps += 1;
         if !graphs {

@@ -1,0 +1,100 @@
+// halo: the ghost exchange's two ends on one rank's grid (src/cuda/halo.rs; src/dist/halo.rs is the
+// CPU ranks' version of the same rule). A rank holds the grid in the domain's node numbering and
+// touches its slab and one block of ghost planes on each inner face. After the scatter, the ghost
+// planes' partial sums are packed (and zeroed, as the grid update would), carried to the owner and
+// added to its edge planes; after the grid update, the owner's edge planes' velocities are packed,
+// carried back and written over the ghosts. The carrier (a device copy on one GPU, NCCL across GPUs)
+// sees only the packed buffers.
+//
+// Packed sums hold HALO_SUM_WORDS u64 per node: mass, momentum x, y, z (the fixed-point units, or
+// the float's bits in the low half under the float scatter), then whether the sender's scatter listed
+// the node's block. The owner lists every such block, so its grid update visits the nodes the
+// one-rank run would, zeros included.
+#include "tiles.cuh"
+
+#define HALO_SUM_WORDS 5u
+
+// Node `j` of the planes first.. across `axis`, counted with the lower of the other two axes fastest.
+__device__ __forceinline__ u32 halo_node(const Params& params, u32 axis, u32 first, u32 j) {
+    const u32 a = axis == 0u ? 1u : 0u, b = axis == 2u ? 1u : 2u;
+    const u32 ra = params.grid_res[a], rb = params.grid_res[b];
+    u32 c[3];
+    c[a] = j % ra;
+    c[b] = (j / ra) % rb;
+    c[axis] = first + j / (ra * rb);
+    return c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
+}
+
+__device__ __forceinline__ u32 halo_node_block(const Params& params, const NodeBlocks& blocks, u32 i) {
+    const u32 rx = params.grid_res[0], ry = params.grid_res[1];
+    return node_block_index(blocks, (i % rx) / NODE_BLOCK_EDGE, ((i / rx) % ry) / NODE_BLOCK_EDGE,
+                            (i / (rx * ry)) / NODE_BLOCK_EDGE);
+}
+
+// Packs and zeroes the scatter's sums on `num_nodes` nodes of the ghost planes from `first`.
+extern "C" __global__ void halo_pack_sums(const Params params, const u32 axis, const u32 first, const u32 num_nodes,
+                                          float4* __restrict__ grid_acc, u64* __restrict__ fixed_mass,
+                                          u64* __restrict__ fixed_momentum, const u32* __restrict__ block_marks,
+                                          u64* __restrict__ out) {
+    const NodeBlocks blocks = node_blocks(params);
+    FOR_EACH_INDEX(j, num_nodes) {
+        const u32 i = halo_node(params, axis, first, j);
+        u64* o = out + (size_t)HALO_SUM_WORDS * j;
+        if (params.scatter_mode == SCATTER_FIXED_POINT) {
+            o[0] = fixed_mass[i];
+            fixed_mass[i] = 0;
+            for (u32 a = 0; a < 3u; ++a) {
+                o[1 + a] = fixed_momentum[3 * (size_t)i + a];
+                fixed_momentum[3 * (size_t)i + a] = 0;
+            }
+        } else {
+            const float4 acc = grid_acc[i];
+            grid_acc[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+            o[0] = __float_as_uint(acc.w);
+            o[1] = __float_as_uint(acc.x);
+            o[2] = __float_as_uint(acc.y);
+            o[3] = __float_as_uint(acc.z);
+        }
+        o[4] = block_marks[halo_node_block(params, blocks, i)];
+    }
+}
+
+// Adds packed sums to the edge planes from `first` and lists the blocks the sender listed.
+extern "C" __global__ void halo_add_sums(const Params params, const u32 axis, const u32 first, const u32 num_nodes,
+                                         const u64* __restrict__ in, float4* __restrict__ grid_acc,
+                                         u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
+                                         u32* __restrict__ block_marks, u32* __restrict__ block_list,
+                                         u32* __restrict__ work_counts) {
+    const NodeBlocks blocks = node_blocks(params);
+    const BlockMarks marks{block_marks, block_list, work_counts};
+    FOR_EACH_INDEX(j, num_nodes) {
+        const u32 i = halo_node(params, axis, first, j);
+        const u64* w = in + (size_t)HALO_SUM_WORDS * j;
+        if (params.scatter_mode == SCATTER_FIXED_POINT) {
+            fixed_mass[i] += w[0];
+            for (u32 a = 0; a < 3u; ++a) fixed_momentum[3 * (size_t)i + a] += w[1 + a];
+        } else {
+            float4 acc = grid_acc[i];
+            acc.w += __uint_as_float((u32)w[0]);
+            acc.x += __uint_as_float((u32)w[1]);
+            acc.y += __uint_as_float((u32)w[2]);
+            acc.z += __uint_as_float((u32)w[3]);
+            grid_acc[i] = acc;
+        }
+        if (w[4]) mark_node_block(marks, halo_node_block(params, blocks, i));
+    }
+}
+
+// Copies the grid update's velocity and mass of `num_nodes` nodes of the planes from `first`.
+extern "C" __global__ void halo_pack_velocities(const Params params, const u32 axis, const u32 first,
+                                                const u32 num_nodes, const float4* __restrict__ grid_vel,
+                                                float4* __restrict__ out) {
+    FOR_EACH_INDEX(j, num_nodes) out[j] = grid_vel[halo_node(params, axis, first, j)];
+}
+
+// Writes packed velocities over the ghost planes from `first`.
+extern "C" __global__ void halo_fill_velocities(const Params params, const u32 axis, const u32 first,
+                                                const u32 num_nodes, const float4* __restrict__ in,
+                                                float4* __restrict__ grid_vel) {
+    FOR_EACH_INDEX(j, num_nodes) grid_vel[halo_node(params, axis, first, j)] = in[j];
+}

@@ -1,0 +1,87 @@
+// ranks: what `CudaRanks` (src/cuda/ranks.rs) does to particles across ranks: find those about to
+// leave their rank's reach, count them per block layer for the balance, move them to their new
+// owner, and take every rank's own slots into one set of particles.
+#include "tiles.cuh"
+
+// The stencil base node of `xp` along `axis`, rounded as `dist::migrate::base` (no fused
+// multiply-add), so host and device agree on every particle's block layer.
+__device__ __forceinline__ int stencil_base_along(const Params& params, u32 axis, float4 xp) {
+    const float along = axis == 0u ? xp.x : axis == 1u ? xp.y : xp.z;
+    return (int)floorf(__fsub_rn(__fmul_rn(along, params.inv_dx), 0.5f));
+}
+
+// The block layer of a base node, clamped into the grid's `layers` as `Slabs::owner` clamps it.
+__device__ __forceinline__ u32 block_layer(int base, u32 layers) {
+    return min((u32)max(base, 0) / NODE_BLOCK_EDGE, layers - 1u);
+}
+
+// Counts the live particles whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
+// that one more substep could carry past the rank's ghost planes (`Slabs::keeps`), so the ranks
+// migrate first.
+extern "C" __global__ void count_strays(const Params params, const u32 axis, const int keep_lo, const int keep_hi,
+                                        const float4* __restrict__ x, u32* __restrict__ strays) {
+    FOR_EACH_INDEX(p, params.num_particles) {
+        const float4 xp = x[p];
+        if (is_parked(xp)) continue;
+        const int base = stencil_base_along(params, axis, xp);
+        if (base < keep_lo || base > keep_hi) atomicAdd(strays, 1u);
+    }
+}
+
+// Adds one rank's live particles per block layer along `axis` to `counts` (`layers` of them, as
+// `dist::migrate::layer_counts` counts): a histogram in shared memory (`layers` u32), then one
+// atomic per layer and CUDA block.
+extern "C" __global__ void count_layers(const Params params, const u32 axis, const u32 layers,
+                                        const float4* __restrict__ x, u32* __restrict__ counts) {
+    extern __shared__ u32 histogram[];
+    for (u32 k = threadIdx.x; k < layers; k += blockDim.x) histogram[k] = 0u;
+    __syncthreads();
+    FOR_EACH_INDEX(p, params.num_particles) {
+        const float4 xp = x[p];
+        if (!is_parked(xp)) atomicAdd(&histogram[block_layer(stencil_base_along(params, axis, xp), layers)], 1u);
+    }
+    __syncthreads();
+    for (u32 k = threadIdx.x; k < layers; k += blockDim.x) {
+        if (histogram[k]) atomicAdd(&counts[k], histogram[k]);
+    }
+}
+
+// Migration on one device: every slot live on rank `from` whose block layer lies in
+// first_layer..end_layer (rank `to`'s slab) is copied to `to` live and parked on `from`; `moved`
+// counts them. Both ranks hold every slot, so indices stay as they are.
+extern "C" __global__ void move_owned(const Params params, const u32 axis, const u32 layers, const u32 first_layer,
+                                      const u32 end_layer, float4* __restrict__ from_x,
+                                      const float4* __restrict__ from_v, const float4* __restrict__ from_c,
+                                      const float* __restrict__ from_rho, float4* __restrict__ to_x,
+                                      float4* __restrict__ to_v, float4* __restrict__ to_c,
+                                      float* __restrict__ to_rho, u32* __restrict__ moved) {
+    const u32 n = params.num_particles;
+    FOR_EACH_INDEX(p, n) {
+        const float4 xp = from_x[p];
+        if (is_parked(xp)) continue;
+        const u32 layer = block_layer(stencil_base_along(params, axis, xp), layers);
+        if (layer < first_layer || layer >= end_layer) continue;
+        to_x[p] = make_float4(xp.x, xp.y, xp.z, 0.0f);
+        to_v[p] = from_v[p];
+        for (u32 col = 0; col < 3u; ++col) to_c[(size_t)col * n + p] = from_c[(size_t)col * n + p];
+        to_rho[p] = from_rho[p];
+        from_x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
+        atomicAdd(moved, 1u);
+    }
+}
+
+// Copies the slots live on one rank (x, v, C's three columns, density) into `out_*`, which every
+// rank writes in turn: a slot is live on exactly one rank.
+extern "C" __global__ void take_owned(const u32 num_slots, const float4* __restrict__ x, const float4* __restrict__ v,
+                                      const float4* __restrict__ c, const float* __restrict__ rho,
+                                      float4* __restrict__ out_x, float4* __restrict__ out_v,
+                                      float4* __restrict__ out_c, float* __restrict__ out_rho) {
+    FOR_EACH_INDEX(p, num_slots) {
+        const float4 xp = x[p];
+        if (is_parked(xp)) continue;
+        out_x[p] = xp;
+        out_v[p] = v[p];
+        for (u32 col = 0; col < 3u; ++col) out_c[(size_t)col * num_slots + p] = c[(size_t)col * num_slots + p];
+        out_rho[p] = rho[p];
+    }
+}
