@@ -1,11 +1,12 @@
 //! Choosing and creating a backend.
 
-use crate::cuda::{CudaOptions, CudaSolver};
+use crate::cuda::{CudaOptions, CudaRanks, CudaSolver};
+use crate::dist::CpuRanks;
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::{Particles, Scene, Solver};
-use anyhow::Result;
+use anyhow::{bail, Result};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
@@ -78,6 +79,9 @@ fn create_with(
         scene.check_pipeline()?;
     }
     let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
+    if scene.ranks > 1 {
+        return create_ranks(kind, scene, initial());
+    }
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
         scene.flow.is_active().then(|| {
@@ -113,5 +117,24 @@ fn create_with(
                 Ok(parallel())
             }
         },
+    }
+}
+
+/// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (all on one
+/// device today; `auto` asks for them too, with no CPU fallback) or the CPU reference's thread ranks.
+fn create_ranks(kind: BackendKind, scene: &Scene, particles: Particles) -> Result<Box<dyn Solver>> {
+    let ranks = scene.ranks;
+    match kind {
+        BackendKind::Cuda | BackendKind::Auto => Ok(Box::new(CudaRanks::new(
+            scene,
+            particles,
+            ranks,
+            CudaOptions::from_env()?,
+        )?)),
+        BackendKind::Cpu => Ok(Box::new(CpuRanks::new(scene, particles, ranks)?)),
+        BackendKind::CpuParallel => bail!(
+            "--ranks {ranks}: the cpu-parallel backend runs on one rank; drop --ranks, or split the \
+             single-thread reference (--backend cpu) or the CUDA backend (--backend cuda)"
+        ),
     }
 }

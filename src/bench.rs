@@ -17,7 +17,7 @@
 //! GPU phases are timed with CUDA events (one pair per phase per substep), the CPU's with a host clock.
 
 use crate::backend::{self, BackendKind};
-use crate::cuda::{self, CudaOptions, CudaSolver};
+use crate::cuda::{self, CudaOptions, CudaRanks, CudaSolver};
 use crate::sim::scene::{BlockSpec, DomainSpec, SceneSpec};
 use crate::sim::{
     presets, Phase, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, Traffic,
@@ -67,6 +67,8 @@ pub struct PhaseBenchOptions {
     pub scatter: Option<ScatterMode>,
     /// Overrides the scene's GPU pipeline.
     pub pipeline: Option<Pipeline>,
+    /// Splits each scene into this many ranks (`Scene::ranks`).
+    pub ranks: Option<usize>,
     /// Memory bandwidth for the traffic floor, GB/s.
     pub peak_gbs: f64,
 }
@@ -80,6 +82,7 @@ impl Default for PhaseBenchOptions {
             block_size: None,
             scatter: None,
             pipeline: None,
+            ranks: None,
             peak_gbs: H200_PEAK_GBS,
         }
     }
@@ -164,6 +167,9 @@ fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
     if let Some(pipeline) = options.pipeline {
         scene.pipeline = pipeline;
     }
+    if let Some(ranks) = options.ranks {
+        scene.ranks = ranks;
+    }
     scene
 }
 
@@ -206,6 +212,11 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
             let mut cuda = CudaOptions::from_env()?;
             if let Some(block) = options.block_size {
                 cuda.block_size = block;
+            }
+            if scene.ranks > 1 {
+                let solver = CudaRanks::new(scene, scene.spawn(), scene.ranks, cuda)?;
+                let device = solver.device_name();
+                return Ok((Box::new(solver), device));
             }
             let solver = CudaSolver::new(scene, cuda)?;
             let device = solver.device_name();
@@ -284,9 +295,16 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     }
     let on_gpu = options.backend == BackendKind::Cuda;
     let fixed_point = scene.scatter == ScatterMode::FixedPoint;
-    let label = |phase: Phase| match on_gpu {
-        true => phase.gpu_label(scene.pipeline, fixed_point, cuda::SORT_INTERVAL),
-        false => phase.cpu_label(),
+    let ranked = scene.ranks > 1;
+    let label = |phase: Phase| match (on_gpu, ranked, phase) {
+        // src/cuda/ranks.rs: the phases of every rank, host-synchronised at each phase's end.
+        (true, true, Phase::Sort) => format!(
+            "migrate + rebin (every {} substeps, or when a particle nears its rank's ghost planes)",
+            cuda::SORT_INTERVAL
+        ),
+        (true, true, Phase::G2p) => "one_pass + count strays + take_owned (every rank)".into(),
+        (true, _, _) => phase.gpu_label(scene.pipeline, fixed_point, cuda::SORT_INTERVAL),
+        (false, _, _) => phase.cpu_label(),
     };
     let traffic = Traffic {
         particles: scene.num_particles,

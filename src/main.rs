@@ -207,6 +207,11 @@ struct SolverArgs {
     /// particle pass, the density advected), binned (two passes, the report's density) or report.
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
+    /// Split the run into N ranks, each over a slab of the grid with ghost exchanges between them
+    /// (backends cuda and cpu; docs/several-gpus.md). Today every CUDA rank runs on the one device
+    /// MPM_CUDA_DEVICE names: a check of the decomposition, slower than one rank.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>)]
+    ranks: Option<u64>,
 }
 
 impl SolverArgs {
@@ -216,6 +221,9 @@ impl SolverArgs {
         }
         if let Some(pipeline) = self.pipeline {
             scene.pipeline = pipeline;
+        }
+        if let Some(ranks) = self.ranks {
+            scene.ranks = ranks.try_into().unwrap_or(usize::MAX);
         }
     }
 }
@@ -489,6 +497,10 @@ struct BenchArgs {
 
 fn bench(args: BenchArgs) -> Result<()> {
     anyhow::ensure!(
+        !(args.sweep && args.solver.ranks.is_some_and(|n| n > 1)),
+        "--sweep times one rank; run it without --ranks"
+    );
+    anyhow::ensure!(
         args.peak_gbs.is_finite() && args.peak_gbs > 0.0,
         "--peak-gbs {} must be a positive bandwidth in GB/s (4800 for an H200)",
         args.peak_gbs
@@ -537,6 +549,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             block_size: args.block_size,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
+            ranks: args.solver.ranks.map(|n| n.try_into().unwrap_or(usize::MAX)),
             peak_gbs: args.peak_gbs,
         },
         cpu_baseline_steps: args.cpu_baseline.then_some(steps(args.cpu_steps, "cpu-steps")?),
@@ -610,7 +623,7 @@ fn run(args: RunArgs) -> Result<()> {
     mpm::export::remove_unfinished_on_interrupt()?;
     writeln!(
         std::io::stdout(),
-        "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}",
+        "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}{}",
         scene.name,
         scene.source,
         resumed
@@ -626,7 +639,12 @@ fn run(args: RunArgs) -> Result<()> {
         scene.grid_res[2],
         scene.dx,
         sim.params().material.sound_speed(),
-        sim.backend()
+        sim.backend(),
+        if scene.ranks > 1 {
+            format!(" on {} ranks", scene.ranks)
+        } else {
+            String::new()
+        }
     )?;
     if let Some(surface) = &surface {
         writeln!(

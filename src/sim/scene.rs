@@ -67,6 +67,9 @@ pub struct Scene {
     pub scatter: ScatterMode,
     /// The GPU's kernel sequence (the CPU reference ignores it).
     pub pipeline: Pipeline,
+    /// Ranks the run is split into (`--ranks`, `crate::dist`); 1: not split. A run option, not a
+    /// scene file setting.
+    pub ranks: usize,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,

@@ -115,6 +115,7 @@ impl Validator<'_> {
             mirror_wall_mass: spec.solver.mirror_wall_mass,
             scatter: spec.solver.scatter,
             pipeline: spec.solver.pipeline,
+            ranks: 1,
             time_step,
             particles_per_axis,
             bodies,
