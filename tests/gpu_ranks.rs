@@ -26,6 +26,7 @@ fn main() -> std::process::ExitCode {
             a_moving_collider_across_the_cut_gives_one_gpu_s_bits,
             a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
             the_halo_phases_are_timed_and_migrations_counted,
+            a_checkpoint_of_two_ranks_resumes_on_three,
             ranks_refuse_what_they_do_not_run,
         ],
     )
@@ -207,6 +208,11 @@ fn the_halo_phases_are_timed_and_migrations_counted() {
     let (migrations, migrated) = split.migrated();
     assert!(migrations > 0 && migrated.sent > 0 && migrated.sent == migrated.received);
     assert_eq!(split.counts().iter().sum::<usize>(), scene.spawn().num_live());
+}
+
+/// `mpm run --ranks`: a checkpoint of 2 ranks resumes on 3 and ends on one GPU's bytes.
+fn a_checkpoint_of_two_ranks_resumes_on_three() {
+    common::ranks_checkpoint_resumes_on_another_rank_count("cuda");
 }
 
 fn ranks_refuse_what_they_do_not_run() {
