@@ -10,7 +10,7 @@ use super::state::{DeviceState, StateArgs};
 use crate::dist::slabs::BLOCK;
 use crate::sim::Params;
 use anyhow::{Context, Result};
-use cudarc::driver::{CudaSlice, PushKernelArg};
+use cudarc::driver::{CudaSlice, LaunchArgs, PushKernelArg};
 use std::ops::Range;
 
 /// u64 words per node of packed sums: mass, momentum x, y, z, and the sender's block mark
@@ -86,18 +86,11 @@ impl HaloKernels {
         d: &DeviceState,
         out: &CudaSlice<u64>,
     ) -> Result<()> {
-        let (axis, first, nodes) = extent(planes, params);
-        // SAFETY: the arguments match halo_pack_sums; `out` holds HALO_SUM_WORDS per node of a block
-        // of planes (`HaloBuffers::allocate`) and ghost planes are at most a block.
+        // SAFETY: the rest of halo_pack_sums' arguments; `out` holds HALO_SUM_WORDS per node of a
+        // block of planes (`HaloBuffers::allocate`) and ghost planes are at most a block.
         unsafe {
-            self.pack_sums.launch(l, l.cover(nodes as usize), |a| {
-                a.arg(params)
-                    .arg(&axis)
-                    .arg(&first)
-                    .arg(&nodes)
-                    .accumulators(&d.grid)
-                    .arg(&d.grid.node_blocks.marks)
-                    .arg(out);
+            over_planes(&self.pack_sums, l, params, &extent(planes, params), |a| {
+                a.accumulators(&d.grid).arg(&d.grid.node_blocks.marks).arg(out);
             })
         }
     }
@@ -111,16 +104,11 @@ impl HaloKernels {
         received: &CudaSlice<u64>,
         d: &DeviceState,
     ) -> Result<()> {
-        let (axis, first, nodes) = extent(planes, params);
         let blocks = &d.grid.node_blocks;
-        // SAFETY: the arguments match halo_add_sums; `received` as in `pack_sums`.
+        // SAFETY: the rest of halo_add_sums' arguments; `received` as in `pack_sums`.
         unsafe {
-            self.add_sums.launch(l, l.cover(nodes as usize), |a| {
-                a.arg(params)
-                    .arg(&axis)
-                    .arg(&first)
-                    .arg(&nodes)
-                    .arg(received)
+            over_planes(&self.add_sums, l, params, &extent(planes, params), |a| {
+                a.arg(received)
                     .accumulators(&d.grid)
                     .arg(&blocks.marks)
                     .arg(&blocks.list)
@@ -138,17 +126,11 @@ impl HaloKernels {
         d: &DeviceState,
         out: &CudaSlice<u64>,
     ) -> Result<()> {
-        let (axis, first, nodes) = extent(planes, params);
-        // SAFETY: the arguments match halo_pack_velocities; a float4 per node takes less than the
-        // HALO_SUM_WORDS u64 per node `out` holds.
+        // SAFETY: the rest of halo_pack_velocities' arguments; a float4 per node takes less than
+        // the HALO_SUM_WORDS u64 per node `out` holds.
         unsafe {
-            self.pack_velocities.launch(l, l.cover(nodes as usize), |a| {
-                a.arg(params)
-                    .arg(&axis)
-                    .arg(&first)
-                    .arg(&nodes)
-                    .arg(&d.grid.vel)
-                    .arg(out);
+            over_planes(&self.pack_velocities, l, params, &extent(planes, params), |a| {
+                a.arg(&d.grid.vel).arg(out);
             })
         }
     }
@@ -162,26 +144,43 @@ impl HaloKernels {
         received: &CudaSlice<u64>,
         d: &DeviceState,
     ) -> Result<()> {
-        let (axis, first, nodes) = extent(planes, params);
-        // SAFETY: the arguments match halo_fill_velocities; `received` as in `pack_velocities`.
+        // SAFETY: the rest of halo_fill_velocities' arguments; `received` as in `pack_velocities`.
         unsafe {
-            self.fill_velocities.launch(l, l.cover(nodes as usize), |a| {
-                a.arg(params)
-                    .arg(&axis)
-                    .arg(&first)
-                    .arg(&nodes)
-                    .arg(received)
-                    .arg(&d.grid.vel);
+            over_planes(&self.fill_velocities, l, params, &extent(planes, params), |a| {
+                a.arg(received).arg(&d.grid.vel);
             })
         }
     }
 }
 
-/// The kernels' (axis, first plane, nodes) of `planes`.
-fn extent(planes: &Planes, params: &Params) -> (u32, u32, u32) {
-    (
+/// The leading arguments of kernels/halo.cu's kernels for `planes`: axis, first plane, nodes.
+fn extent(planes: &Planes, params: &Params) -> [u32; 3] {
+    [
         planes.axis as u32,
         planes.range.start,
         planes.nodes(params.grid_res) as u32,
-    )
+    ]
+}
+
+/// Launches one of kernels/halo.cu's kernels over the nodes of some planes: its leading arguments
+/// (params, then `extent`'s axis, first plane and nodes), then what `rest` pushes.
+///
+/// # Safety
+/// `rest` must push the kernel's remaining parameters, in order, every buffer large enough for the
+/// planes' nodes.
+unsafe fn over_planes<'a>(
+    kernel: &'a Kernel,
+    l: &'a Launcher,
+    params: &'a Params,
+    extent: &'a [u32; 3],
+    rest: impl FnOnce(&mut LaunchArgs<'a>),
+) -> Result<()> {
+    let [axis, first, nodes] = extent;
+    // SAFETY: the caller vouches for the arguments `rest` pushes.
+    unsafe {
+        kernel.launch(l, l.cover(*nodes as usize), |a| {
+            a.arg(params).arg(axis).arg(first).arg(nodes);
+            rest(a);
+        })
+    }
 }

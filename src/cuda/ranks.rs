@@ -69,6 +69,15 @@ enum Side {
     Above = 1,
 }
 
+/// What an exchange carries (`CudaRanks::exchange`).
+#[derive(Clone, Copy)]
+enum Exchange {
+    /// The scatter's sums on the ghost planes, to their owner (halo_sum).
+    Sums,
+    /// The grid update's velocities on the edge planes, to the neighbours' ghosts (halo_fill).
+    Velocities,
+}
+
 impl CudaRanks {
     /// `ranks` ranks of `particles` (every slot of `scene`'s run), the slabs balanced for them.
     pub fn new(scene: &Scene, particles: Particles, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
@@ -165,90 +174,65 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// The ghost planes on `side` of `rank`, and the neighbour that owns them.
-    fn ghosts(&self, rank: usize, side: Side) -> Option<(Planes, usize)> {
-        let (range, neighbour) = match side {
-            Side::Below => (self.slabs.low_ghost(rank), rank.checked_sub(1)?),
-            Side::Above => (self.slabs.high_ghost(rank), rank + 1),
+    /// What rank `rank` shares with its neighbour on `side`: the neighbour, this rank's ghost planes
+    /// there (the neighbour's edge) and its edge planes there (the neighbour's ghosts); `None` at
+    /// the domain's ends.
+    fn halo(&self, rank: usize, side: Side) -> Option<(usize, Planes, Planes)> {
+        let slabs = &self.slabs;
+        let (neighbour, ghosts, edge) = match side {
+            Side::Below => {
+                let below = rank.checked_sub(1)?;
+                (below, slabs.low_ghost(rank), slabs.high_ghost(below))
+            }
+            Side::Above if rank + 1 < slabs.ranks() => {
+                (rank + 1, slabs.high_ghost(rank), slabs.low_ghost(rank + 1))
+            }
+            Side::Above => return None,
         };
-        (!range.is_empty()).then_some((
-            Planes {
-                axis: self.slabs.axis,
-                range,
-            },
-            neighbour,
-        ))
+        let planes = |range| Planes {
+            axis: slabs.axis,
+            range,
+        };
+        Some((neighbour, planes(ghosts), planes(edge)))
     }
 
-    /// Sends every rank's ghost sums to their owners, which add them to their edge planes.
-    fn sum_into_owners(&mut self) -> Result<()> {
+    /// One exchange between every pair of neighbours: each rank packs its side of it into its send
+    /// buffers, the carrier copies them across, each rank unpacks what arrived. The scatter's sums
+    /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
+    /// from the edge back over the ghosts.
+    fn exchange(&mut self, what: Exchange) -> Result<()> {
         for (rank, solver) in self.solvers.iter().enumerate() {
+            let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
             for side in SIDES {
-                if let Some((planes, _)) = self.ghosts(rank, side) {
-                    let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-                    k.pack_sums(
-                        l,
-                        &solver.params,
-                        &planes,
-                        &solver.state,
-                        &self.halos[rank].send[side as usize],
-                    )?;
+                let Some((_, ghosts, edge)) = self.halo(rank, side) else {
+                    continue;
+                };
+                let (params, state, out) = (
+                    &solver.params,
+                    &solver.state,
+                    &self.halos[rank].send[side as usize],
+                );
+                match what {
+                    Exchange::Sums => k.pack_sums(l, params, &ghosts, state, out)?,
+                    Exchange::Velocities => k.pack_velocities(l, params, &edge, state, out)?,
                 }
             }
         }
         self.carry()?;
         for (rank, solver) in self.solvers.iter().enumerate() {
+            let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
             for side in SIDES {
-                // What this rank's neighbour on `side` sent: its ghost planes, this rank's edge.
-                if let Some((_, neighbour)) = self.ghosts(rank, side) {
-                    let (planes, _) = self
-                        .ghosts(neighbour, opposite(side))
-                        .context("ranks disagree on their ghost planes")?;
-                    let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-                    k.add_sums(
-                        l,
-                        &solver.params,
-                        &planes,
-                        &self.halos[rank].recv[side as usize],
-                        &solver.state,
-                    )?;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Sends every rank's edge-plane velocities to the neighbours that hold them as ghosts.
-    fn fill_ghosts(&mut self) -> Result<()> {
-        for (rank, solver) in self.solvers.iter().enumerate() {
-            for side in SIDES {
-                if let Some((_, neighbour)) = self.ghosts(rank, side) {
-                    let (edge, _) = self
-                        .ghosts(neighbour, opposite(side))
-                        .context("ranks disagree on their ghost planes")?;
-                    let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-                    k.pack_velocities(
-                        l,
-                        &solver.params,
-                        &edge,
-                        &solver.state,
-                        &self.halos[rank].send[side as usize],
-                    )?;
-                }
-            }
-        }
-        self.carry()?;
-        for (rank, solver) in self.solvers.iter().enumerate() {
-            for side in SIDES {
-                if let Some((planes, _)) = self.ghosts(rank, side) {
-                    let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-                    k.fill_velocities(
-                        l,
-                        &solver.params,
-                        &planes,
-                        &self.halos[rank].recv[side as usize],
-                        &solver.state,
-                    )?;
+                let Some((_, ghosts, edge)) = self.halo(rank, side) else {
+                    continue;
+                };
+                let (params, state, got) = (
+                    &solver.params,
+                    &solver.state,
+                    &self.halos[rank].recv[side as usize],
+                );
+                match what {
+                    Exchange::Sums => k.add_sums(l, params, &edge, got, state)?,
+                    Exchange::Velocities => k.fill_velocities(l, params, &ghosts, got, state)?,
                 }
             }
         }
@@ -266,7 +250,7 @@ impl CudaRanks {
         }
         for rank in 0..self.solvers.len() {
             for side in SIDES {
-                let Some((_, neighbour)) = self.ghosts(rank, side) else {
+                let Some((neighbour, _, _)) = self.halo(rank, side) else {
                     continue;
                 };
                 let (from, to) = pair(&mut self.halos, rank, neighbour);
@@ -471,7 +455,7 @@ impl Solver for CudaRanks {
             solver.scatter_first()?;
         }
         self.lap(&mut clock, Phase::P2gInit)?;
-        self.sum_into_owners()?;
+        self.exchange(Exchange::Sums)?;
         self.lap(&mut clock, Phase::HaloSum)?;
         for solver in &self.solvers {
             solver.mirror(MirrorQuantity::Mass)?;
@@ -482,7 +466,7 @@ impl Solver for CudaRanks {
             solver.update_grid()?;
         }
         self.lap(&mut clock, Phase::GridUpdate)?;
-        self.fill_ghosts()?;
+        self.exchange(Exchange::Velocities)?;
         self.lap(&mut clock, Phase::HaloFill)?;
         for solver in &mut self.solvers {
             solver.gather()?;
