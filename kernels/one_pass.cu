@@ -128,8 +128,10 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
                     }
                 })
             } else {
-                // A lane that scatters nothing joins its neighbours' run with zeros.
-                const WarpRun run = warp_run(s.base_index);
+                // A lane that scatters nothing is a run of its own (a key no cell has): were it to
+                // head its neighbours' run (a particle drained in this pass, between particles of
+                // one cell), the run's sum would go unadded.
+                const WarpRun run = warp_run(live ? s.base_index : ~(threadIdx.x & 31u));
                 FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
                     float impulse[3];
                     impulse_at(q, w, d0, d1, d2, impulse);
