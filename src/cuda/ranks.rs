@@ -17,11 +17,11 @@
 //! **On one GPU.** Every rank runs on device `CudaOptions::device` and the carrier is a device copy
 //! between the ranks' halo buffers; NCCL's send/recv between GPUs takes its place when it is built
 //! (docs/several-gpus.md). Every rank holds every particle slot, live where it owns the particle and
-//! parked elsewhere (the kernels skip parked slots), so migration (`move_owned` in kernels/ranks.cu)
-//! copies the moved slots and flips their flags, and a slot's index never changes; after each substep `take_owned`
-//! (kernels/ranks.cu) copies every rank's own slots into one set, which readers see. The host waits
-//! for every rank at the end of each phase: that orders the exchanges between the ranks' streams and
-//! times the phases.
+//! parked elsewhere (the kernels skip parked slots), so a migration (`move_owned`, kernels/ranks.cu
+//! beside this file) copies the moved slots and flips their flags, and a slot's index never changes;
+//! after each substep `take_owned` copies every rank's own slots into one set, which readers see.
+//! The host waits for every rank at the end of each phase: that orders the exchanges between the
+//! ranks' streams and times the phases.
 
 use super::gpu::CudaOptions;
 use super::halo::{HaloBuffers, Planes};
@@ -276,15 +276,9 @@ impl CudaRanks {
 
     /// Counts each rank's strays after its g2p.
     fn count_strays(&mut self) -> Result<()> {
-        let ranks = self.slabs.ranks();
         for (rank, (solver, strays)) in self.solvers.iter().zip(&mut self.strays).enumerate() {
-            // `Slabs::keeps`: base - 1 at or past the low ghost planes, base + 3 below the high ones.
-            let low = self.slabs.low_ghost(rank).start as i32 + 1;
-            let high = self.slabs.high_ghost(rank).end as i32 - 4;
-            let keep = (
-                if rank == 0 { i32::MIN } else { low },
-                if rank + 1 == ranks { i32::MAX } else { high },
-            );
+            let kept = self.slabs.kept_bases(rank);
+            let keep = (*kept.start(), *kept.end());
             solver
                 .stream()
                 .memset_zeros(strays)

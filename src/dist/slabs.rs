@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use glam::UVec3;
-use std::ops::Range;
+use std::ops::{Range, RangeInclusive};
 
 /// The edge of a node block, nodes: the unit slabs are cut in, and the depth of each ghost layer.
 pub const BLOCK: u32 = 4;
@@ -120,10 +120,24 @@ impl Slabs {
     /// substep without migrating: its stencil, one cell further either way, stays inside the slab and
     /// its ghost planes.
     pub fn keeps(&self, rank: usize, base: i32) -> bool {
-        // After a move of one cell the stencil covers nodes base - 1 ..= base + 3.
-        let below = rank == 0 || base > self.low_ghost(rank).start as i32;
-        let above = rank + 1 == self.ranks() || base + 3 < self.high_ghost(rank).end as i32;
-        below && above
+        self.kept_bases(rank).contains(&base)
+    }
+
+    /// The stencil bases [`Slabs::keeps`] keeps on `rank`: after a move of one cell the stencil
+    /// covers nodes base - 1 ..= base + 3, which must lie in the slab and its ghost planes (the end
+    /// ranks keep anything beyond the domain's ends).
+    pub fn kept_bases(&self, rank: usize) -> RangeInclusive<i32> {
+        let low = if rank == 0 {
+            i32::MIN
+        } else {
+            self.low_ghost(rank).start as i32 + 1
+        };
+        let high = if rank + 1 == self.ranks() {
+            i32::MAX
+        } else {
+            self.high_ghost(rank).end as i32 - 4
+        };
+        low..=high
     }
 
     /// Whether the walls' mirror pairs along the slab axis (`sim::cpu::mirror_walls`: nodes
