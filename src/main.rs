@@ -31,7 +31,7 @@ struct Cli {
 }
 
 /// The command names, for reading `mpm [OPTIONS]` as `mpm view [OPTIONS]`.
-const COMMANDS: [&str; 6] = ["view", "render", "run", "bench", "scenes", "help"];
+const COMMANDS: [&str; 7] = ["view", "render", "run", "bench", "scenes", "devices", "help"];
 
 /// The arguments with `view` put in where the user gave options but no command (`mpm --scene drop`
 /// opens the viewer). Options before a command (`mpm --scene x run`) are an error that says where
@@ -111,6 +111,9 @@ enum Command {
         #[arg(long, value_name = "FILE", conflicts_with = "show")]
         mesh: Option<String>,
     },
+    /// List the CUDA devices (memory, peer access between them) and whether NCCL, which runs on
+    /// several GPUs will need, is found, with its version.
+    Devices,
 }
 
 #[derive(clap::Args)]
@@ -564,6 +567,46 @@ fn bench(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// `mpm devices`: what this machine offers a run on several GPUs. Missing pieces are reported, not
+/// errors: the command answers the question "what is here".
+fn devices() -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match mpm::cuda::library::devices() {
+        Ok(devices) if devices.is_empty() => writeln!(out, "CUDA: the driver shows no device")?,
+        Ok(devices) => {
+            writeln!(
+                out,
+                "CUDA: {}",
+                mpm::text::count(devices.len(), "device", "devices")
+            )?;
+            for d in &devices {
+                let peers: Vec<String> = (0..devices.len())
+                    .filter(|&j| j != d.ordinal)
+                    .map(|j| format!("{j}: {}", if d.peer_access[j] { "yes" } else { "no" }))
+                    .collect();
+                writeln!(
+                    out,
+                    "  device {}: {}, {:.1} GiB{}",
+                    d.ordinal,
+                    d.name,
+                    d.memory_bytes as f64 / f64::from(1u32 << 30),
+                    if peers.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", peer access to {}", peers.join(", "))
+                    }
+                )?;
+            }
+        }
+        Err(why) => writeln!(out, "CUDA: no usable device: {why:#}")?,
+    }
+    match mpm::dist::nccl::Nccl::get() {
+        Ok(nccl) => writeln!(out, "NCCL: {} ({})", nccl.version_text(), nccl.path)?,
+        Err(why) => writeln!(out, "NCCL: unavailable ({why:#})")?,
+    }
+    Ok(())
+}
+
 fn run(args: RunArgs) -> Result<()> {
     // The checkpoint is read and checked first: a bad file fails before anything is created.
     let resumed = args.resume.as_deref().map(Checkpoint::read).transpose()?;
@@ -733,6 +776,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run(args),
         Command::Bench(args) => bench(args),
         Command::Scenes { show, mesh } => scenes(show, mesh),
+        Command::Devices => devices(),
     };
     mpm::text::exit_code(result)
 }

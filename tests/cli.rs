@@ -431,3 +431,35 @@ fn messages_point_the_right_way() {
     );
     assert!(!text.contains("Error:"), "{text}");
 }
+
+/// `mpm devices` answers on any machine: a CUDA line and an NCCL line, each either what is there or
+/// what is missing with the fix; a bad MPM_NCCL_LIB is named.
+#[test]
+fn devices_says_what_is_here_and_what_is_missing() {
+    let out = mpm(&["devices"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    let line = |prefix: &str| {
+        text.lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no {prefix} line:\n{text}"))
+            .to_string()
+    };
+    let cuda = line("CUDA: ");
+    assert!(cuda.contains("device") || cuda.contains("driver"), "{cuda}");
+    let nccl = line("NCCL: ");
+    assert!(
+        nccl.starts_with("NCCL: 2.") || nccl.contains("pip install nvidia-nccl-cu13"),
+        "neither a version nor the fix: {nccl}"
+    );
+    let out = Command::new(common::mpm_binary())
+        .arg("devices")
+        .env("MPM_NCCL_LIB", "/nonexistent/libnccl.so.2")
+        .output()
+        .unwrap();
+    let text = stdout(&out);
+    assert!(
+        text.contains("MPM_NCCL_LIB=/nonexistent/libnccl.so.2 is not a file"),
+        "{text}"
+    );
+}

@@ -83,3 +83,51 @@ impl MemoryProbe {
         Ok(free as u64)
     }
 }
+
+/// One CUDA device as `mpm devices` lists it.
+pub struct DeviceSummary {
+    pub ordinal: usize,
+    pub name: String,
+    pub memory_bytes: usize,
+    /// Per other device (by ordinal): whether this one can read and write its memory directly.
+    pub peer_access: Vec<bool>,
+}
+
+/// Every CUDA device the driver shows, with peer access between them; an error where there is no
+/// driver or no device.
+pub fn devices() -> Result<Vec<DeviceSummary>> {
+    ensure_driver()?;
+    let count = cudarc::driver::CudaContext::device_count()
+        .map_err(|e| anyhow::anyhow!("the NVIDIA driver cannot count its devices: {e}"))?
+        .max(0) as usize;
+    let contexts = (0..count)
+        .map(|i| {
+            cudarc::driver::CudaContext::new(i)
+                .map_err(|e| anyhow::anyhow!("cannot open CUDA device {i}: {e}"))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut summaries = Vec::with_capacity(count);
+    for (i, ctx) in contexts.iter().enumerate() {
+        let mut peer_access = Vec::with_capacity(count);
+        for (j, other) in contexts.iter().enumerate() {
+            let mut can = 0;
+            if i != j {
+                // SAFETY: writes one int; both handles come from open contexts.
+                let result = unsafe {
+                    cudarc::driver::sys::cuDeviceCanAccessPeer(&mut can, ctx.cu_device(), other.cu_device())
+                };
+                if result != cudarc::driver::sys::CUresult::CUDA_SUCCESS {
+                    bail!("cuDeviceCanAccessPeer({i}, {j}) failed: {result:?}");
+                }
+            }
+            peer_access.push(can != 0);
+        }
+        summaries.push(DeviceSummary {
+            ordinal: i,
+            name: ctx.name().unwrap_or_else(|_| "unknown CUDA device".into()),
+            memory_bytes: ctx.total_mem().unwrap_or(0),
+            peer_access,
+        });
+    }
+    Ok(summaries)
+}

@@ -88,6 +88,14 @@ pub fn cuda_device() -> Result<(), String> {
     mpm::cuda::library::device_available().map_err(|why| format!("no usable CUDA device: {why:#}"))
 }
 
+/// A CUDA device and NCCL (`mpm::dist::nccl`).
+pub fn cuda_device_and_nccl() -> Result<(), String> {
+    cuda_device()?;
+    mpm::dist::nccl::Nccl::get()
+        .map(drop)
+        .map_err(|why| format!("no NCCL: {why:#}"))
+}
+
 /// A CUDA device and a headless OpenGL context on an EGL device.
 pub fn cuda_device_and_headless_gl() -> Result<(), String> {
     cuda_device()?;
