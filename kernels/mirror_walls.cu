@@ -1,5 +1,6 @@
 // mirror_walls: adds the mirror image of the fluid beyond the walls to the grid, in place, for the
-// mass (after the mass scatter) or the momentum (after p2g); the rule of `mirror_walls` in
+// mass (after the mass scatter), the momentum (after p2g), or both at once (the fused pipeline, whose
+// one_pass scattered both); the rule of `mirror_walls` in
 // src/sim/cpu.rs. There, for each axis in turn (x, then y, then z) and each wall plane W of it, the
 // pair of nodes (W - d, W + d), d up to the wall's reach, ends with the sum of both, W itself with
 // twice its own, the image of momentum given by `momentum_image` (`wall_image` here): it pushes fluid
@@ -140,20 +141,22 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
         // the whole grid do: in each, every node of the orbit gains its partner's image across that
         // axis's plane (the plane's own node, its own). The passes see only the orbit's values, so
         // doing them here gives the same integers, and the same floats added in the same order.
-        const int channels = quantity == MIRROR_MASS ? 1 : 3;
-        i64 q[8][3];
-        float f[8][3];
+        // Channels: 0 the mass, 1 + k momentum k; each channel's images read that channel alone,
+        // so mirroring both quantities in one launch gives what two launches give.
+        const int first = quantity == MIRROR_MOMENTUM ? 1 : 0;
+        const int end = quantity == MIRROR_MASS ? 1 : 4;
+        i64 q[8][4];
+        float f[8][4];
 #pragma unroll
         for (u32 T = 0; T < 8; ++T) {
             if (T & ~axes) continue;
+            float4 acc;
+            if (!fixed) acc = grid_acc[node[T]];
 #pragma unroll
-            for (int k = 0; k < 3; ++k) {
-                if (k >= channels) break;
-                if (fixed) q[T][k] = (i64)(quantity == MIRROR_MASS ? fixed_mass[node[T]] : fixed_momentum[3 * node[T] + k]);
-                else {
-                    const float4 acc = grid_acc[node[T]];
-                    f[T][k] = quantity == MIRROR_MASS ? acc.w : (k == 0 ? acc.x : k == 1 ? acc.y : acc.z);
-                }
+            for (int ch = 0; ch < 4; ++ch) {
+                if (ch < first || ch >= end) continue;
+                if (fixed) q[T][ch] = (i64)(ch == 0 ? fixed_mass[node[T]] : fixed_momentum[3 * node[T] + ch - 1]);
+                else f[T][ch] = ch == 0 ? acc.w : ch == 1 ? acc.x : ch == 2 ? acc.y : acc.z;
             }
         }
 #pragma unroll
@@ -169,17 +172,17 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
                 const WallSide beyond = on_plane ? WallSide{true, low} : WallSide{false, low};
                 const WallSide fluid_side{true, low};
 #pragma unroll
-                for (int k = 0; k < 3; ++k) {
-                    if (k >= channels) break;
-                    const bool normal = quantity == MIRROR_MOMENTUM && k == b;
+                for (int ch = 0; ch < 4; ++ch) {
+                    if (ch < first || ch >= end) continue;
+                    const bool normal = ch == 1 + b;
                     if (fixed) {
-                        const i64 own = q[T][k], partner = q[P][k];
-                        q[T][k] = own + wall_image(own, partner, normal, fluid_side);
-                        q[P][k] = partner + wall_image(partner, own, normal, beyond);
+                        const i64 own = q[T][ch], partner = q[P][ch];
+                        q[T][ch] = own + wall_image(own, partner, normal, fluid_side);
+                        q[P][ch] = partner + wall_image(partner, own, normal, beyond);
                     } else {
-                        const float own = f[T][k], partner = f[P][k];
-                        f[T][k] = own + wall_image(own, partner, normal, fluid_side);
-                        f[P][k] = partner + wall_image(partner, own, normal, beyond);
+                        const float own = f[T][ch], partner = f[P][ch];
+                        f[T][ch] = own + wall_image(own, partner, normal, fluid_side);
+                        f[P][ch] = partner + wall_image(partner, own, normal, beyond);
                     }
                 }
             }
@@ -187,21 +190,21 @@ extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
 #pragma unroll
         for (u32 T = 0; T < 8; ++T) {
             if (T & ~axes) continue;
+            if (fixed) {
 #pragma unroll
-            for (int k = 0; k < 3; ++k) {
-                if (k >= channels) break;
-                if (fixed) {
-                    if (quantity == MIRROR_MASS) fixed_mass[node[T]] = (u64)q[T][k];
-                    else fixed_momentum[3 * node[T] + k] = (u64)q[T][k];
+                for (int ch = 0; ch < 4; ++ch) {
+                    if (ch < first || ch >= end) continue;
+                    if (ch == 0) fixed_mass[node[T]] = (u64)q[T][0];
+                    else fixed_momentum[3 * node[T] + ch - 1] = (u64)q[T][ch];
                 }
-            }
-            if (!fixed) {
-                if (quantity == MIRROR_MASS) grid_acc[node[T]].w = f[T][0];
-                else {
-                    grid_acc[node[T]].x = f[T][0];
-                    grid_acc[node[T]].y = f[T][1];
-                    grid_acc[node[T]].z = f[T][2];
-                }
+            } else if (quantity == MIRROR_MASS) {
+                grid_acc[node[T]].w = f[T][0];
+            } else if (quantity == MIRROR_MOMENTUM) {
+                grid_acc[node[T]].x = f[T][1];
+                grid_acc[node[T]].y = f[T][2];
+                grid_acc[node[T]].z = f[T][3];
+            } else {
+                grid_acc[node[T]] = make_float4(f[T][1], f[T][2], f[T][3], f[T][0]);
             }
             // An image written into an unmarked block: list it (mark_node_block, less its plain read).
             if (block_marks && marked[T] == 0u && atomicExch(&block_marks[block[T]], 1u) == 0u) {

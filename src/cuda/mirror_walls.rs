@@ -4,7 +4,7 @@
 
 use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
-use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM};
+use crate::contract::{MIRROR_MASS, MIRROR_MASS_AND_MOMENTUM, MIRROR_MOMENTUM};
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
@@ -16,6 +16,10 @@ pub enum MirrorQuantity {
     Mass,
     /// The image momentum, wall-normal component reflected, between p2g and the grid update.
     Momentum,
+    /// Both in one launch, where nothing reads the mirrored mass before the momentum is scattered
+    /// (the fused pipeline: one_pass scattered both). The same values as the two launches: each
+    /// quantity's image reads that quantity alone.
+    MassAndMomentum,
 }
 
 host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
@@ -40,6 +44,7 @@ impl MirrorWalls {
         let quantity_code = match quantity {
             MirrorQuantity::Mass => MIRROR_MASS,
             MirrorQuantity::Momentum => MIRROR_MOMENTUM,
+            MirrorQuantity::MassAndMomentum => MIRROR_MASS_AND_MOMENTUM,
         };
         // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
         // pointers, which the kernel checks, for the report's pipeline).

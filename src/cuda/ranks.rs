@@ -5,9 +5,9 @@
 //! | phase | every rank, fused pipeline |
 //! |---|---|
 //! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every SORT_INTERVAL substeps: rebalance the slabs and migrate; then bin where the rank's schedule says |
-//! | p2g_init    | the first substep's scatter; after halo_sum, the walls' mirror of the mass |
+//! | p2g_init    | the first substep's scatter; after halo_sum, the walls' mirror of mass and momentum |
 //! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
-//! | grid_update | the walls' mirror of the momentum, the grid update |
+//! | grid_update | the grid update |
 //! | halo_fill   | its edge planes' velocities packed, carried to the neighbours' ghost planes |
 //! | g2p         | one_pass (gather, advect, scatter the next substep), then count the strays |
 //!
@@ -26,7 +26,6 @@
 use super::gpu::CudaOptions;
 use super::halo::{HaloBuffers, Planes};
 use super::launch::{Kernel, Launcher};
-use super::mirror_walls::MirrorQuantity;
 use super::modules::LoadedModules;
 use super::particles::{DeviceParticles, DeviceParticlesView};
 use super::solver::CudaSolver;
@@ -452,11 +451,10 @@ impl Solver for CudaRanks {
         self.exchange(Exchange::Sums)?;
         self.lap(&mut clock, Phase::HaloSum)?;
         for solver in &self.solvers {
-            solver.mirror(MirrorQuantity::Mass)?;
+            solver.mirror_scattered()?;
         }
         self.lap(&mut clock, Phase::P2gInit)?;
         for solver in &mut self.solvers {
-            solver.mirror(MirrorQuantity::Momentum)?;
             solver.update_grid()?;
         }
         self.lap(&mut clock, Phase::GridUpdate)?;

@@ -4,9 +4,9 @@
 //! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
 //! |---|---|---|---|
 //! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned |
-//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | mirror mass (mass and momentum came with one_pass) |
+//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | mirror mass and momentum (both came with one_pass), one launch |
 //! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
-//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | as binned                              |
+//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | grid_update_blocks                     |
 //! | g2p         | g2p                                     | g2p2g (g2p + the next substep's mass scatter) | one_pass (g2p + the next substep's whole scatter) |
 //!
 //! The first substep (nothing scattered yet) scatters in p2g_init: p2g_mass in the binned pipeline,
@@ -200,11 +200,11 @@ impl CudaSolver {
                 Phase::Sort => self.sort_phase(sort)?,
                 Phase::P2gInit => {
                     self.scatter_first()?;
-                    self.mirror(MirrorQuantity::Mass)?;
+                    self.mirror_scattered()?;
                 }
                 Phase::P2g => self.scatter_momentum()?,
                 Phase::GridUpdate => {
-                    self.mirror(MirrorQuantity::Momentum)?;
+                    self.mirror_p2g_momentum()?;
                     self.update_grid()?;
                 }
                 Phase::G2p => self.gather()?,
@@ -288,6 +288,25 @@ impl CudaSolver {
         }
         self.mass_scattered = Some(self.params.scatter_mode);
         Ok(())
+    }
+
+    /// The walls' mirror of the scatter the grid holds before p2g: the mass, which p2g reads, or
+    /// under the fused pipeline mass and momentum in one launch (one_pass scattered both and no p2g
+    /// follows: 7.6 % off bench-65k's substep on the H100, BENCHMARKS.md 0i).
+    pub(super) fn mirror_scattered(&self) -> Result<()> {
+        self.mirror(match self.pipeline {
+            Pipeline::Fused => MirrorQuantity::MassAndMomentum,
+            _ => MirrorQuantity::Mass,
+        })
+    }
+
+    /// The walls' mirror of p2g's momentum, before the grid update; the fused pipeline's was done
+    /// with its mass (`mirror_scattered`).
+    pub(super) fn mirror_p2g_momentum(&self) -> Result<()> {
+        match self.pipeline {
+            Pipeline::Fused => Ok(()),
+            _ => self.mirror(MirrorQuantity::Momentum),
+        }
     }
 
     pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {

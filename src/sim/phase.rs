@@ -82,15 +82,14 @@ impl Phase {
             }
             (Pipeline::Report, Phase::P2gInit) => "p2g_init (+ mirror mass)".into(),
             (Pipeline::Binned, Phase::P2gInit) => "mirror mass (mass scattered by g2p2g)".into(),
-            (Pipeline::Fused, Phase::P2gInit) => "mirror mass (mass, momentum scattered by one_pass)".into(),
+            (Pipeline::Fused, Phase::P2gInit) => "mirror mass + momentum (both scattered by one_pass)".into(),
             (Pipeline::Fused, Phase::P2g) => "(none: scattered by one_pass)".into(),
             (Pipeline::Report, Phase::P2g) => "p2g".into(),
             (Pipeline::Binned, Phase::P2g) if fixed_point => "p2g_tiled".into(),
             (Pipeline::Binned, Phase::P2g) => "p2g (warp runs, global atomics)".into(),
             (Pipeline::Report, Phase::GridUpdate) => "grid_update (+ mirror momentum)".into(),
-            (Pipeline::Binned | Pipeline::Fused, Phase::GridUpdate) => {
-                "grid_update_blocks (+ mirror momentum)".into()
-            }
+            (Pipeline::Binned, Phase::GridUpdate) => "grid_update_blocks (+ mirror momentum)".into(),
+            (Pipeline::Fused, Phase::GridUpdate) => "grid_update_blocks".into(),
             (Pipeline::Report, Phase::G2p) => "g2p".into(),
             (Pipeline::Binned, Phase::G2p) => "g2p2g (g2p + next mass scatter)".into(),
             (Pipeline::Fused, Phase::G2p) => "one_pass (g2p + density + next whole scatter)".into(),
