@@ -8,6 +8,7 @@
 //! replays them. The timing events are external event-record nodes, pointed at a fresh set of events
 //! before each launch, so every substep keeps its per-phase CUDA-event timings.
 
+use super::timing::Recorded;
 use crate::sim::Params;
 use anyhow::{bail, Context, Result};
 use cudarc::driver::{sys, CudaEvent, CudaGraph, CudaStream};
@@ -41,17 +42,20 @@ impl PartialEq for SubstepKey {
 /// One captured and instantiated substep.
 pub struct SubstepGraph {
     graph: CudaGraph,
-    /// The event-record nodes, in the order of the placeholder events the capture recorded.
-    timing_nodes: Vec<sys::CUgraphNode>,
+    /// Per timing slot, the event-record node of its placeholder event; none for a phase that had no
+    /// work in the captured substep (timing.rs).
+    timing_nodes: Vec<Option<sys::CUgraphNode>>,
+    recorded: Recorded,
 }
 
 impl SubstepGraph {
     /// Captures what `enqueue` puts on `stream` into a graph. `timing_events` are the events that
-    /// `enqueue` records as external event-record nodes (`record_external`), in phase order.
+    /// `enqueue` may record as external event-record nodes (`record_external`), in slot order; it
+    /// returns which it recorded.
     pub fn capture(
         stream: &Arc<CudaStream>,
         timing_events: &[sys::CUevent],
-        enqueue: impl FnOnce() -> Result<()>,
+        enqueue: impl FnOnce() -> Result<Recorded>,
     ) -> Result<SubstepGraph> {
         stream
             .begin_capture(sys::CUstreamCaptureMode::CU_STREAM_CAPTURE_MODE_THREAD_LOCAL)
@@ -59,35 +63,45 @@ impl SubstepGraph {
         // The capture must end whatever `enqueue` did, or the stream stays in capture mode.
         let enqueued = enqueue();
         let ended = stream.end_capture(sys::CUgraphInstantiate_flags(0));
-        enqueued.context("enqueueing the substep into a CUDA graph capture")?;
+        let recorded = enqueued.context("enqueueing the substep into a CUDA graph capture")?;
         let graph = ended
             .context("capturing the substep as a CUDA graph (MPM_CUDA_GRAPHS=0 runs without graphs)")?
             .context("the substep's CUDA graph capture recorded nothing")?;
         let nodes = event_record_nodes(graph.cu_graph())?;
-        let timing_nodes = timing_events
-            .iter()
-            .map(|event| {
-                nodes
-                    .iter()
-                    .find(|(_, recorded)| recorded == event)
-                    .map(|&(node, _)| node)
-            })
-            .collect::<Option<Vec<_>>>()
-            .context("the substep's CUDA graph lost a timing event")?;
+        let mut timing_nodes = Vec::with_capacity(timing_events.len());
+        for (event, &was_recorded) in timing_events.iter().zip(&recorded) {
+            let node = nodes.iter().find(|(_, e)| e == event).map(|&(node, _)| node);
+            if was_recorded && node.is_none() {
+                bail!("the substep's CUDA graph lost a timing event");
+            }
+            timing_nodes.push(node.filter(|_| was_recorded));
+        }
         graph.upload().context("uploading the substep's CUDA graph")?;
-        Ok(SubstepGraph { graph, timing_nodes })
+        Ok(SubstepGraph {
+            graph,
+            timing_nodes,
+            recorded,
+        })
     }
 
-    /// Launches the substep, its timing nodes recording `events` (in phase order).
+    /// Which timing slots the graph records.
+    pub fn recorded(&self) -> Recorded {
+        self.recorded
+    }
+
+    /// Launches the substep, its timing nodes recording `events` (in slot order).
     pub fn launch(&self, events: &[CudaEvent]) -> Result<()> {
         if events.len() != self.timing_nodes.len() {
             bail!(
-                "{} timing events for a graph with {} timing nodes",
+                "{} timing events for a graph with {} timing slots",
                 events.len(),
                 self.timing_nodes.len()
             );
         }
-        for (&node, event) in self.timing_nodes.iter().zip(events) {
+        for (node, event) in self.timing_nodes.iter().zip(events) {
+            let Some(node) = *node else {
+                continue;
+            };
             // SAFETY: the node belongs to the graph this exec was instantiated from, and the event is
             // live (held by the timing queue until its substep completes). Updates apply to later
             // launches only, never to one in flight.
