@@ -5,9 +5,9 @@
 //! | phase | every rank, fused pipeline |
 //! |---|---|
 //! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every SORT_INTERVAL substeps: rebalance the slabs and migrate; then bin where the rank's schedule says |
-//! | p2g_init    | the first substep's scatter; after halo_sum, the walls' mirror of mass and momentum |
+//! | p2g_init    | the first substep's scatter |
 //! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
-//! | grid_update | the grid update |
+//! | grid_update | the walls' mirror of mass and momentum, the grid update |
 //! | halo_fill   | its edge planes' velocities packed, carried to the neighbours' ghost planes |
 //! | g2p         | one_pass (gather, advect, scatter the next substep), then count the strays |
 //!
@@ -456,11 +456,8 @@ impl Solver for CudaRanks {
         self.lap(&mut clock, Phase::P2gInit)?;
         self.exchange(Exchange::Sums)?;
         self.lap(&mut clock, Phase::HaloSum)?;
-        for solver in &self.solvers {
-            solver.mirror_scattered()?;
-        }
-        self.lap(&mut clock, Phase::P2gInit)?;
         for solver in &mut self.solvers {
+            solver.mirror_before_update()?;
             solver.update_grid()?;
         }
         self.lap(&mut clock, Phase::GridUpdate)?;

@@ -4,9 +4,9 @@
 //! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
 //! |---|---|---|---|
 //! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned |
-//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | mirror mass and momentum (both came with one_pass), one launch |
+//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | nothing (mass and momentum came with one_pass) |
 //! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
-//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | grid_update_blocks                     |
+//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | mirror mass and momentum (one launch) + grid_update_blocks |
 //! | g2p         | g2p                                     | g2p2g (g2p + the next substep's mass scatter) | one_pass (g2p + the next substep's whole scatter) |
 //!
 //! The first substep (nothing scattered yet) scatters in p2g_init: p2g_mass in the binned pipeline,
@@ -191,6 +191,7 @@ impl CudaSolver {
     fn enqueue_substep(&mut self, sort: bool) -> Result<()> {
         let stream = self.gpu.stream().clone();
         self.timing.begin_step(&stream)?;
+        let mut scattered = false;
         for phase in Phase::ALL.into_iter().filter(|p| p.runs_on_gpu()) {
             let _range = NvtxRange::new(phase.name());
             match phase {
@@ -199,19 +200,21 @@ impl CudaSolver {
                 Phase::GridClear | Phase::HaloSum | Phase::HaloFill => {}
                 Phase::Sort => self.sort_phase(sort)?,
                 Phase::P2gInit => {
-                    self.scatter_first()?;
-                    self.mirror_scattered()?;
+                    scattered = self.scatter_first()?;
+                    self.mirror_before_p2g()?;
                 }
                 Phase::P2g => self.scatter_momentum()?,
                 Phase::GridUpdate => {
-                    self.mirror_p2g_momentum()?;
+                    self.mirror_before_update()?;
                     self.update_grid()?;
                 }
                 Phase::G2p => self.gather()?,
             }
+            let fused = self.pipeline == Pipeline::Fused;
             let ran = match phase {
                 Phase::Sort => sort,
-                Phase::P2g => self.pipeline != Pipeline::Fused,
+                Phase::P2gInit => scattered || !fused,
+                Phase::P2g => !fused,
                 _ => true,
             };
             self.timing.end_phase(&stream, phase, ran)?;
@@ -252,12 +255,13 @@ impl CudaSolver {
     }
 
     /// The first substep's scatter, where the grid holds none yet (the binned and fused pipelines
-    /// scatter the next substep's mass in the gather; the report's every substep).
-    pub(super) fn scatter_first(&mut self) -> Result<()> {
-        if self.mass_scattered.is_none() {
+    /// scatter the next substep's mass in the gather; the report's every substep). Whether it ran.
+    pub(super) fn scatter_first(&mut self) -> Result<bool> {
+        let first = self.mass_scattered.is_none();
+        if first {
             self.scatter_mass()?;
         }
-        Ok(())
+        Ok(first)
     }
 
     pub(super) fn sort(&mut self) -> Result<()> {
@@ -295,23 +299,24 @@ impl CudaSolver {
         Ok(())
     }
 
-    /// The walls' mirror of the scatter the grid holds before p2g: the mass, which p2g reads, or
-    /// under the fused pipeline mass and momentum in one launch (one_pass scattered both and no p2g
-    /// follows: 7.6 % off bench-65k's substep on the H100, BENCHMARKS.md 0i).
-    pub(super) fn mirror_scattered(&self) -> Result<()> {
-        self.mirror(match self.pipeline {
-            Pipeline::Fused => MirrorQuantity::MassAndMomentum,
-            _ => MirrorQuantity::Mass,
-        })
-    }
-
-    /// The walls' mirror of p2g's momentum, before the grid update; the fused pipeline's was done
-    /// with its mass (`mirror_scattered`).
-    pub(super) fn mirror_p2g_momentum(&self) -> Result<()> {
+    /// The walls' mirror of the mass, which p2g reads; nothing under the fused pipeline, which has
+    /// no p2g and mirrors both quantities before the grid update.
+    pub(super) fn mirror_before_p2g(&self) -> Result<()> {
         match self.pipeline {
             Pipeline::Fused => Ok(()),
-            _ => self.mirror(MirrorQuantity::Momentum),
+            _ => self.mirror(MirrorQuantity::Mass),
         }
+    }
+
+    /// The walls' mirror before the grid update: of p2g's momentum, or under the fused pipeline of
+    /// mass and momentum in one launch (one_pass scattered both: 7.6 % off bench-65k's substep on
+    /// the H100, BENCHMARKS.md 0i; done here rather than in p2g_init, that phase is empty after the
+    /// first substep and takes no timing event, 5.5 % more, 0j).
+    pub(super) fn mirror_before_update(&self) -> Result<()> {
+        self.mirror(match self.pipeline {
+            Pipeline::Fused => MirrorQuantity::MassAndMomentum,
+            _ => MirrorQuantity::Momentum,
+        })
     }
 
     pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
