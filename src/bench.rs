@@ -14,7 +14,8 @@
 //!   `steps` measured. This is the early, still ordered state of the column (the fastest one), so the
 //!   sweep's figures sit a little below the phase tables' at the same size.
 //!
-//! GPU phases are timed with CUDA events (one pair per phase per substep), the CPU's with a host clock.
+//! GPU phases are timed with CUDA events (one at each phase's end that had work that substep; a phase
+//! without reads 0), the CPU's and the ranks' (`--ranks`) with a host clock.
 
 use crate::backend::{self, BackendKind};
 use crate::cuda::{self, CudaOptions, CudaRanks, CudaSolver};

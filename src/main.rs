@@ -225,9 +225,15 @@ impl SolverArgs {
         if let Some(pipeline) = self.pipeline {
             scene.pipeline = pipeline;
         }
-        if let Some(ranks) = self.ranks {
-            scene.ranks = ranks.try_into().unwrap_or(usize::MAX);
+        if let Some(ranks) = self.ranks() {
+            scene.ranks = ranks;
         }
+    }
+
+    /// `--ranks`, where given (a count past the address space reads as the largest, which the slab
+    /// check then refuses with the limit).
+    fn ranks(&self) -> Option<usize> {
+        self.ranks.map(|n| n.try_into().unwrap_or(usize::MAX))
     }
 }
 
@@ -500,7 +506,7 @@ struct BenchArgs {
 
 fn bench(args: BenchArgs) -> Result<()> {
     anyhow::ensure!(
-        !(args.sweep && args.solver.ranks.is_some_and(|n| n > 1)),
+        !(args.sweep && args.solver.ranks().is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
     );
     anyhow::ensure!(
@@ -552,7 +558,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             block_size: args.block_size,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
-            ranks: args.solver.ranks.map(|n| n.try_into().unwrap_or(usize::MAX)),
+            ranks: args.solver.ranks(),
             peak_gbs: args.peak_gbs,
         },
         cpu_baseline_steps: args.cpu_baseline.then_some(steps(args.cpu_steps, "cpu-steps")?),
