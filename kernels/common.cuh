@@ -364,44 +364,51 @@ __device__ __noinline__ Backstop collider_backstop_particle(const Params params,
     return Backstop{r, true};
 }
 
-// grid_update for node i (docs/physics.md step 3): momentum to velocity, gravity, the colliders' boundary
-// conditions, free slip in the walls' boundary band (last, as in src/sim/cpu.rs). Consume-and-zero: the
-// accumulators are zeroed as they are read, which is the grid clear.
-__device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
-                                            u64* fixed_mass, u64* fixed_momentum, StepCounters* counters,
-                                            const Colliders& colliders) {
-    const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
-    const u32 band = params.boundary_band;
+// A node's scattered sums as floats: its mass and momentum.
+struct NodeSums {
     float m, mv[3];
+};
+
+// Fixed-point sums (mass, then momentum) as floats; a sum at or beyond FIXED_SUM_LIMIT is counted.
+__device__ __forceinline__ NodeSums fixed_point_sums(const Params& params, const i64 q[4], StepCounters* counters) {
+    bool out_of_range = false;
+    for (int ch = 0; ch < 4; ++ch) out_of_range |= q[ch] >= FIXED_SUM_LIMIT || q[ch] <= -FIXED_SUM_LIMIT;
+    if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
+    NodeSums s;
+    s.m = fixed_point_value((u64)q[0], 1.0f / params.fixed_mass_scale);
+    const float inv_momentum_scale = 1.0f / params.fixed_momentum_scale;
+    for (int a = 0; a < 3; ++a) s.mv[a] = fixed_point_value((u64)q[1 + a], inv_momentum_scale);
+    return s;
+}
+
+__device__ __forceinline__ NodeSums float_sums(float4 acc) {
+    return NodeSums{acc.w, {acc.x, acc.y, acc.z}};
+}
+
+// Zeroes node i's accumulators (the grid clear, done by their one reader).
+__device__ __forceinline__ void zero_node_sums(const Params& params, u32 i, float4* grid_acc, u64* fixed_mass,
+                                               u64* fixed_momentum) {
     if (params.scatter_mode == SCATTER_FIXED_POINT) {
-        const u64 qm = fixed_mass[i];
-        const u64 q[3] = {fixed_momentum[3 * (size_t)i], fixed_momentum[3 * (size_t)i + 1],
-                          fixed_momentum[3 * (size_t)i + 2]};
         fixed_mass[i] = 0;
         fixed_momentum[3 * (size_t)i] = 0;
         fixed_momentum[3 * (size_t)i + 1] = 0;
         fixed_momentum[3 * (size_t)i + 2] = 0;
-        bool out_of_range = (i64)qm >= FIXED_SUM_LIMIT || (i64)qm <= -FIXED_SUM_LIMIT;
-        for (int a = 0; a < 3; ++a) {
-            out_of_range |= (i64)q[a] >= FIXED_SUM_LIMIT || (i64)q[a] <= -FIXED_SUM_LIMIT;
-        }
-        if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
-        m = fixed_point_value(qm, 1.0f / params.fixed_mass_scale);
-        const float inv_momentum_scale = 1.0f / params.fixed_momentum_scale;
-        for (int a = 0; a < 3; ++a) mv[a] = fixed_point_value(q[a], inv_momentum_scale);
     } else {
-        const float4 acc = grid_acc[i];
         grid_acc[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
-        m = acc.w;
-        mv[0] = acc.x;
-        mv[1] = acc.y;
-        mv[2] = acc.z;
     }
+}
+
+// grid_update for node i (docs/physics.md step 3) from its sums: momentum to velocity, gravity, the
+// colliders' boundary conditions, free slip in the walls' boundary band (last, as in src/sim/cpu.rs).
+__device__ __forceinline__ void update_node_velocity(const Params& params, u32 i, const NodeSums& s,
+                                                     float4* grid_vel, const Colliders& colliders) {
+    const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
+    const u32 band = params.boundary_band;
     float vel[3] = {0.0f, 0.0f, 0.0f};
-    if (m > 0.0f) {
+    if (s.m > 0.0f) {
         const u32 node[3] = {i % rx, (i / rx) % ry, i / (rx * ry)};
         const u32 res[3] = {rx, ry, rz};
-        for (int a = 0; a < 3; ++a) vel[a] = mv[a] / m + params.gravity[a] * params.dt;
+        for (int a = 0; a < 3; ++a) vel[a] = s.mv[a] / s.m + params.gravity[a] * params.dt;
         if (colliders.count) {
             const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);
             collider_project_node(colliders, x, vel);
@@ -412,7 +419,26 @@ __device__ __forceinline__ void update_node(const Params& params, u32 i, float4*
             else if (node[a] >= res[a] - band) vel[a] = fminf(vel[a], 0.0f);
         }
     }
-    grid_vel[i] = make_float4(vel[0], vel[1], vel[2], m);
+    grid_vel[i] = make_float4(vel[0], vel[1], vel[2], s.m);
+}
+
+// The grid update of node i as it was scattered. Consume-and-zero: the accumulators are zeroed as they
+// are read, which is the grid clear.
+__device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
+                                            u64* fixed_mass, u64* fixed_momentum, StepCounters* counters,
+                                            const Colliders& colliders) {
+    NodeSums s;
+    if (params.scatter_mode == SCATTER_FIXED_POINT) {
+        const i64 q[4] = {(i64)fixed_mass[i], (i64)fixed_momentum[3 * (size_t)i],
+                          (i64)fixed_momentum[3 * (size_t)i + 1], (i64)fixed_momentum[3 * (size_t)i + 2]};
+        zero_node_sums(params, i, grid_acc, fixed_mass, fixed_momentum);
+        s = fixed_point_sums(params, q, counters);
+    } else {
+        const float4 acc = grid_acc[i];
+        zero_node_sums(params, i, grid_acc, fixed_mass, fixed_momentum);
+        s = float_sums(acc);
+    }
+    update_node_velocity(params, i, s, grid_vel, colliders);
 }
 
 // ---------------------------------------------------------------------------------------------

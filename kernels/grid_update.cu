@@ -9,7 +9,15 @@
 //   and mirror passes touched (tiles.cuh marks them and lists each once). A block that no particle's
 //   stencil covers is read by no particle, so its stale velocities are never used; its accumulators
 //   are zero, since every write marks its block.
-#include "tiles.cuh"
+//
+// The fused pipeline adds the walls' mirror image here (mirror.cuh) instead of in a launch of its own
+// before: each node near a wall reads its orbit's sums as the scatter left them, takes its own slot of
+// `mirror_orbit_passes`, the very values mirror_walls would have written, and only then, after the
+// block's barrier, zeroes its own. An orbit within one node block needs nothing more. A node whose
+// reflection lies in another node block is read by two CUDA blocks in no fixed order, so neither
+// zeroes it: clear_crossing_orbits does, after the launch. Images never reach the global grid, so no
+// block is listed for them: a block no scatter touched is read by no particle.
+#include "mirror.cuh"
 
 extern "C" __global__ void grid_update(const Params params,
                                        float4* __restrict__ grid_acc,     // in: momentum, mass; zeroed
@@ -24,9 +32,93 @@ extern "C" __global__ void grid_update(const Params params,
     }
 }
 
+// The scatter's sums of one node as floats (fixed-point units converted, out-of-range sums counted).
+__device__ __forceinline__ NodeSums node_sums(const Params& params, const i64 v[4], StepCounters* counters) {
+    return fixed_point_sums(params, v, counters);
+}
+
+__device__ __forceinline__ NodeSums node_sums(const Params&, const float v[4], StepCounters*) {
+    return NodeSums{v[0], {v[1], v[2], v[3]}};
+}
+
+// Slot `own` of an orbit's values, by unrolled compares (a dynamic index would put the orbit in local
+// memory).
+template <typename V>
+__device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
+    V picked = V(0);
+#pragma unroll
+    for (u32 T = 0; T < 8; ++T)
+        if (T == own) picked = v[T];
+    return picked;
+}
+
+// Slot `own` of an orbit's four channels with the images added, channel by channel from the grid (a
+// channel's images read that channel alone), so that only one channel of the orbit is held at a time.
+// Measured on the H100 (BENCHMARKS.md 0k): the whole orbit at once took 160 registers for every block
+// of the launch (the dam break's substep 0.1372 ms, against 0.1324 so); the float orbit's float4s at
+// once, the 64-bit sums by channel, 130 registers (0.1345).
+template <typename V>
+__device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, const size_t node[8],
+                                                  u32 own, const float4* grid_acc, const u64* fixed_mass,
+                                                  const u64* fixed_momentum, V mine[4]) {
+#pragma unroll
+    for (int k = 0; k < 4; ++k) mine[k] = V(0);
+#pragma unroll 1
+    for (int ch = 0; ch < 4; ++ch) {
+        V v[8];
+        mirror_orbit_load(o, node, ch, grid_acc, fixed_mass, fixed_momentum, v);
+        mirror_orbit_channel(m, o, ch, v);
+        const V picked = orbit_slot(v, own);
+#pragma unroll
+        for (int k = 0; k < 4; ++k)  // mine[ch] with a loop-carried ch would be local memory too
+            if (k == ch) mine[k] = picked;
+    }
+}
+
+// A node near a wall, for the fused pipeline's mirror: its sums with the images added (the values
+// mirror_walls would have written), and whether another node block reads it too (`crossing`: it
+// must be left unzeroed). V: i64 in fixed point, float otherwise.
+template <typename V>
+__device__ __forceinline__ NodeSums mirrored_sums(const Params& params, const MirrorAxis m[3], const u32 c[3],
+                                                  const float4* grid_acc, const u64* fixed_mass,
+                                                  const u64* fixed_momentum, StepCounters* counters,
+                                                  bool& crossing) {
+    const MirrorOrbit o = mirror_orbit(m, c);
+    // This node's slot: the axes on which it lies beyond the wall from the representative.
+    u32 own = 0;
+    crossing = false;
+    for (int b = 0; b < 3; ++b) {
+        if (!((o.axes >> b) & 1u)) continue;
+        if (o.rep[b] != c[b]) own |= 1u << b;
+        crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
+    }
+    size_t node[8];
+#pragma unroll
+    for (u32 T = 0; T < 8; ++T) {
+        u32 r[3];
+        if (!(T & ~o.axes)) node[T] = mirror_orbit_node(m, o, T, params.grid_res, r);
+    }
+    V mine[4];
+    mirrored_channels(m, o, node, own, grid_acc, fixed_mass, fixed_momentum, mine);
+    return node_sums(params, mine, counters);
+}
+
+// Whether node block b (origin `origin`) has a node within a wall's reach on any axis.
+__device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], const u32 origin[3]) {
+    bool meets = false;
+    for (int a = 0; a < 3; ++a) {
+        const u32 first = origin[a], last = origin[a] + NODE_BLOCK_EDGE - 1;
+        meets |= first <= m[a].lo + m[a].lo_reach && last + m[a].lo_reach >= m[a].lo;
+        meets |= first <= m[a].hi + m[a].hi_reach && last + m[a].hi_reach >= m[a].hi;
+    }
+    return meets;
+}
+
 // One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, so the
-// next substep starts with none (the host zeroes the list's length after this launch).
+// next substep starts with none (the host then empties the list: a memset, or clear_crossing_orbits).
+// `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
 extern "C" __global__ void grid_update_blocks(const Params params,
+                                              const u32 mirror,
                                               const u32* __restrict__ block_list,
                                               const u32* __restrict__ work_counts,
                                               u32* __restrict__ block_marks,
@@ -41,6 +133,8 @@ extern "C" __global__ void grid_update_blocks(const Params params,
     const Colliders colliders{collider_states, num_colliders, collider_sdf};
     const u32 listed = work_counts[WORK_NODE_BLOCKS];
     const NodeBlocks blocks = node_blocks(params);
+    const bool mirrored_here = mirror != 0u && params.wall_mirror_lo != 0u;
+    const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
     for (u32 k = blockIdx.x; k < listed; k += gridDim.x) {
         const u32 b = block_list[k];
         const u32 origin[3] = {NODE_BLOCK_EDGE * (b % blocks.count[0]),
@@ -48,10 +142,74 @@ extern "C" __global__ void grid_update_blocks(const Params params,
                                NODE_BLOCK_EDGE * (b / (blocks.count[0] * blocks.count[1]))};
         const u32 node[3] = {origin[0] + (threadIdx.x & 3u), origin[1] + ((threadIdx.x >> 2) & 3u),
                              origin[2] + (threadIdx.x >> 4)};
-        if (node[0] < params.grid_res[0] && node[1] < params.grid_res[1] && node[2] < params.grid_res[2]) {
-            const u32 i = node[0] + params.grid_res[0] * (node[1] + params.grid_res[1] * node[2]);
+        const bool inside = node[0] < params.grid_res[0] && node[1] < params.grid_res[1] && node[2] < params.grid_res[2];
+        const u32 i = node[0] + params.grid_res[0] * (node[1] + params.grid_res[1] * node[2]);
+        if (mirrored_here && node_block_meets_a_wall(m, origin)) {  // the same for the whole CUDA block
+            NodeSums s{};
+            bool crossing = false;
+            if (inside) {
+                s = params.scatter_mode == SCATTER_FIXED_POINT
+                        ? mirrored_sums<i64>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
+                        : mirrored_sums<float>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
+            }
+            __syncthreads();  // every orbit of the block read before any of its nodes is zeroed
+            if (inside) {
+                if (!crossing) zero_node_sums(params, i, grid_acc, fixed_mass, fixed_momentum);
+                update_node_velocity(params, i, s, grid_vel, colliders);
+            }
+        } else if (inside) {
             update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, colliders);
         }
         if (threadIdx.x == 0) block_marks[b] = 0;
+    }
+}
+
+// The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other
+// two axes.
+__device__ __forceinline__ u32 wall_reach_nodes(const Params& params, u32 walls, u32 w) {
+    if (!((walls >> w) & 1u)) return 0;
+    const u32 a = w / 2;
+    const MirrorAxis m = mirror_axis(params, a);
+    const u32 reach = w & 1u ? m.hi_reach : m.lo_reach;
+    return (2 * reach + 1) * params.grid_res[(a + 1) % 3] * params.grid_res[(a + 2) % 3];
+}
+
+// After a grid update that mirrored (the fused pipeline) on a grid where some orbit crosses node
+// blocks: zeroes the reach of every wall in `walls` (bit 2a: axis a's low wall, 2a + 1 its high
+// wall; the host sets those whose reach spans two node blocks), where grid_update_blocks left the
+// crossing nodes' sums, and empties the node block list (the memset it replaces).
+extern "C" __global__ void clear_crossing_orbits(const Params params, const u32 walls,
+                                                 float4* __restrict__ grid_acc,
+                                                 u64* __restrict__ fixed_mass,
+                                                 u64* __restrict__ fixed_momentum,
+                                                 u32* __restrict__ work_counts) {
+    if (blockIdx.x == 0 && threadIdx.x == 0) work_counts[WORK_NODE_BLOCKS] = 0;
+    u32 total = 0;
+#pragma unroll
+    for (u32 w = 0; w < 6; ++w) total += wall_reach_nodes(params, walls, w);
+    FOR_EACH_INDEX(t, total) {
+        u32 i = t;
+        bool found = false;
+        // Wall by wall (unrolled: an array indexed by a run-time wall would live in local memory);
+        // within a wall, its reach along its axis fastest, then the other two axes in order.
+#pragma unroll
+        for (u32 w = 0; w < 6; ++w) {
+            const u32 nodes = wall_reach_nodes(params, walls, w);
+            if (found || i >= nodes) {
+                i -= found ? 0 : nodes;
+                continue;
+            }
+            found = true;
+            const u32 a = w / 2;
+            const MirrorAxis m = mirror_axis(params, a);
+            const u32 centre = w & 1u ? m.hi : m.lo, reach = w & 1u ? m.hi_reach : m.lo_reach;
+            const u32 width = 2 * reach + 1, across = params.grid_res[(a + 1) % 3];
+            u32 c[3];
+            c[a] = centre - reach + i % width;
+            c[(a + 1) % 3] = (i / width) % across;
+            c[(a + 2) % 3] = i / (width * across);
+            const u32 node = c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
+            zero_node_sums(params, node, grid_acc, fixed_mass, fixed_momentum);
+        }
     }
 }

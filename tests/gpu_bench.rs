@@ -36,7 +36,7 @@ fn bench_code_measures_every_gpu_phase() {
             Phase::GridClear => assert_eq!(row.mean_ms, 0.0),
             Phase::Sort => assert!(row.p95_ms > 0.0, "the sort ran in the sample"),
             // The fused pipeline (the preset's) scatters the momentum with the mass and mirrors both
-            // before the grid update: p2g has no work, nor p2g_init after the first substep (a
+            // in the grid update: p2g has no work, nor p2g_init after the first substep (a
             // warm-up one), so they take no timing event and read 0.
             Phase::P2g | Phase::P2gInit => assert_eq!(row.mean_ms, 0.0, "{} timed", row.phase),
             _ => assert!(row.median_ms > 0.0, "{} measured", row.phase),

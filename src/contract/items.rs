@@ -232,7 +232,6 @@ device_constants! {
     /// What mirror_walls mirrors (`MirrorQuantity`).
     MIRROR_MASS: u32 = 0;
     MIRROR_MOMENTUM: u32 = 1;
-    MIRROR_MASS_AND_MOMENTUM: u32 = 2;
 
     /// Nodes per axis of a node block: a bin of the binned pipeline.
     NODE_BLOCK_EDGE: u32 = 4;

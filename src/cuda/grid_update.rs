@@ -1,18 +1,23 @@
 //! kernels/grid_update.cu: momentum to velocity, gravity, the boundary band and the colliders; each
 //! accumulator read is zeroed (consume-and-zero, so no grid-clear launch). The report pipeline walks
-//! the whole grid; the binned one the node blocks this substep's scatters listed.
+//! the whole grid; the binned one the node blocks this substep's scatters listed. The fused pipeline's
+//! update also adds the walls' mirror image (kernels/mirror.cuh), which the others add with
+//! mirror_walls before it.
 
 use super::bins::NODE_BLOCK_NODES;
+use super::grid::DeviceGrid;
 use super::launch::{Kernel, Launcher};
+use super::mirror_walls::{self, WallReach};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::sim::{Params, Pipeline};
-use anyhow::Result;
+use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
 
 pub struct GridUpdate {
     whole_grid: Kernel,
     listed_blocks: Kernel,
+    clear_crossing_orbits: Kernel,
 }
 
 impl GridUpdate {
@@ -20,13 +25,29 @@ impl GridUpdate {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
             listed_blocks: Kernel::load(modules, "grid_update", "grid_update_blocks")?,
+            clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
     }
 
-    /// The binned pipeline's launch leaves every listed block unmarked; the caller then empties the
-    /// list (`DeviceGrid::clear_node_block_list`).
-    pub fn launch(&self, l: &Launcher, pipeline: Pipeline, params: &Params, d: &DeviceState) -> Result<()> {
+    /// The binned and fused pipelines' launch leaves every listed block unmarked; the caller then
+    /// empties the list (`empty_list`). `mirror`: add the walls' images in this launch (the fused
+    /// pipeline) instead of mirror_walls before it.
+    pub fn launch(
+        &self,
+        l: &Launcher,
+        pipeline: Pipeline,
+        mirror: bool,
+        params: &Params,
+        d: &DeviceState,
+    ) -> Result<()> {
         let g = &d.grid;
+        ensure!(
+            !mirror || pipeline.is_binned(),
+            "the report's grid update walks the whole grid and does not mirror: run mirror_walls first"
+        );
+        if mirror {
+            mirror_walls::check_reach(params)?;
+        }
         match pipeline {
             // SAFETY: the arguments match grid_update in kernels/grid_update.cu.
             Pipeline::Report => unsafe {
@@ -41,10 +62,12 @@ impl GridUpdate {
             },
             Pipeline::Fused | Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
+                let mirror = u32::from(mirror);
                 // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
                 unsafe {
                     self.listed_blocks.launch(l, config, |a| {
                         a.arg(params)
+                            .arg(&mirror)
                             .arg(&g.node_blocks.list)
                             .arg(&g.work_counts)
                             .arg(&g.node_blocks.marks)
@@ -57,6 +80,41 @@ impl GridUpdate {
                     })
                 }
             }
+        }
+    }
+
+    /// Empties the node block list after a launch over it, for the next substep's scatters. Where that
+    /// launch mirrored and some wall's reach spans two node blocks, the launch left those orbits' sums
+    /// in place (two CUDA blocks read them); clear_crossing_orbits zeroes them and empties the list in
+    /// one launch, where otherwise a memset of the list's length does.
+    pub fn empty_list(
+        &self,
+        l: &Launcher,
+        mirror: bool,
+        params: &Params,
+        grid: &mut DeviceGrid,
+    ) -> Result<()> {
+        let crossing = if mirror {
+            WallReach::crossing_blocks(params)
+        } else {
+            Vec::new()
+        };
+        if crossing.is_empty() {
+            return grid.clear_node_block_list(&l.stream);
+        }
+        let walls = crossing.iter().fold(0u32, |bits, w| bits | 1 << w.bit());
+        let nodes = crossing.iter().map(|w| w.nodes(params)).sum();
+        // SAFETY: the arguments match clear_crossing_orbits; the kernel covers the reaches of `walls`,
+        // `nodes` nodes, all inside the grid.
+        unsafe {
+            self.clear_crossing_orbits.launch(l, l.cover(nodes), |a| {
+                a.arg(params)
+                    .arg(&walls)
+                    .arg(&grid.acc)
+                    .arg(grid.fixed_mass())
+                    .arg(grid.fixed_momentum())
+                    .arg(&grid.work_counts);
+            })
         }
     }
 }

@@ -46,10 +46,19 @@ impl CudaSolver {
         self.mirror(MirrorQuantity::Momentum)
     }
 
-    /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators.
+    /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators. The
+    /// walls' images are those `mirror_mass` and `mirror_momentum` added.
     pub fn grid_update(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.update_grid()
+        self.update_grid(false)
+    }
+
+    /// The grid update phase as a substep runs it: under the fused pipeline the update adds the
+    /// walls' images itself (call it on the scatter's sums, without `mirror_mass`/`mirror_momentum`);
+    /// the other pipelines mirror the momentum first (after `mirror_mass` and `p2g`).
+    pub fn mirror_and_grid_update(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        self.mirror_and_update_grid()
     }
 
     /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned

@@ -1,10 +1,11 @@
 //! kernels/mirror_walls.cu: the walls' mirror image, added to the grid between the scatters and the
 //! grid update so that fluid at a wall is not read as a free surface. All three axes in one launch,
-//! one thread per reflection orbit.
+//! one thread per reflection orbit. The fused pipeline adds the same images inside its grid update
+//! (grid_update.rs), and shares this file's account of the walls' reach.
 
 use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
-use crate::contract::{MIRROR_MASS, MIRROR_MASS_AND_MOMENTUM, MIRROR_MOMENTUM};
+use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM, NODE_BLOCK_EDGE};
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
@@ -16,10 +17,6 @@ pub enum MirrorQuantity {
     Mass,
     /// The image momentum, wall-normal component reflected, between p2g and the grid update.
     Momentum,
-    /// Both in one launch, where nothing reads the mirrored mass before the momentum is scattered
-    /// (the fused pipeline: one_pass scattered both). The same values as the two launches: each
-    /// quantity's image reads that quantity alone.
-    MassAndMomentum,
 }
 
 host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
@@ -44,7 +41,6 @@ impl MirrorWalls {
         let quantity_code = match quantity {
             MirrorQuantity::Mass => MIRROR_MASS,
             MirrorQuantity::Momentum => MIRROR_MOMENTUM,
-            MirrorQuantity::MassAndMomentum => MIRROR_MASS_AND_MOMENTUM,
         };
         // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
         // pointers, which the kernel checks, for the report's pipeline).
@@ -63,6 +59,58 @@ impl MirrorWalls {
     }
 }
 
+/// One wall's mirror plane and reach along its axis (one side of the kernels' `MirrorAxis`).
+pub struct WallReach {
+    axis: usize,
+    high: bool,
+    plane: u32,
+    reach: u32,
+}
+
+impl WallReach {
+    /// The walls of `axis`, low and high.
+    fn of_axis(params: &Params, axis: usize) -> [WallReach; 2] {
+        let last = params.grid_res[axis] - 1;
+        let (lo, hi) = (params.wall_mirror_lo, params.wall_mirror_hi[axis]);
+        [(false, lo), (true, hi)].map(|(high, plane)| WallReach {
+            axis,
+            high,
+            plane,
+            reach: plane.min(last - plane),
+        })
+    }
+
+    /// The walls whose reach spans two node blocks, where the fused pipeline's grid update leaves
+    /// the crossing orbits' sums to clear_crossing_orbits (kernels/mirror.cuh,
+    /// `mirror_crosses_blocks`); none where the mirror is off.
+    pub fn crossing_blocks(params: &Params) -> Vec<WallReach> {
+        if params.wall_mirror_lo == 0 {
+            return Vec::new();
+        }
+        (0..3)
+            .flat_map(|axis| WallReach::of_axis(params, axis))
+            .filter(|w| (w.plane - w.reach) / NODE_BLOCK_EDGE != (w.plane + w.reach) / NODE_BLOCK_EDGE)
+            .collect()
+    }
+
+    /// This wall's bit in clear_crossing_orbits' `walls`: 2 axis, plus 1 for the high wall.
+    pub fn bit(&self) -> u32 {
+        2 * self.axis as u32 + u32::from(self.high)
+    }
+
+    /// The nodes within the reach on both sides of the plane, across the other two axes.
+    pub fn nodes(&self, params: &Params) -> usize {
+        let across =
+            params.grid_res[(self.axis + 1) % 3] as usize * params.grid_res[(self.axis + 2) % 3] as usize;
+        (2 * self.reach as usize + 1) * across
+    }
+}
+
+/// Checks that the two walls' reaches of every axis are apart (the kernels tell them apart).
+pub fn check_reach(params: &Params) -> Result<()> {
+    orbits(params).map(|_| ())
+}
+
 /// The threads of one launch: each takes the fluid-side nodes of both walls of one axis within their
 /// reach, across the other two axes. The two walls' reaches must not meet (the kernel tells them
 /// apart).
@@ -70,16 +118,15 @@ fn orbits(params: &Params) -> Result<usize> {
     let res = params.grid_res;
     let mut threads = 0usize;
     for a in 0..3 {
-        let (lo, hi) = (params.wall_mirror_lo, params.wall_mirror_hi[a]);
-        let (lo_reach, hi_reach) = (lo.min(res[a] - 1 - lo), hi.min(res[a] - 1 - hi));
+        let [lo, hi] = WallReach::of_axis(params, a);
         ensure!(
-            lo + lo_reach < hi - hi_reach,
+            lo.plane + lo.reach < hi.plane - hi.reach,
             "the grid is too small for the wall mirror: {} nodes along axis {a}; use at least {}",
             res[a],
-            2 * (lo + lo_reach + 1)
+            2 * (lo.plane + lo.reach + 1)
         );
         let across = res[(a + 1) % 3] as usize * res[(a + 2) % 3] as usize;
-        threads += (lo_reach + hi_reach + 2) as usize * across;
+        threads += (lo.reach + hi.reach + 2) as usize * across;
     }
     Ok(threads)
 }

@@ -457,8 +457,7 @@ impl Solver for CudaRanks {
         self.exchange(Exchange::Sums)?;
         self.lap(&mut clock, Phase::HaloSum)?;
         for solver in &mut self.solvers {
-            solver.mirror_before_update()?;
-            solver.update_grid()?;
+            solver.mirror_and_update_grid()?;
         }
         self.lap(&mut clock, Phase::GridUpdate)?;
         self.exchange(Exchange::Velocities)?;

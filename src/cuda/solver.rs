@@ -204,10 +204,7 @@ impl CudaSolver {
                     self.mirror_before_p2g()?;
                 }
                 Phase::P2g => self.scatter_momentum()?,
-                Phase::GridUpdate => {
-                    self.mirror_before_update()?;
-                    self.update_grid()?;
-                }
+                Phase::GridUpdate => self.mirror_and_update_grid()?,
                 Phase::G2p => self.gather()?,
             }
             let fused = self.pipeline == Pipeline::Fused;
@@ -300,7 +297,7 @@ impl CudaSolver {
     }
 
     /// The walls' mirror of the mass, which p2g reads; nothing under the fused pipeline, which has
-    /// no p2g and mirrors both quantities before the grid update.
+    /// no p2g and mirrors both quantities in its grid update.
     pub(super) fn mirror_before_p2g(&self) -> Result<()> {
         match self.pipeline {
             Pipeline::Fused => Ok(()),
@@ -308,15 +305,15 @@ impl CudaSolver {
         }
     }
 
-    /// The walls' mirror before the grid update: of p2g's momentum, or under the fused pipeline of
-    /// mass and momentum in one launch (one_pass scattered both: 7.6 % off bench-65k's substep on
-    /// the H100, BENCHMARKS.md 0i; done here rather than in p2g_init, that phase is empty after the
-    /// first substep and takes no timing event, 5.5 % more, 0j).
-    pub(super) fn mirror_before_update(&self) -> Result<()> {
-        self.mirror(match self.pipeline {
-            Pipeline::Fused => MirrorQuantity::MassAndMomentum,
-            _ => MirrorQuantity::Momentum,
-        })
+    /// The grid update phase: the walls' mirror of p2g's momentum and the grid update, or under the
+    /// fused pipeline the grid update adding the images of mass and momentum itself (one_pass
+    /// scattered both; one launch fewer a substep, BENCHMARKS.md 0k).
+    pub(super) fn mirror_and_update_grid(&mut self) -> Result<()> {
+        let mirror_in_update = self.pipeline == Pipeline::Fused;
+        if !mirror_in_update {
+            self.mirror(MirrorQuantity::Momentum)?;
+        }
+        self.update_grid(mirror_in_update)
     }
 
     pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
@@ -349,12 +346,15 @@ impl CudaSolver {
         }
     }
 
-    pub(super) fn update_grid(&mut self) -> Result<()> {
+    /// The grid update; `mirror`: it adds the walls' images (the binned and fused pipelines' launch
+    /// only), else mirror_walls did before.
+    pub(super) fn update_grid(&mut self, mirror: bool) -> Result<()> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         k.grid_update
-            .launch(l, self.pipeline, &self.params, &self.state)?;
+            .launch(l, self.pipeline, mirror, &self.params, &self.state)?;
         if self.pipeline.is_binned() {
-            self.state.grid.clear_node_block_list(self.gpu.stream())?;
+            k.grid_update
+                .empty_list(l, mirror, &self.params, &mut self.state.grid)?;
         }
         Ok(())
     }

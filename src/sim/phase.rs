@@ -89,7 +89,7 @@ impl Phase {
             (Pipeline::Binned, Phase::P2g) => "p2g (warp runs, global atomics)".into(),
             (Pipeline::Report, Phase::GridUpdate) => "grid_update (+ mirror momentum)".into(),
             (Pipeline::Binned, Phase::GridUpdate) => "grid_update_blocks (+ mirror momentum)".into(),
-            (Pipeline::Fused, Phase::GridUpdate) => "mirror mass + momentum + grid_update_blocks".into(),
+            (Pipeline::Fused, Phase::GridUpdate) => "grid_update_blocks (+ mirror mass and momentum)".into(),
             (Pipeline::Report, Phase::G2p) => "g2p".into(),
             (Pipeline::Binned, Phase::G2p) => "g2p2g (g2p + next mass scatter)".into(),
             (Pipeline::Fused, Phase::G2p) => "one_pass (g2p + density + next whole scatter)".into(),
