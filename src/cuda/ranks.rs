@@ -176,10 +176,8 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// What rank `rank` shares with its neighbour on `side`: the neighbour, this rank's ghost planes
-    /// there (the neighbour's edge) and its edge planes there (the neighbour's ghosts); `None` at
-    /// the domain's ends.
-    fn halo(&self, rank: usize, side: Side) -> Option<(usize, Planes, Planes)> {
+    /// Where rank `rank` meets its neighbour on `side`; `None` at the domain's ends.
+    fn link(&self, rank: usize, side: Side) -> Option<Link> {
         let slabs = &self.slabs;
         let (neighbour, ghosts, edge) = match side {
             Side::Below => {
@@ -195,7 +193,20 @@ impl CudaRanks {
             axis: slabs.axis,
             range,
         };
-        Some((neighbour, planes(ghosts), planes(edge)))
+        Some(Link {
+            rank,
+            side,
+            neighbour,
+            ghosts: planes(ghosts),
+            edge: planes(edge),
+        })
+    }
+
+    /// Every rank's links to its neighbours: what each exchange packs, carries and unpacks.
+    fn links(&self) -> Vec<Link> {
+        (0..self.solvers.len())
+            .flat_map(|rank| SIDES.into_iter().filter_map(move |side| self.link(rank, side)))
+            .collect()
     }
 
     /// One exchange between every pair of neighbours: each rank packs its side of it into its send
@@ -203,39 +214,34 @@ impl CudaRanks {
     /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
     /// from the edge back over the ghosts.
     fn exchange(&mut self, what: Exchange) -> Result<()> {
-        for (rank, solver) in self.solvers.iter().enumerate() {
-            let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-            for side in SIDES {
-                let Some((_, ghosts, edge)) = self.halo(rank, side) else {
-                    continue;
-                };
-                let (params, state, out) = (
-                    &solver.params,
-                    &solver.state,
-                    &self.halos[rank].send[side as usize],
-                );
-                match what {
-                    Exchange::Sums => k.pack_sums(l, params, &ghosts, state, out)?,
-                    Exchange::Velocities => k.pack_velocities(l, params, &edge, state, out)?,
-                }
+        let links = self.links();
+        for link in &links {
+            let solver = &self.solvers[link.rank];
+            let (k, l, params, state) = (
+                &solver.gpu.kernels.halo,
+                &solver.gpu.launcher,
+                &solver.params,
+                &solver.state,
+            );
+            let out = &self.halos[link.rank].send[link.side as usize];
+            match what {
+                Exchange::Sums => k.pack_sums(l, params, &link.ghosts, state, out)?,
+                Exchange::Velocities => k.pack_velocities(l, params, &link.edge, state, out)?,
             }
         }
-        self.carry()?;
-        for (rank, solver) in self.solvers.iter().enumerate() {
-            let (k, l) = (&solver.gpu.kernels.halo, &solver.gpu.launcher);
-            for side in SIDES {
-                let Some((_, ghosts, edge)) = self.halo(rank, side) else {
-                    continue;
-                };
-                let (params, state, got) = (
-                    &solver.params,
-                    &solver.state,
-                    &self.halos[rank].recv[side as usize],
-                );
-                match what {
-                    Exchange::Sums => k.add_sums(l, params, &edge, got, state)?,
-                    Exchange::Velocities => k.fill_velocities(l, params, &ghosts, got, state)?,
-                }
+        self.carry(&links)?;
+        for link in &links {
+            let solver = &self.solvers[link.rank];
+            let (k, l, params, state) = (
+                &solver.gpu.kernels.halo,
+                &solver.gpu.launcher,
+                &solver.params,
+                &solver.state,
+            );
+            let got = &self.halos[link.rank].recv[link.side as usize];
+            match what {
+                Exchange::Sums => k.add_sums(l, params, &link.edge, got, state)?,
+                Exchange::Velocities => k.fill_velocities(l, params, &link.ghosts, got, state)?,
             }
         }
         Ok(())
@@ -243,25 +249,23 @@ impl CudaRanks {
 
     /// The carrier on one GPU: every rank's send buffers, once packed, copied into its neighbours'
     /// receive buffers on the receiver's stream.
-    fn carry(&mut self) -> Result<()> {
+    fn carry(&mut self, links: &[Link]) -> Result<()> {
         for solver in &self.solvers {
             solver
                 .stream()
                 .synchronize()
                 .context("waiting for a rank's packing")?;
         }
-        for rank in 0..self.solvers.len() {
-            for side in SIDES {
-                let Some((neighbour, _, _)) = self.halo(rank, side) else {
-                    continue;
-                };
-                let (from, to) = pair(&mut self.halos, rank, neighbour);
-                let (src, dst) = (&from.send[side as usize], &mut to.recv[opposite(side) as usize]);
-                self.solvers[neighbour]
-                    .stream()
-                    .memcpy_dtod(src, dst)
-                    .context("carrying a halo between ranks")?;
-            }
+        for link in links {
+            let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
+            let (src, dst) = (
+                &from.send[link.side as usize],
+                &mut to.recv[opposite(link.side) as usize],
+            );
+            self.solvers[link.neighbour]
+                .stream()
+                .memcpy_dtod(src, dst)
+                .context("carrying a halo between ranks")?;
         }
         Ok(())
     }
@@ -410,6 +414,16 @@ fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Particl
     mine
 }
 
+/// Where two neighbouring ranks meet, seen from one of them: this rank's ghost planes there (the
+/// neighbour's edge) and its edge planes there (the neighbour's ghosts).
+struct Link {
+    rank: usize,
+    side: Side,
+    neighbour: usize,
+    ghosts: Planes,
+    edge: Planes,
+}
+
 fn opposite(side: Side) -> Side {
     match side {
         Side::Below => Side::Above,
@@ -466,8 +480,8 @@ impl Solver for CudaRanks {
             solver.gather()?;
         }
         self.count_strays()?;
-        self.take_owned()?;
-        self.lap(&mut clock, Phase::G2p)?;
+        self.take_owned()?; // waits for every rank: the lap need not
+        clock.lap(Phase::G2p);
         push_step_timing(&mut self.timings, clock.finish());
         Ok(())
     }
