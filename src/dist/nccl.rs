@@ -221,33 +221,19 @@ impl Comm {
         // SAFETY: no arguments; every start is paired with the end below.
         self.nccl.check(unsafe { (f.group_start)() }, "ncclGroupStart")?;
         let mut posted = Ok(());
-        for &(peer, buffer, count) in sends {
+        let posts = sends.iter().map(|&post| (post, true));
+        for ((peer, buffer, count), send) in posts.chain(recvs.iter().map(|&post| (post, false))) {
+            let (dt, to) = (data_type as c_int, peer as c_int);
             // SAFETY: the caller vouches for the buffer, the peer and the stream.
             let result = unsafe {
-                (f.send)(
-                    buffer as *const c_void,
-                    count,
-                    data_type as c_int,
-                    peer as c_int,
-                    self.raw,
-                    stream,
-                )
+                if send {
+                    (f.send)(buffer as *const c_void, count, dt, to, self.raw, stream)
+                } else {
+                    (f.recv)(buffer as *mut c_void, count, dt, to, self.raw, stream)
+                }
             };
-            posted = posted.and_then(|()| self.nccl.check(result, &format!("ncclSend to rank {peer}")));
-        }
-        for &(peer, buffer, count) in recvs {
-            // SAFETY: as for the sends.
-            let result = unsafe {
-                (f.recv)(
-                    buffer as *mut c_void,
-                    count,
-                    data_type as c_int,
-                    peer as c_int,
-                    self.raw,
-                    stream,
-                )
-            };
-            posted = posted.and_then(|()| self.nccl.check(result, &format!("ncclRecv from rank {peer}")));
+            let what = if send { "ncclSend to" } else { "ncclRecv from" };
+            posted = posted.and_then(|()| self.nccl.check(result, &format!("{what} rank {peer}")));
         }
         // SAFETY: ends the group started above.
         let ended = self.nccl.check(unsafe { (f.group_end)() }, "ncclGroupEnd");
