@@ -31,19 +31,19 @@ impl CudaSolver {
     /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
     pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.mirror(MirrorQuantity::Mass)
+        self.mirror(MirrorQuantity::Mass).map(drop)
     }
 
     /// Density from the grid mass, pressure and stress, momentum scatter.
     pub fn p2g(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.scatter_momentum()
+        self.scatter_momentum().map(drop)
     }
 
     /// The walls' image momentum, wall-normal component reflected, between p2g and the grid update.
     pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.mirror(MirrorQuantity::Momentum)
+        self.mirror(MirrorQuantity::Momentum).map(drop)
     }
 
     /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators. The

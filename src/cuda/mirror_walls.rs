@@ -22,7 +22,7 @@ pub enum MirrorQuantity {
 host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
 
 impl MirrorWalls {
-    /// Nothing where the mirror is off (`wall_mirror_lo == 0`).
+    /// Nothing where the mirror is off (`wall_mirror_lo == 0`). Whether it launched.
     pub fn launch(
         &self,
         l: &Launcher,
@@ -30,9 +30,9 @@ impl MirrorWalls {
         quantity: MirrorQuantity,
         params: &Params,
         d: &DeviceState,
-    ) -> Result<()> {
+    ) -> Result<bool> {
         if params.wall_mirror_lo == 0 {
-            return Ok(());
+            return Ok(false);
         }
         let threads = orbits(params)?;
         let g = &d.grid;
@@ -54,8 +54,9 @@ impl MirrorWalls {
                 } else {
                     a.arg(&null).arg(&null).arg(&null);
                 }
-            })
+            })?;
         }
+        Ok(true)
     }
 }
 

@@ -187,32 +187,24 @@ impl CudaSolver {
     }
 
     /// The substep's work in stream order, phase by phase (`Phase::ALL`), each phase an NVTX range of
-    /// its name ended by a timing event where it has work (timing.rs: an empty phase reads 0).
+    /// its name ended by a timing event where it enqueued work (timing.rs: an empty phase reads 0).
     fn enqueue_substep(&mut self, sort: bool) -> Result<()> {
         let stream = self.gpu.stream().clone();
         self.timing.begin_step(&stream)?;
-        let mut scattered = false;
         for phase in Phase::ALL.into_iter().filter(|p| p.runs_on_gpu()) {
             let _range = NvtxRange::new(phase.name());
-            match phase {
+            let ran = match phase {
                 // Folded into the grid update, which zeroes what it reads (consume-and-zero); one
                 // GPU has no ranks to exchange with.
-                Phase::GridClear | Phase::HaloSum | Phase::HaloFill => {}
+                Phase::GridClear | Phase::HaloSum | Phase::HaloFill => false,
                 Phase::Sort => self.sort_phase(sort)?,
                 Phase::P2gInit => {
-                    scattered = self.scatter_first()?;
-                    self.mirror_before_p2g()?;
+                    let scattered = self.scatter_first()?;
+                    self.mirror_before_p2g()? || scattered
                 }
                 Phase::P2g => self.scatter_momentum()?,
-                Phase::GridUpdate => self.mirror_and_update_grid()?,
-                Phase::G2p => self.gather()?,
-            }
-            let fused = self.pipeline == Pipeline::Fused;
-            let ran = match phase {
-                Phase::Sort => sort,
-                Phase::P2gInit => scattered || !fused,
-                Phase::P2g => !fused,
-                _ => true,
+                Phase::GridUpdate => self.mirror_and_update_grid().map(|()| true)?,
+                Phase::G2p => self.gather().map(|()| true)?,
             };
             self.timing.end_phase(&stream, phase, ran)?;
         }
@@ -220,13 +212,13 @@ impl CudaSolver {
     }
 
     /// The sort phase: bins the particles where `sort` (the schedule's `sort_due` when the substep
-    /// was enqueued), and counts the substep.
-    pub(super) fn sort_phase(&mut self, sort: bool) -> Result<()> {
+    /// was enqueued), and counts the substep. Whether it enqueued work.
+    pub(super) fn sort_phase(&mut self, sort: bool) -> Result<bool> {
         if sort {
             self.sort()?;
         }
         self.schedule.note_substep();
-        Ok(())
+        Ok(sort)
     }
 
     /// Whether the coming substep sorts (`BinSchedule::due`).
@@ -297,10 +289,10 @@ impl CudaSolver {
     }
 
     /// The walls' mirror of the mass, which p2g reads; nothing under the fused pipeline, which has
-    /// no p2g and mirrors both quantities in its grid update.
-    pub(super) fn mirror_before_p2g(&self) -> Result<()> {
+    /// no p2g and mirrors both quantities in its grid update. Whether it launched.
+    pub(super) fn mirror_before_p2g(&self) -> Result<bool> {
         match self.pipeline {
-            Pipeline::Fused => Ok(()),
+            Pipeline::Fused => Ok(false),
             _ => self.mirror(MirrorQuantity::Mass),
         }
     }
@@ -316,7 +308,8 @@ impl CudaSolver {
         self.update_grid(mirror_in_update)
     }
 
-    pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<()> {
+    /// Whether it launched (not where the scene turns the mirror off).
+    pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<bool> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         k.mirror_walls
             .launch(l, self.pipeline, quantity, &self.params, &self.state)
@@ -331,19 +324,20 @@ impl CudaSolver {
     /// tiled, 0.20 ms by integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48
     /// against 3.86 ms).
     /// The fused pipeline has nothing left to scatter here: one_pass scattered the momentum with the
-    /// mass.
-    pub(super) fn scatter_momentum(&self) -> Result<()> {
+    /// mass. Whether it launched.
+    pub(super) fn scatter_momentum(&self) -> Result<bool> {
         let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         if self.pipeline == Pipeline::Fused {
-            return Ok(());
+            return Ok(false);
         }
         let tiled = self.pipeline == Pipeline::Binned
             && (self.params.scatter_mode == ScatterMode::FixedPoint.code() || self.state.flow.is_some());
         if tiled {
-            k.p2g_tiled.launch(l, &self.params, &self.state)
+            k.p2g_tiled.launch(l, &self.params, &self.state)?;
         } else {
-            k.p2g.launch(l, &self.params, &self.state)
+            k.p2g.launch(l, &self.params, &self.state)?;
         }
+        Ok(true)
     }
 
     /// The grid update; `mirror`: it adds the walls' images (the binned and fused pipelines' launch
