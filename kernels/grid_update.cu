@@ -54,29 +54,28 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 
 // Slot `own` of an orbit's four channels with the images added, channel by channel from the grid (a
 // channel's images read that channel alone), so that only one channel of the orbit is held at a time.
-// This path sets the register count of the whole launch, interior blocks included. Measured on the
-// H100 (BENCHMARKS.md 0k, 0l): the whole orbit at once, 160 registers (the dam break's substep 0.1372
-// ms, against 0.1324 so); the float orbit's float4s at once, 130 (0.1345); the orbit's indices as
-// 64-bit, 108; as 32-bit, 90 (the 16.8M column 3.41 ms against 3.56); recomputed for each channel, 72
-// (3.31 ms, but bench-65k and the dam break slower than at 108).
+// This path sets the register count of the whole launch, interior blocks included, and the grid
+// update of a large scene is latency-bound on its occupancy. Measured on the H100 (BENCHMARKS.md 0k,
+// 0l): the whole orbit at once, 160 registers; the float orbit's float4s at once, 130; the orbit's
+// indices held as 64-bit, 108, and the 16.8M column's substep 3.56 ms against 3.30 with mirror_walls'
+// own launch; as 32-bit, 90 (3.41 ms); recomputed for each channel, as here, 72 (3.31 ms; bench-65k
+// 0.0356 ms against 0.0348 at 90).
 template <typename V>
 __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
                                                   const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, V mine[4]) {
 #pragma unroll
     for (int k = 0; k < 4; ++k) mine[k] = V(0);
-    u32 node[8];  // 32-bit: 64-bit indices held across the channels cost every block 18 registers
-#pragma unroll
-    for (u32 T = 0; T < 8; ++T) {
-        u32 r[3];
-        if (!(T & ~o.axes)) node[T] = (u32)mirror_orbit_node(m, o, T, res, r);
-    }
 #pragma unroll 1
     for (int ch = 0; ch < 4; ++ch) {
         V v[8];
+        // The orbit's grid indices again for each channel: held across the loop they cost every
+        // block of the launch 18 to 36 registers.
 #pragma unroll
-        for (u32 T = 0; T < 8; ++T)
-            if (!(T & ~o.axes)) mirror_load(node[T], ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
+        for (u32 T = 0; T < 8; ++T) {
+            u32 r[3];
+            if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(m, o, T, res, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
+        }
         mirror_orbit_channel(m, o, ch, v);
         const V picked = orbit_slot(v, own);
 #pragma unroll
