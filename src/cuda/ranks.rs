@@ -24,11 +24,12 @@
 //! ranks' streams and times the phases.
 
 use super::gpu::CudaOptions;
-use super::halo::{HaloBuffers, Planes};
+use super::halo::{HaloBuffers, HaloKernels, Planes};
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::particles::{DeviceParticles, DeviceParticlesView};
 use super::solver::CudaSolver;
+use super::state::DeviceState;
 use super::SORT_INTERVAL;
 use crate::dist::migrate::{layer, Migration};
 use crate::dist::{check_ranks, starting_slabs, Slabs};
@@ -209,6 +210,18 @@ impl CudaRanks {
             .collect()
     }
 
+    /// What a halo kernel on `rank` launches with: the kernels, the rank's launcher, parameters and
+    /// buffers.
+    fn halo_launch(&self, rank: usize) -> (&HaloKernels, &Launcher, &Params, &DeviceState) {
+        let solver = &self.solvers[rank];
+        (
+            &solver.gpu.kernels.halo,
+            &solver.gpu.launcher,
+            &solver.params,
+            &solver.state,
+        )
+    }
+
     /// One exchange between every pair of neighbours: each rank packs its side of it into its send
     /// buffers, the carrier copies them across, each rank unpacks what arrived. The scatter's sums
     /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
@@ -216,13 +229,7 @@ impl CudaRanks {
     fn exchange(&mut self, what: Exchange) -> Result<()> {
         let links = self.links();
         for link in &links {
-            let solver = &self.solvers[link.rank];
-            let (k, l, params, state) = (
-                &solver.gpu.kernels.halo,
-                &solver.gpu.launcher,
-                &solver.params,
-                &solver.state,
-            );
+            let (k, l, params, state) = self.halo_launch(link.rank);
             let out = &self.halos[link.rank].send[link.side as usize];
             match what {
                 Exchange::Sums => k.pack_sums(l, params, &link.ghosts, state, out)?,
@@ -231,13 +238,7 @@ impl CudaRanks {
         }
         self.carry(&links)?;
         for link in &links {
-            let solver = &self.solvers[link.rank];
-            let (k, l, params, state) = (
-                &solver.gpu.kernels.halo,
-                &solver.gpu.launcher,
-                &solver.params,
-                &solver.state,
-            );
+            let (k, l, params, state) = self.halo_launch(link.rank);
             let got = &self.halos[link.rank].recv[link.side as usize];
             match what {
                 Exchange::Sums => k.add_sums(l, params, &link.edge, got, state)?,
