@@ -12,7 +12,7 @@
 //
 // The fused pipeline adds the walls' mirror image here (mirror.cuh) instead of in a launch of its own
 // before: each node near a wall reads its orbit's sums as the scatter left them, takes its own slot of
-// `mirror_orbit_passes`, the very values mirror_walls would have written, and only then, after the
+// `mirror_orbit_channel`, the very values mirror_walls would have written, and only then, after the
 // block's barrier, zeroes its own. An orbit within one node block needs nothing more. A node whose
 // reflection lies in another node block is read by two CUDA blocks in no fixed order, so neither
 // zeroes it: clear_crossing_orbits does, after the launch. Images never reach the global grid, so no

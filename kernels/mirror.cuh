@@ -6,9 +6,9 @@
 //
 // The reflections of different axes map a node n's orbit {R_T(n)} (up to 8 nodes, T a subset of the
 // axes on which n lies within a wall's reach) onto itself, so each of the CPU's passes changes an
-// orbit's values from the orbit's values alone. `mirror_orbit_passes` does the three passes on one
-// orbit's values in the CPU's order: the same integers in fixed point, the same floats added in the
-// same order. Two kernels use it: mirror_walls (one thread per orbit, in place) and, in the fused
+// orbit's values from the orbit's values alone. `mirror_orbit_channel` does the three passes on one
+// channel of an orbit's values in the CPU's order: the same integers in fixed point, the same floats
+// added in the same order. Two kernels use it: mirror_walls (one thread per orbit, in place) and, in the fused
 // pipeline, grid_update_blocks (each node of an orbit takes its own slot, inside the grid update).
 #include "tiles.cuh"
 

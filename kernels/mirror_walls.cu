@@ -4,7 +4,7 @@
 // inside its grid update instead (grid_update.cu).
 //
 // All three axes in one launch: one thread per orbit reads its values, does the three passes on them
-// (`mirror_orbit_passes`), writes them back, and touches no other thread's nodes. The orbit's thread
+// (`mirror_orbit_channel`), writes them back, and touches no other thread's nodes. The orbit's thread
 // is the one at its representative, the node on the fluid's side of every wall it is near; the launch
 // covers, per axis, the slabs of the fluid's side of that axis's two walls, and a node in several
 // slabs (an edge or corner) is taken by the slab of its lowest such axis.
