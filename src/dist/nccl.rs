@@ -223,13 +223,13 @@ impl Comm {
         let mut posted = Ok(());
         let posts = sends.iter().map(|&post| (post, true));
         for ((peer, buffer, count), send) in posts.chain(recvs.iter().map(|&post| (post, false))) {
-            let (dt, to) = (data_type as c_int, peer as c_int);
+            let (dt, rank) = (data_type as c_int, peer as c_int);
             // SAFETY: the caller vouches for the buffer, the peer and the stream.
             let result = unsafe {
                 if send {
-                    (f.send)(buffer as *const c_void, count, dt, to, self.raw, stream)
+                    (f.send)(buffer as *const c_void, count, dt, rank, self.raw, stream)
                 } else {
-                    (f.recv)(buffer as *mut c_void, count, dt, to, self.raw, stream)
+                    (f.recv)(buffer as *mut c_void, count, dt, rank, self.raw, stream)
                 }
             };
             let what = if send { "ncclSend to" } else { "ncclRecv from" };
