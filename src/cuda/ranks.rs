@@ -251,12 +251,7 @@ impl CudaRanks {
     /// The carrier on one GPU: every rank's send buffers, once packed, copied into its neighbours'
     /// receive buffers on the receiver's stream.
     fn carry(&mut self, links: &[Link]) -> Result<()> {
-        for solver in &self.solvers {
-            solver
-                .stream()
-                .synchronize()
-                .context("waiting for a rank's packing")?;
-        }
+        self.wait_all()?; // every rank's packing
         for link in links {
             let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
             let (src, dst) = (
