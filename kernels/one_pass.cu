@@ -57,8 +57,11 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
         if (fixed) tile_clear<SCATTER_CHANNELS>(tile_marks);
         else tile_clear_marks(tile_marks);
 
-        // Converged: the bound is the chunk's, the same for every lane of the block.
+        // Converged: the bound is the chunk's, the same for every lane of the block. A warp wholly past
+        // the chunk's end skips the iteration (warp-uniform, so the warp-wide sums stay whole); a lane
+        // past the end of a partial warp computes a copy of the first particle and scatters nothing.
         for (u32 j0 = 0; j0 < bin.count; j0 += blockDim.x) {
+            if (j0 + (threadIdx.x & ~31u) >= bin.count) continue;
             const u32 j = j0 + threadIdx.x;
             bool live = j < bin.count;
             const u32 p = order[bin.start + (live ? j : 0u)];  // past the end: a copy of the first
