@@ -178,10 +178,12 @@ __device__ __forceinline__ void atomic_add_mass_momentum(float4* acc, float x, f
 // Block-wide max of a non-negative float into a counter, at most one atomic per warp. Every thread of
 // the block must call it (it shuffles with a full mask), after its grid-stride loop.
 //
-// A warp whose max does not exceed the counter as it reads it (a plain read, possibly stale, so at
-// most the current value: no raise is lost) skips the atomic. Every warp of a pass ends on the same
-// three words, and their atomics serialise there: measured on the H100 (BENCHMARKS.md 0m), one_pass
-// at the dam break took 0.111 ms with an atomic per warp and 0.102 with the read first.
+// A warp whose max does not exceed the counter as it reads it skips the atomic. The read may be
+// stale, but never above the current value: a launch sees what earlier work in the stream wrote (the
+// host's reset included), and during the launch the counter only grows; so no raise is lost. Every
+// warp of a pass ends on the same few words, and their atomics serialise there: measured on the H100
+// (BENCHMARKS.md 0m), one_pass at the dam break took 0.111 ms with an atomic per warp and 0.102 with
+// the read first.
 
 __device__ __forceinline__ void atomic_max_nonnegative(u32* target, float value) {
     u32 bits = __float_as_uint(value);  // NaN has larger bits than +inf, so a NaN wins and shows
