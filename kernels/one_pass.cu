@@ -27,18 +27,25 @@
 
 #define SCATTER_CHANNELS 4  // mass, then momentum x, y, z: channel-major in the fixed-point tile
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) one_pass(
-    const Params params, const u32 gather, const BinEntry* __restrict__ bins, const u32* __restrict__ order,
-    float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
-    const float4* __restrict__ grid_vel, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum, u32* block_marks,
-    u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
-    const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-    const float* __restrict__ collider_sdf, const float4* __restrict__ sinks, u32 num_sinks,
-    u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
+// The kernel's parameters, and their names, for its two entry points below.
+#define ONE_PASS_PARAMETERS                                                                                     \
+    const Params params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
+        float4 *__restrict__ x, float4 *__restrict__ v, float4 *__restrict__ c, float *__restrict__ rho,         \
+        const float4 *__restrict__ grid_vel, float4 *grid_acc, u64 *fixed_mass, u64 *fixed_momentum,             \
+        u32 *block_marks, u32 *block_list, u32 *work_counts, StepCounters *__restrict__ counters,                \
+        const ColliderState *__restrict__ collider_states, const u32 num_colliders,                              \
+        const float *__restrict__ collider_sdf, const float4 *__restrict__ sinks, u32 num_sinks,                 \
+        u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
+#define ONE_PASS_ARGUMENTS                                                                                      \
+    params, gather, bins, order, x, v, c, rho, grid_vel, grid_acc, fixed_mass, fixed_momentum, block_marks,      \
+        block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, sinks, num_sinks,       \
+        free_slots, flow
+
+template <bool FIXED>
+__device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const Colliders colliders{collider_states, num_colliders, collider_sdf};
     const BlockMarks marks{block_marks, block_list, work_counts};
-    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
     const float mass_tile_scale = params.fixed_mass_scale * unit;
     const float momentum_tile_scale = params.fixed_momentum_scale * unit;
@@ -54,7 +61,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
         int* tile = tile_memory;
-        if (fixed) tile_clear<SCATTER_CHANNELS>(tile_marks);
+        if (FIXED) tile_clear<SCATTER_CHANNELS>(tile_marks);
         else tile_clear_marks(tile_marks);
 
         // Converged: the bound is the chunk's, the same for every lane of the block. A warp wholly past
@@ -112,7 +119,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
             u32 first = 0;
             bool in_tile = false;
             if (live) in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            if (fixed) {
+            if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
                 FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
                     const float mass = w * m_p;
@@ -147,7 +154,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
         }
 
         // Lists the node blocks this chunk's particles covered; in fixed point, flushes the tile first.
-        if (!fixed) {
+        if (!FIXED) {
             __syncthreads();
             tile_list_marked_blocks(t, blocks, marks, tile_marks);
             continue;
@@ -170,4 +177,16 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_MIN_BLOCKS) 
     if (misses) atomicAdd(&counters->tile_misses, misses);
     if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     if (far) counters->rebin_needed = 1u;
+}
+
+// One entry point per scatter (the host launches the one of params.scatter_mode), each compiled for
+// the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh).
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FLOAT_MIN_BLOCKS)
+    one_pass_float(ONE_PASS_PARAMETERS) {
+    one_pass<false>(ONE_PASS_ARGUMENTS);
+}
+
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FIXED_MIN_BLOCKS)
+    one_pass_fixed(ONE_PASS_PARAMETERS) {
+    one_pass<true>(ONE_PASS_ARGUMENTS);
 }

@@ -42,7 +42,11 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // at 6 (80, from 130, a few spill) runs bench-655k 0.172 ms against 0.190 at 8, where it spills more.
 #define G2P2G_MIN_BLOCKS 8
 #define P2G_TILED_MIN_BLOCKS 6
-#define ONE_PASS_MIN_BLOCKS 6
+// one_pass's float scatter at 5 (96 registers) against 6 (80), H100, 2026-11-25 (BENCHMARKS.md 0n): the
+// dam break -1.4 %, bench-65k -3.9 %, the other presets -0.4 to -0.7 %; its fixed-point scatter at 5
+// was 3.8 % slower at the dam break, so it stays at 6.
+#define ONE_PASS_FLOAT_MIN_BLOCKS 5
+#define ONE_PASS_FIXED_MIN_BLOCKS 6
 
 // Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about

@@ -4,7 +4,8 @@
 //! the scatter alone, from the state and density the particles carry (the first substep after they
 //! were spawned or uploaded). One kernel for both, so both scatter with the same instructions.
 
-use super::launch::{host_kernel, Launcher};
+use super::launch::{Kernel, Launcher};
+use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::sim::{Params, ScatterMode};
 use anyhow::Result;
@@ -22,22 +23,37 @@ pub enum Gather {
     Substep,
 }
 
-host_kernel!(OnePass = "one_pass" / "one_pass");
+/// The kernel's two entry points, one per scatter: each is compiled for its own blocks per SM.
+pub struct OnePass {
+    float: Kernel,
+    fixed: Kernel,
+}
 
 impl OnePass {
+    pub fn load(modules: &LoadedModules) -> Result<OnePass> {
+        Ok(OnePass {
+            float: Kernel::load(modules, "one_pass", "one_pass_float")?,
+            fixed: Kernel::load(modules, "one_pass", "one_pass_fixed")?,
+        })
+    }
+
     pub fn launch(&self, l: &Launcher, gather: Gather, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
         // The float scatter sums in registers and needs no tile.
         let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
-        let config = d.bins.tiled_pass(l, if fixed { SCATTER_CHANNELS } else { 0 });
+        let (kernel, config) = if fixed {
+            (&self.fixed, d.bins.tiled_pass(l, SCATTER_CHANNELS))
+        } else {
+            (&self.float, d.bins.tiled_pass(l, 0))
+        };
         let gather = u32::from(gather == Gather::Substep);
-        // SAFETY: the arguments match one_pass in kernels/one_pass.cu; the bin list, order and
-        // node-block list are sized for this grid and these particles. Without a flow the sink and
-        // free-slot pointers are null and never read (no sinks); without `gather` the node
-        // velocities are not read.
+        // SAFETY: the arguments match one_pass_float and one_pass_fixed in kernels/one_pass.cu; the
+        // bin list, order and node-block list are sized for this grid and these particles. Without a
+        // flow the sink and free-slot pointers are null and never read (no sinks); without `gather`
+        // the node velocities are not read.
         unsafe {
-            self.0.launch(l, config, |a| {
+            kernel.launch(l, config, |a| {
                 a.arg(params)
                     .arg(&gather)
                     .arg(list)
