@@ -6,6 +6,9 @@
 #
 #   scripts/bench-ab.sh BEFORE_MPM AFTER_MPM [CASE ...]
 #
+# Either side may be MPM@PTX_DIR: that build with its kernels loaded from PTX_DIR (MPM_PTX_DIR, see
+# docs/profiling.md), to time a kernel variant, or an older commit's kernels, without another build.
+# A side without @ runs with MPM_PTX_DIR unset, whatever the environment holds.
 # A CASE is the arguments of one `mpm bench` run, quoted ("--scene dam-break --scatter fixed-point");
 # default: bench-65k, the dam break and bench-655k. STEPS (2000), WARMUP (200) and RUNS (2) set the
 # length; EXTRA adds arguments to every run (EXTRA="--backend cpu-parallel" on a machine without a
@@ -20,8 +23,13 @@ usage() {
 [ $# -ge 2 ] || usage
 before=$1 after=$2
 shift 2
-for bin in "$before" "$after"; do
+for side in "$before" "$after"; do
+    bin=${side%%@*}
     [ -x "$bin" ] || { echo "$0: $bin is not an executable mpm (build it, or give its path)" >&2; exit 2; }
+    if [[ $side == *@* ]]; then
+        ptx=${side#*@}
+        [ -d "$ptx" ] || { echo "$0: $ptx (after @ in $side) is not a directory of PTX files" >&2; exit 2; }
+    fi
 done
 command -v python3 > /dev/null || { echo "$0: python3 is needed for the table (apt install python3)" >&2; exit 2; }
 cases=("$@")
@@ -33,12 +41,14 @@ mkdir -p "$out"
 for c in "${!cases[@]}"; do
     for run in $(seq 1 "$runs"); do
         for side in before after; do
-            bin=$before
-            [ $side = after ] && bin=$after
+            spec=$before
+            [ $side = after ] && spec=$after
+            bin=${spec%%@*} ptx_env=(-u MPM_PTX_DIR)
+            [[ $spec == *@* ]] && ptx_env=("MPM_PTX_DIR=${spec#*@}")
             json="$out/case$c-$side-$run.json"
             # shellcheck disable=SC2086 # a case and EXTRA are word lists on purpose
-            if ! "$bin" bench ${cases[$c]} ${EXTRA:-} --steps "$steps" --warmup "$warmup" --json "$json" \
-                > "$out/case$c-$side-$run.log" 2>&1; then
+            if ! env "${ptx_env[@]}" "$bin" bench ${cases[$c]} ${EXTRA:-} --steps "$steps" --warmup "$warmup" \
+                --json "$json" > "$out/case$c-$side-$run.log" 2>&1; then
                 echo "$0: '$bin bench ${cases[$c]}' failed; its output: $out/case$c-$side-$run.log" >&2
                 tail -5 "$out/case$c-$side-$run.log" >&2
                 exit 1
