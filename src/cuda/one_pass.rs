@@ -2,7 +2,8 @@
 //! velocity, C and the grid mass, applies the soft wall, colliders and sinks, advects, advances the
 //! particle's density, and scatters the next substep's mass and momentum; with `Gather::None` it is
 //! the scatter alone, from the state and density the particles carry (the first substep after they
-//! were spawned or uploaded). One kernel for both, so both scatter with the same instructions.
+//! were spawned or uploaded). One kernel for both (an entry point per scatter, each serving both
+//! uses), so both scatter with the same instructions.
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
