@@ -196,11 +196,14 @@ env -u WAYLAND_DISPLAY DISPLAY="$display" __GLX_VENDOR_LIBRARY_NAME="$vendor" \
   --capture-dir "$root" "${extra[@]}" >"$out/view.log" 2>&1 &
 view_pid=$!
 # While the viewer runs, copy the X screen every half second; a copy counts once the viewer is seen
-# alive after it (its window was still up), so the last such copy shows the window's last frames.
+# still drawing after it, so the last such copy shows the window's last frames. Still drawing: alive,
+# and its exit line ("N frames drawn") not yet in the log, since it closes its window after that line
+# but lives on a while (releasing CUDA), and a copy then shows an empty screen.
 while kill -0 "$view_pid" 2>/dev/null; do
   sleep 0.5
   cp "$root/fb/Xvfb_screen0" "$root/screen.part" 2>/dev/null &&
-    kill -0 "$view_pid" 2>/dev/null && mv "$root/screen.part" "$root/screen.xwd"
+    kill -0 "$view_pid" 2>/dev/null && ! grep -q "frames\{0,1\} drawn, particles by" "$out/view.log" &&
+    mv "$root/screen.part" "$root/screen.xwd"
 done
 wait "$view_pid"
 status=$?

@@ -444,6 +444,11 @@ impl Solver for CudaRanks {
         "cuda"
     }
 
+    /// Every rank's context is current on the thread in turn; each rank's work binds its own again.
+    fn bind_to_thread(&self) -> Result<()> {
+        self.solvers.iter().try_for_each(|solver| solver.bind_to_thread())
+    }
+
     /// One substep, as the table at the top of this file lists its phases.
     fn step(&mut self, params: &Params) -> Result<()> {
         let mut clock = PhaseClock::start();

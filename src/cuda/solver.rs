@@ -33,7 +33,7 @@ use crate::sim::{
     ExtremesTicket, Material, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode,
     Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaContext, CudaStream};
 use std::sync::Arc;
 
@@ -384,6 +384,13 @@ impl CudaSolver {
 impl Solver for CudaSolver {
     fn name(&self) -> &'static str {
         "cuda"
+    }
+
+    fn bind_to_thread(&self) -> Result<()> {
+        self.gpu
+            .ctx
+            .bind_to_thread()
+            .context("making the simulation's CUDA context current on the stepping thread")
     }
 
     /// One substep, as the table at the top of this file lists its phases: enqueued kernel by kernel

@@ -1,10 +1,18 @@
-//! The viewer window: winit's `ApplicationHandler` drives one redraw after another; each steps the
-//! simulation as the clock says, feeds the particles to the renderer (interop or host copy), draws
-//! them, captures images if asked, and draws the egui panel on top.
+//! The viewer window: winit's `ApplicationHandler` drives one redraw after another; each feeds the
+//! particles to the renderer (interop or host copy), draws them, captures images if asked, draws the
+//! egui panel on top, and presents the frame while a worker thread steps the simulation on to the
+//! next draw's state, as many 60 Hz frames as the clock says.
+//!
+//! Why beside the present: the swap blocks the host for milliseconds (under Xvfb it copies the frame
+//! through the host; everywhere it waits for the GPU to finish drawing), and the simulation's steps
+//! each wait for the GPU's extremes before choosing the next, so stepping before or after the swap
+//! left the GPU idle through it (BENCHMARKS.md 0f). The next draw shows what was stepped, so the
+//! picture is one draw behind the stepping, never torn: the worker joins before the next feed reads
+//! the particles.
 
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
-use super::clock::{DrawCosts, DrawSection, Pacing, SimClock};
+use super::clock::{DrawCosts, DrawSection, Pacing, SimClock, TimedCosts};
 use super::colliders::ColliderDrag;
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
@@ -25,7 +33,7 @@ use glutin_winit::GlWindow;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
@@ -213,14 +221,35 @@ struct ViewerApp {
     /// Frames of the current fixed-pacing batch not complete yet.
     fixed_owed: u32,
     /// The longest wall time one draw spent stepping (reported on exit).
-    longest_step: std::time::Duration,
+    longest_step: Duration,
     /// Host time per section of a draw, for the exit line.
     draw_costs: DrawCosts,
+    /// The timed milliseconds per frame stepped and per frame drawn, for the exit line.
+    timed_costs: TimedCosts,
+    /// What was stepped while the last frame was presented, for the next draw to show and account.
+    stepped: Option<Stepped>,
+}
+
+/// What the stepping thread did in one draw (see [`step_frames`]).
+struct Stepped {
+    completed: u32,
+    /// Simulated seconds it advanced: whole frames, or part of one that outlasted the deadline.
+    simulated: f64,
+    /// Wall time it took.
+    took: Duration,
+    /// Substeps, smallest dt and largest CFL number of the last frame it completed.
+    last_steps: Option<(u32, f32, f32)>,
+    over_cfl: u64,
+    /// The last completed frame's phase timings.
+    timings: Option<PhaseTimings>,
+    /// The GPU milliseconds of the frames completed (summed phase timings), and how many frames.
+    gpu_ms: (f64, u32),
+    error: Option<anyhow::Error>,
 }
 
 /// Wall time a draw may spend stepping before it draws what it has: a frame that costs more is
 /// split over several draws (the simulation keeps its place), so the window keeps answering.
-const STEP_DEADLINE: std::time::Duration = std::time::Duration::from_millis(50);
+const STEP_DEADLINE: Duration = Duration::from_millis(50);
 
 impl ViewerApp {
     fn new(options: ViewerOptions) -> Result<ViewerApp> {
@@ -263,8 +292,10 @@ impl ViewerApp {
             over_cfl: 0,
             step_owed: false,
             fixed_owed: 0,
-            longest_step: std::time::Duration::ZERO,
+            longest_step: Duration::ZERO,
             draw_costs: DrawCosts::default(),
+            timed_costs: TimedCosts::default(),
+            stepped: None,
             options,
         })
     }
@@ -353,6 +384,8 @@ impl ViewerApp {
         self.over_cfl = 0;
         self.step_owed = false;
         self.fixed_owed = 0;
+        // The old simulation's steps, not yet accounted, are no part of the new one.
+        self.stepped = None;
         Ok(())
     }
 
@@ -554,7 +587,8 @@ impl ViewerApp {
         Ok(())
     }
 
-    /// One frame: step, feed, draw, capture, panel, swap.
+    /// One frame: account what was stepped during the last present, feed, draw, capture, panel, then
+    /// present while the next frames are stepped.
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
         let now = Instant::now();
         let wall_dt = (now - self.last_frame).as_secs_f64();
@@ -572,47 +606,13 @@ impl ViewerApp {
             self.fps = 1e3 / self.frame_ms.max(1e-3);
         }
 
-        // Recording fixes one 60 Hz frame per image, so the sequence plays back at real speed.
-        self.clock.pacing = if self.recording.is_some() {
-            Pacing::Fixed { frames_per_draw: 1 }
-        } else if self.controls.fixed_pacing {
-            Pacing::Fixed {
-                frames_per_draw: self.controls.frames_per_draw.max(1),
-            }
-        } else {
-            Pacing::RealTime {
-                max_frames_per_draw: 4,
-            }
-        };
-        // Frames to complete in this draw; a frame that outlasts STEP_DEADLINE goes on in the next.
-        let fixed = matches!(self.clock.pacing, Pacing::Fixed { .. });
-        let frames = if self.controls.paused {
-            self.step_owed |= std::mem::take(&mut self.step_requested);
-            u32::from(self.step_owed)
-        } else {
-            self.step_requested = false;
-            self.step_owed = false;
-            match self.clock.pacing {
-                Pacing::Fixed { frames_per_draw } => {
-                    if self.fixed_owed == 0 {
-                        self.fixed_owed = frames_per_draw;
-                    }
-                    self.fixed_owed
-                }
-                Pacing::RealTime { .. } => self.clock.frames_for(wall_dt),
-            }
-        };
-        let time_before = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
         self.draw_costs.begin();
-        let completed = self.step(frames)?;
-        self.draw_costs.lap(DrawSection::Step);
-        let time_after = self.sim.as_ref().map_or(0.0, |s| s.time_stepped());
-        if !self.controls.paused {
-            self.clock.record(time_after - time_before, wall_dt);
-        }
-        if completed > 0 {
-            self.step_owed = false;
-        }
+        // The frames stepped during the last present, under the pacing they were asked with.
+        let fixed = matches!(self.clock.pacing, Pacing::Fixed { .. });
+        let completed = match self.stepped.take() {
+            Some(stepped) => self.account_step(stepped, wall_dt),
+            None => 0,
+        };
         // With fixed pacing (and recording) an image is taken only when the batch is complete, so the
         // images stay exactly frames_per_draw 60 Hz frames apart.
         let batch_complete = if fixed && !self.controls.paused {
@@ -719,6 +719,9 @@ impl ViewerApp {
             self.message = Some(format!("{e:#}"));
             self.controls.render.mode = DrawMode::Spheres;
         }
+        if let Some(passes) = gpu.renderer.pass_times() {
+            self.timed_costs.render(passes.total());
+        }
 
         let last_frame = self
             .options
@@ -757,20 +760,105 @@ impl ViewerApp {
         for action in actions {
             self.act(action, event_loop);
         }
+        self.draw_costs.lap(DrawSection::Paint);
+        // After the panel's actions, which may pause, step or restart the simulation.
+        let frames = if last_frame {
+            0
+        } else {
+            self.frames_to_step(wall_dt)
+        };
+        let sim = if frames > 0 && self.sim.is_some() {
+            self.prepare_step(frames);
+            self.sim.as_mut()
+        } else {
+            None
+        };
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        self.draw_costs.lap(DrawSection::Paint);
-        gpu.surface
-            .swap_buffers(&gpu.context)
-            .context("presenting the frame (swap buffers)")?;
-        self.draw_costs.lap(DrawSection::Present);
+        let draw_costs = &mut self.draw_costs;
+        let (presented, stepped) = std::thread::scope(|scope| {
+            let stepping = sim.map(|sim| scope.spawn(move || step_frames(sim, frames)));
+            let presented = gpu.surface.swap_buffers(&gpu.context);
+            draw_costs.lap(DrawSection::Present);
+            let stepped = stepping.map(|worker| {
+                worker
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            });
+            (presented, stepped)
+        });
+        self.draw_costs.lap(DrawSection::StepWait);
+        if let Some(stepped) = &stepped {
+            self.draw_costs.stepped(stepped.took);
+        }
+        self.stepped = stepped;
+        presented.context("presenting the frame (swap buffers)")?;
         self.frames_drawn += 1;
         if last_frame {
             event_loop.exit();
         }
         gpu.window.request_redraw();
         Ok(())
+    }
+
+    /// 60 Hz frames to complete beside this draw's present: as the pacing says, or the one that N
+    /// owes while paused. A frame that outlasts STEP_DEADLINE goes on in the next draw.
+    fn frames_to_step(&mut self, wall_dt: f64) -> u32 {
+        // Recording fixes one 60 Hz frame per image, so the sequence plays back at real speed.
+        self.clock.pacing = if self.recording.is_some() {
+            Pacing::Fixed { frames_per_draw: 1 }
+        } else if self.controls.fixed_pacing {
+            Pacing::Fixed {
+                frames_per_draw: self.controls.frames_per_draw.max(1),
+            }
+        } else {
+            Pacing::RealTime {
+                max_frames_per_draw: 4,
+            }
+        };
+        if self.controls.paused {
+            self.step_owed |= std::mem::take(&mut self.step_requested);
+            return u32::from(self.step_owed);
+        }
+        self.step_requested = false;
+        self.step_owed = false;
+        match self.clock.pacing {
+            Pacing::Fixed { frames_per_draw } => {
+                if self.fixed_owed == 0 {
+                    self.fixed_owed = frames_per_draw;
+                }
+                self.fixed_owed
+            }
+            Pacing::RealTime { .. } => self.clock.frames_for(wall_dt),
+        }
+    }
+
+    /// Takes in what the stepping thread did; returns how many frames it completed. A failed step
+    /// pauses the viewer with the reason shown, rather than closing it.
+    fn account_step(&mut self, stepped: Stepped, wall_dt: f64) -> u32 {
+        if !self.controls.paused {
+            self.clock.record(stepped.simulated, wall_dt);
+        }
+        self.clock
+            .record_cost(stepped.completed, stepped.took.as_secs_f64());
+        self.longest_step = self.longest_step.max(stepped.took);
+        if let Some(last) = stepped.last_steps {
+            self.last_steps = last;
+        }
+        self.over_cfl += stepped.over_cfl;
+        self.timed_costs.step(stepped.gpu_ms.0, stepped.gpu_ms.1);
+        if stepped.timings.is_some() {
+            self.last_timings = stepped.timings;
+        }
+        if stepped.completed > 0 {
+            self.step_owed = false;
+        }
+        if let Some(e) = stepped.error {
+            self.controls.paused = true;
+            self.message = Some(format!("{e:#} (press R to reset)"));
+        }
+        stepped.completed
     }
 
     /// The cursor relative to the scene's viewport (window y runs down, GL's up), and the viewport's
@@ -800,21 +888,18 @@ impl ViewerApp {
         }
     }
 
-    /// Completes up to `frames` 60 Hz frames, applying the pending push first, and returns how many it
-    /// completed. It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next
-    /// draw. A failed step pauses the viewer with the reason shown, rather than closing it.
-    fn step(&mut self, frames: u32) -> Result<u32> {
+    /// Hands the mouse's push and a held collider's drag to the simulation, before `frames` frames
+    /// are stepped.
+    fn prepare_step(&mut self, frames: u32) {
         let scene_cursor = self.scene_cursor();
-        let Some(sim) = &mut self.sim else { return Ok(0) };
+        let Some(sim) = &mut self.sim else { return };
         if let (Some(held), Some((cursor, size))) = (self.mouse.collider_drag, scene_cursor) {
-            if frames > 0 {
-                if let Err(e) = held.follow(sim, &self.camera, cursor, size, frames) {
-                    self.message = Some(format!("drag failed: {e:#}"));
-                }
+            if let Err(e) = held.follow(sim, &self.camera, cursor, size, frames) {
+                self.message = Some(format!("drag failed: {e:#}"));
             }
         }
         let drag = std::mem::take(&mut self.mouse.push_drag);
-        if drag != Vec2::ZERO && frames > 0 {
+        if drag != Vec2::ZERO {
             if let Some((cursor, size)) = scene_cursor {
                 let (origin, direction) = self.camera.ray(cursor, size);
                 // The drag in world units, along the camera's right and up axes.
@@ -830,34 +915,48 @@ impl ViewerApp {
                 }
             }
         }
-        let started = Instant::now();
-        let deadline = started + STEP_DEADLINE;
-        let mut completed = 0;
-        while completed < frames {
-            match sim.step_frame_until(Some(deadline)) {
-                Ok(Some(steps)) => {
-                    completed += 1;
-                    self.last_steps = (steps.substeps, steps.dt, steps.max_cfl);
-                    self.over_cfl += u64::from(steps.substeps_over_cfl);
-                    if let Some(t) = steps.timings.filter(|t| t.steps > 0) {
-                        self.last_timings = Some(t);
-                    }
-                }
-                Ok(None) => break, // the deadline passed; the frame goes on next draw
-                Err(e) => {
-                    self.controls.paused = true;
-                    self.message = Some(format!("{e:#} (press R to reset)"));
-                    break;
-                }
-            }
-            if Instant::now() >= deadline {
-                break;
-            }
-        }
-        self.clock.record_cost(completed, started.elapsed().as_secs_f64());
-        self.longest_step = self.longest_step.max(started.elapsed());
-        Ok(completed)
     }
+}
+
+/// Completes up to `frames` 60 Hz frames of `sim` on the calling thread (the viewer's stepping
+/// thread). It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next draw,
+/// and at the first error.
+fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
+    let started = Instant::now();
+    let deadline = started + STEP_DEADLINE;
+    let time_before = sim.time_stepped();
+    let mut stepped = Stepped {
+        completed: 0,
+        simulated: 0.0,
+        took: Duration::ZERO,
+        last_steps: None,
+        over_cfl: 0,
+        timings: None,
+        gpu_ms: (0.0, 0),
+        error: sim.bind_to_thread().err(),
+    };
+    while stepped.error.is_none() && stepped.completed < frames {
+        match sim.step_frame_until(Some(deadline)) {
+            Ok(Some(steps)) => {
+                stepped.completed += 1;
+                stepped.last_steps = Some((steps.substeps, steps.dt, steps.max_cfl));
+                stepped.over_cfl += u64::from(steps.substeps_over_cfl);
+                if let Some(t) = steps.timings.filter(|t| t.steps > 0) {
+                    stepped.gpu_ms.0 += t.total();
+                    stepped.gpu_ms.1 += 1;
+                    stepped.timings = Some(t);
+                }
+            }
+            Ok(None) => break, // the deadline passed; the frame goes on next draw
+            Err(e) => stepped.error = Some(e),
+        }
+        if Instant::now() >= deadline {
+            break;
+        }
+    }
+    stepped.simulated = sim.time_stepped() - time_before;
+    stepped.took = started.elapsed();
+    stepped
 }
 
 /// A region of the back buffer as an image.
@@ -990,6 +1089,10 @@ impl ApplicationHandler for ViewerApp {
         if let Some(costs) = self.draw_costs.summary() {
             // Where the host's time goes: what is neither stepping nor drawing is waiting or overhead.
             eprintln!("viewer: host ms per draw: {costs}");
+        }
+        if let Some(costs) = self.timed_costs.summary() {
+            // Against the draw interval below: what the window adds to stepping and rendering.
+            eprintln!("viewer: timed ms, as the panel shows them: {costs}");
         }
         if let (Some((start, sim_start)), Some(sim)) = (self.first_draw, &self.sim) {
             let wall = (self.last_frame - start).as_secs_f64();

@@ -161,8 +161,6 @@ mod tests {
 /// simulation nor rendering shows here as panel, present or feed time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DrawSection {
-    /// Stepping the simulation, waits for the GPU's extremes included.
-    Step,
     /// The particles into the GL buffer (interop map, kernel, unmap; or the host copy).
     Feed,
     /// Building the panel (egui).
@@ -171,28 +169,31 @@ pub enum DrawSection {
     Draw,
     /// Painting the panel.
     Paint,
-    /// Swapping buffers.
+    /// Swapping buffers, while the stepping thread steps the next frames.
     Present,
+    /// Waiting for the stepping thread once the frame is presented: the stepping the present did not
+    /// hide.
+    StepWait,
 }
 
 impl DrawSection {
     const ALL: [DrawSection; 6] = [
-        DrawSection::Step,
         DrawSection::Feed,
         DrawSection::Panel,
         DrawSection::Draw,
         DrawSection::Paint,
         DrawSection::Present,
+        DrawSection::StepWait,
     ];
 
     fn name(self) -> &'static str {
         match self {
-            DrawSection::Step => "step",
             DrawSection::Feed => "feed",
             DrawSection::Panel => "panel",
             DrawSection::Draw => "draw",
             DrawSection::Paint => "paint",
             DrawSection::Present => "present",
+            DrawSection::StepWait => "step wait",
         }
     }
 }
@@ -201,6 +202,8 @@ impl DrawSection {
 #[derive(Debug, Clone, Default)]
 pub struct DrawCosts {
     seconds: [f64; 6],
+    /// The stepping thread's wall time, beside the sections.
+    stepping: f64,
     draws: u64,
     lap: Option<std::time::Instant>,
 }
@@ -220,7 +223,13 @@ impl DrawCosts {
         }
     }
 
-    /// `step 12.01, feed 0.12, ...` ms per draw; `None` before the first draw.
+    /// The stepping thread took `took` in this draw (beside the present).
+    pub fn stepped(&mut self, took: std::time::Duration) {
+        self.stepping += took.as_secs_f64();
+    }
+
+    /// `feed 0.12, panel 0.50, ..., step wait 7.10; stepping 12.01 (beside the present)` ms per
+    /// draw; `None` before the first draw.
     pub fn summary(&self) -> Option<String> {
         (self.draws > 0).then(|| {
             let per_draw = |s: f64| s * 1e3 / self.draws as f64;
@@ -228,7 +237,51 @@ impl DrawCosts {
                 .iter()
                 .map(|&s| format!("{} {:.2}", s.name(), per_draw(self.seconds[s as usize])))
                 .collect();
-            parts.join(", ")
+            format!(
+                "{}; stepping {:.2} (beside the present)",
+                parts.join(", "),
+                per_draw(self.stepping)
+            )
+        })
+    }
+}
+
+/// Milliseconds per 60 Hz frame stepped and per frame drawn, as the panel's "step total" (the
+/// backend's phase timings: CUDA events on the GPU) and "render total" (GL timer queries) show them,
+/// averaged over the run: the viewer's exit line, beside the draw interval.
+#[derive(Debug, Clone, Default)]
+pub struct TimedCosts {
+    step_ms: f64,
+    steps: u64,
+    render_ms: f64,
+    renders: u64,
+}
+
+impl TimedCosts {
+    /// `frames` frames were stepped in `ms` milliseconds of phase timings, summed.
+    pub fn step(&mut self, ms: f64, frames: u32) {
+        self.step_ms += ms;
+        self.steps += u64::from(frames);
+    }
+
+    /// A draw whose latest measured frame took `ms` milliseconds to render.
+    pub fn render(&mut self, ms: f64) {
+        self.render_ms += ms;
+        self.renders += 1;
+    }
+
+    /// `step total 11.02 per frame (299 frames), render total 2.71 per draw (297 draws)`; `None`
+    /// before anything was measured.
+    pub fn summary(&self) -> Option<String> {
+        let mean = |ms: f64, n: u64| ms / n.max(1) as f64;
+        (self.steps > 0 || self.renders > 0).then(|| {
+            format!(
+                "step total {:.2} per frame ({} frames), render total {:.2} per draw ({} draws)",
+                mean(self.step_ms, self.steps),
+                self.steps,
+                mean(self.render_ms, self.renders),
+                self.renders
+            )
         })
     }
 }

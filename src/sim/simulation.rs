@@ -272,6 +272,10 @@ impl Simulation {
     pub fn solver(&self) -> &dyn Solver {
         self.solver.as_ref()
     }
+    /// Readies the calling thread to step this simulation ([`Solver::bind_to_thread`]).
+    pub fn bind_to_thread(&self) -> Result<()> {
+        self.solver.bind_to_thread()
+    }
 
     /// Whether [`Self::step_frame_until`] returns as soon as a frame's last stretch of substeps is
     /// enqueued, rather than once its extremes are in: the caller (the viewer) draws the frame while

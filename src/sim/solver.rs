@@ -64,8 +64,14 @@ pub enum SummaryTicket {
 }
 
 /// A backend that advances the particles by one substep.
-pub trait Solver {
+pub trait Solver: Send {
     fn name(&self) -> &'static str;
+    /// Readies the calling thread to drive this solver: a CUDA context is current per thread, so a
+    /// thread that takes the solver over (the viewer steps on a worker thread while its main thread
+    /// presents) makes the solver's context current first. Nothing to do on the host backends.
+    fn bind_to_thread(&self) -> Result<()> {
+        Ok(())
+    }
     /// One substep of `params.dt`: its phases (`Phase::ALL`) in step order.
     ///
     /// Under the fused pipeline's density rule (`DensityRule::Advected`) a substep's momentum is
