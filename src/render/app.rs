@@ -1,18 +1,19 @@
 //! The viewer window: winit's `ApplicationHandler` drives one redraw after another; each feeds the
-//! particles to the renderer (interop or host copy), draws them, captures images if asked, draws the
-//! egui panel on top, and presents the frame while a worker thread steps the simulation on to the
-//! next draw's state, as many 60 Hz frames as the clock says.
+//! particles to the renderer (interop or host copy), then draws the egui panel and the scene,
+//! captures images if asked and presents the frame, while a worker thread steps the simulation on to
+//! the next draw's state, as many 60 Hz frames as the clock says.
 //!
-//! Why beside the present: the swap blocks the host for milliseconds (under Xvfb it copies the frame
-//! through the host; everywhere it waits for the GPU to finish drawing), and the simulation's steps
-//! each wait for the GPU's extremes before choosing the next, so stepping before or after the swap
-//! left the GPU idle through it (BENCHMARKS.md 0f). The next draw shows what was stepped, so the
-//! picture is one draw behind the stepping, never torn: the worker joins before the next feed reads
-//! the particles.
+//! Why a worker: the swap blocks the host for milliseconds (under Xvfb it copies the frame through
+//! the host; everywhere it waits for the GPU to finish drawing), building the panel and the scene's
+//! GL commands takes more, and the simulation's steps each wait for the GPU's extremes before choosing
+//! the next, so stepping in line with them left the GPU idle through them (BENCHMARKS.md 0f, 0o). The
+//! next draw shows what was stepped, so the picture is one draw behind the stepping, never torn: the
+//! feed has read the particles before the worker starts, and the worker joins before the next feed.
+//! The panel's actions (pause, reset, sliders) apply once it has joined, to the next draw's steps.
 
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
-use super::clock::{DrawCosts, DrawSection, Pacing, SimClock, TimedCosts};
+use super::clock::{DrawCosts, DrawSection, Pacing, SimClock, StepCosts};
 use super::colliders::ColliderDrag;
 use super::feed::{ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
@@ -224,10 +225,33 @@ struct ViewerApp {
     longest_step: Duration,
     /// Host time per section of a draw, for the exit line.
     draw_costs: DrawCosts,
-    /// The timed milliseconds per frame stepped and per frame drawn, for the exit line.
-    timed_costs: TimedCosts,
-    /// What was stepped while the last frame was presented, for the next draw to show and account.
+    /// The phase timings' milliseconds per frame stepped, for the exit line.
+    step_costs: StepCosts,
+    /// What was stepped while the last frame was drawn, for the next draw to show and account.
     stepped: Option<Stepped>,
+}
+
+/// What a draw shows of the simulation besides the particles, read before the stepping thread
+/// takes it.
+#[derive(Clone, Copy)]
+struct SimGlance {
+    backend: &'static str,
+    /// `None` in a scene without colliders.
+    backstop_pushes: Option<u64>,
+    /// A frame is partly stepped (split over draws).
+    frame_in_progress: bool,
+    time: f64,
+}
+
+impl SimGlance {
+    fn of(sim: &Simulation) -> SimGlance {
+        SimGlance {
+            backend: sim.backend(),
+            backstop_pushes: (!sim.colliders().is_empty()).then(|| sim.backstop_pushes()),
+            frame_in_progress: sim.time_stepped() > sim.time(),
+            time: sim.time(),
+        }
+    }
 }
 
 /// What the stepping thread did in one draw (see [`step_frames`]).
@@ -242,8 +266,8 @@ struct Stepped {
     over_cfl: u64,
     /// The last completed frame's phase timings.
     timings: Option<PhaseTimings>,
-    /// The GPU milliseconds of the frames completed (summed phase timings), and how many frames.
-    gpu_ms: (f64, u32),
+    /// The phase timings' milliseconds of the frames completed, summed, and how many frames.
+    timed_ms: (f64, u32),
     error: Option<anyhow::Error>,
 }
 
@@ -294,7 +318,7 @@ impl ViewerApp {
             fixed_owed: 0,
             longest_step: Duration::ZERO,
             draw_costs: DrawCosts::default(),
-            timed_costs: TimedCosts::default(),
+            step_costs: StepCosts::default(),
             stepped: None,
             options,
         })
@@ -587,8 +611,9 @@ impl ViewerApp {
         Ok(())
     }
 
-    /// One frame: account what was stepped during the last present, feed, draw, capture, panel, then
-    /// present while the next frames are stepped.
+    /// One frame: account what was stepped during the last draw, feed the particles, then draw the
+    /// panel and the scene, take the images asked for and present, while a worker thread steps the
+    /// next frames.
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
         let now = Instant::now();
         let wall_dt = (now - self.last_frame).as_secs_f64();
@@ -607,7 +632,7 @@ impl ViewerApp {
         }
 
         self.draw_costs.begin();
-        // The frames stepped during the last present, under the pacing they were asked with.
+        // The frames stepped during the last draw, under the pacing they were asked with.
         let fixed = matches!(self.clock.pacing, Pacing::Fixed { .. });
         let completed = match self.stepped.take() {
             Some(stepped) => self.account_step(stepped, wall_dt),
@@ -622,11 +647,10 @@ impl ViewerApp {
             true
         };
 
+        let domain = self.domain();
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        let size = gpu.window.inner_size();
-        let size = [size.width.max(1), size.height.max(1)];
         let count = match &mut self.sim {
             Some(sim) => self
                 .feed
@@ -634,17 +658,99 @@ impl ViewerApp {
             None => 0,
         };
         self.draw_costs.lap(DrawSection::Feed);
-        let domain = {
-            let (lo, hi) = self.scene.fluid_region();
-            (lo.as_vec3(), hi.as_vec3())
+        // What the drawing needs of the simulation, taken before the stepping thread has it.
+        let glance = match &self.sim {
+            Some(sim) => {
+                if !gpu.colliders_built {
+                    gpu.renderer.set_colliders(sim.colliders())?;
+                    gpu.renderer.set_flow(&sim.scene().flow, domain);
+                    gpu.colliders_built = true;
+                }
+                gpu.renderer.set_collider_frame(sim.collider_frame());
+                Some(SimGlance::of(sim))
+            }
+            None => None,
         };
+        let last_frame = self
+            .options
+            .quit_after
+            .is_some_and(|n| self.frames_drawn + 1 >= n);
+        let record = self.recording.is_some() && batch_complete && completed > 0;
+        let frames = if last_frame {
+            0
+        } else {
+            self.frames_to_step(wall_dt)
+        };
+        if frames > 0 {
+            self.prepare_step(frames);
+        }
+        // The particles are in the GL buffer: the next frames are stepped from here on, beside the
+        // panel, the drawing and the present, on the simulation's own CUDA stream after the feed.
+        let stepping = self.sim.take_if(|_| frames > 0);
+        let (drawn, stepped) = std::thread::scope(|scope| {
+            let worker = stepping.map(|mut sim| {
+                scope.spawn(move || {
+                    let stepped = step_frames(&mut sim, frames);
+                    (sim, stepped)
+                })
+            });
+            let drawn = self.draw_frame(count, glance, record, last_frame);
+            let stepped = worker.map(|worker| {
+                worker
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            });
+            (drawn, stepped)
+        });
+        self.draw_costs.lap(DrawSection::StepWait);
+        if let Some((sim, stepped)) = stepped {
+            self.draw_costs.stepped(stepped.took);
+            self.sim = Some(sim);
+            self.stepped = Some(stepped);
+        }
+        // The panel's actions once the simulation is back: they may pause, step or restart it.
+        for action in drawn? {
+            self.act(action, event_loop);
+        }
+        self.frames_drawn += 1;
+        if last_frame {
+            event_loop.exit();
+        }
+        if let Some(gpu) = &self.gpu {
+            gpu.window.request_redraw();
+        }
+        Ok(())
+    }
+
+    /// The fluid's region, as the camera frames it and the renderer bounds it.
+    fn domain(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = self.scene.fluid_region();
+        (lo.as_vec3(), hi.as_vec3())
+    }
+
+    /// The panel, the scene, the images asked for and the present: everything of a draw that does
+    /// not touch the simulation (which the stepping thread has meanwhile). Returns the panel's
+    /// actions.
+    fn draw_frame(
+        &mut self,
+        count: usize,
+        glance: Option<SimGlance>,
+        record: bool,
+        last_frame: bool,
+    ) -> Result<Vec<Action>> {
+        let domain = self.domain();
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(Vec::new());
+        };
+        let size = gpu.window.inner_size();
+        let size = [size.width.max(1), size.height.max(1)];
         // The panel first: it decides how much of the window the scene gets.
         let mut actions = Vec::new();
         let mut scene_rect = None;
         if self.show_panel {
             let info = HudInfo {
                 scene: &self.scene.name,
-                backend: self.sim.as_ref().map_or("none", |s| s.backend()),
+                backend: glance.map_or("none", |g| g.backend),
                 particles: count,
                 fps: self.fps,
                 frame_ms: self.frame_ms,
@@ -653,13 +759,9 @@ impl ViewerApp {
                 dt: self.last_steps.1,
                 max_cfl: self.last_steps.2,
                 substeps_over_cfl: self.over_cfl,
-                backstop_pushes: self
-                    .sim
-                    .as_ref()
-                    .filter(|s| !s.colliders().is_empty())
-                    .map(|s| s.backstop_pushes()),
-                frame_in_progress: self.sim.as_ref().is_some_and(|s| s.time_stepped() > s.time()),
-                sim_time: self.sim.as_ref().map_or(0.0, |s| s.time()),
+                backstop_pushes: glance.and_then(|g| g.backstop_pushes),
+                frame_in_progress: glance.is_some_and(|g| g.frame_in_progress),
+                sim_time: glance.map_or(0.0, |g| g.time),
                 wall_time: self.started.elapsed().as_secs_f64(),
                 speed: self.clock.speed(),
                 transfer: self.feed.path(),
@@ -694,14 +796,6 @@ impl ViewerApp {
             }
             None => Viewport::full(size),
         };
-        if let Some(sim) = &self.sim {
-            if !gpu.colliders_built {
-                gpu.renderer.set_colliders(sim.colliders())?;
-                gpu.renderer.set_flow(&sim.scene().flow, domain);
-                gpu.colliders_built = true;
-            }
-            gpu.renderer.set_collider_frame(sim.collider_frame());
-        }
         if self.camera_follows_view {
             self.camera = self
                 .controls
@@ -719,15 +813,7 @@ impl ViewerApp {
             self.message = Some(format!("{e:#}"));
             self.controls.render.mode = DrawMode::Spheres;
         }
-        if let Some(passes) = gpu.renderer.pass_times() {
-            self.timed_costs.render(passes.total());
-        }
 
-        let last_frame = self
-            .options
-            .quit_after
-            .is_some_and(|n| self.frames_drawn + 1 >= n);
-        let record = self.recording.is_some() && batch_complete && completed > 0;
         let want_image =
             self.screenshot_requested || record || (last_frame && self.options.final_screenshot.is_some());
         if want_image {
@@ -757,52 +843,15 @@ impl ViewerApp {
         if self.show_panel {
             gpu.egui.paint(&gpu.window);
         }
-        for action in actions {
-            self.act(action, event_loop);
-        }
         self.draw_costs.lap(DrawSection::Paint);
-        // After the panel's actions, which may pause, step or restart the simulation.
-        let frames = if last_frame {
-            0
-        } else {
-            self.frames_to_step(wall_dt)
-        };
-        let sim = if frames > 0 && self.sim.is_some() {
-            self.prepare_step(frames);
-            self.sim.as_mut()
-        } else {
-            None
-        };
-        let Some(gpu) = self.gpu.as_mut() else {
-            return Ok(());
-        };
-        let draw_costs = &mut self.draw_costs;
-        let (presented, stepped) = std::thread::scope(|scope| {
-            let stepping = sim.map(|sim| scope.spawn(move || step_frames(sim, frames)));
-            let presented = gpu.surface.swap_buffers(&gpu.context);
-            draw_costs.lap(DrawSection::Present);
-            let stepped = stepping.map(|worker| {
-                worker
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-            });
-            (presented, stepped)
-        });
-        self.draw_costs.lap(DrawSection::StepWait);
-        if let Some(stepped) = &stepped {
-            self.draw_costs.stepped(stepped.took);
-        }
-        self.stepped = stepped;
-        presented.context("presenting the frame (swap buffers)")?;
-        self.frames_drawn += 1;
-        if last_frame {
-            event_loop.exit();
-        }
-        gpu.window.request_redraw();
-        Ok(())
+        gpu.surface
+            .swap_buffers(&gpu.context)
+            .context("presenting the frame (swap buffers)")?;
+        self.draw_costs.lap(DrawSection::Present);
+        Ok(actions)
     }
 
-    /// 60 Hz frames to complete beside this draw's present: as the pacing says, or the one that N
+    /// 60 Hz frames to complete beside this draw: as the pacing says, or the one that N
     /// owes while paused. A frame that outlasts STEP_DEADLINE goes on in the next draw.
     fn frames_to_step(&mut self, wall_dt: f64) -> u32 {
         // Recording fixes one 60 Hz frame per image, so the sequence plays back at real speed.
@@ -847,7 +896,7 @@ impl ViewerApp {
             self.last_steps = last;
         }
         self.over_cfl += stepped.over_cfl;
-        self.timed_costs.step(stepped.gpu_ms.0, stepped.gpu_ms.1);
+        self.step_costs.add(stepped.timed_ms.0, stepped.timed_ms.1);
         if stepped.timings.is_some() {
             self.last_timings = stepped.timings;
         }
@@ -932,7 +981,7 @@ fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
         last_steps: None,
         over_cfl: 0,
         timings: None,
-        gpu_ms: (0.0, 0),
+        timed_ms: (0.0, 0),
         error: sim.bind_to_thread().err(),
     };
     while stepped.error.is_none() && stepped.completed < frames {
@@ -942,8 +991,8 @@ fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
                 stepped.last_steps = Some((steps.substeps, steps.dt, steps.max_cfl));
                 stepped.over_cfl += u64::from(steps.substeps_over_cfl);
                 if let Some(t) = steps.timings.filter(|t| t.steps > 0) {
-                    stepped.gpu_ms.0 += t.total();
-                    stepped.gpu_ms.1 += 1;
+                    stepped.timed_ms.0 += t.total();
+                    stepped.timed_ms.1 += 1;
                     stepped.timings = Some(t);
                 }
             }
@@ -1090,9 +1139,20 @@ impl ApplicationHandler for ViewerApp {
             // Where the host's time goes: what is neither stepping nor drawing is waiting or overhead.
             eprintln!("viewer: host ms per draw: {costs}");
         }
-        if let Some(costs) = self.timed_costs.summary() {
-            // Against the draw interval below: what the window adds to stepping and rendering.
-            eprintln!("viewer: timed ms, as the panel shows them: {costs}");
+        // Against the draw interval below: what the window adds to stepping and rendering.
+        let render = self.gpu.as_mut().map(|gpu| gpu.renderer.timer_mut().means());
+        let timed = [
+            self.step_costs.summary(),
+            render.filter(|(frames, _)| *frames > 0).map(|(frames, passes)| {
+                format!(
+                    "render total {:.2} per drawn frame ({frames} frames)",
+                    passes.total()
+                )
+            }),
+        ];
+        let timed: Vec<String> = timed.into_iter().flatten().collect();
+        if !timed.is_empty() {
+            eprintln!("viewer: timed ms, as the panel shows them: {}", timed.join(", "));
         }
         if let (Some((start, sim_start)), Some(sim)) = (self.first_draw, &self.sim) {
             let wall = (self.last_frame - start).as_secs_f64();

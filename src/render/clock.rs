@@ -169,10 +169,10 @@ pub enum DrawSection {
     Draw,
     /// Painting the panel.
     Paint,
-    /// Swapping buffers, while the stepping thread steps the next frames.
+    /// Swapping buffers.
     Present,
-    /// Waiting for the stepping thread once the frame is presented: the stepping the present did not
-    /// hide.
+    /// Waiting for the stepping thread once the frame is presented: the stepping that the panel, the
+    /// drawing and the present did not hide.
     StepWait,
 }
 
@@ -223,13 +223,13 @@ impl DrawCosts {
         }
     }
 
-    /// The stepping thread took `took` in this draw (beside the present).
+    /// The stepping thread took `took` in this draw (beside the panel, the drawing and the present).
     pub fn stepped(&mut self, took: std::time::Duration) {
         self.stepping += took.as_secs_f64();
     }
 
-    /// `feed 0.12, panel 0.50, ..., step wait 7.10; stepping 12.01 (beside the present)` ms per
-    /// draw; `None` before the first draw.
+    /// `feed 0.12, panel 0.50, ..., step wait 7.10; stepping 12.01 (beside the draw)` ms per draw;
+    /// `None` before the first draw.
     pub fn summary(&self) -> Option<String> {
         (self.draws > 0).then(|| {
             let per_draw = |s: f64| s * 1e3 / self.draws as f64;
@@ -238,7 +238,7 @@ impl DrawCosts {
                 .map(|&s| format!("{} {:.2}", s.name(), per_draw(self.seconds[s as usize])))
                 .collect();
             format!(
-                "{}; stepping {:.2} (beside the present)",
+                "{}; stepping {:.2} (beside the draw)",
                 parts.join(", "),
                 per_draw(self.stepping)
             )
@@ -246,41 +246,29 @@ impl DrawCosts {
     }
 }
 
-/// Milliseconds per 60 Hz frame stepped and per frame drawn, as the panel's "step total" (the
-/// backend's phase timings: CUDA events on the GPU) and "render total" (GL timer queries) show them,
-/// averaged over the run: the viewer's exit line, beside the draw interval.
+/// Milliseconds per 60 Hz frame stepped, as the panel's "step total" shows them (the backend's phase
+/// timings: CUDA events on the GPU), averaged over the run for the viewer's exit line, where they
+/// stand beside the render total and the draw interval.
 #[derive(Debug, Clone, Default)]
-pub struct TimedCosts {
-    step_ms: f64,
-    steps: u64,
-    render_ms: f64,
-    renders: u64,
+pub struct StepCosts {
+    ms: f64,
+    frames: u64,
 }
 
-impl TimedCosts {
+impl StepCosts {
     /// `frames` frames were stepped in `ms` milliseconds of phase timings, summed.
-    pub fn step(&mut self, ms: f64, frames: u32) {
-        self.step_ms += ms;
-        self.steps += u64::from(frames);
+    pub fn add(&mut self, ms: f64, frames: u32) {
+        self.ms += ms;
+        self.frames += u64::from(frames);
     }
 
-    /// A draw whose latest measured frame took `ms` milliseconds to render.
-    pub fn render(&mut self, ms: f64) {
-        self.render_ms += ms;
-        self.renders += 1;
-    }
-
-    /// `step total 11.02 per frame (299 frames), render total 2.71 per draw (297 draws)`; `None`
-    /// before anything was measured.
+    /// `step total 9.85 per frame (299 frames)`; `None` before a frame was timed.
     pub fn summary(&self) -> Option<String> {
-        let mean = |ms: f64, n: u64| ms / n.max(1) as f64;
-        (self.steps > 0 || self.renders > 0).then(|| {
+        (self.frames > 0).then(|| {
             format!(
-                "step total {:.2} per frame ({} frames), render total {:.2} per draw ({} draws)",
-                mean(self.step_ms, self.steps),
-                self.steps,
-                mean(self.render_ms, self.renders),
-                self.renders
+                "step total {:.2} per frame ({} frames)",
+                self.ms / self.frames as f64,
+                self.frames
             )
         })
     }
