@@ -1,7 +1,9 @@
 //! The particle state's life on the CUDA backend: a fixed-point run resumed from a checkpoint is byte
 //! for byte the uninterrupted one, in both pipelines; emitters and sinks follow the CPU reference,
-//! keep exact books, stay deterministic and resume exactly. Where no CUDA device and driver are usable,
-//! every test is reported as ignored, with the reason (tests/harness: `harness = false`).
+//! keep exact books, stay deterministic and resume exactly; a run whose frames are stepped on other
+//! threads (as the viewer steps on a worker while it draws) is the run stepped on one. Where no CUDA
+//! device and driver are usable, every test is reported as ignored, with the reason (tests/harness:
+//! `harness = false`).
 //!
 //! What this guards: the CUDA solver keeps state between substeps that a checkpoint does not hold
 //! (the particle bins, rebuilt every few substeps or on a flag; the binned pipeline's grid mass of the
@@ -27,6 +29,7 @@ fn main() -> std::process::ExitCode {
             gpu_flow_runs_are_byte_identical_and_resume_exactly,
             gpu_capacity_exhaustion_is_counted,
             the_report_pipeline_refuses_emitters,
+            a_run_stepped_on_other_threads_is_byte_identical,
         ],
     )
 }
@@ -239,4 +242,54 @@ fn the_report_pipeline_refuses_emitters() {
         .err()
         .expect("refused");
     assert!(format!("{e:#}").contains("binned"), "{e:#}");
+}
+
+/// The viewer steps each draw's frames on a fresh worker thread (src/render/app.rs), its frames'
+/// last stretches left in flight (`overlap_frames`), and reads the particles on the main thread in
+/// between. In fixed point that run must be the one stepped on one thread, word for word: nothing
+/// of the solver's state may depend on the thread that drives it.
+fn a_run_stepped_on_other_threads_is_byte_identical() {
+    const FRAMES: u64 = 6;
+    let scene = scene(Pipeline::Fused);
+    let mut one_thread = cuda_sim(&scene);
+    one_thread.overlap_frames(true).unwrap();
+    for _ in 0..FRAMES {
+        one_thread.step_frame_until(None).unwrap().expect("a whole frame");
+    }
+    one_thread.settle().unwrap();
+    let expected = one_thread.solver_mut().read_particles().unwrap();
+
+    let mut workers = cuda_sim(&scene);
+    workers.overlap_frames(true).unwrap();
+    for _ in 0..FRAMES {
+        std::thread::scope(|scope| {
+            let sim = &mut workers;
+            scope
+                .spawn(move || {
+                    sim.bind_to_thread().unwrap();
+                    sim.step_frame_until(None).unwrap().expect("a whole frame");
+                })
+                .join()
+                .unwrap();
+        });
+        // The main thread reads the state between frames, as the viewer's feed does.
+        assert_eq!(
+            workers.solver_mut().read_particles().unwrap().len(),
+            expected.len()
+        );
+    }
+    workers.settle().unwrap();
+    assert_eq!(workers.frame(), one_thread.frame());
+    assert_eq!(
+        workers.time().to_bits(),
+        one_thread.time().to_bits(),
+        "times differ"
+    );
+    let got = workers.solver_mut().read_particles().unwrap();
+    let (a, b) = (common::particle_bits(&expected), common::particle_bits(&got));
+    let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert_eq!(
+        differing, 0,
+        "the run stepped on worker threads differs from the one-thread run in {differing} words"
+    );
 }
