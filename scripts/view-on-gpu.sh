@@ -16,7 +16,8 @@
 #   --backend B            mpm's backend [cuda]
 #   --scene S              scene preset or file [dam-break]
 #   --frames N             drawn frames before quitting [240]
-#   --fixed-frames K       60 Hz frames stepped per drawn frame [1]
+#   --fixed-frames K       60 Hz frames stepped per drawn frame, 0 for the viewer's own real-time
+#                          pacing (simulated time follows wall time) [1]
 #   --size WxH             the window, and the X screen around it [1280x720]
 #   --mpm PATH             the binary [.gpu/bin/mpm, else target/release/mpm]
 #   --x11 TARBALL          the X11 tree [.gpu/x11/root.tar.xz]
@@ -58,7 +59,9 @@ mesa) renderer_re='llvmpipe|softpipe|Mesa' ;;
 *) fail "--vendor $vendor: give nvidia (the GPU) or mesa (a dry run with software GL)" ;;
 esac
 [[ $frames =~ ^[1-9][0-9]*$ ]] || fail "--frames $frames: give a whole number from 1 up"
-[[ $fixed =~ ^[1-9][0-9]?$ ]] && ((fixed <= 60)) || fail "--fixed-frames $fixed: give 1 to 60"
+[[ $fixed =~ ^[0-9][0-9]?$ ]] && ((fixed <= 60)) || fail "--fixed-frames $fixed: give 1 to 60, or 0 for real-time pacing"
+pacing=(--fixed-frames "$fixed")
+((fixed == 0)) && pacing=()
 case $backend in auto | cpu | cpu-parallel | cuda) ;; *) fail "--backend $backend: give cuda, cpu-parallel, cpu or auto" ;; esac
 [[ $view_timeout =~ ^[1-9][0-9]*$ ]] || fail "--timeout $view_timeout: give whole seconds"
 [[ $min_fluid =~ ^(0(\.[0-9]+)?|1(\.0+)?)$ ]] || fail "--min-fluid $min_fluid: give a fraction from 0 to 1"
@@ -185,14 +188,14 @@ say "X server: pid $xvfb_pid, $exe, display $display, screen ${width}x${height}x
 [[ $exe == "$root"/* ]] || fail "the X server running is $exe, not the tree's"
 
 # The viewer, in a window as large as the screen.
-say "running: mpm view --backend $backend --scene $scene --size $size --no-vsync --fixed-frames $fixed --quit-after $frames ${extra[*]}"
+say "running: mpm view --backend $backend --scene $scene --size $size --no-vsync ${pacing[*]} --quit-after $frames ${extra[*]}"
 say "  with DISPLAY=$display __GLX_VENDOR_LIBRARY_NAME=$vendor"
 start=$(date +%s)
 env -u WAYLAND_DISPLAY DISPLAY="$display" __GLX_VENDOR_LIBRARY_NAME="$vendor" \
   LD_LIBRARY_PATH="$client_path${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" LIBGL_DRIVERS_PATH="$lib/dri" \
   XLOCALEDIR="$root/usr/share/X11/locale" XKB_CONFIG_ROOT="$root/usr/share/X11/xkb" \
   timeout -k 10 "$view_timeout" "$mpm" view --backend "$backend" --scene "$scene" --size "$size" \
-  --no-vsync --fixed-frames "$fixed" --quit-after "$frames" --final-screenshot "$out/window.png" \
+  --no-vsync "${pacing[@]}" --quit-after "$frames" --final-screenshot "$out/window.png" \
   --capture-dir "$root" "${extra[@]}" >"$out/view.log" 2>&1 &
 view_pid=$!
 # While the viewer runs, copy the X screen every half second; a copy counts once the viewer is seen
