@@ -117,13 +117,13 @@ __device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], c
     return meets;
 }
 
-// One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, so the
-// next substep starts with none (the host then empties the list: a memset, or clear_crossing_orbits).
+// One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
+// last CUDA block to finish empties the list, so the next substep's scatters start with neither.
 // `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
 extern "C" __global__ void grid_update_blocks(const Params params,
                                               const u32 mirror,
                                               const u32* __restrict__ block_list,
-                                              const u32* __restrict__ work_counts,
+                                              u32* __restrict__ work_counts,
                                               u32* __restrict__ block_marks,
                                               float4* __restrict__ grid_acc,
                                               float4* __restrict__ grid_vel,
@@ -165,6 +165,18 @@ extern "C" __global__ void grid_update_blocks(const Params params,
         }
         if (threadIdx.x == 0) block_marks[b] = 0;
     }
+    // Emptying the list here saves the memset launch after this one, a graph node of its own on
+    // every substep's critical path (BENCHMARKS.md 0p). Only the CUDA blocks that walk list entries
+    // count: each read the length before the last of them zeroes it; an idle one walks nothing,
+    // whether it reads the length or 0.
+    const u32 walkers = min(listed, gridDim.x);
+    if (blockIdx.x < walkers) {
+        __syncthreads();  // every warp of the block is past its reads of the length and the list
+        if (threadIdx.x == 0 && atomicAdd(&work_counts[WORK_NODE_BLOCKS_DONE], 1u) == walkers - 1) {
+            work_counts[WORK_NODE_BLOCKS] = 0;
+            work_counts[WORK_NODE_BLOCKS_DONE] = 0;
+        }
+    }
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other
@@ -180,13 +192,11 @@ __device__ __forceinline__ u32 wall_reach_nodes(const Params& params, u32 walls,
 // After a grid update that mirrored (the fused pipeline) on a grid where some orbit crosses node
 // blocks: zeroes the reach of every wall in `walls` (bit 2a: axis a's low wall, 2a + 1 its high
 // wall; the host sets those whose reach spans two node blocks), where grid_update_blocks left the
-// crossing nodes' sums, and empties the node block list (the memset it replaces).
+// crossing nodes' sums.
 extern "C" __global__ void clear_crossing_orbits(const Params params, const u32 walls,
                                                  float4* __restrict__ grid_acc,
                                                  u64* __restrict__ fixed_mass,
-                                                 u64* __restrict__ fixed_momentum,
-                                                 u32* __restrict__ work_counts) {
-    if (blockIdx.x == 0 && threadIdx.x == 0) work_counts[WORK_NODE_BLOCKS] = 0;
+                                                 u64* __restrict__ fixed_momentum) {
     u32 total = 0;
 #pragma unroll
     for (u32 w = 0; w < 6; ++w) total += wall_reach_nodes(params, walls, w);

@@ -246,6 +246,9 @@ device_constants! {
     /// for the host to learn them.
     WORK_BINS: i32 = 0;
     WORK_NODE_BLOCKS: i32 = 1;
+    /// CUDA blocks of grid_update_blocks done with their part of the node block list: the last one
+    /// empties the list and sets this back to 0.
+    WORK_NODE_BLOCKS_DONE: i32 = 2;
 
     /// Values each thread of scan_tiles scans.
     SCAN_ITEMS_PER_THREAD: i32 = 8;

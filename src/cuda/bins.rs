@@ -13,14 +13,19 @@ use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 
 use crate::contract::{
     BinEntry, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
+    WORK_NODE_BLOCKS_DONE,
 };
 pub use crate::contract::{NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
-/// Slots of the work-count buffer, `WORK_BINS` and `WORK_NODE_BLOCKS`.
-pub const WORK_COUNTS: usize = 2;
+/// Slots of the work-count buffer, `WORK_BINS`, `WORK_NODE_BLOCKS` and `WORK_NODE_BLOCKS_DONE`.
+pub const WORK_COUNTS: usize = 3;
 /// The work-count slots as indices.
 pub const BIN_COUNT_SLOT: usize = WORK_BINS as usize;
 pub const NODE_BLOCK_COUNT_SLOT: usize = WORK_NODE_BLOCKS as usize;
-const _: () = assert!(BIN_COUNT_SLOT < WORK_COUNTS && NODE_BLOCK_COUNT_SLOT < WORK_COUNTS);
+const _: () = assert!(
+    BIN_COUNT_SLOT < WORK_COUNTS
+        && NODE_BLOCK_COUNT_SLOT < WORK_COUNTS
+        && (WORK_NODE_BLOCKS_DONE as usize) < WORK_COUNTS
+);
 /// The smallest chunk a bin is listed in: one particle per thread of a tiled pass (TILE_THREADS).
 pub const MIN_BIN_CHUNK: usize = 128;
 /// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.

@@ -134,8 +134,8 @@ impl DeviceGrid {
         self.clear_node_block_list(stream)
     }
 
-    /// Empties the list of touched node blocks (after the grid update visited and unmarked them all).
-    pub fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+    /// Empties the list of touched node blocks (the grid update empties it after each walk).
+    fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
         stream
             .memset_zeros(
                 &mut self

@@ -29,9 +29,10 @@ impl GridUpdate {
         })
     }
 
-    /// The binned and fused pipelines' launch leaves every listed block unmarked; the caller then
-    /// empties the list (`empty_list`). `mirror`: add the walls' images in this launch (the fused
-    /// pipeline) instead of mirror_walls before it.
+    /// The binned and fused pipelines' launch leaves every listed block unmarked and the list empty;
+    /// where it mirrored, the caller then clears the orbits it left (`clear_crossing_orbits`).
+    /// `mirror`: add the walls' images in this launch (the fused pipeline) instead of mirror_walls
+    /// before it.
     pub fn launch(
         &self,
         l: &Launcher,
@@ -83,16 +84,15 @@ impl GridUpdate {
         }
     }
 
-    /// Empties the node block list after a launch over it, for the next substep's scatters. Where that
-    /// launch mirrored and some wall's reach spans two node blocks, the launch left those orbits' sums
-    /// in place (two CUDA blocks read them); clear_crossing_orbits zeroes them and empties the list in
-    /// one launch, where otherwise a memset of the list's length does.
-    pub fn empty_list(
+    /// After a launch over the list that mirrored: where some wall's reach spans two node blocks, the
+    /// launch left those orbits' sums in place (two CUDA blocks read them), and clear_crossing_orbits
+    /// zeroes them for the next substep's scatters. Elsewhere nothing is left to clear.
+    pub fn clear_crossing_orbits(
         &self,
         l: &Launcher,
         mirror: bool,
         params: &Params,
-        grid: &mut DeviceGrid,
+        grid: &DeviceGrid,
     ) -> Result<()> {
         let crossing = if mirror {
             WallReach::crossing_blocks(params)
@@ -100,7 +100,7 @@ impl GridUpdate {
             Vec::new()
         };
         if crossing.is_empty() {
-            return grid.clear_node_block_list(&l.stream);
+            return Ok(());
         }
         let walls = crossing.iter().fold(0u32, |bits, w| bits | 1 << w.bit());
         let nodes = crossing.iter().map(|w| w.nodes(params)).sum();
@@ -112,8 +112,7 @@ impl GridUpdate {
                     .arg(&walls)
                     .arg(&grid.acc)
                     .arg(grid.fixed_mass())
-                    .arg(grid.fixed_momentum())
-                    .arg(&grid.work_counts);
+                    .arg(grid.fixed_momentum());
             })
         }
     }

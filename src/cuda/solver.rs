@@ -348,7 +348,7 @@ impl CudaSolver {
             .launch(l, self.pipeline, mirror, &self.params, &self.state)?;
         if self.pipeline.is_binned() {
             k.grid_update
-                .empty_list(l, mirror, &self.params, &mut self.state.grid)?;
+                .clear_crossing_orbits(l, mirror, &self.params, &self.state.grid)?;
         }
         Ok(())
     }

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# grid_update_blocks empties the node block list itself (no memset launch after it), against
+# 0aa7704 (mpm-old; the simulation's code is the same at f9dbd57). Bench, PLY bytes, memcheck, suite.
+export MPM_BIN=$PWD/.gpu/bin/mpm NCCL_NVLS_ENABLE=0 PATH=$PATH:/usr/local/cuda/bin
+B=$PWD/.gpu/bin
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+mkdir -p $OUT/s28
+OUT=$OUT/s28/ab bash scripts/bench-ab.sh $B/mpm-old $B/mpm "--scene bench-65k" "--scene dam-break" "--scene bench-655k" "--scene dam-break --scatter fixed-point" "--scene bench-65k --scatter fixed-point" > $OUT/s28/bench.txt 2>&1; echo "bench rc=$?"
+tail -12 $OUT/s28/bench.txt
+OUT=$OUT/s28/ab16 STEPS=300 WARMUP=100 bash scripts/bench-ab.sh $B/mpm-old $B/mpm "--particles 16777216 --grid 256" > $OUT/s28/bench-16m.txt 2>&1; tail -4 $OUT/s28/bench-16m.txt
+(cd /tmp
+for sc in dam-break fountain; do
+  timeout 60 $B/mpm-old run --backend cuda --scene $sc --scatter fixed-point --frames 60 --export s28-old-$sc > /dev/null 2>&1 || echo "run old $sc failed"
+  timeout 60 $B/mpm run --backend cuda --scene $sc --scatter fixed-point --frames 60 --export s28-new-$sc > /dev/null 2>&1 || echo "run new $sc failed"
+  diff -rq s28-old-$sc s28-new-$sc > /dev/null && echo "$sc fixed point: $(ls s28-new-$sc | wc -l) files byte-identical" || echo "$sc DIFFER"; done) | tee $OUT/s28/ply.txt
+for sc in "--scene dam-break" "--scene dam-break --scatter fixed-point" "--scene bench-65k"; do
+  echo "== memcheck $sc"; timeout 120 compute-sanitizer --tool memcheck --error-exitcode 9 $B/mpm bench $sc --steps 20 --warmup 0 2>&1 | grep -E "ERROR SUMMARY|rror" | head -3
+done | tee $OUT/s28/memcheck.txt
+timeout 300 bash .gpu/run .gpu/tests/all > $OUT/s28/suite.log 2>&1; echo "suite rc=$?"
+grep -E "^test result" $OUT/s28/suite.log | awk '{p+=$4; f+=$6} END {print p" passed, "f" failed"}'
+grep -E "FAILED|panicked|not run" $OUT/s28/suite.log | head
