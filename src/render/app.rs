@@ -21,7 +21,7 @@ use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
 use crate::checkpoint::Checkpoint;
-use crate::sim::{PhaseTimings, Push, Scene, Simulation};
+use crate::sim::{PhaseTimings, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
 use glam::{Vec2, Vec3};
 use glow::HasContext;
@@ -43,6 +43,9 @@ use winit::raw_window_handle::HasWindowHandle;
 use winit::window::{Window, WindowId};
 
 mod snapshot;
+mod stepping;
+
+use stepping::{step_frames, SimGlance, Stepped};
 
 pub struct ViewerOptions {
     pub scene: Scene,
@@ -230,50 +233,6 @@ struct ViewerApp {
     /// What was stepped while the last frame was drawn, for the next draw to show and account.
     stepped: Option<Stepped>,
 }
-
-/// What a draw shows of the simulation besides the particles, read before the stepping thread
-/// takes it.
-#[derive(Clone, Copy)]
-struct SimGlance {
-    backend: &'static str,
-    /// `None` in a scene without colliders.
-    backstop_pushes: Option<u64>,
-    /// A frame is partly stepped (split over draws).
-    frame_in_progress: bool,
-    time: f64,
-}
-
-impl SimGlance {
-    fn of(sim: &Simulation) -> SimGlance {
-        SimGlance {
-            backend: sim.backend(),
-            backstop_pushes: (!sim.colliders().is_empty()).then(|| sim.backstop_pushes()),
-            frame_in_progress: sim.time_stepped() > sim.time(),
-            time: sim.time(),
-        }
-    }
-}
-
-/// What the stepping thread did in one draw (see [`step_frames`]).
-struct Stepped {
-    completed: u32,
-    /// Simulated seconds it advanced: whole frames, or part of one that outlasted the deadline.
-    simulated: f64,
-    /// Wall time it took.
-    took: Duration,
-    /// Substeps, smallest dt and largest CFL number of the last frame it completed.
-    last_steps: Option<(u32, f32, f32)>,
-    over_cfl: u64,
-    /// The last completed frame's phase timings.
-    timings: Option<PhaseTimings>,
-    /// The phase timings' milliseconds of the frames completed, summed, and how many frames.
-    timed_ms: (f64, u32),
-    error: Option<anyhow::Error>,
-}
-
-/// Wall time a draw may spend stepping before it draws what it has: a frame that costs more is
-/// split over several draws (the simulation keeps its place), so the window keeps answering.
-const STEP_DEADLINE: Duration = Duration::from_millis(50);
 
 impl ViewerApp {
     fn new(options: ViewerOptions) -> Result<ViewerApp> {
@@ -851,65 +810,6 @@ impl ViewerApp {
         Ok(actions)
     }
 
-    /// 60 Hz frames to complete beside this draw: as the pacing says, or the one that N
-    /// owes while paused. A frame that outlasts STEP_DEADLINE goes on in the next draw.
-    fn frames_to_step(&mut self, wall_dt: f64) -> u32 {
-        // Recording fixes one 60 Hz frame per image, so the sequence plays back at real speed.
-        self.clock.pacing = if self.recording.is_some() {
-            Pacing::Fixed { frames_per_draw: 1 }
-        } else if self.controls.fixed_pacing {
-            Pacing::Fixed {
-                frames_per_draw: self.controls.frames_per_draw.max(1),
-            }
-        } else {
-            Pacing::RealTime {
-                max_frames_per_draw: 4,
-            }
-        };
-        if self.controls.paused {
-            self.step_owed |= std::mem::take(&mut self.step_requested);
-            return u32::from(self.step_owed);
-        }
-        self.step_requested = false;
-        self.step_owed = false;
-        match self.clock.pacing {
-            Pacing::Fixed { frames_per_draw } => {
-                if self.fixed_owed == 0 {
-                    self.fixed_owed = frames_per_draw;
-                }
-                self.fixed_owed
-            }
-            Pacing::RealTime { .. } => self.clock.frames_for(wall_dt),
-        }
-    }
-
-    /// Takes in what the stepping thread did; returns how many frames it completed. A failed step
-    /// pauses the viewer with the reason shown, rather than closing it.
-    fn account_step(&mut self, stepped: Stepped, wall_dt: f64) -> u32 {
-        if !self.controls.paused {
-            self.clock.record(stepped.simulated, wall_dt);
-        }
-        self.clock
-            .record_cost(stepped.completed, stepped.took.as_secs_f64());
-        self.longest_step = self.longest_step.max(stepped.took);
-        if let Some(last) = stepped.last_steps {
-            self.last_steps = last;
-        }
-        self.over_cfl += stepped.over_cfl;
-        self.step_costs.add(stepped.timed_ms.0, stepped.timed_ms.1);
-        if stepped.timings.is_some() {
-            self.last_timings = stepped.timings;
-        }
-        if stepped.completed > 0 {
-            self.step_owed = false;
-        }
-        if let Some(e) = stepped.error {
-            self.controls.paused = true;
-            self.message = Some(format!("{e:#} (press R to reset)"));
-        }
-        stepped.completed
-    }
-
     /// The cursor relative to the scene's viewport (window y runs down, GL's up), and the viewport's
     /// size; `None` without a window.
     fn scene_cursor(&self) -> Option<(Vec2, Vec2)> {
@@ -936,76 +836,6 @@ impl ViewerApp {
             }
         }
     }
-
-    /// Hands the mouse's push and a held collider's drag to the simulation, before `frames` frames
-    /// are stepped.
-    fn prepare_step(&mut self, frames: u32) {
-        let scene_cursor = self.scene_cursor();
-        let Some(sim) = &mut self.sim else { return };
-        if let (Some(held), Some((cursor, size))) = (self.mouse.collider_drag, scene_cursor) {
-            if let Err(e) = held.follow(sim, &self.camera, cursor, size, frames) {
-                self.message = Some(format!("drag failed: {e:#}"));
-            }
-        }
-        let drag = std::mem::take(&mut self.mouse.push_drag);
-        if drag != Vec2::ZERO {
-            if let Some((cursor, size)) = scene_cursor {
-                let (origin, direction) = self.camera.ray(cursor, size);
-                // The drag in world units, along the camera's right and up axes.
-                let view = self.camera.view();
-                let right = view.row(0).truncate();
-                let up = view.row(1).truncate();
-                let delta_v = (drag.x * right - drag.y * up) * self.controls.push_strength;
-                let (lo, hi) = self.scene.fluid_region();
-                let radius = self.controls.push_radius * (hi - lo).as_vec3().max_element();
-                let push = Push::new(origin, direction, radius, delta_v.clamp_length_max(10.0));
-                if let Err(e) = sim.apply_push(&push) {
-                    self.message = Some(format!("push failed: {e:#}"));
-                }
-            }
-        }
-    }
-}
-
-/// Completes up to `frames` 60 Hz frames of `sim` on the calling thread (the viewer's stepping
-/// thread). It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next draw,
-/// and at the first error.
-fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
-    let started = Instant::now();
-    let deadline = started + STEP_DEADLINE;
-    let time_before = sim.time_stepped();
-    let mut stepped = Stepped {
-        completed: 0,
-        simulated: 0.0,
-        took: Duration::ZERO,
-        last_steps: None,
-        over_cfl: 0,
-        timings: None,
-        timed_ms: (0.0, 0),
-        error: sim.bind_to_thread().err(),
-    };
-    while stepped.error.is_none() && stepped.completed < frames {
-        match sim.step_frame_until(Some(deadline)) {
-            Ok(Some(steps)) => {
-                stepped.completed += 1;
-                stepped.last_steps = Some((steps.substeps, steps.dt, steps.max_cfl));
-                stepped.over_cfl += u64::from(steps.substeps_over_cfl);
-                if let Some(t) = steps.timings.filter(|t| t.steps > 0) {
-                    stepped.timed_ms.0 += t.total();
-                    stepped.timed_ms.1 += 1;
-                    stepped.timings = Some(t);
-                }
-            }
-            Ok(None) => break, // the deadline passed; the frame goes on next draw
-            Err(e) => stepped.error = Some(e),
-        }
-        if Instant::now() >= deadline {
-            break;
-        }
-    }
-    stepped.simulated = sim.time_stepped() - time_before;
-    stepped.took = started.elapsed();
-    stepped
 }
 
 /// A region of the back buffer as an image.
