@@ -51,7 +51,7 @@ pub struct SubstepGraph {
 // SAFETY: a graph and its nodes are driver handles, which the driver lets any thread use while the
 // graph's context is current there (`Solver::bind_to_thread`, called by a thread before it steps).
 // Send but not Sync: the solver that owns the graph may move to another thread (the viewer steps on
-// a worker while its main thread presents), but only one thread uses it at a time.
+// a worker while its main thread draws), but only one thread uses it at a time.
 unsafe impl Send for SubstepGraph {}
 
 impl SubstepGraph {

@@ -68,7 +68,7 @@ pub trait Solver: Send {
     fn name(&self) -> &'static str;
     /// Readies the calling thread to drive this solver: a CUDA context is current per thread, so a
     /// thread that takes the solver over (the viewer steps on a worker thread while its main thread
-    /// presents) makes the solver's context current first. Nothing to do on the host backends.
+    /// draws) makes the solver's context current first. Nothing to do on the host backends.
     fn bind_to_thread(&self) -> Result<()> {
         Ok(())
     }
