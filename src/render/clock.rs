@@ -155,6 +155,28 @@ mod tests {
         assert_eq!(clock.frames_for(0.001), 1);
         assert_eq!(clock.frames_for(3.0), 1);
     }
+
+    /// The exit line's figures are per draw and per frame: what the stepping thread took is reported
+    /// beside the sections, not among them, and nothing is reported before it was measured.
+    #[test]
+    fn the_exit_line_averages_per_draw_and_per_frame() {
+        let mut costs = DrawCosts::default();
+        assert_eq!(costs.summary(), None);
+        for _ in 0..4 {
+            costs.begin();
+            costs.stepped(std::time::Duration::from_millis(10));
+        }
+        let line = costs.summary().unwrap();
+        assert!(line.starts_with("feed "), "{line}");
+        assert!(line.contains(", step wait "), "{line}");
+        assert!(line.ends_with("; stepping 10.00 (beside the draw)"), "{line}");
+
+        let mut steps = StepCosts::default();
+        assert_eq!(steps.summary(), None);
+        steps.add(30.0, 2);
+        steps.add(6.0, 1);
+        assert_eq!(steps.summary().unwrap(), "step total 12.00 per frame (3 frames)");
+    }
 }
 
 /// Where the host's time in a draw goes, section by section (the viewer's exit line): what is neither
