@@ -606,7 +606,11 @@ impl ViewerApp {
             true
         };
 
-        let domain = self.domain();
+        // The fluid's region, as the camera frames it and the renderer bounds it.
+        let domain = {
+            let (lo, hi) = self.scene.fluid_region();
+            (lo.as_vec3(), hi.as_vec3())
+        };
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
@@ -653,7 +657,7 @@ impl ViewerApp {
                     (sim, stepped)
                 })
             });
-            let drawn = self.draw_frame(count, glance, record, last_frame);
+            let drawn = self.draw_frame(count, domain, glance, record, last_frame);
             let stepped = worker.map(|worker| {
                 worker
                     .join()
@@ -681,23 +685,17 @@ impl ViewerApp {
         Ok(())
     }
 
-    /// The fluid's region, as the camera frames it and the renderer bounds it.
-    fn domain(&self) -> (Vec3, Vec3) {
-        let (lo, hi) = self.scene.fluid_region();
-        (lo.as_vec3(), hi.as_vec3())
-    }
-
     /// The panel, the scene, the images asked for and the present: everything of a draw that does
     /// not touch the simulation (which the stepping thread has meanwhile). Returns the panel's
     /// actions.
     fn draw_frame(
         &mut self,
         count: usize,
+        domain: (Vec3, Vec3),
         glance: Option<SimGlance>,
         record: bool,
         last_frame: bool,
     ) -> Result<Vec<Action>> {
-        let domain = self.domain();
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(Vec::new());
         };
