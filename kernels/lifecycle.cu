@@ -4,6 +4,9 @@
 // particles inside g2p2g (tiles.cuh's `drain_into_sink`), pushing their slots on the free stack;
 // `settle_free` sorts what a substep pushed, highest first, so which slot an emission takes never
 // depends on the order threads pushed them; `emit_particles` fills nozzle points from the stack's top.
+// The stack and each nozzle point's last particle hold slots (a particle's index as users see it);
+// the fused pipeline stores particles in bin order (bin_order.cu), so a slot's place in the particle
+// arrays is looked up in `position` (the identity in the binned pipeline, which never moves them).
 // Both are one block: their work is a substep's drains and the nozzles' points, not the particles.
 #include "tiles.cuh"
 
@@ -71,6 +74,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const float clearance_sq,
     u32* __restrict__ emits,                // scratch, one per point
     u32* __restrict__ last,                 // per point: its last slot, or NO_PARTICLE
+    const u32* __restrict__ position,       // per slot: its place in the particle arrays
     const u32* __restrict__ free_slots, FlowCounters* __restrict__ flow,
     float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
     const u32 scatter_mass, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum,
@@ -87,7 +91,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             const u32 previous = last[g];
             bool clear = true;
             if (previous != NO_PARTICLE) {
-                const float4 xp = x[previous];
+                const float4 xp = x[position[previous]];
                 const float dx = xp.x - at.x, dy = xp.y - at.y, dz = xp.z - at.z;
                 clear = xp.w != 0.0f || dx * dx + dy * dy + dz * dz >= clearance_sq;
             }
@@ -122,13 +126,14 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
         const u32 rank = carried + scan[threadIdx.x] - wants;
         if (wants && rank < available) {
             const u32 slot = free_slots[available - 1u - rank];
+            const u32 p = position[slot];
             const float4 at = points[g];
             const float4 u = velocities[__float_as_uint(at.w)];
             const float4 xp = make_float4(at.x, at.y, at.z, 0.0f);
-            x[slot] = xp;
-            v[slot] = make_float4(u.x, u.y, u.z, 0.0f);
-            for (int col = 0; col < 3; ++col) c[(size_t)col * n + slot] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
-            rho[slot] = params.material.rest_density;
+            x[p] = xp;
+            v[p] = make_float4(u.x, u.y, u.z, 0.0f);
+            for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+            rho[p] = params.material.rest_density;
             last[g] = slot;
             if (scatter_mass) {
                 const Stencil s = make_stencil(xp, params);

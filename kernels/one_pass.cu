@@ -18,6 +18,9 @@
 // the warp's longest only (three shuffle steps at 8 particles per cell, not five) made one_pass
 // slower, 128 us, and were left out.
 //
+// The fused pipeline stores its particles in bin order (bin_order.cu), so a chunk's particles are
+// consecutive in memory and `order` is null; where they stay in place, the pass reads them through it.
+//
 // With `gather` 0 the kernel is the scatter half alone, with the state and density the particles
 // carry: the first substep after they were spawned or uploaded (nothing to gather yet). The same
 // instructions scatter in both uses, so a run resumed from a checkpoint scatters the bits the
@@ -31,13 +34,13 @@
 #define ONE_PASS_PARAMETERS                                                                                     \
     const Params params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
         float4 *__restrict__ x, float4 *__restrict__ v, float4 *__restrict__ c, float *__restrict__ rho,         \
-        const float4 *__restrict__ grid_vel, float4 *grid_acc, u64 *fixed_mass, u64 *fixed_momentum,             \
-        u32 *block_marks, u32 *block_list, u32 *work_counts, StepCounters *__restrict__ counters,                \
-        const ColliderState *__restrict__ collider_states, const u32 num_colliders,                              \
-        const float *__restrict__ collider_sdf, const float4 *__restrict__ sinks, u32 num_sinks,                 \
-        u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
+        const u32 *__restrict__ slot, const float4 *__restrict__ grid_vel, float4 *grid_acc, u64 *fixed_mass,     \
+        u64 *fixed_momentum, u32 *block_marks, u32 *block_list, u32 *work_counts,                                \
+        StepCounters *__restrict__ counters, const ColliderState *__restrict__ collider_states,                  \
+        const u32 num_colliders, const float *__restrict__ collider_sdf, const float4 *__restrict__ sinks,       \
+        u32 num_sinks, u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
 #define ONE_PASS_ARGUMENTS                                                                                      \
-    params, gather, bins, order, x, v, c, rho, grid_vel, grid_acc, fixed_mass, fixed_momentum, block_marks,      \
+    params, gather, bins, order, x, v, c, rho, slot, grid_vel, grid_acc, fixed_mass, fixed_momentum, block_marks, \
         block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, sinks, num_sinks,       \
         free_slots, flow
 
@@ -71,7 +74,11 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             if (j0 + (threadIdx.x & ~31u) >= bin.count) continue;
             const u32 j = j0 + threadIdx.x;
             bool live = j < bin.count;
-            const u32 p = order[bin.start + (live ? j : 0u)];  // past the end: a copy of the first
+            // Past the end: a copy of the first. Particles stored in bin order (bin_order.cu) come
+            // without `order`: their places are the order's (2 % off the substep against reading
+            // the identity it leaves, BENCHMARKS.md 0r).
+            const u32 at = bin.start + (live ? j : 0u);
+            const u32 p = order ? order[at] : at;
             float4 xp = x[p];
             live &= !is_parked(xp);  // parked since the last binning: nothing to move or scatter
             float rho_p;
@@ -100,9 +107,10 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     max_signal = fmaxf(max_signal, r.signal);
                     max_rho = fmaxf(max_rho, rho_p);
                     if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
-                        // Drained: parked, its slot pushed on the free stack (settle_free orders them).
+                        // Drained: parked, its slot (not its place in memory: bin_order.cu) pushed on
+                        // the free stack (settle_free orders them).
                         x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
-                        free_slots[atomicAdd(&flow->free_count, 1ull)] = p;
+                        free_slots[atomicAdd(&flow->free_count, 1ull)] = slot[p];
                         atomicAdd(&flow->drained, 1ull);
                         live = false;
                     }

@@ -30,6 +30,7 @@ fn main() -> std::process::ExitCode {
             transfers_conserve_mass_and_momentum,
             dam_break_follows_cpu_trajectory,
             fixed_point_is_byte_identical_and_float_is_close,
+            particles_in_bin_order_run_as_particles_in_place,
             fixed_point_overflow_is_reported,
             device_spawn_matches_scene_spawn,
             phase_timings_are_measured,
@@ -515,6 +516,45 @@ fn particle_bytes(p: &Particles) -> Vec<u8> {
     bytes
 }
 
+/// The fused pipeline stores its particles in bin order (kernels/bin_order.cu), moving them in
+/// memory at every binning, and readers get them back by slot. In fixed point that run must be, word
+/// for word, the run whose particles stay at their slots; and the particles must really have moved.
+fn particles_in_bin_order_run_as_particles_in_place() {
+    const STEPS: usize = 200;
+    let scene = small_tank_in(Pipeline::Fused, ScatterMode::FixedPoint);
+    let params = step_params(&scene);
+    let run = |bin_order: bool| {
+        let options = CudaOptions {
+            bin_order,
+            ..CudaOptions::default()
+        };
+        let mut gpu = CudaSolver::new(&scene, options).unwrap();
+        for _ in 0..STEPS {
+            gpu.step(&params).unwrap();
+        }
+        gpu.take_extremes().unwrap();
+        (gpu.read_particles().unwrap(), gpu.read_particle_slots().unwrap())
+    };
+    let (sorted, slots) = run(true);
+    let (in_place, identity) = run(false);
+    assert!(identity.iter().enumerate().all(|(i, &s)| s as usize == i));
+    let moved = slots
+        .iter()
+        .enumerate()
+        .filter(|&(i, &s)| s as usize != i)
+        .count();
+    println!("{moved} of {} particles stored away from their slot", slots.len());
+    assert!(
+        moved > slots.len() / 2,
+        "only {moved} of {} particles stored away from their slot: were they gathered into bin order?",
+        slots.len()
+    );
+    assert!(
+        particle_bytes(&sorted) == particle_bytes(&in_place) && sorted.live == in_place.live,
+        "the run with its particles in bin order differs from the one with them in place"
+    );
+}
+
 fn fixed_point_is_byte_identical_and_float_is_close() {
     const STEPS: usize = 200;
     for pipeline in Pipeline::ALL {
@@ -683,6 +723,9 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
         let particles = gpu.read_particles().unwrap();
         let order = gpu.read_order().unwrap();
         let list = gpu.read_bin_list().unwrap();
+        // `order` and the list give places in memory; the fused pipeline stores particles in bin
+        // order, the slot of each place in `slots` (the identity in the binned pipeline).
+        let slots = gpu.read_particle_slots().unwrap();
         let n = particles.len();
         let blocks = scene.grid_res.map(|r| r.div_ceil(4));
         let mut seen = vec![false; n];
@@ -703,7 +746,7 @@ fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
                     !std::mem::replace(&mut seen[p as usize], true),
                     "particle {p} twice"
                 );
-                let base = Stencil::new(particles.x[p as usize], params.inv_dx).base;
+                let base = Stencil::new(particles.x[slots[p as usize] as usize], params.inv_dx).base;
                 for a in 0..3 {
                     let local = base[a] - 4 * b[a] as i32;
                     assert!(

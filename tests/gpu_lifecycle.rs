@@ -12,6 +12,7 @@
 
 use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
+use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::params::{Pipeline, ScatterMode};
 use mpm::sim::{Scene, Simulation};
 
@@ -27,6 +28,7 @@ fn main() -> std::process::ExitCode {
             a_gpu_checkpoint_resumes_on_the_cpu,
             gpu_emission_and_draining_follow_the_cpu,
             gpu_flow_runs_are_byte_identical_and_resume_exactly,
+            gpu_flow_runs_in_bin_order_are_the_runs_in_place,
             gpu_capacity_exhaustion_is_counted,
             the_report_pipeline_refuses_emitters,
             a_run_stepped_on_other_threads_is_byte_identical,
@@ -221,6 +223,33 @@ fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
         common::particle_bits(&sa.particles) == common::particle_bits(&sr.particles)
             && sa.particles.live == sr.particles.live,
         "the resumed run with emitters and sinks differs from the uninterrupted one"
+    );
+}
+
+/// The fused pipeline moves its particles into bin order at every binning (kernels/bin_order.cu),
+/// while the free-slot stack and the nozzles' last particles name slots. With emitters and sinks
+/// that run must be, word for word and slot for slot, the run whose particles stay in place.
+fn gpu_flow_runs_in_bin_order_are_the_runs_in_place() {
+    let mut scene = flow_scene(40_000, common::JET_TANK_DRAIN);
+    scene.pipeline = Pipeline::Fused;
+    let run = |bin_order: bool| {
+        let options = CudaOptions {
+            bin_order,
+            ..CudaOptions::default()
+        };
+        let solver = CudaSolver::new(&scene, options).expect("a CUDA solver");
+        let mut sim = Simulation::new(scene.clone(), Box::new(solver));
+        frames(&mut sim, 12);
+        Checkpoint::capture(&mut sim).unwrap()
+    };
+    let (sorted, in_place) = (run(true), run(false));
+    let counts = in_place.flow.as_ref().expect("a lifecycle").counts;
+    assert!(counts.drained > 0 && counts.emitted > 0, "{counts:?}");
+    assert_eq!(sorted.flow, in_place.flow, "the lifecycles differ");
+    assert!(
+        common::particle_bits(&sorted.particles) == common::particle_bits(&in_place.particles)
+            && sorted.particles.live == in_place.particles.live,
+        "the run with its particles in bin order differs from the one with them in place"
     );
 }
 

@@ -3,6 +3,7 @@
 //! device (buffers, graphs, timing) hangs off the solver that owns one `Gpu`, so a second device is a
 //! second `Gpu`, never shared state.
 
+use super::bin_order::GatherIntoBinOrder;
 use super::bins::BinKernels;
 use super::g2p::G2p;
 use super::g2p2g::{G2p2g, P2gMass};
@@ -36,6 +37,9 @@ pub struct CudaOptions {
     pub block_size: u32,
     /// Each substep as one CUDA graph launch (graph.rs) rather than a launch per kernel.
     pub graphs: bool,
+    /// The fused pipeline stores its particles in bin order, gathering them there at each binning
+    /// (bin_order.rs); off, they stay at their slots (for comparing the two).
+    pub bin_order: bool,
 }
 
 impl Default for CudaOptions {
@@ -44,13 +48,14 @@ impl Default for CudaOptions {
             device: 0,
             block_size: 128,
             graphs: true,
+            bin_order: true,
         }
     }
 }
 
 impl CudaOptions {
-    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE` and `MPM_CUDA_GRAPHS` where
-    /// set.
+    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE`, `MPM_CUDA_GRAPHS` and
+    /// `MPM_BIN_ORDER` where set.
     pub fn from_env() -> Result<CudaOptions> {
         let mut options = CudaOptions::default();
         if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
@@ -71,6 +76,16 @@ impl CudaOptions {
                 _ => bail!("MPM_CUDA_GRAPHS={text:?}: use 1 (substeps as CUDA graphs, the default) or 0"),
             };
         }
+        if let Ok(text) = std::env::var("MPM_BIN_ORDER") {
+            options.bin_order = match text.trim() {
+                "1" => true,
+                "0" => false,
+                _ => bail!(
+                    "MPM_BIN_ORDER={text:?}: use 1 (the fused pipeline stores particles in bin order, the \
+                     default) or 0 (they stay at their slots)"
+                ),
+            };
+        }
         options.validate()?;
         Ok(options)
     }
@@ -89,6 +104,7 @@ impl CudaOptions {
 /// arguments.
 pub struct Kernels {
     pub bins: BinKernels,
+    pub bin_order: GatherIntoBinOrder,
     pub p2g_init: P2gInit,
     pub p2g_mass: P2gMass,
     pub mirror_walls: MirrorWalls,
@@ -111,6 +127,7 @@ impl Kernels {
     fn load(modules: &LoadedModules) -> Result<Kernels> {
         Ok(Kernels {
             bins: BinKernels::load(modules)?,
+            bin_order: GatherIntoBinOrder::load(modules)?,
             p2g_init: P2gInit::load(modules)?,
             p2g_mass: P2gMass::load(modules)?,
             mirror_walls: MirrorWalls::load(modules)?,
@@ -187,8 +204,8 @@ impl Gpu {
     /// for the context, the modules and the spawn scratch); `what` and `fix` say what asked and what
     /// to change.
     pub fn ensure_fits(&self, needed: usize, what: &str, fix: &str) -> Result<()> {
-        let (free, total) = self.ctx.mem_get_info().context("cuMemGetInfo")?;
-        if needed + (64 << 20) > free {
+        if !self.fits(needed)? {
+            let (free, total) = self.ctx.mem_get_info().context("cuMemGetInfo")?;
             bail!(
                 "{what} needs {:.2} GiB of GPU memory but device {} ({}) has {:.2} GiB free of {:.2} GiB; \
                  {fix}",
@@ -200,6 +217,12 @@ impl Gpu {
             );
         }
         Ok(())
+    }
+
+    /// Whether `needed` bytes fit in the device's free memory, with that room left.
+    pub fn fits(&self, needed: usize) -> Result<bool> {
+        let (free, _) = self.ctx.mem_get_info().context("cuMemGetInfo")?;
+        Ok(needed + (64 << 20) <= free)
     }
 
     /// A host copy of `buffer`, waiting for everything enqueued before it.

@@ -15,8 +15,9 @@ use cudarc::driver::{sys, CudaEvent, CudaGraph, CudaStream};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-/// Graphs kept: the current stretch's two (with and without the sort) and the previous stretch's.
-const CACHED_GRAPHS: usize = 4;
+/// Graphs kept: the current stretch's four (with and without the sort, from either set of particle
+/// buffers where the particles are kept in bin order) and the previous stretch's.
+const CACHED_GRAPHS: usize = 8;
 
 /// What decides the work a substep enqueues; equal keys enqueue identical work.
 #[derive(Clone, Copy)]
@@ -27,6 +28,9 @@ pub struct SubstepKey {
     /// Colliders the kernels loop over (their states are read from device memory, updated between
     /// launches; the count is a kernel argument).
     pub colliders: u32,
+    /// Which of the solver's two sets of particle buffers the substep starts on
+    /// (`DeviceState::particle_buffers`).
+    pub particle_buffers: bool,
 }
 
 impl PartialEq for SubstepKey {
@@ -36,6 +40,7 @@ impl PartialEq for SubstepKey {
             && self.sort == other.sort
             && self.mass_scattered == other.mass_scattered
             && self.colliders == other.colliders
+            && self.particle_buffers == other.particle_buffers
     }
 }
 

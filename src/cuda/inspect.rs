@@ -10,7 +10,8 @@ use glam::Vec3;
 
 impl CudaSolver {
     /// Rebuilds the particle order by bin (kernels/bins.cu): by cell for the report's pipeline, by
-    /// node block (with the list of bins that hold particles) for the binned one.
+    /// node block (with the list of bins that hold particles) for the binned one; the fused one then
+    /// stores the particles in that order (kernels/bin_order.cu), leaving `order` the identity.
     pub fn sort_particles(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
         self.sort()
@@ -82,6 +83,12 @@ impl CudaSolver {
     }
 
     /// The particle order of the last binning (identity before the first). Waits for the device.
+    /// Per place in the particle arrays, the slot of the particle stored there: the identity unless
+    /// the fused pipeline gathered the particles into bin order. Waits for the device.
+    pub fn read_particle_slots(&mut self) -> Result<Vec<u32>> {
+        self.gpu.download(&self.state.particles.slot)
+    }
+
     pub fn read_order(&mut self) -> Result<Vec<u32>> {
         self.gpu.download(&self.state.bins.order)
     }

@@ -68,6 +68,7 @@ impl LifecycleKernels {
                     .arg(&flow.clearance_sq)
                     .arg(&flow.emits)
                     .arg(&flow.last)
+                    .arg(&flow.position)
                     .arg(&flow.free)
                     .arg(&flow.counters)
                     .arg(&p.x)
@@ -90,6 +91,9 @@ pub struct DeviceFlow {
     pub counters: CudaSlice<FlowCounters>,
     /// Per nozzle point: its last slot.
     pub last: CudaSlice<u32>,
+    /// Per slot, its place in the particle arrays: the fused pipeline keeps it as it moves the
+    /// particles into bin order (bin_order.rs); the identity elsewhere.
+    pub position: CudaSlice<u32>,
     /// Per nozzle point: xyz and the emitter's index as bits.
     pub points: CudaSlice<f32>,
     pub num_points: u32,
@@ -151,6 +155,11 @@ impl DeviceFlow {
                 .clone_htod(&counters)
                 .context("uploading the lifecycle's counters")?,
             last: upload_u32(&state.last, "the nozzle points' particles")?,
+            // The particles are uploaded or spawned next, each at its slot.
+            position: upload_u32(
+                &(0..flow.capacity as u32).collect::<Vec<_>>(),
+                "the particles' places",
+            )?,
             points: upload_f32(&points, "the nozzle points")?,
             num_points: flow.num_points() as u32,
             velocities: upload_f32(&velocities, "the emitters' velocities")?,

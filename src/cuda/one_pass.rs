@@ -49,20 +49,25 @@ impl OnePass {
             (&self.float, d.bins.tiled_pass(l, 0))
         };
         let gather = u32::from(gather == Gather::Substep);
+        // Particles stored in bin order are read at their places (every binning gathered them).
+        static IN_BIN_ORDER: u64 = 0;
         // SAFETY: the arguments match one_pass_float and one_pass_fixed in kernels/one_pass.cu; the
-        // bin list, order and node-block list are sized for this grid and these particles. Without a
+        // bin list, order and node-block list are sized for this grid and these particles; a null
+        // order where the particles are stored in bin order (the kernel reads places). Without a
         // flow the sink and free-slot pointers are null and never read (no sinks); without `gather`
         // the node velocities are not read.
         unsafe {
             kernel.launch(l, config, |a| {
-                a.arg(params)
-                    .arg(&gather)
-                    .arg(list)
-                    .arg(&d.bins.order)
-                    .arg(&p.x)
+                a.arg(params).arg(&gather).arg(list);
+                match d.bin_order {
+                    Some(_) => a.arg(&IN_BIN_ORDER),
+                    None => a.arg(&d.bins.order),
+                };
+                a.arg(&p.x)
                     .arg(&p.v)
                     .arg(&p.c)
                     .arg(&p.rho)
+                    .arg(&p.slot)
                     .arg(&g.vel)
                     .accumulators(g)
                     .node_block_list(d)

@@ -1,5 +1,7 @@
-//! The particle state on the device, structure of arrays, index-stable (the scatters walk a sorted
-//! index buffer, never reordered particles): what the kernels read and write every substep.
+//! The particle state on the device, structure of arrays: what the kernels read and write every
+//! substep. Each particle carries its slot (its index as users see it), because the fused pipeline
+//! stores the particles in bin order, moving them in memory at each binning (bin_order.rs); readers
+//! get them back in slot order (`download`).
 
 use super::gpu::Gpu;
 use crate::contract::PARKED_W;
@@ -10,9 +12,10 @@ use cudarc::driver::{sys::CUdeviceptr, CudaContext, CudaSlice, CudaStream, Devic
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
 
-/// Bytes on the device per particle: x, v as float4; C as 3 float4; rho; the bins' order, key and
-/// rank (bins.rs).
-pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 3);
+/// Bytes of one particle's state: x, v as float4; C as 3 float4; rho; its slot.
+pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
+/// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
+pub const BYTES_PER_PARTICLE: usize = STATE_BYTES_PER_PARTICLE + 4 * 3;
 
 pub struct DeviceParticles {
     pub count: usize,
@@ -25,10 +28,13 @@ pub struct DeviceParticles {
     pub c: CudaSlice<f32>,
     /// The density p2g estimated (per particle, from the grid's mass).
     pub rho: CudaSlice<f32>,
+    /// Per place in memory, the slot of the particle stored there: the identity until the fused
+    /// pipeline first gathers the particles into bin order.
+    pub slot: CudaSlice<u32>,
 }
 
 impl DeviceParticles {
-    /// Zeroed buffers for `count` particles.
+    /// Zeroed buffers for `count` particles, each stored at its slot.
     pub fn allocate(stream: &Arc<CudaStream>, count: usize) -> Result<DeviceParticles> {
         let alloc = |len: usize, what: &str| {
             stream
@@ -41,10 +47,14 @@ impl DeviceParticles {
             v: alloc(4 * count, "particle velocities")?,
             c: alloc(12 * count, "particle affine matrices")?,
             rho: alloc(count, "particle densities")?,
+            slot: stream
+                .clone_htod(&slots_in_place(count))
+                .context("allocating the particle slots")?,
         })
     }
 
-    /// Copies `particles` (every slot, parked ones marked) into the buffers and waits.
+    /// Copies `particles` (every slot, parked ones marked) into the buffers, each at its slot, and
+    /// waits.
     pub fn upload(&mut self, stream: &Arc<CudaStream>, particles: &Particles) -> Result<()> {
         let n = particles.len();
         ensure!(n == self.count, "{n} particles for a solver of {}", self.count);
@@ -72,28 +82,57 @@ impl DeviceParticles {
         stream
             .memcpy_htod(&particles.rho, &mut self.rho)
             .context("uploading densities")?;
+        stream
+            .memcpy_htod(&slots_in_place(n), &mut self.slot)
+            .context("uploading the particle slots")?;
         stream.synchronize().context("uploading particles")?;
         Ok(())
     }
 
-    /// A host copy of every slot, waiting for the device.
+    /// A host copy of every slot, in slot order, waiting for the device.
     pub fn download(&self, gpu: &Gpu) -> Result<Particles> {
         let n = self.count;
         let x = gpu.download(&self.x)?;
         let v = gpu.download(&self.v)?;
         let c = gpu.download(&self.c)?;
         let rho = gpu.download(&self.rho)?;
+        let place = places_of_slots(&gpu.download(&self.slot)?)?;
         let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
         Ok(Particles {
-            x: (0..n).map(|i| vec3(&x, i)).collect(),
-            v: (0..n).map(|i| vec3(&v, i)).collect(),
-            c: (0..n)
-                .map(|i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
+            x: place.iter().map(|&i| vec3(&x, i)).collect(),
+            v: place.iter().map(|&i| vec3(&v, i)).collect(),
+            c: place
+                .iter()
+                .map(|&i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
                 .collect(),
-            rho,
-            live: (0..n).map(|i| x[4 * i + 3] == 0.0).collect(),
+            rho: place.iter().map(|&i| rho[i]).collect(),
+            live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
         })
     }
+}
+
+/// Each particle stored at its own slot.
+fn slots_in_place(count: usize) -> Vec<u32> {
+    (0..count as u32).collect()
+}
+
+/// Per slot, the place in memory that holds it, from the slot stored at each place: checked to be
+/// a permutation, so that a corrupted buffer is an error rather than particles lost or doubled.
+pub fn places_of_slots(slot: &[u32]) -> Result<Vec<usize>> {
+    let mut place = vec![usize::MAX; slot.len()];
+    for (i, &s) in slot.iter().enumerate() {
+        let entry = place.get_mut(s as usize);
+        ensure!(
+            entry.as_ref().is_some_and(|p| **p == usize::MAX),
+            "the device's particle slots are not a permutation (slot {s} at place {i} of {}): \
+             a kernel wrote past its particles",
+            slot.len()
+        );
+        if let Some(p) = entry {
+            *p = i;
+        }
+    }
+    Ok(place)
 }
 
 /// A solver's particles on its GPU, for a reader that uses them in place: the renderer, which has the
@@ -168,5 +207,23 @@ impl DeviceParticlesView<'_> {
         out.clear();
         out.extend(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::places_of_slots;
+
+    #[test]
+    fn places_invert_the_stored_slots() {
+        assert_eq!(places_of_slots(&[2, 0, 1]).unwrap(), vec![1, 2, 0]);
+        assert_eq!(places_of_slots(&[0, 1, 2, 3]).unwrap(), vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn a_slot_twice_or_out_of_range_is_an_error() {
+        let twice = places_of_slots(&[0, 0, 1]).unwrap_err().to_string();
+        assert!(twice.contains("slot 0 at place 1"), "{twice}");
+        assert!(places_of_slots(&[0, 3, 1]).is_err());
     }
 }

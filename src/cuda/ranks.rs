@@ -110,7 +110,13 @@ impl CudaRanks {
         for rank in 0..slabs.ranks() {
             let mine = owned_by(&particles, &slabs, rank, params.inv_dx);
             counts.push(mine.num_live());
-            let solver = CudaSolver::from_particles(scene, &mine, options)
+            // Every rank holds every slot at its own place (migration and take_owned copy slot p to
+            // slot p), so the ranks keep their particles where they are, out of bin order.
+            let in_place = CudaOptions {
+                bin_order: false,
+                ..options
+            };
+            let solver = CudaSolver::from_particles(scene, &mine, in_place)
                 .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
             halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
             strays.push(

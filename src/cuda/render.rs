@@ -1,5 +1,5 @@
-//! kernels/render.cu: one float4 per particle (position, and the value the renderer colours by) into
-//! a device buffer, usually a GL vertex buffer mapped through interop, so the particles are drawn
+//! kernels/render.cu: one float4 per particle (position, and the value the renderer colours by), in
+//! slot order, into a device buffer, usually a GL vertex buffer mapped through interop, so the particles are drawn
 //! without a trip through the host.
 
 use super::launch::{host_kernel, Launcher};
@@ -15,7 +15,7 @@ impl RenderAttributes {
     ///
     /// # Safety
     /// `out` must be a live device allocation of at least `16 * particles.count` bytes in the context
-    /// of the launcher's stream.
+    /// of the launcher's stream, and `particles.slot` a permutation (as every binning leaves it).
     pub unsafe fn launch(
         &self,
         l: &Launcher,
@@ -33,6 +33,7 @@ impl RenderAttributes {
                 a.arg(&particles.x)
                     .arg(&particles.v)
                     .arg(&particles.rho)
+                    .arg(&particles.slot)
                     .arg(&n)
                     .arg(&code)
                     .arg(&inv_rest_density)

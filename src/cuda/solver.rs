@@ -110,7 +110,8 @@ impl CudaSolver {
     fn allocate(scene: &Scene, flow: Option<&FlowState>, options: CudaOptions) -> Result<CudaSolver> {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
-        let state = DeviceState::allocate(&gpu, scene, flow)?;
+        let bin_order = options.bin_order && scene.pipeline == Pipeline::Fused;
+        let state = DeviceState::allocate(&gpu, scene, flow, bin_order)?;
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone()),
             gpu,
@@ -262,6 +263,9 @@ impl CudaSolver {
             &state.particles.x,
             &mut state.grid.work_counts,
         )?;
+        // The fused pipeline's one_pass reads a bin-ordered state without `order`: every binning
+        // gathers it (`DeviceState::bin_order`).
+        gpu.kernels.bin_order.launch(&gpu.launcher, state)?;
         self.schedule.note_binning();
         Ok(())
     }
@@ -410,12 +414,14 @@ impl Solver for CudaSolver {
             sort,
             mass_scattered: self.mass_scattered,
             colliders: self.state.colliders.count,
+            particle_buffers: self.state.particle_buffers(),
         };
         let graph = match self.graphs.take(&key) {
             Some(graph) => {
                 // What enqueue_substep's calls note on the host, for the work the graph replays.
                 if sort {
                     self.schedule.note_binning();
+                    self.state.swap_particle_buffers();
                 }
                 self.schedule.note_substep();
                 graph

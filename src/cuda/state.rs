@@ -8,7 +8,7 @@ use super::counters::CounterRing;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 use super::lifecycle::DeviceFlow;
-use super::particles::{DeviceParticles, BYTES_PER_PARTICLE};
+use super::particles::{DeviceParticles, BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE};
 use super::stats::ParticleStats;
 use crate::sim::flow::FlowState;
 use crate::sim::{Params, Pipeline, ScatterMode, Scene};
@@ -18,6 +18,9 @@ use std::sync::Arc;
 
 pub struct DeviceState {
     pub particles: DeviceParticles,
+    /// The fused pipeline's second set of particle buffers, which each binning gathers the particles
+    /// into in bin order before the two swap (bin_order.rs); `None` where particles stay in place.
+    pub bin_order: Option<BinOrder>,
     pub grid: DeviceGrid,
     /// Particle indices by cell (report) or node block (binned): the order the scatters walk.
     pub bins: Bins,
@@ -43,13 +46,31 @@ impl DeviceState {
     }
 
     /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
-    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks.
-    pub fn allocate(gpu: &Gpu, scene: &Scene, flow: Option<&FlowState>) -> Result<DeviceState> {
+    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks;
+    /// `bin_order`: the spare particle buffers of a pipeline that keeps its particles in bin order.
+    pub fn allocate(
+        gpu: &Gpu,
+        scene: &Scene,
+        flow: Option<&FlowState>,
+        bin_order: bool,
+    ) -> Result<DeviceState> {
         let n = scene.slots();
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let needed = n * BYTES_PER_PARTICLE
             + nodes * (BYTES_PER_NODE + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 });
+        // Bin order is a speed-up, not a need: a run it would not leave room for keeps its
+        // particles in place rather than being refused.
+        let spare = n * STATE_BYTES_PER_PARTICLE;
+        let room_for_spare = gpu.fits(needed + spare)?;
+        if bin_order && !room_for_spare {
+            eprintln!(
+                "note: scene {}: no room on the GPU for a second copy of {n} particles' state, so they \
+                 stay at their slots instead of in bin order (each substep about a tenth slower)",
+                scene.source
+            );
+        }
+        let bin_order = bin_order && room_for_spare;
         gpu.ensure_fits(
             needed,
             &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
@@ -71,6 +92,14 @@ impl DeviceState {
         let colliders = DeviceColliders::allocate(stream)?;
         let node_blocks = NodeBlockList::allocate(stream, if binned { bins.num_bins() } else { 0 })?;
         let particles = DeviceParticles::allocate(stream, n)?;
+        let bin_order = if bin_order {
+            Some(BinOrder {
+                spare: DeviceParticles::allocate(stream, n)?,
+                swapped: false,
+            })
+        } else {
+            None
+        };
         let mut grid = DeviceGrid::allocate(stream, scene.grid_res, node_blocks)?;
         let counters = CounterRing::allocate(&gpu.ctx, stream)?;
         let stats = ParticleStats::allocate(stream)?;
@@ -93,6 +122,7 @@ impl DeviceState {
         };
         Ok(DeviceState {
             particles,
+            bin_order,
             grid,
             bins,
             counters,
@@ -100,6 +130,21 @@ impl DeviceState {
             flow,
             stats,
         })
+    }
+
+    /// Makes the spare particle buffers, into which the last binning gathered the particles in bin
+    /// order, the particles (bin_order.rs); nothing where particles stay in place.
+    pub fn swap_particle_buffers(&mut self) {
+        if let Some(order) = &mut self.bin_order {
+            std::mem::swap(&mut self.particles, &mut order.spare);
+            order.swapped = !order.swapped;
+        }
+    }
+
+    /// Which of its two sets of buffers holds the particles: the kernels' arguments differ, so a
+    /// captured substep is for one of them (graph.rs).
+    pub fn particle_buffers(&self) -> bool {
+        self.bin_order.as_ref().is_some_and(|o| o.swapped)
     }
 
     /// Whether these buffers can run substeps with `params` in `pipeline` (`mass_scattered`: the
@@ -142,6 +187,13 @@ impl DeviceState {
         }
         Ok(())
     }
+}
+
+/// The spare particle buffers of a pipeline that stores its particles in bin order.
+pub struct BinOrder {
+    pub spare: DeviceParticles,
+    /// The particles are in the buffers allocated second.
+    pub swapped: bool,
 }
 
 /// Argument groups several kernels take together, in the order their signatures list them, so a

@@ -1,0 +1,49 @@
+//! kernels/bin_order.cu: after each binning the fused pipeline gathers its particles into the bins'
+//! order, in its spare buffers, and swaps them in (`DeviceState::swap_particle_buffers`), so that
+//! one_pass reads each chunk's particles from consecutive memory. Each particle's slot travels with
+//! it; so does the lifecycle's slot -> place map where the scene has emitters or sinks.
+
+use super::launch::{host_kernel, Launcher};
+use super::state::DeviceState;
+use anyhow::Result;
+use cudarc::driver::PushKernelArg;
+
+host_kernel!(GatherIntoBinOrder = "bin_order" / "gather_into_bin_order");
+
+impl GatherIntoBinOrder {
+    /// Gathers the particles into bin order and swaps them in, leaving the bins' `order` the
+    /// identity; nothing where the state keeps its particles in place. Whether it launched.
+    pub fn launch(&self, l: &Launcher, state: &mut DeviceState) -> Result<bool> {
+        let Some(bin_order) = &state.bin_order else {
+            return Ok(false);
+        };
+        let (from, to) = (&state.particles, &bin_order.spare);
+        let n = from.count as u32;
+        static NO_FLOW: u64 = 0;
+        // SAFETY: the arguments match gather_into_bin_order; both particle sets hold n slots of
+        // each array, `order` is a permutation of 0..n (the binning just wrote it), and `position`
+        // holds a place per slot (or is null without a flow).
+        unsafe {
+            self.0.launch(l, l.cover(from.count), |a| {
+                a.arg(&n)
+                    .arg(&state.bins.order)
+                    .arg(&from.x)
+                    .arg(&from.v)
+                    .arg(&from.c)
+                    .arg(&from.rho)
+                    .arg(&from.slot)
+                    .arg(&to.x)
+                    .arg(&to.v)
+                    .arg(&to.c)
+                    .arg(&to.rho)
+                    .arg(&to.slot);
+                match &state.flow {
+                    Some(flow) => a.arg(&flow.position),
+                    None => a.arg(&NO_FLOW),
+                };
+            })?;
+        }
+        state.swap_particle_buffers();
+        Ok(true)
+    }
+}
