@@ -3,7 +3,7 @@
 //!
 //! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
 //! |---|---|---|---|
-//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned |
+//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned, then the particles gathered into that order (bin_order.rs) |
 //! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | nothing (mass and momentum came with one_pass) |
 //! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
 //! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | mirror mass and momentum (one launch) + grid_update_blocks |
