@@ -4,7 +4,7 @@
 //! it; so does the lifecycle's slot -> place map where the scene has emitters or sinks.
 
 use super::launch::{host_kernel, Launcher};
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
@@ -27,15 +27,9 @@ impl GatherIntoBinOrder {
             self.0.launch(l, l.cover(from.count), |a| {
                 a.arg(&n)
                     .arg(&state.bins.order)
-                    .arg(&from.x)
-                    .arg(&from.v)
-                    .arg(&from.c)
-                    .arg(&from.rho)
+                    .particle_state(from)
                     .arg(&from.slot)
-                    .arg(&to.x)
-                    .arg(&to.v)
-                    .arg(&to.c)
-                    .arg(&to.rho)
+                    .particle_state(to)
                     .arg(&to.slot);
                 match &state.flow {
                     Some(flow) => a.arg(&flow.position),

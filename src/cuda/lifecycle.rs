@@ -71,10 +71,7 @@ impl LifecycleKernels {
                     .arg(&flow.position)
                     .arg(&flow.free)
                     .arg(&flow.counters)
-                    .arg(&p.x)
-                    .arg(&p.v)
-                    .arg(&p.c)
-                    .arg(&p.rho)
+                    .particle_state(p)
                     .arg(&scatter_mass)
                     .accumulators(g)
                     .node_block_list(d);

@@ -63,10 +63,7 @@ impl OnePass {
                     Some(_) => a.arg(&IN_BIN_ORDER),
                     None => a.arg(&d.bins.order),
                 };
-                a.arg(&p.x)
-                    .arg(&p.v)
-                    .arg(&p.c)
-                    .arg(&p.rho)
+                a.particle_state(p)
                     .arg(&p.slot)
                     .arg(&g.vel)
                     .accumulators(g)

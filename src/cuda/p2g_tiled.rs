@@ -22,10 +22,7 @@ impl P2gTiled {
                 a.arg(params)
                     .arg(list)
                     .arg(&d.bins.order)
-                    .arg(&p.x)
-                    .arg(&p.v)
-                    .arg(&p.c)
-                    .arg(&p.rho)
+                    .particle_state(p)
                     .accumulators(g)
                     .node_block_list(d);
             })

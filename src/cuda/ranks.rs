@@ -29,7 +29,7 @@ use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::particles::{DeviceParticles, DeviceParticlesView};
 use super::solver::CudaSolver;
-use super::state::DeviceState;
+use super::state::{DeviceState, StateArgs};
 use super::SORT_INTERVAL;
 use crate::dist::migrate::{layer, Migration};
 use crate::dist::{check_ranks, starting_slabs, Slabs};
@@ -622,14 +622,8 @@ impl RanksKernels {
                         .arg(&layers)
                         .arg(&mine.start)
                         .arg(&mine.end)
-                        .arg(&from.x)
-                        .arg(&from.v)
-                        .arg(&from.c)
-                        .arg(&from.rho)
-                        .arg(&to.x)
-                        .arg(&to.v)
-                        .arg(&to.c)
-                        .arg(&to.rho)
+                        .particle_state(from)
+                        .particle_state(to)
                         .arg(moved);
                 })
         }
@@ -642,15 +636,7 @@ impl RanksKernels {
         // SAFETY: the arguments match take_owned; both hold `count` slots of each array.
         unsafe {
             self.take_owned.launch(l, l.cover(rank.count), |a| {
-                a.arg(&n)
-                    .arg(&rank.x)
-                    .arg(&rank.v)
-                    .arg(&rank.c)
-                    .arg(&rank.rho)
-                    .arg(&out.x)
-                    .arg(&out.v)
-                    .arg(&out.c)
-                    .arg(&out.rho);
+                a.arg(&n).particle_state(rank).particle_state(out);
             })
         }
     }

@@ -7,6 +7,7 @@ use super::gpu::Gpu;
 use super::launch::{Kernel, NvtxRange};
 use super::modules::LoadedModules;
 use super::particles::DeviceParticles;
+use super::state::StateArgs;
 use crate::contract::{SpawnBody, BODY_BLOCK, BODY_SPHERE};
 use crate::sim::scene::{Scene, Shape};
 use anyhow::{bail, ensure, Context, Result};
@@ -130,10 +131,7 @@ pub fn spawn_on_device(gpu: &Gpu, scene: &Scene, particles: &DeviceParticles) ->
                 .arg(&offsets)
                 .arg(&rest_density)
                 .arg(&n)
-                .arg(&particles.x)
-                .arg(&particles.v)
-                .arg(&particles.c)
-                .arg(&particles.rho);
+                .particle_state(particles);
         })?;
     }
     stream.synchronize().context("spawning particles on the GPU")?;

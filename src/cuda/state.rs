@@ -199,6 +199,8 @@ pub struct BinOrder {
 /// Argument groups several kernels take together, in the order their signatures list them, so a
 /// kernel's host file names a group once instead of spelling out its buffers.
 pub trait StateArgs<'a> {
+    /// `x, v, c, rho`: a particle set's state arrays.
+    fn particle_state(&mut self, particles: &'a DeviceParticles) -> &mut Self;
     /// `grid_acc, fixed_mass, fixed_momentum`: the scatter accumulators, float and fixed point.
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self;
     /// `block_marks, block_list, work_counts, counters`: the node-block list a scatter appends to
@@ -212,6 +214,13 @@ pub trait StateArgs<'a> {
 }
 
 impl<'a> StateArgs<'a> for LaunchArgs<'a> {
+    fn particle_state(&mut self, particles: &'a DeviceParticles) -> &mut Self {
+        self.arg(&particles.x)
+            .arg(&particles.v)
+            .arg(&particles.c)
+            .arg(&particles.rho)
+    }
+
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self {
         self.arg(&grid.acc)
             .arg(grid.fixed_mass())
