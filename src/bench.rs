@@ -297,6 +297,9 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let on_gpu = options.backend == BackendKind::Cuda;
     let fixed_point = scene.scatter == ScatterMode::FixedPoint;
     let ranked = scene.ranks > 1;
+    // As the solver chooses it: ranks and pipelines other than the fused one keep particles in place.
+    let bin_order = scene.pipeline == Pipeline::Fused && !ranked && cuda::CudaOptions::from_env()?.bin_order;
+    let sort_interval = cuda::sort_interval(bin_order);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
         // src/cuda/ranks.rs: the phases of every rank, host-synchronised at each phase's end.
         (true, true, Phase::Sort) => format!(
@@ -304,7 +307,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             cuda::SORT_INTERVAL
         ),
         (true, true, Phase::G2p) => "one_pass + count strays + take_owned (every rank)".into(),
-        (true, _, _) => phase.gpu_label(scene.pipeline, fixed_point, cuda::SORT_INTERVAL),
+        (true, _, _) => phase.gpu_label(scene.pipeline, fixed_point, sort_interval),
         (false, _, _) => phase.cpu_label(),
     };
     let traffic = Traffic {
@@ -312,7 +315,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         nodes: grid_nodes(scene.grid_res),
         fixed_point,
         pipeline: scene.pipeline,
-        sort_interval: cuda::SORT_INTERVAL,
+        sort_interval,
     };
     let floor = |phase: Phase| phase.traffic_floor(&traffic);
     let floor = on_gpu.then_some(&floor as &dyn Fn(Phase) -> f64);

@@ -265,18 +265,36 @@ impl Bins {
     }
 }
 
-/// Substeps between particle sorts, in both pipelines. Particles move well under a cell per substep,
-/// so an order a few substeps old is nearly as good as a fresh one; but the warp-aggregated scatters
-/// merge only lanes of one cell that sit side by side, and an older order has fewer of them. Measured
+/// Substeps between particle sorts in the report's and binned pipelines (and the fused one where its
+/// particles stay in place; where they are stored in bin order, `BIN_ORDER_SORT_INTERVAL`).
+/// Particles move well under a cell per substep, so an order a few substeps old is nearly as good as
+/// a fresh one; but the warp-aggregated scatters merge only lanes of one cell that sit side by side,
+/// and an older order has fewer of them. Measured
 /// on the H200 (binned pipeline, means per substep), sorting every 64 / 16 / 8 / 4 substeps: bench-655k
 /// 0.245 / 0.237 / 0.228 / 0.230 ms, a 16.8M-particle column 4.16 / 4.03 / 4.01 / 4.06 ms. The binned
 /// pipeline also rebins sooner when the kernels flag a particle that moved a cell (tiles.cuh), learnt
 /// at each substep choice; stale bins are never wrong, only slower.
 pub const SORT_INTERVAL: u32 = 8;
 
+/// Substeps between sorts where each binning also gathers the particles into bin order
+/// (bin_order.rs), 184 bytes a particle: measured on the H100 (BENCHMARKS.md 0r, means per substep),
+/// 16 instead of 8 took 0.4 to 2.5 % off the fused pipeline's presets and the 16.8M column (half the
+/// binnings, against a particle pass up to 4 % slower on staler bins), 4 added 5 to 10 %.
+pub const BIN_ORDER_SORT_INTERVAL: u32 = 16;
+
+/// Substeps between sorts of a solver whose binnings do (`bin_order`) or do not gather its particles.
+pub fn sort_interval(bin_order: bool) -> u32 {
+    if bin_order {
+        BIN_ORDER_SORT_INTERVAL
+    } else {
+        SORT_INTERVAL
+    }
+}
+
 /// When the bins are rebuilt: the host's record of the binnings enqueued so far.
-#[derive(Default)]
 pub struct BinSchedule {
+    /// Substeps between binnings when no particle asks for one sooner.
+    interval: u32,
     built: bool,
     /// Binnings since the solver was made.
     pub binnings: u64,
@@ -286,10 +304,21 @@ pub struct BinSchedule {
 }
 
 impl BinSchedule {
-    /// Whether the next substep rebuilds the bins: every SORT_INTERVAL substeps, and in the binned
-    /// pipeline sooner where a particle moved past its bin's reach.
+    /// Bins due at once, then every `interval` substeps.
+    pub fn every(interval: u32) -> BinSchedule {
+        BinSchedule {
+            interval,
+            built: false,
+            binnings: 0,
+            steps_since: 0,
+            rebin_requested: false,
+        }
+    }
+
+    /// Whether the next substep rebuilds the bins: every `interval` substeps, and in the binned
+    /// and fused pipelines sooner where a particle moved past its bin's reach.
     pub fn due(&self) -> bool {
-        !self.built || self.rebin_requested || self.steps_since >= SORT_INTERVAL
+        !self.built || self.rebin_requested || self.steps_since >= self.interval
     }
 
     pub fn built(&self) -> bool {

@@ -3,7 +3,7 @@
 //!
 //! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
 //! |---|---|---|---|
-//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned, then the particles gathered into that order (bin_order.rs) |
+//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned, every BIN_ORDER_SORT_INTERVAL steps, then the particles gathered into that order (bin_order.rs) |
 //! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | nothing (mass and momentum came with one_pass) |
 //! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
 //! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | mirror mass and momentum (one launch) + grid_update_blocks |
@@ -15,7 +15,7 @@
 //! buffers in `state.rs`. No pipeline has a grid-clear launch: the grid update zeroes each
 //! accumulator it reads, so `grid_clear` stays 0 here.
 
-use super::bins::BinSchedule;
+use super::bins::{sort_interval, BinSchedule};
 use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::launch::NvtxRange;
@@ -112,6 +112,8 @@ impl CudaSolver {
         let gpu = Gpu::open(&options)?;
         let bin_order = options.bin_order && scene.pipeline == Pipeline::Fused;
         let state = DeviceState::allocate(&gpu, scene, flow, bin_order)?;
+        // Binnings cost more where they also gather the particles (not where memory was short).
+        let sort_interval = sort_interval(state.bin_order.is_some());
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone()),
             gpu,
@@ -119,7 +121,7 @@ impl CudaSolver {
             options,
             pipeline: scene.pipeline,
             params: scene.params(),
-            schedule: BinSchedule::default(),
+            schedule: BinSchedule::every(sort_interval),
             mass_scattered: None,
             tile_misses: 0,
             graphs: SubstepGraphs::default(),
