@@ -3,8 +3,8 @@
 // place in memory into the place `order` gives it, in a second set of buffers that the host then
 // swaps in (src/cuda/bin_order.rs), and `order` becomes the identity. one_pass then reads and
 // writes each warp's particles as whole consecutive runs of memory instead of 32 scattered places
-// reached through `order`: measured on the H100 (BENCHMARKS.md 0r), 7 to 11 % off the substep at
-// every preset, this copy included.
+// reached through `order`: measured on the H100 (BENCHMARKS.md 0r), 6 to 10 % off the mean substep
+// at every preset, these copies included.
 //
 // A particle's slot (its index as users see it: export, checkpoints, the CPU reference) travels with
 // it, so readers put the particles back in slot order (DeviceParticles::download). Where the scene has

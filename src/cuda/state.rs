@@ -59,10 +59,14 @@ impl DeviceState {
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let needed = n * BYTES_PER_PARTICLE
             + nodes * (BYTES_PER_NODE + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 });
+        gpu.ensure_fits(
+            needed,
+            &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
+            "use a coarser domain.resolution, fewer particles, or --backend cpu-parallel",
+        )?;
         // Bin order is a speed-up, not a need: a run it would not leave room for keeps its
         // particles in place rather than being refused.
-        let spare = n * STATE_BYTES_PER_PARTICLE;
-        let room_for_spare = gpu.fits(needed + spare)?;
+        let room_for_spare = gpu.fits(needed + n * STATE_BYTES_PER_PARTICLE)?;
         if bin_order && !room_for_spare {
             eprintln!(
                 "note: scene {}: no room on the GPU for a second copy of {n} particles' state, so they \
@@ -71,11 +75,6 @@ impl DeviceState {
             );
         }
         let bin_order = bin_order && room_for_spare;
-        gpu.ensure_fits(
-            needed,
-            &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
-            "use a coarser domain.resolution, fewer particles, or --backend cpu-parallel",
-        )?;
 
         let (l, stream) = (&gpu.launcher, gpu.stream());
         let binned = scene.pipeline.is_binned();
