@@ -269,17 +269,17 @@ impl Bins {
 /// particles stay in place; where they are stored in bin order, `BIN_ORDER_SORT_INTERVAL`).
 /// Particles move well under a cell per substep, so an order a few substeps old is nearly as good as
 /// a fresh one; but the warp-aggregated scatters merge only lanes of one cell that sit side by side,
-/// and an older order has fewer of them. Measured
-/// on the H200 (binned pipeline, means per substep), sorting every 64 / 16 / 8 / 4 substeps: bench-655k
-/// 0.245 / 0.237 / 0.228 / 0.230 ms, a 16.8M-particle column 4.16 / 4.03 / 4.01 / 4.06 ms. The binned
-/// pipeline also rebins sooner when the kernels flag a particle that moved a cell (tiles.cuh), learnt
-/// at each substep choice; stale bins are never wrong, only slower.
+/// and an older order has fewer of them. Measured on the H200 (binned pipeline, means per substep),
+/// sorting every 64 / 16 / 8 / 4 substeps: bench-655k 0.245 / 0.237 / 0.228 / 0.230 ms, a
+/// 16.8M-particle column 4.16 / 4.03 / 4.01 / 4.06 ms. The binned pipeline also rebins sooner when
+/// the kernels flag a particle that moved a cell (tiles.cuh), learnt at each substep choice; stale
+/// bins are never wrong, only slower.
 pub const SORT_INTERVAL: u32 = 8;
 
 /// Substeps between sorts where each binning also gathers the particles into bin order
 /// (bin_order.rs), 184 bytes a particle: measured on the H100 (BENCHMARKS.md 0r, means per substep),
-/// 16 instead of 8 took 0.4 to 2.5 % off the fused pipeline's presets and the 16.8M column (half the
-/// binnings, against a particle pass up to 4 % slower on staler bins), 4 added 5 to 10 %.
+/// 16 instead of 8 took 0.5 to 6 % off the fused pipeline's presets and the 16.8M column (half the
+/// binnings, against a particle pass up to 6 % slower on staler bins), 4 added 5 to 10 %.
 pub const BIN_ORDER_SORT_INTERVAL: u32 = 16;
 
 /// Substeps between sorts of a solver whose binnings do (`bin_order`) or do not gather its particles.
