@@ -1,5 +1,5 @@
-// Particles sorted by the cell of their stencil base into an index buffer `order` (the particle
-// arrays stay index-stable, as the design asks), with the cells of one bin (a block of `edge`^3
+// Particles sorted by the cell of their stencil base into an index buffer `order` (the sort moves
+// no particle; the fused pipeline then moves them into it, bin_order.cu), the cells of one bin (`edge`^3
 // cells) consecutive: key = bin * edge^3 + the cell's place in the bin. A counting sort:
 // - bin_count ranks each particle within its cell; scan_tiles/scan_add turn the per-cell counts into
 //   starts (`cell_starts`); sort_scatter writes each particle's index at start + rank.
