@@ -1,6 +1,6 @@
 //! kernels/render.cu: one float4 per particle (position, and the value the renderer colours by), in
-//! slot order, into a device buffer, usually a GL vertex buffer mapped through interop, so the particles are drawn
-//! without a trip through the host.
+//! slot order, into a device buffer, usually a GL vertex buffer mapped through interop, so the
+//! particles are drawn without a trip through the host.
 
 use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
