@@ -3,7 +3,7 @@
 //! one_pass reads each chunk's particles from consecutive memory. Each particle's slot travels with
 //! it; so does the lifecycle's slot -> place map where the scene has emitters or sinks.
 
-use super::launch::{host_kernel, Launcher};
+use super::launch::{host_kernel, Launcher, NULL_POINTER};
 use super::state::{DeviceState, StateArgs};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -19,7 +19,6 @@ impl GatherIntoBinOrder {
         };
         let (from, to) = (&state.particles, &bin_order.spare);
         let n = from.count as u32;
-        static NO_FLOW: u64 = 0;
         // SAFETY: the arguments match gather_into_bin_order; both particle sets hold n slots of
         // each array, `order` is a permutation of 0..n (the binning just wrote it), and `position`
         // holds a place per slot (or is null without a flow).
@@ -33,7 +32,7 @@ impl GatherIntoBinOrder {
                     .arg(&to.slot);
                 match &state.flow {
                     Some(flow) => a.arg(&flow.position),
-                    None => a.arg(&NO_FLOW),
+                    None => a.arg(&NULL_POINTER),
                 };
             })?;
         }

@@ -7,6 +7,7 @@
 use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
+use super::particles::slots_in_place;
 use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
@@ -107,7 +108,6 @@ impl Bins {
             level_len = level_len.div_ceil(tile);
             levels.push(alloc(level_len, "the bins' scan")?);
         }
-        let identity: Vec<u32> = (0..num_particles as u32).collect();
         let wanted_chunks = CHUNKS_PER_MULTIPROCESSOR * launcher.multiprocessors as usize;
         let chunk = (num_particles / wanted_chunks.max(1)).next_multiple_of(MIN_BIN_CHUNK);
         Ok(Bins {
@@ -120,7 +120,7 @@ impl Bins {
             levels,
             top: alloc(1, "the bins' scan")?,
             order: stream
-                .clone_htod(&identity)
+                .clone_htod(&slots_in_place(num_particles))
                 .context("allocating the particle order")?,
             list: if with_list {
                 // A bin of c particles lists ceil(c / chunk) chunks: at most one per bin plus one per

@@ -7,6 +7,10 @@ use anyhow::{Context, Result};
 use cudarc::driver::{CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
 use std::sync::Arc;
 
+/// A null device pointer, for a pointer argument its kernel reads only where it is set (arguments
+/// go by reference, so a null one needs a place to live).
+pub static NULL_POINTER: u64 = 0;
+
 /// A loaded kernel and its name.
 pub struct Kernel {
     name: &'static str,

@@ -5,6 +5,7 @@
 use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
+use super::particles::slots_in_place;
 use super::state::{DeviceState, StateArgs};
 use crate::contract::FlowCounters;
 use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
@@ -153,10 +154,7 @@ impl DeviceFlow {
                 .context("uploading the lifecycle's counters")?,
             last: upload_u32(&state.last, "the nozzle points' particles")?,
             // The particles are uploaded or spawned next, each at its slot.
-            position: upload_u32(
-                &(0..flow.capacity as u32).collect::<Vec<_>>(),
-                "the particles' places",
-            )?,
+            position: upload_u32(&slots_in_place(flow.capacity), "the particles' places")?,
             points: upload_f32(&points, "the nozzle points")?,
             num_points: flow.num_points() as u32,
             velocities: upload_f32(&velocities, "the emitters' velocities")?,

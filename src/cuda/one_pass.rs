@@ -5,7 +5,7 @@
 //! were spawned or uploaded). One kernel for both (an entry point per scatter, each serving both
 //! uses), so both scatter with the same instructions.
 
-use super::launch::{Kernel, Launcher};
+use super::launch::{Kernel, Launcher, NULL_POINTER};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::sim::{Params, ScatterMode};
@@ -49,8 +49,6 @@ impl OnePass {
             (&self.float, d.bins.tiled_pass(l, 0))
         };
         let gather = u32::from(gather == Gather::Substep);
-        // Particles stored in bin order are read at their places (every binning gathered them).
-        static IN_BIN_ORDER: u64 = 0;
         // SAFETY: the arguments match one_pass_float and one_pass_fixed in kernels/one_pass.cu; the
         // bin list, order and node-block list are sized for this grid and these particles; a null
         // order where the particles are stored in bin order (the kernel reads places). Without a
@@ -59,8 +57,10 @@ impl OnePass {
         unsafe {
             kernel.launch(l, config, |a| {
                 a.arg(params).arg(&gather).arg(list);
+                // Particles stored in bin order are read at their places (every binning gathered
+                // them), without `order`.
                 match d.bin_order {
-                    Some(_) => a.arg(&IN_BIN_ORDER),
+                    Some(_) => a.arg(&NULL_POINTER),
                     None => a.arg(&d.bins.order),
                 };
                 a.particle_state(p)

@@ -111,8 +111,8 @@ impl DeviceParticles {
     }
 }
 
-/// Each particle stored at its own slot.
-fn slots_in_place(count: usize) -> Vec<u32> {
+/// Each particle stored at its own slot: the slot of each place, or the place of each slot.
+pub fn slots_in_place(count: usize) -> Vec<u32> {
     (0..count as u32).collect()
 }
 

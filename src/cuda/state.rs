@@ -7,6 +7,7 @@ use super::colliders::DeviceColliders;
 use super::counters::CounterRing;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
+use super::launch::NULL_POINTER;
 use super::lifecycle::DeviceFlow;
 use super::particles::{DeviceParticles, BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE};
 use super::stats::ParticleStats;
@@ -241,11 +242,14 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
     }
 
     fn sinks(&mut self, flow: Option<&'a DeviceFlow>) -> &mut Self {
-        static NULL: u64 = 0;
         static NO_SINKS: u32 = 0;
         match flow {
             Some(f) => self.arg(&f.sinks).arg(&f.num_sinks).arg(&f.free).arg(&f.counters),
-            None => self.arg(&NULL).arg(&NO_SINKS).arg(&NULL).arg(&NULL),
+            None => self
+                .arg(&NULL_POINTER)
+                .arg(&NO_SINKS)
+                .arg(&NULL_POINTER)
+                .arg(&NULL_POINTER),
         }
     }
 }
