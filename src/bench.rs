@@ -297,8 +297,8 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let on_gpu = options.backend == BackendKind::Cuda;
     let fixed_point = scene.scatter == ScatterMode::FixedPoint;
     let ranked = scene.ranks > 1;
-    // As the solver chooses it: ranks and pipelines other than the fused one keep particles in place.
-    let bin_order = scene.pipeline == Pipeline::Fused && !ranked && cuda::CudaOptions::from_env()?.bin_order;
+    // As the solver chooses it (the ranks keep their particles in place).
+    let bin_order = !ranked && cuda::CudaOptions::from_env()?.bin_order_for(scene.pipeline);
     let sort_interval = cuda::sort_interval(bin_order);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
         // src/cuda/ranks.rs: the phases of every rank, host-synchronised at each phase's end.

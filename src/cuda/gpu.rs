@@ -23,6 +23,7 @@ use super::ranks::RanksKernels;
 use super::render::RenderAttributes;
 use super::spawn::SpawnKernels;
 use super::stats::StatsKernel;
+use crate::sim::Pipeline;
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr};
 use std::sync::Arc;
@@ -88,6 +89,12 @@ impl CudaOptions {
         }
         options.validate()?;
         Ok(options)
+    }
+
+    /// Whether a solver of `pipeline` stores its particles in bin order (only the fused pipeline
+    /// does; a run without memory for the second copy still keeps them in place, state.rs).
+    pub fn bin_order_for(&self, pipeline: Pipeline) -> bool {
+        self.bin_order && pipeline == Pipeline::Fused
     }
 
     pub fn validate(&self) -> Result<()> {

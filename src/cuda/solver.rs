@@ -110,8 +110,7 @@ impl CudaSolver {
     fn allocate(scene: &Scene, flow: Option<&FlowState>, options: CudaOptions) -> Result<CudaSolver> {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
-        let bin_order = options.bin_order && scene.pipeline == Pipeline::Fused;
-        let state = DeviceState::allocate(&gpu, scene, flow, bin_order)?;
+        let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene.pipeline))?;
         // Binnings cost more where they also gather the particles (not where memory was short).
         let sort_interval = sort_interval(state.bin_order.is_some());
         let mut solver = CudaSolver {
