@@ -24,6 +24,7 @@ fn main() -> std::process::ExitCode {
             surface_follows_viewport_changes,
             colour_bar_carries_its_numbers,
             a_narrow_view_frames_the_tank_clear_of_the_colour_bar,
+            every_live_particle_of_a_draining_scene_is_fed_for_drawing,
         ],
     )
 }
@@ -128,7 +129,8 @@ fn surface_follows_viewport_changes() {
     let mut feed = ParticleFeed::new(Transfer::HostCopy);
     let count = feed
         .update(&mut sim, &mut renderer, settings.colouring)
-        .expect("particles");
+        .expect("particles")
+        .slots;
     let camera = settings.framing(domain.0, domain.1, Viewport::full([320, 180]));
     let mut draw = |viewport: Viewport| {
         use glow::HasContext;
@@ -252,7 +254,8 @@ fn a_narrow_view_frames_the_tank_clear_of_the_colour_bar() {
     let mut feed = ParticleFeed::new(Transfer::HostCopy);
     let count = feed
         .update(&mut sim, &mut renderer, without_bar.colouring)
-        .expect("particles");
+        .expect("particles")
+        .slots;
     let mut image = |settings: &RenderSettings, count: usize| {
         renderer
             .draw(viewport, &camera, settings, count, domain)
@@ -286,4 +289,38 @@ fn a_narrow_view_frames_the_tank_clear_of_the_colour_bar() {
         crop(&box_and_bar, 0, 0, left, size[1]).rgba == crop(&box_alone, 0, 0, left, size[1]).rgba,
         "the colour bar or its numbers reach left of its {strip} px strip"
     );
+}
+
+/// The fountain's drain parks particles of the basin's first slots from the first substep on, while
+/// the basin's last slots stay live: the renderer must draw every slot, not the first `live` ones.
+fn every_live_particle_of_a_draining_scene_is_fed_for_drawing() {
+    let headless = HeadlessGl::new(64, 64).expect("headless OpenGL");
+    let scene = Scene::load("fountain").expect("preset");
+    let slots = scene.slots();
+    let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
+    let mut sim = Simulation::new(scene, solver);
+    sim.step_frame().expect("a frame");
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let fed = feed
+        .update(&mut sim, &mut renderer, Colouring::Speed)
+        .expect("particles");
+    assert_eq!(fed.slots, slots, "every slot is fed");
+    let buffer = renderer.read_particle_buffer(fed.slots);
+    let live: Vec<usize> = (0..buffer.len()).filter(|&i| !buffer[i][0].is_nan()).collect();
+    assert_eq!(
+        live.len(),
+        fed.live,
+        "the buffer's live slots are the count the panel shows"
+    );
+    let highest = *live.last().expect("live particles");
+    println!(
+        "{} live of {} slots; the highest live slot is {highest}",
+        fed.live, fed.slots
+    );
+    assert!(
+        highest >= fed.live,
+        "the drain parked no slot below a live one: the scene no longer tests what it should"
+    );
+    assert!(highest < fed.slots, "a live slot lies beyond what is drawn");
 }

@@ -15,7 +15,7 @@ use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
 use super::clock::{DrawCosts, DrawSection, Pacing, SimClock, StepCosts};
 use super::colliders::ColliderDrag;
-use super::feed::{ParticleFeed, Transfer};
+use super::feed::{Fed, ParticleFeed, Transfer};
 use super::hud::{self, Action, Controls, HudInfo};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
@@ -614,11 +614,11 @@ impl ViewerApp {
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        let count = match &mut self.sim {
+        let fed = match &mut self.sim {
             Some(sim) => self
                 .feed
                 .update(sim, &mut gpu.renderer, self.controls.render.colouring)?,
-            None => 0,
+            None => Fed::default(),
         };
         self.draw_costs.lap(DrawSection::Feed);
         // What the drawing needs of the simulation, taken before the stepping thread has it.
@@ -657,7 +657,7 @@ impl ViewerApp {
                     (sim, stepped)
                 })
             });
-            let drawn = self.draw_frame(count, domain, glance, record, last_frame);
+            let drawn = self.draw_frame(fed, domain, glance, record, last_frame);
             let stepped = worker.map(|worker| {
                 worker
                     .join()
@@ -690,7 +690,7 @@ impl ViewerApp {
     /// actions.
     fn draw_frame(
         &mut self,
-        count: usize,
+        fed: Fed,
         domain: (Vec3, Vec3),
         glance: Option<SimGlance>,
         record: bool,
@@ -708,7 +708,7 @@ impl ViewerApp {
             let info = HudInfo {
                 scene: &self.scene.name,
                 backend: glance.map_or("none", |g| g.backend),
-                particles: count,
+                particles: fed.live,
                 fps: self.fps,
                 frame_ms: self.frame_ms,
                 timings: self.last_timings,
@@ -763,7 +763,7 @@ impl ViewerApp {
             self.scene_viewport,
             &self.camera,
             &self.controls.render,
-            count,
+            fed.slots,
             domain,
         ) {
             // The surface needs float render targets; without them the spheres still draw.

@@ -22,12 +22,25 @@ pub enum Transfer {
     HostCopy,
 }
 
-/// Live particles of `slots`: all of them, unless the scene's emitters and sinks say otherwise.
-fn live_count(sim: &mut Simulation, slots: usize) -> Result<usize> {
-    Ok(sim
-        .solver_mut()
-        .flow_counts()?
-        .map_or(slots, |flow| flow.live as usize))
+/// What one feed put into the renderer's buffer.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Fed {
+    /// Slots written, parked ones included: what the renderer draws (a parked slot is clipped). A
+    /// scene's sinks park slots anywhere below its highest live one, so drawing only the first
+    /// `live` slots would leave live particles out.
+    pub slots: usize,
+    /// Live particles among them: all, unless the scene's emitters and sinks say otherwise.
+    pub live: usize,
+}
+
+impl Fed {
+    fn of(sim: &mut Simulation, slots: usize) -> Result<Fed> {
+        let live = sim
+            .solver_mut()
+            .flow_counts()?
+            .map_or(slots, |flow| flow.live as usize);
+        Ok(Fed { slots, live })
+    }
 }
 
 pub struct ParticleFeed {
@@ -72,14 +85,13 @@ impl ParticleFeed {
         self.device_scratch = None;
     }
 
-    /// Writes the simulation's current particles into the renderer's buffer; returns how many are live
-    /// (parked slots are written too, and clipped by the shader).
+    /// Writes the simulation's current particles, every slot, into the renderer's buffer.
     pub fn update(
         &mut self,
         sim: &mut Simulation,
         renderer: &mut Renderer,
         colouring: Colouring,
-    ) -> Result<usize> {
+    ) -> Result<Fed> {
         // Every slot, parked ones included (they arrive clipped): the buffer keeps the solver's indices.
         let n = sim.scene().slots();
         let rest_density = sim.params().material.rest_density;
@@ -93,7 +105,7 @@ impl ParticleFeed {
             ParticleView::Device(view) => {
                 if want_interop {
                     match self.write_through_interop(&view, renderer, quantity, rest_density) {
-                        Ok(()) => return live_count(sim, n),
+                        Ok(()) => return Fed::of(sim, n),
                         Err(why) => {
                             let why = format!("{why:#}");
                             eprintln!(
@@ -116,7 +128,7 @@ impl ParticleFeed {
             }
         }
         renderer.upload(&self.host);
-        live_count(sim, n)
+        Fed::of(sim, n)
     }
 
     fn write_through_interop(

@@ -30,7 +30,7 @@ pub mod surface;
 pub mod timer;
 
 pub use camera::OrbitCamera;
-pub use feed::{ParticleFeed, Transfer};
+pub use feed::{Fed, ParticleFeed, Transfer};
 pub use renderer::{ColourBy, Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 pub use surface::SurfaceSettings;
 pub use timer::{Pass, PassTimes};

@@ -110,9 +110,15 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
             sim.step_frame()?;
         }
         let stepped = Instant::now();
-        let count = feed.update(&mut sim, &mut renderer, settings.colouring)?;
+        let fed = feed.update(&mut sim, &mut renderer, settings.colouring)?;
         renderer.set_collider_frame(sim.collider_frame());
-        renderer.draw(Viewport::full(headless.size()), &camera, &settings, count, domain)?;
+        renderer.draw(
+            Viewport::full(headless.size()),
+            &camera,
+            &settings,
+            fed.slots,
+            domain,
+        )?;
         headless.finish();
         let drawn = Instant::now();
         // After glFinish this frame's timer queries are done: read them now, so that each frame's

@@ -525,18 +525,19 @@ impl Renderer {
         &mut self.timer
     }
 
-    /// Draws `count` particles, the box [lo, hi] and the colour bar into `viewport` of the bound
-    /// framebuffer, replacing what was there (the window leaves room for the panel; headless uses all
-    /// of it). Fails only where the surface's float render targets cannot be made.
+    /// Draws the particles of the buffer's first `slots` slots (a parked slot is clipped), the box
+    /// [lo, hi] and the colour bar into `viewport` of the bound framebuffer, replacing what was there
+    /// (the window leaves room for the panel; headless uses all of it). Fails only where the
+    /// surface's float render targets cannot be made.
     pub fn draw(
         &mut self,
         viewport: Viewport,
         camera: &OrbitCamera,
         settings: &RenderSettings,
-        count: usize,
+        slots: usize,
         domain: (Vec3, Vec3),
     ) -> Result<()> {
-        let count = count.min(self.capacity);
+        let count = slots.min(self.capacity);
         // SAFETY: a query of the current context.
         let target = unsafe { self.gl.get_parameter_framebuffer(glow::DRAW_FRAMEBUFFER_BINDING) };
         self.timer.begin_frame();
