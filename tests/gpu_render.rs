@@ -11,7 +11,7 @@ use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
 use mpm::render::offline::{render, RenderOptions};
 use mpm::render::ColourBy;
-use mpm::render::{Colouring, DrawMode, Renderer, Transfer};
+use mpm::render::{Colouring, DrawMode, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::{ParticleView, Push, Scene, Simulation, Solver};
 
@@ -27,6 +27,7 @@ fn main() -> std::process::ExitCode {
             headless_render_matches_reference,
             surface_render_matches_reference,
             surface_render_through_host_copy_matches_reference,
+            thickness_summed_by_cuda_is_the_thickness_gl_blends,
         ],
     )
 }
@@ -279,4 +280,87 @@ fn surface_render_through_host_copy_matches_reference() {
     let want = surface_reference();
     println!("rendered  {got:?}\nreference {want:?}");
     assert_close_to_reference(&got, &want);
+}
+
+/// The surface's thickness pass two ways on the same particles: summed by CUDA from the particles the
+/// interop feed wrote, and blended by GL from the host copy's. GL blends into half floats, rounding
+/// at every splat it adds (11 bits: 0.05 % each); CUDA sums exactly and rounds once. So the two may
+/// differ texel by texel by a fraction of a percent, and must cover the same texels and hold the same
+/// water.
+fn thickness_summed_by_cuda_is_the_thickness_gl_blends() {
+    let size = [960, 540];
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = Scene::load("dam-break").expect("preset");
+    let settings =
+        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).expect("settings");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let camera = settings.framing(domain.0, domain.1, Viewport::full(size));
+    let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
+    let mut sim = Simulation::new(scene, Box::new(solver));
+    for _ in 0..30 {
+        sim.step_frame().expect("step");
+    }
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut thickness = |transfer: Transfer| {
+        let mut feed = ParticleFeed::new(transfer);
+        let fed = feed
+            .update(&mut sim, &mut renderer, settings.colouring)
+            .expect("feed");
+        renderer
+            .draw(Viewport::full(size), &camera, &settings, fed.slots, domain)
+            .expect("draw");
+        headless.finish();
+        let (texture_size, texels, by_cuda) = renderer.read_thickness().expect("a thickness texture");
+        feed.release();
+        (texture_size, texels, by_cuda)
+    };
+    let (cuda_size, cuda, by_cuda) = thickness(Transfer::Interop);
+    assert!(by_cuda, "the interop feed's frame was not splatted by CUDA");
+    let (gl_size, gl, by_cuda) = thickness(Transfer::HostCopy);
+    assert!(!by_cuda, "the host copy's frame was splatted by CUDA");
+    assert_eq!(cuda_size, gl_size);
+    renderer.destroy();
+
+    for channel in 0..2 {
+        let covered = |t: &[[f32; 2]]| t.iter().filter(|t| t[channel] > 0.0).count();
+        let only_one = cuda
+            .iter()
+            .zip(&gl)
+            .filter(|(a, b)| (a[channel] > 0.0) != (b[channel] > 0.0))
+            .count();
+        let sum = |t: &[[f32; 2]]| t.iter().map(|t| f64::from(t[channel])).sum::<f64>();
+        let (sum_cuda, sum_gl) = (sum(&cuda), sum(&gl));
+        let mean_abs_difference = cuda
+            .iter()
+            .zip(&gl)
+            .map(|(a, b)| f64::from((a[channel] - b[channel]).abs()))
+            .sum::<f64>()
+            / covered(&gl).max(1) as f64;
+        let mean = sum_gl / covered(&gl).max(1) as f64;
+        println!(
+            "channel {channel}: {} texels covered by CUDA, {} by GL, {only_one} by one only; sums {sum_cuda:.4} \
+             and {sum_gl:.4}; mean |difference| {mean_abs_difference:.3e} of a mean {mean:.3e} over covered texels",
+            covered(&cuda),
+            covered(&gl)
+        );
+        assert!(
+            covered(&gl) > cuda.len() / 20,
+            "hardly any water in the thickness texture: {} of {} texels",
+            covered(&gl),
+            cuda.len()
+        );
+        assert!(
+            only_one as f64 <= 1e-3 * covered(&gl) as f64,
+            "{only_one} texels covered by one path only"
+        );
+        assert!(
+            (sum_cuda - sum_gl).abs() <= 5e-3 * sum_gl,
+            "the water differs: {sum_cuda} against {sum_gl}"
+        );
+        assert!(
+            mean_abs_difference <= 1e-2 * mean,
+            "texels differ by {mean_abs_difference} on average"
+        );
+    }
 }

@@ -179,6 +179,26 @@ device_structs! {
         count: u32,
     }
 
+    /// The camera of the surface's thickness splats (kernels/thickness.cu): what the GL pass's
+    /// shader gets as uniforms (src/render/shaders/surface_particle.vert).
+    struct SplatCamera {
+        /// The view matrix's first three rows, row-major: view space = rows (x, y, z, 1), m.
+        view: [f32; 12],
+        /// The projection matrix, row-major.
+        projection: [f32; 16],
+        /// The sphere's radius, m.
+        radius: f32,
+        /// Texels per metre at unit depth.
+        pixels_per_metre: f32,
+        /// The smallest splat radius, texels.
+        min_splat_px: f32,
+        /// One particle's volume, m^3.
+        particle_volume: f32,
+        /// The thickness texture's size, texels.
+        width: u32,
+        height: u32,
+    }
+
     /// One listed chunk of a bin: the bin's node block and the chunk's range in the bin order
     /// (kernels/bins.cu writes them, the tiled passes walk them).
     struct BinEntry {
@@ -249,6 +269,14 @@ device_constants! {
     /// CUDA blocks of grid_update_blocks done with their part of the node block list: the last one
     /// empties the list and sets this back to 0.
     WORK_NODE_BLOCKS_DONE: i32 = 2;
+
+    /// Fixed-point units per metre of the thickness splats' sums (kernels/thickness.cu): 2^22, a
+    /// splat's few centimetres are 10^5 units (rounding at 10^-5 of each), and a 32-bit sum holds
+    /// 1,024 m.
+    THICKNESS_UNITS_PER_METRE: f32 = 4194304.0;
+    /// The largest thickness splat's radius, texels: half of the largest point sprite NVIDIA's GL
+    /// draws (2047 px), which caps the GL pass's splats likewise.
+    THICKNESS_MAX_SPLAT_PX: f32 = 1023.5;
 
     /// Values each thread of scan_tiles scans.
     SCAN_ITEMS_PER_THREAD: i32 = 8;

@@ -51,6 +51,7 @@ pub mod push;
 pub mod render;
 pub mod spawn;
 pub mod stats;
+pub mod thickness;
 
 // On top: the substep, on one GPU or as several ranks.
 mod inspect;

@@ -51,9 +51,18 @@ pub struct LoadedModules {
 
 impl LoadedModules {
     pub fn load(ctx: &Arc<CudaContext>) -> Result<LoadedModules> {
+        Self::load_some(ctx, |_| true)
+    }
+
+    /// The modules named in `names` only (a renderer's kernels, without the solver's).
+    pub fn load_named(ctx: &Arc<CudaContext>, names: &[&str]) -> Result<LoadedModules> {
+        Self::load_some(ctx, |name| names.contains(&name))
+    }
+
+    fn load_some(ctx: &Arc<CudaContext>, wanted: impl Fn(&str) -> bool) -> Result<LoadedModules> {
         let mut modules = Vec::new();
         let mut origin = Origin::EmbeddedPtx;
-        for module in MODULES {
+        for module in MODULES.iter().filter(|m| wanted(m.name)) {
             let (loaded, how) = load_module(ctx, module)?;
             if how != Origin::EmbeddedPtx {
                 origin = how;

@@ -134,7 +134,7 @@ impl ParticleFeed {
     fn write_through_interop(
         &mut self,
         cuda: &DeviceParticlesView,
-        renderer: &Renderer,
+        renderer: &mut Renderer,
         quantity: ColourBy,
         rest_density: f32,
     ) -> Result<()> {
@@ -160,6 +160,11 @@ impl ParticleFeed {
                 mapped.bytes
             ))
         };
+        if written.is_ok() {
+            // SAFETY: the mapped buffer holds the `count` float4 just written, and the copy is queued
+            // on `stream` before the unmap hands the buffer back to GL.
+            unsafe { renderer.take_cuda_particles(cuda.context(), mapped.ptr, cuda.count(), &stream) };
+        }
         let unmapped = registration.unmap(&stream);
         written?;
         unmapped?;

@@ -380,6 +380,9 @@ pub struct Renderer {
     flow_vao: glow::VertexArray,
     flow_vbo: glow::Buffer,
     flow_vertices: i32,
+    /// Whether the last frame was drawn as a surface (and so wants the particles for CUDA's
+    /// thickness splats); true before the first, as the copy costs little.
+    surface_last: bool,
 }
 
 impl Renderer {
@@ -443,6 +446,7 @@ impl Renderer {
                 flow_vao,
                 flow_vbo,
                 flow_vertices: 0,
+                surface_last: true,
             })
         }
     }
@@ -514,6 +518,33 @@ impl Renderer {
             .collect()
     }
 
+    /// The particles the feed just wrote through interop (`count` float4 at `particles`, in `ctx`, by
+    /// the work queued on `stream`), for the surface's thickness splats by CUDA: the next frame's
+    /// thickness is summed by CUDA from them where it is drawn as a surface, else GL splats it.
+    ///
+    /// # Safety
+    /// `particles` must be a device allocation of `ctx` holding `count` float4, live until the work
+    /// queued on `stream` so far is done.
+    pub unsafe fn take_cuda_particles(
+        &mut self,
+        ctx: &Arc<cudarc::driver::CudaContext>,
+        particles: cudarc::driver::sys::CUdeviceptr,
+        count: usize,
+        stream: &Arc<cudarc::driver::CudaStream>,
+    ) {
+        if self.surface_last {
+            // SAFETY: the caller vouches for `particles`.
+            unsafe { self.surface.take_cuda_particles(ctx, particles, count, stream) };
+        }
+    }
+
+    /// The last surface frame's thickness texture and whether CUDA summed it (tests; see
+    /// [`Surface::read_thickness`]).
+    pub fn read_thickness(&self) -> Option<([u32; 2], Vec<[f32; 2]>, bool)> {
+        let (size, texels) = self.surface.read_thickness()?;
+        Some((size, texels, self.surface.thickness_by_cuda()))
+    }
+
     /// GPU milliseconds per pass of the newest frame whose timer queries have arrived (a few frames
     /// old: reading them never waits for the GPU).
     pub fn pass_times(&self) -> Option<PassTimes> {
@@ -541,6 +572,7 @@ impl Renderer {
         // SAFETY: a query of the current context.
         let target = unsafe { self.gl.get_parameter_framebuffer(glow::DRAW_FRAMEBUFFER_BINDING) };
         self.timer.begin_frame();
+        self.surface_last = settings.mode == DrawMode::Surface;
         let drawn = match settings.mode {
             DrawMode::Surface => self.draw_surface(target, viewport, camera, settings, count, domain),
             DrawMode::Points | DrawMode::Spheres => {
@@ -639,22 +671,13 @@ impl Renderer {
         let (w, h) = (viewport.width.max(1), viewport.height.max(1));
         let view = camera.view();
         let proj = camera.projection(w as f32 / h as f32);
-        self.timer.begin(Pass::Scene);
         let bound = self
             .surface
             .bind_scene([w, h], settings.surface.thickness_downsample);
         if bound.is_err() {
             // SAFETY: the caller's framebuffer, bound back.
             unsafe { self.gl.bind_framebuffer(glow::FRAMEBUFFER, target) };
-            self.timer.end();
             return bound;
-        }
-        // SAFETY: the surface's scene framebuffer is bound; every object is ours.
-        unsafe {
-            self.clear_scene();
-            // The floor stays without the box: the water refracts it.
-            self.draw_stage(&(proj * view), domain, true, settings.show_box);
-            self.draw_scene_objects(&(proj * view), domain);
         }
         let tint = match settings.colouring {
             Colouring::Solid => Tint::Clear,
@@ -672,6 +695,16 @@ impl Renderer {
             tint,
             range: settings.scale_range,
         };
+        self.surface.splat_thickness_by_cuda(&frame, &mut self.timer);
+        self.timer.begin(Pass::Scene);
+        self.surface.rebind_scene();
+        // SAFETY: the surface's scene framebuffer is bound; every object is ours.
+        unsafe {
+            self.clear_scene();
+            // The floor stays without the box: the water refracts it.
+            self.draw_stage(&(proj * view), domain, true, settings.show_box);
+            self.draw_scene_objects(&(proj * view), domain);
+        }
         self.surface.draw(
             &frame,
             &mut self.timer,

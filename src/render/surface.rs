@@ -6,7 +6,9 @@
 //! 2. **depth**: every particle as a sphere impostor; the nearest sphere's view distance per pixel;
 //! 3. **thickness**: additive splats at a fraction of the resolution (a quarter per axis by
 //!    default): how much water each pixel looks through, and the colour quantity averaged along the
-//!    way;
+//!    way. Where the particles come from CUDA through interop, CUDA sums the splats
+//!    (src/cuda/thickness.rs) and GL fills the texture from a pixel buffer: the same texels for a
+//!    fraction of the time GL's blending takes;
 //! 4. **smoothing**: the narrow-range filter (`shaders/surface_smooth.frag` says why that filter)
 //!    flattens the spheres into one surface, horizontally then vertically;
 //! 5. **shading**: normals from the smoothed depth, Fresnel reflection of a sky, refraction of the
@@ -19,7 +21,10 @@ use super::program::{
     bind_texture, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_vec2, set_vec3, FULLSCREEN_VS,
 };
 use super::timer::{GpuTimer, Pass};
+use crate::contract::SplatCamera;
+use crate::cuda::thickness::{CudaThickness, TEXEL_BYTES};
 use anyhow::{bail, Result};
+use cudarc::driver::{sys::CUdeviceptr, CudaContext, CudaStream};
 use glam::{Mat3, Mat4, Vec3};
 use glow::HasContext;
 use std::sync::Arc;
@@ -148,6 +153,8 @@ struct Targets {
     depth_test: glow::Renderbuffer,
     thickness_fbo: glow::Framebuffer,
     thickness: glow::Texture,
+    /// The pixel buffer the CUDA splats' texels arrive in, to fill `thickness` from.
+    thickness_pixels: glow::Buffer,
     /// Half resolution: the ping-pong pair the smoothing runs in when `half_res_smoothing` is on.
     half_size: (i32, i32),
     half_fbos: [glow::Framebuffer; 2],
@@ -162,6 +169,14 @@ pub struct Surface {
     /// The indices `len - 1` down to 0, to draw the particles last to first (see [`Surface::draw`]).
     reversed: glow::Buffer,
     reversed_len: usize,
+    /// The thickness splats by CUDA, once the feed has given it particles.
+    cuda: Option<CudaThickness>,
+    /// Whether `cuda` holds the particles of the frame about to be drawn.
+    cuda_fed: bool,
+    /// Why the CUDA splats are off, where they failed: GL splats from then on.
+    cuda_refused: Option<String>,
+    /// Whether CUDA summed the last frame's thickness.
+    last_by_cuda: bool,
 }
 
 impl Surface {
@@ -228,6 +243,10 @@ impl Surface {
                 targets: None,
                 reversed,
                 reversed_len: 0,
+                cuda: None,
+                cuda_fed: false,
+                cuda_refused: None,
+                last_by_cuda: false,
             })
         }
     }
@@ -238,20 +257,165 @@ impl Surface {
         let downsample = thickness_downsample.clamp(1, MAX_THICKNESS_DOWNSAMPLE);
         if self.targets.as_ref().map(|t| (t.size, t.thickness_downsample)) != Some((size, downsample)) {
             if let Some(old) = self.targets.take() {
+                self.release_cuda_target();
                 // SAFETY: our objects, not used after this.
                 unsafe { self.delete_targets(&old) };
             }
             // SAFETY: the context is current.
             self.targets = Some(unsafe { self.create_targets(size, downsample)? });
         }
-        let targets = self.targets.as_ref().expect("just made");
-        // SAFETY: our framebuffer.
-        unsafe {
-            self.gl
-                .bind_framebuffer(glow::FRAMEBUFFER, Some(targets.scene_fbo));
-            self.gl.viewport(0, 0, size[0] as i32, size[1] as i32);
-        }
+        self.rebind_scene();
         Ok(())
+    }
+
+    /// Binds the scene's framebuffer again, with a viewport of its size (after
+    /// [`bind_scene`](Self::bind_scene) made it).
+    pub fn rebind_scene(&self) {
+        if let Some(targets) = &self.targets {
+            // SAFETY: our framebuffer.
+            unsafe {
+                self.gl
+                    .bind_framebuffer(glow::FRAMEBUFFER, Some(targets.scene_fbo));
+                self.gl
+                    .viewport(0, 0, targets.size[0] as i32, targets.size[1] as i32);
+            }
+        }
+    }
+
+    /// Gives the thickness splats the frame's particles: `count` float4 at `particles`, in `ctx`,
+    /// written by the work queued on `stream` (the feed, through interop). Without this call before
+    /// a frame, GL splats the thickness.
+    ///
+    /// # Safety
+    /// `particles` must be a device allocation of `ctx` holding `count` float4, live until the work
+    /// queued on `stream` so far is done.
+    pub unsafe fn take_cuda_particles(
+        &mut self,
+        ctx: &Arc<CudaContext>,
+        particles: CUdeviceptr,
+        count: usize,
+        stream: &Arc<CudaStream>,
+    ) {
+        if self.cuda_refused.is_some() {
+            return;
+        }
+        if self.cuda.as_ref().is_some_and(|c| !c.serves(ctx)) {
+            self.release_cuda_target();
+            self.cuda = None;
+        }
+        let taken = match &mut self.cuda {
+            Some(cuda) => Ok(cuda),
+            None => CudaThickness::new(ctx).map(|made| self.cuda.insert(made)),
+        }
+        // SAFETY: the caller vouches for `particles`.
+        .and_then(|cuda| unsafe { cuda.take_particles(particles, count, stream) });
+        match taken {
+            Ok(()) => self.cuda_fed = true,
+            Err(why) => self.refuse_cuda(why),
+        }
+    }
+
+    fn refuse_cuda(&mut self, why: anyhow::Error) {
+        let why = format!("{why:#}");
+        eprintln!(
+            "note: the surface's thickness splats by CUDA failed ({why}); OpenGL splats them from now on"
+        );
+        self.release_cuda_target();
+        self.cuda = None;
+        self.cuda_fed = false;
+        self.cuda_refused = Some(why);
+    }
+
+    /// The last frame's thickness texture, texel rows from the bottom, (thickness m, thickness times
+    /// the quantity) each (tests: CUDA's splats against GL's). None before the first surface frame.
+    pub fn read_thickness(&self) -> Option<([u32; 2], Vec<[f32; 2]>)> {
+        let t = self.targets.as_ref()?;
+        let (w, h) = downsampled(t.size, t.thickness_downsample);
+        let mut bytes = vec![0u8; 8 * (w * h) as usize];
+        // SAFETY: our framebuffer; `bytes` holds w x h RG floats.
+        unsafe {
+            self.gl.bind_framebuffer(glow::FRAMEBUFFER, Some(t.thickness_fbo));
+            self.gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+            self.gl.read_pixels(
+                0,
+                0,
+                w,
+                h,
+                glow::RG,
+                glow::FLOAT,
+                glow::PixelPackData::Slice(Some(&mut bytes)),
+            );
+            self.gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        }
+        let texels = bytemuck::pod_collect_to_vec::<u8, [f32; 2]>(&bytes);
+        Some(([w as u32, h as u32], texels))
+    }
+
+    /// Whether CUDA summed the last frame's thickness.
+    pub fn thickness_by_cuda(&self) -> bool {
+        self.last_by_cuda
+    }
+
+    /// Drops CUDA's registration of the thickness pixel buffer (before GL deletes it).
+    fn release_cuda_target(&mut self) {
+        if let Some(cuda) = &mut self.cuda {
+            cuda.release_target();
+        }
+    }
+
+    /// The thickness pass by CUDA, where the feed gave it this frame's particles: before the frame's
+    /// other GL work, so that handing the pixel buffer to CUDA waits for nothing of this frame (in
+    /// the middle of the frame the hand-over held GL's passes up by about 0.9 ms on an H100, for
+    /// kernels of 0.05 ms). Otherwise [`draw`](Self::draw) has GL splat it. After
+    /// [`bind_scene`](Self::bind_scene); leaves no framebuffer bound.
+    pub fn splat_thickness_by_cuda(&mut self, frame: &SurfaceFrame, timer: &mut GpuTimer) {
+        self.last_by_cuda = false;
+        let fed = std::mem::take(&mut self.cuda_fed);
+        let (Some(targets), Some(cuda)) = (&self.targets, &mut self.cuda) else {
+            return;
+        };
+        if !fed || cuda.count() < frame.count {
+            return;
+        }
+        let (thick_w, thick_h) = downsampled(targets.size, targets.thickness_downsample);
+        let (pixels_per_metre, min_splat_px) = thickness_splat_size(frame, targets.thickness_downsample);
+        let camera = SplatCamera {
+            view: rows(&frame.view, 3).try_into().expect("three rows"),
+            projection: rows(&frame.proj, 4).try_into().expect("four rows"),
+            radius: frame.settings.radius,
+            pixels_per_metre,
+            min_splat_px,
+            particle_volume: frame.particle_volume,
+            width: thick_w as u32,
+            height: thick_h as u32,
+        };
+        timer.begin(Pass::Thickness);
+        if let Err(why) = cuda.splat(&camera, frame.count, targets.thickness_pixels.0.get()) {
+            timer.end();
+            self.refuse_cuda(why);
+            return;
+        }
+        let gl = &self.gl;
+        // SAFETY: our buffer and texture, on the current context; CUDA has unmapped the buffer.
+        unsafe {
+            gl.bind_buffer(glow::PIXEL_UNPACK_BUFFER, Some(targets.thickness_pixels));
+            gl.bind_texture(glow::TEXTURE_2D, Some(targets.thickness));
+            gl.tex_sub_image_2d(
+                glow::TEXTURE_2D,
+                0,
+                0,
+                0,
+                thick_w,
+                thick_h,
+                glow::RG,
+                glow::HALF_FLOAT,
+                glow::PixelUnpackData::BufferOffset(0),
+            );
+            gl.bind_texture(glow::TEXTURE_2D, None);
+            gl.bind_buffer(glow::PIXEL_UNPACK_BUFFER, None);
+        }
+        timer.end();
+        self.last_by_cuda = true;
     }
 
     /// The depth, thickness and smoothing passes (after [`bind_scene`](Self::bind_scene) and the
@@ -308,29 +472,24 @@ impl Surface {
                 gl.draw_arrays(glow::POINTS, 0, count);
             }
 
-            timer.begin(Pass::Thickness);
-            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
-            gl.viewport(0, 0, thick_w, thick_h);
-            gl.clear_color(0.0, 0.0, 0.0, 0.0);
-            gl.clear(glow::COLOR_BUFFER_BIT);
             gl.disable(glow::DEPTH_TEST);
-            gl.enable(glow::BLEND);
-            gl.blend_equation(glow::FUNC_ADD);
-            gl.blend_func(glow::ONE, glow::ONE);
-            let p = self.programs.thickness;
-            gl.use_program(Some(p));
-            // Fewer pixels per metre at the lower resolution; a smallest splat radius, so a far
-            // particle still lands on pixels rather than between them.
-            set_particle_uniforms(
-                gl,
-                p,
-                frame,
-                frame.pixels_per_metre / downsample as f32,
-                s.thickness_min_splat_px.max(0.5),
-            );
-            set_f32(gl, p, "u_particle_volume", frame.particle_volume);
-            gl.draw_arrays(glow::POINTS, 0, count);
-            gl.disable(glow::BLEND);
+            if !self.last_by_cuda {
+                timer.begin(Pass::Thickness);
+                let (pixels_per_metre, min_splat_px) = thickness_splat_size(frame, downsample);
+                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
+                gl.viewport(0, 0, thick_w, thick_h);
+                gl.clear_color(0.0, 0.0, 0.0, 0.0);
+                gl.clear(glow::COLOR_BUFFER_BIT);
+                gl.enable(glow::BLEND);
+                gl.blend_equation(glow::FUNC_ADD);
+                gl.blend_func(glow::ONE, glow::ONE);
+                let p = self.programs.thickness;
+                gl.use_program(Some(p));
+                set_particle_uniforms(gl, p, frame, pixels_per_metre, min_splat_px);
+                set_f32(gl, p, "u_particle_volume", frame.particle_volume);
+                gl.draw_arrays(glow::POINTS, 0, count);
+                gl.disable(glow::BLEND);
+            }
             gl.bind_vertex_array(None);
             gl.disable(glow::PROGRAM_POINT_SIZE);
 
@@ -491,6 +650,14 @@ impl Surface {
             // Half floats: blended at full rate where 32-bit floats blend at a fraction of it; 11 bits
             // of mantissa are plenty for a thickness that only tints and absorbs.
             let thickness = texture(glow::RG16F, glow::RG, glow::FLOAT, thick_w, thick_h, glow::LINEAR)?;
+            let thickness_pixels = gl.create_buffer().map_err(gl_error("a pixel buffer"))?;
+            gl.bind_buffer(glow::PIXEL_UNPACK_BUFFER, Some(thickness_pixels));
+            gl.buffer_data_size(
+                glow::PIXEL_UNPACK_BUFFER,
+                (TEXEL_BYTES * thick_w as usize * thick_h as usize) as i32,
+                glow::STREAM_COPY,
+            );
+            gl.bind_buffer(glow::PIXEL_UNPACK_BUFFER, None);
             let half_size = downsampled(size, 2);
             let (half_w, half_h) = half_size;
             let half_texture = || texture(glow::R32F, glow::RED, glow::FLOAT, half_w, half_h, glow::LINEAR);
@@ -545,6 +712,7 @@ impl Surface {
                 depth_test,
                 thickness_fbo,
                 thickness,
+                thickness_pixels,
                 half_size,
                 half_fbos,
                 half,
@@ -596,10 +764,13 @@ impl Surface {
                 gl.delete_texture(tex);
             }
             gl.delete_renderbuffer(t.depth_test);
+            gl.delete_buffer(t.thickness_pixels);
         }
     }
 
     pub fn destroy(&mut self) {
+        self.release_cuda_target();
+        self.cuda = None;
         if let Some(t) = self.targets.take() {
             // SAFETY: our objects, deleted once.
             unsafe { self.delete_targets(&t) };
@@ -621,15 +792,30 @@ impl Surface {
 ///
 /// The early depth test (see `shaders/surface_depth.frag`) only saves work for fragments behind water
 /// already drawn: drawn back to front, every layer of a pixel is shaded. The buffer holds the
-/// particles in spawn order, each body's lattice x fastest, then y, then z (`Scene::spawn`; the GPU
-/// solver sorts an index list, never the particles themselves), and they stay roughly where they
-/// started. So the order runs mainly along +z, then +y, then +x; this compares that with the
+/// particles in slot order, which is spawn order, each body's lattice x fastest, then y, then z
+/// (`Scene::spawn`; kernels/render.cu writes each particle at its slot, whatever order a solver
+/// stores them in), and they stay roughly where they started. So the order runs mainly along +z, then +y, then +x; this compares that with the
 /// direction towards the camera and draws in reverse where they agree. No sorting per frame: a wrong
 /// guess (a scene mixed through) costs time, never a different picture.
 fn draws_back_first(view: &Mat4) -> bool {
     // The view's +z axis in world space points from the scene towards the eye.
     let towards_eye = view.row(2).truncate();
     towards_eye.dot(Vec3::new(0.01, 0.1, 1.0)) > 0.0
+}
+
+/// The thickness splats' texels per metre at unit depth and their smallest radius, texels: fewer
+/// texels per metre at the lower resolution, and a smallest radius so that a far particle still lands
+/// on texels rather than between them.
+fn thickness_splat_size(frame: &SurfaceFrame, downsample: u32) -> (f32, f32) {
+    (
+        frame.pixels_per_metre / downsample as f32,
+        frame.settings.thickness_min_splat_px.max(0.5),
+    )
+}
+
+/// The first `n` rows of `m`, row-major (a kernel's matrix: glam stores columns).
+fn rows(m: &Mat4, n: usize) -> Vec<f32> {
+    (0..n).flat_map(|i| m.row(i).to_array()).collect()
 }
 
 /// The largest thickness downsampling the targets accept (the panel's slider stops there).
