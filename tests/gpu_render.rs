@@ -311,7 +311,8 @@ fn thickness_summed_by_cuda_is_the_thickness_gl_blends() {
             .draw(Viewport::full(size), &camera, &settings, fed.slots, domain)
             .expect("draw");
         headless.finish();
-        let (texture_size, texels, by_cuda) = renderer.read_thickness().expect("a thickness texture");
+        let (texture_size, texels) = renderer.read_thickness().expect("a thickness texture");
+        let by_cuda = renderer.thickness_by_cuda();
         feed.release();
         (texture_size, texels, by_cuda)
     };

@@ -171,9 +171,14 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
             .iter()
             .map(|(pass, ms)| format!("{} {ms:.3}", pass.name()))
             .collect();
+        let thickness = match options.mode {
+            DrawMode::Surface if renderer.thickness_by_cuda() => ", the thickness summed by CUDA",
+            DrawMode::Surface => ", the thickness blended by GL",
+            _ => "",
+        };
         writeln!(
             log,
-            "GPU ms per pass (timer queries, same frames): {}; total {:.3}",
+            "GPU ms per pass (timer queries, same frames{thickness}): {}; total {:.3}",
             passes.join(", "),
             timings.gpu_render_ms
         )?;

@@ -538,11 +538,14 @@ impl Renderer {
         }
     }
 
-    /// The last surface frame's thickness texture and whether CUDA summed it (tests; see
-    /// [`Surface::read_thickness`]).
-    pub fn read_thickness(&self) -> Option<([u32; 2], Vec<[f32; 2]>, bool)> {
-        let (size, texels) = self.surface.read_thickness()?;
-        Some((size, texels, self.surface.thickness_by_cuda()))
+    /// The last surface frame's thickness texture (tests; see [`Surface::read_thickness`]).
+    pub fn read_thickness(&self) -> Option<([u32; 2], Vec<[f32; 2]>)> {
+        self.surface.read_thickness()
+    }
+
+    /// Whether CUDA summed the last surface frame's thickness (else GL blended it).
+    pub fn thickness_by_cuda(&self) -> bool {
+        self.surface.thickness_by_cuda()
     }
 
     /// GPU milliseconds per pass of the newest frame whose timer queries have arrived (a few frames
