@@ -297,9 +297,9 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let on_gpu = options.backend == BackendKind::Cuda;
     let fixed_point = scene.scatter == ScatterMode::FixedPoint;
     let ranked = scene.ranks > 1;
-    // As the solver chooses it (the ranks keep their particles in place).
-    let bin_order = !ranked && cuda::CudaOptions::from_env()?.bin_order_for(scene.pipeline);
-    let sort_interval = cuda::sort_interval(bin_order);
+    // As the solver chose it: where there was no room for the bin-ordered copy, it bins as often as
+    // with particles in place (the ranks, which keep theirs in place, say so in their label).
+    let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::SORT_INTERVAL);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
         // src/cuda/ranks.rs: the phases of every rank, host-synchronised at each phase's end.
         (true, true, Phase::Sort) => format!(

@@ -304,6 +304,11 @@ pub struct BinSchedule {
 }
 
 impl BinSchedule {
+    /// Substeps between binnings when no particle asks for one sooner.
+    pub fn interval(&self) -> u32 {
+        self.interval
+    }
+
     /// Bins due at once, then every `interval` substeps.
     pub fn every(interval: u32) -> BinSchedule {
         BinSchedule {

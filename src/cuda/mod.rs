@@ -58,7 +58,7 @@ mod inspect;
 pub mod ranks;
 pub mod solver;
 
-pub use bins::{sort_interval, SORT_INTERVAL};
+pub use bins::SORT_INTERVAL;
 pub use gpu::CudaOptions;
 pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;

@@ -451,6 +451,10 @@ impl Solver for CudaSolver {
         Ok(())
     }
 
+    fn rebin_interval(&self) -> Option<u32> {
+        Some(self.schedule.interval())
+    }
+
     fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
         let Some(flow) = &self.state.flow else {
             return Ok(None);

@@ -129,6 +129,11 @@ pub trait Solver: Send {
         ensure!(mask == 0, "the {} backend has no emitters", self.name());
         Ok(())
     }
+    /// Substeps between two binnings of the particles when none asks for one sooner, where the
+    /// solver bins them on a schedule (the GPU's binned and fused pipelines); `None` otherwise.
+    fn rebin_interval(&self) -> Option<u32> {
+        None
+    }
     /// What emitters and sinks did so far; `None` without them.
     fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
         Ok(None)
