@@ -284,7 +284,7 @@ impl Surface {
 
     /// Gives the thickness splats the frame's particles: `count` float4 at `particles`, in `ctx`,
     /// written by the work queued on `stream` (the feed, through interop). Without this call before
-    /// a frame, GL splats the thickness.
+    /// a frame, or with fewer than [`CUDA_THICKNESS_MIN_PARTICLES`], GL splats the thickness.
     ///
     /// # Safety
     /// `particles` must be a device allocation of `ctx` holding `count` float4, live until the work
@@ -296,7 +296,7 @@ impl Surface {
         count: usize,
         stream: &Arc<CudaStream>,
     ) {
-        if self.cuda_refused.is_some() {
+        if self.cuda_refused.is_some() || count < CUDA_THICKNESS_MIN_PARTICLES {
             return;
         }
         if self.cuda.as_ref().is_some_and(|c| !c.serves(ctx)) {
@@ -817,6 +817,12 @@ fn thickness_splat_size(frame: &SurfaceFrame, downsample: u32) -> (f32, f32) {
 fn rows(m: &Mat4, n: usize) -> Vec<f32> {
     (0..n).flat_map(|i| m.row(i).to_array()).collect()
 }
+
+/// Fewer particles than this are splatted by GL even where CUDA could sum them: handing the pixel
+/// buffer to CUDA and back costs about 0.33 ms a frame on an H100, where GL's blending costs about
+/// 2.6 ns a particle, so GL is cheaper below about 127,000 (the fountain's 20,000 to 60,000: GL
+/// 0.09 ms, CUDA 0.36; the dam break's 451,200: GL 1.30, CUDA 0.43 to 0.48; BENCHMARKS.md 0s).
+pub const CUDA_THICKNESS_MIN_PARTICLES: usize = 131_072;
 
 /// The largest thickness downsampling the targets accept (the panel's slider stops there).
 pub const MAX_THICKNESS_DOWNSAMPLE: u32 = 8;
