@@ -723,6 +723,7 @@ impl ViewerApp {
                 speed: self.clock.speed(),
                 transfer: self.feed.path(),
                 render_passes: gpu.renderer.pass_times(),
+                thickness_by_cuda: gpu.renderer.thickness_by_cuda(),
                 recording: self.recording.as_ref().map(|r| {
                     (
                         r.sequence.dir().display().to_string(),

@@ -4,7 +4,7 @@
 use super::legend::Scale;
 use super::renderer::{Colouring, DrawMode, RenderSettings};
 use super::surface::MAX_THICKNESS_DOWNSAMPLE;
-use super::timer::PassTimes;
+use super::timer::{Pass, PassTimes};
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
 use egui::{Color32, RichText};
@@ -36,6 +36,8 @@ pub struct HudInfo<'a> {
     pub transfer: &'a str,
     /// GPU milliseconds per render pass (timer queries of a frame a few draws old).
     pub render_passes: Option<PassTimes>,
+    /// Whether CUDA summed the surface's thickness (else GL blended it).
+    pub thickness_by_cuda: bool,
     pub recording: Option<(String, u64)>,
     pub message: Option<&'a str>,
 }
@@ -176,7 +178,11 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
         if let Some(passes) = info.render_passes.filter(|p| !p.is_empty()) {
             row("render (GPU)", String::new());
             for (pass, ms) in passes.iter() {
-                row(pass.name(), format!("{ms:.3} ms"));
+                let name = match pass {
+                    Pass::Thickness if info.thickness_by_cuda => "thickness (CUDA)",
+                    _ => pass.name(),
+                };
+                row(name, format!("{ms:.3} ms"));
             }
             row("render total", format!("{:.3} ms", passes.total()));
         }
