@@ -418,8 +418,9 @@ impl Surface {
         self.last_by_cuda = true;
     }
 
-    /// The depth, thickness and smoothing passes (after [`bind_scene`](Self::bind_scene) and the
-    /// scene), each timed; then the shading into `target` at `viewport` (x, y, w, h).
+    /// The depth, thickness (unless CUDA summed it, [`splat_thickness_by_cuda`](Self::splat_thickness_by_cuda))
+    /// and smoothing passes (after [`bind_scene`](Self::bind_scene) and the scene), each timed; then
+    /// the shading into `target` at `viewport` (x, y, w, h).
     pub fn draw(
         &mut self,
         frame: &SurfaceFrame,
