@@ -77,7 +77,17 @@ impl PassTimes {
     pub fn is_empty(&self) -> bool {
         self.ms.iter().all(Option::is_none)
     }
+
+    /// Whether every pass's time could be a measurement (see [`MAX_PLAUSIBLE_PASS_MS`]).
+    fn is_plausible(&self) -> bool {
+        self.iter().all(|(_, ms)| ms <= MAX_PLAUSIBLE_PASS_MS)
+    }
 }
+
+/// A pass's time above this is no measurement: Mesa's llvmpipe under Xvfb answered one frame's scene
+/// pass with 13,430 s (a raw clock reading, as if the query's start had not been recorded), which
+/// made the viewer's mean render total read 1.2 million ms. Such a frame's times are dropped.
+const MAX_PLAUSIBLE_PASS_MS: f64 = 10_000.0;
 
 /// Query sets in the ring: a frame's results are read up to this many frames later.
 pub const FRAMES_IN_FLIGHT: usize = 4;
@@ -204,6 +214,11 @@ impl GpuTimer {
                     times.ms[k] = Some(nanoseconds as f64 * 1e-6);
                 }
             }
+            self.ring[index].pending = false;
+            if !times.is_plausible() {
+                self.dropped += 1;
+                continue;
+            }
             for (k, ms) in times.ms.iter().enumerate() {
                 if let Some(ms) = ms {
                     self.sums[k] += ms;
@@ -212,7 +227,6 @@ impl GpuTimer {
             }
             self.frames_summed += 1;
             self.latest = Some(times);
-            self.ring[index].pending = false;
         }
     }
 
@@ -239,7 +253,8 @@ impl GpuTimer {
         self.frames_summed = 0;
     }
 
-    /// Frames whose times were lost because the GPU had not finished them four frames later.
+    /// Frames whose times were lost: the GPU had not finished them four frames later, or a pass's
+    /// time was implausible ([`MAX_PLAUSIBLE_PASS_MS`]).
     pub fn dropped(&self) -> u64 {
         self.dropped
     }
@@ -252,5 +267,21 @@ impl GpuTimer {
             }
         }
         self.ring.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_raw_clock_reading_is_no_pass_time() {
+        let mut times = PassTimes::default();
+        times.ms[Pass::Scene as usize] = Some(0.3);
+        times.ms[Pass::Depth as usize] = Some(1.2);
+        assert!(times.is_plausible());
+        // What llvmpipe under Xvfb answered once for the scene pass: 13,430 s.
+        times.ms[Pass::Scene as usize] = Some(13_430_425.352_158);
+        assert!(!times.is_plausible());
     }
 }
