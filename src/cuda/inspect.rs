@@ -82,13 +82,14 @@ impl CudaSolver {
         self.state.grid.read_velocity(&self.gpu)
     }
 
-    /// The particle order of the last binning (identity before the first). Waits for the device.
     /// Per place in the particle arrays, the slot of the particle stored there: the identity unless
     /// the fused pipeline gathered the particles into bin order. Waits for the device.
     pub fn read_particle_slots(&mut self) -> Result<Vec<u32>> {
         self.gpu.download(&self.state.particles.slot)
     }
 
+    /// The particle order of the last binning (identity before the first; the identity again after
+    /// the fused pipeline gathers the particles into it). Waits for the device.
     pub fn read_order(&mut self) -> Result<Vec<u32>> {
         self.gpu.download(&self.state.bins.order)
     }

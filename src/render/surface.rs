@@ -795,9 +795,10 @@ impl Surface {
 /// already drawn: drawn back to front, every layer of a pixel is shaded. The buffer holds the
 /// particles in slot order, which is spawn order, each body's lattice x fastest, then y, then z
 /// (`Scene::spawn`; kernels/render.cu writes each particle at its slot, whatever order a solver
-/// stores them in), and they stay roughly where they started. So the order runs mainly along +z, then +y, then +x; this compares that with the
-/// direction towards the camera and draws in reverse where they agree. No sorting per frame: a wrong
-/// guess (a scene mixed through) costs time, never a different picture.
+/// stores them in), and they stay roughly where they started. So the order runs mainly along +z,
+/// then +y, then +x; this compares that with the direction towards the camera and draws in reverse
+/// where they agree. No sorting per frame: a wrong guess (a scene mixed through) costs time, never a
+/// different picture.
 fn draws_back_first(view: &Mat4) -> bool {
     // The view's +z axis in world space points from the scene towards the eye.
     let towards_eye = view.row(2).truncate();
