@@ -10,13 +10,19 @@
 // One CUDA block per listed bin chunk, a thread per particle, every lane kept in the loop (its
 // particle `live` or not) because the float scatter sums runs of lanes in registers:
 // - float scatter: each node's mass and momentum summed over a warp's runs of particles in one cell
-//   (warp_run, as p2g.cu), then one 16-byte vector atomic per run and node (sm_90);
+//   (warp_run, as p2g.cu), then one 16-byte vector atomic per run and node (sm_90); each warp lists
+//   the node blocks its lanes covered (warp_list_marked_blocks), so the chunk needs no barrier. Two
+//   entry points (`Scatter`): node by node for scenes too small to fill the device, by planes of 9
+//   nodes for scenes that fill it, where the runs' shuffles bound the pass; both shuffle only as
+//   many steps as the warp's longest run needs (three for runs of up to 8, not five);
 // - fixed-point scatter: four channels of a shared fixed-point tile per bin (tiles.cuh), flushed once
 //   per tile node, as p2g_tiled.cu (integer runs measured slower there).
 // Measured on the H200 (2026-11-24, ncu at bench-655k): the four-channel tile in both modes took
-// 222 us, the float runs 124 us (g2p2g and p2g of the binned pipeline: 97 + 78 us). Runs of up to
-// the warp's longest only (three shuffle steps at 8 particles per cell, not five) made one_pass
-// slower, 128 us, and were left out.
+// 222 us, the float runs 124 us (g2p2g and p2g of the binned pipeline: 97 + 78 us). On the H100
+// (2026-11-26, BENCHMARKS.md 0t), with the warps' marks: the runs' shuffles 40 % of one_pass's time at
+// the dam break, by throughput alone; a node-by-node pass in 3, 4 or 5 steps ran the small scenes
+// faster and the large ones slower (three copies of the stencil loop), the planes the large ones
+// 6 to 20 % faster.
 //
 // The fused pipeline stores its particles in bin order (bin_order.cu), so a chunk's particles are
 // consecutive in memory and `order` is null; where they stay in place, the pass reads them through it.
@@ -30,7 +36,7 @@
 
 #define SCATTER_CHANNELS 4  // mass, then momentum x, y, z: channel-major in the fixed-point tile
 
-// The kernel's parameters, and their names, for its two entry points below.
+// The kernel's parameters, and their names, for its entry points below.
 #define ONE_PASS_PARAMETERS                                                                                     \
     const Params params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
         float4 *__restrict__ x, float4 *__restrict__ v, float4 *__restrict__ c, float *__restrict__ rho,         \
@@ -44,8 +50,86 @@
         block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, sinks, num_sinks,       \
         free_slots, flow
 
-template <bool FIXED>
+// The scatter one_pass is compiled with (an entry point each; src/cuda/one_pass.rs chooses).
+enum class Scatter {
+    // Floats; each of the 27 nodes' sums (4 values) summed over the warp's runs as soon as it is
+    // computed, in 3, 4 or 5 shuffle steps (a copy of the stencil loop each): the least a particle
+    // keeps in flight (96 registers, 5 blocks per SM), for scenes too small to fill the device, where
+    // a warp's latency is the pass's.
+    FloatRuns,
+    // Floats; a plane of 9 nodes at a time (36 values in registers, 128 registers, 4 blocks per SM),
+    // in as many shuffle steps as the warp's longest run needs: three, not five, for runs of up to 8
+    // particles, for scenes that fill the device, where the shuffles' throughput bounds the pass.
+    FloatPlanes,
+    // Fixed point: four channels of a shared fixed-point tile per bin (tiles.cuh).
+    FixedTile,
+};
+
+// Scatter::FloatRuns for one particle a lane, in STEPS shuffle steps (runs of up to 2^STEPS lanes).
+// Every lane of the warp calls it.
+template <int STEPS>
+__device__ __forceinline__ void scatter_runs_in(const Params& params, const Stencil& s, const ParticleImpulse& q,
+                                                bool live, WarpRun run, float4* grid_acc) {
+    const float m_p = params.material.particle_mass;
+    FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+        float impulse[3];
+        impulse_at(q, w, d0, d1, d2, impulse);
+        float sums[4] = {impulse[0], impulse[1], impulse[2], w * m_p};
+        if (!live) sums[0] = sums[1] = sums[2] = sums[3] = 0.0f;
+        warp_run_sum<STEPS>(run, sums);
+        if (run.head && live) atomic_add_mass_momentum(&grid_acc[node], sums[0], sums[1], sums[2], sums[3]);
+    })
+}
+
+// Scatter::FloatRuns in the fewest steps among 3, 4 and 5 that the warp's longest run needs.
+__device__ __forceinline__ void scatter_runs(const Params& params, const Stencil& s, const ParticleImpulse& q,
+                                             bool live, WarpRun run, float4* grid_acc) {
+    const u32 longest = warp_longest_run(run);
+    if (longest <= 8) scatter_runs_in<3>(params, s, q, live, run, grid_acc);
+    else if (longest <= 16) scatter_runs_in<4>(params, s, q, live, run, grid_acc);
+    else scatter_runs_in<5>(params, s, q, live, run, grid_acc);
+}
+
+// Scatter::FloatPlanes for one particle a lane: the plane's mass and momentum sums summed over the
+// runs (warp_run_sum_within), then the run's head adds each node's sums with one vector atomic. The
+// heads' sums are scatter_runs's, bit for bit. Every lane of the warp calls it.
+__device__ __forceinline__ void scatter_runs_by_plane(const Params& params, const Stencil& s,
+                                                      const ParticleImpulse& q, bool live, WarpRun run,
+                                                      float4* grid_acc) {
+    const float m_p = params.material.particle_mass;
+    const u32 longest = warp_longest_run(run);
+    const u32 row = params.grid_res[0], plane = params.grid_res[0] * params.grid_res[1];
+#pragma unroll 1
+    for (u32 oz = 0; oz < 3; ++oz) {
+        // Selected, not indexed: a dynamic index would put the stencil in local memory.
+        const float wz = oz == 0 ? s.w[0][2] : oz == 1 ? s.w[1][2] : s.w[2][2];
+        const float d2 = (float)oz - s.fx[2];
+        float sums[9 * 4];
+#pragma unroll
+        for (int k = 0; k < 9; ++k) {
+            const int ox = k % 3, oy = k / 3;
+            const float w = s.w[ox][0] * (s.w[oy][1] * wz);
+            float impulse[3];
+            impulse_at(q, w, (float)ox - s.fx[0], (float)oy - s.fx[1], d2, impulse);
+            sums[4 * k] = live ? impulse[0] : 0.0f;
+            sums[4 * k + 1] = live ? impulse[1] : 0.0f;
+            sums[4 * k + 2] = live ? impulse[2] : 0.0f;
+            sums[4 * k + 3] = live ? w * m_p : 0.0f;
+        }
+        warp_run_sum_within(run, longest, sums);
+        if (run.head && live) {
+            const u32 first = s.base_index + oz * plane;
+#pragma unroll
+            for (int k = 0; k < 9; ++k)
+                atomic_add_mass_momentum(&grid_acc[first + (u32)(k % 3) + (u32)(k / 3) * row], sums[4 * k],
+                                         sums[4 * k + 1], sums[4 * k + 2], sums[4 * k + 3]);
+        }
+    }
+}
+
+template <Scatter SCATTER>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
+    constexpr bool FIXED = SCATTER == Scatter::FixedTile;
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const Colliders colliders{collider_states, num_colliders, collider_sdf};
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -65,7 +149,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         const Tile t = make_tile(blocks, bin.bin);
         int* tile = tile_memory;
         if (FIXED) tile_clear<SCATTER_CHANNELS>(tile_marks);
-        else tile_clear_marks(tile_marks);
+        u32 covered = 0u;  // float scatter: the tile's node blocks this lane's particles covered
 
         // Converged: the bound is the chunk's, the same for every lane of the block. A warp wholly past
         // the chunk's end skips the iteration (warp-uniform, so the warp-wide sums stay whole); a lane
@@ -126,7 +210,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;
             bool in_tile = false;
-            if (live) in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            if (live && FIXED) in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
                 FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
@@ -150,21 +235,15 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 // head its neighbours' run (a particle drained in this pass, between particles of
                 // one cell), the run's sum would go unadded.
                 const WarpRun run = warp_run(live ? s.base_index : ~(threadIdx.x & 31u));
-                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                    float impulse[3];
-                    impulse_at(q, w, d0, d1, d2, impulse);
-                    float sums[4] = {impulse[0], impulse[1], impulse[2], w * m_p};
-                    if (!live) sums[0] = sums[1] = sums[2] = sums[3] = 0.0f;
-                    warp_run_sum(run, sums);
-                    if (run.head && live) atomic_add_mass_momentum(&grid_acc[node], sums[0], sums[1], sums[2], sums[3]);
-                })
+                if (SCATTER == Scatter::FloatPlanes) scatter_runs_by_plane(params, s, q, live, run, grid_acc);
+                else scatter_runs(params, s, q, live, run, grid_acc);
             }
         }
 
-        // Lists the node blocks this chunk's particles covered; in fixed point, flushes the tile first.
+        // Lists the node blocks this chunk's particles covered: the float scatter warp by warp, without
+        // a barrier; the fixed-point one after flushing its tile.
         if (!FIXED) {
-            __syncthreads();
-            tile_list_marked_blocks(t, blocks, marks, tile_marks);
+            warp_list_marked_blocks(t, blocks, marks, covered);
             continue;
         }
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
@@ -187,14 +266,19 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     if (far) counters->rebin_needed = 1u;
 }
 
-// One entry point per scatter (the host launches the one of params.scatter_mode), each compiled for
-// the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh).
+// One entry point per scatter (the host launches the one it chose, src/cuda/one_pass.rs), each
+// compiled for the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh).
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FLOAT_MIN_BLOCKS)
     one_pass_float(ONE_PASS_PARAMETERS) {
-    one_pass<false>(ONE_PASS_ARGUMENTS);
+    one_pass<Scatter::FloatRuns>(ONE_PASS_ARGUMENTS);
+}
+
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS)
+    one_pass_float_planes(ONE_PASS_PARAMETERS) {
+    one_pass<Scatter::FloatPlanes>(ONE_PASS_ARGUMENTS);
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FIXED_MIN_BLOCKS)
     one_pass_fixed(ONE_PASS_PARAMETERS) {
-    one_pass<true>(ONE_PASS_ARGUMENTS);
+    one_pass<Scatter::FixedTile>(ONE_PASS_ARGUMENTS);
 }

@@ -46,6 +46,9 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // dam break -1.4 %, bench-65k -3.9 %, the other presets -0.4 to -0.7 %; its fixed-point scatter at 5
 // was 3.8 % slower at the dam break, so it stays at 6.
 #define ONE_PASS_FLOAT_MIN_BLOCKS 5
+// Its plane-by-plane float scatter at 4 (128 registers: at 5 its 36 sums spill), H100, 2026-11-26
+// (BENCHMARKS.md 0t).
+#define ONE_PASS_FLOAT_PLANES_MIN_BLOCKS 4
 #define ONE_PASS_FIXED_MIN_BLOCKS 6
 
 // Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
@@ -134,17 +137,49 @@ __device__ __forceinline__ void tile_mark_stencil(u32* tile_marks, u32 first) {
                 tile_marks[bx + TILE_SPAN * (by + TILE_SPAN * bz)] = 1u;
 }
 
+// The node blocks of the tile's 27 (bit bx + 3 (by + 3 bz), as the tile's marks) that a stencil
+// starting at tile node `first` covers: tile_mark_stencil's marks as a word, for a pass that merges a
+// warp's marks in registers (warp_list_marked_blocks) instead of in shared memory.
+__device__ __forceinline__ u32 tile_stencil_block_bits(u32 first) {
+    const u32 l[3] = {first % TILE_EDGE, (first / TILE_EDGE) % TILE_EDGE, first / (TILE_EDGE * TILE_EDGE)};
+    u32 bits = 0u;
+    for (u32 bz = (l[2] + TILE_HALO) / 4; bz <= (l[2] + 2 + TILE_HALO) / 4; ++bz)
+        for (u32 by = (l[1] + TILE_HALO) / 4; by <= (l[1] + 2 + TILE_HALO) / 4; ++by)
+            for (u32 bx = (l[0] + TILE_HALO) / 4; bx <= (l[0] + 2 + TILE_HALO) / 4; ++bx)
+                bits |= 1u << (bx + TILE_SPAN * (by + TILE_SPAN * bz));
+    return bits;
+}
+
+// A particle whose stencil does not fit its bin's tile: scattered to the grid instead, its node blocks
+// marked there, the miss counted.
+__device__ __forceinline__ void tile_miss(const Stencil& s, const BlockMarks& marks, const NodeBlocks& blocks,
+                                          u32& misses) {
+    ++misses;
+    mark_stencil_blocks(marks, blocks, s);
+}
+
 // Where a particle's contributions go: true where its stencil fits its bin's tile (`first` is the
 // tile node of its base, its node blocks marked in the tile's marks); false where it is scattered to
-// the grid instead (its node blocks marked there, the miss counted). `far` as in tile_stencil.
+// the grid instead (tile_miss). `far` as in tile_stencil.
 __device__ __forceinline__ bool tile_place(const Tile& t, const Stencil& s, u32& first, bool& far, u32* tile_marks,
                                            const BlockMarks& marks, const NodeBlocks& blocks, u32& misses) {
     if (tile_stencil(t, s, first, far)) {
         tile_mark_stencil(tile_marks, first);
         return true;
     }
-    ++misses;
-    mark_stencil_blocks(marks, blocks, s);
+    tile_miss(s, marks, blocks, misses);
+    return false;
+}
+
+// tile_place for a pass that merges a warp's marks in registers: the stencil's node blocks go into the
+// lane's `covered` bits (tile_stencil_block_bits) instead of the tile's marks.
+__device__ __forceinline__ bool tile_place_bits(const Tile& t, const Stencil& s, u32& first, bool& far, u32& covered,
+                                                const BlockMarks& marks, const NodeBlocks& blocks, u32& misses) {
+    if (tile_stencil(t, s, first, far)) {
+        covered |= tile_stencil_block_bits(first);
+        return true;
+    }
+    tile_miss(s, marks, blocks, misses);
     return false;
 }
 
@@ -215,6 +250,24 @@ __device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const Nod
         }
     }
     __syncthreads();
+}
+
+// Lists, once per substep, the node blocks that any lane of the warp covered (`covered`: each lane's
+// tile_stencil_block_bits merged), a lane per block, with no barrier: the warp goes on to its next
+// chunk while the others of its CUDA block are still in this one. Every lane of the warp calls it.
+__device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const NodeBlocks& blocks,
+                                                        const BlockMarks& marks, u32 covered) {
+#if __CUDA_ARCH__ >= 800
+    covered = __reduce_or_sync(0xffffffffu, covered);
+#else
+    for (u32 offset = 16; offset > 0; offset >>= 1) covered |= __shfl_xor_sync(0xffffffffu, covered, offset);
+#endif
+    const u32 k = threadIdx.x & 31u;
+    if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) {
+        mark_node_block(marks, node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1,
+                                                t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
+                                                t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1));
+    }
 }
 
 // Calls body(k, node) for each tile node k inside the grid, `node` its grid index; then lists the

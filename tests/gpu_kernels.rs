@@ -10,7 +10,7 @@
 //! and far below any real bug (a wrong weight, index or sign is an O(1) error).
 
 use glam::{Mat3, Vec3};
-use mpm::cuda::{CudaOptions, CudaSolver};
+use mpm::cuda::{CudaOptions, CudaSolver, FloatScatter};
 use mpm::sim::cpu::{CpuSolver, Stencil};
 use mpm::sim::params::{Pipeline, ScatterMode};
 use mpm::sim::{presets, Params, Particles, Phase, Scene, Solver};
@@ -26,6 +26,7 @@ fn main() -> std::process::ExitCode {
             p2g_init_matches_cpu,
             p2g_matches_cpu,
             grid_update_and_g2p_match_cpu,
+            both_float_scatter_forms_match_cpu,
             fused_grid_update_mirrors_as_mirror_walls_does,
             transfers_conserve_mass_and_momentum,
             dam_break_follows_cpu_trajectory,
@@ -306,6 +307,67 @@ fn grid_update_and_g2p_match_cpu() {
             "each particle's signal speed is bounded by the paired maxima"
         );
     }
+}
+
+/// The fused pipeline's float scatter has two forms (one_pass_float node by node, one_pass_float_planes
+/// a plane of nodes at a time), the scene's size choosing; the small tank gets the first. Each, fixed:
+/// the scatter of particles as they are against the CPU's, and the substep's g2p with the next
+/// scatter after it against the other form's (the same sums, added in another order).
+fn both_float_scatter_forms_match_cpu() {
+    let scene = small_tank_in(Pipeline::Fused, ScatterMode::Float);
+    let particles = random_particles(&scene, 8);
+    let params = step_params(&scene);
+    let mut next_scatters = Vec::new();
+    for form in [FloatScatter::Runs, FloatScatter::Planes] {
+        let options = CudaOptions {
+            float_scatter: form,
+            ..CudaOptions::default()
+        };
+        let mut cpu = CpuSolver::new(particles.clone(), scene.grid_res);
+        let mut gpu = CudaSolver::from_particles(&scene, &particles, options).expect("CUDA solver");
+        run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
+        let (mass, momentum) = gpu.read_grid_accumulators(&params).unwrap();
+        let mass_scale = max_abs(cpu.grid.mass.iter().copied());
+        let mass_err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
+        let momentum_scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
+        let momentum_err = max_diff_vec3(&momentum, &cpu.grid.momentum);
+        println!(
+            "{form:?}: max mass error {:.2e}, max momentum error {:.2e} of the largest",
+            mass_err / mass_scale,
+            momentum_err / momentum_scale
+        );
+        assert!(
+            mass_err <= 1e-5 * mass_scale,
+            "{form:?}: mass error {mass_err} vs {mass_scale}"
+        );
+        assert!(
+            momentum_err <= 1e-4 * momentum_scale,
+            "{form:?}: momentum error {momentum_err} vs {momentum_scale}"
+        );
+        gpu.grid_update(&params).unwrap();
+        gpu.g2p(&params).unwrap();
+        next_scatters.push(gpu.read_grid_accumulators(&params).unwrap());
+    }
+    let [(mass_a, momentum_a), (mass_b, momentum_b)] = &next_scatters[..] else {
+        unreachable!("one scatter per form")
+    };
+    let mass_scale = max_abs(mass_a.iter().copied());
+    let mass_err = max_abs(mass_a.iter().zip(mass_b).map(|(a, b)| a - b));
+    let momentum_scale = max_abs(momentum_a.iter().map(|m| m.abs().max_element()));
+    let momentum_err = max_diff_vec3(momentum_a, momentum_b);
+    println!(
+        "the next substep's scatter, runs against planes: max mass difference {:.2e}, momentum {:.2e} of the largest",
+        mass_err / mass_scale,
+        momentum_err / momentum_scale
+    );
+    assert!(
+        mass_scale > 0.0 && mass_err <= 1e-5 * mass_scale,
+        "next scatter: mass {mass_err} vs {mass_scale}"
+    );
+    assert!(
+        momentum_err <= 1e-4 * momentum_scale,
+        "next scatter: momentum {momentum_err} vs {momentum_scale}"
+    );
 }
 
 /// A tank whose water touches every wall, on 32 x 26 x 25 nodes: the high walls' reach (nodes R - 3

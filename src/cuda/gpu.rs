@@ -14,7 +14,7 @@ use super::library;
 use super::lifecycle::LifecycleKernels;
 use super::mirror_walls::MirrorWalls;
 use super::modules::{LoadedModules, Origin};
-use super::one_pass::OnePass;
+use super::one_pass::{FloatScatter, OnePass};
 use super::p2g::P2g;
 use super::p2g_init::P2gInit;
 use super::p2g_tiled::P2gTiled;
@@ -41,6 +41,8 @@ pub struct CudaOptions {
     /// The fused pipeline stores its particles in bin order, gathering them there at each binning
     /// (bin_order.rs); off, they stay at their slots (for comparing the two).
     pub bin_order: bool,
+    /// How one_pass's float scatter sums its runs (one_pass.rs).
+    pub float_scatter: FloatScatter,
 }
 
 impl Default for CudaOptions {
@@ -50,13 +52,14 @@ impl Default for CudaOptions {
             block_size: 128,
             graphs: true,
             bin_order: true,
+            float_scatter: FloatScatter::BySize,
         }
     }
 }
 
 impl CudaOptions {
-    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE`, `MPM_CUDA_GRAPHS` and
-    /// `MPM_BIN_ORDER` where set.
+    /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE`, `MPM_CUDA_GRAPHS`,
+    /// `MPM_BIN_ORDER` and `MPM_FLOAT_SCATTER` where set.
     pub fn from_env() -> Result<CudaOptions> {
         let mut options = CudaOptions::default();
         if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
@@ -86,6 +89,9 @@ impl CudaOptions {
                      default) or 0 (they stay at their slots)"
                 ),
             };
+        }
+        if let Ok(text) = std::env::var("MPM_FLOAT_SCATTER") {
+            options.float_scatter = FloatScatter::parse(&text)?;
         }
         options.validate()?;
         Ok(options)
@@ -131,7 +137,7 @@ pub struct Kernels {
 }
 
 impl Kernels {
-    fn load(modules: &LoadedModules) -> Result<Kernels> {
+    fn load(modules: &LoadedModules, options: &CudaOptions, multiprocessors: u32) -> Result<Kernels> {
         Ok(Kernels {
             bins: BinKernels::load(modules)?,
             bin_order: GatherIntoBinOrder::load(modules)?,
@@ -143,7 +149,7 @@ impl Kernels {
             grid_update: GridUpdate::load(modules)?,
             g2p: G2p::load(modules)?,
             g2p2g: G2p2g::load(modules)?,
-            one_pass: OnePass::load(modules)?,
+            one_pass: OnePass::load(modules, options.float_scatter, multiprocessors)?,
             lifecycle: LifecycleKernels::load(modules)?,
             spawn: SpawnKernels::load(modules)?,
             stats: StatsKernel::load(modules)?,
@@ -180,15 +186,16 @@ impl Gpu {
         unsafe { ctx.disable_event_tracking() };
         let stream = ctx.new_stream().context("creating a CUDA stream")?;
         let modules = LoadedModules::load(&ctx)?;
-        let kernels = Kernels::load(&modules)?;
         let multiprocessors = ctx
             .attribute(cudarc::driver::sys::CUdevice_attribute::CU_DEVICE_ATTRIBUTE_MULTIPROCESSOR_COUNT)
             .context("reading the multiprocessor count")?;
+        let multiprocessors = multiprocessors.max(1) as u32;
+        let kernels = Kernels::load(&modules, options, multiprocessors)?;
         Ok(Gpu {
             launcher: Launcher {
                 stream,
                 block_size: options.block_size,
-                multiprocessors: multiprocessors.max(1) as u32,
+                multiprocessors,
                 sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
             },
             kernels,

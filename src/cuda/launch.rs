@@ -26,6 +26,19 @@ impl Kernel {
         })
     }
 
+    /// How many blocks of `block_size` threads and `shared_mem_bytes` of dynamic shared memory one
+    /// multiprocessor holds at once (its registers and launch bounds decide).
+    pub fn resident_blocks(&self, block_size: u32, shared_mem_bytes: u32) -> Result<u32> {
+        self.function
+            .occupancy_max_active_blocks_per_multiprocessor(block_size, shared_mem_bytes as usize, None)
+            .with_context(|| {
+                format!(
+                    "asking the driver how many blocks of `{}` a multiprocessor holds",
+                    self.name
+                )
+            })
+    }
+
     /// Launches the kernel on `launcher`'s stream with the arguments `args` pushes, inside an NVTX
     /// range of the kernel's name.
     ///

@@ -63,6 +63,7 @@ pub use gpu::CudaOptions;
 pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
+pub use one_pass::FloatScatter;
 pub use particles::BYTES_PER_PARTICLE;
 pub use ranks::CudaRanks;
 pub use solver::CudaSolver;

@@ -3,13 +3,15 @@
 //! particle's density, and scatters the next substep's mass and momentum; with `Gather::None` it is
 //! the scatter alone, from the state and density the particles carry (the first substep after they
 //! were spawned or uploaded). One kernel for both (an entry point per scatter, each serving both
-//! uses), so both scatter with the same instructions.
+//! uses), so both scatter with the same instructions. The float scatter has two entry points, the
+//! size of the scene choosing (`FloatScatter`).
 
 use super::launch::{Kernel, Launcher, NULL_POINTER};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
+use crate::contract::TILE_THREADS;
 use crate::sim::{Params, ScatterMode};
-use anyhow::Result;
+use anyhow::{bail, Result};
 use cudarc::driver::PushKernelArg;
 
 /// Channels per tile node of the fixed-point scatter: mass, momentum xyz.
@@ -24,18 +26,83 @@ pub enum Gather {
     Substep,
 }
 
-/// The kernel's two entry points, one per scatter: each is compiled for its own blocks per SM.
+/// How the float scatter sums a warp's runs of particles (kernels/one_pass.cu's `Scatter`):
+/// `MPM_FLOAT_SCATTER=runs` or `planes` fixes it, for comparing the two; by default the size of
+/// the scene chooses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloatScatter {
+    /// `runs` where the particles are fewer than PLANES_FROM_WAVES times what the device holds of
+    /// the planes kernel at once, `planes` from there.
+    BySize,
+    /// Node by node (`one_pass_float`): the shortest warp, for scenes too small to fill the device.
+    Runs,
+    /// A plane of 9 nodes at a time, in the shuffle steps the warp's longest run needs
+    /// (`one_pass_float_planes`): the fewest shuffles, for scenes that fill it.
+    Planes,
+}
+
+impl FloatScatter {
+    /// The `MPM_FLOAT_SCATTER` value `text`.
+    pub fn parse(text: &str) -> Result<FloatScatter> {
+        match text.trim() {
+            "runs" => Ok(FloatScatter::Runs),
+            "planes" => Ok(FloatScatter::Planes),
+            _ => bail!(
+                "MPM_FLOAT_SCATTER={text:?}: use runs or planes (leave it unset and the scene's size chooses)"
+            ),
+        }
+    }
+}
+
+/// The planes kernel from this many times the particles the device holds of it at once (its
+/// resident threads: 67,584 on an H100). Measured there (BENCHMARKS.md 0t), planes against runs:
+/// columns of 65,536 particles +6.4 %, 131,072 +0.9 %, 196,608 -1.2 %, 524,288 -5.1 %; the dam break
+/// -6.4 %, `dam-break-1m` -14.5 % (the fountain, 60,000 slots of sparse jets, -5.2 % under one wave: the
+/// rule misses it).
+const PLANES_FROM_WAVES: u64 = 2;
+
+/// The kernel's entry points: one per scatter (two for the float scatter), each compiled for its own
+/// blocks per SM.
 pub struct OnePass {
     float: Kernel,
+    float_planes: Kernel,
     fixed: Kernel,
+    /// The particles from which the float scatter runs by planes (0: always, u64::MAX: never).
+    planes_from: u64,
 }
 
 impl OnePass {
-    pub fn load(modules: &LoadedModules) -> Result<OnePass> {
+    pub fn load(
+        modules: &LoadedModules,
+        float_scatter: FloatScatter,
+        multiprocessors: u32,
+    ) -> Result<OnePass> {
+        let float_planes = Kernel::load(modules, "one_pass", "one_pass_float_planes")?;
+        let planes_from = match float_scatter {
+            FloatScatter::Runs => u64::MAX,
+            FloatScatter::Planes => 0,
+            FloatScatter::BySize => {
+                let resident_threads = u64::from(float_planes.resident_blocks(TILE_THREADS as u32, 0)?)
+                    * u64::from(TILE_THREADS as u32)
+                    * u64::from(multiprocessors);
+                PLANES_FROM_WAVES * resident_threads
+            }
+        };
         Ok(OnePass {
             float: Kernel::load(modules, "one_pass", "one_pass_float")?,
+            float_planes,
             fixed: Kernel::load(modules, "one_pass", "one_pass_fixed")?,
+            planes_from,
         })
+    }
+
+    /// The float scatter's entry point for `num_particles` particles.
+    fn float_kernel(&self, num_particles: u32) -> &Kernel {
+        if u64::from(num_particles) >= self.planes_from {
+            &self.float_planes
+        } else {
+            &self.float
+        }
     }
 
     pub fn launch(&self, l: &Launcher, gather: Gather, params: &Params, d: &DeviceState) -> Result<()> {
@@ -46,10 +113,11 @@ impl OnePass {
         let (kernel, config) = if fixed {
             (&self.fixed, d.bins.tiled_pass(l, SCATTER_CHANNELS))
         } else {
-            (&self.float, d.bins.tiled_pass(l, 0))
+            (self.float_kernel(params.num_particles), d.bins.tiled_pass(l, 0))
         };
         let gather = u32::from(gather == Gather::Substep);
-        // SAFETY: the arguments match one_pass_float and one_pass_fixed in kernels/one_pass.cu; the
+        // SAFETY: the arguments match one_pass_float, one_pass_float_planes and one_pass_fixed in
+        // kernels/one_pass.cu (one parameter list); the
         // bin list, order and node-block list are sized for this grid and these particles; a null
         // order where the particles are stored in bin order (the kernel reads places). Without a
         // flow the sink and free-slot pointers are null and never read (no sinks); without `gather`
@@ -72,5 +140,21 @@ impl OnePass {
                     .sinks(d.flow.as_ref());
             })
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FloatScatter;
+
+    #[test]
+    fn float_scatter_names_parse_and_others_are_refused_with_the_choices() {
+        assert_eq!(FloatScatter::parse("runs").unwrap(), FloatScatter::Runs);
+        assert_eq!(FloatScatter::parse(" planes\n").unwrap(), FloatScatter::Planes);
+        let err = FloatScatter::parse("plane").unwrap_err().to_string();
+        assert!(
+            err.contains("MPM_FLOAT_SCATTER=\"plane\"") && err.contains("runs or planes"),
+            "{err}"
+        );
     }
 }
