@@ -117,11 +117,10 @@ impl OnePass {
         };
         let gather = u32::from(gather == Gather::Substep);
         // SAFETY: the arguments match one_pass_float, one_pass_float_planes and one_pass_fixed in
-        // kernels/one_pass.cu (one parameter list); the
-        // bin list, order and node-block list are sized for this grid and these particles; a null
-        // order where the particles are stored in bin order (the kernel reads places). Without a
-        // flow the sink and free-slot pointers are null and never read (no sinks); without `gather`
-        // the node velocities are not read.
+        // kernels/one_pass.cu (one parameter list); the bin list, order and node-block list are
+        // sized for this grid and these particles; a null order where the particles are stored in
+        // bin order (the kernel reads places). Without a flow the sink and free-slot pointers are
+        // null and never read (no sinks); without `gather` the node velocities are not read.
         unsafe {
             kernel.launch(l, config, |a| {
                 a.arg(params).arg(&gather).arg(list);
