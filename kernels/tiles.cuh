@@ -238,16 +238,18 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
 
 
 
+// The grid's node block of the tile's node block k (0..26, as the tile's marks).
+__device__ __forceinline__ u32 tile_node_block(const Tile& t, const NodeBlocks& blocks, u32 k) {
+    return node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1, t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
+                            t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1);
+}
+
 // Lists, once per substep, the node blocks marked in the tile's marks (global atomics). Every thread of
 // the block calls it after a barrier; it ends with one, so the marks can be cleared for the next bin.
 __device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const NodeBlocks& blocks, const BlockMarks& marks,
                                                         const u32* tile_marks) {
     for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) {
-        if (tile_marks[k]) {
-            mark_node_block(marks, node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1,
-                                                    t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
-                                                    t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1));
-        }
+        if (tile_marks[k]) mark_node_block(marks, tile_node_block(t, blocks, k));
     }
     __syncthreads();
 }
@@ -263,11 +265,7 @@ __device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const Nod
     for (u32 offset = 16; offset > 0; offset >>= 1) covered |= __shfl_xor_sync(0xffffffffu, covered, offset);
 #endif
     const u32 k = threadIdx.x & 31u;
-    if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) {
-        mark_node_block(marks, node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1,
-                                                t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
-                                                t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1));
-    }
+    if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) mark_node_block(marks, tile_node_block(t, blocks, k));
 }
 
 // Calls body(k, node) for each tile node k inside the grid, `node` its grid index; then lists the
