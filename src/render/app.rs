@@ -45,7 +45,7 @@ use winit::window::{Window, WindowId};
 mod snapshot;
 mod stepping;
 
-use stepping::{step_frames, SimGlance, Stepped};
+use stepping::{SimGlance, Stepped, Stepper};
 
 pub struct ViewerOptions {
     pub scene: Scene,
@@ -232,6 +232,8 @@ struct ViewerApp {
     step_costs: StepCosts,
     /// What was stepped while the last frame was drawn, for the next draw to show and account.
     stepped: Option<Stepped>,
+    /// The thread that steps the simulation beside each draw.
+    stepper: Stepper,
 }
 
 impl ViewerApp {
@@ -279,6 +281,7 @@ impl ViewerApp {
             draw_costs: DrawCosts::default(),
             step_costs: StepCosts::default(),
             stepped: None,
+            stepper: Stepper::new()?,
             options,
         })
     }
@@ -649,25 +652,20 @@ impl ViewerApp {
         }
         // The particles are in the GL buffer: the next frames are stepped from here on, beside the
         // panel, the drawing and the present, on the simulation's own CUDA stream after the feed.
-        let stepping = self.sim.take_if(|_| frames > 0);
-        let (drawn, stepped) = std::thread::scope(|scope| {
-            let worker = stepping.map(|mut sim| {
-                scope.spawn(move || {
-                    let stepped = step_frames(&mut sim, frames);
-                    (sim, stepped)
-                })
-            });
-            let drawn = self.draw_frame(fed, domain, glance, record, last_frame);
-            let stepped = worker.map(|worker| {
-                worker
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-            });
-            (drawn, stepped)
-        });
+        let handed = Instant::now();
+        let stepping = match self.sim.take_if(|_| frames > 0) {
+            Some(sim) => {
+                self.stepper.start(sim, frames);
+                true
+            }
+            None => false,
+        };
+        let drawn = self.draw_frame(fed, domain, glance, record, last_frame);
+        let stepped = stepping.then(|| self.stepper.finish());
         self.draw_costs.lap(DrawSection::StepWait);
         if let Some((sim, stepped)) = stepped {
-            self.draw_costs.stepped(stepped.took);
+            let handover = (stepped.began - handed) + stepped.ended.elapsed();
+            self.draw_costs.stepped(stepped.took, handover);
             self.sim = Some(sim);
             self.stepped = Some(stepped);
         }

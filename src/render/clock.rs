@@ -164,12 +164,18 @@ mod tests {
         assert_eq!(costs.summary(), None);
         for _ in 0..4 {
             costs.begin();
-            costs.stepped(std::time::Duration::from_millis(10));
+            costs.stepped(
+                std::time::Duration::from_millis(10),
+                std::time::Duration::from_micros(50),
+            );
         }
         let line = costs.summary().unwrap();
         assert!(line.starts_with("feed "), "{line}");
         assert!(line.contains(", step wait "), "{line}");
-        assert!(line.ends_with("; stepping 10.00 (beside the draw)"), "{line}");
+        assert!(
+            line.ends_with("; stepping 10.00 (beside the draw), handover 0.05"),
+            "{line}"
+        );
 
         let mut steps = StepCosts::default();
         assert_eq!(steps.summary(), None);
@@ -226,6 +232,8 @@ pub struct DrawCosts {
     seconds: [f64; 6],
     /// The stepping thread's wall time, beside the sections.
     stepping: f64,
+    /// Handing the simulation to the stepping thread and taking it back, beyond the stepping.
+    handover: f64,
     draws: u64,
     lap: Option<std::time::Instant>,
 }
@@ -245,13 +253,16 @@ impl DrawCosts {
         }
     }
 
-    /// The stepping thread took `took` in this draw (beside the panel, the drawing and the present).
-    pub fn stepped(&mut self, took: std::time::Duration) {
+    /// The stepping thread took `took` in this draw (beside the panel, the drawing and the present),
+    /// and its handover (from the simulation handed over to the thread's start, and from the thread's
+    /// end to the simulation taken back) `handover` more.
+    pub fn stepped(&mut self, took: std::time::Duration, handover: std::time::Duration) {
         self.stepping += took.as_secs_f64();
+        self.handover += handover.as_secs_f64();
     }
 
-    /// `feed 0.12, panel 0.50, ..., step wait 7.10; stepping 12.01 (beside the draw)` ms per draw;
-    /// `None` before the first draw.
+    /// `feed 0.12, panel 0.50, ..., step wait 7.10; stepping 12.01 (beside the draw), handover 0.05`
+    /// ms per draw; `None` before the first draw.
     pub fn summary(&self) -> Option<String> {
         (self.draws > 0).then(|| {
             let per_draw = |s: f64| s * 1e3 / self.draws as f64;
@@ -260,9 +271,10 @@ impl DrawCosts {
                 .map(|&s| format!("{} {:.2}", s.name(), per_draw(self.seconds[s as usize])))
                 .collect();
             format!(
-                "{}; stepping {:.2} (beside the draw)",
+                "{}; stepping {:.2} (beside the draw), handover {:.2}",
                 parts.join(", "),
-                per_draw(self.stepping)
+                per_draw(self.stepping),
+                per_draw(self.handover)
             )
         })
     }

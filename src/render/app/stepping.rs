@@ -6,8 +6,80 @@
 use super::ViewerApp;
 use crate::render::clock::Pacing;
 use crate::sim::{PhaseTimings, Push, Simulation};
+use anyhow::{Context, Result};
 use glam::Vec2;
+use std::sync::mpsc::{channel, Receiver, Sender};
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// The stepping thread, one for the viewer's life: a draw hands it the simulation and the frames to
+/// step ([`Stepper::start`]) and takes both back before its end ([`Stepper::finish`]). One thread
+/// rather than one a draw, so that no draw waits for a thread to start and end around its stepping.
+pub(super) struct Stepper {
+    jobs: Option<Sender<(Simulation, u32)>>,
+    done: Receiver<(Simulation, Stepped)>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Stepper {
+    pub(super) fn new() -> Result<Stepper> {
+        let (jobs, inbox) = channel::<(Simulation, u32)>();
+        let (outbox, done) = channel();
+        let thread = std::thread::Builder::new()
+            .name("mpm-stepping".into())
+            .spawn(move || {
+                for (mut sim, frames) in inbox {
+                    let stepped = step_frames(&mut sim, frames);
+                    if outbox.send((sim, stepped)).is_err() {
+                        break;
+                    }
+                }
+            })
+            .context("starting the viewer's stepping thread")?;
+        Ok(Stepper {
+            jobs: Some(jobs),
+            done,
+            thread: Some(thread),
+        })
+    }
+
+    /// Hands `sim` to the thread to step `frames` 60 Hz frames ([`step_frames`]).
+    pub(super) fn start(&mut self, sim: Simulation, frames: u32) {
+        let handed = match &self.jobs {
+            Some(jobs) => jobs.send((sim, frames)).is_ok(),
+            None => false,
+        };
+        if !handed {
+            self.resume_panic();
+        }
+    }
+
+    /// Takes the simulation back once the frames handed over are stepped, with what was stepped.
+    pub(super) fn finish(&mut self) -> (Simulation, Stepped) {
+        match self.done.recv() {
+            Ok(stepped) => stepped,
+            Err(_) => self.resume_panic(),
+        }
+    }
+
+    /// The thread ended early, which only a panic on it does: resumed here, on the viewer's thread.
+    fn resume_panic(&mut self) -> ! {
+        self.jobs = None;
+        match self.thread.take().map(JoinHandle::join) {
+            Some(Err(panic)) => std::panic::resume_unwind(panic),
+            _ => panic!("the viewer's stepping thread ended without a panic"),
+        }
+    }
+}
+
+impl Drop for Stepper {
+    fn drop(&mut self) {
+        self.jobs = None; // its loop ends with the channel
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
 
 /// Wall time a draw may spend stepping before it draws what it has: a frame that costs more is
 /// split over several draws (the simulation keeps its place), so the window keeps answering.
@@ -43,6 +115,10 @@ pub(super) struct Stepped {
     simulated: f64,
     /// Wall time it took.
     pub(super) took: Duration,
+    /// When the stepping thread began and ended it: against when the simulation was handed over
+    /// and taken back, the handover's cost.
+    pub(super) began: Instant,
+    pub(super) ended: Instant,
     /// Substeps, smallest dt and largest CFL number of the last frame it completed.
     last_steps: Option<(u32, f32, f32)>,
     over_cfl: u64,
@@ -154,6 +230,8 @@ pub(super) fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
         completed: 0,
         simulated: 0.0,
         took: Duration::ZERO,
+        began: started,
+        ended: started,
         last_steps: None,
         over_cfl: 0,
         timings: None,
@@ -180,6 +258,7 @@ pub(super) fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
         }
     }
     stepped.simulated = sim.time_stepped() - time_before;
-    stepped.took = started.elapsed();
+    stepped.ended = Instant::now();
+    stepped.took = stepped.ended - started;
     stepped
 }
