@@ -132,14 +132,15 @@ __device__ __forceinline__ WarpRun warp_run(u32 key) {
 }
 
 // Sums N values over the run into its first lane's `values` (the other lanes keep partial sums), in
-// STEPS shuffle steps: whole for runs of up to 2^STEPS lanes (five: any run).
+// the shuffle steps that runs of up to `lanes` lanes need: five for any run (32), three for runs of
+// up to 8 (warp_longest_run tells a pass that sums many values at once how few it may take; the
+// steps left out would add nothing to the heads' sums, so these are the same bits).
 // Floats for the float scatter; 64-bit integers for the fixed-point one, each lane's contribution
 // rounded before the sum, so the sums stay exact and independent of which lanes share a run.
-template <int STEPS = 5, typename T, int N>
-__device__ __forceinline__ void warp_run_sum(WarpRun run, T (&values)[N]) {
+template <typename T, int N>
+__device__ __forceinline__ void warp_run_sum(WarpRun run, T (&values)[N], u32 lanes = 32) {
     const u32 lane = threadIdx.x & 31u;
-#pragma unroll
-    for (u32 offset = 1; offset < (1u << STEPS); offset <<= 1) {
+    for (u32 offset = 1; offset < lanes; offset <<= 1) {
 #pragma unroll
         for (int k = 0; k < N; ++k) {
             const T x = __shfl_down_sync(0xffffffffu, values[k], offset);
@@ -158,22 +159,6 @@ __device__ __forceinline__ u32 warp_longest_run(WarpRun run) {
     for (u32 offset = 16; offset > 0; offset >>= 1) longest = max(longest, __shfl_xor_sync(0xffffffffu, longest, offset));
     return longest;
 #endif
-}
-
-// warp_run_sum in as many shuffle steps as runs of `longest` lanes need (warp_longest_run; three for
-// runs of up to 8, none where every run is one lane), each step shuffling all N values: for a pass
-// that sums many values at once, where the five steps of warp_run_sum would mostly add nothing.
-// The heads' sums are warp_run_sum's, bit for bit: the steps left out add nothing to them.
-template <typename T, int N>
-__device__ __forceinline__ void warp_run_sum_within(WarpRun run, u32 longest, T (&values)[N]) {
-    const u32 lane = threadIdx.x & 31u;
-    for (u32 offset = 1; offset < longest; offset <<= 1) {
-#pragma unroll
-        for (int k = 0; k < N; ++k) {
-            const T x = __shfl_down_sync(0xffffffffu, values[k], offset);
-            if (lane + offset <= run.last) values[k] += x;
-        }
-    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -76,7 +76,7 @@ __device__ __forceinline__ void scatter_runs_in(const Params& params, const Sten
         impulse_at(q, w, d0, d1, d2, impulse);
         float sums[4] = {impulse[0], impulse[1], impulse[2], w * m_p};
         if (!live) sums[0] = sums[1] = sums[2] = sums[3] = 0.0f;
-        warp_run_sum<STEPS>(run, sums);
+        warp_run_sum(run, sums, 1u << STEPS);
         if (run.head && live) atomic_add_mass_momentum(&grid_acc[node], sums[0], sums[1], sums[2], sums[3]);
     })
 }
@@ -91,8 +91,9 @@ __device__ __forceinline__ void scatter_runs(const Params& params, const Stencil
 }
 
 // Scatter::FloatPlanes for one particle a lane: the plane's mass and momentum sums summed over the
-// runs (warp_run_sum_within), then the run's head adds each node's sums with one vector atomic. The
-// heads' sums are scatter_runs's, bit for bit. Every lane of the warp calls it.
+// runs (warp_run_sum, in the steps the warp's longest run needs), then the run's head adds each
+// node's sums with one vector atomic. The heads' sums are scatter_runs's, bit for bit. Every lane
+// of the warp calls it.
 __device__ __forceinline__ void scatter_runs_by_plane(const Params& params, const Stencil& s,
                                                       const ParticleImpulse& q, bool live, WarpRun run,
                                                       float4* grid_acc) {
@@ -118,7 +119,7 @@ __device__ __forceinline__ void scatter_runs_by_plane(const Params& params, cons
             sums[4 * k + 2] = live ? impulse[2] : 0.0f;
             sums[4 * k + 3] = live ? w * m_p : 0.0f;
         }
-        warp_run_sum_within(run, longest, sums);
+        warp_run_sum(run, sums, longest);
         if (run.head && live) {
             const u32 first = s.base_index + oz * plane;
 #pragma unroll
