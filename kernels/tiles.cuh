@@ -206,15 +206,26 @@ __device__ __forceinline__ u64 tile_global_units(i64 units) {
     return (u64)(units << TILE_UNIT_SHIFT);
 }
 
+// Whether a contribution (in tile units, before rounding) is small enough for the tile; not NaN.
+__device__ __forceinline__ bool tile_takes(float tile_scaled) {
+    return fabsf(tile_scaled) < TILE_CONTRIBUTION_LIMIT;
+}
+
+// Adds a contribution the tile takes (tile_takes), rounded as fixed_point_units rounds, to tile
+// accumulator `slot`; true where the 32-bit sum overflowed, for the caller to count.
+__device__ __forceinline__ bool tile_add_taken(int* slot, float tile_scaled) {
+    const int units = (int)__float2ll_rn(tile_scaled);
+    const int before = atomicAdd(slot, units);
+    const int after = (int)((u32)before + (u32)units);
+    return (units > 0) ? after < before : after > before;
+}
+
 // Adds a contribution (in tile units, before rounding) to tile accumulator `slot`; false where it is
 // too large for the tile, for the caller to add to the grid. A sum that overflows 32 bits is counted
 // (the host reports it).
 __device__ __forceinline__ bool tile_add(int* slot, float tile_scaled, StepCounters* counters) {
-    if (!(fabsf(tile_scaled) < TILE_CONTRIBUTION_LIMIT)) return false;  // also NaN
-    const int units = (int)__float2ll_rn(tile_scaled);  // rounded as fixed_point_units rounds
-    const int before = atomicAdd(slot, units);
-    const int after = (int)((u32)before + (u32)units);
-    if ((units > 0) ? after < before : after > before) atomicAdd(&counters->fixed_overflows, 1u);
+    if (!tile_takes(tile_scaled)) return false;
+    if (tile_add_taken(slot, tile_scaled)) atomicAdd(&counters->fixed_overflows, 1u);
     return true;
 }
 
