@@ -16,7 +16,8 @@
 //   nodes for scenes that fill it, where the runs' shuffles bound the pass; both shuffle only as
 //   many steps as the warp's longest run needs (three for runs of up to 8, not five);
 // - fixed-point scatter: four channels of a shared fixed-point tile per bin (tiles.cuh), flushed once
-//   per tile node, as p2g_tiled.cu (integer runs measured slower there).
+//   per tile node, as p2g_tiled.cu, without a branch per contribution (integer warp runs before the
+//   tile measured slower, BENCHMARKS.md 0h and 0u).
 // Measured on the H200 (2026-11-24, ncu at bench-655k): the four-channel tile in both modes took
 // 222 us, the float runs 124 us (g2p2g and p2g of the binned pipeline: 97 + 78 us). On the H100
 // (2026-11-26, BENCHMARKS.md 0t), with the warps' marks: the runs' shuffles 40 % of one_pass's time at
