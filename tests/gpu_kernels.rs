@@ -180,6 +180,29 @@ fn run_phases(cpu: &mut CpuSolver, gpu: &mut CudaSolver, params: &Params, last: 
     }
 }
 
+/// The scatter's grid sums on the GPU against the CPU's: mass within 1e-5 and momentum within 1e-4 of
+/// their largest (the tolerances of this file's note); prints both errors after `what`.
+fn assert_scatter_matches_cpu(gpu: &mut CudaSolver, cpu: &CpuSolver, params: &Params, what: &str) {
+    let (mass, momentum) = gpu.read_grid_accumulators(params).unwrap();
+    let mass_scale = max_abs(cpu.grid.mass.iter().copied());
+    let mass_err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
+    let momentum_scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
+    let momentum_err = max_diff_vec3(&momentum, &cpu.grid.momentum);
+    println!(
+        "{what}: max mass error {:.2e}, max momentum error {:.2e} of the largest",
+        mass_err / mass_scale,
+        momentum_err / momentum_scale
+    );
+    assert!(
+        mass_err <= 1e-5 * mass_scale,
+        "{what}: mass error {mass_err} vs {mass_scale}"
+    );
+    assert!(
+        momentum_err <= 1e-4 * momentum_scale,
+        "{what}: momentum error {momentum_err} vs {momentum_scale}"
+    );
+}
+
 fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
     let cpu = CpuSolver::new(particles.clone(), scene.grid_res);
     let gpu = CudaSolver::from_particles(scene, particles, CudaOptions::default()).expect("CUDA solver");
@@ -327,24 +350,7 @@ fn both_float_scatter_forms_match_cpu() {
         let mut cpu = CpuSolver::new(particles.clone(), scene.grid_res);
         let mut gpu = CudaSolver::from_particles(&scene, &particles, options).expect("CUDA solver");
         run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
-        let (mass, momentum) = gpu.read_grid_accumulators(&params).unwrap();
-        let mass_scale = max_abs(cpu.grid.mass.iter().copied());
-        let mass_err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
-        let momentum_scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
-        let momentum_err = max_diff_vec3(&momentum, &cpu.grid.momentum);
-        println!(
-            "{form:?}: max mass error {:.2e}, max momentum error {:.2e} of the largest",
-            mass_err / mass_scale,
-            momentum_err / momentum_scale
-        );
-        assert!(
-            mass_err <= 1e-5 * mass_scale,
-            "{form:?}: mass error {mass_err} vs {mass_scale}"
-        );
-        assert!(
-            momentum_err <= 1e-4 * momentum_scale,
-            "{form:?}: momentum error {momentum_err} vs {momentum_scale}"
-        );
+        assert_scatter_matches_cpu(&mut gpu, &cpu, &params, &format!("{form:?}"));
         gpu.grid_update(&params).unwrap();
         gpu.g2p(&params).unwrap();
         next_scatters.push(gpu.read_grid_accumulators(&params).unwrap());
@@ -674,25 +680,8 @@ fn fixed_point_scatter_past_the_tile_adds_the_same_integers() {
     let params = step_params(&scene);
     let (mut cpu, mut gpu) = pair(&scene, &particles);
     run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
-    let (mass, momentum) = gpu.read_grid_accumulators(&params).unwrap();
-    let mass_err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
-    let mass_scale = max_abs(cpu.grid.mass.iter().copied());
-    let momentum_err = max_diff_vec3(&momentum, &cpu.grid.momentum);
-    let momentum_scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
-    println!(
-        "{thrown} particles at {} m/s: first scatter, max mass error {:.2e}, momentum {:.2e} of the largest",
-        fast.x,
-        mass_err / mass_scale,
-        momentum_err / momentum_scale
-    );
-    assert!(
-        mass_err <= 1e-5 * mass_scale,
-        "mass error {mass_err} vs {mass_scale}"
-    );
-    assert!(
-        momentum_err <= 1e-4 * momentum_scale,
-        "momentum error {momentum_err} vs {momentum_scale}"
-    );
+    let what = format!("{thrown} particles at {} m/s, the first scatter", fast.x);
+    assert_scatter_matches_cpu(&mut gpu, &cpu, &params, &what);
 
     gpu.grid_update(&params).unwrap();
     gpu.g2p(&params).unwrap();
