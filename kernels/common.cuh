@@ -262,6 +262,18 @@ __device__ __forceinline__ void impulse_at(const ParticleImpulse& q, float w, fl
     }
 }
 
+// impulse_at with every multiply and add rounded as written (__fmul_rn, __fadd_rn are never
+// contracted into fused multiply-adds), for a scatter that computes a contribution in two places and
+// must get the same bits in both (tile_scatter in tiles.cuh).
+__device__ __forceinline__ void impulse_at_pinned(const ParticleImpulse& q, float w, float d0, float d1, float d2,
+                                                  float (&impulse)[3]) {
+    for (int row = 0; row < 3; ++row) {
+        const float ad = __fadd_rn(__fadd_rn(__fmul_rn(q.affine[0][row], d0), __fmul_rn(q.affine[1][row], d1)),
+                                   __fmul_rn(q.affine[2][row], d2));
+        impulse[row] = __fmul_rn(w, __fadd_rn(q.mv[row], ad));
+    }
+}
+
 // g2p for one particle (docs/physics.md step 4): gather v and C = (4/dx) sum w v_i d^T from the node
 // velocities, the optional soft wall, advection and the clamp to [1, R-2] dx; also the particle's
 // speed and signal speed c(rho) + |v| for the time-step extremes.

@@ -19,7 +19,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   FlowCounters* __restrict__ flow) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float tile_scale[1] = {params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT))};
     const float inv_scale = 1.0f / params.fixed_mass_scale;
     const float m_p = params.material.particle_mass;
     const u32 n = params.num_particles;
@@ -62,13 +62,13 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             const Stencil s = make_stencil(xp, params);
             u32 first;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                const float mass = w * m_p;
-                const float scaled = mass * tile_scale;
-                if (in_tile && tile_add(&tile[k], scaled, counters)) continue;
-                const u32 node = stencil_node(s, params, k - first);
-                grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, scaled, mass, counters);
-            })
+            tile_scatter<1>(
+                s, params, first, in_tile, tile, tile_scale,
+                [&](float w, float, float, float, float (&mass)[1]) { mass[0] = __fmul_rn(w, m_p); },
+                [&](u32 node, int, float scaled, float mass) {
+                    grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, scaled, mass, counters);
+                },
+                counters);
         }
 
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {

@@ -131,21 +131,6 @@ __device__ __forceinline__ void scatter_runs_by_plane(const Params& params, cons
     }
 }
 
-// A particle's fixed-point scatter to one node (weight w, offset d), by channel: mass, then momentum
-// (impulse_at's expression), each multiplied and added with its rounding pinned (__fmul_rn and
-// __fadd_rn are never contracted into fused multiply-adds). The fixed-point pass computes it in two
-// places, into the tile and to the grid, and a particle's integers must not depend on which took
-// them (tiles.cuh): left to itself, NVRTC contracted one place and not the other.
-__device__ __forceinline__ void fixed_scatter_values(const ParticleImpulse& q, float m_p, float w, float d0, float d1,
-                                                     float d2, float (&value)[SCATTER_CHANNELS]) {
-    value[0] = __fmul_rn(w, m_p);
-    for (int row = 0; row < 3; ++row) {
-        const float ad = __fadd_rn(__fadd_rn(__fmul_rn(q.affine[0][row], d0), __fmul_rn(q.affine[1][row], d1)),
-                                   __fmul_rn(q.affine[2][row], d2));
-        value[1 + row] = __fmul_rn(w, __fadd_rn(q.mv[row], ad));
-    }
-}
-
 template <Scatter SCATTER>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     constexpr bool FIXED = SCATTER == Scatter::FixedTile;
@@ -234,40 +219,20 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
-                // Into the tile without a branch per contribution: one too large for it adds 0 there
-                // and sends the particle through the second loop, which adds to the grid what the
-                // tile did not take, as it does for a particle outside the tile (both rare); the
-                // overflows are counted once. Measured on the H100 (BENCHMARKS.md 0u): with a branch
-                // and a fallback each, instruction fetch stalled 23 % of one_pass_fixed's samples at
-                // bench-655k and its fixed-point substep took 0.239 ms, 0.178 without.
-                bool to_grid = !in_tile;
-                u32 overflows = 0;
-                if (in_tile) {
-                    FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                        float value[SCATTER_CHANNELS];
-                        fixed_scatter_values(q, m_p, w, d0, d1, d2, value);
-                        for (int ch = 0; ch < SCATTER_CHANNELS; ++ch) {
-                            const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
-                            const bool takes = tile_takes(scaled);
-                            to_grid |= !takes;
-                            overflows += tile_add_taken(&tile[ch * TILE_NODES + k], takes ? scaled : 0.0f);
-                        }
-                    })
-                }
-                if (to_grid) {
-                    FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                        float value[SCATTER_CHANNELS];
-                        fixed_scatter_values(q, m_p, w, d0, d1, d2, value);
-                        const u32 node = stencil_node(s, params, k - first);
-                        for (int ch = 0; ch < SCATTER_CHANNELS; ++ch) {
-                            const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
-                            if (in_tile && tile_takes(scaled)) continue;
-                            if (ch == 0) grid_add(&grid_acc[node].w, &fixed_mass[node], true, scaled, value[ch], counters);
-                            else grid_add(&grid_acc[node].x + (ch - 1), &fixed_momentum[3 * (size_t)node + (ch - 1)], true, scaled, value[ch], counters);
-                        }
-                    })
-                }
-                if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
+                tile_scatter<SCATTER_CHANNELS>(
+                    s, params, first, in_tile, tile, tile_scale,
+                    [&](float w, float d0, float d1, float d2, float (&value)[SCATTER_CHANNELS]) {
+                        float impulse[3];
+                        impulse_at_pinned(q, w, d0, d1, d2, impulse);
+                        value[0] = __fmul_rn(w, m_p);
+                        for (int a = 0; a < 3; ++a) value[1 + a] = impulse[a];
+                    },
+                    [&](u32 node, int ch, float scaled, float value) {
+                        if (ch == 0) grid_add(&grid_acc[node].w, &fixed_mass[node], true, scaled, value, counters);
+                        else grid_add(&grid_acc[node].x + (ch - 1), &fixed_momentum[3 * (size_t)node + (ch - 1)], true,
+                                      scaled, value, counters);
+                    },
+                    counters);
             } else {
                 // A lane that scatters nothing is a run of its own (a key no cell has): were it to
                 // head its neighbours' run (a particle drained in this pass, between particles of

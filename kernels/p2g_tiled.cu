@@ -21,7 +21,8 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
                                      StepCounters* __restrict__ counters) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float momentum_tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float tile_scale[3] = {momentum_tile_scale, momentum_tile_scale, momentum_tile_scale};
     const float inv_scale = 1.0f / params.fixed_momentum_scale;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
@@ -46,17 +47,16 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             u32 first;
             bool far = false;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
-                float impulse[3];
-                impulse_at(q, w, d0, d1, d2, impulse);
-                for (int a = 0; a < 3; ++a) {
-                    const float scaled = impulse[a] * tile_scale;
-                    if (in_tile && tile_add(&tile[a * TILE_NODES + k], scaled, counters)) continue;
-                    const u32 node = stencil_node(s, params, k - first);
-                    grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed, scaled, impulse[a],
+            tile_scatter<3>(
+                s, params, first, in_tile, tile, tile_scale,
+                [&](float w, float d0, float d1, float d2, float (&impulse)[3]) {
+                    impulse_at_pinned(q, w, d0, d1, d2, impulse);
+                },
+                [&](u32 node, int a, float scaled, float impulse) {
+                    grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed, scaled, impulse,
                              counters);
-                }
-            })
+                },
+                counters);
         }
 
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {

@@ -220,15 +220,6 @@ __device__ __forceinline__ bool tile_add_taken(int* slot, float tile_scaled) {
     return (units > 0) ? after < before : after > before;
 }
 
-// Adds a contribution (in tile units, before rounding) to tile accumulator `slot`; false where it is
-// too large for the tile, for the caller to add to the grid. A sum that overflows 32 bits is counted
-// (the host reports it).
-__device__ __forceinline__ bool tile_add(int* slot, float tile_scaled, StepCounters* counters) {
-    if (!tile_takes(tile_scaled)) return false;
-    if (tile_add_taken(slot, tile_scaled)) atomicAdd(&counters->fixed_overflows, 1u);
-    return true;
-}
-
 // The grid node of a stencil node given as its tile offset from the stencil's base (a constant in the
 // unrolled stencil loops, so this folds to one multiply-add).
 __device__ __forceinline__ u32 stencil_node(const Stencil& s, const Params& params, u32 offset) {
@@ -245,6 +236,49 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
     } else if (const i64 units = fixed_point_units(tile_scaled, counters)) {
         atomicAdd(grid_fixed, tile_global_units(units));
     }
+}
+
+// A particle's scatter into its bin's tile: CHANNELS contributions to each stencil node, computed by
+// `values(w, d0, d1, d2, value)`, `tile_scale` their tile units per unit. Without a branch per
+// contribution: one too large for the tile adds 0 there and sends the particle through a second
+// loop, which gives what the tile did not take to `to_grid(node, channel, tile_scaled, value)`, as
+// it does every contribution of a particle whose stencil is outside the tile (`in_tile` false); both
+// are rare. The tile's 32-bit overflows are counted once. Measured on the H100 (BENCHMARKS.md 0u):
+// with a branch and a fallback for each of one_pass_fixed's 108 contributions, instruction fetch
+// stalled 23 % of its samples and its fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
+// `values` runs in both loops and a particle's integers must not depend on which one added them, so
+// it rounds as written (__fmul_rn, __fadd_rn, impulse_at_pinned): left to itself, NVRTC contracted
+// one loop into fused multiply-adds and not the other.
+template <int CHANNELS, typename Values, typename ToGrid>
+__device__ __forceinline__ void tile_scatter(const Stencil& s, const Params& params, u32 first, bool in_tile,
+                                             int* tile, const float (&tile_scale)[CHANNELS], Values values,
+                                             ToGrid to_grid, StepCounters* counters) {
+    bool missed = !in_tile;
+    u32 overflows = 0;
+    if (in_tile) {
+        FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+            float value[CHANNELS];
+            values(w, d0, d1, d2, value);
+            for (int ch = 0; ch < CHANNELS; ++ch) {
+                const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
+                const bool takes = tile_takes(scaled);
+                missed |= !takes;
+                overflows += tile_add_taken(&tile[ch * TILE_NODES + k], takes ? scaled : 0.0f);
+            }
+        })
+    }
+    if (missed) {
+        FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+            float value[CHANNELS];
+            values(w, d0, d1, d2, value);
+            const u32 node = stencil_node(s, params, k - first);
+            for (int ch = 0; ch < CHANNELS; ++ch) {
+                const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
+                if (!(in_tile && tile_takes(scaled))) to_grid(node, ch, scaled, value[ch]);
+            }
+        })
+    }
+    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
 }
 
 
