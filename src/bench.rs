@@ -307,7 +307,13 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             cuda::SORT_INTERVAL
         ),
         (true, true, Phase::G2p) => "one_pass + count strays + take_owned (every rank)".into(),
-        (true, _, _) => phase.gpu_label(scene.pipeline, fixed_point, sort_interval),
+        (true, _, _) => {
+            let label = phase.gpu_label(scene.pipeline, fixed_point, sort_interval);
+            match sim.solver().phase_kernel(phase) {
+                Some(kernel) => format!("{label}, as {kernel}"),
+                None => label,
+            }
+        }
         (false, _, _) => phase.cpu_label(),
     };
     let traffic = Traffic {

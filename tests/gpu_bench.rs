@@ -42,6 +42,16 @@ fn bench_code_measures_every_gpu_phase() {
             _ => assert!(row.median_ms > 0.0, "{} measured", row.phase),
         }
     }
+    // The particle pass names the float scatter's entry point that ran (the device's size chooses:
+    // src/cuda/one_pass.rs).
+    let pass = report.rows.iter().find(|r| r.phase == Phase::G2p.name()).unwrap();
+    assert!(
+        [", as one_pass_float", ", as one_pass_float_planes"]
+            .iter()
+            .any(|k| pass.label.ends_with(k)),
+        "{}",
+        pass.label
+    );
 
     let sweep = bench::scaling_sweep(&[65_536], 20, &options).expect("sweep");
     println!("{}", bench::sweep_table(&sweep));

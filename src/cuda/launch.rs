@@ -26,6 +26,11 @@ impl Kernel {
         })
     }
 
+    /// Its name in `kernels/`, as Nsight shows it.
+    pub fn name(&self) -> &'static str {
+        self.name
+    }
+
     /// How many blocks of `block_size` threads and `shared_mem_bytes` of dynamic shared memory one
     /// multiprocessor holds at once (its registers and launch bounds decide).
     pub fn resident_blocks(&self, block_size: u32, shared_mem_bytes: u32) -> Result<u32> {

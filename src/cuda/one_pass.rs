@@ -105,16 +105,22 @@ impl OnePass {
         }
     }
 
+    /// The entry point that runs for `params` (its scatter mode and particles).
+    pub fn kernel(&self, params: &Params) -> &Kernel {
+        if params.scatter_mode == ScatterMode::FixedPoint.code() {
+            &self.fixed
+        } else {
+            self.float_kernel(params.num_particles)
+        }
+    }
+
     pub fn launch(&self, l: &Launcher, gather: Gather, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
+        let kernel = self.kernel(params);
         // The float scatter sums in registers and needs no tile.
         let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
-        let (kernel, config) = if fixed {
-            (&self.fixed, d.bins.tiled_pass(l, SCATTER_CHANNELS))
-        } else {
-            (self.float_kernel(params.num_particles), d.bins.tiled_pass(l, 0))
-        };
+        let config = d.bins.tiled_pass(l, if fixed { SCATTER_CHANNELS } else { 0 });
         let gather = u32::from(gather == Gather::Substep);
         // SAFETY: the arguments match one_pass_float, one_pass_float_planes and one_pass_fixed in
         // kernels/one_pass.cu (one parameter list); the bin list, order and node-block list are

@@ -455,6 +455,11 @@ impl Solver for CudaSolver {
         Some(self.schedule.interval())
     }
 
+    fn phase_kernel(&self, phase: Phase) -> Option<&'static str> {
+        (self.pipeline == Pipeline::Fused && phase == Phase::G2p)
+            .then(|| self.gpu.kernels.one_pass.kernel(&self.params).name())
+    }
+
     fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
         let Some(flow) = &self.state.flow else {
             return Ok(None);

@@ -4,7 +4,7 @@
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState};
 use super::params::{Material, Params};
-use super::phase::PhaseTimings;
+use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
 use super::summary::Summary;
@@ -132,6 +132,11 @@ pub trait Solver: Send {
     /// Substeps between two binnings of the particles when none asks for one sooner, where the
     /// solver bins them on a schedule (the GPU's binned and fused pipelines); `None` otherwise.
     fn rebin_interval(&self) -> Option<u32> {
+        None
+    }
+    /// The kernel that runs `phase` for the current scene, where the backend chooses among several
+    /// (the GPU's one_pass, by scatter mode and size), for a label that names it; `None` otherwise.
+    fn phase_kernel(&self, _phase: Phase) -> Option<&'static str> {
         None
     }
     /// What emitters and sinks did so far; `None` without them.
