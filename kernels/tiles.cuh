@@ -23,9 +23,9 @@
 // - A particle whose base has left [4b - 1, 4b + 4] (moved about a cell since binning) sets
 //   `rebin_needed`; the host rebins before the next substep choice's steps.
 // - One whose stencil has left the tile altogether (only possible past the CFL bound, or when bins are
-//   stale) is scattered with global atomics instead, and counted in `tile_misses`; so is a single
-//   contribution too large for the tile's 32-bit units (several times the scale's reference speed).
-//   Nothing is dropped.
+//   stale) is scattered with global atomics instead, and counted in `tile_misses`; a single
+//   contribution too large for the tile's 32-bit units (several times the scale's reference speed)
+//   goes the same way, uncounted. Nothing is dropped.
 // - Every node block that a scatter covers is marked and listed once per substep (`mark_node_block`),
 //   so grid_update_blocks visits only those: empty space costs nothing.
 #include "common.cuh"
@@ -55,7 +55,7 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
 // 16 cells' mass, or the momentum of a cell's mass at 16 times the reference speed.
 #define TILE_UNIT_SHIFT 13
-// Largest contribution a tile takes, in tile units; larger ones go to the grid (and are counted).
+// Largest contribution a tile takes, in tile units; larger ones go to the grid (tile_scatter).
 #define TILE_CONTRIBUTION_LIMIT 67108864.0f /* 2^26 */
 
 
