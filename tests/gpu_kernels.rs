@@ -180,21 +180,26 @@ fn run_phases(cpu: &mut CpuSolver, gpu: &mut CudaSolver, params: &Params, last: 
     }
 }
 
-/// The scatter's grid sums on the GPU against the CPU's: mass within 1e-5 and momentum within 1e-4 of
-/// their largest (the tolerances of this file's note); prints both errors after `what`.
+/// The scatter's grid sums on the GPU against the CPU's ([`assert_sums_close`]).
 fn assert_scatter_matches_cpu(gpu: &mut CudaSolver, cpu: &CpuSolver, params: &Params, what: &str) {
     let (mass, momentum) = gpu.read_grid_accumulators(params).unwrap();
-    let mass_scale = max_abs(cpu.grid.mass.iter().copied());
-    let mass_err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
-    let momentum_scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
-    let momentum_err = max_diff_vec3(&momentum, &cpu.grid.momentum);
+    assert_sums_close(&mass, &momentum, &cpu.grid.mass, &cpu.grid.momentum, what);
+}
+
+/// Grid sums against reference sums: mass within 1e-5 and momentum within 1e-4 of the reference's
+/// largest (the tolerances of this file's note); prints both errors after `what`.
+fn assert_sums_close(mass: &[f32], momentum: &[Vec3], ref_mass: &[f32], ref_momentum: &[Vec3], what: &str) {
+    let mass_scale = max_abs(ref_mass.iter().copied());
+    let mass_err = max_abs(mass.iter().zip(ref_mass).map(|(a, b)| a - b));
+    let momentum_scale = max_abs(ref_momentum.iter().map(|m| m.abs().max_element()));
+    let momentum_err = max_diff_vec3(momentum, ref_momentum);
     println!(
         "{what}: max mass error {:.2e}, max momentum error {:.2e} of the largest",
         mass_err / mass_scale,
         momentum_err / momentum_scale
     );
     assert!(
-        mass_err <= 1e-5 * mass_scale,
+        mass_scale > 0.0 && mass_err <= 1e-5 * mass_scale,
         "{what}: mass error {mass_err} vs {mass_scale}"
     );
     assert!(
@@ -358,22 +363,12 @@ fn both_float_scatter_forms_match_cpu() {
     let [(mass_a, momentum_a), (mass_b, momentum_b)] = &next_scatters[..] else {
         unreachable!("one scatter per form")
     };
-    let mass_scale = max_abs(mass_a.iter().copied());
-    let mass_err = max_abs(mass_a.iter().zip(mass_b).map(|(a, b)| a - b));
-    let momentum_scale = max_abs(momentum_a.iter().map(|m| m.abs().max_element()));
-    let momentum_err = max_diff_vec3(momentum_a, momentum_b);
-    println!(
-        "the next substep's scatter, runs against planes: max mass difference {:.2e}, momentum {:.2e} of the largest",
-        mass_err / mass_scale,
-        momentum_err / momentum_scale
-    );
-    assert!(
-        mass_scale > 0.0 && mass_err <= 1e-5 * mass_scale,
-        "next scatter: mass {mass_err} vs {mass_scale}"
-    );
-    assert!(
-        momentum_err <= 1e-4 * momentum_scale,
-        "next scatter: momentum {momentum_err} vs {momentum_scale}"
+    assert_sums_close(
+        mass_b,
+        momentum_b,
+        mass_a,
+        momentum_a,
+        "the next substep's scatter, planes against runs",
     );
 }
 

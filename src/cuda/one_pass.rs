@@ -119,8 +119,12 @@ impl OnePass {
         let list = d.bins.list()?;
         let kernel = self.kernel(params);
         // The float scatter sums in registers and needs no tile.
-        let fixed = params.scatter_mode == ScatterMode::FixedPoint.code();
-        let config = d.bins.tiled_pass(l, if fixed { SCATTER_CHANNELS } else { 0 });
+        let tile_channels = if std::ptr::eq(kernel, &self.fixed) {
+            SCATTER_CHANNELS
+        } else {
+            0
+        };
+        let config = d.bins.tiled_pass(l, tile_channels);
         let gather = u32::from(gather == Gather::Substep);
         // SAFETY: the arguments match one_pass_float, one_pass_float_planes and one_pass_fixed in
         // kernels/one_pass.cu (one parameter list); the bin list, order and node-block list are
