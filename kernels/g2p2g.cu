@@ -27,12 +27,15 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     float max_speed = 0.0f, max_signal = 0.0f;
     u32 misses = 0, pushes = 0;
     bool far = false;
+    const float unit_mass = m_p * tile_scale[0];
+    i64 mass_balance = 0;  // mass units added to the tiles less those flushed (tiles.cuh)
 
     const u32 listed = work_counts[WORK_BINS];
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
         int* tile = tile_clear<1>(tile_marks);
+        const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
 
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
@@ -62,17 +65,21 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             const Stencil s = make_stencil(xp, params);
             u32 first;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            tile_scatter<1>(
-                s, params, first, in_tile, tile, tile_scale,
+            const u32 added = tile_scatter<1>(
+                s, params, first, in_tile && tile_takes(s, 0.0f, unit_mass), tile, tile_scale,
                 [&](float w, float, float, float, float (&mass)[1]) { mass[0] = __fmul_rn(w, m_p); },
                 [&](u32 node, int, float scaled, float mass) {
                     grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, scaled, mass, counters);
-                },
-                counters);
+                });
+            if (may_wrap) mass_balance += added;
         }
 
+        // A taken particle's stencil lies inside the grid (positions are clamped to [1, R - 2] dx), so
+        // the tile nodes outside it hold nothing for the mass balance.
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u64 units = tile_global_units(tile[k]);
+            const u32 mass = (u32)tile[k];
+            if (may_wrap) mass_balance -= mass;
+            const u64 units = tile_global_units(mass);
             if (units != 0) {
                 if (fixed) atomicAdd(&fixed_mass[node], units);
                 else atomicAdd(&grid_acc[node].w, fixed_point_value(units, inv_scale));
@@ -83,6 +90,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
         atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
     }
+    tile_count_mass_wraps(mass_balance, counters);
     if (misses) atomicAdd(&counters->tile_misses, misses);
     if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     if (far) counters->rebin_needed = 1u;

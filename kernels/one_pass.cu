@@ -142,10 +142,12 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     const float tile_scale[SCATTER_CHANNELS] = {params.fixed_mass_scale * unit, momentum_tile_scale,
                                                 momentum_tile_scale, momentum_tile_scale};
     const float m_p = params.material.particle_mass;
+    const float unit_mass = m_p * tile_scale[0];
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
-    u32 misses = 0, pushes = 0;
+    u32 misses = 0, pushes = 0, overflows = 0;
+    i64 mass_balance = 0;  // fixed point: mass units added to the tiles less those flushed (tiles.cuh)
     bool far = false;
 
     const u32 listed = work_counts[WORK_BINS];
@@ -155,6 +157,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         int* tile = tile_memory;
         if (FIXED) tile_clear<SCATTER_CHANNELS>(tile_marks);
         u32 covered = 0u;  // float scatter: the tile's node blocks this lane's particles covered
+        const bool may_wrap = FIXED && tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
 
         // Converged: the bound is the chunk's, the same for every lane of the block. A warp wholly past
         // the chunk's end skips the iteration (warp-uniform, so the warp-wide sums stay whole); a lane
@@ -219,8 +222,9 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
-                tile_scatter<SCATTER_CHANNELS>(
-                    s, params, first, in_tile, tile, tile_scale,
+                const bool taken = in_tile && tile_takes(s, tile_reach(q, momentum_tile_scale), unit_mass);
+                const u32 added = tile_scatter<SCATTER_CHANNELS>(
+                    s, params, first, taken, tile, tile_scale,
                     [&](float w, float d0, float d1, float d2, float (&value)[SCATTER_CHANNELS]) {
                         float impulse[3];
                         impulse_at_pinned(q, w, d0, d1, d2, impulse);
@@ -231,8 +235,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                         if (ch == 0) grid_add(&grid_acc[node].w, &fixed_mass[node], true, scaled, value, counters);
                         else grid_add(&grid_acc[node].x + (ch - 1), &fixed_momentum[3 * (size_t)node + (ch - 1)], true,
                                       scaled, value, counters);
-                    },
-                    counters);
+                    });
+                if (may_wrap) mass_balance += added;
             } else {
                 // A lane that scatters nothing is a run of its own (a key no cell has): were it to
                 // head its neighbours' run (a particle drained in this pass, between particles of
@@ -249,8 +253,16 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             warp_list_marked_blocks(t, blocks, marks, covered);
             continue;
         }
+        // A taken particle's stencil lies inside the grid (positions are clamped to [1, R - 2] dx), so
+        // the tile nodes outside it hold nothing for the mass balance.
+        const u32 mass_limit = tile_mass_limit(bin.count);
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u64 units[SCATTER_CHANNELS] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),
+            const u32 mass = (u32)tile[k];
+            if (may_wrap) {
+                mass_balance -= mass;
+                overflows += mass >= mass_limit;
+            }
+            const u64 units[SCATTER_CHANNELS] = {tile_global_units(mass), tile_global_units(tile[TILE_NODES + k]),
                                                  tile_global_units(tile[2 * TILE_NODES + k]),
                                                  tile_global_units(tile[3 * TILE_NODES + k])};
             if (units[0] != 0) atomicAdd(&fixed_mass[node], units[0]);
@@ -264,6 +276,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
         atomic_max_nonnegative(&counters->max_density_bits, max_rho);
     }
+    if (FIXED) tile_count_mass_wraps(mass_balance, counters);
+    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
     if (misses) atomicAdd(&counters->tile_misses, misses);
     if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     if (far) counters->rebin_needed = 1u;

@@ -24,17 +24,20 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
     const float momentum_tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
     const float tile_scale[3] = {momentum_tile_scale, momentum_tile_scale, momentum_tile_scale};
     const float inv_scale = 1.0f / params.fixed_momentum_scale;
+    const float mass_tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const float unit_mass = params.material.particle_mass * mass_tile_scale;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
     float max_rho = 0.0f;
-    u32 misses = 0;
+    u32 misses = 0, overflows = 0;
 
     const u32 listed = work_counts[WORK_BINS];
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
         int* tile = tile_clear<3>(tile_marks);
+        const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
 
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
@@ -47,19 +50,28 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             u32 first;
             bool far = false;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            const bool taken = in_tile && tile_takes(s, tile_reach(q, momentum_tile_scale), unit_mass);
             tile_scatter<3>(
-                s, params, first, in_tile, tile, tile_scale,
+                s, params, first, taken, tile, tile_scale,
                 [&](float w, float d0, float d1, float d2, float (&impulse)[3]) {
                     impulse_at_pinned(q, w, d0, d1, d2, impulse);
                 },
                 [&](u32 node, int a, float scaled, float impulse) {
                     grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed, scaled, impulse,
                              counters);
-                },
-                counters);
+                });
         }
 
+        const float mass_limit = (float)tile_mass_limit(bin.count);
         FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
+            if (may_wrap) {
+                // The node's whole mass (this substep's mass scatter, the walls' images added) bounds
+                // its mass over the chunk's particles: in tile units exactly in fixed point, with room
+                // for a float sum's rounding otherwise.
+                const float mass = fixed ? (float)(fixed_mass[node] >> TILE_UNIT_SHIFT)
+                                         : grid_acc[node].w * mass_tile_scale * 1.001f;
+                overflows += mass >= mass_limit;
+            }
             const u64 units[3] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),
                                   tile_global_units(tile[2 * TILE_NODES + k])};
             if (fixed) {
@@ -73,5 +85,6 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
         })
     }
     atomic_max_nonnegative(&counters->max_density_bits, max_rho);
+    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
     if (misses) atomicAdd(&counters->tile_misses, misses);
 }

@@ -23,9 +23,9 @@
 // - A particle whose base has left [4b - 1, 4b + 4] (moved about a cell since binning) sets
 //   `rebin_needed`; the host rebins before the next substep choice's steps.
 // - One whose stencil has left the tile altogether (only possible past the CFL bound, or when bins are
-//   stale) is scattered with global atomics instead, and counted in `tile_misses`; a single
-//   contribution too large for the tile's 32-bit units (several times the scale's reference speed)
-//   goes the same way, uncounted. Nothing is dropped.
+//   stale) is scattered with global atomics instead, and counted in `tile_misses`; a particle moving
+//   faster than the tile's 32-bit sums are checked for (tile_takes, below) goes the same way,
+//   uncounted. Nothing is dropped.
 // - Every node block that a scatter covers is marked and listed once per substep (`mark_node_block`),
 //   so grid_update_blocks visits only those: empty space costs nothing.
 #include "common.cuh"
@@ -55,8 +55,9 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
 // 16 cells' mass, or the momentum of a cell's mass at 16 times the reference speed.
 #define TILE_UNIT_SHIFT 13
-// Largest contribution a tile takes, in tile units; larger ones go to the grid (tile_scatter).
-#define TILE_CONTRIBUTION_LIMIT 67108864.0f /* 2^26 */
+// The most tile units of a particle's mass for which a tile takes it (tile_takes): its contributions
+// (at most 0.75^3 of it, for momentum as for mass) then stay below 2^27 units, far inside 32 bits. A cell's mass is 2^27 units, so any lattice of 1 to 64 particles per cell fits.
+#define TILE_UNIT_MASS_LIMIT 268435456.0f /* 2^28 */
 
 
 struct NodeBlocks {
@@ -206,18 +207,75 @@ __device__ __forceinline__ u64 tile_global_units(i64 units) {
     return (u64)(units << TILE_UNIT_SHIFT);
 }
 
-// Whether a contribution (in tile units, before rounding) is small enough for the tile; not NaN.
-__device__ __forceinline__ bool tile_takes(float tile_scaled) {
-    return fabsf(tile_scaled) < TILE_CONTRIBUTION_LIMIT;
+// ---- The tile's 32-bit sums, checked without the atomics' returns ----
+// A tile adds each contribution with an atomic whose old value nothing reads: reading it, to catch a
+// 32-bit wrap as it happened, held one_pass_fixed's warps on every add's return (the fixed-point
+// substep 9 % longer at bench-655k and dam-break-1m, BENCHMARKS.md 0v). Whether a sum may have wrapped
+// is settled after the adds instead, from the node's mass, and counted as a fixed-point overflow:
+// - the tile takes a particle only where none of its momentum contributions can pass its mass
+//   contribution's units (tile_takes: at most the fixed-point scale's reference speed, which is at
+//   least the sound speed); a faster one goes to the grid, where its integers are the same. So a
+//   node's momentum sums over a chunk of n particles are at most M + n/2 + n/2 in magnitude, M its
+//   mass sum in tile units, and a node with M past 2^31 - n is counted (tile_mass_limit): 16 cells'
+//   mass, as when the tile checked its signed sums as they were added;
+// - mass contributions are never negative, so a mass sum wraps only past 2^32, and then reads small:
+//   where a chunk could put that much on one node, each thread counts the mass units it added
+//   (tile_scatter's return) and those it flushed; over a CUDA block the difference is 2^32 times its
+//   wraps (tile_count_mass_wraps).
+// Neither check runs for a chunk too small to reach 2^31 on any node (tile_chunk_may_wrap): at 8
+// particles per cell, any chunk of up to 302 particles (on an H100, every chunk of a scene of up to
+// 1.6 million particles).
+#define TILE_SUM_LIMIT 2139095040.0f /* 2^31 (1 - 2^-8): room for the bounds' own rounding */
+#define TILE_MAX_WEIGHT 0.4219f      /* a stencil node's largest weight, 0.75^3 (rounded up) */
+
+// The most tile units a particle's momentum contributions can have per unit weight: |d| <= 1.5 dx
+// per axis (impulse_at). NaN where its state is not finite (fmaxf alone would drop a NaN).
+__device__ __forceinline__ float tile_reach(const ParticleImpulse& q, float momentum_tile_scale) {
+    float reach = 0.0f, poison = 0.0f;
+    for (int row = 0; row < 3; ++row) {
+        const float affine = fabsf(q.affine[0][row]) + fabsf(q.affine[1][row]) + fabsf(q.affine[2][row]);
+        const float bound = fabsf(q.mv[row]) + 1.5f * affine;
+        reach = fmaxf(reach, bound);
+        poison += 0.0f * bound;
+    }
+    return (reach + poison) * momentum_tile_scale;
 }
 
-// Adds a contribution the tile takes (tile_takes), rounded as fixed_point_units rounds, to tile
-// accumulator `slot`; true where the 32-bit sum overflowed, for the caller to count.
-__device__ __forceinline__ bool tile_add_taken(int* slot, float tile_scaled) {
-    const int units = (int)__float2ll_rn(tile_scaled);
-    const int before = atomicAdd(slot, units);
-    const int after = (int)((u32)before + (u32)units);
-    return (units > 0) ? after < before : after > before;
+// Whether a tile takes a particle at stencil `s` of reach `reach` (tile_reach; 0 for a mass-only
+// tile), given the tile units of a particle's mass. Not one whose position or state is not finite:
+// on the grid, fixed_point_units counts its NaN contributions as overflows.
+__device__ __forceinline__ bool tile_takes(const Stencil& s, float reach, float unit_mass) {
+    const float poison = 0.0f * (s.fx[0] + s.fx[1] + s.fx[2]);
+    return reach + poison <= unit_mass && unit_mass <= TILE_UNIT_MASS_LIMIT;
+}
+
+// Whether a chunk of n particles could bring any node's tile sums to 2^31: each adds at most
+// TILE_MAX_WEIGHT of its unit mass to a node, its momentum no more (tile_takes), each rounded by 1/2.
+__device__ __forceinline__ bool tile_chunk_may_wrap(u32 n, float unit_mass) {
+    return (float)n * (TILE_MAX_WEIGHT * unit_mass + 0.5f) >= TILE_SUM_LIMIT;
+}
+
+// The mass sum (tile units) from which a node's sums over a chunk of n particles may have left 32
+// bits: |momentum| <= M + n/2 + n/2.
+__device__ __forceinline__ u32 tile_mass_limit(u32 n) {
+    return (u32)(TILE_SUM_LIMIT - (float)n);
+}
+
+// Counts the mass wraps of a CUDA block's tiles: `balance` is the thread's mass units added
+// (tile_scatter) less those it flushed, over its chunks that tile_chunk_may_wrap. Every thread of the
+// block calls it, after its last chunk.
+__device__ __forceinline__ void tile_count_mass_wraps(i64 balance, StepCounters* counters) {
+    __shared__ i64 warp_balance[TILE_THREADS / 32];
+    for (u32 offset = 16; offset > 0; offset >>= 1) balance += __shfl_xor_sync(0xffffffffu, balance, offset);
+    if ((threadIdx.x & 31u) == 0u) warp_balance[threadIdx.x / 32] = balance;
+    __syncthreads();
+    if (threadIdx.x == 0) {
+        i64 block = 0;
+        for (u32 w = 0; w < blockDim.x / 32; ++w) block += warp_balance[w];
+        // A whole number of 2^32s; anything else would be a bug here, reported all the same.
+        const u32 wraps = (u32)((u64)block >> 32);
+        if (block != 0) atomicAdd(&counters->fixed_overflows, wraps ? wraps : 1u);
+    }
 }
 
 // The grid node of a stencil node given as its tile offset from the stencil's base (a constant in the
@@ -238,50 +296,41 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
     }
 }
 
-// A particle's scatter into its bin's tile: CHANNELS contributions to each stencil node, computed by
-// `values(w, d0, d1, d2, value)`, `tile_scale` their tile units per unit. Without a branch per
-// contribution: one too large for the tile adds 0 there and sends the particle through a second
-// loop, which gives what the tile did not take to `to_grid(node, channel, tile_scaled, value)`, as
-// it does every contribution of a particle whose stencil is outside the tile (`in_tile` false); both
-// are rare. The tile's 32-bit overflows are counted once. Measured on the H100 (BENCHMARKS.md 0u):
-// with a branch and a fallback for each of one_pass_fixed's 108 contributions, instruction fetch
-// stalled 23 % of its samples and its fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
-// `values` runs in both loops and a particle's integers must not depend on which one added them, so
-// it rounds as written (__fmul_rn, __fadd_rn, impulse_at_pinned): left to itself, NVRTC contracted
-// one loop into fused multiply-adds and not the other.
+// A particle's scatter: CHANNELS contributions to each stencil node, computed by
+// `values(w, d0, d1, d2, value)`, `tile_scale` their tile units per unit; into its bin's tile where
+// the tile takes it (`taken`: its stencil fits, tile_place, and tile_takes), to the grid through
+// `to_grid(node, channel, tile_scaled, value)` otherwise. Returns the units it added to the tile's
+// channel 0 (the mass balance's, where channel 0 is mass). `values` runs in both branches and a
+// particle's integers must not depend on which one added them, so it rounds as written (__fmul_rn,
+// __fadd_rn, impulse_at_pinned): left to itself, NVRTC contracted one branch into fused multiply-adds
+// and not the other. Measured on the H100 (BENCHMARKS.md 0u): with a branch and a fallback for each of
+// one_pass_fixed's 108 contributions, instruction fetch stalled 23 % of its samples and its
+// fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
 template <int CHANNELS, typename Values, typename ToGrid>
-__device__ __forceinline__ void tile_scatter(const Stencil& s, const Params& params, u32 first, bool in_tile,
-                                             int* tile, const float (&tile_scale)[CHANNELS], Values values,
-                                             ToGrid to_grid, StepCounters* counters) {
-    bool missed = !in_tile;
-    u32 overflows = 0;
-    if (in_tile) {
+__device__ __forceinline__ u32 tile_scatter(const Stencil& s, const Params& params, u32 first, bool taken, int* tile,
+                                            const float (&tile_scale)[CHANNELS], Values values, ToGrid to_grid) {
+    u32 added = 0;
+    if (taken) {
         FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
             float value[CHANNELS];
             values(w, d0, d1, d2, value);
             for (int ch = 0; ch < CHANNELS; ++ch) {
-                const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
-                const bool takes = tile_takes(scaled);
-                missed |= !takes;
-                overflows += tile_add_taken(&tile[ch * TILE_NODES + k], takes ? scaled : 0.0f);
+                // Rounded as fixed_point_units rounds (no contribution the tile takes reaches 2^27 units).
+                const int units = __float2int_rn(__fmul_rn(value[ch], tile_scale[ch]));
+                atomicAdd(&tile[ch * TILE_NODES + k], units);
+                if (ch == 0) added += (u32)units;
             }
         })
-    }
-    if (missed) {
+    } else {
         FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
             float value[CHANNELS];
             values(w, d0, d1, d2, value);
             const u32 node = stencil_node(s, params, k - first);
-            for (int ch = 0; ch < CHANNELS; ++ch) {
-                const float scaled = __fmul_rn(value[ch], tile_scale[ch]);
-                if (!(in_tile && tile_takes(scaled))) to_grid(node, ch, scaled, value[ch]);
-            }
+            for (int ch = 0; ch < CHANNELS; ++ch) to_grid(node, ch, __fmul_rn(value[ch], tile_scale[ch]), value[ch]);
         })
     }
-    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
+    return added;
 }
-
-
 
 // The grid's node block of the tile's node block k (0..26, as the tile's marks).
 __device__ __forceinline__ u32 tile_node_block(const Tile& t, const NodeBlocks& blocks, u32 k) {

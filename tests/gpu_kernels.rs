@@ -34,6 +34,7 @@ fn main() -> std::process::ExitCode {
             particles_in_bin_order_run_as_particles_in_place,
             fixed_point_overflow_is_reported,
             fixed_point_scatter_past_the_tile_adds_the_same_integers,
+            fixed_point_tile_wraps_are_caught_after_the_adds,
             device_spawn_matches_scene_spawn,
             phase_timings_are_measured,
             sort_orders_particles_by_cell,
@@ -650,6 +651,59 @@ fn fixed_point_overflow_is_reported() {
         let err = gpu.take_extremes().expect_err("the overflow must be reported");
         println!("reported: {err:#}");
         assert!(format!("{err:#}").contains("overflowed"));
+    }
+}
+
+/// The fixed-point tile adds without reading the atomics' returns and settles after the adds whether
+/// a 32-bit sum may have wrapped (kernels/tiles.cuh). Piles of particles on one grid node, in the
+/// air, in a lattice of one particle per cell (a particle is a cell's mass, 2^27 tile units), each
+/// pile one chunk of a bin (fused pipeline): 30 at half the sound speed, in the tile, and 30 at 1.5
+/// times it, whose momentum would wrap the tile's node (19 cells' mass at the reference speed, past
+/// 16) and which the tile leaves to the grid, both match the CPU's scatter; 60 at 0.8 times it (the
+/// momentum of 20 cells' mass at the reference speed) and 90 at rest (38 cells' mass, past 2^32
+/// tile units, read as 6) are reported.
+fn fixed_point_tile_wraps_are_caught_after_the_adds() {
+    let block = "max = [0.6, 0.5, 0.5]";
+    assert!(SMALL_TANK.contains(block));
+    let lattice = SMALL_TANK.replace(block, &format!("{block}\nparticles_per_cell = 1"));
+    let mut scene = Scene::from_toml(&lattice, "small-tank-lattice-1").expect("the test scene is valid");
+    scene.scatter = ScatterMode::FixedPoint;
+    scene.pipeline = Pipeline::Fused;
+    let params = step_params(&scene);
+    // A grid node 6 cells past the water's end: each particle on it gives it 0.75^3 of its mass.
+    let node = Vec3::new(26.0, 12.0, 12.0) * scene.dx;
+    let pile = |count: usize, speed: f32| {
+        let mut particles = scene.spawn();
+        assert!(particles.len() > count, "the lattice has particles to pile");
+        for i in 0..count {
+            particles.x[i] = node;
+            particles.v[i] = Vec3::new(speed, 0.0, 0.0);
+            particles.c[i] = Mat3::ZERO;
+            particles.rho[i] = scene.material.rest_density;
+        }
+        particles
+    };
+    let c0 = scene.material.sound_speed();
+
+    for speed in [0.5 * c0, 1.5 * c0] {
+        let what = format!("30 particles at {speed} m/s on one node");
+        let (mut cpu, mut gpu) = pair(&scene, &pile(30, speed));
+        run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
+        assert_scatter_matches_cpu(&mut gpu, &cpu, &params, &what);
+        gpu.take_extremes()
+            .unwrap_or_else(|e| panic!("{what}: no overflow expected, got {e:#}"));
+    }
+    for (count, speed, what) in [
+        (60, 0.8 * c0, "the node's momentum may pass 2^31 tile units"),
+        (90, 0.0, "the node's mass past 2^32 tile units"),
+    ] {
+        let mut gpu =
+            CudaSolver::from_particles(&scene, &pile(count, speed), CudaOptions::default()).unwrap();
+        gpu.p2g_init(&params).unwrap();
+        gpu.p2g(&params).unwrap();
+        let err = gpu.take_extremes().expect_err(what);
+        println!("{count} particles at {speed} m/s on one node ({what}): {err:#}");
+        assert!(format!("{err:#}").contains("overflowed"), "{what}: {err:#}");
     }
 }
 

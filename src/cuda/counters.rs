@@ -80,7 +80,8 @@ impl CounterRing {
         if overflows > 0 {
             bail!(
                 "the fixed-point scatter overflowed {overflows} times since the last frame (a grid \
-                 contribution or sum left the 64-bit range at {:.3e} units/kg, {:.3e} units/(kg m/s)); \
+                 contribution or sum left the 64-bit range at {:.3e} units/kg, {:.3e} units/(kg m/s), \
+                 or a shared tile's 32-bit sum may have wrapped); \
                  the fluid is moving far faster than expected, or blowing up. Lower the CFL number; \
                  the report pipeline's float scatter (solver.pipeline = \"report\", solver.scatter = \
                  \"float\") has no such bound",
