@@ -29,6 +29,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     bool far = false;
     const float unit_mass = m_p * tile_scale[0];
     i64 mass_balance = 0;  // mass units added to the tiles less those flushed (tiles.cuh)
+    bool balanced = false;  // whether any of this CUDA block's chunks kept the mass balance
 
     const u32 listed = work_counts[WORK_BINS];
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
@@ -36,6 +37,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         const Tile t = make_tile(blocks, bin.bin);
         int* tile = tile_clear<1>(tile_marks);
         const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
+        balanced |= may_wrap;
 
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
             const u32 p = order[bin.start + j];
@@ -90,7 +92,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
         atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
         atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
     }
-    tile_count_mass_wraps(mass_balance, counters);
+    if (balanced) tile_count_mass_wraps(mass_balance, counters);
     if (misses) atomicAdd(&counters->tile_misses, misses);
     if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     if (far) counters->rebin_needed = 1u;

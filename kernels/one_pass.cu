@@ -148,6 +148,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
     u32 misses = 0, pushes = 0, overflows = 0;
     i64 mass_balance = 0;  // fixed point: mass units added to the tiles less those flushed (tiles.cuh)
+    bool balanced = false;  // whether any of this CUDA block's chunks kept the mass balance
     bool far = false;
 
     const u32 listed = work_counts[WORK_BINS];
@@ -158,6 +159,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         if (FIXED) tile_clear<SCATTER_CHANNELS>(tile_marks);
         u32 covered = 0u;  // float scatter: the tile's node blocks this lane's particles covered
         const bool may_wrap = FIXED && tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
+        balanced |= may_wrap;
 
         // Converged: the bound is the chunk's, the same for every lane of the block. A warp wholly past
         // the chunk's end skips the iteration (warp-uniform, so the warp-wide sums stay whole); a lane
@@ -276,7 +278,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
         atomic_max_nonnegative(&counters->max_density_bits, max_rho);
     }
-    if (FIXED) tile_count_mass_wraps(mass_balance, counters);
+    if (balanced) tile_count_mass_wraps(mass_balance, counters);
     if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
     if (misses) atomicAdd(&counters->tile_misses, misses);
     if (pushes) atomicAdd(&counters->backstop_pushes, pushes);

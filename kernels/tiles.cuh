@@ -263,7 +263,7 @@ __device__ __forceinline__ u32 tile_mass_limit(u32 n) {
 
 // Counts the mass wraps of a CUDA block's tiles: `balance` is the thread's mass units added
 // (tile_scatter) less those it flushed, over its chunks that tile_chunk_may_wrap. Every thread of the
-// block calls it, after its last chunk.
+// block calls it, after its last chunk, where any of the block's chunks may have wrapped.
 __device__ __forceinline__ void tile_count_mass_wraps(i64 balance, StepCounters* counters) {
     __shared__ i64 warp_balance[TILE_THREADS / 32];
     for (u32 offset = 16; offset > 0; offset >>= 1) balance += __shfl_xor_sync(0xffffffffu, balance, offset);
