@@ -216,8 +216,8 @@ __device__ __forceinline__ u64 tile_global_units(i64 units) {
 //   contribution's units (tile_takes: at most the fixed-point scale's reference speed, which is at
 //   least the sound speed); a faster one goes to the grid, where its integers are the same. So a
 //   node's momentum sums over a chunk of n particles are at most M + n/2 + n/2 in magnitude, M its
-//   mass sum in tile units, and a node with M past 2^31 - n is counted (tile_mass_limit): 16 cells'
-//   mass, as when the tile checked its signed sums as they were added;
+//   mass sum in tile units, and a node with M past 2^31 (1 - 2^-8) - n is counted (tile_mass_limit):
+//   about 16 cells' mass, within 0.4 % of where the signed sums' check counted a node before;
 // - mass contributions are never negative, so a mass sum wraps only past 2^32, and then reads small:
 //   where a chunk could put that much on one node, each thread counts the mass units it added
 //   (tile_scatter's return) and those it flushed; over a CUDA block the difference is 2^32 times its
