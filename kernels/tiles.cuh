@@ -56,7 +56,8 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 // 16 cells' mass, or the momentum of a cell's mass at 16 times the reference speed.
 #define TILE_UNIT_SHIFT 13
 // The most tile units of a particle's mass for which a tile takes it (tile_takes): its contributions
-// (at most 0.75^3 of it, for momentum as for mass) then stay below 2^27 units, far inside 32 bits. A cell's mass is 2^27 units, so any lattice of 1 to 64 particles per cell fits.
+// (at most 0.75^3 of it, momentum as mass) then stay below 2^27 units, far inside 32 bits. A cell's
+// mass is 2^27 units, so a lattice of 1 to 64 particles per cell fits.
 #define TILE_UNIT_MASS_LIMIT 268435456.0f /* 2^28 */
 
 

@@ -708,12 +708,11 @@ fn fixed_point_tile_wraps_are_caught_after_the_adds() {
 }
 
 /// The fused pipeline's fixed-point scatter adds to the grid what its shared tile does not take: a
-/// contribution too large for the tile's 32-bit units, and every contribution of a particle whose
-/// stencil left its tile since the binning. A slab of water thrown at 40 times the sound speed has
-/// contributions too large for the tile (its first scatter is held to the CPU's); one substep later
-/// it has left its tiles (misses counted), and the scatter at the end of that substep leaves the
-/// integers that the same particles, uploaded again and so binned afresh, leave: no sum depends on
-/// which particles a tile held.
+/// particle faster than the tile's 32-bit sums are checked for, and one whose stencil left its tile
+/// since the binning. A slab of water thrown at 40 times the sound speed is too fast for the tile
+/// (its first scatter is held to the CPU's); one substep later it has left its tiles (misses
+/// counted), and the scatter at the end of that substep leaves the integers that the same particles,
+/// uploaded again and so binned afresh, leave: no sum depends on which particles a tile held.
 fn fixed_point_scatter_past_the_tile_adds_the_same_integers() {
     let scene = small_tank_in(Pipeline::Fused, ScatterMode::FixedPoint);
     let mut particles = random_particles(&scene, 9);
