@@ -19,7 +19,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                                                   FlowCounters* __restrict__ flow) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float tile_scale[1] = {params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT))};
+    const float tile_scale[1] = {tile_scales(params).mass};
     const float inv_scale = 1.0f / params.fixed_mass_scale;
     const float m_p = params.material.particle_mass;
     const u32 n = params.num_particles;

@@ -106,8 +106,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
 
     const u32 available = (u32)flow->free_count;
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
-    const float momentum_tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
+    const TileScales scales = tile_scales(params);
     const bool scatter_momentum = params.density_rule == DENSITY_ADVECTED;
     const float m_p = params.material.particle_mass;
     const NodeBlocks blocks = node_blocks(params);
@@ -140,12 +139,12 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
                 mark_stencil_blocks(marks, blocks, s);
                 FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
                     const float mass = w * m_p;
-                    grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, mass * tile_scale, mass, counters);
+                    grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, mass * scales.mass, mass, counters);
                     if (scatter_momentum) {
                         const float momentum[3] = {w * (u.x * m_p), w * (u.y * m_p), w * (u.z * m_p)};
                         for (int a = 0; a < 3; ++a) {
                             grid_add(&grid_acc[node].x + a, &fixed_momentum[3 * (size_t)node + a], fixed,
-                                     momentum[a] * momentum_tile_scale, momentum[a], counters);
+                                     momentum[a] * scales.momentum, momentum[a], counters);
                         }
                     }
                 })

@@ -137,12 +137,10 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const Colliders colliders{collider_states, num_colliders, collider_sdf};
     const BlockMarks marks{block_marks, block_list, work_counts};
-    const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
-    const float momentum_tile_scale = params.fixed_momentum_scale * unit;
-    const float tile_scale[SCATTER_CHANNELS] = {params.fixed_mass_scale * unit, momentum_tile_scale,
-                                                momentum_tile_scale, momentum_tile_scale};
+    const TileScales scales = tile_scales(params);
+    const float tile_scale[SCATTER_CHANNELS] = {scales.mass, scales.momentum, scales.momentum, scales.momentum};
     const float m_p = params.material.particle_mass;
-    const float unit_mass = m_p * tile_scale[0];
+    const float unit_mass = m_p * scales.mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
@@ -224,7 +222,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
-                const bool taken = in_tile && tile_takes(s, tile_reach(q, momentum_tile_scale), unit_mass);
+                const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), unit_mass);
                 const u32 added = tile_scatter<SCATTER_CHANNELS>(
                     s, params, first, taken, tile, tile_scale,
                     [&](float w, float d0, float d1, float d2, float (&value)[SCATTER_CHANNELS]) {

@@ -21,11 +21,10 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
                                      StepCounters* __restrict__ counters) {
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    const float momentum_tile_scale = params.fixed_momentum_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
-    const float tile_scale[3] = {momentum_tile_scale, momentum_tile_scale, momentum_tile_scale};
+    const TileScales scales = tile_scales(params);
+    const float tile_scale[3] = {scales.momentum, scales.momentum, scales.momentum};
     const float inv_scale = 1.0f / params.fixed_momentum_scale;
-    const float mass_tile_scale = params.fixed_mass_scale * (1.0f / (float)(1 << TILE_UNIT_SHIFT));
-    const float unit_mass = params.material.particle_mass * mass_tile_scale;
+    const float unit_mass = params.material.particle_mass * scales.mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -50,7 +49,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             u32 first;
             bool far = false;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            const bool taken = in_tile && tile_takes(s, tile_reach(q, momentum_tile_scale), unit_mass);
+            const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), unit_mass);
             tile_scatter<3>(
                 s, params, first, taken, tile, tile_scale,
                 [&](float w, float d0, float d1, float d2, float (&impulse)[3]) {
@@ -69,7 +68,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
                 // its mass over the chunk's particles: in tile units exactly in fixed point, with room
                 // for a float sum's rounding otherwise.
                 const float mass = fixed ? (float)(fixed_mass[node] >> TILE_UNIT_SHIFT)
-                                         : grid_acc[node].w * mass_tile_scale * 1.001f;
+                                         : grid_acc[node].w * scales.mass * 1.001f;
                 overflows += mass >= mass_limit;
             }
             const u64 units[3] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),

@@ -203,6 +203,17 @@ __device__ __forceinline__ int* tile_clear(u32* tile_marks) {
     return tile_memory;
 }
 
+// Tile units per kilogram and per kg m/s: the fixed-point scales (fixed_point_scales) over
+// 2^TILE_UNIT_SHIFT. Every fixed-point contribution, in a tile or on the grid, is rounded in these.
+struct TileScales {
+    float mass, momentum;
+};
+
+__device__ __forceinline__ TileScales tile_scales(const Params& params) {
+    const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
+    return TileScales{params.fixed_mass_scale * unit, params.fixed_momentum_scale * unit};
+}
+
 // A tile node's sum (or a rounded contribution) in global fixed-point units.
 __device__ __forceinline__ u64 tile_global_units(i64 units) {
     return (u64)(units << TILE_UNIT_SHIFT);
