@@ -318,12 +318,59 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
 // and not the other. Measured on the H100 (BENCHMARKS.md 0u): with a branch and a fallback for each of
 // one_pass_fixed's 108 contributions, instruction fetch stalled 23 % of its samples and its
 // fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
+// One axis of a stencil in a lane's own order: its entry i is node (i + r) mod 3 of the axis, with
+// that node's weight, offset d (node - fx, as FOR_EACH_STENCIL_NODE_AT computes it) and tile stride.
+struct StaggeredAxis {
+    float w[3], d[3];
+    u32 offset[3];
+};
+
+// Selected, not indexed: a dynamic index would put the stencil in local memory.
+__device__ __forceinline__ StaggeredAxis staggered_axis(const Stencil& s, int a, u32 r, u32 stride) {
+    const float d[3] = {0.0f - s.fx[a], 1.0f - s.fx[a], 2.0f - s.fx[a]};
+    StaggeredAxis o;
+#pragma unroll
+    for (u32 i = 0; i < 3; ++i) {
+        const u32 j = i + r >= 3 ? i + r - 3 : i + r;
+        o.w[i] = j == 0 ? s.w[0][a] : j == 1 ? s.w[1][a] : s.w[2][a];
+        o.d[i] = j == 0 ? d[0] : j == 1 ? d[1] : d[2];
+        o.offset[i] = j * stride;
+    }
+    return o;
+}
+
+// FOR_EACH_STENCIL_NODE_AT over a tile, each lane starting its x and y rows at its own node (lane mod
+// 9 chooses): lanes of a warp whose particles share a cell add to nine different nodes at each step
+// instead of all to one, which a shared atomic serialises. The same values as the plain order, so
+// the same integers summed.
+#define FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, weight, d0, d1, d2, ...)                   \
+    {                                                                                              \
+        const u32 _lane = threadIdx.x & 31u;                                                       \
+        const StaggeredAxis _x = staggered_axis((s), 0, _lane % 3u, 1u);                           \
+        const StaggeredAxis _y = staggered_axis((s), 1, (_lane / 3u) % 3u, TILE_EDGE);             \
+        _Pragma("unroll") for (int _oz = 0; _oz < 3; ++_oz) {                                      \
+            const float _wz = (s).w[_oz][2];                                                       \
+            const float d2 = (float)_oz - (s).fx[2];                                               \
+            _Pragma("unroll") for (int _oy = 0; _oy < 3; ++_oy) {                                  \
+                const float _wyz = _y.w[_oy] * _wz;                                                \
+                const float d1 = _y.d[_oy];                                                        \
+                const u32 _row = (first) + _y.offset[_oy] + _oz * (TILE_EDGE * TILE_EDGE);         \
+                _Pragma("unroll") for (int _ox = 0; _ox < 3; ++_ox) {                              \
+                    const float d0 = _x.d[_ox];                                                    \
+                    const u32 k = _row + _x.offset[_ox];                                           \
+                    const float weight = _x.w[_ox] * _wyz;                                         \
+                    __VA_ARGS__                                                                    \
+                }                                                                                  \
+            }                                                                                      \
+        }                                                                                          \
+    }
+
 template <int CHANNELS, typename Values, typename ToGrid>
 __device__ __forceinline__ u32 tile_scatter(const Stencil& s, const Params& params, u32 first, bool taken, int* tile,
                                             const float (&tile_scale)[CHANNELS], Values values, ToGrid to_grid) {
     u32 added = 0;
     if (taken) {
-        FOR_EACH_STENCIL_NODE_AT(s, first, TILE_EDGE, TILE_EDGE * TILE_EDGE, k, w, d0, d1, d2, {
+        FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
             float value[CHANNELS];
             values(w, d0, d1, d2, value);
             for (int ch = 0; ch < CHANNELS; ++ch) {
