@@ -32,10 +32,12 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     bool balanced = false;  // whether any of this CUDA block's chunks kept the mass balance
 
     const u32 listed = work_counts[WORK_BINS];
+    int* tile = tile_memory;
+    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
+    if (blockIdx.x < listed) tile_clear<1>(tile_marks);
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
-        int* tile = tile_clear<1>(tile_marks);
         const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
         balanced |= may_wrap;
 
@@ -78,8 +80,8 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
 
         // A taken particle's stencil lies inside the grid (positions are clamped to [1, R - 2] dx), so
         // the tile nodes outside it hold nothing for the mass balance.
-        FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u32 mass = (u32)tile[k];
+        FOR_EACH_TILE_NODE_IN_GRID(1, tile, t, params, blocks, marks, tile_marks, k, node, sums, {
+            const u32 mass = (u32)sums[0];
             if (may_wrap) mass_balance -= mass;
             const u64 units = tile_global_units(mass);
             if (units != 0) {

@@ -150,11 +150,12 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     bool far = false;
 
     const u32 listed = work_counts[WORK_BINS];
+    int* tile = tile_memory;
+    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
+    if (FIXED && blockIdx.x < listed) tile_clear<SCATTER_CHANNELS>(tile_marks);
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
-        int* tile = tile_memory;
-        if (FIXED) tile_clear<SCATTER_CHANNELS>(tile_marks);
         u32 covered = 0u;  // float scatter: the tile's node blocks this lane's particles covered
         const bool may_wrap = FIXED && tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
         balanced |= may_wrap;
@@ -256,15 +257,14 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         // A taken particle's stencil lies inside the grid (positions are clamped to [1, R - 2] dx), so
         // the tile nodes outside it hold nothing for the mass balance.
         const u32 mass_limit = tile_mass_limit(bin.count);
-        FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
-            const u32 mass = (u32)tile[k];
+        FOR_EACH_TILE_NODE_IN_GRID(SCATTER_CHANNELS, tile, t, params, blocks, marks, tile_marks, k, node, sums, {
+            const u32 mass = (u32)sums[0];
             if (may_wrap) {
                 mass_balance -= mass;
                 overflows += mass >= mass_limit;
             }
-            const u64 units[SCATTER_CHANNELS] = {tile_global_units(mass), tile_global_units(tile[TILE_NODES + k]),
-                                                 tile_global_units(tile[2 * TILE_NODES + k]),
-                                                 tile_global_units(tile[3 * TILE_NODES + k])};
+            const u64 units[SCATTER_CHANNELS] = {tile_global_units(mass), tile_global_units(sums[1]),
+                                                 tile_global_units(sums[2]), tile_global_units(sums[3])};
             if (units[0] != 0) atomicAdd(&fixed_mass[node], units[0]);
             for (int a = 0; a < 3; ++a) {
                 if (units[1 + a] != 0) atomicAdd(&fixed_momentum[3 * (size_t)node + a], units[1 + a]);

@@ -32,10 +32,12 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
     u32 misses = 0, overflows = 0;
 
     const u32 listed = work_counts[WORK_BINS];
+    int* tile = tile_memory;
+    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
+    if (blockIdx.x < listed) tile_clear<3>(tile_marks);
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);
-        int* tile = tile_clear<3>(tile_marks);
         const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);  // the same for the block
 
         for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
@@ -62,7 +64,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
         }
 
         const float mass_limit = (float)tile_mass_limit(bin.count);
-        FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, marks, tile_marks, k, node, {
+        FOR_EACH_TILE_NODE_IN_GRID(3, tile, t, params, blocks, marks, tile_marks, k, node, sums, {
             if (may_wrap) {
                 // The node's whole mass (this substep's mass scatter, the walls' images added) bounds
                 // its mass over the chunk's particles: in tile units exactly in fixed point, with room
@@ -71,8 +73,8 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
                                          : grid_acc[node].w * scales.mass * 1.001f;
                 overflows += mass >= mass_limit;
             }
-            const u64 units[3] = {tile_global_units(tile[k]), tile_global_units(tile[TILE_NODES + k]),
-                                  tile_global_units(tile[2 * TILE_NODES + k])};
+            const u64 units[3] = {tile_global_units(sums[0]), tile_global_units(sums[1]),
+                                  tile_global_units(sums[2])};
             if (fixed) {
                 for (int a = 0; a < 3; ++a) {
                     if (units[a] != 0) atomicAdd(&fixed_momentum[3 * (size_t)node + a], units[a]);

@@ -399,12 +399,13 @@ __device__ __forceinline__ u32 tile_node_block(const Tile& t, const NodeBlocks& 
                             t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1);
 }
 
-// Lists, once per substep, the node blocks marked in the tile's marks (global atomics). Every thread of
-// the block calls it after a barrier; it ends with one, so the marks can be cleared for the next bin.
+// Lists, once per substep, the node blocks marked in the tile's marks (global atomics), clearing the
+// marks for the next chunk. Every thread of the block calls it after a barrier; it ends with one.
 __device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const NodeBlocks& blocks, const BlockMarks& marks,
-                                                        const u32* tile_marks) {
+                                                        u32* tile_marks) {
     for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) {
         if (tile_marks[k]) mark_node_block(marks, tile_node_block(t, blocks, k));
+        tile_marks[k] = 0u;
     }
     __syncthreads();
 }
@@ -423,12 +424,20 @@ __device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const Nod
     if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) mark_node_block(marks, tile_node_block(t, blocks, k));
 }
 
-// Calls body(k, node) for each tile node k inside the grid, `node` its grid index; then lists the
-// marked node blocks. Starts and ends with a barrier, so the tile can be cleared for the next bin.
-#define FOR_EACH_TILE_NODE_IN_GRID(t, params, blocks, block_marks, tile_marks, k, node, ...)                     \
+// Calls body(k, node, sums) for each tile node k inside the grid, `node` its grid index and `sums` its
+// CHANNELS accumulators; then lists the marked node blocks. Every node's accumulators are zeroed as
+// they are read, inside the grid or not, and the marks as they are listed, so the next chunk finds
+// the tile clear without a pass and a barrier of its own (tile_clear runs once, before the first).
+// Starts and ends with a barrier.
+#define FOR_EACH_TILE_NODE_IN_GRID(CHANNELS, tile, t, params, blocks, block_marks, tile_marks, k, node, sums, ...) \
     {                                                                                                            \
         __syncthreads();                                                                                         \
         for (u32 k = threadIdx.x; k < TILE_NODES; k += blockDim.x) {                                             \
+            int sums[CHANNELS];                                                                                  \
+            for (int _ch = 0; _ch < (CHANNELS); ++_ch) {                                                         \
+                sums[_ch] = (tile)[_ch * TILE_NODES + k];                                                        \
+                (tile)[_ch * TILE_NODES + k] = 0;                                                                \
+            }                                                                                                    \
             const int _g[3] = {(t).origin[0] + (int)(k % TILE_EDGE), (t).origin[1] + (int)((k / TILE_EDGE) % TILE_EDGE), \
                                (t).origin[2] + (int)(k / (TILE_EDGE * TILE_EDGE))};                              \
             if (_g[0] < 0 || _g[1] < 0 || _g[2] < 0 || _g[0] >= (int)(params).grid_res[0] ||                     \
@@ -439,4 +448,3 @@ __device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const Nod
         }                                                                                                        \
         tile_list_marked_blocks((t), (blocks), (block_marks), tile_marks);                                       \
     }
-
