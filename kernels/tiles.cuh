@@ -189,18 +189,13 @@ __device__ __forceinline__ bool tile_place_bits(const Tile& t, const Stencil& s,
 // the host sizes it at 4 CHANNELS TILE_NODES bytes.
 extern __shared__ __align__(16) int tile_memory[];
 
-// Zeroes the tile's marks alone, for a pass that accumulates elsewhere. Ends with a barrier.
-__device__ __forceinline__ void tile_clear_marks(u32* tile_marks) {
+// Zeroes the accumulators and the tile's marks, before a CUDA block's first chunk: each flush leaves
+// them zero for the next (FOR_EACH_TILE_NODE_IN_GRID). Ends with a barrier.
+template <int CHANNELS>
+__device__ __forceinline__ void tile_clear(u32* tile_marks) {
+    for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
     for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
     __syncthreads();
-}
-
-// Zeroes the accumulators and the tile's marks. Ends with a barrier.
-template <int CHANNELS>
-__device__ __forceinline__ int* tile_clear(u32* tile_marks) {
-    for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
-    tile_clear_marks(tile_marks);
-    return tile_memory;
 }
 
 // Tile units per kilogram and per kg m/s: the fixed-point scales (fixed_point_scales) over
