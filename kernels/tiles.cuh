@@ -303,16 +303,6 @@ __device__ __forceinline__ void grid_add(float* grid_float, u64* grid_fixed, boo
     }
 }
 
-// A particle's scatter: CHANNELS contributions to each stencil node, computed by
-// `values(w, d0, d1, d2, value)`, `tile_scale` their tile units per unit; into its bin's tile where
-// the tile takes it (`taken`: its stencil fits, tile_place, and tile_takes), to the grid through
-// `to_grid(node, channel, tile_scaled, value)` otherwise. Returns the units it added to the tile's
-// channel 0 (the mass balance's, where channel 0 is mass). `values` runs in both branches and a
-// particle's integers must not depend on which one added them, so it rounds as written (__fmul_rn,
-// __fadd_rn, impulse_at_pinned): left to itself, NVRTC contracted one branch into fused multiply-adds
-// and not the other. Measured on the H100 (BENCHMARKS.md 0u): with a branch and a fallback for each of
-// one_pass_fixed's 108 contributions, instruction fetch stalled 23 % of its samples and its
-// fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
 // One axis of a stencil in a lane's own order: its entry i is node (i + r) mod 3 of the axis, with
 // that node's weight, offset d (node - fx, as FOR_EACH_STENCIL_NODE_AT computes it) and tile stride.
 struct StaggeredAxis {
@@ -362,6 +352,16 @@ __device__ __forceinline__ StaggeredAxis staggered_axis(const Stencil& s, int a,
         }                                                                                          \
     }
 
+// A particle's scatter: CHANNELS contributions to each stencil node, computed by
+// `values(w, d0, d1, d2, value)`, `tile_scale` their tile units per unit; into its bin's tile where
+// the tile takes it (`taken`: its stencil fits, tile_place, and tile_takes), to the grid through
+// `to_grid(node, channel, tile_scaled, value)` otherwise. Returns the units it added to the tile's
+// channel 0 (the mass balance's, where channel 0 is mass). `values` runs in both branches and a
+// particle's integers must not depend on which one added them, so it rounds as written (__fmul_rn,
+// __fadd_rn, impulse_at_pinned): left to itself, NVRTC contracted one branch into fused multiply-adds
+// and not the other. Measured on the H100 (BENCHMARKS.md 0u): with a branch and a fallback for each of
+// one_pass_fixed's 108 contributions, instruction fetch stalled 23 % of its samples and its
+// fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
 template <int CHANNELS, typename Values, typename ToGrid>
 __device__ __forceinline__ u32 tile_scatter(const Stencil& s, const Params& params, u32 first, bool taken, int* tile,
                                             const float (&tile_scale)[CHANNELS], Values values, ToGrid to_grid) {
