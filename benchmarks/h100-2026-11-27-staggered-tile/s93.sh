@@ -2,7 +2,7 @@
 # Timing only, physics wrong: bounds on what the float pass's gather and runs cost, 200 substeps
 # from the start (the flow barely moves in them): one_pass_float_planes gathering from the first 256
 # grid nodes (ptx-ng: every gather an L1 hit), or without the runs' sums (ptx-ns: no shuffles;
-# heads add their own values), against 6d7d689 (the binary's kernels).
+# heads add their own values), against e52e2e0 (the binary's kernels: 7f195ad's instructions).
 export MPM_BIN=$PWD/.gpu/bin/mpm NCCL_NVLS_ENABLE=0 PATH=$PATH:/usr/local/cuda/bin
 M=$PWD/.gpu/bin/mpm G=$PWD/.gpu
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
