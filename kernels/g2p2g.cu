@@ -32,9 +32,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     bool balanced = false;  // whether any of this CUDA block's chunks kept the mass balance
 
     const u32 listed = work_counts[WORK_BINS];
-    int* tile = tile_memory;
-    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
-    if (blockIdx.x < listed) tile_clear<1>(tile_marks);
+    int* tile = tile_clear<1>(tile_marks, listed);
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);

@@ -150,9 +150,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     bool far = false;
 
     const u32 listed = work_counts[WORK_BINS];
-    int* tile = tile_memory;
-    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
-    if (FIXED && blockIdx.x < listed) tile_clear<SCATTER_CHANNELS>(tile_marks);
+    int* tile = FIXED ? tile_clear<SCATTER_CHANNELS>(tile_marks, listed) : tile_memory;
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);

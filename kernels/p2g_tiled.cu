@@ -32,9 +32,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
     u32 misses = 0, overflows = 0;
 
     const u32 listed = work_counts[WORK_BINS];
-    int* tile = tile_memory;
-    // Each flush leaves the tile clear for the next chunk; a CUDA block with no chunk skips it.
-    if (blockIdx.x < listed) tile_clear<3>(tile_marks);
+    int* tile = tile_clear<3>(tile_marks, listed);
     for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
         const BinEntry bin = bins[entry];
         const Tile t = make_tile(blocks, bin.bin);

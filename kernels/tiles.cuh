@@ -189,13 +189,18 @@ __device__ __forceinline__ bool tile_place_bits(const Tile& t, const Stencil& s,
 // the host sizes it at 4 CHANNELS TILE_NODES bytes.
 extern __shared__ __align__(16) int tile_memory[];
 
-// Zeroes the accumulators and the tile's marks, before a CUDA block's first chunk: each flush leaves
-// them zero for the next (FOR_EACH_TILE_NODE_IN_GRID). Ends with a barrier.
+// The tile, its accumulators and marks zeroed for a CUDA block's first chunk: each flush leaves them
+// zero for the next (FOR_EACH_TILE_NODE_IN_GRID). A block that walks none of the `listed` chunks
+// skips the clear (clearing in every block of the launch made bench-65k 9 % slower, BENCHMARKS.md
+// 0w). Every thread of the block calls it before the walk; the clear ends with a barrier.
 template <int CHANNELS>
-__device__ __forceinline__ void tile_clear(u32* tile_marks) {
-    for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
-    for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
-    __syncthreads();
+__device__ __forceinline__ int* tile_clear(u32* tile_marks, u32 listed) {
+    if (blockIdx.x < listed) {
+        for (u32 k = threadIdx.x; k < CHANNELS * TILE_NODES; k += blockDim.x) tile_memory[k] = 0;
+        for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) tile_marks[k] = 0u;
+        __syncthreads();
+    }
+    return tile_memory;
 }
 
 // Tile units per kilogram and per kg m/s: the fixed-point scales (fixed_point_scales) over
