@@ -47,6 +47,7 @@ struct Functions {
     get_version: unsafe extern "C" fn(*mut c_int) -> NcclResult,
     get_unique_id: unsafe extern "C" fn(*mut UniqueId) -> NcclResult,
     comm_init_rank: unsafe extern "C" fn(*mut RawComm, c_int, UniqueId, c_int) -> NcclResult,
+    comm_init_all: unsafe extern "C" fn(*mut RawComm, c_int, *const c_int) -> NcclResult,
     comm_destroy: unsafe extern "C" fn(RawComm) -> NcclResult,
     comm_abort: unsafe extern "C" fn(RawComm) -> NcclResult,
     error_string: unsafe extern "C" fn(NcclResult) -> *const c_char,
@@ -91,6 +92,7 @@ impl Nccl {
                 get_version: *library.get(b"ncclGetVersion\0")?,
                 get_unique_id: *library.get(b"ncclGetUniqueId\0")?,
                 comm_init_rank: *library.get(b"ncclCommInitRank\0")?,
+                comm_init_all: *library.get(b"ncclCommInitAll\0")?,
                 comm_destroy: *library.get(b"ncclCommDestroy\0")?,
                 comm_abort: *library.get(b"ncclCommAbort\0")?,
                 error_string: *library.get(b"ncclGetErrorString\0")?,
@@ -144,6 +146,20 @@ impl Nccl {
         )?;
         Ok(id)
     }
+
+    /// Runs `post` as one NCCL group: the sends, receives and collectives it posts, on any of the
+    /// communicators, start together at the group's end. One thread driving several devices must
+    /// post their matching calls in one group, or the first would wait for a peer never posted.
+    pub fn group<T>(&self, post: impl FnOnce() -> Result<T>) -> Result<T> {
+        let f = &self.functions;
+        // SAFETY: no arguments; every start is paired with the end below.
+        self.check(unsafe { (f.group_start)() }, "ncclGroupStart")?;
+        let posted = post();
+        // SAFETY: ends the group started above.
+        let ended = self.check(unsafe { (f.group_end)() }, "ncclGroupEnd");
+        let posted = posted?;
+        ended.map(|()| posted)
+    }
 }
 
 /// The oldest NCCL whose ncclSend/ncclRecv and ncclCommAbort these bindings were checked against.
@@ -172,6 +188,28 @@ impl Comm {
             rank,
             size,
         })
+    }
+
+    /// One communicator per device of `devices`, all in this process, rank i on `devices[i]`: what
+    /// one thread driving every GPU of a host holds (ncclCommInitAll).
+    pub fn init_all(nccl: &'static Nccl, devices: &[usize]) -> Result<Vec<Comm>> {
+        let size = devices.len();
+        let list: Vec<c_int> = devices.iter().map(|&d| d as c_int).collect();
+        let mut raw: Vec<RawComm> = vec![std::ptr::null_mut(); size];
+        // SAFETY: `raw` receives one communicator per entry of `list`, both `size` long.
+        let result =
+            unsafe { (nccl.functions.comm_init_all)(raw.as_mut_ptr(), size as c_int, list.as_ptr()) };
+        nccl.check(result, &format!("ncclCommInitAll (devices {devices:?})"))?;
+        Ok(raw
+            .into_iter()
+            .enumerate()
+            .map(|(rank, raw)| Comm {
+                nccl,
+                raw,
+                rank,
+                size,
+            })
+            .collect())
     }
 
     /// Reduces `count` values of `data_type` at device address `send` into `recv` on every rank,
@@ -218,26 +256,23 @@ impl Comm {
         stream: Stream,
     ) -> Result<()> {
         let f = &self.nccl.functions;
-        // SAFETY: no arguments; every start is paired with the end below.
-        self.nccl.check(unsafe { (f.group_start)() }, "ncclGroupStart")?;
-        let mut posted = Ok(());
-        let posts = sends.iter().map(|&post| (post, true));
-        for ((peer, buffer, count), send) in posts.chain(recvs.iter().map(|&post| (post, false))) {
-            let (dt, rank) = (data_type as c_int, peer as c_int);
-            // SAFETY: the caller vouches for the buffer, the peer and the stream.
-            let result = unsafe {
-                if send {
-                    (f.send)(buffer as *const c_void, count, dt, rank, self.raw, stream)
-                } else {
-                    (f.recv)(buffer as *mut c_void, count, dt, rank, self.raw, stream)
-                }
-            };
-            let what = if send { "ncclSend to" } else { "ncclRecv from" };
-            posted = posted.and_then(|()| self.nccl.check(result, &format!("{what} rank {peer}")));
-        }
-        // SAFETY: ends the group started above.
-        let ended = self.nccl.check(unsafe { (f.group_end)() }, "ncclGroupEnd");
-        posted.and(ended)
+        self.nccl.group(|| {
+            let posts = sends.iter().map(|&post| (post, true));
+            for ((peer, buffer, count), send) in posts.chain(recvs.iter().map(|&post| (post, false))) {
+                let (dt, rank) = (data_type as c_int, peer as c_int);
+                // SAFETY: the caller vouches for the buffer, the peer and the stream.
+                let result = unsafe {
+                    if send {
+                        (f.send)(buffer as *const c_void, count, dt, rank, self.raw, stream)
+                    } else {
+                        (f.recv)(buffer as *mut c_void, count, dt, rank, self.raw, stream)
+                    }
+                };
+                let what = if send { "ncclSend to" } else { "ncclRecv from" };
+                self.nccl.check(result, &format!("{what} rank {peer}"))?;
+            }
+            Ok(())
+        })
     }
 
     /// Tears the communicator down without waiting for the other ranks (a rank that failed): what
@@ -249,6 +284,10 @@ impl Comm {
             .check(unsafe { (self.nccl.functions.comm_abort)(raw) }, "ncclCommAbort")
     }
 }
+
+// SAFETY: NCCL lets a communicator move between threads as long as no two call it at once; `Comm`
+// is not `Sync`, so only the one thread that holds it can.
+unsafe impl Send for Comm {}
 
 impl Drop for Comm {
     fn drop(&mut self) {
