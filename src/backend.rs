@@ -6,7 +6,7 @@ use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::{Particles, Scene, Solver};
-use anyhow::{bail, Result};
+use anyhow::{bail, ensure, Result};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
@@ -120,10 +120,17 @@ fn create_with(
     }
 }
 
-/// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (all on one
-/// device today; `auto` asks for them too, with no CPU fallback) or the CPU reference's thread ranks.
+/// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (on one device,
+/// or one per GPU with `scene.gpus`; `auto` asks for them too, with no CPU fallback) or the CPU
+/// reference's thread ranks.
 fn create_ranks(kind: BackendKind, scene: &Scene, particles: Particles) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
+    ensure!(
+        scene.gpus <= 1 || matches!(kind, BackendKind::Cuda | BackendKind::Auto),
+        "--gpus {}: several GPUs run the CUDA backend; use --backend cuda, or split the CPU \
+         reference with --ranks",
+        scene.gpus
+    );
     match kind {
         BackendKind::Cuda | BackendKind::Auto => Ok(Box::new(CudaRanks::new(
             scene,

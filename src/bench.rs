@@ -70,6 +70,8 @@ pub struct PhaseBenchOptions {
     pub pipeline: Option<Pipeline>,
     /// Splits each scene into this many ranks (`Scene::ranks`).
     pub ranks: Option<usize>,
+    /// Runs the ranks on this many GPUs (`Scene::gpus`).
+    pub gpus: Option<usize>,
     /// Memory bandwidth for the traffic floor, GB/s.
     pub peak_gbs: f64,
 }
@@ -84,6 +86,7 @@ impl Default for PhaseBenchOptions {
             scatter: None,
             pipeline: None,
             ranks: None,
+            gpus: None,
             peak_gbs: H200_PEAK_GBS,
         }
     }
@@ -170,6 +173,9 @@ fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
     }
     if let Some(ranks) = options.ranks {
         scene.ranks = ranks;
+    }
+    if let Some(gpus) = options.gpus {
+        scene.gpus = gpus;
     }
     scene
 }
@@ -306,7 +312,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             "migrate + rebin (every {} substeps, or when a particle nears its rank's ghost planes)",
             cuda::SORT_INTERVAL
         ),
-        (true, true, Phase::G2p) => "one_pass + count strays + take_owned (every rank)".into(),
+        (true, true, Phase::G2p) => "one_pass + count strays (every rank)".into(),
         (true, _, _) => {
             let label = phase.gpu_label(scene.pipeline, fixed_point, sort_interval);
             match sim.solver().phase_kernel(phase) {

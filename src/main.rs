@@ -211,10 +211,14 @@ struct SolverArgs {
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
     /// Split the run into N ranks, each over a slab of the grid with ghost exchanges between them
-    /// (backends cuda and cpu; docs/several-gpus.md). Today every CUDA rank runs on the one device
+    /// (backends cuda and cpu; docs/several-gpus.md). Every CUDA rank runs on the one device
     /// MPM_CUDA_DEVICE names: a check of the decomposition, slower than one rank.
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>)]
     ranks: Option<u64>,
+    /// Run on the first N GPUs of this host, one rank each over a slab of the grid, the ghost
+    /// exchanges over NCCL (backend cuda; docs/several-gpus.md).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
+    gpus: Option<u64>,
 }
 
 impl SolverArgs {
@@ -228,12 +232,22 @@ impl SolverArgs {
         if let Some(ranks) = self.ranks() {
             scene.ranks = ranks;
         }
+        if let Some(gpus) = self.gpus() {
+            scene.gpus = gpus;
+        }
     }
 
-    /// `--ranks`, where given (a count past the address space reads as the largest, which the slab
-    /// check then refuses with the limit).
+    /// `--ranks`, or `--gpus` (a rank per GPU), where given (a count past the address space reads as
+    /// the largest, which the slab check then refuses with the limit).
     fn ranks(&self) -> Option<usize> {
-        self.ranks.map(|n| n.try_into().unwrap_or(usize::MAX))
+        self.ranks
+            .or(self.gpus)
+            .map(|n| n.try_into().unwrap_or(usize::MAX))
+    }
+
+    /// `--gpus`, where given.
+    fn gpus(&self) -> Option<usize> {
+        self.gpus.map(|n| n.try_into().unwrap_or(usize::MAX))
     }
 }
 
@@ -559,6 +573,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
             ranks: args.solver.ranks(),
+            gpus: args.solver.gpus(),
             peak_gbs: args.peak_gbs,
         },
         cpu_baseline_steps: args.cpu_baseline.then_some(steps(args.cpu_steps, "cpu-steps")?),
@@ -689,7 +704,9 @@ fn run(args: RunArgs) -> Result<()> {
         scene.dx,
         sim.params().material.sound_speed(),
         sim.backend(),
-        if scene.ranks > 1 {
+        if scene.gpus > 1 {
+            format!(" on {} GPUs", scene.gpus)
+        } else if scene.ranks > 1 {
             format!(" on {} ranks", scene.ranks)
         } else {
             String::new()

@@ -291,5 +291,5 @@ fn a_moving_collider_across_the_cut_gives_one_rank_s_bits() {
 /// `mpm run --ranks`: a checkpoint of 2 ranks resumes on 3 and ends on one rank's bytes.
 #[test]
 fn a_checkpoint_of_two_ranks_resumes_on_three() {
-    common::ranks_checkpoint_resumes_on_another_rank_count("cpu");
+    common::ranks_checkpoint_resumes_on_another_rank_count("cpu", &["--ranks", "2"]);
 }

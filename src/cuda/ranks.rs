@@ -14,17 +14,22 @@
 //! The fused pipeline scatters the next substep inside one_pass, so the ghost sums travel at the
 //! start of the substep that uses them, before the walls' mirror.
 //!
-//! **On one GPU.** Every rank runs on device `CudaOptions::device` and the carrier is a device copy
-//! between the ranks' halo buffers; NCCL's send/recv between GPUs takes its place when it is built
-//! (docs/several-gpus.md). Every rank holds every particle slot, live where it owns the particle and
-//! parked elsewhere (the kernels skip parked slots), so a migration (`move_owned`, kernels/ranks.cu
-//! beside this file) copies the moved slots and flips their flags, and a slot's index never changes;
-//! after each substep `take_owned` copies every rank's own slots into one set, which readers see.
-//! The host waits for every rank at the end of each phase: that orders the exchanges between the
-//! ranks' streams and times the phases.
+//! **Where the ranks run** (`Scene::gpus`). On one GPU every rank runs on device
+//! `CudaOptions::device` and the carrier is a device copy between the ranks' halo buffers. On
+//! several, rank r runs on device r and the halos travel by NCCL's send and receive, every rank's
+//! posted in one group by the one thread that drives them all; the ranks' GPUs reach each other's
+//! memory (peer access), which the particle moves below use.
+//!
+//! Every rank holds every particle slot, live where it owns the particle and parked elsewhere (the
+//! kernels skip parked slots), so a migration (`move_owned`, kernels/ranks.cu beside this file, run
+//! on the sending rank's GPU) copies the moved slots and flips their flags, and a slot's index never
+//! changes. Readers see one set of every slot on rank 0's GPU, into which `take_owned` copies every
+//! rank's own slots once a frame (`Solver::publish_particles`) or when the host reads them.
+//! The host waits for every rank at the end of each phase: that times the phases, and on one GPU
+//! orders the exchanges between the ranks' streams.
 
 use super::gpu::CudaOptions;
-use super::halo::{HaloBuffers, HaloKernels, Planes};
+use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS};
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::particles::{DeviceParticles, DeviceParticlesView};
@@ -32,24 +37,31 @@ use super::solver::CudaSolver;
 use super::state::{DeviceState, StateArgs};
 use super::SORT_INTERVAL;
 use crate::dist::migrate::{layer, Migration};
+use crate::dist::nccl::{Comm, DataType, Nccl};
 use crate::dist::{check_ranks, starting_slabs, Slabs};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::solver::push_step_timing;
-use crate::sim::{Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes};
-use anyhow::{ensure, Context, Result};
-use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
+use crate::sim::{
+    Material, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
+};
+use anyhow::{bail, ensure, Context, Result};
+use cudarc::driver::{sys, CudaSlice, DevicePtr, LaunchConfig, PushKernelArg};
 use std::ops::Range;
 
 pub struct CudaRanks {
+    /// Before the solvers: NCCL's communicators go while their devices are still open.
+    carrier: Carrier,
     solvers: Vec<CudaSolver>,
     halos: Vec<HaloBuffers>,
     slabs: Slabs,
     /// The walls' mirror planes along the slab axis, low and high (`Slabs::rebalanced`).
     walls: (u32, u32),
-    /// Every slot as of the last substep, each from the rank that owns it, on rank 0's device
-    /// (`Solver::particles`).
+    /// Every slot, each from the rank that owns it, on rank 0's device (`Solver::particles`), as of
+    /// the last `take_owned`.
     merged: DeviceParticles,
+    /// Substeps ran since `merged` was taken.
+    merged_stale: bool,
     /// Per rank: the strays its last g2p counted.
     strays: Vec<CudaSlice<u32>>,
     /// Live particles per rank, as of the last substep.
@@ -80,6 +92,24 @@ enum Exchange {
     Velocities,
 }
 
+impl Exchange {
+    /// u64 words a node takes packed: HALO_SUM_WORDS, or one float4 of velocity and mass.
+    fn words_per_node(self) -> usize {
+        match self {
+            Exchange::Sums => HALO_SUM_WORDS,
+            Exchange::Velocities => 2,
+        }
+    }
+}
+
+/// What carries the packed halos from rank to rank.
+enum Carrier {
+    /// Every rank on one GPU: a device copy into the neighbour's receive buffer.
+    DeviceCopy,
+    /// One rank per GPU: NCCL's send and receive between neighbours, rank r's communicator at r.
+    Nccl { nccl: &'static Nccl, comms: Vec<Comm> },
+}
+
 impl CudaRanks {
     /// `ranks` ranks of `particles` (every slot of `scene`'s run), the slabs balanced for them.
     pub fn new(scene: &Scene, particles: Particles, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
@@ -103,17 +133,19 @@ impl CudaRanks {
             scene.pipeline.name()
         );
         let params = scene.params();
+        let devices = rank_devices(scene, slabs.ranks(), options.device)?;
         let mut solvers = Vec::new();
         let mut halos = Vec::new();
         let mut counts = Vec::new();
         let mut strays = Vec::new();
-        for rank in 0..slabs.ranks() {
+        for (rank, &device) in devices.iter().enumerate() {
             let mine = owned_by(&particles, &slabs, rank, params.inv_dx);
             counts.push(mine.num_live());
             // Every rank holds every slot at its own place (migration and take_owned copy slot p to
             // slot p), so the ranks keep their particles where they are, out of bin order.
             let in_place = CudaOptions {
                 bin_order: false,
+                device,
                 ..options
             };
             let solver = CudaSolver::from_particles(scene, &mine, in_place)
@@ -129,7 +161,17 @@ impl CudaRanks {
         }
         let mut merged = DeviceParticles::allocate(solvers[0].stream(), particles.len())?;
         merged.upload(solvers[0].stream(), &particles)?;
+        let carrier = if scene.gpus > 1 {
+            enable_peer_access(&solvers)?;
+            let nccl = Nccl::get()?;
+            let comms = Comm::init_all(nccl, &devices)
+                .with_context(|| format!("joining the {} GPUs in one NCCL communicator", devices.len()))?;
+            Carrier::Nccl { nccl, comms }
+        } else {
+            Carrier::DeviceCopy
+        };
         Ok(CudaRanks {
+            carrier,
             solvers,
             halos,
             walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
@@ -137,6 +179,7 @@ impl CudaRanks {
             live: particles.num_live() as u64,
             counts,
             merged,
+            merged_stale: false,
             strays,
             timings: Vec::new(),
             substeps: 0,
@@ -145,9 +188,13 @@ impl CudaRanks {
         })
     }
 
-    /// The device's name, and how many ranks share it.
+    /// The device's name, and how many ranks share it or how many GPUs the ranks run on.
     pub fn device_name(&self) -> String {
-        format!("{}, {} ranks", self.solvers[0].device_name(), self.solvers.len())
+        let (name, ranks) = (self.solvers[0].device_name(), self.solvers.len());
+        match self.carrier {
+            Carrier::DeviceCopy => format!("{name}, {ranks} ranks"),
+            Carrier::Nccl { .. } => format!("{ranks} x {name}, a rank each (NCCL)"),
+        }
     }
 
     /// The slabs as they stand (they move when the counts drift out of balance).
@@ -242,7 +289,7 @@ impl CudaRanks {
                 Exchange::Velocities => k.pack_velocities(l, params, &link.edge, state, out)?,
             }
         }
-        self.carry(&links)?;
+        self.carry(&links, what)?;
         for link in &links {
             let (k, l, params, state) = self.halo_launch(link.rank);
             let got = &self.halos[link.rank].recv[link.side as usize];
@@ -254,22 +301,50 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// The carrier on one GPU: every rank's send buffers, once packed, copied into its neighbours'
-    /// receive buffers on the receiver's stream.
-    fn carry(&mut self, links: &[Link]) -> Result<()> {
-        self.wait_all()?; // every rank's packing
-        for link in links {
-            let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
-            let (src, dst) = (
-                &from.send[link.side as usize],
-                &mut to.recv[opposite(link.side) as usize],
-            );
-            self.solvers[link.neighbour]
-                .stream()
-                .memcpy_dtod(src, dst)
-                .context("carrying a halo between ranks")?;
+    /// Carries every rank's packed send buffers to its neighbours' receive buffers: on one GPU a
+    /// copy on the receiver's stream once every rank has packed; across GPUs NCCL's sends and
+    /// receives on each rank's stream, after its packing and before its unpacking.
+    fn carry(&mut self, links: &[Link], what: Exchange) -> Result<()> {
+        let res = self.solvers[0].params.grid_res;
+        match &self.carrier {
+            Carrier::DeviceCopy => {
+                self.wait_all()?; // every rank's packing
+                for link in links {
+                    let (words, _) = link.words(what, res);
+                    let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
+                    let src = from.send[link.side as usize].slice(..words);
+                    let mut dst = to.recv[opposite(link.side) as usize].slice_mut(..words);
+                    self.solvers[link.neighbour]
+                        .stream()
+                        .memcpy_dtod(&src, &mut dst)
+                        .context("carrying a halo between ranks")?;
+                }
+                Ok(())
+            }
+            Carrier::Nccl { nccl, comms } => nccl.group(|| {
+                for (comm, (solver, halo)) in comms.iter().zip(self.solvers.iter().zip(&self.halos)) {
+                    let stream = solver.stream();
+                    let mut sends = Vec::new();
+                    let mut recvs = Vec::new();
+                    // The pointers stay valid: the buffers live as long as the ranks.
+                    for link in links.iter().filter(|link| link.rank == comm.rank) {
+                        let (send_words, recv_words) = link.words(what, res);
+                        let side = link.side as usize;
+                        let (send, _) = halo.send[side].device_ptr(stream);
+                        let (recv, _) = halo.recv[side].device_ptr(stream);
+                        sends.push((link.neighbour, send, send_words));
+                        recvs.push((link.neighbour, recv, recv_words));
+                    }
+                    // SAFETY: each buffer holds a block of planes of packed sums, more than either
+                    // count; the neighbour posts the matching receive and send in this group, from
+                    // its own side of the same link.
+                    unsafe {
+                        comm.send_recv(&sends, &recvs, DataType::U64, stream.cu_stream().cast())?;
+                    }
+                }
+                Ok(())
+            }),
         }
-        Ok(())
     }
 
     /// Particles the last g2p left where one more substep could carry them past their rank's ghost
@@ -343,24 +418,23 @@ impl CudaRanks {
             None => false,
         };
         self.wait_all()?;
-        let first = &self.solvers[0];
-        let (k, l) = (&first.gpu.kernels.ranks, &first.gpu.launcher);
-        let mut moved = first
-            .stream()
-            .alloc_zeros::<u32>(1)
-            .context("allocating the migration counter")?;
-        for to in 0..self.solvers.len() {
-            let layers = self.slabs.bounds[to]..self.slabs.bounds[to + 1];
-            for from in (0..self.solvers.len()).filter(|&from| from != to) {
-                let (source, dest) = (
-                    &self.solvers[from].state.particles,
-                    &self.solvers[to].state.particles,
-                );
-                let slab = (self.slabs.axis, self.slabs.blocks(), layers.clone());
-                k.move_owned(l, &first.params, slab, source, dest, &mut moved)?;
+        let mut moved = 0;
+        // Each sender's GPU reads its own slots and writes only the moved ones to the receiver.
+        for (from, sender) in self.solvers.iter().enumerate() {
+            let (k, l) = (&sender.gpu.kernels.ranks, &sender.gpu.launcher);
+            let mut sent = sender
+                .stream()
+                .alloc_zeros::<u32>(1)
+                .context("allocating the migration counter")?;
+            for to in (0..self.solvers.len()).filter(|&to| to != from) {
+                let layers = self.slabs.bounds[to]..self.slabs.bounds[to + 1];
+                let dest = &self.solvers[to].state.particles;
+                let slab = (self.slabs.axis, self.slabs.blocks(), layers);
+                k.move_owned(l, &sender.params, slab, &sender.state.particles, dest, &mut sent)?;
             }
+            moved += u64::from(sender.gpu.download(&sent)?[0]);
         }
-        let moved = u64::from(first.gpu.download(&moved)?[0]);
+        self.wait_all()?; // the receivers' slots, written from the senders' GPUs
         let after = self.layer_counts()?;
         let live = |counts: &[Vec<u64>]| counts.iter().flatten().sum::<u64>();
         let migration = Migration {
@@ -394,16 +468,21 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Every rank's own slots into `merged`, on rank 0's stream once every rank is done, waited for
-    /// (no rank may write its particles while they are read).
+    /// Every rank's own slots into `merged` where a substep ran since the last time, each rank's
+    /// from its own GPU once every rank is done, waited for (no rank may write its particles while
+    /// they are read).
     fn take_owned(&mut self) -> Result<()> {
+        if !self.merged_stale {
+            return Ok(());
+        }
         self.wait_all()?;
-        let first = &self.solvers[0];
-        let (k, l) = (&first.gpu.kernels.ranks, &first.gpu.launcher);
         for solver in &self.solvers {
+            let (k, l) = (&solver.gpu.kernels.ranks, &solver.gpu.launcher);
             k.take_owned(l, &solver.state.particles, &self.merged)?;
         }
-        self.wait_all()
+        self.wait_all()?;
+        self.merged_stale = false;
+        Ok(())
     }
 }
 
@@ -416,6 +495,78 @@ fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Particl
     mine
 }
 
+/// The device of each of `ranks` ranks: `one` for them all, or with `Scene::gpus` several, device r
+/// for rank r, checked against the devices there are.
+fn rank_devices(scene: &Scene, ranks: usize, one: usize) -> Result<Vec<usize>> {
+    if scene.gpus <= 1 {
+        return Ok(vec![one; ranks]);
+    }
+    ensure!(
+        scene.gpus == ranks,
+        "{} ranks on {} GPUs: one rank per GPU runs, so ask for as many ranks as GPUs",
+        ranks,
+        scene.gpus
+    );
+    super::library::ensure_driver()?;
+    let count = cudarc::driver::CudaContext::device_count()
+        .map_err(|e| anyhow::anyhow!("the NVIDIA driver cannot count its devices: {e}"))?
+        .max(0) as usize;
+    ensure!(
+        ranks <= count,
+        "--gpus {ranks}: this machine has {count} CUDA device{} (`mpm devices` lists them); ask for \
+         at most {count}",
+        if count == 1 { "" } else { "s" }
+    );
+    Ok((0..ranks).collect())
+}
+
+/// Lets every rank's GPU read and write every other's memory, which migration and `take_owned`
+/// do; an error naming the pair where the hardware has no path for it.
+fn enable_peer_access(solvers: &[CudaSolver]) -> Result<()> {
+    for (i, a) in solvers.iter().enumerate() {
+        for (j, b) in solvers.iter().enumerate().filter(|&(j, _)| j != i) {
+            let mut can = 0;
+            // SAFETY: writes one int; both devices come from open contexts.
+            let asked =
+                unsafe { sys::cuDeviceCanAccessPeer(&mut can, a.gpu.ctx.cu_device(), b.gpu.ctx.cu_device()) };
+            ensure!(
+                asked == sys::CUresult::CUDA_SUCCESS && can != 0,
+                "GPU {i} cannot reach GPU {j}'s memory (no peer access: `mpm devices` shows it), which \
+                 ranks on several GPUs of one host move particles through; run on GPUs joined by \
+                 NVLink or a PCIe switch with peer access, or on one GPU"
+            );
+            a.gpu.ctx.bind_to_thread().context("binding a rank's context")?;
+            // SAFETY: the context bound above gains access to `b`'s; flags must be 0.
+            match unsafe { sys::cuCtxEnablePeerAccess(b.gpu.ctx.cu_ctx(), 0) } {
+                sys::CUresult::CUDA_SUCCESS | sys::CUresult::CUDA_ERROR_PEER_ACCESS_ALREADY_ENABLED => {}
+                error => bail!("enabling GPU {i}'s access to GPU {j}'s memory: {error:?}"),
+            }
+            // The buffers come from `b`'s stream-ordered pool (cuMemAllocAsync), which the
+            // context's peer access does not cover: the pool grants `a` access itself.
+            let mut pool = std::ptr::null_mut();
+            let access = sys::CUmemAccessDesc {
+                location: sys::CUmemLocation {
+                    type_: sys::CUmemLocationType::CU_MEM_LOCATION_TYPE_DEVICE,
+                    id: a.gpu.ctx.ordinal() as std::ffi::c_int,
+                },
+                flags: sys::CUmemAccess_flags::CU_MEM_ACCESS_FLAGS_PROT_READWRITE,
+            };
+            // SAFETY: `pool` receives `b`'s current pool, which then takes one access descriptor.
+            let granted = unsafe {
+                match sys::cuDeviceGetMemPool(&mut pool, b.gpu.ctx.cu_device()) {
+                    sys::CUresult::CUDA_SUCCESS => sys::cuMemPoolSetAccess(pool, &access, 1),
+                    error => error,
+                }
+            };
+            ensure!(
+                granted == sys::CUresult::CUDA_SUCCESS,
+                "granting GPU {i} access to GPU {j}'s memory pool: {granted:?}"
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Where two neighbouring ranks meet, seen from one of them: this rank's ghost planes there (the
 /// neighbour's edge) and its edge planes there (the neighbour's ghosts).
 struct Link {
@@ -424,6 +575,19 @@ struct Link {
     neighbour: usize,
     ghosts: Planes,
     edge: Planes,
+}
+
+impl Link {
+    /// The u64 words this rank sends and receives on the link for `what`: its ghost planes' sums go
+    /// out and its edge planes' come in; its edge planes' velocities go out and its ghosts' come in.
+    fn words(&self, what: Exchange, res: [u32; 3]) -> (usize, usize) {
+        let (send, recv) = match what {
+            Exchange::Sums => (&self.ghosts, &self.edge),
+            Exchange::Velocities => (&self.edge, &self.ghosts),
+        };
+        let words = what.words_per_node();
+        (words * send.nodes(res), words * recv.nodes(res))
+    }
 }
 
 fn opposite(side: Side) -> Side {
@@ -487,8 +651,8 @@ impl Solver for CudaRanks {
             solver.gather()?;
         }
         self.count_strays()?;
-        self.take_owned()?; // waits for every rank: the lap need not
-        clock.lap(Phase::G2p);
+        self.merged_stale = true;
+        self.lap(&mut clock, Phase::G2p)?;
         push_step_timing(&mut self.timings, clock.finish());
         Ok(())
     }
@@ -517,6 +681,11 @@ impl Solver for CudaRanks {
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {
         self.solvers.iter_mut().try_for_each(|s| s.apply_push(push))?;
+        self.merged_stale = true;
+        self.take_owned()
+    }
+
+    fn publish_particles(&mut self) -> Result<()> {
         self.take_owned()
     }
 
@@ -528,7 +697,16 @@ impl Solver for CudaRanks {
     }
 
     fn read_particles(&mut self) -> Result<Particles> {
+        self.take_owned()?;
         self.merged.download(&self.solvers[0].gpu)
+    }
+
+    /// Rank 0's statistics kernel over every rank's own slots, on its GPU: what one solver's would
+    /// give, without copying the particles to the host.
+    fn summary(&mut self, material: &Material) -> Result<Summary> {
+        self.take_owned()?;
+        let first = &mut self.solvers[0];
+        first.summary_of(material, &self.merged)
     }
 }
 
@@ -601,7 +779,7 @@ impl RanksKernels {
     }
 
     /// Moves the slots live in `from` whose block layer lies in `slab` (axis, layers of the grid,
-    /// the receiving rank's layers) to `to`, counting them in `moved`.
+    /// the receiving rank's layers) to `to`, which may lie on another GPU, counting them in `moved`.
     fn move_owned(
         &self,
         l: &Launcher,
@@ -629,7 +807,7 @@ impl RanksKernels {
         }
     }
 
-    /// Copies the slots live in `rank` into `out` (as many slots).
+    /// Copies the slots live in `rank` into `out` (as many slots), which may lie on another GPU.
     fn take_owned(&self, l: &Launcher, rank: &DeviceParticles, out: &DeviceParticles) -> Result<()> {
         ensure!(rank.count == out.count, "{} slots for {}", rank.count, out.count);
         let n = rank.count as u32;

@@ -22,9 +22,10 @@ use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
 use super::modules::Origin;
 use super::one_pass::Gather;
-use super::particles::DeviceParticlesView;
+use super::particles::{DeviceParticles, DeviceParticlesView};
 use super::spawn::spawn_on_device;
 use super::state::DeviceState;
+use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
@@ -186,6 +187,19 @@ impl CudaSolver {
 
     pub fn num_particles(&self) -> usize {
         self.state.particles.count
+    }
+
+    /// The statistics of `particles` (as many slots as this solver's, on its GPU) by its kernel,
+    /// waited for: how the ranks reduce the set of every rank's own slots.
+    pub fn summary_of(&mut self, material: &Material, particles: &DeviceParticles) -> Result<Summary> {
+        request_stats(
+            &self.gpu,
+            &self.params,
+            material,
+            &mut self.state.stats,
+            particles,
+        )?;
+        self.state.stats.wait()
     }
 
     /// The substep's work in stream order, phase by phase (`Phase::ALL`), each phase an NVTX range of
@@ -532,13 +546,14 @@ impl Solver for CudaSolver {
     }
 
     fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
-        let params = Params {
-            material: *material,
-            ..self.params
-        };
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
         let state = &mut self.state;
-        state.stats.request(&k.stats, l, &params, &state.particles)?;
+        request_stats(
+            &self.gpu,
+            &self.params,
+            material,
+            &mut state.stats,
+            &state.particles,
+        )?;
         Ok(SummaryTicket::Pending)
     }
 
@@ -548,4 +563,19 @@ impl Solver for CudaSolver {
             SummaryTicket::Pending => self.state.stats.wait(),
         }
     }
+}
+
+/// Enqueues the statistics of `particles` under `params` with `material`'s mass and density.
+fn request_stats(
+    gpu: &Gpu,
+    params: &Params,
+    material: &Material,
+    stats: &mut ParticleStats,
+    particles: &DeviceParticles,
+) -> Result<()> {
+    let params = Params {
+        material: *material,
+        ..*params
+    };
+    stats.request(&gpu.kernels.stats, &gpu.launcher, &params, particles)
 }

@@ -67,9 +67,12 @@ pub struct Scene {
     pub scatter: ScatterMode,
     /// The GPU's kernel sequence (the CPU reference ignores it).
     pub pipeline: Pipeline,
-    /// Ranks the run is split into (`--ranks`, `crate::dist`); 1: not split. A run option, not a
-    /// scene file setting.
+    /// Ranks the run is split into (`--ranks`, `--gpus`, `crate::dist`); 1: not split. A run
+    /// option, not a scene file setting.
     pub ranks: usize,
+    /// GPUs the ranks run on (`--gpus`): 1, every rank on the one device; or as many as ranks, one
+    /// rank per GPU, exchanging over NCCL. A run option, like `ranks`.
+    pub gpus: usize,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,

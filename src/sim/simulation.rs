@@ -492,6 +492,7 @@ impl Simulation {
                 return Ok(None);
             }
         }
+        self.solver.publish_particles()?;
         let FramePart {
             substeps,
             smallest_dt,

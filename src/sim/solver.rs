@@ -121,8 +121,15 @@ pub trait Solver: Send {
         );
         Ok(())
     }
-    /// Where the particles are, for a reader (the renderer) that can use them in place.
+    /// Where the particles are, for a reader (the renderer) that can use them in place: as of the
+    /// last frame's end ([`Self::publish_particles`]).
     fn particles(&self) -> ParticleView<'_>;
+    /// Brings what [`Self::particles`] shows up to the substeps run so far, where a backend keeps it
+    /// apart from the state it steps (the ranks gather their own slots into one set); [`Simulation`](super::Simulation)
+    /// calls it at each frame's end.
+    fn publish_particles(&mut self) -> Result<()> {
+        Ok(())
+    }
     /// Emits a layer from each emitter whose bit is set in `mask` (`sim::flow`), before the next
     /// substep. Only a solver made with the scene's emitters can.
     fn emit(&mut self, _params: &Params, mask: u32) -> Result<()> {

@@ -208,9 +208,10 @@ pub fn particle_bits(p: &Particles) -> Vec<u32> {
 }
 
 /// Through the command line on `backend`: the fixed-point coarse dam break for 10 frames on one
-/// rank, against 5 frames on 2 ranks checkpointed and resumed on 3 for 5 more; the last frames'
-/// PLY files must be the same bytes (a checkpoint resumes on any rank count).
-pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str) {
+/// rank, against 5 frames split by `split` (`--ranks 2`, `--gpus 2`) checkpointed and resumed on 3
+/// ranks of one device for 5 more; the PLY files of frames 5 and 10 must be the same bytes (a
+/// checkpoint resumes on any rank count).
+pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
         let out = std::process::Command::new(mpm_binary())
@@ -231,18 +232,22 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str) {
         "--export",
         "whole",
     ]);
-    run(&[
+    let first: Vec<&str> = [
         "--scene",
         "dam-break-coarse",
-        "--ranks",
-        "2",
         "--frames",
         "5",
         "--checkpoint",
         "ck",
         "--checkpoint-every",
         "5",
-    ]);
+        "--export",
+        "split",
+    ]
+    .into_iter()
+    .chain(split.iter().copied())
+    .collect();
+    run(&first);
     let resumed = run(&[
         "--resume",
         "ck/checkpoint_000005.mpmck",
@@ -256,7 +261,11 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str) {
     assert!(resumed.contains("on 3 ranks"), "{resumed}");
     let read = |path: &str| std::fs::read(dir.path().join(path)).unwrap();
     assert!(
+        read("whole/frame_000005.ply") == read("split/frame_000005.ply"),
+        "frame 5 on {split:?} differs from one rank's"
+    );
+    assert!(
         read("whole/frame_000010.ply") == read("resumed/frame_000010.ply"),
-        "frame 10 resumed on 3 ranks from 2 differs from one rank's"
+        "frame 10 resumed on 3 ranks from {split:?} differs from one rank's"
     );
 }

@@ -116,6 +116,7 @@ impl Validator<'_> {
             scatter: spec.solver.scatter,
             pipeline: spec.solver.pipeline,
             ranks: 1,
+            gpus: 1,
             time_step,
             particles_per_axis,
             bodies,

@@ -1,0 +1,86 @@
+//! The decomposition over two GPUs of one host: `CudaRanks` with a rank per GPU (`--gpus 2`), the
+//! ghost exchanges over NCCL, particles moved between the GPUs' memories, against one CUDA solver
+//! (the checks: tests/ranks_checks, which tests/gpu_ranks.rs runs with every rank on one GPU).
+//! Where fewer than two CUDA devices or no NCCL are found, every test is reported as ignored, with
+//! the reason (tests/harness: `harness = false`).
+
+use cudarc::driver::CudaContext;
+use mpm::cuda::{CudaOptions, CudaRanks};
+use mpm::sim::ScatterMode;
+use ranks_checks::{tank, On};
+
+mod common;
+mod harness;
+mod ranks_checks;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "two-GPU and NCCL",
+        two_devices_and_nccl,
+        harness::tests![
+            fixed_point_on_two_gpus_gives_one_gpu_s_bits,
+            float_on_two_gpus_follows_one_gpu,
+            a_moving_collider_across_the_gpus_cut_gives_one_gpu_s_bits,
+            a_dam_break_on_two_gpus_gives_one_gpu_s_bits_frame_by_frame,
+            the_halo_phases_run_over_nccl_and_are_timed,
+            a_checkpoint_of_two_gpus_resumes_on_one,
+            more_gpus_than_the_host_has_are_refused,
+        ],
+    )
+}
+
+fn two_devices_and_nccl() -> Result<(), String> {
+    harness::cuda_device_and_nccl()?;
+    let count = CudaContext::device_count().map_err(|e| format!("counting CUDA devices: {e:?}"))?;
+    if count < 2 {
+        return Err(format!("{count} CUDA device; two are needed"));
+    }
+    Ok(())
+}
+
+fn fixed_point_on_two_gpus_gives_one_gpu_s_bits() {
+    ranks_checks::fixed_point_ranks_give_one_gpu_s_bits(On::TwoGpus);
+}
+
+fn float_on_two_gpus_follows_one_gpu() {
+    ranks_checks::float_ranks_follow_one_gpu(On::TwoGpus);
+}
+
+fn a_moving_collider_across_the_gpus_cut_gives_one_gpu_s_bits() {
+    ranks_checks::a_moving_collider_across_the_cut_gives_one_gpu_s_bits(On::TwoGpus);
+}
+
+fn a_dam_break_on_two_gpus_gives_one_gpu_s_bits_frame_by_frame() {
+    ranks_checks::a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(On::TwoGpus);
+}
+
+fn the_halo_phases_run_over_nccl_and_are_timed() {
+    ranks_checks::the_halo_phases_are_timed_and_migrations_counted(On::TwoGpus);
+    let (scene, _) = tank(ScatterMode::Float);
+    let split = ranks_checks::ranks(&scene, 2, On::TwoGpus);
+    let name = split.device_name();
+    assert!(name.contains("2 x") && name.contains("NCCL"), "{name}");
+}
+
+/// `mpm run --gpus 2`: frame 5 is one GPU's bytes, and its checkpoint resumes on 3 ranks of one GPU
+/// to frame 10, one GPU's bytes again.
+fn a_checkpoint_of_two_gpus_resumes_on_one() {
+    common::ranks_checkpoint_resumes_on_another_rank_count("cuda", &["--gpus", "2"]);
+}
+
+fn more_gpus_than_the_host_has_are_refused() {
+    let count = CudaContext::device_count().unwrap() as usize;
+    let (mut scene, _) = tank(ScatterMode::Float);
+    scene.ranks = count + 1;
+    scene.gpus = count + 1;
+    let particles = common::stirred(&scene);
+    let slabs = mpm::dist::starting_slabs(&scene, &particles, count + 1).unwrap();
+    let err = CudaRanks::with_slabs(&scene, particles, slabs, CudaOptions::default())
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap_or_default();
+    assert!(
+        err.contains("this machine has") && err.contains("mpm devices"),
+        "{err}"
+    );
+}
