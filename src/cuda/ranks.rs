@@ -25,8 +25,11 @@
 //! on the sending rank's GPU) copies the moved slots and flips their flags, and a slot's index never
 //! changes. Readers see one set of every slot on rank 0's GPU, into which `take_owned` copies every
 //! rank's own slots once a frame (`Solver::publish_particles`) or when the host reads them.
-//! The host waits for every rank at the end of each phase: that times the phases, and on one GPU
-//! orders the exchanges between the ranks' streams.
+//! The phases are timed by CUDA events on rank 0's stream (timing.rs), each from the end of the one
+//! before, so an exchange includes any wait for a slower neighbour, and the sort phase the host's
+//! turn between substeps. The host waits for the ranks only where it must: for the stray counts
+//! before each substep, around a migration and `take_owned`, and on one GPU before each carry
+//! (a copy on the receiver's stream reads the sender's buffer).
 
 use super::gpu::CudaOptions;
 use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS};
@@ -35,13 +38,13 @@ use super::modules::LoadedModules;
 use super::particles::{DeviceParticles, DeviceParticlesView};
 use super::solver::CudaSolver;
 use super::state::{DeviceState, StateArgs};
+use super::timing::PhaseEvents;
 use super::SORT_INTERVAL;
 use crate::dist::migrate::{layer, Migration};
 use crate::dist::nccl::{Comm, DataType, Nccl};
 use crate::dist::{check_ranks, starting_slabs, Slabs};
 use crate::sim::colliders::ColliderFrame;
-use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
-use crate::sim::solver::push_step_timing;
+use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::{
     Material, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
 };
@@ -68,7 +71,8 @@ pub struct CudaRanks {
     counts: Vec<usize>,
     /// Live particles in the run, all ranks together: what every migration must leave.
     live: u64,
-    timings: Vec<PhaseTimings>,
+    /// The phases' events, on rank 0's stream.
+    timing: PhaseEvents,
     substeps: u64,
     migrations: u64,
     migrated: Migration,
@@ -170,6 +174,7 @@ impl CudaRanks {
         } else {
             Carrier::DeviceCopy
         };
+        let timing = PhaseEvents::new(solvers[0].gpu.ctx.clone());
         Ok(CudaRanks {
             carrier,
             solvers,
@@ -181,7 +186,7 @@ impl CudaRanks {
             merged,
             merged_stale: false,
             strays,
-            timings: Vec::new(),
+            timing,
             substeps: 0,
             migrations: 0,
             migrated: Migration::default(),
@@ -223,11 +228,10 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// The host waits for every rank, then the time since the last lap was `phase`'s.
-    fn lap(&self, clock: &mut PhaseClock, phase: Phase) -> Result<()> {
-        self.wait_all()?;
-        clock.lap(phase);
-        Ok(())
+    /// Marks the end of `phase` on rank 0's stream.
+    fn end_phase(&mut self, phase: Phase) -> Result<()> {
+        let stream = self.solvers[0].stream().clone();
+        self.timing.end_phase(&stream, phase, true)
     }
 
     /// Where rank `rank` meets its neighbour on `side`; `None` at the domain's ends.
@@ -621,7 +625,9 @@ impl Solver for CudaRanks {
 
     /// One substep, as the table at the top of this file lists its phases.
     fn step(&mut self, params: &Params) -> Result<()> {
-        let mut clock = PhaseClock::start();
+        // Recorded behind the last substep's work: the sort phase holds the host's turn between.
+        let first = self.solvers[0].stream().clone();
+        self.timing.begin_step(&first)?;
         let last_dt = self.solvers[0].params.dt;
         self.substeps += 1;
         // Every particle starts on its owner; the strays were counted by the last substep's g2p.
@@ -634,27 +640,25 @@ impl Solver for CudaRanks {
             let sort = solver.sort_due();
             solver.sort_phase(sort)?;
         }
-        self.lap(&mut clock, Phase::Sort)?;
+        self.end_phase(Phase::Sort)?;
         for solver in &mut self.solvers {
             solver.scatter_first()?;
         }
-        self.lap(&mut clock, Phase::P2gInit)?;
+        self.end_phase(Phase::P2gInit)?;
         self.exchange(Exchange::Sums)?;
-        self.lap(&mut clock, Phase::HaloSum)?;
+        self.end_phase(Phase::HaloSum)?;
         for solver in &mut self.solvers {
             solver.mirror_and_update_grid()?;
         }
-        self.lap(&mut clock, Phase::GridUpdate)?;
+        self.end_phase(Phase::GridUpdate)?;
         self.exchange(Exchange::Velocities)?;
-        self.lap(&mut clock, Phase::HaloFill)?;
+        self.end_phase(Phase::HaloFill)?;
         for solver in &mut self.solvers {
             solver.gather()?;
         }
         self.count_strays()?;
         self.merged_stale = true;
-        self.lap(&mut clock, Phase::G2p)?;
-        push_step_timing(&mut self.timings, clock.finish());
-        Ok(())
+        self.end_phase(Phase::G2p)
     }
 
     fn resume_after(&mut self, last: &Params) {
@@ -672,7 +676,7 @@ impl Solver for CudaRanks {
     }
 
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
-        Ok(Some(std::mem::take(&mut self.timings)))
+        Ok(Some(self.timing.take_completed()?))
     }
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {

@@ -57,11 +57,10 @@ impl Phase {
         }
     }
 
-    /// Whether the CUDA backend runs (and times) the phase with work of its own; grid_clear is
-    /// folded into the grid update there, and the halo exchanges belong to runs on several ranks,
-    /// which only the CPU backend splits today.
+    /// Whether the CUDA backend runs (and times) the phase with work of its own: all but grid_clear,
+    /// which is folded into the grid update there (the halo exchanges have work only on ranks).
     pub const fn runs_on_gpu(self) -> bool {
-        !matches!(self, Phase::GridClear | Phase::HaloSum | Phase::HaloFill)
+        !matches!(self, Phase::GridClear)
     }
 
     /// Whether the phase is one of the exchanges between ranks.
