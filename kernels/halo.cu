@@ -14,14 +14,13 @@
 
 #define HALO_SUM_WORDS 5u
 
-// Node `j` of the planes first.. across `axis`, counted with the lower of the other two axes fastest.
-__device__ __forceinline__ u32 halo_node(const Params& params, u32 axis, u32 first, u32 j) {
-    const u32 a = axis == 0u ? 1u : 0u, b = axis == 2u ? 1u : 2u;
-    const u32 ra = params.grid_res[a], rb = params.grid_res[b];
-    u32 c[3];
-    c[a] = j % ra;
-    c[b] = (j / ra) % rb;
-    c[axis] = first + j / (ra * rb);
+// Node `j` of the `num_nodes` nodes of the planes from `first` across `axis`, counted in the grid's
+// memory order (x fastest), so that neighbouring threads read neighbouring nodes whichever the axis.
+__device__ __forceinline__ u32 halo_node(const Params& params, u32 axis, u32 first, u32 num_nodes, u32 j) {
+    u32 box[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
+    box[axis] = num_nodes / (box[0] * box[1] * box[2] / box[axis]);
+    u32 c[3] = {j % box[0], (j / box[0]) % box[1], j / (box[0] * box[1])};
+    c[axis] += first;
     return c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
 }
 
@@ -38,7 +37,7 @@ extern "C" __global__ void halo_pack_sums(const Params params, const u32 axis, c
                                           u64* __restrict__ out) {
     const NodeBlocks blocks = node_blocks(params);
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, j);
+        const u32 i = halo_node(params, axis, first, num_nodes, j);
         u64* o = out + (size_t)HALO_SUM_WORDS * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
             o[0] = fixed_mass[i];
@@ -68,7 +67,7 @@ extern "C" __global__ void halo_add_sums(const Params params, const u32 axis, co
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, j);
+        const u32 i = halo_node(params, axis, first, num_nodes, j);
         const u64* w = in + (size_t)HALO_SUM_WORDS * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
             fixed_mass[i] += w[0];
@@ -89,12 +88,12 @@ extern "C" __global__ void halo_add_sums(const Params params, const u32 axis, co
 extern "C" __global__ void halo_pack_velocities(const Params params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ grid_vel,
                                                 float4* __restrict__ out) {
-    FOR_EACH_INDEX(j, num_nodes) out[j] = grid_vel[halo_node(params, axis, first, j)];
+    FOR_EACH_INDEX(j, num_nodes) out[j] = grid_vel[halo_node(params, axis, first, num_nodes, j)];
 }
 
 // Writes packed velocities over the ghost planes from `first`.
 extern "C" __global__ void halo_fill_velocities(const Params params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ in,
                                                 float4* __restrict__ grid_vel) {
-    FOR_EACH_INDEX(j, num_nodes) grid_vel[halo_node(params, axis, first, j)] = in[j];
+    FOR_EACH_INDEX(j, num_nodes) grid_vel[halo_node(params, axis, first, num_nodes, j)] = in[j];
 }
