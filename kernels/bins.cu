@@ -24,18 +24,19 @@
 extern "C" __global__ void bin_count(const Params params,
                                     const u32 edge,
                                     const float4* __restrict__ x,
-                                    u32* __restrict__ cell_counts,  // zeroed, one per key and the parked key
+                                    u32* __restrict__ cell_counts,  // zeroed, one per key and parked key
                                     u32* __restrict__ key,
                                     u32* __restrict__ rank) {
     u32 bins[3];
     for (int a = 0; a < 3; ++a) bins[a] = (params.grid_res[a] + edge - 1) / edge;
-    // Parked slots (kernels/lifecycle.cu) share one key past every bin's: they sort to the end of
-    // `order`, in no bin and no list.
+    // Parked slots (kernels/lifecycle.cu) take the PARKED_KEYS keys past every bin's, a warp to a
+    // key: they sort to the end of `order`, in no bin and no list, and the warps' atomics spread over
+    // PARKED_KEYS counters instead of queuing on one.
     const u32 parked_key = bins[0] * bins[1] * bins[2] * edge * edge * edge;
     FOR_EACH_INDEX_CONVERGED(p, live, first, params.num_particles) {
         u32 k = 0xffffffffu;  // lanes past the end form a group of their own and add nothing
         if (live && is_parked(x[p])) {
-            k = parked_key;
+            k = parked_key + (first + threadIdx.x) / 32u % PARKED_KEYS;
         } else if (live) {
             const Stencil s = make_stencil(x[p], params);
             const u32 bin = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));

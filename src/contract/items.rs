@@ -278,6 +278,9 @@ device_constants! {
     /// draws (2047 px), which caps the GL pass's splats likewise.
     THICKNESS_MAX_SPLAT_PX: f32 = 1023.5;
 
+    /// Keys past every bin's that bin_count spreads the parked slots over, a warp to a key: on one
+    /// counter every warp's atomic would queue behind the others' (a rank parks half its slots).
+    PARKED_KEYS: u32 = 32;
     /// Values each thread of scan_tiles scans.
     SCAN_ITEMS_PER_THREAD: i32 = 8;
     /// Threads per block of particle_stats.

@@ -13,7 +13,7 @@ use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
 
 use crate::contract::{
-    BinEntry, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
+    BinEntry, PARKED_KEYS, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
     WORK_NODE_BLOCKS_DONE,
 };
 pub use crate::contract::{NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
@@ -94,8 +94,8 @@ impl Bins {
             .iter()
             .map(|&b| b as usize)
             .product();
-        // One key per cell, and one past them for the parked slots (kernels/bins.cu).
-        let num_keys = num_bins * (edge as usize).pow(3) + 1;
+        // One key per cell, and PARKED_KEYS past them for the parked slots (kernels/bins.cu).
+        let num_keys = num_bins * (edge as usize).pow(3) + PARKED_KEYS as usize;
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<u32>(len.max(1))
