@@ -319,7 +319,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     // with particles in place (the ranks, which keep theirs in place, say so in their label).
     let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::SORT_INTERVAL);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
-        // src/cuda/ranks.rs: the phases of every rank, host-synchronised at each phase's end.
+        // src/cuda/ranks.rs: the phases of every rank, timed on rank 0's stream.
         (true, true, Phase::Sort) => format!(
             "migrate + rebin (every {} substeps, or when a particle nears its rank's ghost planes)",
             cuda::SORT_INTERVAL
