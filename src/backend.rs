@@ -80,7 +80,7 @@ fn create_with(
     }
     let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
     if scene.ranks > 1 {
-        return create_ranks(kind, scene, initial());
+        return create_ranks(kind, scene, initial);
     }
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
@@ -123,7 +123,11 @@ fn create_with(
 /// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (on one device,
 /// or one per GPU with `scene.gpus`; `auto` asks for them too, with no CPU fallback) or the CPU
 /// reference's thread ranks.
-fn create_ranks(kind: BackendKind, scene: &Scene, particles: Particles) -> Result<Box<dyn Solver>> {
+fn create_ranks(
+    kind: BackendKind,
+    scene: &Scene,
+    particles: impl FnOnce() -> Particles,
+) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
     ensure!(
         scene.gpus <= 1 || matches!(kind, BackendKind::Cuda | BackendKind::Auto),
@@ -132,13 +136,12 @@ fn create_ranks(kind: BackendKind, scene: &Scene, particles: Particles) -> Resul
         scene.gpus
     );
     match kind {
-        BackendKind::Cuda | BackendKind::Auto => Ok(Box::new(CudaRanks::new(
-            scene,
-            particles,
-            ranks,
-            CudaOptions::from_env()?,
-        )?)),
-        BackendKind::Cpu => Ok(Box::new(CpuRanks::new(scene, particles, ranks)?)),
+        BackendKind::Cuda | BackendKind::Auto => {
+            let options = CudaOptions::from_env()?;
+            CudaRanks::check_gpus(scene)?;
+            Ok(Box::new(CudaRanks::new(scene, particles(), ranks, options)?))
+        }
+        BackendKind::Cpu => Ok(Box::new(CpuRanks::new(scene, particles(), ranks)?)),
         BackendKind::CpuParallel => bail!(
             "--ranks {ranks}: the cpu-parallel backend runs on one rank; drop --ranks, or split the \
              single-thread reference (--backend cpu) or the CUDA backend (--backend cuda)"

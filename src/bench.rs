@@ -225,6 +225,7 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
                 cuda.block_size = block;
             }
             if scene.ranks > 1 {
+                CudaRanks::check_gpus(scene)?;
                 let solver = CudaRanks::new(scene, scene.spawn(), scene.ranks, cuda)?;
                 let device = solver.device_name();
                 return Ok((Box::new(solver), device));

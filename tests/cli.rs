@@ -81,6 +81,37 @@ fn negative_and_zero_numbers_are_named() {
     }
 }
 
+/// `--gpus` is refused, naming the fix, where it cannot run: on the CPU backends, beside `--ranks`,
+/// and at zero.
+#[test]
+fn gpus_are_refused_where_they_cannot_run() {
+    for (args, words) in [
+        (
+            &["run", "--backend", "cpu", "--gpus", "2", "--frames", "1"][..],
+            "use --backend cuda",
+        ),
+        (
+            &[
+                "bench",
+                "--backend",
+                "cpu-parallel",
+                "--gpus",
+                "2",
+                "--steps",
+                "1",
+            ][..],
+            "use --backend cuda",
+        ),
+        (&["run", "--gpus", "2", "--ranks", "2"][..], "cannot be used with"),
+        (&["run", "--gpus", "0"][..], "0 is too small"),
+    ] {
+        let out = mpm(args);
+        assert!(!out.status.success(), "{args:?} accepted");
+        let text = stderr(&out);
+        assert!(text.contains(words), "{args:?}: {text}");
+    }
+}
+
 /// Every path the viewer writes is checked before the window opens (here there is no display, so a
 /// late check would be reported as the missing display instead).
 #[test]

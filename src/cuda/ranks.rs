@@ -193,6 +193,35 @@ impl CudaRanks {
         })
     }
 
+    /// What `--gpus` (`Scene::gpus` above 1) needs, checked before any particle is made: as many
+    /// CUDA devices, a peer path between every two of them, and NCCL. Each missing piece is named
+    /// with its fix.
+    pub fn check_gpus(scene: &Scene) -> Result<()> {
+        let gpus = scene.gpus;
+        if gpus <= 1 {
+            return Ok(());
+        }
+        let devices = super::library::devices()?;
+        let count = devices.len();
+        ensure!(
+            gpus <= count,
+            "--gpus {gpus}: this machine has {count} CUDA device{} (`mpm devices` lists them); ask \
+             for at most {count}",
+            if count == 1 { "" } else { "s" }
+        );
+        for (i, device) in devices.iter().take(gpus).enumerate() {
+            if let Some(j) = (0..gpus).find(|&j| j != i && !device.peer_access[j]) {
+                bail!(
+                    "--gpus {gpus}: GPU {i} cannot reach GPU {j}'s memory (no peer access; `mpm \
+                     devices` shows it), which ranks on the GPUs of one host move particles \
+                     through; run on GPUs joined by NVLink or a PCIe switch with peer access, or \
+                     on one GPU"
+                );
+            }
+        }
+        Nccl::get().map(drop)
+    }
+
     /// The device's name, and how many ranks share it or how many GPUs the ranks run on.
     pub fn device_name(&self) -> String {
         let (name, ranks) = (self.solvers[0].device_name(), self.solvers.len());
@@ -511,34 +540,15 @@ fn rank_devices(scene: &Scene, ranks: usize, one: usize) -> Result<Vec<usize>> {
         ranks,
         scene.gpus
     );
-    super::library::ensure_driver()?;
-    let count = cudarc::driver::CudaContext::device_count()
-        .map_err(|e| anyhow::anyhow!("the NVIDIA driver cannot count its devices: {e}"))?
-        .max(0) as usize;
-    ensure!(
-        ranks <= count,
-        "--gpus {ranks}: this machine has {count} CUDA device{} (`mpm devices` lists them); ask for \
-         at most {count}",
-        if count == 1 { "" } else { "s" }
-    );
+    CudaRanks::check_gpus(scene)?;
     Ok((0..ranks).collect())
 }
 
 /// Lets every rank's GPU read and write every other's memory, which migration and `take_owned`
-/// do; an error naming the pair where the hardware has no path for it.
+/// do (`CudaRanks::check_gpus` made sure the hardware has a path for it).
 fn enable_peer_access(solvers: &[CudaSolver]) -> Result<()> {
     for (i, a) in solvers.iter().enumerate() {
         for (j, b) in solvers.iter().enumerate().filter(|&(j, _)| j != i) {
-            let mut can = 0;
-            // SAFETY: writes one int; both devices come from open contexts.
-            let asked =
-                unsafe { sys::cuDeviceCanAccessPeer(&mut can, a.gpu.ctx.cu_device(), b.gpu.ctx.cu_device()) };
-            ensure!(
-                asked == sys::CUresult::CUDA_SUCCESS && can != 0,
-                "GPU {i} cannot reach GPU {j}'s memory (no peer access: `mpm devices` shows it), which \
-                 ranks on several GPUs of one host move particles through; run on GPUs joined by \
-                 NVLink or a PCIe switch with peer access, or on one GPU"
-            );
             a.gpu.ctx.bind_to_thread().context("binding a rank's context")?;
             // SAFETY: the context bound above gains access to `b`'s; flags must be 0.
             match unsafe { sys::cuCtxEnablePeerAccess(b.gpu.ctx.cu_ctx(), 0) } {
