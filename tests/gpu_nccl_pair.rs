@@ -13,18 +13,9 @@ mod harness;
 fn main() -> std::process::ExitCode {
     harness::run(
         "two-GPU and NCCL",
-        two_devices_and_nccl,
+        harness::two_cuda_devices_and_nccl,
         harness::tests![two_ranks_on_two_gpus_sum_and_exchange],
     )
-}
-
-fn two_devices_and_nccl() -> Result<(), String> {
-    harness::cuda_device_and_nccl()?;
-    let count = CudaContext::device_count().map_err(|e| format!("counting CUDA devices: {e:?}"))?;
-    if count < 2 {
-        return Err(format!("{count} CUDA device; two are needed"));
-    }
-    Ok(())
 }
 
 /// What one rank measured: microseconds per call of each timed exchange.

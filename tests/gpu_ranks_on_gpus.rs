@@ -16,7 +16,7 @@ mod ranks_checks;
 fn main() -> std::process::ExitCode {
     harness::run(
         "two-GPU and NCCL",
-        two_devices_and_nccl,
+        harness::two_cuda_devices_and_nccl,
         harness::tests![
             fixed_point_on_two_gpus_gives_one_gpu_s_bits,
             float_on_two_gpus_follows_one_gpu,
@@ -27,15 +27,6 @@ fn main() -> std::process::ExitCode {
             more_gpus_than_the_host_has_are_refused,
         ],
     )
-}
-
-fn two_devices_and_nccl() -> Result<(), String> {
-    harness::cuda_device_and_nccl()?;
-    let count = CudaContext::device_count().map_err(|e| format!("counting CUDA devices: {e:?}"))?;
-    if count < 2 {
-        return Err(format!("{count} CUDA device; two are needed"));
-    }
-    Ok(())
 }
 
 fn fixed_point_on_two_gpus_gives_one_gpu_s_bits() {

@@ -96,6 +96,17 @@ pub fn cuda_device_and_nccl() -> Result<(), String> {
         .map_err(|why| format!("no NCCL: {why:#}"))
 }
 
+/// Two CUDA devices or more, and NCCL.
+pub fn two_cuda_devices_and_nccl() -> Result<(), String> {
+    cuda_device_and_nccl()?;
+    let count =
+        cudarc::driver::CudaContext::device_count().map_err(|e| format!("counting CUDA devices: {e:?}"))?;
+    if count < 2 {
+        return Err(format!("{count} CUDA device; two are needed"));
+    }
+    Ok(())
+}
+
 /// A CUDA device and a headless OpenGL context on an EGL device.
 pub fn cuda_device_and_headless_gl() -> Result<(), String> {
     cuda_device()?;
