@@ -63,7 +63,7 @@ pub struct CudaRanks {
     /// Every slot, each from the rank that owns it, on rank 0's device (`Solver::particles`), as of
     /// the last `take_owned`.
     merged: DeviceParticles,
-    /// Substeps ran since `merged` was taken.
+    /// Whether the ranks stepped (or were pushed) since `merged` was taken.
     merged_stale: bool,
     /// Per rank: the strays its last g2p counted.
     strays: Vec<CudaSlice<u32>>,
