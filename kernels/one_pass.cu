@@ -66,17 +66,32 @@ enum class Scatter {
     FixedTile,
 };
 
+// A lane that scatters nothing still takes part in its warp's shuffles, adding zeros: its weights,
+// offsets and impulse are zeroed once here (all finite, so every product is 0), not each of the 108
+// values it computes.
+__device__ __forceinline__ void zero_unless_live(bool live, Stencil& s, ParticleImpulse& q) {
+    if (live) return;
+    for (int a = 0; a < 3; ++a) {
+        s.fx[a] = 0.0f;
+        q.mv[a] = 0.0f;
+        for (int o = 0; o < 3; ++o) {
+            s.w[o][a] = 0.0f;
+            q.affine[o][a] = 0.0f;
+        }
+    }
+}
+
 // Scatter::FloatRuns for one particle a lane, in STEPS shuffle steps (runs of up to 2^STEPS lanes).
 // Every lane of the warp calls it.
 template <int STEPS>
-__device__ __forceinline__ void scatter_runs_in(const Params& params, const Stencil& s, const ParticleImpulse& q,
-                                                bool live, WarpRun run, float4* grid_acc) {
+__device__ __forceinline__ void scatter_runs_in(const Params& params, Stencil s, ParticleImpulse q, bool live,
+                                                WarpRun run, float4* grid_acc) {
     const float m_p = params.material.particle_mass;
+    zero_unless_live(live, s, q);
     FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
         float impulse[3];
         impulse_at(q, w, d0, d1, d2, impulse);
         float sums[4] = {impulse[0], impulse[1], impulse[2], w * m_p};
-        if (!live) sums[0] = sums[1] = sums[2] = sums[3] = 0.0f;
         warp_run_sum(run, sums, 1u << STEPS);
         if (run.head && live) atomic_add_mass_momentum(&grid_acc[node], sums[0], sums[1], sums[2], sums[3]);
     })
@@ -95,10 +110,10 @@ __device__ __forceinline__ void scatter_runs(const Params& params, const Stencil
 // runs (warp_run_sum, in the steps the warp's longest run needs), then the run's head adds each
 // node's sums with one vector atomic. The heads' sums are scatter_runs's, bit for bit. Every lane
 // of the warp calls it.
-__device__ __forceinline__ void scatter_runs_by_plane(const Params& params, const Stencil& s,
-                                                      const ParticleImpulse& q, bool live, WarpRun run,
-                                                      float4* grid_acc) {
+__device__ __forceinline__ void scatter_runs_by_plane(const Params& params, Stencil s, ParticleImpulse q,
+                                                      bool live, WarpRun run, float4* grid_acc) {
     const float m_p = params.material.particle_mass;
+    zero_unless_live(live, s, q);
     const u32 longest = warp_longest_run(run);
     const u32 row = params.grid_res[0], plane = params.grid_res[0] * params.grid_res[1];
 #pragma unroll
@@ -115,10 +130,10 @@ __device__ __forceinline__ void scatter_runs_by_plane(const Params& params, cons
             const float w = s.w[ox][0] * (s.w[oy][1] * wz);
             float impulse[3];
             impulse_at(q, w, (float)ox - s.fx[0], (float)oy - s.fx[1], d2, impulse);
-            sums[4 * k] = live ? impulse[0] : 0.0f;
-            sums[4 * k + 1] = live ? impulse[1] : 0.0f;
-            sums[4 * k + 2] = live ? impulse[2] : 0.0f;
-            sums[4 * k + 3] = live ? w * m_p : 0.0f;
+            sums[4 * k] = impulse[0];
+            sums[4 * k + 1] = impulse[1];
+            sums[4 * k + 2] = impulse[2];
+            sums[4 * k + 3] = w * m_p;
         }
         warp_run_sum(run, sums, longest);
         if (run.head && live) {

@@ -43,13 +43,17 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 #define G2P2G_MIN_BLOCKS 8
 #define P2G_TILED_MIN_BLOCKS 6
 // one_pass's float scatter at 5 (96 registers) against 6 (80), H100, 2026-11-25 (BENCHMARKS.md 0n): the
-// dam break -1.4 %, bench-65k -3.9 %, the other presets -0.4 to -0.7 %; its fixed-point scatter at 5
-// was 3.8 % slower at the dam break, so it stays at 6.
+// dam break -1.4 %, bench-65k -3.9 %, the other presets -0.4 to -0.7 % (its fixed-point scatter at 5
+// was then 3.8 % slower at the dam break; see below for now).
 #define ONE_PASS_FLOAT_MIN_BLOCKS 5
 // Its plane-by-plane float scatter at 4 (128 registers: at 5 its 36 sums spill), H100, 2026-11-26
 // (BENCHMARKS.md 0t).
 #define ONE_PASS_FLOAT_PLANES_MIN_BLOCKS 4
-#define ONE_PASS_FIXED_MIN_BLOCKS 6
+// Its fixed-point scatter at 5 (96 registers) since the gather sums by rows (common.cuh), which at 6
+// (80) spilled: 2.8 % off `dam-break-1m` in fixed point against the rows' gather at 6 with the old
+// gather kept for this entry point alone, 0.2 % off the dam break and bench-655k (H100, 2026-11-27,
+// BENCHMARKS.md 0y; at 6 with the rows' gather the dam break lost 3 %).
+#define ONE_PASS_FIXED_MIN_BLOCKS 5
 
 // Tile units are global fixed-point units / 2^TILE_UNIT_SHIFT: a cell's mass at rest is 2^27 units
 // (resolution 7e-9 of it, finer than a float sum), and a tile node's sum stays under 2^31 up to about
