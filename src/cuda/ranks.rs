@@ -111,7 +111,7 @@ enum Carrier {
     /// Every rank on one GPU: a device copy into the neighbour's receive buffer.
     DeviceCopy,
     /// One rank per GPU: NCCL's send and receive between neighbours, rank r's communicator at r.
-    Nccl { nccl: &'static Nccl, comms: Vec<Comm> },
+    Nccl(Vec<Comm>),
 }
 
 impl CudaRanks {
@@ -167,10 +167,9 @@ impl CudaRanks {
         merged.upload(solvers[0].stream(), &particles)?;
         let carrier = if scene.gpus > 1 {
             enable_peer_access(&solvers)?;
-            let nccl = Nccl::get()?;
-            let comms = Comm::init_all(nccl, &devices)
+            let comms = Comm::init_all(Nccl::get()?, &devices)
                 .with_context(|| format!("joining the {} GPUs in one NCCL communicator", devices.len()))?;
-            Carrier::Nccl { nccl, comms }
+            Carrier::Nccl(comms)
         } else {
             Carrier::DeviceCopy
         };
@@ -227,7 +226,7 @@ impl CudaRanks {
         let (name, ranks) = (self.solvers[0].device_name(), self.solvers.len());
         match self.carrier {
             Carrier::DeviceCopy => format!("{name}, {ranks} ranks"),
-            Carrier::Nccl { .. } => format!("{ranks} x {name}, a rank each (NCCL)"),
+            Carrier::Nccl(_) => format!("{ranks} x {name}, a rank each (NCCL)"),
         }
     }
 
@@ -354,7 +353,7 @@ impl CudaRanks {
                 }
                 Ok(())
             }
-            Carrier::Nccl { nccl, comms } => nccl.group(|| {
+            Carrier::Nccl(comms) => comms[0].nccl().group(|| {
                 for (comm, (solver, halo)) in comms.iter().zip(self.solvers.iter().zip(&self.halos)) {
                     let stream = solver.stream();
                     let mut sends = Vec::new();

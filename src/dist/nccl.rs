@@ -190,6 +190,11 @@ impl Comm {
         })
     }
 
+    /// The NCCL library this communicator was made by (what `Nccl::group` is called on).
+    pub fn nccl(&self) -> &'static Nccl {
+        self.nccl
+    }
+
     /// One communicator per device of `devices`, all in this process, rank i on `devices[i]`: what
     /// one thread driving every GPU of a host holds (ncclCommInitAll).
     pub fn init_all(nccl: &'static Nccl, devices: &[usize]) -> Result<Vec<Comm>> {
