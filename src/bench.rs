@@ -318,16 +318,16 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let ranked = scene.ranks > 1;
     // As the solver chose it: where there was no room for the bin-ordered copy, it bins as often as
     // with particles in place (the ranks, which keep theirs in place, say so in their label).
-    let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::SORT_INTERVAL);
+    let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::bins::SORT_INTERVAL);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
         // src/cuda/ranks.rs: the phases of every rank, timed on rank 0's stream.
         (true, true, Phase::Sort) => format!(
             "migrate + rebin (every {} substeps, or when a particle nears its rank's ghost planes)",
-            cuda::SORT_INTERVAL
+            crate::dist::MIGRATION_INTERVAL
         ),
         (true, true, Phase::G2p) => "one_pass + count strays (every rank)".into(),
         (true, _, _) => {
-            let label = phase.gpu_label(scene.pipeline, fixed_point, sort_interval);
+            let label = cuda::pipelines::phase_label(scene.pipeline, phase, Some(fixed_point), sort_interval);
             match sim.solver().phase_kernel(phase) {
                 Some(kernel) => format!("{label}, as {kernel}"),
                 None => label,

@@ -147,7 +147,7 @@ fn the_first_rebin_balances_even_slabs() {
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
     let mut split = CpuRanks::with_slabs(&scene, common::stirred(&scene), even.clone()).unwrap();
     let before = split.counts();
-    for _ in 0..mpm::cuda::bins::SORT_INTERVAL {
+    for _ in 0..mpm::dist::MIGRATION_INTERVAL {
         split.step(&params).unwrap();
     }
     let after = split.counts();

@@ -6,6 +6,7 @@
 use glam::Vec3;
 use mpm::backend::BackendKind;
 use mpm::cuda::interop::GlBufferResource;
+use mpm::cuda::render::DeviceParticlesView;
 use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
@@ -45,9 +46,10 @@ fn interop_round_trip_through_gl() {
         sim.step_frame().expect("step");
     }
     let expected = sim.solver_mut().read_particles().expect("read back");
-    let ParticleView::Device(cuda) = sim.solver().particles() else {
+    let ParticleView::Device(view) = sim.solver().particles() else {
         panic!("a CUDA solver keeps its particles on the device");
     };
+    let cuda = DeviceParticlesView::of(view.as_ref()).expect("a CUDA solver's own view");
 
     let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
     renderer.ensure_capacity(n);

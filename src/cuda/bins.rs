@@ -4,33 +4,13 @@
 //! pipeline bins by node block (edge 4, `NODE_BLOCK_EDGE`), a tile per listed chunk of a bin
 //! (kernels/tiles.cuh).
 
-use super::gpu::Gpu;
+use super::bin_lists::{Bins, BIN_COUNT_SLOT};
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::particles::slots_in_place;
+use crate::contract::SCAN_ITEMS_PER_THREAD;
 use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig, PushKernelArg};
-
-use crate::contract::{
-    BinEntry, PARKED_KEYS, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
-    WORK_NODE_BLOCKS_DONE,
-};
-pub use crate::contract::{NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
-/// Slots of the work-count buffer, `WORK_BINS`, `WORK_NODE_BLOCKS` and `WORK_NODE_BLOCKS_DONE`.
-pub const WORK_COUNTS: usize = 3;
-/// The work-count slots as indices.
-pub const BIN_COUNT_SLOT: usize = WORK_BINS as usize;
-pub const NODE_BLOCK_COUNT_SLOT: usize = WORK_NODE_BLOCKS as usize;
-const _: () = assert!(
-    BIN_COUNT_SLOT < WORK_COUNTS
-        && NODE_BLOCK_COUNT_SLOT < WORK_COUNTS
-        && (WORK_NODE_BLOCKS_DONE as usize) < WORK_COUNTS
-);
-/// The smallest chunk a bin is listed in: one particle per thread of a tiled pass (TILE_THREADS).
-pub const MIN_BIN_CHUNK: usize = 128;
-/// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.
-const CHUNKS_PER_MULTIPROCESSOR: usize = 48;
 
 pub struct BinKernels {
     count: Kernel,
@@ -52,129 +32,7 @@ impl BinKernels {
     }
 }
 
-/// Bins per axis for bins of `edge` nodes.
-pub fn bins_per_axis(grid_res: [u32; 3], edge: u32) -> [u32; 3] {
-    grid_res.map(|r| r.div_ceil(edge))
-}
-
-pub struct Bins {
-    edge: u32,
-    num_bins: usize,
-    num_particles: usize,
-    key: CudaSlice<u32>,
-    rank: CudaSlice<u32>,
-    /// levels[0]: one count (then start) per bin; levels[i + 1]: the tile sums of levels[i]. The last
-    /// level fits one tile; `top` takes its (unused) total.
-    levels: Vec<CudaSlice<u32>>,
-    top: CudaSlice<u32>,
-    /// Particle indices by bin (identity before the first rebuild).
-    pub order: CudaSlice<u32>,
-    /// The bins that hold particles, in chunks of at most `chunk` particles (BIN_ENTRY_WORDS each),
-    /// where listed.
-    pub list: Option<CudaSlice<BinEntry>>,
-    /// Particles per listed chunk at the most: the smallest chunk (a thread per particle) where bins
-    /// are too few to fill the device, up to whole bins where they are plentiful, since each chunk
-    /// clears and flushes a tile. Measured on the H200: 128-particle chunks took bench-65k from 0.106
-    /// to 0.077 ms per step but a 16.8M-particle column from 5.16 to 5.58 ms.
-    chunk: u32,
-}
-
 impl Bins {
-    /// Buffers for `num_particles` particles on `grid_res`, bins of `edge` nodes; `with_list` for the
-    /// binned pipeline's bin list.
-    pub fn new(
-        launcher: &Launcher,
-        grid_res: [u32; 3],
-        num_particles: usize,
-        edge: u32,
-        with_list: bool,
-    ) -> Result<Bins> {
-        let stream = &launcher.stream;
-        let num_bins: usize = bins_per_axis(grid_res, edge)
-            .iter()
-            .map(|&b| b as usize)
-            .product();
-        // One key per cell, and PARKED_KEYS past them for the parked slots (kernels/bins.cu).
-        let num_keys = num_bins * (edge as usize).pow(3) + PARKED_KEYS as usize;
-        let alloc = |len: usize, what: &str| {
-            stream
-                .alloc_zeros::<u32>(len.max(1))
-                .with_context(|| format!("allocating {what} ({len} values)"))
-        };
-        let tile = launcher.block_size as usize * SCAN_ITEMS_PER_THREAD as usize;
-        let mut levels = vec![alloc(num_keys, "the cells' counts")?];
-        let mut level_len = num_keys;
-        while level_len > tile {
-            level_len = level_len.div_ceil(tile);
-            levels.push(alloc(level_len, "the bins' scan")?);
-        }
-        let wanted_chunks = CHUNKS_PER_MULTIPROCESSOR * launcher.multiprocessors as usize;
-        let chunk = (num_particles / wanted_chunks.max(1)).next_multiple_of(MIN_BIN_CHUNK);
-        Ok(Bins {
-            chunk: chunk.clamp(MIN_BIN_CHUNK, 8 * MIN_BIN_CHUNK) as u32,
-            edge,
-            num_bins,
-            num_particles,
-            key: alloc(num_particles, "bin keys")?,
-            rank: alloc(num_particles, "bin ranks")?,
-            levels,
-            top: alloc(1, "the bins' scan")?,
-            order: stream
-                .clone_htod(&slots_in_place(num_particles))
-                .context("allocating the particle order")?,
-            list: if with_list {
-                // A bin of c particles lists ceil(c / chunk) chunks: at most one per bin plus one per
-                // chunk of particles.
-                let capacity = num_bins + num_particles / MIN_BIN_CHUNK;
-                Some(
-                    stream
-                        .alloc_zeros::<BinEntry>(capacity.max(1))
-                        .context("allocating the bin list")?,
-                )
-            } else {
-                None
-            },
-        })
-    }
-
-    pub fn num_bins(&self) -> usize {
-        self.num_bins
-    }
-
-    /// The most chunks the bin list can hold.
-    pub fn list_capacity(&self) -> usize {
-        self.list.as_ref().map_or(0, |l| l.len())
-    }
-
-    /// The binned pipeline's list of bin chunks, which its tiled passes walk.
-    pub fn list(&self) -> Result<&CudaSlice<BinEntry>> {
-        self.list
-            .as_ref()
-            .context("only the binned pipeline lists its bins")
-    }
-
-    /// A tiled pass over the listed bins: a block per bin chunk, a thread per particle, and `channels`
-    /// 32-bit accumulators per tile node (kernels/tiles.cuh).
-    pub fn tiled_pass(&self, launcher: &Launcher, channels: u32) -> LaunchConfig {
-        launcher.over_list(
-            self.list_capacity(),
-            TILE_THREADS as u32,
-            channels * TILE_NODES as u32 * 4,
-        )
-    }
-
-    /// The bin list as the last binning left it: (bin, start, count) per chunk of a bin that holds
-    /// particles, `work_counts` being the device's list lengths. Waits for the device.
-    pub fn read_list(&self, gpu: &Gpu, work_counts: &CudaSlice<u32>) -> Result<Vec<[u32; 3]>> {
-        let counts = gpu.download(work_counts)?;
-        let entries = gpu.download(self.list()?)?;
-        Ok(entries
-            .iter()
-            .take(counts[BIN_COUNT_SLOT] as usize)
-            .map(|e| [e.bin, e.start, e.count])
-            .collect())
-    }
-
     /// Rewrites `order` so that particles of one cell, and the cells of one bin, are consecutive, and
     /// (where listed) the bin list with its length in `work_counts[WORK_BINS]`.
     pub fn rebuild(
@@ -249,10 +107,10 @@ impl Bins {
             stream
                 .memset_zeros(&mut work_counts.slice_mut(BIN_COUNT_SLOT..BIN_COUNT_SLOT + 1))
                 .context("clearing the bin list's length")?;
-            let num_bins = self.num_bins as u32;
+            let num_bins = self.num_bins() as u32;
             // SAFETY: arguments match bin_list; the list has room for every bin.
             unsafe {
-                k.list.launch(launcher, launcher.cover(self.num_bins), |a| {
+                k.list.launch(launcher, launcher.cover(self.num_bins()), |a| {
                     a.arg(&num_bins)
                         .arg(&self.chunk)
                         .arg(&self.levels[0])

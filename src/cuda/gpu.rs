@@ -1,28 +1,11 @@
-//! One GPU: its context, its stream (through the [`Launcher`]), the kernels loaded into it, and the
-//! checks that come before anything is allocated there. Everything else of a solver that lives on a
-//! device (buffers, graphs, timing) hangs off the solver that owns one `Gpu`, so a second device is a
-//! second `Gpu`, never shared state.
+//! One GPU: its context, its stream (through the [`Launcher`]), the kernel modules loaded into it,
+//! and the checks that come before anything is allocated there. Everything else of a solver that
+//! lives on a device (buffers, kernels, graphs, timing) hangs off the solver that owns one `Gpu`, so
+//! a second device is a second `Gpu`, never shared state. The bottom of src/cuda: it imports no pass.
 
-use super::bin_order::GatherIntoBinOrder;
-use super::bins::BinKernels;
-use super::g2p::G2p;
-use super::g2p2g::{G2p2g, P2gMass};
-use super::grid_update::GridUpdate;
-use super::halo::HaloKernels;
 use super::launch::Launcher;
 use super::library;
-use super::lifecycle::LifecycleKernels;
-use super::mirror_walls::MirrorWalls;
 use super::modules::{LoadedModules, Origin};
-use super::one_pass::{FloatScatter, OnePass};
-use super::p2g::P2g;
-use super::p2g_init::P2gInit;
-use super::p2g_tiled::P2gTiled;
-use super::push::PushParticles;
-use super::ranks::RanksKernels;
-use super::render::RenderAttributes;
-use super::spawn::SpawnKernels;
-use super::stats::StatsKernel;
 use crate::sim::Pipeline;
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr};
@@ -43,6 +26,34 @@ pub struct CudaOptions {
     pub bin_order: bool,
     /// How one_pass's float scatter sums its runs (one_pass.rs).
     pub float_scatter: FloatScatter,
+}
+
+/// How the float scatter sums a warp's runs of particles (kernels/one_pass.cu's `Scatter`):
+/// `MPM_FLOAT_SCATTER=runs` or `planes` fixes it, for comparing the two; by default the size of
+/// the scene chooses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloatScatter {
+    /// `runs` where the particles are fewer than PLANES_FROM_WAVES times what the device holds of
+    /// the planes kernel at once, `planes` from there.
+    BySize,
+    /// Node by node (`one_pass_float`): the shortest warp, for scenes too small to fill the device.
+    Runs,
+    /// A plane of 9 nodes at a time, in the shuffle steps the warp's longest run needs
+    /// (`one_pass_float_planes`): the fewest shuffles, for scenes that fill it.
+    Planes,
+}
+
+impl FloatScatter {
+    /// The `MPM_FLOAT_SCATTER` value `text`.
+    pub fn parse(text: &str) -> Result<FloatScatter> {
+        match text.trim() {
+            "runs" => Ok(FloatScatter::Runs),
+            "planes" => Ok(FloatScatter::Planes),
+            _ => bail!(
+                "MPM_FLOAT_SCATTER={text:?}: use runs or planes (leave it unset and the scene's size chooses)"
+            ),
+        }
+    }
 }
 
 impl Default for CudaOptions {
@@ -113,65 +124,17 @@ impl CudaOptions {
     }
 }
 
-/// Every kernel, each owned by the host file beside its `kernels/X.cu`, which alone knows its
-/// arguments.
-pub struct Kernels {
-    pub bins: BinKernels,
-    pub bin_order: GatherIntoBinOrder,
-    pub p2g_init: P2gInit,
-    pub p2g_mass: P2gMass,
-    pub mirror_walls: MirrorWalls,
-    pub p2g: P2g,
-    pub p2g_tiled: P2gTiled,
-    pub grid_update: GridUpdate,
-    pub g2p: G2p,
-    pub g2p2g: G2p2g,
-    pub one_pass: OnePass,
-    pub lifecycle: LifecycleKernels,
-    pub spawn: SpawnKernels,
-    pub stats: StatsKernel,
-    pub render_attributes: RenderAttributes,
-    pub push: PushParticles,
-    pub halo: HaloKernels,
-    pub ranks: RanksKernels,
-}
-
-impl Kernels {
-    fn load(modules: &LoadedModules, options: &CudaOptions, multiprocessors: u32) -> Result<Kernels> {
-        Ok(Kernels {
-            bins: BinKernels::load(modules)?,
-            bin_order: GatherIntoBinOrder::load(modules)?,
-            p2g_init: P2gInit::load(modules)?,
-            p2g_mass: P2gMass::load(modules)?,
-            mirror_walls: MirrorWalls::load(modules)?,
-            p2g: P2g::load(modules)?,
-            p2g_tiled: P2gTiled::load(modules)?,
-            grid_update: GridUpdate::load(modules)?,
-            g2p: G2p::load(modules)?,
-            g2p2g: G2p2g::load(modules)?,
-            one_pass: OnePass::load(modules, options.float_scatter, multiprocessors)?,
-            lifecycle: LifecycleKernels::load(modules)?,
-            spawn: SpawnKernels::load(modules)?,
-            stats: StatsKernel::load(modules)?,
-            render_attributes: RenderAttributes::load(modules)?,
-            push: PushParticles::load(modules)?,
-            halo: HaloKernels::load(modules)?,
-            ranks: RanksKernels::load(modules)?,
-        })
-    }
-}
-
-/// One device, opened: the context, the one stream every launch goes to, the kernels.
+/// One device, opened: the context, the one stream every launch goes to, the kernel modules.
 pub struct Gpu {
     pub ctx: Arc<CudaContext>,
     pub launcher: Launcher,
-    pub kernels: Kernels,
-    pub module_origin: Origin,
+    pub modules: LoadedModules,
     pub ordinal: usize,
 }
 
 impl Gpu {
-    /// Opens device `options.device` and loads every kernel module into it.
+    /// Opens device `options.device` and loads every kernel module into it (the kernels are taken
+    /// from them by `kernels::Kernels::load`).
     pub fn open(options: &CudaOptions) -> Result<Gpu> {
         options.validate()?;
         library::ensure_driver()?;
@@ -190,7 +153,6 @@ impl Gpu {
             .attribute(cudarc::driver::sys::CUdevice_attribute::CU_DEVICE_ATTRIBUTE_MULTIPROCESSOR_COUNT)
             .context("reading the multiprocessor count")?;
         let multiprocessors = multiprocessors.max(1) as u32;
-        let kernels = Kernels::load(&modules, options, multiprocessors)?;
         Ok(Gpu {
             launcher: Launcher {
                 stream,
@@ -198,8 +160,7 @@ impl Gpu {
                 multiprocessors,
                 sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
             },
-            kernels,
-            module_origin: modules.origin,
+            modules,
             ordinal: options.device,
             ctx,
         })
@@ -207,6 +168,11 @@ impl Gpu {
 
     pub fn stream(&self) -> &Arc<CudaStream> {
         &self.launcher.stream
+    }
+
+    /// How the kernels were loaded: embedded PTX, or compiled at run time (and why).
+    pub fn module_origin(&self) -> Origin {
+        self.modules.origin
     }
 
     /// The device's name, e.g. "NVIDIA H200".

@@ -61,7 +61,7 @@ unsafe impl Send for SubstepGraph {}
 
 impl SubstepGraph {
     /// Captures what `enqueue` puts on `stream` into a graph. `timing_events` are the events that
-    /// `enqueue` may record as external event-record nodes (`record_external`), in slot order; it
+    /// `enqueue` may record as external event-record nodes (`timing::record_external`), in slot order; it
     /// returns which it recorded.
     pub fn capture(
         stream: &Arc<CudaStream>,
@@ -155,21 +155,6 @@ fn event_record_nodes(graph: sys::CUgraph) -> Result<Vec<(sys::CUgraphNode, sys:
         }
     }
     Ok(records)
-}
-
-/// Records `event` on `stream` as an external event: during a capture it becomes an event-record node
-/// of the graph (a plain record there would only order the capture), outside one a normal record.
-pub fn record_external(event: &CudaEvent, stream: &CudaStream) -> Result<()> {
-    // SAFETY: the event and the stream are live and of the current context.
-    unsafe {
-        sys::cuEventRecordWithFlags(
-            event.cu_event(),
-            stream.cu_stream(),
-            sys::CUevent_record_flags::CU_EVENT_RECORD_EXTERNAL as u32,
-        )
-    }
-    .result()
-    .context("recording a timing event")
 }
 
 /// The captured substeps, most recently used last.

@@ -2,7 +2,7 @@
 //! the node velocities the grid update writes for the gather, and the binned pipeline's list of the
 //! node blocks a substep touched.
 
-use super::bins::{NODE_BLOCK_COUNT_SLOT, WORK_COUNTS};
+use super::bin_lists::{NODE_BLOCK_COUNT_SLOT, WORK_COUNTS};
 use super::gpu::Gpu;
 use crate::sim::{Params, ScatterMode};
 use anyhow::{Context, Result};

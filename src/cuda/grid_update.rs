@@ -4,7 +4,7 @@
 //! update also adds the walls' mirror image (kernels/mirror.cuh), which the others add with
 //! mirror_walls before it.
 
-use super::bins::NODE_BLOCK_NODES;
+use super::bin_lists::NODE_BLOCK_NODES;
 use super::grid::DeviceGrid;
 use super::launch::{Kernel, Launcher};
 use super::mirror_walls::{self, WallReach};

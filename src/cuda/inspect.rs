@@ -2,9 +2,9 @@
 //! reference's names (p2g_init, mirror_mass, ...), and what they read back to compare with it (the
 //! grid after each phase, the particle order, the bin list; each readback waits for the device).
 
-use super::mirror_walls::MirrorQuantity;
+use super::pipelines::{launches, Launch};
 use super::solver::CudaSolver;
-use crate::sim::Params;
+use crate::sim::{Params, Phase};
 use anyhow::Result;
 use glam::Vec3;
 
@@ -26,32 +26,45 @@ impl CudaSolver {
         if self.pipeline().is_binned() && self.binnings() == 0 {
             self.sort()?;
         }
-        self.scatter_mass()
+        // The phase's scatter, whether or not the grid holds one already.
+        for &launch in launches(self.pipeline(), Phase::P2gInit) {
+            match launch {
+                Launch::P2gInit => return self.run(launch, false).map(drop),
+                Launch::P2gMass | Launch::OnePassScatter => return self.scatter_mass(launch),
+                _ => {}
+            }
+        }
+        Ok(())
     }
 
     /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
     pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.mirror(MirrorQuantity::Mass).map(drop)
+        self.run(Launch::MirrorMass, false).map(drop)
     }
 
     /// Density from the grid mass, pressure and stress, momentum scatter.
     pub fn p2g(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.scatter_momentum().map(drop)
+        self.run_phase(Phase::P2g, false).map(drop)
     }
 
     /// The walls' image momentum, wall-normal component reflected, between p2g and the grid update.
     pub fn mirror_momentum(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.mirror(MirrorQuantity::Momentum).map(drop)
+        self.run(Launch::MirrorMomentum, false).map(drop)
     }
 
     /// Momentum to velocity, gravity, boundary band and colliders; zeroes the accumulators. The
     /// walls' images are those `mirror_mass` and `mirror_momentum` added.
     pub fn grid_update(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.update_grid(false)
+        let launch = if self.pipeline().is_binned() {
+            Launch::GridUpdateBlocks
+        } else {
+            Launch::GridUpdate
+        };
+        self.run(launch, false).map(drop)
     }
 
     /// The grid update phase as a substep runs it: under the fused pipeline the update adds the
@@ -59,7 +72,7 @@ impl CudaSolver {
     /// the other pipelines mirror the momentum first (after `mirror_mass` and `p2g`).
     pub fn mirror_and_grid_update(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.mirror_and_update_grid()
+        self.run_phase(Phase::GridUpdate, false).map(drop)
     }
 
     /// Velocity and C from the grid, soft wall, advection, clamp: the report's g2p, or the binned
@@ -67,7 +80,7 @@ impl CudaSolver {
     /// the fused pipeline's one_pass, which also advects the density and scatters mass and momentum.
     pub fn g2p(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
-        self.gather()
+        self.run_phase(Phase::G2p, false).map(drop)
     }
 
     /// The scatter accumulators as the CPU reference's `Grid` holds them after p2g: mass and momentum

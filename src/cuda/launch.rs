@@ -12,6 +12,7 @@ use std::sync::Arc;
 pub static NULL_POINTER: u64 = 0;
 
 /// A loaded kernel and its name.
+#[derive(Clone)]
 pub struct Kernel {
     name: &'static str,
     function: CudaFunction,
@@ -76,6 +77,7 @@ impl Kernel {
 /// alone knows the kernel's arguments.
 macro_rules! host_kernel {
     ($host:ident = $module:literal / $function:literal) => {
+        #[derive(Clone)]
         pub struct $host(crate::cuda::launch::Kernel);
 
         impl $host {
@@ -90,6 +92,7 @@ macro_rules! host_kernel {
 pub(crate) use host_kernel;
 
 /// The stream every launch goes to, and how launches are sized.
+#[derive(Clone)]
 pub struct Launcher {
     pub stream: Arc<CudaStream>,
     /// Threads per block of the particle and grid kernels.

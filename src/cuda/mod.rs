@@ -1,27 +1,32 @@
-//! The CUDA backend: NVRTC-built kernels (kernels/*.cu) launched through cudarc, in three layers.
+//! The CUDA backend: NVRTC-built kernels (kernels/*.cu) launched through cudarc, in three layers,
+//! each importing only the ones below it.
 //!
 //! **The bottom: one GPU and what it holds.** [`gpu::Gpu`] is one opened device (context, stream,
-//! loaded kernels; [`library`], [`modules`] and `nvrtc_search` find the driver and NVRTC and load the
-//! PTX build.rs embedded, or compile at run time). [`state::DeviceState`] holds every buffer of a
-//! scene on it: [`particles`], [`grid`], the bins ([`bins`]), the step [`counters`], the
-//! [`colliders`], the particle lifecycle ([`lifecycle`]) and the statistics ([`stats`]).
-//! [`timing`] and [`graph`] time and replay a substep on it. A second GPU is a second `Gpu` with its
-//! own `DeviceState`: nothing is global.
+//! loaded kernel modules; [`library`], [`modules`] and `nvrtc_search` find the driver and NVRTC and
+//! load the PTX build.rs embedded, or compile at run time). [`state::DeviceState`] holds every
+//! buffer of a scene on it: [`particles`], [`grid`], the bins ([`bin_lists`]), the step
+//! [`counters`], the [`colliders`] and the particle lifecycle ([`flow`]). [`timing`] and [`graph`]
+//! time and replay a substep on it. A second GPU is a second `Gpu` with its own `DeviceState`:
+//! nothing is global. No file of this layer imports a kernel's host file.
 //!
 //! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
-//! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`p2g_init`],
-//! [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`], [`g2p2g`], [`one_pass`], [`bins`],
-//! [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`].
+//! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`bins`],
+//! [`bin_order`], [`p2g_init`], [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`],
+//! [`g2p2g`], [`one_pass`], [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`],
+//! [`ranks`], [`thickness`].
 //!
-//! **On top: the substep.** [`solver::CudaSolver`] reads as the substep's phases (`Phase::ALL`) in
-//! any pipeline, and answers what a frame asks of a solver; `inspect` is the kernel tests' view of
-//! it. [`ranks::CudaRanks`] runs several solvers as the ranks of one run, each over its slab
-//! (`crate::dist`), with the ghost exchanges between their phases. [`interop`] registers the
-//! renderer's GL buffers with CUDA.
+//! **On top: the substep.** [`kernels::Kernels`] is every kernel loaded on one GPU;
+//! [`pipelines`] says which launches each pipeline runs in each phase; [`solver::CudaSolver`] steps
+//! through that table phase by phase (`Phase::ALL`) and answers what a frame asks of a solver;
+//! `inspect` is the kernel tests' view of it. [`cuda_ranks::CudaRanks`] runs several solvers as
+//! the ranks of one run, each over its slab (`crate::dist`), with the ghost exchanges between their
+//! phases. [`interop`] registers the renderer's GL buffers with CUDA.
 
-// The bottom: one GPU and the buffers it holds.
+// The bottom: one GPU and the buffers it holds. None of these imports a kernel's host file.
+pub mod bin_lists;
 pub mod colliders;
 pub mod counters;
+pub mod flow;
 pub mod gpu;
 pub mod graph;
 pub mod grid;
@@ -48,22 +53,25 @@ pub mod p2g;
 pub mod p2g_init;
 pub mod p2g_tiled;
 pub mod push;
+pub mod ranks;
 pub mod render;
 pub mod spawn;
 pub mod stats;
 pub mod thickness;
 
-// On top: the substep, on one GPU or as several ranks.
+// On top: the kernel table, which pipeline runs what in each phase, and the substep, on one GPU or
+// as several ranks.
+pub mod cuda_ranks;
 mod inspect;
-pub mod ranks;
+pub mod kernels;
+pub mod pipelines;
+mod setup;
 pub mod solver;
 
-pub use bins::SORT_INTERVAL;
-pub use gpu::CudaOptions;
+pub use cuda_ranks::CudaRanks;
+pub use gpu::{CudaOptions, FloatScatter};
 pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;
-pub use one_pass::FloatScatter;
 pub use particles::BYTES_PER_PARTICLE;
-pub use ranks::CudaRanks;
 pub use solver::CudaSolver;

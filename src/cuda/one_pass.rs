@@ -6,12 +6,13 @@
 //! uses), so both scatter with the same instructions. The float scatter has two entry points, the
 //! size of the scene choosing (`FloatScatter`).
 
+use super::gpu::FloatScatter;
 use super::launch::{Kernel, Launcher, NULL_POINTER};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::contract::TILE_THREADS;
 use crate::sim::{Params, ScatterMode};
-use anyhow::{bail, Result};
+use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
 /// Channels per tile node of the fixed-point scatter: mass, momentum xyz.
@@ -24,34 +25,6 @@ pub enum Gather {
     None,
     /// The end of a substep: g2p, advection and the density, from the grid the substep updated.
     Substep,
-}
-
-/// How the float scatter sums a warp's runs of particles (kernels/one_pass.cu's `Scatter`):
-/// `MPM_FLOAT_SCATTER=runs` or `planes` fixes it, for comparing the two; by default the size of
-/// the scene chooses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FloatScatter {
-    /// `runs` where the particles are fewer than PLANES_FROM_WAVES times what the device holds of
-    /// the planes kernel at once, `planes` from there.
-    BySize,
-    /// Node by node (`one_pass_float`): the shortest warp, for scenes too small to fill the device.
-    Runs,
-    /// A plane of 9 nodes at a time, in the shuffle steps the warp's longest run needs
-    /// (`one_pass_float_planes`): the fewest shuffles, for scenes that fill it.
-    Planes,
-}
-
-impl FloatScatter {
-    /// The `MPM_FLOAT_SCATTER` value `text`.
-    pub fn parse(text: &str) -> Result<FloatScatter> {
-        match text.trim() {
-            "runs" => Ok(FloatScatter::Runs),
-            "planes" => Ok(FloatScatter::Planes),
-            _ => bail!(
-                "MPM_FLOAT_SCATTER={text:?}: use runs or planes (leave it unset and the scene's size chooses)"
-            ),
-        }
-    }
 }
 
 /// The planes kernel from this many times the particles the device holds of it at once (its

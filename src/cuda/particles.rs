@@ -5,10 +5,9 @@
 
 use super::gpu::Gpu;
 use crate::contract::PARKED_W;
-use crate::render::ColourBy;
 use crate::sim::Particles;
 use anyhow::{ensure, Context, Result};
-use cudarc::driver::{sys::CUdeviceptr, CudaContext, CudaSlice, CudaStream, DevicePtrMut};
+use cudarc::driver::{CudaSlice, CudaStream};
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
 
@@ -133,81 +132,6 @@ pub fn places_of_slots(slot: &[u32]) -> Result<Vec<usize>> {
         }
     }
     Ok(place)
-}
-
-/// A solver's particles on its GPU, for a reader that uses them in place: the renderer, which has the
-/// render kernel write its vertex buffer without a trip through the host.
-pub struct DeviceParticlesView<'a> {
-    pub gpu: &'a Gpu,
-    pub particles: &'a DeviceParticles,
-}
-
-impl DeviceParticlesView<'_> {
-    /// Slots, parked ones included.
-    pub fn count(&self) -> usize {
-        self.particles.count
-    }
-
-    /// The CUDA context, for registering GL buffers with it (src/cuda/interop.rs).
-    pub fn context(&self) -> &Arc<CudaContext> {
-        &self.gpu.ctx
-    }
-
-    /// The stream the solver's work goes to: interop maps and unmaps on it, so a mapped buffer is
-    /// written after the substeps' kernels and drawn after the write.
-    pub fn stream(&self) -> &Arc<CudaStream> {
-        self.gpu.stream()
-    }
-
-    /// Writes one float4 per particle (position, `colour_by` value) at `out` (kernels/render.cu),
-    /// asynchronously on `stream()`.
-    ///
-    /// # Safety
-    /// `out` must be a live device allocation of at least `16 * count()` bytes in this context: a
-    /// mapped GL buffer (`interop::MappedBuffer`).
-    pub unsafe fn write_render_attributes(
-        &self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        out: CUdeviceptr,
-    ) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        // SAFETY: the caller vouches for `out`.
-        unsafe {
-            k.render_attributes
-                .launch(l, self.particles, colour_by, rest_density, out)
-        }
-    }
-
-    /// The same attributes through the host: written into `scratch` (a buffer of this GPU, allocated
-    /// on first use and kept by the caller), then copied into `out`. Waits for the device.
-    pub fn copy_render_attributes(
-        &self,
-        colour_by: ColourBy,
-        rest_density: f32,
-        scratch: &mut Option<CudaSlice<f32>>,
-        out: &mut Vec<[f32; 4]>,
-    ) -> Result<()> {
-        let floats = 4 * self.count();
-        if scratch.as_ref().is_none_or(|s| s.len() != floats) {
-            *scratch = Some(
-                self.stream()
-                    .alloc_zeros::<f32>(floats)
-                    .context("allocating render attributes")?,
-            );
-        }
-        let buffer = scratch.as_mut().context("no render scratch")?;
-        let stream = self.stream().clone();
-        let (ptr, guard) = buffer.device_ptr_mut(&stream);
-        // SAFETY: `buffer` is a live allocation of this context holding 4 floats per particle.
-        let written = unsafe { self.write_render_attributes(colour_by, rest_density, ptr) };
-        drop(guard);
-        written?;
-        let flat = self.gpu.download(buffer)?;
-        out.clear();
-        out.extend(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
-        Ok(())
-    }
 }
 
 #[cfg(test)]

@@ -1,29 +1,20 @@
 //! `CudaSolver`: one GPU's particle state and the substep as its phases, in any pipeline
-//! (`Pipeline`). The substep reads top to bottom in `CudaSolver::enqueue_substep`:
-//!
-//! | phase (`PhaseTimings`) | report pipeline                   | binned pipeline                          | fused pipeline (default)                     |
-//! |---|---|---|---|
-//! | sort        | sort by cell, every SORT_INTERVAL steps | sort by node block and cell, as often or when a particle moved a cell | as binned, every BIN_ORDER_SORT_INTERVAL steps, then the particles gathered into that order (bin_order.rs) |
-//! | p2g_init    | p2g_init (mass scatter) + mirror mass   | mirror mass (the mass came with g2p2g)   | nothing (mass and momentum came with one_pass) |
-//! | p2g         | p2g                                     | p2g (float), p2g_tiled (fixed point)     | nothing                                      |
-//! | grid_update | mirror momentum + grid_update (all)     | mirror momentum + grid_update_blocks (touched) | mirror mass and momentum (one launch) + grid_update_blocks |
-//! | g2p         | g2p                                     | g2p2g (g2p + the next substep's mass scatter) | one_pass (g2p + the next substep's whole scatter) |
-//!
-//! The first substep (nothing scattered yet) scatters in p2g_init: p2g_mass in the binned pipeline,
-//! one_pass without its gather in the fused one. Each phase is an NVTX range and a pair of CUDA events. Each
-//! kernel's arguments live in the host file beside it (`p2g.rs` beside kernels/p2g.cu, ...); the
-//! buffers in `state.rs`. No pipeline has a grid-clear launch: the grid update zeroes each
-//! accumulator it reads, so `grid_clear` stays 0 here.
+//! (`Pipeline`). The substep reads top to bottom in `CudaSolver::enqueue_substep`: each phase of
+//! `Phase::ALL` runs the launches pipelines.rs lists for it (`run_phase`), each an NVTX range of the
+//! phase's name ended by a pair of CUDA events. Each kernel's arguments live in the host file beside
+//! it (`p2g.rs` beside kernels/p2g.cu, ...); the buffers in `state.rs`. No pipeline has a grid-clear
+//! launch: the grid update zeroes each accumulator it reads, so `grid_clear` stays 0 here.
 
 use super::bins::{sort_interval, BinSchedule};
 use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
+use super::kernels::Kernels;
 use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
-use super::modules::Origin;
 use super::one_pass::Gather;
-use super::particles::{DeviceParticles, DeviceParticlesView};
-use super::spawn::spawn_on_device;
+use super::particles::DeviceParticles;
+use super::pipelines::{launches, Launch};
+use super::render::DeviceParticlesView;
 use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
@@ -35,12 +26,15 @@ use crate::sim::{
     Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
-use cudarc::driver::{CudaContext, CudaStream};
+use cudarc::driver::CudaStream;
 use std::sync::Arc;
 
 pub struct CudaSolver {
     pub(super) gpu: Gpu,
+    pub(super) kernels: Kernels,
     pub(super) state: DeviceState,
+    /// The per-frame statistics' partials and their host copy (kernels/stats.cu).
+    stats: ParticleStats,
     options: CudaOptions,
     pipeline: Pipeline,
     /// The parameters the kernels get, as the scene wrote them (`Scene::params`) with the current dt;
@@ -64,60 +58,25 @@ pub struct CudaSolver {
 }
 
 impl CudaSolver {
-    /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`. A scene with
-    /// emitters or sinks is spawned on the host (its parked slots with it) and uploaded, and so is one
-    /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid).
-    pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
-        if scene.flow.is_active() || !scene.colliders.is_empty() {
-            return CudaSolver::restore(scene, &scene.spawn(), None, options);
-        }
-        let solver = CudaSolver::allocate(scene, None, options)?;
-        spawn_on_device(&solver.gpu, scene, &solver.state.particles)?;
-        Ok(solver)
-    }
-
-    /// Uploads `particles` (for tests: any state, not only a spawned one) into a solver for `scene`'s
-    /// grid, material and pipeline.
-    pub fn from_particles(scene: &Scene, particles: &Particles, options: CudaOptions) -> Result<CudaSolver> {
-        CudaSolver::restore(scene, particles, None, options)
-    }
-
-    /// Uploads a saved state: `particles` (every slot) and, for a scene with emitters or sinks, the
-    /// lifecycle's `flow` state (`None`: the scene's start).
-    pub fn restore(
+    /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer.
+    pub(super) fn allocate(
         scene: &Scene,
-        particles: &Particles,
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
-        let mut scene = scene.clone();
-        if scene.flow.is_active() {
-            ensure!(
-                particles.len() == scene.slots(),
-                "{} particle slots for a scene of {}",
-                particles.len(),
-                scene.slots()
-            );
-        } else {
-            scene.num_particles = particles.len();
-            scene.flow.capacity = particles.len();
-        }
-        let mut solver = CudaSolver::allocate(&scene, flow, options)?;
-        solver.state.particles.upload(solver.gpu.stream(), particles)?;
-        Ok(solver)
-    }
-
-    /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer.
-    fn allocate(scene: &Scene, flow: Option<&FlowState>, options: CudaOptions) -> Result<CudaSolver> {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
+        let kernels = Kernels::load(&gpu, &options)?;
         let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene.pipeline))?;
+        let stats = ParticleStats::allocate(gpu.stream())?;
         // Binnings cost more where they also gather the particles (not where memory was short).
         let sort_interval = sort_interval(state.bin_order.is_some());
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone()),
             gpu,
+            kernels,
             state,
+            stats,
             options,
             pipeline: scene.pipeline,
             params: scene.params(),
@@ -148,11 +107,6 @@ impl CudaSolver {
             .check_params(stream, params, self.pipeline, self.mass_scattered)
     }
 
-    /// How the kernels were loaded: embedded PTX, or compiled at run time (and why).
-    pub fn module_origin(&self) -> Origin {
-        self.gpu.module_origin
-    }
-
     /// The device's name, e.g. "NVIDIA H200".
     pub fn device_name(&self) -> String {
         self.gpu.name()
@@ -174,67 +128,105 @@ impl CudaSolver {
         self.schedule.binnings
     }
 
-    /// The CUDA context, for registering GL buffers with it (src/cuda/interop.rs).
-    pub fn context(&self) -> &Arc<CudaContext> {
-        &self.gpu.ctx
-    }
-
-    /// The stream every launch of this solver goes to; interop maps and unmaps on it, so a mapped
-    /// buffer is written after the step's kernels and drawn after the write.
+    /// The stream every launch of this solver goes to (the ranks order their exchanges on it).
     pub fn stream(&self) -> &Arc<CudaStream> {
         self.gpu.stream()
-    }
-
-    pub fn num_particles(&self) -> usize {
-        self.state.particles.count
     }
 
     /// The statistics of `particles` (as many slots as this solver's, on its GPU) by its kernel,
     /// waited for: how the ranks reduce the set of every rank's own slots.
     pub fn summary_of(&mut self, material: &Material, particles: &DeviceParticles) -> Result<Summary> {
-        request_stats(
-            &self.gpu,
-            &self.params,
-            material,
-            &mut self.state.stats,
-            particles,
-        )?;
-        self.state.stats.wait()
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
+        self.stats
+            .request(&k.stats, l, &self.params, material, particles)?;
+        self.stats.wait()
     }
 
     /// The substep's work in stream order, phase by phase (`Phase::ALL`), each phase an NVTX range of
     /// its name ended by a timing event where it enqueued work (timing.rs: an empty phase reads 0).
+    /// One GPU has no ranks to exchange with: the halo phases are empty here.
     fn enqueue_substep(&mut self, sort: bool) -> Result<()> {
         let stream = self.gpu.stream().clone();
         self.timing.begin_step(&stream)?;
         for phase in Phase::ALL.into_iter().filter(|p| p.runs_on_gpu()) {
             let _range = NvtxRange::new(phase.name());
-            let ran = match phase {
-                // Folded into the grid update, which zeroes what it reads (consume-and-zero); one
-                // GPU has no ranks to exchange with.
-                Phase::GridClear | Phase::HaloSum | Phase::HaloFill => false,
-                Phase::Sort => self.sort_phase(sort)?,
-                Phase::P2gInit => {
-                    let scattered = self.scatter_first()?;
-                    self.mirror_before_p2g()? || scattered
-                }
-                Phase::P2g => self.scatter_momentum()?,
-                Phase::GridUpdate => self.mirror_and_update_grid().map(|()| true)?,
-                Phase::G2p => self.gather().map(|()| true)?,
-            };
+            let ran = self.run_phase(phase, sort)?;
             self.timing.end_phase(&stream, phase, ran)?;
         }
         Ok(())
     }
 
-    /// The sort phase: bins the particles where `sort` (the schedule's `sort_due` when the substep
-    /// was enqueued), and counts the substep. Whether it enqueued work.
-    pub(super) fn sort_phase(&mut self, sort: bool) -> Result<bool> {
-        if sort {
-            self.sort()?;
+    /// The launches of `phase` in this solver's pipeline (pipelines.rs), in stream order; `sort` is
+    /// the schedule's decision for this substep (`sort_due` when it was enqueued). Whether any
+    /// enqueued work.
+    pub(super) fn run_phase(&mut self, phase: Phase, sort: bool) -> Result<bool> {
+        let mut ran = false;
+        for &launch in launches(self.pipeline, phase) {
+            ran |= self.run(launch, sort)?;
         }
-        self.schedule.note_substep();
-        Ok(sort)
+        Ok(ran)
+    }
+
+    /// One launch of the table. Whether it enqueued work (a mirror where the scene turns the walls'
+    /// mirror off, a first-substep scatter after the first substep, a sort not due, do not).
+    pub(super) fn run(&mut self, launch: Launch, sort: bool) -> Result<bool> {
+        let (k, l, p, d) = (&self.kernels, &self.gpu.launcher, &self.params, &self.state);
+        match launch {
+            Launch::SortByCell | Launch::Rebin | Launch::RebinInOrder => {
+                if sort {
+                    self.sort()?;
+                }
+                self.schedule.note_substep();
+                return Ok(sort);
+            }
+            // The report's pipeline keeps no scatter across substeps: its mass scatter runs every one.
+            Launch::P2gInit => k.p2g_init.launch(l, p, d)?,
+            Launch::P2gMass | Launch::OnePassScatter => {
+                if self.mass_scattered.is_some() {
+                    return Ok(false);
+                }
+                self.scatter_mass(launch)?;
+            }
+            Launch::MirrorMass => return self.mirror(MirrorQuantity::Mass),
+            Launch::MirrorMomentum => return self.mirror(MirrorQuantity::Momentum),
+            Launch::P2g => k.p2g.launch(l, p, d)?,
+            Launch::P2gOrTiled => {
+                if self.scatters_momentum_by_tile() {
+                    k.p2g_tiled.launch(l, p, d)?;
+                } else {
+                    k.p2g.launch(l, p, d)?;
+                }
+            }
+            Launch::GridUpdate => k.grid_update.launch(l, self.pipeline, false, p, d)?,
+            Launch::GridUpdateBlocks | Launch::GridUpdateBlocksMirrored => {
+                let mirror = launch == Launch::GridUpdateBlocksMirrored;
+                k.grid_update.launch(l, self.pipeline, mirror, p, d)?;
+                k.grid_update.clear_crossing_orbits(l, mirror, p, &d.grid)?;
+            }
+            Launch::G2p => k.g2p.launch(l, p, d)?,
+            Launch::G2p2g | Launch::OnePass => {
+                if launch == Launch::G2p2g {
+                    k.g2p2g.launch(l, p, d)?;
+                } else {
+                    k.one_pass.launch(l, Gather::Substep, p, d)?;
+                }
+                if let Some(flow) = d.flow.as_ref().filter(|f| f.num_sinks > 0) {
+                    k.lifecycle.settle(l, flow)?;
+                }
+                self.mass_scattered = Some(self.params.scatter_mode);
+            }
+        }
+        Ok(true)
+    }
+
+    /// Whether the binned pipeline scatters the momentum through a tile (p2g_tiled.cu) rather than
+    /// by warp runs (p2g.cu): for fixed point, and for any scene with a flow (p2g.cu walks the whole
+    /// order, parked slots included). Each is the faster there, measured on the H200 (2026-11-23,
+    /// mpm bench, p2g medians): float at bench-655k 0.097 ms by runs, 0.17 ms tiled (the L2 adds
+    /// floats natively, a tile must round every contribution); fixed point 0.17 ms tiled, 0.20 ms by
+    /// integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48 against 3.86 ms).
+    fn scatters_momentum_by_tile(&self) -> bool {
+        self.params.scatter_mode == ScatterMode::FixedPoint.code() || self.state.flow.is_some()
     }
 
     /// Whether the coming substep sorts (`BinSchedule::due`).
@@ -259,131 +251,47 @@ impl CudaSolver {
         Ok(())
     }
 
-    /// The first substep's scatter, where the grid holds none yet (the binned and fused pipelines
-    /// scatter the next substep's mass in the gather; the report's every substep). Whether it ran.
-    pub(super) fn scatter_first(&mut self) -> Result<bool> {
-        let first = self.mass_scattered.is_none();
-        if first {
-            self.scatter_mass()?;
-        }
-        Ok(first)
-    }
-
     pub(super) fn sort(&mut self) -> Result<()> {
-        let (gpu, state) = (&self.gpu, &mut self.state);
+        let (k, l, state) = (&self.kernels, &self.gpu.launcher, &mut self.state);
         state.bins.rebuild(
-            &gpu.kernels.bins,
-            &gpu.launcher,
+            &k.bins,
+            l,
             &self.params,
             &state.particles.x,
             &mut state.grid.work_counts,
         )?;
         // The fused pipeline's one_pass reads a bin-ordered state without `order`: every binning
         // gathers it (`DeviceState::bin_order`).
-        gpu.kernels.bin_order.launch(&gpu.launcher, state)?;
+        k.bin_order.launch(l, state)?;
         self.schedule.note_binning();
         Ok(())
     }
 
-    pub(super) fn scatter_mass(&mut self) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        if self.pipeline == Pipeline::Report {
-            return k.p2g_init.launch(l, &self.params, &self.state);
-        }
+    /// The binned and fused pipelines' scatter into a grid that holds none (`launch`: p2g_mass or
+    /// one_pass without its gather), which the gathers keep up after it.
+    pub(super) fn scatter_mass(&mut self, launch: Launch) -> Result<()> {
         // The substep's sort phase runs first whenever the bins are stale (`BinSchedule::due`).
         ensure!(
             self.schedule.built(),
             "the binned mass scatter walks the bins, which were never built: sort first"
         );
-        match self.pipeline {
-            Pipeline::Fused => {
-                let dt = self.resumed_dt.take().unwrap_or(self.params.dt);
-                k.one_pass
-                    .launch(l, Gather::None, &Params { dt, ..self.params }, &self.state)?
-            }
-            _ => k.p2g_mass.launch(l, &self.params, &self.state)?,
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
+        if launch == Launch::OnePassScatter {
+            let dt = self.resumed_dt.take().unwrap_or(self.params.dt);
+            let params = Params { dt, ..self.params };
+            k.one_pass.launch(l, Gather::None, &params, &self.state)?;
+        } else {
+            k.p2g_mass.launch(l, &self.params, &self.state)?;
         }
         self.mass_scattered = Some(self.params.scatter_mode);
         Ok(())
-    }
-
-    /// The walls' mirror of the mass, which p2g reads; nothing under the fused pipeline, which has
-    /// no p2g and mirrors both quantities in its grid update. Whether it launched.
-    pub(super) fn mirror_before_p2g(&self) -> Result<bool> {
-        match self.pipeline {
-            Pipeline::Fused => Ok(false),
-            _ => self.mirror(MirrorQuantity::Mass),
-        }
-    }
-
-    /// The grid update phase: the walls' mirror of p2g's momentum and the grid update, or under the
-    /// fused pipeline the grid update adding the images of mass and momentum itself (one_pass
-    /// scattered both; one launch fewer a substep, BENCHMARKS.md 0k).
-    pub(super) fn mirror_and_update_grid(&mut self) -> Result<()> {
-        let mirror_in_update = self.pipeline == Pipeline::Fused;
-        if !mirror_in_update {
-            self.mirror(MirrorQuantity::Momentum)?;
-        }
-        self.update_grid(mirror_in_update)
     }
 
     /// Whether it launched (not where the scene turns the mirror off).
     pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<bool> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
         k.mirror_walls
             .launch(l, self.pipeline, quantity, &self.params, &self.state)
-    }
-
-    /// In the report's pipeline, and for float momentum in the binned one, p2g.cu: warp runs of one
-    /// cell summed before global atomics (integers for fixed point). Fixed-point momentum in the binned
-    /// pipeline goes through a shared tile (p2g_tiled.cu), and so does any scatter of a scene with a
-    /// flow (p2g.cu walks the whole order, parked slots included). Each is the faster there, measured
-    /// on the H200 (2026-11-23, mpm bench, p2g medians): float at bench-655k 0.097 ms by runs, 0.17 ms
-    /// tiled (the L2 adds floats natively, a tile must round every contribution); fixed point 0.17 ms
-    /// tiled, 0.20 ms by integer runs, 0.66 ms by unaggregated 64-bit atomics (16.8M particles: 3.48
-    /// against 3.86 ms).
-    /// The fused pipeline has nothing left to scatter here: one_pass scattered the momentum with the
-    /// mass. Whether it launched.
-    pub(super) fn scatter_momentum(&self) -> Result<bool> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        if self.pipeline == Pipeline::Fused {
-            return Ok(false);
-        }
-        let tiled = self.pipeline == Pipeline::Binned
-            && (self.params.scatter_mode == ScatterMode::FixedPoint.code() || self.state.flow.is_some());
-        if tiled {
-            k.p2g_tiled.launch(l, &self.params, &self.state)?;
-        } else {
-            k.p2g.launch(l, &self.params, &self.state)?;
-        }
-        Ok(true)
-    }
-
-    /// The grid update; `mirror`: it adds the walls' images (the binned and fused pipelines' launch
-    /// only), else mirror_walls did before.
-    pub(super) fn update_grid(&mut self, mirror: bool) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        k.grid_update
-            .launch(l, self.pipeline, mirror, &self.params, &self.state)?;
-        if self.pipeline.is_binned() {
-            k.grid_update
-                .clear_crossing_orbits(l, mirror, &self.params, &self.state.grid)?;
-        }
-        Ok(())
-    }
-
-    pub(super) fn gather(&mut self) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
-        match self.pipeline {
-            Pipeline::Report => return k.g2p.launch(l, &self.params, &self.state),
-            Pipeline::Binned => k.g2p2g.launch(l, &self.params, &self.state)?,
-            Pipeline::Fused => k.one_pass.launch(l, Gather::Substep, &self.params, &self.state)?,
-        }
-        self.mass_scattered = Some(self.params.scatter_mode);
-        if let Some(flow) = self.state.flow.as_ref().filter(|f| f.num_sinks > 0) {
-            k.lifecycle.settle(l, flow)?;
-        }
-        Ok(())
     }
 
     /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
@@ -412,7 +320,7 @@ impl Solver for CudaSolver {
             .context("making the simulation's CUDA context current on the stepping thread")
     }
 
-    /// One substep, as the table at the top of this file lists its phases: enqueued kernel by kernel
+    /// One substep, its phases' launches as pipelines.rs lists them: enqueued kernel by kernel
     /// (`enqueue_substep`), or as one launch of a captured graph of exactly that work (graph.rs).
     fn step(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
@@ -457,7 +365,7 @@ impl Solver for CudaSolver {
 
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
         self.accept(params)?;
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
         k.lifecycle
             .emit(l, &self.params, mask, self.mass_scattered.is_some(), &self.state)?;
         // The new particles are in no bin yet.
@@ -471,21 +379,23 @@ impl Solver for CudaSolver {
 
     fn phase_kernel(&self, phase: Phase) -> Option<&'static str> {
         (self.pipeline == Pipeline::Fused && phase == Phase::G2p)
-            .then(|| self.gpu.kernels.one_pass.kernel(&self.params).name())
+            .then(|| self.kernels.one_pass.kernel(&self.params).name())
     }
 
     fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
-        let Some(flow) = &self.state.flow else {
-            return Ok(None);
-        };
-        flow.read_counts(&self.gpu).map(Some)
+        self.state
+            .flow
+            .as_ref()
+            .map(|f| f.read_counts(&self.gpu))
+            .transpose()
     }
 
     fn flow_state(&mut self) -> Result<Option<FlowState>> {
-        let Some(flow) = &self.state.flow else {
-            return Ok(None);
-        };
-        flow.read_state(&self.gpu).map(Some)
+        self.state
+            .flow
+            .as_ref()
+            .map(|f| f.read_state(&self.gpu))
+            .transpose()
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
@@ -524,15 +434,16 @@ impl Solver for CudaSolver {
     }
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {
-        let (k, l) = (&self.gpu.kernels, &self.gpu.launcher);
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
         k.push.launch(l, push, &self.state.particles)
     }
 
     fn particles(&self) -> ParticleView<'_> {
-        ParticleView::Device(DeviceParticlesView {
-            gpu: &self.gpu,
-            particles: &self.state.particles,
-        })
+        ParticleView::Device(Box::new(DeviceParticlesView::new(
+            &self.gpu,
+            &self.kernels.render_attributes,
+            &self.state.particles,
+        )))
     }
 
     fn read_particles(&mut self) -> Result<Particles> {
@@ -546,36 +457,17 @@ impl Solver for CudaSolver {
     }
 
     fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
-        let state = &mut self.state;
-        request_stats(
-            &self.gpu,
-            &self.params,
-            material,
-            &mut state.stats,
-            &state.particles,
-        )?;
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
+        let particles = &self.state.particles;
+        self.stats
+            .request(&k.stats, l, &self.params, material, particles)?;
         Ok(SummaryTicket::Pending)
     }
 
     fn wait_summary(&mut self, ticket: SummaryTicket) -> Result<Summary> {
         match ticket {
             SummaryTicket::Ready(summary) => Ok(summary),
-            SummaryTicket::Pending => self.state.stats.wait(),
+            SummaryTicket::Pending => self.stats.wait(),
         }
     }
-}
-
-/// Enqueues the statistics of `particles` under `params` with `material`'s mass and density.
-fn request_stats(
-    gpu: &Gpu,
-    params: &Params,
-    material: &Material,
-    stats: &mut ParticleStats,
-    particles: &DeviceParticles,
-) -> Result<()> {
-    let params = Params {
-        material: *material,
-        ..*params
-    };
-    stats.request(&gpu.kernels.stats, &gpu.launcher, &params, particles)
 }

@@ -69,9 +69,13 @@ impl SpawnKernels {
 }
 
 /// Writes `scene`'s lattice particles into `particles` (which must hold exactly as many), and waits.
-pub fn spawn_on_device(gpu: &Gpu, scene: &Scene, particles: &DeviceParticles) -> Result<()> {
+pub fn spawn_on_device(
+    gpu: &Gpu,
+    kernels: &SpawnKernels,
+    scene: &Scene,
+    particles: &DeviceParticles,
+) -> Result<()> {
     let _range = NvtxRange::new("spawn");
-    let kernels = &gpu.kernels.spawn;
     let l = &gpu.launcher;
     let (table, candidates) = body_table(scene)?;
     let block = l.block_size;

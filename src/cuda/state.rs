@@ -2,15 +2,14 @@
 //! the grid, the bins, the step counters, the colliders and the particle lifecycle. The kernels' host
 //! files (X.rs beside kernels/X.cu) take what they need from here.
 
-use super::bins::{Bins, NODE_BLOCK_EDGE};
+use super::bin_lists::{Bins, NODE_BLOCK_EDGE};
 use super::colliders::DeviceColliders;
 use super::counters::CounterRing;
+use super::flow::DeviceFlow;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 use super::launch::NULL_POINTER;
-use super::lifecycle::DeviceFlow;
 use super::particles::{DeviceParticles, BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE};
-use super::stats::ParticleStats;
 use crate::sim::flow::FlowState;
 use crate::sim::{Params, Pipeline, ScatterMode, Scene};
 use anyhow::{ensure, Result};
@@ -29,7 +28,6 @@ pub struct DeviceState {
     pub colliders: DeviceColliders,
     /// Emitters, sinks and the free slots, where the scene has them (binned pipeline only).
     pub flow: Option<DeviceFlow>,
-    pub stats: ParticleStats,
 }
 
 impl DeviceState {
@@ -102,7 +100,6 @@ impl DeviceState {
         };
         let mut grid = DeviceGrid::allocate(stream, scene.grid_res, node_blocks)?;
         let counters = CounterRing::allocate(&gpu.ctx, stream)?;
-        let stats = ParticleStats::allocate(stream)?;
         if fixed_scatter {
             grid.ensure_fixed(stream)?;
         }
@@ -128,7 +125,6 @@ impl DeviceState {
             counters,
             colliders,
             flow,
-            stats,
         })
     }
 

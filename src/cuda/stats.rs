@@ -6,7 +6,7 @@
 use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
 use crate::contract::{StatsPartial, STATS_THREADS};
-use crate::sim::{Params, Summary};
+use crate::sim::{Material, Params, Summary};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaEvent, CudaSlice, CudaStream, LaunchConfig, PinnedHostSlice, PushKernelArg};
 use std::sync::Arc;
@@ -39,15 +39,21 @@ impl ParticleStats {
         })
     }
 
-    /// Enqueues the reduction of the particles as they are after the work enqueued so far, and the
-    /// copy of its partials to the host; nothing waits.
+    /// Enqueues the reduction of the particles as they are after the work enqueued so far, under
+    /// `params` with `material`'s mass and density, and the copy of its partials to the host;
+    /// nothing waits.
     pub fn request(
         &mut self,
         kernel: &StatsKernel,
         launcher: &Launcher,
         params: &Params,
+        material: &Material,
         particles: &DeviceParticles,
     ) -> Result<()> {
+        let params = &Params {
+            material: *material,
+            ..*params
+        };
         let config = LaunchConfig {
             grid_dim: (STATS_BLOCKS as u32, 1, 1),
             block_dim: (STATS_THREADS as u32, 1, 1),

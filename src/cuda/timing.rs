@@ -11,7 +11,6 @@
 //! placeholder events as external event-record nodes, and each launch points those nodes at a fresh
 //! set from here (`begin_graphed_step`).
 
-use super::graph::record_external;
 use crate::sim::{Phase, PhaseTimings, MAX_PENDING_STEP_TIMINGS};
 use anyhow::{anyhow, Context, Result};
 use cudarc::driver::{sys, sys::CUevent_flags, CudaContext, CudaEvent, CudaStream};
@@ -193,4 +192,19 @@ impl PhaseEvents {
         }
         Ok(records)
     }
+}
+
+/// Records `event` on `stream` as an external event: during a capture it becomes an event-record node
+/// of the graph (a plain record there would only order the capture), outside one a normal record.
+pub fn record_external(event: &CudaEvent, stream: &CudaStream) -> Result<()> {
+    // SAFETY: the event and the stream are live and of the current context.
+    unsafe {
+        sys::cuEventRecordWithFlags(
+            event.cu_event(),
+            stream.cu_stream(),
+            sys::CUevent_record_flags::CU_EVENT_RECORD_EXTERNAL as u32,
+        )
+    }
+    .result()
+    .context("recording a timing event")
 }

@@ -13,7 +13,8 @@ use crate::sim::cpu::{is_fixed_point, CpuSolver};
 use crate::sim::params::{DensityRule, Params};
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::push::Push;
-use crate::sim::solver::{push_step_timing, ParticleView, Solver, StepExtremes};
+use crate::sim::solver::{push_step_timing, Solver, StepExtremes};
+use crate::sim::ParticleView;
 use crate::sim::{Particles, Scene};
 use anyhow::{anyhow, bail, Result};
 
@@ -125,12 +126,12 @@ impl Rank {
         }
     }
 
-    /// At the GPU's rebinning cadence (`cuda::bins::SORT_INTERVAL`), or where any rank holds a
+    /// Every [`MIGRATION_INTERVAL`](super::MIGRATION_INTERVAL) substeps, or where any rank holds a
     /// particle that could step out of its slab and ghosts in the next substep: the slabs move if the
     /// counts are out of balance, then particles go to their owners.
     fn rebin(&mut self, comm: &mut dyn Comm, inv_dx: f32) -> Result<()> {
         self.substeps += 1;
-        let due = self.substeps % u64::from(crate::cuda::bins::SORT_INTERVAL) == 0;
+        let due = self.substeps % u64::from(super::MIGRATION_INTERVAL) == 0;
         let (slabs, p) = (&self.slabs, &self.solver.particles);
         let stays = (0..p.len())
             .filter(|&i| p.live[i])

@@ -4,12 +4,12 @@
 //! - host copy (CPU backend, or CUDA when asked for the comparison or when interop is refused):
 //!   the attributes are copied to the host and uploaded with glBufferSubData.
 
-use super::renderer::{ColourBy, Colouring, Renderer};
+use super::renderer::{Colouring, Renderer};
 use crate::cuda::interop::GlBufferResource;
-use crate::cuda::particles::DeviceParticlesView;
+use crate::cuda::render::DeviceParticlesView;
 use crate::sim::flow::PARKED_RENDER_ATTRIBUTES;
-use crate::sim::{ParticleView, Particles, Simulation, Solver};
-use anyhow::{ensure, Result};
+use crate::sim::{ColourBy, DeviceParticles, ParticleView, Particles, Simulation, Solver};
+use anyhow::{ensure, Context, Result};
 use cudarc::driver::CudaSlice;
 use rayon::prelude::*;
 
@@ -101,12 +101,16 @@ impl ParticleFeed {
             renderer.ensure_capacity(n);
         }
         let want_interop = self.transfer == Transfer::Interop && self.interop_refused.is_none();
-        match sim.solver().particles() {
+        let drawn_in_place = match sim.solver().particles() {
             ParticleView::Device(view) => {
-                if want_interop {
-                    match self.write_through_interop(&view, renderer, quantity, rest_density) {
-                        Ok(()) => return Fed::of(sim, n),
-                        Err(why) => {
+                let view = DeviceParticlesView::of(view.as_ref())
+                    .context("the renderer draws device particles of the CUDA backend only")?;
+                let written =
+                    want_interop.then(|| self.write_through_interop(view, renderer, quantity, rest_density));
+                match written {
+                    Some(Ok(())) => true,
+                    refused => {
+                        if let Some(Err(why)) = refused {
                             let why = format!("{why:#}");
                             eprintln!(
                                 "note: CUDA-OpenGL interop unavailable ({why}); copying through the host"
@@ -114,20 +118,24 @@ impl ParticleFeed {
                             self.interop_refused = Some(why);
                             self.release();
                         }
+                        view.copy_render_attributes_through(
+                            quantity,
+                            rest_density,
+                            &mut self.device_scratch,
+                            &mut self.host,
+                        )?;
+                        false
                     }
                 }
-                view.copy_render_attributes(
-                    quantity,
-                    rest_density,
-                    &mut self.device_scratch,
-                    &mut self.host,
-                )?;
             }
             ParticleView::Host(particles) => {
-                host_attributes(particles, quantity, rest_density, &mut self.host)
+                host_attributes(particles, quantity, rest_density, &mut self.host);
+                false
             }
+        };
+        if !drawn_in_place {
+            renderer.upload(&self.host);
         }
-        renderer.upload(&self.host);
         Fed::of(sim, n)
     }
 
@@ -201,9 +209,7 @@ fn host_attributes(p: &Particles, colour_by: ColourBy, rest_density: f32, out: &
 pub fn read_attributes(solver: &dyn Solver, colour_by: ColourBy, rest_density: f32) -> Result<Vec<[f32; 4]>> {
     let mut out = Vec::new();
     match solver.particles() {
-        ParticleView::Device(view) => {
-            view.copy_render_attributes(colour_by, rest_density, &mut None, &mut out)?
-        }
+        ParticleView::Device(view) => out = view.copy_render_attributes(colour_by, rest_density)?,
         ParticleView::Host(particles) => host_attributes(particles, colour_by, rest_density, &mut out),
     }
     Ok(out)

@@ -29,8 +29,11 @@ pub mod renderer;
 pub mod surface;
 pub mod timer;
 
+/// The quantity particles are coloured by, a property of the particles (`sim`), which the device
+/// layer writes too.
+pub use crate::sim::ColourBy;
 pub use camera::OrbitCamera;
 pub use feed::{Fed, ParticleFeed, Transfer};
-pub use renderer::{ColourBy, Colouring, DrawMode, RenderSettings, Renderer, Viewport};
+pub use renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 pub use surface::SurfaceSettings;
 pub use timer::{Pass, PassTimes};

@@ -13,6 +13,7 @@ use super::surface::{Surface, SurfaceFrame, SurfaceSettings, Tint};
 use super::timer::{GpuTimer, Pass, PassTimes};
 use crate::sim::colliders::{ColliderFrame, Colliders};
 use crate::sim::flow::Flow;
+use crate::sim::ColourBy;
 use anyhow::{anyhow, Result};
 use glam::{Mat4, Vec3};
 use glow::HasContext;
@@ -36,35 +37,6 @@ impl DrawMode {
             DrawMode::Points => DrawMode::Spheres,
             DrawMode::Spheres => DrawMode::Surface,
             DrawMode::Surface => DrawMode::Points,
-        }
-    }
-}
-
-/// The quantity each particle vertex carries in w (`Colouring::quantity`): what kernels/render.cu
-/// writes on the GPU and [`host_attribute`](super::feed::host_attribute) on the host.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum ColourBy {
-    /// |v|, m/s.
-    #[default]
-    Speed,
-    /// rho / rho0.
-    Density,
-}
-
-impl ColourBy {
-    /// The switch value of kernels/render.cu.
-    pub fn code(self) -> u32 {
-        match self {
-            ColourBy::Speed => crate::contract::COLOUR_BY_SPEED,
-            ColourBy::Density => crate::contract::COLOUR_BY_DENSITY,
-        }
-    }
-
-    /// The value written for one particle.
-    pub fn value(self, v: Vec3, rho: f32, rest_density: f32) -> f32 {
-        match self {
-            ColourBy::Speed => v.length(),
-            ColourBy::Density => rho / rest_density,
         }
     }
 }

@@ -8,7 +8,8 @@ use super::params::{DensityRule, Params, ScatterMode};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
-use super::solver::{push_step_timing, ParticleView, Solver, StepExtremes};
+use super::solver::{push_step_timing, Solver, StepExtremes};
+use super::view::ParticleView;
 use glam::{IVec3, Mat3, UVec3, Vec3};
 
 /// Quadratic B-spline weights of one particle on its 3x3x3 stencil.

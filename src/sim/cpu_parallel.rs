@@ -38,7 +38,8 @@ use super::params::{DensityRule, Params, ScatterMode};
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
-use super::solver::{ParticleView, Solver, StepExtremes};
+use super::solver::{Solver, StepExtremes};
+use super::view::ParticleView;
 use glam::{IVec3, UVec3, Vec3};
 use rayon::prelude::*;
 

@@ -15,6 +15,7 @@ pub mod scene;
 pub mod simulation;
 pub mod solver;
 pub mod summary;
+pub mod view;
 
 pub use colliders::{ColliderFrame, Colliders};
 pub use params::{DensityRule, Material, Params, Pipeline, ScatterMode, FRAME_DT};
@@ -22,7 +23,6 @@ pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Particles, Scene, SceneError};
 pub use simulation::{FrameStats, FrameSteps, RunClock, Simulation};
-pub use solver::{
-    ExtremesTicket, ParticleView, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS,
-};
+pub use solver::{ExtremesTicket, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS};
 pub use summary::Summary;
+pub use view::{ColourBy, DeviceParticles, ParticleView};

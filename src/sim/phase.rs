@@ -68,33 +68,6 @@ impl Phase {
         matches!(self, Phase::HaloSum | Phase::HaloFill)
     }
 
-    /// What the phase holds in a GPU `pipeline`, for the bench tables: the kernels that run in it
-    /// (src/cuda/solver.rs), `fixed_point` for the binned pipeline's scatter choice, and `sort_interval`
-    /// (substeps between sorts).
-    pub fn gpu_label(self, pipeline: Pipeline, fixed_point: bool, sort_interval: u32) -> String {
-        match (pipeline, self) {
-            (_, Phase::GridClear) => "grid_clear (inside grid_update on the GPU)".into(),
-            (_, Phase::HaloSum | Phase::HaloFill) => format!("{} (several ranks only)", self.name()),
-            (Pipeline::Report, Phase::Sort) => format!("sort (GPU only, every {sort_interval} substeps)"),
-            (Pipeline::Binned | Pipeline::Fused, Phase::Sort) => {
-                format!("rebin (every {sort_interval} substeps, or when a particle moved a cell)")
-            }
-            (Pipeline::Report, Phase::P2gInit) => "p2g_init (+ mirror mass)".into(),
-            (Pipeline::Binned, Phase::P2gInit) => "mirror mass (mass scattered by g2p2g)".into(),
-            (Pipeline::Fused, Phase::P2gInit) => "(first substep only: one_pass's scatter)".into(),
-            (Pipeline::Fused, Phase::P2g) => "(none: scattered by one_pass)".into(),
-            (Pipeline::Report, Phase::P2g) => "p2g".into(),
-            (Pipeline::Binned, Phase::P2g) if fixed_point => "p2g_tiled".into(),
-            (Pipeline::Binned, Phase::P2g) => "p2g (warp runs, global atomics)".into(),
-            (Pipeline::Report, Phase::GridUpdate) => "grid_update (+ mirror momentum)".into(),
-            (Pipeline::Binned, Phase::GridUpdate) => "grid_update_blocks (+ mirror momentum)".into(),
-            (Pipeline::Fused, Phase::GridUpdate) => "grid_update_blocks (+ mirror mass and momentum)".into(),
-            (Pipeline::Report, Phase::G2p) => "g2p".into(),
-            (Pipeline::Binned, Phase::G2p) => "g2p2g (g2p + next mass scatter)".into(),
-            (Pipeline::Fused, Phase::G2p) => "one_pass (g2p + density + next whole scatter)".into(),
-        }
-    }
-
     /// The least device-memory traffic of the phase per substep, bytes: every particle array a kernel
     /// must read or write, once, and every grid array a grid-wide kernel walks, once. The scatter's and
     /// gather's grid traffic is left out: at the report's sizes the touched part of the grid stays in

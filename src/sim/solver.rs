@@ -8,6 +8,7 @@ use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
 use super::summary::Summary;
+use super::view::ParticleView;
 use anyhow::{bail, ensure, Result};
 
 /// The largest values any particle reached over the substeps since they were last taken.
@@ -175,12 +176,4 @@ pub trait Solver: Send {
             SummaryTicket::Pending => bail!("the {} backend issued no pending statistics", self.name()),
         }
     }
-}
-
-/// Where a solver keeps its particles.
-pub enum ParticleView<'a> {
-    /// In a CUDA solver's device memory: the renderer draws them through CUDA-OpenGL interop.
-    Device(crate::cuda::particles::DeviceParticlesView<'a>),
-    /// In host memory (the CPU backends), every slot.
-    Host(&'a Particles),
 }

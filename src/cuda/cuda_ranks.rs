@@ -1,0 +1,726 @@
+//! `CudaRanks`: one run split into ranks, each a [`CudaSolver`] over its slab of the grid
+//! (`crate::dist`), stepped phase by phase with the ghost exchanges between the phases. What it hands
+//! over (particles slot by slot, extremes, statistics, checkpoints) is what one solver would.
+//!
+//! | phase | every rank, fused pipeline |
+//! |---|---|
+//! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every MIGRATION_INTERVAL substeps: rebalance the slabs and migrate; then bin where the rank's schedule says |
+//! | p2g_init    | the first substep's scatter |
+//! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
+//! | grid_update | the walls' mirror of mass and momentum, the grid update |
+//! | halo_fill   | its edge planes' velocities packed, carried to the neighbours' ghost planes |
+//! | g2p         | one_pass (gather, advect, scatter the next substep), then count the strays |
+//!
+//! The fused pipeline scatters the next substep inside one_pass, so the ghost sums travel at the
+//! start of the substep that uses them, before the walls' mirror.
+//!
+//! **Where the ranks run** (`Scene::gpus`). On one GPU every rank runs on device
+//! `CudaOptions::device` and the carrier is a device copy between the ranks' halo buffers. On
+//! several, rank r runs on device r and the halos travel by NCCL's send and receive, every rank's
+//! posted in one group by the one thread that drives them all; the ranks' GPUs reach each other's
+//! memory (peer access), which the particle moves below use.
+//!
+//! Every rank holds every particle slot, live where it owns the particle and parked elsewhere (the
+//! kernels skip parked slots), so a migration (`move_owned`, kernels/ranks.cu beside this file, run
+//! on the sending rank's GPU, launched from ranks.rs) copies the moved slots and flips their flags, and a slot's index never
+//! changes. Readers see one set of every slot on rank 0's GPU, into which `take_owned` copies every
+//! rank's own slots once a frame (`Solver::publish_particles`) or when the host reads them.
+//! The phases are timed by CUDA events on rank 0's stream (timing.rs), each from the end of the one
+//! before, so an exchange includes any wait for a slower neighbour, and the sort phase the host's
+//! turn between substeps. The host waits for the ranks only where it must: for the stray counts
+//! before each substep, around a migration and `take_owned`, and on one GPU before each carry
+//! (a copy on the receiver's stream reads the sender's buffer).
+
+use super::gpu::CudaOptions;
+use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS};
+use super::launch::Launcher;
+use super::particles::DeviceParticles;
+use super::render::DeviceParticlesView;
+use super::solver::CudaSolver;
+use super::state::DeviceState;
+use super::timing::PhaseEvents;
+use crate::dist::migrate::{layer, Migration};
+use crate::dist::nccl::{Comm, DataType, Nccl};
+use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
+use crate::sim::colliders::ColliderFrame;
+use crate::sim::phase::{Phase, PhaseTimings};
+use crate::sim::{
+    Material, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
+};
+use anyhow::{bail, ensure, Context, Result};
+use cudarc::driver::{sys, CudaSlice, DevicePtr};
+
+pub struct CudaRanks {
+    /// Before the solvers: NCCL's communicators go while their devices are still open.
+    carrier: Carrier,
+    solvers: Vec<CudaSolver>,
+    halos: Vec<HaloBuffers>,
+    slabs: Slabs,
+    /// The walls' mirror planes along the slab axis, low and high (`Slabs::rebalanced`).
+    walls: (u32, u32),
+    /// Every slot, each from the rank that owns it, on rank 0's device (`Solver::particles`), as of
+    /// the last `take_owned`.
+    merged: DeviceParticles,
+    /// Whether the ranks stepped (or were pushed) since `merged` was taken.
+    merged_stale: bool,
+    /// Per rank: the strays its last g2p counted.
+    strays: Vec<CudaSlice<u32>>,
+    /// Live particles per rank, as of the last substep.
+    counts: Vec<usize>,
+    /// Live particles in the run, all ranks together: what every migration must leave.
+    live: u64,
+    /// The phases' events, on rank 0's stream.
+    timing: PhaseEvents,
+    substeps: u64,
+    migrations: u64,
+    migrated: Migration,
+}
+
+/// Below and above: a rank's two sides, its halo buffers' indices.
+const SIDES: [Side; 2] = [Side::Below, Side::Above];
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Side {
+    Below = 0,
+    Above = 1,
+}
+
+/// What an exchange carries (`CudaRanks::exchange`).
+#[derive(Clone, Copy)]
+enum Exchange {
+    /// The scatter's sums on the ghost planes, to their owner (halo_sum).
+    Sums,
+    /// The grid update's velocities on the edge planes, to the neighbours' ghosts (halo_fill).
+    Velocities,
+}
+
+impl Exchange {
+    /// u64 words a node takes packed: HALO_SUM_WORDS, or one float4 of velocity and mass.
+    fn words_per_node(self) -> usize {
+        match self {
+            Exchange::Sums => HALO_SUM_WORDS,
+            Exchange::Velocities => 2,
+        }
+    }
+}
+
+/// What carries the packed halos from rank to rank.
+enum Carrier {
+    /// Every rank on one GPU: a device copy into the neighbour's receive buffer.
+    DeviceCopy,
+    /// One rank per GPU: NCCL's send and receive between neighbours, rank r's communicator at r.
+    Nccl(Vec<Comm>),
+}
+
+impl CudaRanks {
+    /// `ranks` ranks of `particles` (every slot of `scene`'s run), the slabs balanced for them.
+    pub fn new(scene: &Scene, particles: Particles, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
+        let slabs = starting_slabs(scene, &particles, ranks)?;
+        CudaRanks::with_slabs(scene, particles, slabs, options)
+    }
+
+    /// Ranks of `particles` (every slot) on the given slabs, whatever their balance: the next rebin
+    /// moves them.
+    pub fn with_slabs(
+        scene: &Scene,
+        particles: Particles,
+        slabs: Slabs,
+        options: CudaOptions,
+    ) -> Result<CudaRanks> {
+        check_ranks(scene, &slabs)?;
+        ensure!(
+            scene.pipeline == Pipeline::Fused,
+            "scene {}: several ranks run the fused pipeline (the default); drop --pipeline {} or run on one rank",
+            scene.source,
+            scene.pipeline.name()
+        );
+        let params = scene.params();
+        let devices = rank_devices(scene, slabs.ranks(), options.device)?;
+        let mut solvers = Vec::new();
+        let mut halos = Vec::new();
+        let mut counts = Vec::new();
+        let mut strays = Vec::new();
+        for (rank, &device) in devices.iter().enumerate() {
+            let mine = owned_by(&particles, &slabs, rank, params.inv_dx);
+            counts.push(mine.num_live());
+            // Every rank holds every slot at its own place (migration and take_owned copy slot p to
+            // slot p), so the ranks keep their particles where they are, out of bin order.
+            let in_place = CudaOptions {
+                bin_order: false,
+                device,
+                ..options
+            };
+            let solver = CudaSolver::from_particles(scene, &mine, in_place)
+                .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
+            halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
+            strays.push(
+                solver
+                    .stream()
+                    .alloc_zeros::<u32>(1)
+                    .context("allocating a stray counter")?,
+            );
+            solvers.push(solver);
+        }
+        let mut merged = DeviceParticles::allocate(solvers[0].stream(), particles.len())?;
+        merged.upload(solvers[0].stream(), &particles)?;
+        let carrier = if scene.gpus > 1 {
+            enable_peer_access(&solvers)?;
+            let comms = Comm::init_all(Nccl::get()?, &devices)
+                .with_context(|| format!("joining the {} GPUs in one NCCL communicator", devices.len()))?;
+            Carrier::Nccl(comms)
+        } else {
+            Carrier::DeviceCopy
+        };
+        let timing = PhaseEvents::new(solvers[0].gpu.ctx.clone());
+        Ok(CudaRanks {
+            carrier,
+            solvers,
+            halos,
+            walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
+            slabs,
+            live: particles.num_live() as u64,
+            counts,
+            merged,
+            merged_stale: false,
+            strays,
+            timing,
+            substeps: 0,
+            migrations: 0,
+            migrated: Migration::default(),
+        })
+    }
+
+    /// What `--gpus` (`Scene::gpus` above 1) needs, checked before any particle is made: as many
+    /// CUDA devices, a peer path between every two of them, and NCCL. Each missing piece is named
+    /// with its fix.
+    pub fn check_gpus(scene: &Scene) -> Result<()> {
+        let gpus = scene.gpus;
+        if gpus <= 1 {
+            return Ok(());
+        }
+        let devices = super::library::devices()?;
+        let count = devices.len();
+        ensure!(
+            gpus <= count,
+            "--gpus {gpus}: this machine has {count} CUDA device{} (`mpm devices` lists them); ask \
+             for at most {count}",
+            if count == 1 { "" } else { "s" }
+        );
+        for (i, device) in devices.iter().take(gpus).enumerate() {
+            if let Some(j) = (0..gpus).find(|&j| j != i && !device.peer_access[j]) {
+                bail!(
+                    "--gpus {gpus}: GPU {i} cannot reach GPU {j}'s memory (no peer access; `mpm \
+                     devices` shows it), which ranks on the GPUs of one host move particles \
+                     through; run on GPUs joined by NVLink or a PCIe switch with peer access, or \
+                     on one GPU"
+                );
+            }
+        }
+        Nccl::get().map(drop)
+    }
+
+    /// The device's name, and how many ranks share it or how many GPUs the ranks run on.
+    pub fn device_name(&self) -> String {
+        let (name, ranks) = (self.solvers[0].device_name(), self.solvers.len());
+        match self.carrier {
+            Carrier::DeviceCopy => format!("{name}, {ranks} ranks"),
+            Carrier::Nccl(_) => format!("{ranks} x {name}, a rank each (NCCL)"),
+        }
+    }
+
+    /// The slabs as they stand (they move when the counts drift out of balance).
+    pub fn slabs(&self) -> &Slabs {
+        &self.slabs
+    }
+
+    /// Live particles per rank, as of the last substep.
+    pub fn counts(&self) -> &[usize] {
+        &self.counts
+    }
+
+    /// Migrations so far, and what they moved (summed over the ranks).
+    pub fn migrated(&self) -> (u64, Migration) {
+        (self.migrations, self.migrated)
+    }
+
+    /// The host waits for every rank's stream.
+    fn wait_all(&self) -> Result<()> {
+        for solver in &self.solvers {
+            solver
+                .stream()
+                .synchronize()
+                .context("waiting for a rank (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        }
+        Ok(())
+    }
+
+    /// Every rank's launches of `phase` (no sort phase: its decision is each rank's), then its end.
+    fn run_phase(&mut self, phase: Phase) -> Result<()> {
+        for solver in &mut self.solvers {
+            solver.run_phase(phase, false)?;
+        }
+        self.end_phase(phase)
+    }
+
+    /// Marks the end of `phase` on rank 0's stream.
+    fn end_phase(&mut self, phase: Phase) -> Result<()> {
+        let stream = self.solvers[0].stream().clone();
+        self.timing.end_phase(&stream, phase, true)
+    }
+
+    /// Where rank `rank` meets its neighbour on `side`; `None` at the domain's ends.
+    fn link(&self, rank: usize, side: Side) -> Option<Link> {
+        let slabs = &self.slabs;
+        let (neighbour, ghosts, edge) = match side {
+            Side::Below => {
+                let below = rank.checked_sub(1)?;
+                (below, slabs.low_ghost(rank), slabs.high_ghost(below))
+            }
+            Side::Above if rank + 1 < slabs.ranks() => {
+                (rank + 1, slabs.high_ghost(rank), slabs.low_ghost(rank + 1))
+            }
+            Side::Above => return None,
+        };
+        let planes = |range| Planes {
+            axis: slabs.axis,
+            range,
+        };
+        Some(Link {
+            rank,
+            side,
+            neighbour,
+            ghosts: planes(ghosts),
+            edge: planes(edge),
+        })
+    }
+
+    /// Every rank's links to its neighbours: what each exchange packs, carries and unpacks.
+    fn links(&self) -> Vec<Link> {
+        (0..self.solvers.len())
+            .flat_map(|rank| SIDES.into_iter().filter_map(move |side| self.link(rank, side)))
+            .collect()
+    }
+
+    /// What a halo kernel on `rank` launches with: the kernels, the rank's launcher, parameters and
+    /// buffers.
+    fn halo_launch(&self, rank: usize) -> (&HaloKernels, &Launcher, &Params, &DeviceState) {
+        let solver = &self.solvers[rank];
+        (
+            &solver.kernels.halo,
+            &solver.gpu.launcher,
+            &solver.params,
+            &solver.state,
+        )
+    }
+
+    /// One exchange between every pair of neighbours: each rank packs its side of it into its send
+    /// buffers, the carrier copies them across, each rank unpacks what arrived. The scatter's sums
+    /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
+    /// from the edge back over the ghosts.
+    fn exchange(&mut self, what: Exchange) -> Result<()> {
+        let links = self.links();
+        for link in &links {
+            let (k, l, params, state) = self.halo_launch(link.rank);
+            let out = &self.halos[link.rank].send[link.side as usize];
+            match what {
+                Exchange::Sums => k.pack_sums(l, params, &link.ghosts, state, out)?,
+                Exchange::Velocities => k.pack_velocities(l, params, &link.edge, state, out)?,
+            }
+        }
+        self.carry(&links, what)?;
+        for link in &links {
+            let (k, l, params, state) = self.halo_launch(link.rank);
+            let got = &self.halos[link.rank].recv[link.side as usize];
+            match what {
+                Exchange::Sums => k.add_sums(l, params, &link.edge, got, state)?,
+                Exchange::Velocities => k.fill_velocities(l, params, &link.ghosts, got, state)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// Carries every rank's packed send buffers to its neighbours' receive buffers: on one GPU a
+    /// copy on the receiver's stream once every rank has packed; across GPUs NCCL's sends and
+    /// receives on each rank's stream, after its packing and before its unpacking.
+    fn carry(&mut self, links: &[Link], what: Exchange) -> Result<()> {
+        let res = self.solvers[0].params.grid_res;
+        match &self.carrier {
+            Carrier::DeviceCopy => {
+                self.wait_all()?; // every rank's packing
+                for link in links {
+                    let (words, _) = link.words(what, res);
+                    let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
+                    let src = from.send[link.side as usize].slice(..words);
+                    let mut dst = to.recv[opposite(link.side) as usize].slice_mut(..words);
+                    self.solvers[link.neighbour]
+                        .stream()
+                        .memcpy_dtod(&src, &mut dst)
+                        .context("carrying a halo between ranks")?;
+                }
+                Ok(())
+            }
+            Carrier::Nccl(comms) => comms[0].nccl().group(|| {
+                for (comm, (solver, halo)) in comms.iter().zip(self.solvers.iter().zip(&self.halos)) {
+                    let stream = solver.stream();
+                    let mut sends = Vec::new();
+                    let mut recvs = Vec::new();
+                    // The pointers stay valid: the buffers live as long as the ranks.
+                    for link in links.iter().filter(|link| link.rank == comm.rank) {
+                        let (send_words, recv_words) = link.words(what, res);
+                        let side = link.side as usize;
+                        let (send, _) = halo.send[side].device_ptr(stream);
+                        let (recv, _) = halo.recv[side].device_ptr(stream);
+                        sends.push((link.neighbour, send, send_words));
+                        recvs.push((link.neighbour, recv, recv_words));
+                    }
+                    // SAFETY: each buffer holds a block of planes of packed sums, more than either
+                    // count; the neighbour posts the matching receive and send in this group, from
+                    // its own side of the same link.
+                    unsafe {
+                        comm.send_recv(&sends, &recvs, DataType::U64, stream.cu_stream().cast())?;
+                    }
+                }
+                Ok(())
+            }),
+        }
+    }
+
+    /// Particles the last g2p left where one more substep could carry them past their rank's ghost
+    /// planes (`Slabs::keeps`), all ranks together.
+    fn strays(&self) -> Result<u64> {
+        let mut total = 0;
+        for (solver, strays) in self.solvers.iter().zip(&self.strays) {
+            total += u64::from(solver.gpu.download(strays)?[0]);
+        }
+        Ok(total)
+    }
+
+    /// Counts each rank's strays after its g2p.
+    fn count_strays(&mut self) -> Result<()> {
+        for (rank, (solver, strays)) in self.solvers.iter().zip(&mut self.strays).enumerate() {
+            let kept = self.slabs.kept_bases(rank);
+            let keep = (*kept.start(), *kept.end());
+            solver
+                .stream()
+                .memset_zeros(strays)
+                .context("zeroing the stray counter")?;
+            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
+            k.count_strays(
+                l,
+                &solver.params,
+                self.slabs.axis,
+                keep,
+                &solver.state.particles.x,
+                strays,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Live particles per block layer along the slab axis, per rank.
+    fn layer_counts(&self) -> Result<Vec<Vec<u64>>> {
+        let layers = self.slabs.blocks();
+        let mut all = Vec::with_capacity(self.solvers.len());
+        for solver in &self.solvers {
+            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
+            let mut counts = solver
+                .stream()
+                .alloc_zeros::<u32>(layers as usize)
+                .context("allocating layer counts")?;
+            k.count_layers(
+                l,
+                &solver.params,
+                self.slabs.axis,
+                layers,
+                &solver.state.particles.x,
+                &mut counts,
+            )?;
+            all.push(solver.gpu.download(&counts)?.into_iter().map(u64::from).collect());
+        }
+        Ok(all)
+    }
+
+    /// Moves the slabs if the counts are out of balance, then every live particle to the rank that
+    /// owns its block layer, on the device, checking that none was lost or held twice. `last_dt`:
+    /// the step of the substep whose scatter the grids hold, scattered again where the slabs moved.
+    fn migrate(&mut self, last_dt: f32) -> Result<()> {
+        let before = self.layer_counts()?;
+        let per_layer: Vec<u64> = (0..self.slabs.blocks() as usize)
+            .map(|layer| before.iter().map(|rank| rank[layer]).sum())
+            .collect();
+        let moved_slabs = match self.slabs.rebalanced(&per_layer, self.walls)? {
+            Some(balanced) => {
+                self.slabs = balanced;
+                true
+            }
+            None => false,
+        };
+        self.wait_all()?;
+        let mut moved = 0;
+        // Each sender's GPU reads its own slots and writes only the moved ones to the receiver.
+        for (from, sender) in self.solvers.iter().enumerate() {
+            let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
+            let mut sent = sender
+                .stream()
+                .alloc_zeros::<u32>(1)
+                .context("allocating the migration counter")?;
+            for to in (0..self.solvers.len()).filter(|&to| to != from) {
+                let layers = self.slabs.bounds[to]..self.slabs.bounds[to + 1];
+                let dest = &self.solvers[to].state.particles;
+                let slab = (self.slabs.axis, self.slabs.blocks(), layers);
+                k.move_owned(l, &sender.params, slab, &sender.state.particles, dest, &mut sent)?;
+            }
+            moved += u64::from(sender.gpu.download(&sent)?[0]);
+        }
+        self.wait_all()?; // the receivers' slots, written from the senders' GPUs
+        let after = self.layer_counts()?;
+        let live = |counts: &[Vec<u64>]| counts.iter().flatten().sum::<u64>();
+        let migration = Migration {
+            sent: moved,
+            received: moved,
+            live_before: live(&before),
+            live_after: live(&after),
+        };
+        // A slot live on two ranks, or on none, changes the sum over the ranks.
+        ensure!(
+            migration.live_before == self.live && migration.live_after == self.live,
+            "a migration lost or duplicated particles: {} live before, {} after, {} in the run \
+             ({moved} moved)",
+            migration.live_before,
+            migration.live_after,
+            self.live
+        );
+        for (rank, solver) in self.solvers.iter_mut().enumerate() {
+            self.counts[rank] = after[rank].iter().sum::<u64>() as usize;
+            if moved > 0 {
+                solver.rebin_next();
+            }
+            // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
+            if moved_slabs {
+                solver.discard_scatter(last_dt)?;
+            }
+        }
+        self.migrated.sent += migration.sent;
+        self.migrated.received += migration.received;
+        self.migrations += 1;
+        Ok(())
+    }
+
+    /// Every rank's own slots into `merged` where a substep ran since the last time, each rank's
+    /// from its own GPU once every rank is done, waited for (no rank may write its particles while
+    /// they are read).
+    fn take_owned(&mut self) -> Result<()> {
+        if !self.merged_stale {
+            return Ok(());
+        }
+        self.wait_all()?;
+        for solver in &self.solvers {
+            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
+            k.take_owned(l, &solver.state.particles, &self.merged)?;
+        }
+        self.wait_all()?;
+        self.merged_stale = false;
+        Ok(())
+    }
+}
+
+/// The slots of `all` that `slabs` gives to `rank` live, every other slot parked.
+fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Particles {
+    let mut mine = all.clone();
+    for (live, x) in mine.live.iter_mut().zip(&all.x) {
+        *live &= slabs.owner(layer(*x, slabs.axis, inv_dx)) == rank;
+    }
+    mine
+}
+
+/// The device of each of `ranks` ranks: `one` for them all, or with `Scene::gpus` several, device r
+/// for rank r, checked against the devices there are.
+fn rank_devices(scene: &Scene, ranks: usize, one: usize) -> Result<Vec<usize>> {
+    if scene.gpus <= 1 {
+        return Ok(vec![one; ranks]);
+    }
+    ensure!(
+        scene.gpus == ranks,
+        "{} ranks on {} GPUs: one rank per GPU runs, so ask for as many ranks as GPUs",
+        ranks,
+        scene.gpus
+    );
+    CudaRanks::check_gpus(scene)?;
+    Ok((0..ranks).collect())
+}
+
+/// Lets every rank's GPU read and write every other's memory, which migration and `take_owned`
+/// do (`CudaRanks::check_gpus` made sure the hardware has a path for it).
+fn enable_peer_access(solvers: &[CudaSolver]) -> Result<()> {
+    for (i, a) in solvers.iter().enumerate() {
+        for (j, b) in solvers.iter().enumerate().filter(|&(j, _)| j != i) {
+            a.gpu.ctx.bind_to_thread().context("binding a rank's context")?;
+            // SAFETY: the context bound above gains access to `b`'s; flags must be 0.
+            match unsafe { sys::cuCtxEnablePeerAccess(b.gpu.ctx.cu_ctx(), 0) } {
+                sys::CUresult::CUDA_SUCCESS | sys::CUresult::CUDA_ERROR_PEER_ACCESS_ALREADY_ENABLED => {}
+                error => bail!("enabling GPU {i}'s access to GPU {j}'s memory: {error:?}"),
+            }
+            // The buffers come from `b`'s stream-ordered pool (cuMemAllocAsync), which the
+            // context's peer access does not cover: the pool grants `a` access itself.
+            let mut pool = std::ptr::null_mut();
+            let access = sys::CUmemAccessDesc {
+                location: sys::CUmemLocation {
+                    type_: sys::CUmemLocationType::CU_MEM_LOCATION_TYPE_DEVICE,
+                    id: a.gpu.ctx.ordinal() as std::ffi::c_int,
+                },
+                flags: sys::CUmemAccess_flags::CU_MEM_ACCESS_FLAGS_PROT_READWRITE,
+            };
+            // SAFETY: `pool` receives `b`'s current pool, which then takes one access descriptor.
+            let granted = unsafe {
+                match sys::cuDeviceGetMemPool(&mut pool, b.gpu.ctx.cu_device()) {
+                    sys::CUresult::CUDA_SUCCESS => sys::cuMemPoolSetAccess(pool, &access, 1),
+                    error => error,
+                }
+            };
+            ensure!(
+                granted == sys::CUresult::CUDA_SUCCESS,
+                "granting GPU {i} access to GPU {j}'s memory pool: {granted:?}"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Where two neighbouring ranks meet, seen from one of them: this rank's ghost planes there (the
+/// neighbour's edge) and its edge planes there (the neighbour's ghosts).
+struct Link {
+    rank: usize,
+    side: Side,
+    neighbour: usize,
+    ghosts: Planes,
+    edge: Planes,
+}
+
+impl Link {
+    /// The u64 words this rank sends and receives on the link for `what`: its ghost planes' sums go
+    /// out and its edge planes' come in; its edge planes' velocities go out and its ghosts' come in.
+    fn words(&self, what: Exchange, res: [u32; 3]) -> (usize, usize) {
+        let (send, recv) = match what {
+            Exchange::Sums => (&self.ghosts, &self.edge),
+            Exchange::Velocities => (&self.edge, &self.ghosts),
+        };
+        let words = what.words_per_node();
+        (words * send.nodes(res), words * recv.nodes(res))
+    }
+}
+
+fn opposite(side: Side) -> Side {
+    match side {
+        Side::Below => Side::Above,
+        Side::Above => Side::Below,
+    }
+}
+
+/// Two distinct ranks' halo buffers, one to read and one to write.
+fn pair(halos: &mut [HaloBuffers], from: usize, to: usize) -> (&HaloBuffers, &mut HaloBuffers) {
+    if from < to {
+        let (low, high) = halos.split_at_mut(to);
+        (&low[from], &mut high[0])
+    } else {
+        let (low, high) = halos.split_at_mut(from);
+        (&high[0], &mut low[to])
+    }
+}
+
+impl Solver for CudaRanks {
+    /// The CUDA backend's name: what the ranks hand over is what one solver would.
+    fn name(&self) -> &'static str {
+        "cuda"
+    }
+
+    /// Every rank's context is current on the thread in turn; each rank's work binds its own again.
+    fn bind_to_thread(&self) -> Result<()> {
+        self.solvers.iter().try_for_each(|solver| solver.bind_to_thread())
+    }
+
+    /// One substep, as the table at the top of this file lists its phases.
+    fn step(&mut self, params: &Params) -> Result<()> {
+        // Recorded behind the last substep's work: the sort phase holds the host's turn between.
+        let first = self.solvers[0].stream().clone();
+        self.timing.begin_step(&first)?;
+        let last_dt = self.solvers[0].params.dt;
+        self.substeps += 1;
+        // Every particle starts on its owner; the strays were counted by the last substep's g2p.
+        let due = self.substeps % u64::from(MIGRATION_INTERVAL) == 0;
+        if self.substeps > 1 && (due || self.strays()? > 0) {
+            self.migrate(last_dt)?;
+        }
+        for solver in &mut self.solvers {
+            solver.accept(params)?;
+            let sort = solver.sort_due();
+            solver.run_phase(Phase::Sort, sort)?;
+        }
+        self.end_phase(Phase::Sort)?;
+        self.run_phase(Phase::P2gInit)?;
+        self.exchange(Exchange::Sums)?;
+        self.end_phase(Phase::HaloSum)?;
+        self.run_phase(Phase::GridUpdate)?;
+        self.exchange(Exchange::Velocities)?;
+        self.end_phase(Phase::HaloFill)?;
+        for solver in &mut self.solvers {
+            solver.run_phase(Phase::G2p, false)?;
+        }
+        self.count_strays()?;
+        self.merged_stale = true;
+        self.end_phase(Phase::G2p)
+    }
+
+    fn resume_after(&mut self, last: &Params) {
+        for solver in &mut self.solvers {
+            solver.resume_after(last);
+        }
+    }
+
+    fn take_extremes(&mut self) -> Result<StepExtremes> {
+        let mut all = StepExtremes::default();
+        for solver in &mut self.solvers {
+            all.merge(&solver.take_extremes()?);
+        }
+        Ok(all)
+    }
+
+    fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
+        Ok(Some(self.timing.take_completed()?))
+    }
+
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
+        self.solvers.iter_mut().try_for_each(|s| s.set_colliders(frame))
+    }
+
+    fn apply_push(&mut self, push: &Push) -> Result<()> {
+        self.solvers.iter_mut().try_for_each(|s| s.apply_push(push))?;
+        self.merged_stale = true;
+        self.take_owned()
+    }
+
+    fn publish_particles(&mut self) -> Result<()> {
+        self.take_owned()
+    }
+
+    fn particles(&self) -> ParticleView<'_> {
+        let rank0 = &self.solvers[0];
+        ParticleView::Device(Box::new(DeviceParticlesView::new(
+            &rank0.gpu,
+            &rank0.kernels.render_attributes,
+            &self.merged,
+        )))
+    }
+
+    fn read_particles(&mut self) -> Result<Particles> {
+        self.take_owned()?;
+        self.merged.download(&self.solvers[0].gpu)
+    }
+
+    /// Rank 0's statistics kernel over every rank's own slots, on its GPU: what one solver's would
+    /// give, without copying the particles to the host.
+    fn summary(&mut self, material: &Material) -> Result<Summary> {
+        self.take_owned()?;
+        let first = &mut self.solvers[0];
+        first.summary_of(material, &self.merged)
+    }
+}
