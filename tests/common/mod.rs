@@ -56,6 +56,12 @@ pub fn max_diff_mat3(a: &[glam::Mat3], b: &[glam::Mat3]) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// The fraction of `image`'s pixels (RGBA) that `keep` picks.
+pub fn pixel_fraction(image: &mpm::render::capture::Image, keep: impl Fn(&[u8]) -> bool) -> f64 {
+    let picked = image.rgba.chunks_exact(4).filter(|p| keep(p)).count();
+    picked as f64 / f64::from(image.width * image.height)
+}
+
 /// `n` particles with random positions in `[lo, hi)` (m), velocities up to `speed` per component and
 /// C entries up to `shear` (1/s).
 pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed: u64) -> Particles {
