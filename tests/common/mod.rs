@@ -62,6 +62,54 @@ pub fn pixel_fraction(image: &mpm::render::capture::Image, keep: impl Fn(&[u8]) 
     picked as f64 / f64::from(image.width * image.height)
 }
 
+/// Water pixels: clearly blue (the surface's water colour, or the floor seen through it).
+pub fn water_fraction(image: &mpm::render::capture::Image) -> f64 {
+    pixel_fraction(image, |p| p[2] > 50 && i32::from(p[2]) > i32::from(p[0]) + 25)
+}
+
+/// The render tests' run: `frames` frames of the preset `scene` on `backend`, PNGs into `out`,
+/// at 320 x 180 as spheres coloured by speed through interop, the rest at `mpm render`'s defaults.
+/// A test sets what it is about with `RenderOptions { .., ..render_options(..) }`.
+pub fn render_options(
+    scene: &str,
+    backend: mpm::backend::BackendKind,
+    frames: u64,
+    out: &std::path::Path,
+) -> mpm::render::offline::RenderOptions {
+    mpm::render::offline::RenderOptions {
+        scene: Scene::load(scene).expect("preset"),
+        backend,
+        frames,
+        out: Some(out.to_path_buf()),
+        size: [320, 180],
+        mode: mpm::render::DrawMode::Spheres,
+        colouring: mpm::render::Colouring::Speed,
+        particle_radius: None,
+        full_res_smoothing: false,
+        transfer: mpm::render::Transfer::Interop,
+        video: None,
+    }
+}
+
+/// `mpm render` with `options`; prints its log.
+pub fn render_logged(options: mpm::render::offline::RenderOptions) -> mpm::render::offline::RenderReport {
+    let mut log = Vec::new();
+    let report = mpm::render::offline::render(options, &mut log).expect("render");
+    println!("{}", String::from_utf8_lossy(&log));
+    report
+}
+
+/// The surface's passes each took GPU time (timer queries), by name.
+pub fn assert_surface_passes_timed(passes: &std::collections::BTreeMap<&'static str, f64>) {
+    for pass in ["scene", "depth", "thickness", "smoothing", "shading", "legend"] {
+        let ms = passes.get(pass).copied();
+        assert!(
+            ms.is_some_and(|ms| ms > 0.0),
+            "no GPU time for the {pass} pass: {passes:?}"
+        );
+    }
+}
+
 /// `n` particles with random positions in `[lo, hi)` (m), velocities up to `speed` per component and
 /// C entries up to `shear` (1/s).
 pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed: u64) -> Particles {
