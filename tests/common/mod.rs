@@ -12,6 +12,23 @@ pub fn mpm_binary() -> std::path::PathBuf {
     std::env::var_os("MPM_BIN").map_or_else(|| env!("CARGO_BIN_EXE_mpm").into(), Into::into)
 }
 
+/// The `mpm` binary run with `args` to its end, without a display (no case may open a window).
+pub fn mpm(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(mpm_binary())
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("running mpm")
+}
+
+/// `mpm run --backend cpu --scene SCENE --frames FRAMES` and then `extra`.
+pub fn cpu_run(scene: &str, frames: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["run", "--backend", "cpu", "--scene", scene, "--frames", frames];
+    args.extend_from_slice(extra);
+    mpm(&args)
+}
+
 /// A scene from inline TOML; panics with the validation message if the test wrote a bad one.
 pub fn scene(toml: &str) -> Scene {
     Scene::from_toml(toml, "test scene").unwrap_or_else(|e| panic!("{e}"))
