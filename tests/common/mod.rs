@@ -335,6 +335,11 @@ pub fn particle_bits(p: &Particles) -> Vec<u32> {
     bits
 }
 
+/// Two particle sets are the same state: every slot's x, v, C, density and liveness, bit for bit.
+pub fn same_particles(a: &Particles, b: &Particles) -> bool {
+    particle_bits(a) == particle_bits(b) && a.live == b.live
+}
+
 /// Through the command line on `backend`: the fixed-point coarse dam break for 10 frames on one
 /// rank, against 5 frames split by `split` (`--ranks 2`, `--gpus 2`) checkpointed and resumed on 3
 /// ranks of one device for 5 more; the PLY files of frames 5 and 10 must be the same bytes (a
