@@ -6,16 +6,10 @@ use mpm::backend::{self, BackendKind};
 use mpm::checkpoint::{Checkpoint, CheckpointSeries, FORMAT_VERSION};
 use mpm::sim::{ScatterMode, Scene, Simulation};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 mod common;
-
-fn mpm(args: &[&str]) -> Output {
-    Command::new(common::mpm_binary())
-        .args(args)
-        .output()
-        .expect("running mpm")
-}
+use common::mpm;
 
 fn ok(out: &Output) -> String {
     assert!(
@@ -257,32 +251,14 @@ fn the_cli_refuses_a_bad_checkpoint_before_creating_anything() {
 fn checkpoints_of_another_run_are_not_mixed_with_or_replaced() {
     let dir = tempfile::tempdir().unwrap();
     let series = dir.path().join("series");
-    ok(&mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
+    ok(&common::cpu_run(
         "dam-break-coarse",
-        "--frames",
         "2",
-        "--checkpoint",
-        path(&series),
-        "--checkpoint-every",
-        "1",
-    ]));
+        &["--checkpoint", path(&series), "--checkpoint-every", "1"],
+    ));
     let first = std::fs::read(series.join("checkpoint_000002.mpmck")).unwrap();
     // A fresh run into the same directory is refused...
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        "dam-break-coarse",
-        "--frames",
-        "2",
-        "--checkpoint",
-        path(&series),
-    ]);
+    let out = common::cpu_run("dam-break-coarse", "2", &["--checkpoint", path(&series)]);
     assert!(!out.status.success());
     let text = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -393,35 +369,19 @@ fn the_fountain_resumed_from_the_command_line_is_byte_identical() {
 fn a_resumed_run_is_not_mixed_with_another_scenes_checkpoints() {
     let dir = tempfile::tempdir().unwrap();
     let (mixed, own) = (dir.path().join("mix"), dir.path().join("own"));
-    ok(&mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
+    ok(&common::cpu_run(
         "dam-break-coarse",
-        "--frames",
         "2",
-        "--checkpoint-every",
-        "1",
-        "--checkpoint",
-        path(&mixed),
-    ]));
+        &["--checkpoint-every", "1", "--checkpoint", path(&mixed)],
+    ));
     // Another scene: the same preset saved as a file (its source is the file, not the preset).
     let scene_file = dir.path().join("coarse.toml");
     std::fs::write(&scene_file, mpm::sim::presets::get("dam-break-coarse").unwrap()).unwrap();
-    ok(&mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
+    ok(&common::cpu_run(
         path(&scene_file),
-        "--frames",
         "3",
-        "--checkpoint-every",
-        "3",
-        "--checkpoint",
-        path(&own),
-    ]));
+        &["--checkpoint-every", "3", "--checkpoint", path(&own)],
+    ));
     let resume = own.join("checkpoint_000003.mpmck");
     let out = mpm(&[
         "run",

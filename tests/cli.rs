@@ -6,15 +6,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 mod common;
-
-fn mpm(args: &[&str]) -> Output {
-    Command::new(common::mpm_binary())
-        .args(args)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("running mpm")
-}
+use common::mpm;
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -284,19 +276,16 @@ fn zero_frames_write_the_start_as_the_last_checkpoint_and_no_empty_stats() {
     let dir = tempfile::tempdir().unwrap();
     let checkpoints = dir.path().join("c");
     let stats = dir.path().join("s.jsonl");
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
+    let out = common::cpu_run(
         "dam-break-coarse",
-        "--frames",
         "0",
-        "--checkpoint",
-        checkpoints.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
+        &[
+            "--checkpoint",
+            checkpoints.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ],
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
         checkpoints.join("checkpoint_000000.mpmck").is_file(),
@@ -314,17 +303,7 @@ fn a_killed_runs_unfinished_file_is_removed_not_counted() {
     let frames = dir.path().join("frames");
     std::fs::create_dir(&frames).unwrap();
     std::fs::write(frames.join("frame_000000.ply.partial"), b"cut short").unwrap();
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        "dam-break-coarse",
-        "--frames",
-        "0",
-        "--export",
-        frames.to_str().unwrap(),
-    ]);
+    let out = common::cpu_run("dam-break-coarse", "0", &["--export", frames.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
         stdout(&out).contains("removed 1 file that a killed run left unfinished"),
@@ -363,17 +342,7 @@ fn bench_defaults_to_auto_run_options_point_to_run_and_export_says_what_it_wrote
 
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("f");
-    let run = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        "dam-break-coarse",
-        "--frames",
-        "2",
-        "--export",
-        frames.to_str().unwrap(),
-    ]);
+    let run = common::cpu_run("dam-break-coarse", "2", &["--export", frames.to_str().unwrap()]);
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(
         stdout(&run).contains("exported 3 particle frames into"),
@@ -396,15 +365,7 @@ fn messages_point_the_right_way() {
         "{}",
         stderr(&shown)
     );
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--frames",
-        "0",
-    ]);
+    let out = common::cpu_run(scene.to_str().unwrap(), "0", &[]);
     let text = stderr(&out);
     assert!(!out.status.success());
     assert!(
@@ -414,15 +375,7 @@ fn messages_point_the_right_way() {
     assert!(text.contains("mpm scenes --mesh glass.obj > glass.obj"), "{text}");
     let mesh = mpm(&["scenes", "--mesh", "glass.obj"]);
     std::fs::write(dir.path().join("glass.obj"), &mesh.stdout).unwrap();
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--frames",
-        "0",
-    ]);
+    let out = common::cpu_run(scene.to_str().unwrap(), "0", &[]);
     assert!(out.status.success(), "{}", stderr(&out));
 
     let missing = dir.path().join("checkpoint_000007.mpmck");
@@ -435,15 +388,7 @@ fn messages_point_the_right_way() {
 
     let bare = dir.path().join("coarse");
     std::fs::write(&bare, mpm::sim::presets::get("dam-break-coarse").unwrap()).unwrap();
-    let out = mpm(&[
-        "run",
-        "--backend",
-        "cpu",
-        "--scene",
-        bare.to_str().unwrap(),
-        "--frames",
-        "0",
-    ]);
+    let out = common::cpu_run(bare.to_str().unwrap(), "0", &[]);
     assert!(out.status.success(), "{}", stderr(&out));
 
     // A path that is not UTF-8 is refused as a --scene path, saying why and what to do.

@@ -9,26 +9,21 @@
 
 mod common;
 
-use glam::{Mat3, Vec3};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::cpu_parallel::ParallelCpuSolver;
 use mpm::sim::{Particles, Scene, Solver};
 
 /// A 32 x 24 x 24 tank, dx = 1/32 m, the block flush against the floor and two walls.
 fn tank() -> Scene {
-    common::scene(
+    common::scene(common::tank!(
+        [1.0, 0.75, 0.75],
+        [32, 24, 24],
         r#"
-[domain]
-size = [1.0, 0.75, 0.75]
-resolution = [32, 24, 24]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
 [[block]]
 min = [0.03125, 0.03125, 0.03125]
 max = [0.6, 0.5, 0.5]
-"#,
-    )
+"#
+    ))
 }
 
 /// The scene's lattice jittered by up to 0.2 particle spacings, with random velocities and C.
@@ -43,22 +38,6 @@ fn jittered(scene: &Scene, seed: u64) -> Particles {
         p.c[i] = noise.c[i];
     }
     p
-}
-
-fn max_abs(values: impl Iterator<Item = f32>) -> f32 {
-    values.fold(0.0, |m, v| m.max(v.abs()))
-}
-
-fn max_diff_vec3(a: &[Vec3], b: &[Vec3]) -> f32 {
-    max_abs(a.iter().zip(b).map(|(a, b)| (*a - *b).abs().max_element()))
-}
-
-fn max_diff_mat3(a: &[Mat3], b: &[Mat3]) -> f32 {
-    max_abs(
-        a.iter()
-            .zip(b)
-            .map(|(a, b)| (*a - *b).abs().to_cols_array().into_iter().fold(0.0, f32::max)),
-    )
 }
 
 #[test]
@@ -79,8 +58,8 @@ fn each_phase_matches_the_reference() {
     parallel.clear_grid();
     parallel.bin(&params);
     parallel.p2g_init(&params);
-    let mass_scale = max_abs(reference.grid.mass.iter().copied());
-    let mass_err = max_abs(
+    let mass_scale = common::max_abs(reference.grid.mass.iter().copied());
+    let mass_err = common::max_abs(
         reference
             .grid
             .mass
@@ -95,7 +74,7 @@ fn each_phase_matches_the_reference() {
 
     reference.p2g(&params);
     parallel.p2g(&params);
-    let rho_err = max_abs(
+    let rho_err = common::max_abs(
         reference
             .particles
             .rho
@@ -104,8 +83,8 @@ fn each_phase_matches_the_reference() {
             .map(|(a, b)| a - b),
     );
     assert!(rho_err <= 1e-5 * 1000.0, "density {rho_err}");
-    let mv_scale = max_abs(reference.grid.momentum.iter().map(|v| v.abs().max_element()));
-    let mv_err = max_diff_vec3(&reference.grid.momentum, &parallel.grid().momentum);
+    let mv_scale = common::max_abs(reference.grid.momentum.iter().map(|v| v.abs().max_element()));
+    let mv_err = common::max_diff_vec3(&reference.grid.momentum, &parallel.grid().momentum);
     assert!(mv_err <= 1e-5 * mv_scale, "momentum {mv_err} of {mv_scale}");
 
     reference.mirror_momentum(&params);
@@ -114,14 +93,14 @@ fn each_phase_matches_the_reference() {
     parallel.grid_update(&params);
     parallel.g2p(&params);
     let (a, b) = (&reference.particles, parallel.particles());
-    let x_err = max_diff_vec3(&a.x, &b.x) / scene.dx;
-    let v_scale = max_abs(a.v.iter().map(|v| v.abs().max_element()));
-    let v_err = max_diff_vec3(&a.v, &b.v);
-    let c_scale = max_abs(
+    let x_err = common::max_diff_vec3(&a.x, &b.x) / scene.dx;
+    let v_scale = common::max_abs(a.v.iter().map(|v| v.abs().max_element()));
+    let v_err = common::max_diff_vec3(&a.v, &b.v);
+    let c_scale = common::max_abs(
         a.c.iter()
             .map(|c| c.abs().to_cols_array().into_iter().fold(0.0, f32::max)),
     );
-    let c_err = max_diff_mat3(&a.c, &b.c);
+    let c_err = common::max_diff_mat3(&a.c, &b.c);
     println!("x {x_err:.2e} dx, v {v_err:.2e} of {v_scale:.2e}, C {c_err:.2e} of {c_scale:.2e}");
     assert!(x_err <= 1e-5, "position {x_err} dx");
     assert!(v_err <= 1e-5 * v_scale, "velocity {v_err} of {v_scale}");
@@ -148,8 +127,8 @@ fn a_dam_break_follows_the_reference() {
         reference.step(&params).unwrap();
         parallel.step(&params).unwrap();
     }
-    let err = max_diff_vec3(&reference.particles.x, &parallel.particles().x) / scene.dx;
-    let moved = max_diff_vec3(&reference.particles.x, &scene.spawn().x) / scene.dx;
+    let err = common::max_diff_vec3(&reference.particles.x, &parallel.particles().x) / scene.dx;
+    let moved = common::max_diff_vec3(&reference.particles.x, &scene.spawn().x) / scene.dx;
     println!("after 200 substeps: moved up to {moved:.2} dx, apart by {err:.2e} dx");
     assert!(moved > 0.5, "the dam break did not move");
     assert!(err <= 1e-4, "parallel and reference apart by {err} dx");
@@ -170,15 +149,7 @@ fn the_result_does_not_depend_on_the_thread_count() {
             for _ in 0..20 {
                 solver.step(&params).unwrap();
             }
-            let p = &solver.particles();
-            let mut bits = Vec::new();
-            for i in 0..p.len() {
-                bits.extend(p.x[i].to_array().map(f32::to_bits));
-                bits.extend(p.v[i].to_array().map(f32::to_bits));
-                bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
-                bits.push(p.rho[i].to_bits());
-            }
-            bits
+            common::particle_bits(solver.particles())
         })
     };
     let one = run(1);

@@ -53,14 +53,11 @@ fn main() -> std::process::ExitCode {
 
 /// A small closed tank, 32 x 24 x 24 nodes, dx = 1/32 m, water at c0 = 10 m/s; the block is flush
 /// against the floor and two walls, so the wall mirror (and its edges and corner) is exercised.
-const SMALL_TANK: &str = r#"
-name = "small-tank"
-[domain]
-size = [1.0, 0.75, 0.75]
-resolution = [32, 24, 24]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+const SMALL_TANK: &str = common::tank!(
+    "small-tank",
+    [1.0, 0.75, 0.75],
+    [32, 24, 24],
+    r#"
 [solver]
 scatter = "float"
 [time_step]
@@ -68,10 +65,16 @@ cfl = 0.4
 [[block]]
 min = [0.03125, 0.03125, 0.03125]
 max = [0.6, 0.5, 0.5]
-"#;
+"#
+);
 
 fn small_tank_in(pipeline: Pipeline, scatter: ScatterMode) -> Scene {
-    let mut scene = Scene::from_toml(SMALL_TANK, "small-tank").expect("the test scene is valid");
+    tank_in(SMALL_TANK, "small-tank", pipeline, scatter)
+}
+
+/// The scene of `toml` (its source named `source`) with its pipeline and scatter set.
+fn tank_in(toml: &str, source: &str, pipeline: Pipeline, scatter: ScatterMode) -> Scene {
+    let mut scene = Scene::from_toml(toml, source).expect("the test scene is valid");
     scene.scatter = scatter;
     scene.pipeline = pipeline;
     scene
@@ -88,16 +91,6 @@ const VARIANTS: [(Pipeline, ScatterMode); 6] = [
     (Pipeline::Fused, ScatterMode::Float),
     (Pipeline::Fused, ScatterMode::FixedPoint),
 ];
-
-fn step_params(scene: &Scene) -> Params {
-    let mut params = scene.params();
-    let (_, dt) = scene
-        .time_step
-        .substeps(mpm::sim::FRAME_DT, scene.material.sound_speed() + 2.0, scene.dx)
-        .expect("a step");
-    params.dt = dt;
-    params
-}
 
 /// A deterministic generator (no dependency needed for test noise): xorshift64*.
 struct Noise(u64);
@@ -129,29 +122,6 @@ fn random_particles(scene: &Scene, seed: u64) -> Particles {
         p.rho[i] *= 1.0 + 0.03 * noise.next();
     }
     p
-}
-
-fn max_abs(values: impl Iterator<Item = f32>) -> f32 {
-    values.fold(0.0, |m, v| m.max(v.abs()))
-}
-
-fn max_diff_vec3(a: &[Vec3], b: &[Vec3]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).abs().max_element())
-        .fold(0.0, f32::max)
-}
-
-fn max_diff_mat3(a: &[Mat3], b: &[Mat3]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| {
-            (*x - *y)
-                .to_cols_array()
-                .iter()
-                .fold(0.0f32, |m, v| m.max(v.abs()))
-        })
-        .fold(0.0, f32::max)
 }
 
 /// How far into a substep [`run_phases`] goes. Each phase includes the wall mirror pass after it.
@@ -190,10 +160,8 @@ fn assert_scatter_matches_cpu(gpu: &mut CudaSolver, cpu: &CpuSolver, params: &Pa
 /// Grid sums against reference sums: mass within 1e-5 and momentum within 1e-4 of the reference's
 /// largest (the tolerances of this file's note); prints both errors after `what`.
 fn assert_sums_close(mass: &[f32], momentum: &[Vec3], ref_mass: &[f32], ref_momentum: &[Vec3], what: &str) {
-    let mass_scale = max_abs(ref_mass.iter().copied());
-    let mass_err = max_abs(mass.iter().zip(ref_mass).map(|(a, b)| a - b));
-    let momentum_scale = max_abs(ref_momentum.iter().map(|m| m.abs().max_element()));
-    let momentum_err = max_diff_vec3(momentum, ref_momentum);
+    let (mass_err, mass_scale) = mass_error(mass, ref_mass);
+    let (momentum_err, momentum_scale) = momentum_error(momentum, ref_momentum);
     println!(
         "{what}: max mass error {:.2e}, max momentum error {:.2e} of the largest",
         mass_err / mass_scale,
@@ -209,126 +177,152 @@ fn assert_sums_close(mass: &[f32], momentum: &[Vec3], ref_mass: &[f32], ref_mome
     );
 }
 
+/// The largest difference of node masses from the reference's, and the reference's largest.
+fn mass_error(mass: &[f32], ref_mass: &[f32]) -> (f32, f32) {
+    (
+        common::max_abs(mass.iter().zip(ref_mass).map(|(a, b)| a - b)),
+        common::max_abs(ref_mass.iter().copied()),
+    )
+}
+
+/// The largest difference of node momenta from the reference's, and the reference's largest
+/// component. The momentum sums large, cancelling stress impulses, so the error is judged against
+/// the largest node momentum rather than each node's own (possibly near-zero) value.
+fn momentum_error(momentum: &[Vec3], ref_momentum: &[Vec3]) -> (f32, f32) {
+    (
+        common::max_diff_vec3(momentum, ref_momentum),
+        common::max_abs(ref_momentum.iter().map(|m| m.abs().max_element())),
+    )
+}
+
+/// `err` at most `bound` times `scale` (its quantity's largest value, as this file's note says):
+/// prints the ratio and asserts it, `what` naming the case and the quantity.
+fn assert_relative(what: &str, err: f32, scale: f32, bound: f32) {
+    println!("{what}: max error {:.2e} of the largest", err / scale);
+    assert!(err <= bound * scale, "{what}: error {err} vs {scale}");
+}
+
+/// The particles' densities within 1e-5 of the reference's, relative.
+fn assert_rho_close(what: &str, rho: &[f32], ref_rho: &[f32]) {
+    let err = common::max_abs(rho.iter().zip(ref_rho).map(|(a, b)| (a - b) / b));
+    println!("{what}: max relative rho error {err:.2e}");
+    assert!(err <= 1e-5, "{what}: density error {err}");
+}
+
 fn pair(scene: &Scene, particles: &Particles) -> (CpuSolver, CudaSolver) {
     let cpu = CpuSolver::new(particles.clone(), scene.grid_res);
     let gpu = CudaSolver::from_particles(scene, particles, CudaOptions::default()).expect("CUDA solver");
     (cpu, gpu)
 }
 
+/// The small tank in one of the [`VARIANTS`], its particles [`random_particles`] of `seed`, on both
+/// backends through `last`.
+fn phases_through(
+    (pipeline, scatter): (Pipeline, ScatterMode),
+    seed: u64,
+    last: Through,
+) -> (Scene, Params, CpuSolver, CudaSolver) {
+    let scene = small_tank_in(pipeline, scatter);
+    let particles = random_particles(&scene, seed);
+    let params = common::cfl_params(&scene);
+    let (mut cpu, mut gpu) = pair(&scene, &particles);
+    run_phases(&mut cpu, &mut gpu, &params, last);
+    (scene, params, cpu, gpu)
+}
+
+/// The GPU's grid velocities after the grid update against the CPU's (which its update leaves in
+/// `grid.momentum`): within 1e-4 of the largest, beyond `allowance(mass, velocity)` at each node.
+/// Returns that largest velocity.
+fn assert_grid_velocity_close(
+    what: &str,
+    scene: &Scene,
+    cpu: &CpuSolver,
+    gpu: &mut CudaSolver,
+    allowance: impl Fn(f32, Vec3) -> f32,
+) -> f32 {
+    let (_, velocity) = gpu.read_grid_velocity().unwrap();
+    // v = mv / m: at a node that only a stencil's edge touches, m is a tiny weight and the ratio
+    // amplifies the momentum's rounding; nodes under 1 % of a particle's mass are left out.
+    let m_min = 0.01 * scene.material.particle_mass;
+    let vmax = common::max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
+    let mut err = 0.0f32;
+    for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
+        if m > m_min {
+            err = err.max((*v - *cpu_v).abs().max_element() - allowance(m, *cpu_v));
+        }
+    }
+    assert_relative(&format!("{what}: grid velocity"), err, vmax, 1e-4);
+    vmax
+}
+
+/// g2p on both backends after the grid update: the particles' velocities within 1e-4 of the grid's
+/// largest velocity `vmax`, their positions within 1e-5 dx. Returns the GPU's particles.
+fn assert_g2p_close(
+    what: &str,
+    scene: &Scene,
+    params: &Params,
+    cpu: &mut CpuSolver,
+    gpu: &mut CudaSolver,
+    vmax: f32,
+) -> Particles {
+    cpu.g2p(params);
+    gpu.g2p(params).unwrap();
+    let p = gpu.read_particles().unwrap();
+    let dv = common::max_diff_vec3(&p.v, &cpu.particles.v);
+    let dxp = common::max_diff_vec3(&p.x, &cpu.particles.x) / scene.dx;
+    println!("{what}: max |dv| {dv:.2e} m/s, max |dx| {dxp:.2e} dx");
+    assert!(dv <= 1e-4 * vmax, "{what}: particle velocity error {dv}");
+    assert!(dxp <= 1e-5, "{what}: position error {dxp} dx");
+    p
+}
+
 fn p2g_init_matches_cpu() {
-    for (pipeline, scatter) in VARIANTS {
-        let scene = small_tank_in(pipeline, scatter);
-        let particles = random_particles(&scene, 1);
-        let params = step_params(&scene);
-        let (mut cpu, mut gpu) = pair(&scene, &particles);
-        run_phases(&mut cpu, &mut gpu, &params, Through::P2gInit);
+    for variant @ (pipeline, scatter) in VARIANTS {
+        let (_, params, cpu, mut gpu) = phases_through(variant, 1, Through::P2gInit);
         let (mass, _) = gpu.read_grid_accumulators(&params).unwrap();
-        let scale = max_abs(cpu.grid.mass.iter().copied());
-        let err = max_abs(mass.iter().zip(&cpu.grid.mass).map(|(a, b)| a - b));
-        println!(
-            "p2g_init {pipeline:?} {scatter:?}: max |mass error| = {:.2e} of the largest node mass",
-            err / scale
-        );
-        assert!(
-            err <= 1e-5 * scale,
-            "{pipeline:?} {scatter:?}: mass error {err} vs node mass {scale}"
-        );
+        let (err, scale) = mass_error(&mass, &cpu.grid.mass);
+        let what = format!("p2g_init {pipeline:?} {scatter:?}: node mass");
+        assert_relative(&what, err, scale, 1e-5);
     }
 }
 
 fn p2g_matches_cpu() {
-    for (pipeline, scatter) in VARIANTS {
-        let scene = small_tank_in(pipeline, scatter);
-        let particles = random_particles(&scene, 2);
-        let params = step_params(&scene);
-        let (mut cpu, mut gpu) = pair(&scene, &particles);
-        run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
+    for variant @ (pipeline, scatter) in VARIANTS {
+        let (_, params, cpu, mut gpu) = phases_through(variant, 2, Through::P2g);
         let (_, momentum) = gpu.read_grid_accumulators(&params).unwrap();
         let rho = gpu.read_particles().unwrap().rho;
-        let rho_err = max_abs(rho.iter().zip(&cpu.particles.rho).map(|(a, b)| (a - b) / b));
-        // The momentum sums large, cancelling stress impulses, so the error is judged against the
-        // largest node momentum rather than each node's own (possibly near-zero) value.
-        let scale = max_abs(cpu.grid.momentum.iter().map(|m| m.abs().max_element()));
-        let err = max_diff_vec3(&momentum, &cpu.grid.momentum);
-        println!(
-            "p2g {pipeline:?} {scatter:?}: max relative rho error {rho_err:.2e}, max momentum error {:.2e} of the largest",
-            err / scale
-        );
-        assert!(
-            rho_err <= 1e-5,
-            "{pipeline:?} {scatter:?}: density error {rho_err}"
-        );
-        assert!(
-            err <= 1e-4 * scale,
-            "{pipeline:?} {scatter:?}: momentum error {err} vs {scale}"
-        );
+        let what = format!("p2g {pipeline:?} {scatter:?}");
+        assert_rho_close(&what, &rho, &cpu.particles.rho);
+        let (err, scale) = momentum_error(&momentum, &cpu.grid.momentum);
+        assert_relative(&format!("{what}: momentum"), err, scale, 1e-4);
     }
 }
 
 fn grid_update_and_g2p_match_cpu() {
-    for (pipeline, scatter) in VARIANTS {
-        let scene = small_tank_in(pipeline, scatter);
-        let particles = random_particles(&scene, 3);
-        let params = step_params(&scene);
-        let (mut cpu, mut gpu) = pair(&scene, &particles);
-        run_phases(&mut cpu, &mut gpu, &params, Through::GridUpdate);
-        let (_, velocity) = gpu.read_grid_velocity().unwrap();
-        // v = mv / m: at a node that only a stencil's edge touches, m is a tiny weight and the ratio
-        // amplifies the momentum's rounding; nodes under 1 % of a particle's mass are left out.
-        let m_min = 0.01 * scene.material.particle_mass;
-        let vmax = max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
-        let mut err = 0.0f32;
-        for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
-            if m > m_min {
-                err = err.max((*v - *cpu_v).abs().max_element());
-            }
-        }
-        println!(
-            "grid_update {pipeline:?} {scatter:?}: max velocity error {:.2e} of the largest",
-            err / vmax
-        );
-        assert!(
-            err <= 1e-4 * vmax,
-            "{pipeline:?} {scatter:?}: grid velocity error {err} vs {vmax}"
-        );
-
-        cpu.g2p(&params);
-        gpu.g2p(&params).unwrap();
-        let p = gpu.read_particles().unwrap();
-        let dv = max_diff_vec3(&p.v, &cpu.particles.v);
-        let dc = max_diff_mat3(&p.c, &cpu.particles.c);
-        let dxp = max_diff_vec3(&p.x, &cpu.particles.x) / scene.dx;
-        let cmax = max_abs(cpu.particles.c.iter().flat_map(|m| m.to_cols_array()));
-        println!(
-            "g2p {pipeline:?} {scatter:?}: max |dv| {dv:.2e} m/s, max |dC| {:.2e} of the largest, max |dx| {dxp:.2e} dx",
-            dc / cmax
-        );
-        assert!(
-            dv <= 1e-4 * vmax,
-            "{pipeline:?} {scatter:?}: particle velocity error {dv}"
-        );
-        assert!(
-            dc <= 1e-3 * cmax,
-            "{pipeline:?} {scatter:?}: C error {dc} vs {cmax}"
-        );
-        assert!(dxp <= 1e-5, "{pipeline:?} {scatter:?}: position error {dxp} dx");
+    for variant @ (pipeline, scatter) in VARIANTS {
+        let (scene, params, mut cpu, mut gpu) = phases_through(variant, 3, Through::GridUpdate);
+        let what = format!("{pipeline:?} {scatter:?}");
+        let vmax =
+            assert_grid_velocity_close(&format!("grid_update {what}"), &scene, &cpu, &mut gpu, |_, _| 0.0);
+        let p = assert_g2p_close(&format!("g2p {what}"), &scene, &params, &mut cpu, &mut gpu, vmax);
+        let dc = common::max_diff_mat3(&p.c, &cpu.particles.c);
+        let cmax = common::max_abs(cpu.particles.c.iter().flat_map(|m| m.to_cols_array()));
+        assert_relative(&format!("g2p {what}: C"), dc, cmax, 1e-3);
         // The density the particles carry on: p2g's, or (fused) the grid's advected by tr C.
-        let drho = max_abs(p.rho.iter().zip(&cpu.particles.rho).map(|(a, b)| (a - b) / b));
-        println!("g2p {pipeline:?} {scatter:?}: max relative rho error {drho:.2e}");
-        assert!(drho <= 1e-5, "{pipeline:?} {scatter:?}: density error {drho}");
+        assert_rho_close(&format!("g2p {what}"), &p.rho, &cpu.particles.rho);
 
         // The extremes the time step is chosen from: each particle's own c(rho) + |v|, and the rest.
         // powf on the device and the host may differ in the last bits, hence relative 1e-5.
         let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
-        println!("g2p {pipeline:?} {scatter:?}: extremes CPU {e_cpu:?}, GPU {e_gpu:?}");
-        for (what, a, b) in [
+        println!("g2p {what}: extremes CPU {e_cpu:?}, GPU {e_gpu:?}");
+        for (quantity, a, b) in [
             ("max signal speed", e_cpu.max_signal_speed, e_gpu.max_signal_speed),
             ("max speed", e_cpu.max_speed, e_gpu.max_speed),
             ("max density", e_cpu.max_density, e_gpu.max_density),
         ] {
             assert!(
                 a > 0.0 && (a - b).abs() <= 1e-5 * a,
-                "{pipeline:?} {scatter:?}: {what} CPU {a} vs GPU {b}"
+                "{what}: {quantity} CPU {a} vs GPU {b}"
             );
         }
         assert!(
@@ -346,7 +340,7 @@ fn grid_update_and_g2p_match_cpu() {
 fn both_float_scatter_forms_match_cpu() {
     let scene = small_tank_in(Pipeline::Fused, ScatterMode::Float);
     let particles = random_particles(&scene, 8);
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let mut next_scatters = Vec::new();
     for form in [FloatScatter::Runs, FloatScatter::Planes] {
         let options = CudaOptions {
@@ -376,20 +370,18 @@ fn both_float_scatter_forms_match_cpu() {
 /// A tank whose water touches every wall, on 32 x 26 x 25 nodes: the high walls' reach (nodes R - 3
 /// to R - 1) spans two node blocks in y and z, not in x, so the fused grid update's mirror meets
 /// orbits inside one node block and orbits that cross two.
-const CROSSING_TANK: &str = r#"
-name = "crossing-tank"
-[domain]
-size = [1.0, 0.8125, 0.78125]
-resolution = [32, 26, 25]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+const CROSSING_TANK: &str = common::tank!(
+    "crossing-tank",
+    [1.0, 0.8125, 0.78125],
+    [32, 26, 25],
+    r#"
 [time_step]
 cfl = 0.4
 [[block]]
 min = [0.03125, 0.03125, 0.03125]
 max = [0.6, 0.75, 0.71875]
-"#;
+"#
+);
 
 /// The fused pipeline's grid update adds the walls' images itself: the same grid as mirror_walls
 /// (mass, then momentum) and the grid update after it, bit for bit in fixed point, within float
@@ -399,11 +391,9 @@ max = [0.6, 0.75, 0.71875]
 fn fused_grid_update_mirrors_as_mirror_walls_does() {
     for (toml, name) in [(SMALL_TANK, "small tank"), (CROSSING_TANK, "crossing tank")] {
         for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
-            let mut scene = Scene::from_toml(toml, "tank").expect("the test scene is valid");
-            scene.scatter = scatter;
-            scene.pipeline = Pipeline::Fused;
+            let scene = tank_in(toml, "tank", Pipeline::Fused, scatter);
             let particles = random_particles(&scene, 7);
-            let params = step_params(&scene);
+            let params = common::cfl_params(&scene);
             let solver = || CudaSolver::from_particles(&scene, &particles, CudaOptions::default()).unwrap();
             let (mut separate, mut fused) = (solver(), solver());
             for substep in 0..2 {
@@ -424,8 +414,8 @@ fn fused_grid_update_mirrors_as_mirror_walls_does() {
                 let (mass_a, vel_a) = separate.read_grid_velocity().unwrap();
                 let (mass_b, vel_b) = fused.read_grid_velocity().unwrap();
                 let (mut compared, mut worst) = (0usize, 0.0f32);
-                let vmax = max_abs(vel_a.iter().map(|v| v.abs().max_element()));
-                let mmax = max_abs(mass_a.iter().copied());
+                let vmax = common::max_abs(vel_a.iter().map(|v| v.abs().max_element()));
+                let mmax = common::max_abs(mass_a.iter().copied());
                 for node in 0..mass_a.len() {
                     if !touched[node_block_of(node, scene.grid_res)] {
                         continue;
@@ -489,7 +479,7 @@ fn transfers_conserve_mass_and_momentum() {
     for pipeline in Pipeline::ALL {
         let scene = small_tank_in(pipeline, ScatterMode::Float);
         let particles = random_particles(&scene, 4);
-        let params = step_params(&scene);
+        let params = common::cfl_params(&scene);
         let (_, mut gpu) = pair(&scene, &particles);
         gpu.p2g_init(&params).unwrap();
         gpu.p2g(&params).unwrap();
@@ -531,39 +521,79 @@ fn dam_break_follows_cpu_trajectory() {
     for (pipeline, mirror) in cases {
         let mut scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
         scene.mirror_wall_mass = mirror;
-        let params = step_params(&scene);
-        let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
-        let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
-        for step in 1..=STEPS {
-            cpu.step(&params).unwrap();
-            gpu.step(&params).unwrap();
-            if step % 100 == 0 {
-                let p = gpu.read_particles().unwrap();
-                let errors: Vec<f32> =
-                    p.x.iter()
-                        .zip(&cpu.particles.x)
-                        .map(|(a, b)| (*a - *b).length() / scene.dx)
-                        .collect();
-                let max = errors.iter().copied().fold(0.0, f32::max);
-                let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
-                println!(
-                    "{pipeline:?} (mirror {mirror}) step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx"
-                );
-                // Rounding differences (see the top of the file) grow along the trajectory; a wrong term
-                // would move particles by whole cells within these steps.
-                assert!(
-                    max <= 0.1 && rms <= 0.01,
-                    "{pipeline:?} (mirror {mirror}) step {step}: max {max} dx, rms {rms} dx"
-                );
-            }
-        }
+        let (_, mut gpu) = follow_cpu(&scene, STEPS, false, &format!("{pipeline:?} (mirror {mirror})"));
         let extremes = gpu.take_extremes().unwrap();
         assert!(extremes.max_density > scene.material.rest_density * 0.9 && extremes.max_speed > 0.0);
     }
 }
 
+/// `steps` substeps of `scene` on both backends, the colliders moved to each substep's start if
+/// `moving_colliders`; every 100 substeps the GPU's particles are held to the CPU's
+/// ([`assert_on_track`]), `what` naming the run. Returns both solvers.
+fn follow_cpu(scene: &Scene, steps: usize, moving_colliders: bool, what: &str) -> (CpuSolver, CudaSolver) {
+    let params = common::cfl_params(scene);
+    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+    for step in 1..=steps {
+        if moving_colliders {
+            let frame = scene.colliders.frame(step as f64 * f64::from(params.dt));
+            cpu.set_colliders(&frame).unwrap();
+            gpu.set_colliders(&frame).unwrap();
+        }
+        cpu.step(&params).unwrap();
+        gpu.step(&params).unwrap();
+        if step % 100 == 0 {
+            let p = gpu.read_particles().unwrap();
+            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            let what = format!("{what} step {step}");
+            println!("{what}: position error max {max:.3e} dx, rms {rms:.3e} dx");
+            assert_on_track(&what, (max, rms));
+        }
+    }
+    (cpu, gpu)
+}
+
+/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
+fn position_gap(a: &[Vec3], b: &[Vec3], dx: f32) -> (f32, f64) {
+    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
+    let max = errors.iter().copied().fold(0.0, f32::max);
+    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+    (max, rms)
+}
+
+/// A run on the track of its reference ([`position_gap`]). Rounding differences (see the top of the
+/// file) grow along the trajectory; a wrong term would move particles by whole cells within these
+/// steps.
+fn assert_on_track(what: &str, (max, rms): (f32, f64)) {
+    assert!(max <= 0.1 && rms <= 0.01, "{what}: max {max} dx, rms {rms} dx");
+}
+
+/// `steps` substeps of `scene` on a solver made with `options`, the substep varying as the CFL
+/// policy's does (the scene's own in the first half of every `period` substeps, 0.75 of it in the
+/// second) and the extremes taken every `choose_every` substeps, as `mpm run` chooses; after each
+/// substep, `after(solver, step, params)`.
+fn varying_run(
+    scene: &Scene,
+    options: CudaOptions,
+    steps: usize,
+    (period, choose_every): (usize, usize),
+    mut after: impl FnMut(&mut CudaSolver, usize, &Params),
+) -> CudaSolver {
+    let mut params = common::cfl_params(scene);
+    let mut gpu = CudaSolver::new(scene, options).unwrap();
+    for step in 1..=steps {
+        params.dt = common::cfl_params(scene).dt * if step % period < period / 2 { 1.0 } else { 0.75 };
+        gpu.step(&params).unwrap();
+        if step % choose_every == 0 {
+            gpu.take_extremes().unwrap();
+        }
+        after(&mut gpu, step, &params);
+    }
+    gpu
+}
+
 fn run_steps(scene: &Scene, steps: usize) -> Particles {
-    let params = step_params(scene);
+    let params = common::cfl_params(scene);
     let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
     for _ in 0..steps {
         gpu.step(&params).unwrap();
@@ -572,22 +602,13 @@ fn run_steps(scene: &Scene, steps: usize) -> Particles {
     gpu.read_particles().unwrap()
 }
 
-fn particle_bytes(p: &Particles) -> Vec<u8> {
-    let mut bytes = Vec::new();
-    bytes.extend_from_slice(bytemuck::cast_slice(&p.x));
-    bytes.extend_from_slice(bytemuck::cast_slice(&p.v));
-    bytes.extend_from_slice(bytemuck::cast_slice(&p.c));
-    bytes.extend_from_slice(bytemuck::cast_slice(&p.rho));
-    bytes
-}
-
 /// The fused pipeline stores its particles in bin order (kernels/bin_order.cu), moving them in
 /// memory at every binning, and readers get them back by slot. In fixed point that run must be, word
 /// for word, the run whose particles stay at their slots; and the particles must really have moved.
 fn particles_in_bin_order_run_as_particles_in_place() {
     const STEPS: usize = 200;
     let scene = small_tank_in(Pipeline::Fused, ScatterMode::FixedPoint);
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let run = |bin_order: bool| {
         let options = CudaOptions {
             bin_order,
@@ -615,7 +636,7 @@ fn particles_in_bin_order_run_as_particles_in_place() {
         slots.len()
     );
     assert!(
-        particle_bytes(&sorted) == particle_bytes(&in_place) && sorted.live == in_place.live,
+        common::same_particles(&sorted, &in_place),
         "the run with its particles in bin order differs from the one with them in place"
     );
 }
@@ -627,11 +648,11 @@ fn fixed_point_is_byte_identical_and_float_is_close() {
         let first = run_steps(&fixed, STEPS);
         let second = run_steps(&fixed, STEPS);
         assert!(
-            particle_bytes(&first) == particle_bytes(&second),
+            common::particle_bits(&first) == common::particle_bits(&second),
             "{pipeline:?}: two fixed-point runs differ"
         );
         let float = run_steps(&small_tank_in(pipeline, ScatterMode::Float), STEPS);
-        let max = max_diff_vec3(&float.x, &first.x) / fixed.dx;
+        let max = common::max_diff_vec3(&float.x, &first.x) / fixed.dx;
         println!("{pipeline:?}, after {STEPS} steps: fixed-point runs identical; float vs fixed-point max |dx| {max:.3e} dx");
         assert!(
             max <= 0.05,
@@ -645,12 +666,10 @@ fn fixed_point_overflow_is_reported() {
         let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
         let mut particles = scene.spawn();
         particles.v[0] = Vec3::new(1e9, 0.0, 0.0); // far past any speed the scales allow for
-        let params = step_params(&scene);
+        let params = common::cfl_params(&scene);
         let mut gpu = CudaSolver::from_particles(&scene, &particles, CudaOptions::default()).unwrap();
         gpu.step(&params).unwrap();
-        let err = gpu.take_extremes().expect_err("the overflow must be reported");
-        println!("reported: {err:#}");
-        assert!(format!("{err:#}").contains("overflowed"));
+        assert_overflow_reported(&mut gpu, &format!("{pipeline:?}: a particle at 1e9 m/s"));
     }
 }
 
@@ -666,10 +685,13 @@ fn fixed_point_tile_wraps_are_caught_after_the_adds() {
     let block = "max = [0.6, 0.5, 0.5]";
     assert!(SMALL_TANK.contains(block));
     let lattice = SMALL_TANK.replace(block, &format!("{block}\nparticles_per_cell = 1"));
-    let mut scene = Scene::from_toml(&lattice, "small-tank-lattice-1").expect("the test scene is valid");
-    scene.scatter = ScatterMode::FixedPoint;
-    scene.pipeline = Pipeline::Fused;
-    let params = step_params(&scene);
+    let scene = tank_in(
+        &lattice,
+        "small-tank-lattice-1",
+        Pipeline::Fused,
+        ScatterMode::FixedPoint,
+    );
+    let params = common::cfl_params(&scene);
     // A grid node 6 cells past the water's end: each particle on it gives it 0.75^3 of its mass.
     let node = Vec3::new(26.0, 12.0, 12.0) * scene.dx;
     let pile = |count: usize, speed: f32| {
@@ -701,10 +723,20 @@ fn fixed_point_tile_wraps_are_caught_after_the_adds() {
             CudaSolver::from_particles(&scene, &pile(count, speed), CudaOptions::default()).unwrap();
         gpu.p2g_init(&params).unwrap();
         gpu.p2g(&params).unwrap();
-        let err = gpu.take_extremes().expect_err(what);
-        println!("{count} particles at {speed} m/s on one node ({what}): {err:#}");
-        assert!(format!("{err:#}").contains("overflowed"), "{what}: {err:#}");
+        assert_overflow_reported(
+            &mut gpu,
+            &format!("{count} particles at {speed} m/s on one node ({what})"),
+        );
     }
+}
+
+/// The substeps `gpu` has run overflowed the fixed-point sums, and its extremes say so.
+fn assert_overflow_reported(gpu: &mut CudaSolver, what: &str) {
+    let err = gpu
+        .take_extremes()
+        .expect_err(&format!("{what}: the overflow must be reported"));
+    println!("{what}: {err:#}");
+    assert!(format!("{err:#}").contains("overflowed"), "{what}: {err:#}");
 }
 
 /// The fused pipeline's fixed-point scatter adds to the grid what its shared tile does not take: a
@@ -725,7 +757,7 @@ fn fixed_point_scatter_past_the_tile_adds_the_same_integers() {
         }
     }
     assert!(thrown > 0, "the slab holds particles");
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let (mut cpu, mut gpu) = pair(&scene, &particles);
     run_phases(&mut cpu, &mut gpu, &params, Through::P2g);
     let what = format!("{thrown} particles at {} m/s, the first scatter", fast.x);
@@ -767,13 +799,10 @@ fn fixed_point_scatter_past_the_tile_adds_the_same_integers() {
 fn device_spawn_matches_scene_spawn() {
     // Overlapping bodies: the sphere must skip what the blocks cover, the second block what the
     // first covers.
-    const OVERLAPS: &str = r#"
-[domain]
-size = [1.0, 1.0, 1.0]
-resolution = [40, 40, 40]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+    const OVERLAPS: &str = common::tank!(
+        [1.0, 1.0, 1.0],
+        [40, 40, 40],
+        r#"
 [[block]]
 min = [0.1, 0.1, 0.1]
 max = [0.5, 0.4, 0.5]
@@ -786,7 +815,8 @@ particles_per_cell = 8
 center = [0.5, 0.6, 0.5]
 radius = 0.2
 velocity = [0.0, -2.0, 0.0]
-"#;
+"#
+    );
     let mut scenes = vec![Scene::from_toml(OVERLAPS, "overlaps").unwrap()];
     for name in presets::NAMES {
         scenes.push(Scene::load(name).unwrap());
@@ -819,7 +849,7 @@ velocity = [0.0, -2.0, 0.0]
 fn phase_timings_are_measured() {
     for pipeline in Pipeline::ALL {
         let scene = small_tank_in(pipeline, ScatterMode::Float);
-        let params = step_params(&scene);
+        let params = common::cfl_params(&scene);
         let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
         for _ in 0..10 {
             gpu.step(&params).unwrap();
@@ -852,7 +882,7 @@ fn sort_orders_particles_by_cell() {
     let mut scene = Scene::load("bench-655k").unwrap();
     scene.pipeline = Pipeline::Report;
     let particles = random_particles(&scene, 5);
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let shape = mpm::sim::cpu::GridShape {
         res: glam::UVec3::from(scene.grid_res),
     };
@@ -887,7 +917,7 @@ fn sort_orders_particles_by_cell() {
 fn binned_bins_hold_each_particle_once_and_follow_the_flow() {
     for pipeline in [Pipeline::Binned, Pipeline::Fused] {
         let scene = small_tank_in(pipeline, ScatterMode::Float);
-        let params = step_params(&scene);
+        let params = common::cfl_params(&scene);
         let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
         for step in 1..=400 {
             gpu.step(&params).unwrap();
@@ -960,23 +990,22 @@ fn binned_fixed_point_is_byte_identical_across_rebins() {
         let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
         let mut runs = Vec::new();
         for extra_rebins in [false, true] {
-            let mut params = step_params(&scene);
-            let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
             let mut snapshots = Vec::new();
-            for step in 1..=STEPS {
-                // A varying substep, as the CFL policy makes: the mass g2p2g scattered must not care.
-                params.dt = step_params(&scene).dt * if step % 8 < 4 { 1.0 } else { 0.75 };
-                gpu.step(&params).unwrap();
-                if step % 4 == 0 {
-                    gpu.take_extremes().unwrap();
-                }
-                if extra_rebins && step % 3 == 0 {
-                    gpu.sort_particles(&params).unwrap();
-                }
-                if step % 200 == 0 {
-                    snapshots.push(particle_bytes(&gpu.read_particles().unwrap()));
-                }
-            }
+            // A varying substep, as the CFL policy makes: the mass g2p2g scattered must not care.
+            let mut gpu = varying_run(
+                &scene,
+                CudaOptions::default(),
+                STEPS,
+                (8, 4),
+                |gpu, step, params| {
+                    if extra_rebins && step % 3 == 0 {
+                        gpu.sort_particles(params).unwrap();
+                    }
+                    if step % 200 == 0 {
+                        snapshots.push(common::particle_bits(&gpu.read_particles().unwrap()));
+                    }
+                },
+            );
             gpu.take_extremes().unwrap();
             println!(
                 "extra rebins {extra_rebins}: {} binnings, {} tile misses",
@@ -1005,15 +1034,10 @@ fn graphed_substeps_match_launched_ones() {
                 graphs,
                 ..CudaOptions::default()
             };
-            let mut params = step_params(&scene);
-            let mut gpu = CudaSolver::new(&scene, options).unwrap();
             let mut snapshots = Vec::new();
             let mut timed = 0;
-            for step in 1..=STEPS {
-                params.dt = step_params(&scene).dt * if step % 20 < 10 { 1.0 } else { 0.75 };
-                gpu.step(&params).unwrap();
+            let mut gpu = varying_run(&scene, options, STEPS, (20, 5), |gpu, step, _| {
                 if step % 5 == 0 {
-                    gpu.take_extremes().unwrap();
                     let timings = gpu.take_timings().unwrap().expect("CUDA measures timings");
                     for phase in [Phase::P2g, Phase::GridUpdate, Phase::G2p] {
                         // The fused pipeline's p2g has no work and no timing event.
@@ -1023,9 +1047,9 @@ fn graphed_substeps_match_launched_ones() {
                     timed += timings.steps;
                 }
                 if step % 100 == 0 {
-                    snapshots.push(particle_bytes(&gpu.read_particles().unwrap()));
+                    snapshots.push(common::particle_bits(&gpu.read_particles().unwrap()));
                 }
-            }
+            });
             gpu.take_extremes().unwrap();
             timed += gpu.take_timings().unwrap().expect("timings").steps;
             assert_eq!(
@@ -1059,36 +1083,22 @@ fn binned_pipeline_follows_the_report_pipeline() {
     let mut runs = Vec::new();
     for pipeline in [Pipeline::Report, Pipeline::Binned] {
         let scene = small_tank_in(pipeline, ScatterMode::FixedPoint);
-        let mut params = step_params(&scene);
-        let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
         let mut states = Vec::new();
-        for step in 1..=STEPS {
-            params.dt = step_params(&scene).dt * if step % 8 < 4 { 1.0 } else { 0.75 };
-            gpu.step(&params).unwrap();
-            if step % 4 == 0 {
-                gpu.take_extremes().unwrap();
-            }
+        varying_run(&scene, CudaOptions::default(), STEPS, (8, 4), |gpu, step, _| {
             if step % 300 == 0 {
                 states.push((
                     gpu.read_particles().unwrap(),
                     gpu.summary(&scene.material).unwrap(),
                 ));
             }
-        }
+        });
         runs.push(states);
     }
     let dx = small_tank_in(Pipeline::Binned, ScatterMode::FixedPoint).dx;
     for (k, ((report, report_summary), (binned, binned_summary))) in runs[0].iter().zip(&runs[1]).enumerate()
     {
         let step = 300 * (k + 1);
-        let errors: Vec<f32> = report
-            .x
-            .iter()
-            .zip(&binned.x)
-            .map(|(a, b)| (*a - *b).length() / dx)
-            .collect();
-        let max = errors.iter().copied().fold(0.0, f32::max);
-        let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+        let (max, rms) = position_gap(&report.x, &binned.x, dx);
         let com = (0..3)
             .map(|a| (report_summary.centre_of_mass[a] - binned_summary.centre_of_mass[a]).abs())
             .fold(0.0, f64::max)
@@ -1100,10 +1110,7 @@ fn binned_pipeline_follows_the_report_pipeline() {
              apart; kinetic energy {ke:.3e} apart"
         );
         if step <= 300 {
-            assert!(
-                max <= 0.1 && rms <= 0.01,
-                "substep {step}: max {max} dx, rms {rms} dx"
-            );
+            assert_on_track(&format!("substep {step}"), (max, rms));
         }
         assert!(com <= 0.05, "substep {step}: centres of mass {com} dx apart");
         assert!(ke <= 0.02, "substep {step}: kinetic energies {ke} apart");
@@ -1113,7 +1120,7 @@ fn binned_pipeline_follows_the_report_pipeline() {
 /// The per-frame statistics reduced on the device against `Summary::of` on a host copy.
 fn device_statistics_match_a_host_reduction() {
     let scene = small_tank_in(Pipeline::Binned, ScatterMode::Float);
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
     for _ in 0..150 {
         gpu.step(&params).unwrap();
@@ -1228,15 +1235,12 @@ fn colliders_grid_update_and_backstop_match_cpu() {
             {
                 particles.x[k * 97] = Vec3::from(*x) + 0.003;
             }
-            let params = step_params(&scene);
+            let params = common::cfl_params(&scene);
             let frame = scene.colliders.frame(0.0);
             let (mut cpu, mut gpu) = pair(&scene, &particles);
             cpu.set_colliders(&frame).unwrap();
             gpu.set_colliders(&frame).unwrap();
             run_phases(&mut cpu, &mut gpu, &params, Through::GridUpdate);
-            let (_, velocity) = gpu.read_grid_velocity().unwrap();
-            let m_min = 0.01 * scene.material.particle_mass;
-            let vmax = max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
             // In fixed point the binned pipeline's tiles round every contribution to 2^13 global units
             // (kernels/tiles.cuh, TILE_UNIT_SHIFT): up to half a unit of momentum and of mass per
             // contribution, which at the lightest nodes compared (1 % of a particle's mass) is what sets
@@ -1251,34 +1255,20 @@ fn colliders_grid_update_and_backstop_match_cpu() {
                     32.0 * (unit / momentum_scale + v.abs().max_element() * unit / mass_scale) / m
                 }
             };
-            let mut err = 0.0f32;
-            for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
-                if m > m_min {
-                    let excess = (*v - *cpu_v).abs().max_element() - rounding(m, *cpu_v);
-                    err = err.max(excess);
-                }
-            }
-            println!(
-            "colliders, grid_update {scatter:?}: max velocity error beyond the scatter's rounding {:.2e} of the largest",
-            err / vmax
-        );
-            assert!(
-                err <= 1e-4 * vmax,
-                "{scatter:?}: grid velocity error {err} beyond the rounding, vs {vmax}"
+            let what = format!("colliders, {pipeline:?} {scatter:?}");
+            let vmax = assert_grid_velocity_close(
+                &format!("{what}, grid_update beyond the scatter's rounding"),
+                &scene,
+                &cpu,
+                &mut gpu,
+                rounding,
             );
-
-            cpu.g2p(&params);
-            gpu.g2p(&params).unwrap();
-            let p = gpu.read_particles().unwrap();
-            let dv = max_diff_vec3(&p.v, &cpu.particles.v);
-            let dxp = max_diff_vec3(&p.x, &cpu.particles.x) / scene.dx;
+            assert_g2p_close(&format!("{what}, g2p"), &scene, &params, &mut cpu, &mut gpu, vmax);
             let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
             println!(
-            "colliders, g2p {scatter:?}: max |dv| {dv:.2e} m/s, max |dx| {dxp:.2e} dx, backstop CPU {} GPU {}",
-            e_cpu.backstop_pushes, e_gpu.backstop_pushes
-        );
-            assert!(dv <= 1e-4 * vmax, "{scatter:?}: particle velocity error {dv}");
-            assert!(dxp <= 1e-5, "{scatter:?}: position error {dxp} dx");
+                "{what}, g2p: backstop CPU {} GPU {}",
+                e_cpu.backstop_pushes, e_gpu.backstop_pushes
+            );
             assert!(
                 e_cpu.backstop_pushes >= 4,
                 "the particles put inside colliders were pushed out"
@@ -1287,7 +1277,7 @@ fn colliders_grid_update_and_backstop_match_cpu() {
             // side only; more than one such is a bug, not rounding.
             assert!(
                 e_cpu.backstop_pushes.abs_diff(e_gpu.backstop_pushes) <= 1,
-                "{scatter:?}: backstop counts CPU {} GPU {}",
+                "{what}: backstop counts CPU {} GPU {}",
                 e_cpu.backstop_pushes,
                 e_gpu.backstop_pushes
             );
@@ -1301,31 +1291,7 @@ fn colliders_trajectory_follows_cpu() {
     const STEPS: usize = 300;
     let dir = tempfile::tempdir().unwrap();
     let scene = collider_tank(dir.path(), Pipeline::Fused, ScatterMode::FixedPoint);
-    let params = step_params(&scene);
-    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
-    let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
-    for step in 1..=STEPS {
-        let frame = scene.colliders.frame(step as f64 * f64::from(params.dt));
-        cpu.set_colliders(&frame).unwrap();
-        gpu.set_colliders(&frame).unwrap();
-        cpu.step(&params).unwrap();
-        gpu.step(&params).unwrap();
-        if step % 100 == 0 {
-            let p = gpu.read_particles().unwrap();
-            let errors: Vec<f32> =
-                p.x.iter()
-                    .zip(&cpu.particles.x)
-                    .map(|(a, b)| (*a - *b).length() / scene.dx)
-                    .collect();
-            let max = errors.iter().copied().fold(0.0, f32::max);
-            let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
-            println!("colliders step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
-            assert!(
-                max <= 0.1 && rms <= 0.01,
-                "step {step}: max {max} dx, rms {rms} dx"
-            );
-        }
-    }
+    let (mut cpu, mut gpu) = follow_cpu(&scene, STEPS, true, "colliders");
     let (e_cpu, e_gpu) = (cpu.take_extremes().unwrap(), gpu.take_extremes().unwrap());
     println!(
         "backstop pushes over the run: CPU {}, GPU {}",
@@ -1338,7 +1304,7 @@ fn colliders_trajectory_follows_cpu() {
 fn colliders_fixed_point_runs_are_byte_identical() {
     let dir = tempfile::tempdir().unwrap();
     let scene = collider_tank(dir.path(), Pipeline::Fused, ScatterMode::FixedPoint);
-    let params = step_params(&scene);
+    let params = common::cfl_params(&scene);
     let run = || {
         let mut gpu = CudaSolver::new(&scene, CudaOptions::default()).unwrap();
         for step in 1..=200 {
@@ -1351,7 +1317,7 @@ fn colliders_fixed_point_runs_are_byte_identical() {
     };
     let (first, second) = (run(), run());
     assert!(
-        particle_bytes(&first) == particle_bytes(&second),
+        common::particle_bits(&first) == common::particle_bits(&second),
         "two fixed-point runs with colliders differ"
     );
 }
@@ -1363,15 +1329,7 @@ fn a_block_leaving_a_wall_keeps_its_speed() {
     for (pipeline, scatter) in VARIANTS {
         let mut scene = common::block_leaving_the_low_x_wall(1.0);
         (scene.pipeline, scene.scatter) = (pipeline, scatter);
-        let (mean, wall_layer) = common::leaving_speeds(&scene, mpm::backend::BackendKind::Cuda, 3);
-        println!("{pipeline:?} {scatter:?}: mean vx {mean:.4} m/s, wall layer {wall_layer:.4} m/s");
-        assert!(
-            (mean - 1.0).abs() < 0.05,
-            "{pipeline:?} {scatter:?}: the block slowed to {mean} m/s"
-        );
-        assert!(
-            (wall_layer - 1.0).abs() < 0.05,
-            "{pipeline:?} {scatter:?}: the wall layer slowed to {wall_layer} m/s"
-        );
+        let what = format!("{pipeline:?} {scatter:?}");
+        common::assert_block_keeps_its_speed(&scene, mpm::backend::BackendKind::Cuda, &what);
     }
 }

@@ -205,12 +205,7 @@ fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
         Checkpoint::capture(&mut a).unwrap(),
         Checkpoint::capture(&mut b).unwrap(),
     );
-    assert_eq!(sa.flow, sb.flow, "two fixed-point runs' lifecycles differ");
-    assert!(
-        common::particle_bits(&sa.particles) == common::particle_bits(&sb.particles)
-            && sa.particles.live == sb.particles.live,
-        "two fixed-point runs with emitters and sinks differ"
-    );
+    assert_same_run(&sa, &sb, "two fixed-point runs with emitters and sinks");
     let mut first = run(5);
     let checkpoint = save_and_read(&mut first, dir.path());
     let mut resumed = checkpoint
@@ -218,11 +213,19 @@ fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {
         .unwrap();
     frames(&mut resumed, 7);
     let sr = Checkpoint::capture(&mut resumed).unwrap();
-    assert_eq!(sa.flow, sr.flow, "the resumed lifecycle differs");
+    assert_same_run(
+        &sa,
+        &sr,
+        "the uninterrupted and the resumed run with emitters and sinks",
+    );
+}
+
+/// Two runs' states, captured, are the same: their lifecycles, and every slot bit for bit.
+fn assert_same_run(a: &Checkpoint, b: &Checkpoint, what: &str) {
+    assert_eq!(a.flow, b.flow, "{what}: the lifecycles differ");
     assert!(
-        common::particle_bits(&sa.particles) == common::particle_bits(&sr.particles)
-            && sa.particles.live == sr.particles.live,
-        "the resumed run with emitters and sinks differs from the uninterrupted one"
+        common::same_particles(&a.particles, &b.particles),
+        "{what}: the particles differ"
     );
 }
 
@@ -245,11 +248,10 @@ fn gpu_flow_runs_in_bin_order_are_the_runs_in_place() {
     let (sorted, in_place) = (run(true), run(false));
     let counts = in_place.flow.as_ref().expect("a lifecycle").counts;
     assert!(counts.drained > 0 && counts.emitted > 0, "{counts:?}");
-    assert_eq!(sorted.flow, in_place.flow, "the lifecycles differ");
-    assert!(
-        common::particle_bits(&sorted.particles) == common::particle_bits(&in_place.particles)
-            && sorted.particles.live == in_place.particles.live,
-        "the run with its particles in bin order differs from the one with them in place"
+    assert_same_run(
+        &sorted,
+        &in_place,
+        "the run with its particles in bin order and the one with them in place",
     );
 }
 

@@ -10,12 +10,13 @@ use mpm::cuda::render::DeviceParticlesView;
 use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
-use mpm::render::offline::{render, RenderOptions};
+use mpm::render::offline::RenderOptions;
 use mpm::render::ColourBy;
 use mpm::render::{Colouring, DrawMode, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::{ParticleView, Push, Scene, Simulation, Solver};
 
+mod common;
 mod harness;
 
 fn main() -> std::process::ExitCode {
@@ -135,22 +136,12 @@ const REFERENCE_FRAME: &[u8] = include_bytes!("reference/dam-break-30-320x180.pn
 
 fn headless_render_matches_reference() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let options = RenderOptions {
-        scene: Scene::load("dam-break").expect("preset"),
-        backend: BackendKind::Cuda,
-        frames: 30,
-        out: Some(dir.path().to_path_buf()),
-        size: [320, 180],
-        mode: DrawMode::Spheres,
-        colouring: Colouring::Speed,
-        particle_radius: None,
-        full_res_smoothing: false,
-        transfer: Transfer::Interop,
-        video: None,
-    };
-    let mut log = Vec::new();
-    let report = render(options, &mut log).expect("render");
-    println!("{}", String::from_utf8_lossy(&log));
+    let report = common::render_logged(common::render_options(
+        "dam-break",
+        BackendKind::Cuda,
+        30,
+        dir.path(),
+    ));
     assert_eq!(
         report.path, "CUDA-GL interop",
         "the CUDA backend must draw through interop"
@@ -160,7 +151,6 @@ fn headless_render_matches_reference() {
     let frame = std::fs::read(&path).expect("frame 30 written");
     let got = Image::read_png(&frame).expect("PNG").stats();
     let want = Image::read_png(REFERENCE_FRAME).expect("reference PNG").stats();
-    println!("rendered  {got:?}\nreference {want:?}");
     assert_close_to_reference(&got, &want);
 }
 
@@ -168,6 +158,7 @@ fn headless_render_matches_reference() {
 /// statistics of the frame (how much is covered, where, in what colours) barely move. A wrong camera,
 /// colour scale, depth test or an empty buffer moves them far past these bounds.
 fn assert_close_to_reference(got: &ImageStats, want: &ImageStats) {
+    println!("rendered  {got:?}\nreference {want:?}");
     assert!(want.covered_fraction > 0.05, "the reference shows no fluid");
     let covered = (got.covered_fraction - want.covered_fraction).abs();
     assert!(
@@ -195,44 +186,22 @@ const SURFACE_REFERENCE: &str = "tests/reference/dam-break-30-surface-480x270.pn
 /// times per pass. With `MPM_WRITE_REFERENCE=DIR` it is also written to DIR (never over a file).
 fn surface_frame(transfer: Transfer) -> ImageStats {
     let dir = tempfile::tempdir().expect("temp dir");
-    let options = RenderOptions {
-        scene: Scene::load("dam-break").expect("preset"),
-        backend: BackendKind::Cuda,
-        frames: 30,
-        out: Some(dir.path().to_path_buf()),
+    let report = common::render_logged(RenderOptions {
         size: [480, 270],
         mode: DrawMode::Surface,
-        colouring: Colouring::Speed,
-        particle_radius: None,
-        full_res_smoothing: false,
         transfer,
-        video: None,
-    };
-    let mut log = Vec::new();
-    let report = render(options, &mut log).expect("render");
-    println!("{}", String::from_utf8_lossy(&log));
+        ..common::render_options("dam-break", BackendKind::Cuda, 30, dir.path())
+    });
     let expected_path = match transfer {
         Transfer::Interop => "CUDA-GL interop",
         Transfer::HostCopy => "host copy + glBufferSubData",
     };
     assert_eq!(report.path, expected_path);
-    for pass in ["scene", "depth", "thickness", "smoothing", "shading", "legend"] {
-        let ms = report.timings.gpu_passes_ms.get(pass).copied();
-        assert!(
-            ms.is_some_and(|ms| ms > 0.0),
-            "no GPU time for the {pass} pass: {:?}",
-            report.timings.gpu_passes_ms
-        );
-    }
+    common::assert_surface_passes_timed(&report.timings.gpu_passes_ms);
     let path = dir.path().join("frame-00030.png");
     let image = Image::read_png(&std::fs::read(&path).expect("frame 30 written")).expect("PNG");
     // Water, whatever the reference says: clearly blue pixels over a good part of the frame.
-    let blue = image
-        .rgba
-        .chunks_exact(4)
-        .filter(|p| p[2] > 50 && i32::from(p[2]) > i32::from(p[0]) + 25)
-        .count() as f64
-        / f64::from(image.width * image.height);
+    let blue = common::water_fraction(&image);
     println!("blue (water) pixels: {:.1}%", 100.0 * blue);
     assert!(blue > 0.05, "hardly any water visible: {:.2}%", 100.0 * blue);
     let name = std::path::Path::new(SURFACE_REFERENCE)
@@ -270,18 +239,12 @@ fn surface_reference() -> ImageStats {
 }
 
 fn surface_render_matches_reference() {
-    let got = surface_frame(Transfer::Interop);
-    let want = surface_reference();
-    println!("rendered  {got:?}\nreference {want:?}");
-    assert_close_to_reference(&got, &want);
+    assert_close_to_reference(&surface_frame(Transfer::Interop), &surface_reference());
 }
 
 /// The host copy feeds the same surface: the same statistics as the reference (made by interop).
 fn surface_render_through_host_copy_matches_reference() {
-    let got = surface_frame(Transfer::HostCopy);
-    let want = surface_reference();
-    println!("rendered  {got:?}\nreference {want:?}");
-    assert_close_to_reference(&got, &want);
+    assert_close_to_reference(&surface_frame(Transfer::HostCopy), &surface_reference());
 }
 
 /// The surface's thickness pass two ways on the same particles: summed by CUDA from the particles the

@@ -7,12 +7,13 @@
 use mpm::backend::{self, BackendKind};
 use mpm::render::capture::Image;
 use mpm::render::headless::HeadlessGl;
-use mpm::render::offline::{render, RenderOptions};
+use mpm::render::offline::RenderOptions;
 use mpm::render::{
     Colouring, DrawMode, OrbitCamera, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport,
 };
 use mpm::sim::{Scene, Simulation};
 
+mod common;
 mod harness;
 
 fn main() -> std::process::ExitCode {
@@ -27,16 +28,6 @@ fn main() -> std::process::ExitCode {
             every_live_particle_of_a_draining_scene_is_fed_for_drawing,
         ],
     )
-}
-
-/// Water pixels: clearly blue (the surface's water colour, or the floor seen through it).
-fn water_fraction(image: &Image) -> f64 {
-    let blue = image
-        .rgba
-        .chunks_exact(4)
-        .filter(|p| p[2] > 50 && i32::from(p[2]) > i32::from(p[0]) + 25)
-        .count();
-    blue as f64 / f64::from(image.width * image.height)
 }
 
 /// The `w` x `h` rectangle of `image` whose bottom-left corner is at (x, y) in GL's convention.
@@ -67,25 +58,14 @@ fn mean_abs_difference(a: &Image, b: &Image) -> f64 {
 
 fn surface_frames_show_water_and_time_their_passes() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let options = RenderOptions {
-        scene: Scene::load("dam-break-coarse").expect("preset"),
-        backend: BackendKind::CpuParallel,
-        frames: 6,
-        out: Some(dir.path().to_path_buf()),
-        size: [320, 180],
+    let report = common::render_logged(RenderOptions {
         mode: DrawMode::Surface,
-        colouring: Colouring::Speed,
-        particle_radius: None,
-        full_res_smoothing: false,
         transfer: Transfer::HostCopy,
-        video: None,
-    };
-    let mut log = Vec::new();
-    let report = render(options, &mut log).expect("render");
-    println!("{}", String::from_utf8_lossy(&log));
+        ..common::render_options("dam-break-coarse", BackendKind::CpuParallel, 6, dir.path())
+    });
     let frame = std::fs::read(dir.path().join("frame-00006.png")).expect("frame 6 written");
     let image = Image::read_png(&frame).expect("PNG");
-    let water = water_fraction(&image);
+    let water = common::water_fraction(&image);
     println!("water {:.1}% of the frame, {:?}", 100.0 * water, image.stats());
     assert!(
         water > 0.02,
@@ -97,13 +77,7 @@ fn surface_frames_show_water_and_time_their_passes() {
         "the frame is not opaque"
     );
     let passes = &report.timings.gpu_passes_ms;
-    for pass in ["scene", "depth", "thickness", "smoothing", "shading", "legend"] {
-        let ms = passes.get(pass).copied();
-        assert!(
-            ms.is_some_and(|ms| ms > 0.0),
-            "no GPU time for the {pass} pass: {passes:?}"
-        );
-    }
+    common::assert_surface_passes_timed(passes);
     assert!(
         !passes.contains_key("particles"),
         "the surface draws no particle pass"
@@ -164,7 +138,7 @@ fn surface_follows_viewport_changes() {
     });
     renderer.destroy();
 
-    let (w_first, w_full) = (water_fraction(&first), water_fraction(&full));
+    let (w_first, w_full) = (common::water_fraction(&first), common::water_fraction(&full));
     println!(
         "water: {:.1}% at 160x90, {:.1}% at 320x180",
         100.0 * w_first,
@@ -187,7 +161,10 @@ fn surface_follows_viewport_changes() {
         "the surface drew outside its viewport (left of x = 100)"
     );
     let right = crop(&beside, 100, 0, 220, 180);
-    assert!(water_fraction(&right) > 0.02, "no water in the offset viewport");
+    assert!(
+        common::water_fraction(&right) > 0.02,
+        "no water in the offset viewport"
+    );
 }
 
 /// Light pixels left of the bar: its numbers and unit. With solid colouring there is no bar, and

@@ -273,32 +273,27 @@ fn the_wall_mirror_gives_wall_particles_their_interior_density() {
 }
 
 /// A 25 x 15 x 10 tank, the water in its low x corner: a small dam break under a CFL of 0.4.
-const SMALL_DAM_BREAK: &str = r#"
-[domain]
-size = [0.5, 0.3, 0.2]
-resolution = [25, 15, 10]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+const SMALL_DAM_BREAK: &str = common::tank!(
+    [0.5, 0.3, 0.2],
+    [25, 15, 10],
+    r#"
 [time_step]
 cfl = 0.4
 [[block]]
 min = [0.04, 0.04, 0.04]
 max = [0.2, 0.24, 0.14]
-"#;
+"#
+);
 
 /// The CFL number stays under its bound through the two ways a frame can speed up: a column collapsing
 /// and hitting the far wall, and a ball hitting a pool (density, and c as rho^3, jump within a frame).
 #[test]
 fn cfl_number_stays_under_its_bound_in_a_dam_break_and_a_drop() {
     let dam_break = SMALL_DAM_BREAK;
-    let drop = r#"
-[domain]
-size = [0.3, 0.4, 0.3]
-resolution = [15, 20, 15]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
+    let drop = common::tank!(
+        [0.3, 0.4, 0.3],
+        [15, 20, 15],
+        r#"
 [time_step]
 cfl = 0.4
 [[block]]
@@ -308,7 +303,8 @@ max = [0.26, 0.08, 0.26]
 center = [0.15, 0.25, 0.15]
 radius = 0.06
 velocity = [0.0, -2.0, 0.0]
-"#;
+"#
+    );
     for (name, toml, frames) in [("dam break", dam_break, 45), ("drop", drop, 30)] {
         let scene = common::scene(toml);
         let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
@@ -366,22 +362,18 @@ fn every_preset_loads_and_steps_without_nan_inside_the_domain() {
 #[test]
 fn every_substep_above_the_cfl_bound_is_counted() {
     use mpm::sim::scene::MAX_CFL;
-    let scene = common::scene(
+    let scene = common::scene(common::tank!(
+        [0.4, 0.2, 0.2],
+        [40, 20, 20],
         r#"
-[domain]
-size = [0.4, 0.2, 0.2]
-resolution = [40, 20, 20]
-[material]
-rest_density = 1000.0
-sound_speed = 10.0
 [solver]
 gravity = [0.0, 0.0, 0.0]
 [[sphere]]
 center = [0.2, 0.1, 0.1]
 radius = 0.05
 velocity = [50.0, 0.0, 0.0]
-"#,
-    );
+"#
+    ));
     // The binned pipeline (the report's density rule) rides this impact out with 12 substeps above
     // the bound; the fused pipeline's advected density lags it by a substep and blows up, which the
     // error names (checked below).

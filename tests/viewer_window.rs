@@ -107,42 +107,83 @@ fn display() -> Result<(String, Option<Xvfb>), String> {
     Ok((display, Some(xvfb)))
 }
 
-fn viewer_window_shows_particles() {
+/// One test's turn at a display, and a folder for its files. Dropped in this order: the folder,
+/// the Xvfb the test started, then the turn, so the next test finds the display number free.
+struct Session {
+    dir: tempfile::TempDir,
+    xvfb: Option<Xvfb>,
+    display: String,
+    _turn: std::sync::MutexGuard<'static, ()>,
+}
+
+fn session() -> Session {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (display, xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
     let dir = tempfile::tempdir().expect("temp dir");
-    let shot = dir.path().join("last-frame.png");
-    // A small tank (about 5,600 particles), so the CPU backend steps it quickly under software GL.
-    let scene = dir.path().join("small.toml");
-    std::fs::write(
-        &scene,
-        "name = \"small\"\n[domain]\nsize = [0.4, 0.4, 0.4]\nresolution = [20, 20, 20]\n\
-         [material]\nrest_density = 1000.0\nsound_speed = 10.0\n\
-         [[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.2, 0.3, 0.2]\n",
-    )
-    .expect("writing the scene");
-    let output = Command::new(common::mpm_binary())
-        .args([
-            "view",
-            "--backend",
-            "cpu",
+    Session {
+        dir,
+        xvfb,
+        display,
+        _turn,
+    }
+}
+
+impl Session {
+    /// `mpm view --backend cpu ARGS --capture-dir DIR` on the session's display; must succeed.
+    /// Returns its stderr (printed).
+    fn view(&self, args: &[&str]) -> String {
+        let output = Command::new(common::mpm_binary())
+            .args(["view", "--backend", "cpu"])
+            .args(args)
+            .arg("--capture-dir")
+            .arg(self.dir.path())
+            .env("DISPLAY", &self.display)
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .expect("running mpm view");
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        println!("mpm view stderr:\n{stderr}");
+        assert!(output.status.success(), "mpm view failed: {}", output.status);
+        stderr
+    }
+
+    /// `scene` (TOML) written to the session's folder as `name`.toml, and the last frame of
+    /// `mpm view` on it at 800 x 500 after `frames` frames.
+    fn last_frame(&self, name: &str, scene: &str, frames: u32) -> (String, Image) {
+        let file = self.dir.path().join(format!("{name}.toml"));
+        std::fs::write(&file, scene).expect("writing the scene");
+        let shot = self.dir.path().join("last-frame.png");
+        let stderr = self.view(&[
             "--size",
             "800x500",
             "--no-vsync",
             "--scene",
-        ])
-        .arg(&scene)
-        .args(["--quit-after", "6", "--final-screenshot"])
-        .arg(&shot)
-        .arg("--capture-dir")
-        .arg(dir.path())
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("running mpm view");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    println!("mpm view stderr:\n{stderr}");
-    assert!(output.status.success(), "mpm view failed: {}", output.status);
+            file.to_str().expect("a UTF-8 temp path"),
+            "--quit-after",
+            &frames.to_string(),
+            "--final-screenshot",
+            shot.to_str().expect("a UTF-8 temp path"),
+        ]);
+        let bytes = std::fs::read(&shot).expect("the viewer wrote its last frame");
+        (stderr, Image::read_png(&bytes).expect("a PNG"))
+    }
+}
+
+/// A small tank (about 5,600 particles), so the CPU backend steps it quickly under software GL.
+const SMALL: &str = common::tank!(
+    "small",
+    [0.4, 0.4, 0.4],
+    [20, 20, 20],
+    r#"
+[[block]]
+min = [0.05, 0.05, 0.05]
+max = [0.2, 0.3, 0.2]
+"#
+);
+
+fn viewer_window_shows_particles() {
+    let mut session = session();
+    let (stderr, image) = session.last_frame("small", SMALL, 6);
     // Scripts on a display-less GPU server (scripts/view-on-gpu.sh) read the particles' path and
     // the window system's API from the log.
     assert!(
@@ -155,20 +196,13 @@ fn viewer_window_shows_particles() {
             .any(|l| l.starts_with("OpenGL: ") && (l.contains("(GLX ") || l.contains("(EGL "))),
         "the viewer names its window system's API"
     );
-    let bytes = std::fs::read(&shot).expect("the viewer wrote its last frame");
-    let image = Image::read_png(&bytes).expect("a PNG");
     // The final screenshot is the scene's part of the window: its height, and the width right of
     // the panel.
     assert_eq!(image.height, 500);
     assert!((300..800).contains(&image.width), "scene width {}", image.width);
     let stats = image.stats();
     // Particles at rest are drawn in the low (blue) end of the speed scale, lit.
-    let blue = image
-        .rgba
-        .chunks_exact(4)
-        .filter(|p| p[2] > 60 && i32::from(p[2]) > i32::from(p[0]) + 30)
-        .count() as f64
-        / f64::from(image.width * image.height);
+    let blue = common::pixel_fraction(&image, |p| p[2] > 60 && i32::from(p[2]) > i32::from(p[0]) + 30);
     println!("stats {stats:?}, blue particle pixels {:.1}%", 100.0 * blue);
     assert!(
         blue > 0.01,
@@ -179,7 +213,7 @@ fn viewer_window_shows_particles() {
         stats.covered_fraction < 0.9,
         "the frame is filled, not drawn: {stats:?}"
     );
-    if let Some(xvfb) = xvfb {
+    if let Some(xvfb) = session.xvfb.take() {
         let lock = xvfb.lock_file();
         drop(xvfb);
         assert!(!Path::new(&lock).exists(), "Xvfb left {lock} behind");
@@ -189,30 +223,17 @@ fn viewer_window_shows_particles() {
 /// bench-65k on the single-thread CPU takes most of a second per 60 Hz frame; the viewer splits it
 /// over draws, so no draw spends much more than its 50 ms stepping budget (plus one substep) on it.
 fn viewer_splits_slow_frames_across_draws() {
-    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
-    let dir = tempfile::tempdir().expect("temp dir");
-    let output = Command::new(common::mpm_binary())
-        .args([
-            "view",
-            "--backend",
-            "cpu",
-            "--scene",
-            "bench-65k",
-            "--size",
-            "400x300",
-            "--draw",
-            "points",
-        ])
-        .args(["--no-vsync", "--quit-after", "10", "--capture-dir"])
-        .arg(dir.path())
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("running mpm view");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    println!("mpm view stderr:\n{stderr}");
-    assert!(output.status.success(), "mpm view failed: {}", output.status);
+    let stderr = session().view(&[
+        "--scene",
+        "bench-65k",
+        "--size",
+        "400x300",
+        "--draw",
+        "points",
+        "--no-vsync",
+        "--quit-after",
+        "10",
+    ]);
     let longest: f64 = stderr
         .lines()
         .find_map(|l| l.split("the longest stepping in one draw took ").nth(1))
@@ -221,54 +242,37 @@ fn viewer_splits_slow_frames_across_draws() {
     assert!(longest < 300.0, "one draw spent {longest} ms stepping");
 }
 
+/// Colliders beside the water: a sphere, and a tilted box moving as a piston.
+const OBSTACLES: &str = common::tank!(
+    "obstacles",
+    [0.4, 0.4, 0.4],
+    [20, 20, 20],
+    r#"
+[[block]]
+min = [0.05, 0.05, 0.05]
+max = [0.15, 0.2, 0.2]
+[[collider]]
+shape = "sphere"
+center = [0.28, 0.12, 0.2]
+radius = 0.07
+[[collider]]
+shape = "box"
+center = [0.25, 0.3, 0.2]
+size = [0.1, 0.04, 0.2]
+rotation = [0.0, 0.0, 30.0]
+[collider.motion]
+piston = { direction = [0.0, 1.0, 0.0], amplitude = 0.02, period = 0.5 }
+"#
+);
+
 /// A scene with colliders beside the water: the last frame shows them, solid and shaded in their warm
 /// grey (src/render/colliders.rs), and the panel's backstop row does not stop the viewer.
 fn viewer_window_draws_colliders() {
-    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let (display, _xvfb) = display().unwrap_or_else(|why| panic!("{why}"));
-    let dir = tempfile::tempdir().expect("temp dir");
-    let shot = dir.path().join("last-frame.png");
-    let scene = dir.path().join("obstacles.toml");
-    std::fs::write(
-        &scene,
-        "name = \"obstacles\"\n[domain]\nsize = [0.4, 0.4, 0.4]\nresolution = [20, 20, 20]\n\
-         [material]\nrest_density = 1000.0\nsound_speed = 10.0\n\
-         [[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.15, 0.2, 0.2]\n\
-         [[collider]]\nshape = \"sphere\"\ncenter = [0.28, 0.12, 0.2]\nradius = 0.07\n\
-         [[collider]]\nshape = \"box\"\ncenter = [0.25, 0.3, 0.2]\nsize = [0.1, 0.04, 0.2]\nrotation = [0.0, 0.0, 30.0]\n\
-         [collider.motion]\npiston = { direction = [0.0, 1.0, 0.0], amplitude = 0.02, period = 0.5 }\n",
-    )
-    .expect("writing the scene");
-    let output = Command::new(common::mpm_binary())
-        .args([
-            "view",
-            "--backend",
-            "cpu",
-            "--size",
-            "800x500",
-            "--no-vsync",
-            "--scene",
-        ])
-        .arg(&scene)
-        .args(["--quit-after", "4", "--final-screenshot"])
-        .arg(&shot)
-        .arg("--capture-dir")
-        .arg(dir.path())
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("running mpm view");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    println!("mpm view stderr:\n{stderr}");
-    assert!(output.status.success(), "mpm view failed: {}", output.status);
-    let image = Image::read_png(&std::fs::read(&shot).expect("the last frame")).expect("a PNG");
+    let (_, image) = session().last_frame("obstacles", OBSTACLES, 4);
     // The colliders' shade (0.62, 0.58, 0.52) times a light factor: red above blue, green between.
-    let grey = image
-        .rgba
-        .chunks_exact(4)
-        .filter(|p| p[0] > 60 && p[0] >= p[1] && p[1] >= p[2] && i32::from(p[0]) - i32::from(p[2]) > 8)
-        .count() as f64
-        / f64::from(image.width * image.height);
+    let grey = common::pixel_fraction(&image, |p| {
+        p[0] > 60 && p[0] >= p[1] && p[1] >= p[2] && i32::from(p[0]) - i32::from(p[2]) > 8
+    });
     println!("collider pixels {:.1}%", 100.0 * grey);
     assert!(
         grey > 0.01,
