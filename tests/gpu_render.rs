@@ -145,6 +145,7 @@ fn headless_render_matches_reference() {
         full_res_smoothing: false,
         transfer: Transfer::Interop,
         video: None,
+        progress: false,
     };
     let mut log = Vec::new();
     let report = render(options, &mut log).expect("render");
@@ -205,6 +206,7 @@ fn surface_frame(transfer: Transfer) -> ImageStats {
         full_res_smoothing: false,
         transfer,
         video: None,
+        progress: false,
     };
     let mut log = Vec::new();
     let report = render(options, &mut log).expect("render");

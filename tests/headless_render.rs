@@ -79,6 +79,7 @@ fn surface_frames_show_water_and_time_their_passes() {
         full_res_smoothing: false,
         transfer: Transfer::HostCopy,
         video: None,
+        progress: false,
     };
     let mut log = Vec::new();
     let report = render(options, &mut log).expect("render");
