@@ -881,3 +881,38 @@ fn the_eta_holds_steady() {
     assert!((after_slow - 890.0).abs() < 90.0, "{after_slow}");
     assert_eq!(eta(100, 100, s(1000), s(1000)), Some(s(0)));
 }
+
+/// docs/command-line.md's synopsis holds every option each command's `--help` lists (issue 39, item
+/// 9: `view` and `render` had none, and `--gpus` was missing from `run` and `bench`).
+#[test]
+fn the_command_line_page_lists_every_option() {
+    let page = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/command-line.md")).unwrap();
+    let synopsis = page.split("```").nth(1).expect("the synopsis block");
+    for command in ["view", "render", "run", "bench", "scenes"] {
+        let lines: String = synopsis
+            .split("\nmpm ")
+            .filter(|block| {
+                let name = block.split_whitespace().next().unwrap_or("");
+                name == command || (command == "view" && name == "[view]")
+            })
+            .collect();
+        assert!(!lines.is_empty(), "no synopsis of `mpm {command}`");
+        let help = stdout(&mpm(&[command, "--help"]));
+        for option in help
+            .lines()
+            .filter(|l| l.trim_start().starts_with('-'))
+            .filter_map(|l| l.split_whitespace().find(|w| w.starts_with("--")))
+            .map(|w| w.trim_end_matches(','))
+            .filter(|o| *o != "--help" && *o != "--version")
+        {
+            // The whole option, not a longer one it begins (`--surface-format` for `--surface`).
+            let whole = lines.match_indices(option).any(|(at, _)| {
+                !lines[at + option.len()..].starts_with(|c: char| c.is_ascii_alphanumeric() || c == '-')
+            });
+            assert!(
+                whole,
+                "`mpm {command} {option}` is not in docs/command-line.md's synopsis"
+            );
+        }
+    }
+}
