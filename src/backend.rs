@@ -6,7 +6,7 @@ use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::{Particles, Scene, Solver};
-use anyhow::{bail, ensure, Result};
+use anyhow::{bail, Result};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
@@ -43,12 +43,81 @@ impl BackendKind {
             Ok(()) => BackendKind::Cuda,
             Err(why) => {
                 eprintln!(
-                    "note: no usable CUDA device ({why:#}); timing the CPU on {} (cpu-parallel)",
+                    "note: no usable CUDA device ({}); timing the CPU on {} (cpu-parallel)",
+                    no_cuda_reason(&why),
                     crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
                 );
                 BackendKind::CpuParallel
             }
         }
+    }
+}
+
+/// Why CUDA is not usable, without the advice the CUDA module adds ("use --backend cpu-parallel"):
+/// the notes that quote it already say what runs instead, and a refusal gives its own advice.
+pub fn no_cuda_reason(why: &anyhow::Error) -> String {
+    let text = format!("{why:#}");
+    let line = text.lines().next().unwrap_or_default();
+    line.split_once(". ")
+        .map_or(line, |(first, _)| first)
+        .trim_end_matches('.')
+        .to_string()
+}
+
+/// `--ranks` and `--gpus` with `kind`, refused where they cannot run on this machine, with advice
+/// that does run here: whether a CUDA device is usable decides which backends the advice names.
+/// Checked before any work (`mpm bench` asks before its first table).
+pub fn check_ranks(kind: BackendKind, ranks: usize, gpus: usize) -> Result<()> {
+    if ranks <= 1 && gpus <= 1 {
+        return Ok(());
+    }
+    let cuda = crate::cuda::library::device_available();
+    let name = match kind {
+        BackendKind::Auto => "auto",
+        BackendKind::Cpu => "cpu",
+        BackendKind::CpuParallel => "cpu-parallel",
+        BackendKind::Cuda => "cuda",
+    };
+    let on_gpu = matches!(kind, BackendKind::Cuda | BackendKind::Auto);
+    match (&cuda, on_gpu, gpus > 1) {
+        (Ok(()), false, true) => bail!(
+            "--gpus {gpus}: several GPUs run the CUDA backend; use --backend cuda, or split the CPU \
+             reference with --backend cpu --ranks {gpus} in place of --gpus"
+        ),
+        (Err(why), _, true) => bail!(
+            "--gpus {gpus}: several GPUs run the CUDA backend, and this machine has no usable CUDA \
+             device ({}); {}, or split the CPU reference into thread ranks with --backend cpu \
+             --ranks {gpus} in place of --gpus",
+            no_cuda_reason(why),
+            match kind {
+                BackendKind::Cpu | BackendKind::CpuParallel => {
+                    format!("drop --gpus to run the {name} backend as it is")
+                }
+                BackendKind::Auto => "drop --gpus to run on the CPU (cpu-parallel)".to_string(),
+                BackendKind::Cuda => "run on the CPU with --backend cpu-parallel and no --gpus".to_string(),
+            }
+        ),
+        (Err(why), true, false) => bail!(
+            "--ranks {ranks} with the {name} backend splits the CUDA solver, and this machine has no \
+             usable CUDA device ({}); split the CPU reference with --backend cpu --ranks {ranks}, or \
+             drop --ranks{} to run on the CPU (cpu-parallel)",
+            no_cuda_reason(why),
+            if kind == BackendKind::Cuda {
+                " and --backend cuda"
+            } else {
+                ""
+            }
+        ),
+        (_, false, false) if kind == BackendKind::CpuParallel => bail!(
+            "--ranks {ranks}: the cpu-parallel backend runs on one rank; drop --ranks, or split the \
+             single-thread reference with --backend cpu --ranks {ranks}{}",
+            if cuda.is_ok() {
+                " or the CUDA backend with --backend cuda --ranks N"
+            } else {
+                ""
+            }
+        ),
+        _ => Ok(()),
     }
 }
 
@@ -108,10 +177,9 @@ fn create_with(
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Ok(Box::new(solver)),
             Err(why) => {
-                let why = format!("{why:#}");
-                let first_line = why.lines().next().unwrap_or_default();
                 eprintln!(
-                    "note: CUDA backend unavailable ({first_line}); using the CPU on {} (cpu-parallel)",
+                    "note: CUDA backend unavailable ({}); using the CPU on {} (cpu-parallel)",
+                    no_cuda_reason(&why),
                     crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
                 );
                 Ok(parallel())
@@ -129,12 +197,7 @@ fn create_ranks(
     particles: impl FnOnce() -> Particles,
 ) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
-    ensure!(
-        scene.gpus <= 1 || matches!(kind, BackendKind::Cuda | BackendKind::Auto),
-        "--gpus {}: several GPUs run the CUDA backend; use --backend cuda, or split the CPU \
-         reference with --ranks",
-        scene.gpus
-    );
+    check_ranks(kind, ranks, scene.gpus)?;
     match kind {
         BackendKind::Cuda | BackendKind::Auto => {
             let options = CudaOptions::from_env()?;
@@ -142,9 +205,7 @@ fn create_ranks(
             Ok(Box::new(CudaRanks::new(scene, particles(), ranks, options)?))
         }
         BackendKind::Cpu => Ok(Box::new(CpuRanks::new(scene, particles(), ranks)?)),
-        BackendKind::CpuParallel => bail!(
-            "--ranks {ranks}: the cpu-parallel backend runs on one rank; drop --ranks, or split the \
-             single-thread reference (--backend cpu) or the CUDA backend (--backend cuda)"
-        ),
+        // check_ranks refused it already, with the advice.
+        BackendKind::CpuParallel => bail!("--ranks {ranks}: the cpu-parallel backend runs on one rank"),
     }
 }

@@ -236,7 +236,14 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
         }
         BackendKind::Cpu => Ok((
             backend::create(BackendKind::Cpu, scene)?,
-            "CPU, single thread".to_string(),
+            if scene.ranks > 1 {
+                format!(
+                    "CPU, {} ranks of one thread each (the reference split into slabs)",
+                    scene.ranks
+                )
+            } else {
+                "CPU, single thread".to_string()
+            },
         )),
         BackendKind::CpuParallel => Ok((
             backend::create(BackendKind::CpuParallel, scene)?,

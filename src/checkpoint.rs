@@ -600,6 +600,25 @@ impl CheckpointSeries {
     }
 }
 
+/// The checkpoint of the latest frame in a folder that `mpm run --checkpoint DIR` wrote, for
+/// `--resume DIR`; an error naming what to give where the folder holds none.
+pub fn newest_in(dir: &Path) -> Result<PathBuf> {
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| anyhow!("cannot read the folder {}: {}", dir.display(), io_reason(&e)))?;
+    let newest = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| checkpoint_frame(&e.file_name().to_string_lossy()).map(|f| (f, e.path())))
+        .max_by_key(|(frame, _)| *frame);
+    match newest {
+        Some((_, path)) => Ok(path),
+        None => bail!(
+            "--resume {} is a folder without checkpoints (checkpoint_NNNNNN.{EXTENSION}, which `mpm \
+             run --checkpoint DIR` writes); give a checkpoint file, or the folder a run wrote them to",
+            dir.display()
+        ),
+    }
+}
+
 /// The frame of a series' checkpoint file name, `None` for other names.
 fn checkpoint_frame(name: &str) -> Option<u64> {
     name.strip_prefix("checkpoint_")?

@@ -341,8 +341,21 @@ fn count<const MIN: u64>(text: &str) -> Result<u64, String> {
     match text.trim().parse::<i128>() {
         Ok(n) if n >= i128::from(MIN) && n <= i128::from(u64::MAX) => Ok(n as u64),
         Ok(n) if n < i128::from(MIN) => Err(format!("{n} is too small: give a whole number from {MIN} up")),
+        Ok(_) => Err(too_large(text, MIN)),
+        // Digits alone, past what i128 holds, are a number too: too large, not "not a number".
+        Err(_) if !text.trim().is_empty() && text.trim().bytes().all(|b| b.is_ascii_digit()) => {
+            Err(too_large(text, MIN))
+        }
         _ => Err(format!("`{text}` is not a whole number from {MIN} up")),
     }
+}
+
+fn too_large(text: &str, min: u64) -> String {
+    format!(
+        "{} is too large: give a whole number from {min} to {}",
+        text.trim(),
+        u64::MAX
+    )
 }
 
 /// `--scene`: a preset name or a path. A scene's path is kept as text (in checkpoints, exports and
@@ -366,6 +379,72 @@ fn positive(text: &str) -> Result<f32, String> {
         Ok(x) => Err(format!("{x} is not a positive number: give a number above 0")),
         Err(_) => Err(format!("`{text}` is not a number: give a number above 0")),
     }
+}
+
+/// `bench --block-size`: what the CUDA kernels accept (they reduce per warp).
+fn block_size(text: &str) -> Result<u32, String> {
+    let n = count::<32>(text)?;
+    if n > 1024 || n % 32 != 0 {
+        return Err(format!(
+            "{n} is not a multiple of 32 from 32 to 1024 (128 is the default)"
+        ));
+    }
+    Ok(n as u32)
+}
+
+/// A file a command writes at its end (`bench --json`), checked before the work: a path through a
+/// file, a missing or unwritable folder, or a file in the way fails now, with the fix, not after
+/// minutes of measuring.
+fn check_output_file(path: &std::path::Path, flag: &str, overwrite: bool) -> Result<()> {
+    if path.is_dir() {
+        anyhow::bail!("{flag} {} is a directory; give a file name", path.display());
+    }
+    if path.exists() && !overwrite {
+        anyhow::bail!(
+            "{} exists; pass --overwrite to replace it, or choose another {flag} file",
+            path.display()
+        );
+    }
+    let folder = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    if let Some(file) = folder.ancestors().find(|a| a.is_file()) {
+        anyhow::bail!(
+            "{flag} {}: {} is a file, not a folder; choose a path through folders",
+            path.display(),
+            file.display()
+        );
+    }
+    if !folder.is_dir() {
+        anyhow::bail!(
+            "{flag} {}: the folder {} does not exist; create it, or choose another path",
+            path.display(),
+            folder.display()
+        );
+    }
+    // A probe file, not the file itself: a run that fails later must not leave an empty report.
+    let probe = folder.join(".mpm-write-check");
+    std::fs::File::create(&probe)
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{flag} {}: cannot write into {}: {}",
+                path.display(),
+                folder.display(),
+                mpm::text::io_reason(&e)
+            )
+        })?;
+    if path.exists() {
+        std::fs::OpenOptions::new().append(true).open(path).map_err(|e| {
+            anyhow::anyhow!(
+                "{flag}: cannot replace {}: {}",
+                path.display(),
+                mpm::text::io_reason(&e)
+            )
+        })?;
+    }
+    Ok(())
 }
 
 /// `render --frames`: the PNG names have five digits.
@@ -449,6 +528,7 @@ fn render_frames(args: RenderArgs) -> Result<()> {
             full_res_smoothing: args.look.full_res_smoothing,
             transfer: args.look.transfer,
             video: args.video,
+            progress: std::io::stdout().is_terminal(),
         },
         &mut std::io::stdout().lock(),
     )?;
@@ -470,8 +550,10 @@ struct BenchArgs {
     /// Presets or scene files to time (repeatable); default: the report's bench-65k and bench-655k.
     #[arg(long = "scene", value_name = "PRESET|FILE")]
     scenes: Vec<String>,
-    /// Instead of scenes: a column of this many particles (repeatable) in a --grid^3 grid.
-    #[arg(long, value_name = "N", conflicts_with = "scenes")]
+    /// Instead of scenes: a column of this many particles (repeatable) in a --grid^3 grid, rounded
+    /// to whole cells of 8.
+    #[arg(long, value_name = "N", conflicts_with = "scenes", allow_negative_numbers = true,
+          value_parser = count::<8>)]
     particles: Vec<u64>,
     /// Nodes per axis of the --particles columns' grid.
     #[arg(long, value_name = "NODES", default_value_t = 100, requires = "particles")]
@@ -485,8 +567,8 @@ struct BenchArgs {
     /// The backend [default: auto: CUDA where a device works, else cpu-parallel].
     #[arg(long, value_enum, default_value_t = BackendKind::Auto, hide_default_value = true)]
     backend: BackendKind,
-    /// CUDA threads per block (a multiple of 32); default MPM_CUDA_BLOCK_SIZE or 128.
-    #[arg(long, value_name = "THREADS")]
+    /// CUDA threads per block (a multiple of 32, 32 to 1024); default MPM_CUDA_BLOCK_SIZE or 128.
+    #[arg(long, value_name = "THREADS", allow_negative_numbers = true, value_parser = block_size)]
     block_size: Option<u32>,
     #[command(flatten)]
     solver: SolverArgs,
@@ -529,17 +611,30 @@ fn bench(args: BenchArgs) -> Result<()> {
         args.peak_gbs
     );
     if let Some(path) = &args.json {
-        anyhow::ensure!(
-            args.overwrite || !path.exists(),
-            "{} exists; pass --overwrite to replace it, or choose another --json file",
-            path.display()
-        );
+        check_output_file(path, "--json", args.overwrite)?;
     }
+    // Before the backend is resolved: `auto` would announce timing the CPU, then refuse the ranks.
+    backend::check_ranks(
+        args.backend,
+        args.solver.ranks().unwrap_or(1),
+        args.solver.gpus().unwrap_or(1),
+    )?;
     let scenes = if !args.particles.is_empty() {
-        args.particles
+        let scenes = args
+            .particles
             .iter()
             .map(|&n| bench::column_scene(n, args.grid))
-            .collect::<Result<Vec<_>>>()?
+            .collect::<Result<Vec<_>>>()?;
+        for (&asked, scene) in args.particles.iter().zip(&scenes) {
+            if scene.num_particles as u64 != asked {
+                eprintln!(
+                    "note: --particles {asked}: the column is whole cells at 8 particles per cell, so \
+                     it holds {} particles; timing those",
+                    scene.num_particles
+                );
+            }
+        }
+        scenes
     } else if args.scenes.is_empty() {
         bench::REPORT_SCENES
             .iter()
@@ -562,11 +657,23 @@ fn bench(args: BenchArgs) -> Result<()> {
     let sweep = sweep
         .map(|(sizes, n)| steps(n, "sweep-steps").map(|n| (sizes, n)))
         .transpose()?;
+    let backend = args.backend.resolve();
+    if let (Some(block), false) = (args.block_size, backend == BackendKind::Cuda) {
+        anyhow::bail!(
+            "--block-size {block} sets the CUDA kernels' threads per block, and this benchmark times the \
+             CPU ({}): drop --block-size",
+            if backend == BackendKind::Cpu {
+                "cpu"
+            } else {
+                "cpu-parallel"
+            }
+        );
+    }
     let plan = bench::BenchPlan {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         scenes,
         options: bench::PhaseBenchOptions {
-            backend: args.backend.resolve(),
+            backend,
             warmup_steps: steps(args.warmup, "warmup")?,
             steps: steps(args.steps, "steps")?,
             block_size: args.block_size,
@@ -582,7 +689,8 @@ fn bench(args: BenchArgs) -> Result<()> {
     let report = bench::run(&plan, &mut std::io::stdout().lock())?;
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
-        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, text + "\n")
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), mpm::text::io_reason(&e)))?;
         writeln!(std::io::stdout(), "wrote {}", path.display())?;
     }
     Ok(())
@@ -629,8 +737,22 @@ fn devices() -> Result<()> {
 }
 
 fn run(args: RunArgs) -> Result<()> {
+    // A folder of checkpoints stands for its latest one: what a user resuming a run means.
+    let resume = match args.resume.as_deref() {
+        Some(dir) if dir.is_dir() => {
+            let newest = mpm::checkpoint::newest_in(dir)?;
+            writeln!(
+                std::io::stdout(),
+                "--resume {}: a folder; resuming from its latest checkpoint, {}",
+                dir.display(),
+                newest.display()
+            )?;
+            Some(newest)
+        }
+        path => path.map(PathBuf::from),
+    };
     // The checkpoint is read and checked first: a bad file fails before anything is created.
-    let resumed = args.resume.as_deref().map(Checkpoint::read).transpose()?;
+    let resumed = resume.as_deref().map(Checkpoint::read).transpose()?;
     let (mut scene, backend_kind) = match &resumed {
         Some(checkpoint) => (
             checkpoint.scene()?,
@@ -721,7 +843,7 @@ fn run(args: RunArgs) -> Result<()> {
             surface.settings().describe()
         )?;
     }
-    if let (Some(path), Some(checkpoint)) = (&args.resume, &resumed) {
+    if let (Some(path), Some(checkpoint)) = (&resume, &resumed) {
         writeln!(
             std::io::stdout(),
             "resumed from {} at frame {}, t = {:.4} s",

@@ -199,23 +199,110 @@ pub fn cfl_warning(all: &[FrameStats]) -> Option<String> {
 /// What a long run on a CPU backend will roughly cost, from its first frames (`per_frame`), said once
 /// so a user can stop it early; `None` on the GPU or where the whole run takes under a minute.
 fn cost_note(sim: &Simulation, per_frame: Duration, frames: u64) -> Option<String> {
-    let total = per_frame.as_secs_f64() * frames as f64;
-    if sim.backend() == "cuda" || total < 60.0 {
+    if sim.backend() == "cuda" {
         return None;
     }
-    let light = if sim.scene().name == "dam-break-coarse" {
+    long_run_note(
+        per_frame,
+        frames,
+        &format!("on the CPU ({}) a frame takes", sim.backend()),
+        &sim.scene().name,
+    )
+}
+
+/// The cost note of a run of `frames` frames at `per_frame` each, where the whole takes a minute or
+/// more: `what` says what takes the time ("on the CPU (cpu) a frame takes"), and a scene other
+/// than the coarse dam break gets the lighter command. `mpm run` and `mpm render` both say it after
+/// their second frame.
+pub fn long_run_note(per_frame: Duration, frames: u64, what: &str, scene: &str) -> Option<String> {
+    let total = per_frame.as_secs_f64() * frames as f64;
+    if total < 60.0 {
+        return None;
+    }
+    let light = if scene == "dam-break-coarse" {
         String::new()
     } else {
-        " (`--scene dam-break-coarse` is the dam break at a size a CPU runs at about half of real time)"
+        " (`--scene dam-break-coarse` is the dam break at a size a CPU steps at about a third of real \
+         time)"
             .to_string()
     };
     Some(format!(
-        "note: on the CPU ({}) a frame takes about {:.1} s, so these {frames} frames take about {:.0} \
-         minutes{light}",
-        sim.backend(),
+        "note: {what} about {:.1} s, so these {frames} frames take about {}{light}",
         per_frame.as_secs_f64(),
-        total / 60.0
+        spoken_duration(total)
     ))
+}
+
+/// "40 seconds", "12 minutes", "3.5 hours": a long run's length as a user says it.
+fn spoken_duration(seconds: f64) -> String {
+    match seconds {
+        s if s < 90.0 => format!("{s:.0} seconds"),
+        s if s < 90.0 * 60.0 => format!("{:.0} minutes", s / 60.0),
+        s if s < 48.0 * 3600.0 => format!("{:.1} hours", s / 3600.0),
+        s => format!("{:.0} days", s / 86400.0),
+    }
+}
+
+/// Time left after `done` of `len` frames, the `done` having taken `at_done` and `now` having passed
+/// since the start: the mean frame so far for each frame left, less what the frame under way has
+/// already run. It counts down through a slow frame instead of growing with it, and does not leap
+/// with one frame's cost as a recent-rate estimate does (indicatif's `{eta}` jumped between 12 and
+/// 24 minutes every frame of a 10-s-a-frame run). `None` before the first frame: nothing to go on.
+pub fn eta(done: u64, len: u64, at_done: Duration, now: Duration) -> Option<Duration> {
+    if done == 0 {
+        return None;
+    }
+    let per_frame = at_done.as_secs_f64() / done as f64;
+    let left = per_frame * len.saturating_sub(done) as f64 - now.saturating_sub(at_done).as_secs_f64();
+    Some(Duration::from_secs_f64(left.max(0.0)))
+}
+
+/// The `{left}` key of the progress bars: [`eta`], from the moment the position last moved.
+#[derive(Clone, Default)]
+struct EtaKey {
+    /// The position and the elapsed time when it was reached.
+    moved: Option<(u64, Duration)>,
+}
+
+impl indicatif::style::ProgressTracker for EtaKey {
+    fn clone_box(&self) -> Box<dyn indicatif::style::ProgressTracker> {
+        Box::new(self.clone())
+    }
+
+    fn tick(&mut self, state: &indicatif::ProgressState, _: std::time::Instant) {
+        if self.moved.is_none_or(|(pos, _)| pos != state.pos()) {
+            self.moved = Some((state.pos(), state.elapsed()));
+        }
+    }
+
+    fn reset(&mut self, _: &indicatif::ProgressState, _: std::time::Instant) {
+        self.moved = None;
+    }
+
+    fn write(&self, state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write) {
+        let now = state.elapsed();
+        let at_done = match self.moved {
+            Some((pos, at)) if pos == state.pos() => at,
+            _ => now,
+        };
+        let _ = match eta(state.pos(), state.len().unwrap_or(0), at_done, now) {
+            Some(left) => write!(w, "{:#}", indicatif::HumanDuration(left)),
+            None => write!(w, "after the first frame"),
+        };
+    }
+}
+
+/// A progress bar of `frames` frames, with an ETA that holds steady ([`eta`]).
+pub fn progress_bar(frames: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(frames);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames  {elapsed} elapsed, eta {left}  {msg}",
+        )
+        .expect("the progress template is valid")
+        .with_key("left", EtaKey::default()),
+    );
+    bar
 }
 
 /// Worker threads that reconstruct surfaces; each also runs its reconstruction on rayon's pool.
@@ -301,18 +388,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         checkpoints,
         progress,
     } = opts;
-    let bar = if progress {
-        let bar = indicatif::ProgressBar::new(frames);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} frames  {elapsed} elapsed, eta {eta}  {msg}",
-            )
-            .expect("the progress template is valid"),
-        );
-        Some(bar)
-    } else {
-        None
-    };
+    let bar = progress.then(|| progress_bar(frames));
     let mut surface = surface
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;

@@ -62,6 +62,15 @@ fn negative_and_zero_numbers_are_named() {
             "at most 99999",
         ),
         (&["bench", "--steps", "-5"][..], "-5 is too small"),
+        // Past u64 and past i128: too large, not "not a whole number" (issue 39, item 7).
+        (&["run", "--frames", "99999999999999999999"][..], "is too large"),
+        (
+            &["run", "--frames", "999999999999999999999999999999999999999999"][..],
+            "is too large",
+        ),
+        (&["bench", "--particles", "-5"][..], "-5 is too small"),
+        (&["bench", "--block-size", "7"][..], "from 32"),
+        (&["bench", "--block-size", "100"][..], "not a multiple of 32"),
     ] {
         let out = mpm(args);
         assert!(!out.status.success(), "{args:?} accepted");
@@ -74,13 +83,19 @@ fn negative_and_zero_numbers_are_named() {
 }
 
 /// `--gpus` is refused, naming the fix, where it cannot run: on the CPU backends, beside `--ranks`,
-/// and at zero.
+/// and at zero. The fix for the CPU backends is CUDA where a device works, else dropping `--gpus`
+/// (`refusals_give_advice_that_runs_here` runs it).
 #[test]
 fn gpus_are_refused_where_they_cannot_run() {
+    let gpu_fix = if mpm::cuda::library::device_available().is_ok() {
+        "use --backend cuda"
+    } else {
+        "drop --gpus"
+    };
     for (args, words) in [
         (
             &["run", "--backend", "cpu", "--gpus", "2", "--frames", "1"][..],
-            "use --backend cuda",
+            gpu_fix,
         ),
         (
             &[
@@ -92,7 +107,7 @@ fn gpus_are_refused_where_they_cannot_run() {
                 "--steps",
                 "1",
             ][..],
-            "use --backend cuda",
+            gpu_fix,
         ),
         (&["run", "--gpus", "2", "--ranks", "2"][..], "cannot be used with"),
         (&["run", "--gpus", "0"][..], "0 is too small"),
@@ -438,4 +453,411 @@ fn devices_says_what_is_here_and_what_is_missing() {
         text.contains("MPM_NCCL_LIB=/nonexistent/libnccl.so.2 is not a file"),
         "{text}"
     );
+}
+
+/// `args` with the flags in `drop` (each with its value) taken out and `add` put in.
+fn with(args: &[String], drop: &[&str], add: &[&str]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < args.len() {
+        if drop.contains(&args[i].as_str()) {
+            i += 2;
+            continue;
+        }
+        out.push(args[i].clone());
+        i += 1;
+    }
+    out.extend(add.iter().map(|a| a.to_string()));
+    out
+}
+
+/// Every refusal of `--gpus` and `--ranks` on a machine without CUDA gives advice that runs on it:
+/// the test follows each piece of advice and runs it (issue 39, item 2: `--gpus 2` advised
+/// cpu-parallel, which refused `--gpus`; `--ranks 2` advised cpu-parallel, which refused `--ranks`;
+/// `bench --gpus 2` announced timing the CPU, then advised CUDA).
+#[test]
+fn refusals_give_advice_that_runs_here() {
+    if mpm::cuda::library::device_available().is_ok() {
+        return; // Where CUDA works these commands run, or are refused for the GPUs' count.
+    }
+    let run: &[&str] = &["run", "--scene", "dam-break-coarse", "--frames", "1"];
+    let bench: &[&str] = &[
+        "bench",
+        "--scene",
+        "dam-break-coarse",
+        "--steps",
+        "2",
+        "--warmup",
+        "0",
+    ];
+    let command = |base: &[&str], backend: Option<&str>, flag: &str| -> Vec<String> {
+        let mut a: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+        if let Some(b) = backend {
+            a.extend(["--backend".to_string(), b.to_string()]);
+        }
+        a.extend([flag.to_string(), "2".to_string()]);
+        a
+    };
+    // (command, advice the message must hold, the command that advice makes)
+    let mut cases: Vec<(Vec<String>, &str, Vec<String>)> = Vec::new();
+    for base in [run, bench] {
+        for backend in [None, Some("cpu"), Some("cpu-parallel"), Some("cuda")] {
+            let a = command(base, backend, "--gpus");
+            let (advice, dropped) = match backend {
+                Some("cuda") => (
+                    "--backend cpu-parallel and no --gpus",
+                    with(&a, &["--gpus", "--backend"], &["--backend", "cpu-parallel"]),
+                ),
+                _ => ("drop --gpus", with(&a, &["--gpus"], &[])),
+            };
+            cases.push((a.clone(), advice, dropped));
+            let split = with(
+                &a,
+                &["--gpus", "--backend"],
+                &["--backend", "cpu", "--ranks", "2"],
+            );
+            cases.push((a, "--backend cpu --ranks 2 in place of --gpus", split));
+        }
+        for backend in [None, Some("cpu-parallel"), Some("cuda")] {
+            let a = command(base, backend, "--ranks");
+            let split = with(&a, &["--backend"], &["--backend", "cpu"]);
+            cases.push((a.clone(), "--backend cpu --ranks 2", split));
+            let advice = match backend {
+                Some("cuda") => "drop --ranks and --backend cuda",
+                _ => "drop --ranks",
+            };
+            let dropped = with(&a, &["--ranks", "--backend"], &[]);
+            cases.push((a, advice, dropped));
+        }
+    }
+    for (args, advice, fixed) in cases {
+        let args_ref: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = mpm(&args_ref);
+        let text = stderr(&out);
+        assert!(!out.status.success(), "{args:?} ran without CUDA");
+        assert!(text.contains(advice), "{args:?}: `{advice}` not in: {text}");
+        assert!(
+            !text.contains("use --backend cuda") && !text.contains("timing the CPU"),
+            "{args:?}: advice that cannot run here, or work announced before the refusal: {text}"
+        );
+        let fixed_ref: Vec<&str> = fixed.iter().map(String::as_str).collect();
+        let retry = mpm(&fixed_ref);
+        assert!(
+            retry.status.success(),
+            "{args:?} advised `{advice}`; {fixed:?} failed: {}",
+            stderr(&retry)
+        );
+    }
+}
+
+/// `mpm bench --json PATH` checks the path before the first table, as `mpm run` checks its outputs:
+/// a file on the path, a missing folder and a read-only folder fail at once, naming the problem
+/// (issue 39, item 3). As root the read-only case runs as `nobody` (through setpriv).
+#[test]
+fn bench_json_is_checked_before_the_work() {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let locked = dir.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let bench = |json: &std::path::Path| -> Vec<String> {
+        [
+            "bench",
+            "--backend",
+            "cpu",
+            "--scene",
+            "dam-break-coarse",
+            "--steps",
+            "2",
+            "--warmup",
+            "0",
+            "--json",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([json.display().to_string()])
+        .collect()
+    };
+    let as_root = std::fs::metadata("/proc/self")
+        .map(|m| m.uid() == 0)
+        .unwrap_or(false);
+    for (json, words) in [
+        (file.join("out.json"), "is a file, not a folder"),
+        (dir.path().join("missing").join("out.json"), "does not exist"),
+        (locked.join("out.json"), "not writable"),
+    ] {
+        let args = bench(&json);
+        let out = if as_root {
+            Command::new("setpriv")
+                .args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
+                .arg(common::mpm_binary())
+                .args(&args)
+                .output()
+                .expect("as root, this test runs mpm as nobody through setpriv (util-linux)")
+        } else {
+            Command::new(common::mpm_binary()).args(&args).output().unwrap()
+        };
+        let text = stderr(&out);
+        assert!(!out.status.success(), "{json:?} accepted");
+        assert!(
+            text.contains(words) && text.contains("--json"),
+            "{json:?}: {text}"
+        );
+        assert!(
+            !stdout(&out).contains("| total"),
+            "{json:?}: refused only after the tables"
+        );
+    }
+    // A good path still takes the report.
+    let good = dir.path().join("report.json");
+    let args = bench(&good);
+    let out = Command::new(common::mpm_binary()).args(&args).output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(good.is_file());
+    assert!(
+        !dir.path().join(".mpm-write-check").exists(),
+        "the probe file was left"
+    );
+}
+
+/// `mpm bench` says what it times (issue 39, item 7): a particle count rounded to whole cells says
+/// the count it runs, the reference split into ranks is not labelled a single thread, and a CUDA
+/// block size with a CPU backend is refused rather than ignored.
+#[test]
+fn bench_says_what_it_times() {
+    let out = mpm(&[
+        "bench",
+        "--backend",
+        "cpu",
+        "--particles",
+        "10",
+        "--steps",
+        "1",
+        "--warmup",
+        "0",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--particles 10") && stderr(&out).contains("holds 16 particles"),
+        "{}",
+        stderr(&out)
+    );
+    let out = mpm(&[
+        "bench",
+        "--backend",
+        "cpu",
+        "--ranks",
+        "2",
+        "--scene",
+        "dam-break-coarse",
+        "--steps",
+        "2",
+        "--warmup",
+        "0",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("2 ranks of one thread each") && !text.contains("single thread"),
+        "{text}"
+    );
+    let out = mpm(&[
+        "bench",
+        "--backend",
+        "cpu-parallel",
+        "--block-size",
+        "64",
+        "--steps",
+        "1",
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("drop --block-size"), "{}", stderr(&out));
+}
+
+/// No help text shows a Rust doc link (the `--pipeline` values showed [`DensityRule::Advected`]).
+#[test]
+fn help_has_no_rust_doc_links() {
+    for command in ["view", "render", "run", "bench", "scenes", "devices"] {
+        let out = mpm(&[command, "--help"]);
+        let text = stdout(&out);
+        assert!(out.status.success() && !text.contains("[`"), "{command}: {text}");
+    }
+}
+
+/// Without CUDA the fallback note says why and what runs, not "use --backend cpu-parallel" while
+/// already using it; without a display the viewer's error does not ask whether DISPLAY is set after
+/// saying it is not, and gives a whole `mpm render` command, with the coarse scene on a CPU (issue
+/// 39, items 1 and 7).
+#[test]
+fn notes_and_errors_do_not_advise_what_is_done_or_asked() {
+    if mpm::cuda::library::device_available().is_err() {
+        let out = mpm(&["run", "--scene", "dam-break-coarse", "--frames", "0"]);
+        let text = stderr(&out);
+        assert!(out.status.success(), "{text}");
+        assert!(
+            text.contains("(cpu-parallel)") && !text.contains("use --backend cpu-parallel"),
+            "{text}"
+        );
+        let out = mpm(&["view"]);
+        let text = stderr(&out);
+        assert!(
+            text.contains("`mpm render --scene dam-break-coarse --frames 120 --out frames`"),
+            "{text}"
+        );
+    }
+    let out = mpm(&["view", "--scene", "fountain"]);
+    let text = stderr(&out);
+    assert!(!out.status.success());
+    assert!(!text.contains("is DISPLAY") && !text.contains("set?"), "{text}");
+    assert!(text.contains("--out frames"), "{text}");
+}
+
+/// `--resume DIR` (the folder `--checkpoint DIR` wrote) resumes from its latest checkpoint, saying
+/// which; a folder without checkpoints says what to give (issue 39, item 7).
+#[test]
+fn resume_from_a_folder_takes_its_latest_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let checkpoints = dir.path().join("c");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", "--backend", "cpu", "--frames", "2"];
+        args.extend(extra);
+        mpm(&args)
+    };
+    let c = checkpoints.to_str().unwrap();
+    let first = run(&[
+        "--scene",
+        "dam-break-coarse",
+        "--checkpoint",
+        c,
+        "--checkpoint-every",
+        "1",
+    ]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let out = run(&["--resume", c]);
+    let text = stdout(&out);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        text.contains("checkpoint_000002.mpmck")
+            && text.contains("at frame 2")
+            && text.contains("frame     4"),
+        "{text}"
+    );
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let out = run(&["--resume", empty.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("a folder without checkpoints"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+/// `mpm render` of a long run says what it will cost after its second frame, as `mpm run` does
+/// (issue 39, item 1): 99999 coarse frames drawn take hours on any machine this runs on. Needs a
+/// headless OpenGL (EGL); without one there is nothing to time.
+#[test]
+fn a_long_render_says_its_cost_early() {
+    let mut child = Command::new(common::mpm_binary())
+        .args([
+            "render",
+            "--scene",
+            "dam-break-coarse",
+            "--frames",
+            "99999",
+            "--no-images",
+            "--size",
+            "320x180",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let mut note = None;
+    let mut seen = Vec::new();
+    {
+        use std::io::BufRead;
+        let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        while start.elapsed() < Duration::from_secs(120) {
+            match lines.next() {
+                Some(Ok(line)) if line.starts_with("note:") => {
+                    note = Some(line);
+                    break;
+                }
+                Some(Ok(line)) => seen.push(line),
+                _ => break,
+            }
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    if !seen.iter().any(|l| l.starts_with("OpenGL:")) {
+        return; // No headless OpenGL here: render stopped before its first frame.
+    }
+    let note = note.unwrap_or_else(|| panic!("no cost note within 2 minutes: {seen:?}"));
+    assert!(
+        note.contains("these 99999 frames take about") && note.contains("drawing a frame"),
+        "{note}"
+    );
+}
+
+/// The progress bar's ETA (issue 39, item 6): unknown before the first frame, not "0s"; through a
+/// slow frame it counts down, and when the frame ends it goes on from where it was instead of jumping
+/// with that one frame's cost.
+#[test]
+fn the_eta_holds_steady() {
+    use mpm::runner::eta;
+    let s = Duration::from_secs;
+    assert_eq!(eta(0, 100, s(0), s(5)), None);
+    // 10 s a frame: after 3 frames, 97 are left.
+    assert_eq!(eta(3, 100, s(30), s(30)), Some(s(970)));
+    assert_eq!(
+        eta(3, 100, s(30), s(34)),
+        Some(s(966)),
+        "counts down within a frame"
+    );
+    assert_eq!(eta(4, 100, s(40), s(40)), Some(s(960)), "and goes on from there");
+    // One frame of twice the cost moves the estimate by a frame's worth, not by half of it all.
+    let after_slow = eta(11, 100, s(120), s(120)).unwrap().as_secs_f64();
+    assert!((after_slow - 890.0).abs() < 90.0, "{after_slow}");
+    assert_eq!(eta(100, 100, s(1000), s(1000)), Some(s(0)));
+}
+
+/// docs/command-line.md's synopsis holds every option each command's `--help` lists (issue 39, item
+/// 9: `view` and `render` had none, and `--gpus` was missing from `run` and `bench`).
+#[test]
+fn the_command_line_page_lists_every_option() {
+    let page = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/command-line.md")).unwrap();
+    let synopsis = page.split("```").nth(1).expect("the synopsis block");
+    for command in ["view", "render", "run", "bench", "scenes"] {
+        let lines: String = synopsis
+            .split("\nmpm ")
+            .filter(|block| {
+                let name = block.split_whitespace().next().unwrap_or("");
+                name == command || (command == "view" && name == "[view]")
+            })
+            .collect();
+        assert!(!lines.is_empty(), "no synopsis of `mpm {command}`");
+        let help = stdout(&mpm(&[command, "--help"]));
+        for option in help
+            .lines()
+            .filter(|l| l.trim_start().starts_with('-'))
+            .filter_map(|l| l.split_whitespace().find(|w| w.starts_with("--")))
+            .map(|w| w.trim_end_matches(','))
+            .filter(|o| *o != "--help" && *o != "--version")
+        {
+            // The whole option, not a longer one it begins (`--surface-format` for `--surface`).
+            let whole = lines.match_indices(option).any(|(at, _)| {
+                !lines[at + option.len()..].starts_with(|c: char| c.is_ascii_alphanumeric() || c == '-')
+            });
+            assert!(
+                whole,
+                "`mpm {command} {option}` is not in docs/command-line.md's synopsis"
+            );
+        }
+    }
 }

@@ -107,6 +107,26 @@ fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
             "",
             "binned",
         ),
+        // Values that load but could never run are refused at load, naming a range (issue 39,
+        // item 5), not left to fail in frame 1 as a "blow-up".
+        (
+            "a sound speed past the substep cap",
+            water(BLOCK).replace("sound_speed = 20.0", "sound_speed = 1.0e12"),
+            "material.sound_speed",
+            "give a sound speed from 1 to",
+        ),
+        (
+            "a stiffness whose sound speed is past the substep cap",
+            water(BLOCK).replace("sound_speed = 20.0", "eos_stiffness = 1.0e20"),
+            "material.eos_stiffness",
+            "max_substeps",
+        ),
+        (
+            "a gravity under which water falls faster than sound",
+            water(&format!("[solver]\ngravity = [0.0, -1.0e9, 0.0]\n{BLOCK}")),
+            "solver.gravity",
+            "give |g| from 0 to",
+        ),
         (
             "not TOML at all",
             "this is not = = toml".to_string(),
@@ -219,4 +239,45 @@ fn a_low_max_substeps_is_not_called_a_blow_up() {
     };
     let e = default.substeps(FRAME_DT, 1.0e5, 0.01).unwrap_err();
     assert!(e.contains("blowing up"), "{e}");
+}
+
+/// The fix a refusal suggests loads: cells that are not cubes get sizes (and, where one exists, a
+/// resolution) the checks accept, never `resolution = [40, 0, 0]` (issue 39, item 7).
+#[test]
+fn the_cube_cells_fix_loads() {
+    let scene = |size: &str, res: &str| {
+        format!(
+            "[domain]\nsize = {size}\nresolution = {res}\n[material]\nrest_density = 1000.0\n\
+             sound_speed = 10.0\n[[block]]\nmin = [0.05, 0.05, 0.05]\nmax = [0.1, 0.1, 0.1]\n"
+        )
+    };
+    // A domain too thin for its resolution: rounding the sizes gives 2 nodes, under the 8 allowed.
+    for (size, res) in [
+        ("[1.0, 0.05, 0.05]", "[40, 20, 20]"),
+        ("[1.0, 0.5, 0.4]", "[40, 20, 20]"),
+    ] {
+        let e = refuse(&scene(size, res));
+        assert_eq!(e.key, "domain.resolution", "{e}");
+        let fix = &e.fix;
+        let value = |key: &str| {
+            fix.split(&format!("{key} = "))
+                .nth(1)
+                .map(|rest| rest[..=rest.find(']').unwrap()].to_string())
+        };
+        let new_size = value("size").unwrap_or_else(|| panic!("no size in the fix: {fix}"));
+        Scene::from_toml(&scene(&new_size, res), "fixed.toml")
+            .unwrap_or_else(|e| panic!("the fix {new_size} is refused: {e}"));
+        if let Some(new_res) = value("resolution") {
+            Scene::from_toml(&scene(size, &new_res), "fixed.toml")
+                .unwrap_or_else(|e| panic!("the fix {new_res} is refused: {e}"));
+        }
+    }
+}
+
+/// The preset scenes all pass the load checks of sound speed and gravity.
+#[test]
+fn every_preset_passes_the_speed_checks() {
+    for name in mpm::sim::presets::NAMES {
+        Scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
 }

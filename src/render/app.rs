@@ -72,6 +72,7 @@ pub struct ViewerOptions {
 /// Opens the window and runs until it is closed.
 pub fn run(options: ViewerOptions) -> Result<()> {
     check_paths(&options)?;
+    let render_instead = render_command(&options.scene);
     let mut app = ViewerApp::new(options)?;
     let event_loop = EventLoop::new().map_err(|e| {
         // winit's message starts with the path of its own source file; the user needs the rest.
@@ -81,9 +82,20 @@ pub fn run(options: ViewerOptions) -> Result<()> {
             .and_then(|(_, rest)| rest.split_once(": "))
             .map_or(text.as_str(), |(_, reason)| reason)
             .trim_end_matches('.');
+        // Where a display is named, the reason is that it did not answer; where none is, winit's
+        // reason says so already, and asking whether one is set would be asking twice.
+        let named: Vec<String> = ["DISPLAY", "WAYLAND_DISPLAY"]
+            .iter()
+            .filter_map(|v| std::env::var(v).ok().map(|value| format!("{v}={value}")))
+            .collect();
+        let display = if named.is_empty() {
+            String::new()
+        } else {
+            format!(" ({} is set, but no display answered there)", named.join(", "))
+        };
         anyhow!(
-            "cannot open a window: {reason}. The viewer needs a display (X11 or Wayland: is DISPLAY or \
-             WAYLAND_DISPLAY set?); without one, `mpm render` draws frames to PNG files headless"
+            "cannot open a window: {reason}. The viewer needs a display (X11 or Wayland){display}; \
+             without one, {render_instead}"
         )
     })?;
     event_loop
@@ -92,6 +104,32 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     match app.fatal.take() {
         Some(e) => Err(e),
         None => Ok(()),
+    }
+}
+
+/// The headless command that draws `scene` instead of the viewer, whole: with `--out`, and on a
+/// machine without a CUDA device the coarse dam break in place of a scene a CPU steps for seconds a
+/// frame.
+fn render_command(scene: &Scene) -> String {
+    let arg = scene.source.strip_prefix("preset ").unwrap_or(&scene.source);
+    let quoted = if arg.contains(char::is_whitespace) {
+        format!("'{arg}'")
+    } else {
+        arg.to_string()
+    };
+    // About where a 2-core CPU takes a second or more per frame (the full dam break, 451,200
+    // particles, took about 10 s a frame drawn there; the fountain, 20,128, well under one).
+    const HEAVY_ON_A_CPU: usize = 100_000;
+    let on_cpu = crate::cuda::library::device_available().is_err();
+    if on_cpu && scene.num_particles > HEAVY_ON_A_CPU {
+        format!(
+            "`mpm render --scene dam-break-coarse --frames 120 --out frames` draws frames to PNG files \
+             headless (no CUDA device here: a CPU takes seconds a frame over the {} particles of {}, \
+             which `--scene {quoted}` renders)",
+            scene.num_particles, scene.name
+        )
+    } else {
+        format!("`mpm render --scene {quoted} --frames 120 --out frames` draws frames to PNG files headless")
     }
 }
 

@@ -29,6 +29,8 @@ pub struct RenderOptions {
     pub full_res_smoothing: bool,
     pub transfer: Transfer,
     pub video: Option<PathBuf>,
+    /// Show a progress bar (stdout is a terminal).
+    pub progress: bool,
 }
 
 /// Mean wall milliseconds per frame, over the frames after the first few (warm-up).
@@ -104,6 +106,12 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     let mut feed = ParticleFeed::new(options.transfer);
 
     let mut sums = RenderTimings::default();
+    let bar = options
+        .progress
+        .then(|| crate::runner::progress_bar(options.frames + 1));
+    // From the initial frame drawn (GL's and the backend's start-up are behind it) to the second
+    // stepped one: what a frame costs here, said when the whole will take a minute or more.
+    let mut first_drawn = None;
     for frame in 0..=options.frames {
         let start = Instant::now();
         if frame > 0 {
@@ -135,6 +143,32 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
         if let Some(sequence) = &mut sequence {
             sequence.write(&headless.read_image())?;
         }
+        if let Some(bar) = &bar {
+            bar.inc(1);
+        }
+        match (frame, first_drawn) {
+            (0, _) => first_drawn = Some(Instant::now()),
+            (2, Some(at)) if options.frames > 2 => {
+                let note = crate::runner::long_run_note(
+                    at.elapsed() / 2,
+                    options.frames,
+                    &format!("stepping ({}) and drawing a frame takes", sim.backend()),
+                    &sim.scene().name,
+                );
+                match (note, &bar) {
+                    (Some(note), Some(bar)) => bar.println(note),
+                    (Some(note), None) => {
+                        writeln!(log, "{note}")?;
+                        log.flush()?;
+                    }
+                    (None, _) => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
     }
     let n = sums.frames_measured.max(1) as f64;
     let (_, passes) = renderer.timer_mut().means();

@@ -43,6 +43,11 @@ pub enum Pipeline {
     /// advection and the next substep's whole scatter (mass and momentum) in one kernel, the density
     /// carried by the particle ([`DensityRule::Advected`]).
     #[default]
+    #[value(
+        help = "One particle pass per substep (the default): the binned pipeline's bins and \
+                    tiles, with g2p, advection and the next substep's whole scatter (mass and \
+                    momentum) in one kernel, the density carried by the particle (advected)"
+    )]
     Fused,
     /// Particles binned by 4x4x4-node block, scatters through shared-memory tiles, g2p fused with the
     /// next substep's mass scatter, then the report's density gather and momentum scatter: two

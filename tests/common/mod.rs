@@ -105,6 +105,7 @@ pub fn render_options(
         full_res_smoothing: false,
         transfer: mpm::render::Transfer::Interop,
         video: None,
+        progress: false,
     }
 }
 

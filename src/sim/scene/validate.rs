@@ -8,7 +8,7 @@ use super::{
 };
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
-use crate::sim::params::Material;
+use crate::sim::params::{Material, FRAME_DT};
 use crate::sim::{mesh, presets};
 use glam::{DVec3, Vec3};
 use std::fmt;
@@ -101,6 +101,15 @@ impl Validator<'_> {
         let colliders = self.colliders(spec, grid_res, dx)?;
         let max_speed = max_body_speed.max(colliders.max_speed());
         let time_step = self.time_step(&spec.time_step, &material, dx, max_speed)?;
+        self.plausible_speeds(
+            &spec.material,
+            &material,
+            gravity,
+            &spec.domain,
+            dx,
+            max_speed,
+            &time_step,
+        )?;
 
         let mut scene = Scene {
             name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
@@ -160,12 +169,7 @@ impl Validator<'_> {
                     "gives different cell sizes per axis (size / resolution = {:.6}, {:.6}, {:.6} m)",
                     dxs[0], dxs[1], dxs[2]
                 ),
-                format!(
-                    "cells must be cubes: keep size / resolution equal, e.g. resolution = [{}, {}, {}]",
-                    d.resolution[0],
-                    (d.size[1] / dx).round(),
-                    (d.size[2] / dx).round()
-                ),
+                cube_cells_fix(d, dx),
             ));
         }
         Ok((d.resolution, dx))
@@ -634,6 +638,80 @@ impl Validator<'_> {
         }
     }
 
+    /// A sound speed or a gravity that loads but could never run, refused here rather than as a
+    /// "blow-up" in frame 1: a sound speed whose first frame needs more substeps than the cap, and a
+    /// gravity under which water falling across the domain outruns its own sound speed (the weakly
+    /// compressible model holds only well below it).
+    #[allow(clippy::too_many_arguments)]
+    fn plausible_speeds(
+        &self,
+        m: &MaterialSpec,
+        material: &Material,
+        gravity: Vec3,
+        domain: &DomainSpec,
+        dx: f64,
+        max_body_speed: f32,
+        policy: &TimeStepPolicy,
+    ) -> Result<(), SceneError> {
+        let c0 = material.sound_speed();
+        if let TimeStepPolicy::Cfl { cfl, max_substeps } = *policy {
+            let allowed = max_substeps as f32 * cfl * dx as f32 / FRAME_DT;
+            if c0 + max_body_speed > allowed {
+                let needs = (FRAME_DT * (c0 + max_body_speed) / (cfl * dx as f32)).ceil();
+                let (key, given) = match (m.sound_speed, m.eos_stiffness) {
+                    (Some(c), _) => ("material.sound_speed", format!("= {c} m/s")),
+                    (None, k) => (
+                        "material.eos_stiffness",
+                        format!(
+                            "= {} Pa gives a sound speed of {c0:.3e} m/s, which",
+                            k.unwrap_or_default()
+                        ),
+                    ),
+                };
+                return Err(self.err(
+                    key,
+                    format!(
+                        "{given} needs {needs:.3e} substeps per 60 Hz frame at dx = {dx} m and cfl = {cfl}, \
+                         more than time_step.max_substeps = {max_substeps}"
+                    ),
+                    format!(
+                        "give a sound speed from 1 to {:.0} m/s for this grid (10 to 20 m/s is real-time \
+                         water; the substeps per frame grow with it)",
+                        (allowed - max_body_speed).max(1.0)
+                    ),
+                ));
+            }
+        }
+        let g = gravity.length();
+        // The domain's extent along gravity: the farthest the water can fall.
+        let drop = if g > 0.0 {
+            let down = gravity / g;
+            (0..3)
+                .map(|a| (down[a] * domain.size[a] as f32).abs())
+                .sum::<f32>()
+        } else {
+            0.0
+        };
+        let fall_speed = (2.0 * g * drop).sqrt();
+        if fall_speed > c0 {
+            return Err(self.err(
+                "solver.gravity",
+                format!(
+                    "= {:?} m/s^2 lets water falling {drop:.3} m across the domain reach {fall_speed:.3e} m/s, \
+                     faster than its sound speed c0 = {c0:.3} m/s, where the weakly compressible model \
+                     no longer holds",
+                    gravity.to_array()
+                ),
+                format!(
+                    "give |g| from 0 to {:.1} m/s^2 for this sound speed and domain (c0^2 / (2 x {drop:.3} \
+                     m); 9.81 on Earth), or raise material.sound_speed",
+                    c0 * c0 / (2.0 * drop)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// The live particles the bodies spawn; zero only where emitters will bring fluid.
     fn count_particles(&self, scene: &Scene, has_emitters: bool) -> Result<usize, SceneError> {
         let lattice = scene.lattice();
@@ -719,6 +797,40 @@ impl Validator<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// How to make the cells of `d` cubes of edge `dx` (x's): the sizes that fit the resolution as
+/// given, always; and the resolution that fits the sizes, where rounding gives one the checks accept
+/// (at least 8 nodes per axis, the same cell edge on every axis).
+fn cube_cells_fix(d: &DomainSpec, dx: f64) -> String {
+    // Rounded to a micrometre: 40 x 0.025 reads 1, not 1.0000000000000002.
+    let metres = |x: f64| {
+        let text = format!("{x:.6}");
+        let text = text.trim_end_matches('0');
+        format!("{text}{}", if text.ends_with('.') { "0" } else { "" })
+    };
+    let size = d.resolution.map(|r| metres(f64::from(r) * dx));
+    let size_fix = format!(
+        "size = [{}, {}, {}] for this resolution (dx = {} m)",
+        size[0],
+        size[1],
+        size[2],
+        metres(dx)
+    );
+    let res = [0, 1, 2].map(|a| (d.size[a] / dx).round());
+    let fits = res
+        .iter()
+        .enumerate()
+        .all(|(a, &r)| r >= 8.0 && r <= f64::from(u32::MAX) && ((d.size[a] / r - dx) / dx).abs() <= 1e-4);
+    if fits {
+        format!(
+            "cells must be cubes: keep size / resolution equal, e.g. resolution = [{}, {}, {}] for this \
+             size, or {size_fix}",
+            res[0], res[1], res[2]
+        )
+    } else {
+        format!("cells must be cubes: keep size / resolution equal, e.g. {size_fix}")
     }
 }
 
