@@ -737,6 +737,7 @@ fn devices() -> Result<()> {
 }
 
 fn run(args: RunArgs) -> Result<()> {
+    let started = std::time::Instant::now();
     // A folder of checkpoints stands for its latest one: what a user resuming a run means.
     let resume = match args.resume.as_deref() {
         Some(dir) if dir.is_dir() => {
@@ -859,6 +860,7 @@ fn run(args: RunArgs) -> Result<()> {
         stats,
         checkpoints,
         progress: std::io::stdout().is_terminal(),
+        started,
     };
     runner::run(&mut sim, opts, &mut std::io::stdout().lock())?;
     Ok(())

@@ -24,6 +24,9 @@ pub struct RunOptions {
     pub checkpoints: Option<CheckpointSeries>,
     /// Show a progress bar (stdout is a terminal).
     pub progress: bool,
+    /// When the command started (before the scene was read and the backend made), for the closing
+    /// line that says where the wall time went.
+    pub started: Instant,
 }
 
 /// The JSON-lines stats file: one [`FrameStats`] object per line. Checked when made, created with
@@ -387,6 +390,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         mut stats,
         checkpoints,
         progress,
+        started: command_started,
     } = opts;
     let bar = progress.then(|| progress_bar(frames));
     let mut surface = surface
@@ -420,6 +424,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         Ok(())
     };
     let started = Instant::now();
+    let start_up = started.duration_since(command_started);
     for done in 1..=frames {
         let frame_stats = sim.advance_frame()?;
         say(out, &format_frame(&frame_stats))?;
@@ -459,6 +464,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             say(out, &format!("checkpoint {}", path.display()))?;
         }
     }
+    let stepping = started.elapsed();
     let surface_line = match surface {
         Some(queue) => {
             let last_frame = Instant::now();
@@ -502,5 +508,35 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     if let Some(note) = backstop_note(&all) {
         writeln!(out, "{note}")?;
     }
+    let wall = command_started.elapsed();
+    writeln!(out, "{}", time_line(wall, start_up, stepping, &all))?;
     Ok(all)
+}
+
+/// Where a run's wall time went: start-up (reading the scene, opening the device, making the
+/// particles), stepping the frames (with the backend's own timing of its substeps beside it, where
+/// it times them), and finishing (the surface meshes still queued, the closing lines). What the
+/// process spends after it (the device's teardown at exit) is not in it.
+pub fn time_line(wall: Duration, start_up: Duration, stepping: Duration, frames: &[FrameStats]) -> String {
+    let mut line = format!(
+        "time: {:.2} s = start-up {:.2} s + {} {:.2} s + finishing {:.2} s",
+        wall.as_secs_f64(),
+        start_up.as_secs_f64(),
+        crate::text::count(frames.len() as u64, "frame", "frames"),
+        stepping.as_secs_f64(),
+        wall.saturating_sub(start_up + stepping).as_secs_f64(),
+    );
+    let timed: f64 = frames
+        .iter()
+        .filter_map(|f| f.timings.as_ref())
+        .map(|t| t.total())
+        .sum();
+    if timed > 0.0 {
+        let timed = timed / 1e3;
+        line += &format!(
+            "; the substeps' own timing {timed:.2} s (wall / substeps {:.2})",
+            wall.as_secs_f64() / timed
+        );
+    }
+    line
 }

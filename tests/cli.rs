@@ -861,3 +861,29 @@ fn the_command_line_page_lists_every_option() {
         }
     }
 }
+
+/// `mpm run` closes with where its wall time went, the parts adding up to the whole.
+#[test]
+fn a_run_says_where_its_wall_time_went() {
+    let out = common::cpu_run("dam-break-coarse", "3", &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    let line = text.lines().last().unwrap_or_default();
+    assert!(
+        line.starts_with("time: "),
+        "the last line is not the time line: {line:?}"
+    );
+    let seconds: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter(|w| w.contains('.'))
+        .map(|w| w.parse().unwrap())
+        .collect();
+    // wall, start-up, the frames' stepping, finishing, then the substeps' own timing and the ratio.
+    let [wall, start_up, stepping, finishing, substeps, ratio] = seconds[..] else {
+        panic!("six figures expected in {line:?}");
+    };
+    assert!(line.contains(" 3 frames "), "{line}");
+    assert!((start_up + stepping + finishing - wall).abs() <= 0.015, "{line}");
+    assert!(substeps > 0.0 && substeps <= stepping + 0.01, "{line}");
+    assert!((wall / substeps - ratio).abs() <= 0.01 * ratio + 0.01, "{line}");
+}

@@ -67,6 +67,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
             stats: Some(StatsFile::create(&stats, overwrite)?),
             checkpoints: None,
             progress: false,
+            started: std::time::Instant::now(),
         };
         runner::run(&mut sim, opts, &mut std::io::sink())
     };
@@ -152,6 +153,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
             stats: None,
             checkpoints: None,
             progress: false,
+            started: std::time::Instant::now(),
         };
         runner::run(&mut sim, opts, &mut std::io::sink())?;
         Ok(note)
@@ -214,6 +216,7 @@ fn a_huge_frame_count_does_not_abort() {
         stats: None,
         checkpoints: None,
         progress: false,
+        started: std::time::Instant::now(),
     };
     let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();
     assert!(format!("{e:#}").to_lowercase().contains("pipe"), "{e:#}");

@@ -134,6 +134,7 @@ fn parked_slots_are_seen_by_nothing() {
         stats: None,
         checkpoints: None,
         progress: false,
+        started: std::time::Instant::now(),
     };
     mpm::runner::run(&mut sim, opts, &mut std::io::sink()).unwrap();
     let live_now = sim.solver_mut().read_particles().unwrap().num_live();

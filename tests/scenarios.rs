@@ -398,6 +398,7 @@ velocity = [50.0, 0.0, 0.0]
         stats: None,
         checkpoints: None,
         progress: false,
+        started: std::time::Instant::now(),
     };
     let mut out = Vec::new();
     let all = mpm::runner::run(&mut sim, opts, &mut out).unwrap();

@@ -302,6 +302,7 @@ fn run_with_surface(
         stats: None,
         checkpoints: None,
         progress: false,
+        started: std::time::Instant::now(),
     };
     let mut out = Vec::new();
     let stats = runner::run(&mut sim, opts, &mut out).unwrap();
@@ -408,6 +409,7 @@ fn a_failed_write_on_a_worker_stops_the_run() {
         stats: None,
         checkpoints: None,
         progress: false,
+        started: std::time::Instant::now(),
     };
     let e = runner::run(&mut sim, opts, &mut std::io::sink()).unwrap_err();
     let text = format!("{e:#}");
