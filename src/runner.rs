@@ -519,7 +519,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
 /// process spends after it (the device's teardown at exit) is not in it.
 pub fn time_line(wall: Duration, start_up: Duration, stepping: Duration, frames: &[FrameStats]) -> String {
     let mut line = format!(
-        "time: {:.2} s = start-up {:.2} s + {} {:.2} s + finishing {:.2} s",
+        "time: {:.3} s = start-up {:.3} s + {} {:.3} s + finishing {:.3} s",
         wall.as_secs_f64(),
         start_up.as_secs_f64(),
         crate::text::count(frames.len() as u64, "frame", "frames"),
@@ -534,7 +534,7 @@ pub fn time_line(wall: Duration, start_up: Duration, stepping: Duration, frames:
     if timed > 0.0 {
         let timed = timed / 1e3;
         line += &format!(
-            "; the substeps' own timing {timed:.2} s (wall / substeps {:.2})",
+            "; the substeps' own timing {timed:.3} s (wall / substeps {:.2})",
             wall.as_secs_f64() / timed
         );
     }

@@ -331,7 +331,12 @@ fn a_resting_block_exports_closed_outward_meshes_that_hold_its_volume() {
         names(dir.path()),
         ["surface_000000.obj", "surface_000002.obj", "surface_000004.obj"]
     );
-    let summary = out.lines().last().unwrap();
+    // The surface's summary, then the run's closing time line.
+    let lines: Vec<&str> = out.lines().collect();
+    let [.., summary, time] = lines[..] else {
+        panic!("no closing lines in {out}");
+    };
+    assert!(time.starts_with("time: "), "{time}");
     assert!(
         summary.starts_with("surface: 3 meshes (obj in ") && summary.contains(" s per mesh"),
         "{summary}"
