@@ -6,7 +6,7 @@
 use super::gpu::Gpu;
 use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
-use crate::sim::{ColourBy, DeviceParticles as SolverParticles};
+use crate::sim::{ColourBy, DeviceParticleView};
 use anyhow::{Context, Result};
 use cudarc::driver::{
     sys::CUdeviceptr, CudaContext, CudaSlice, CudaStream, DevicePtr, DevicePtrMut, PushKernelArg,
@@ -49,7 +49,7 @@ impl DeviceParticlesView {
     }
 
     /// The CUDA view behind a solver's `ParticleView::Device`, where the solver is a CUDA one.
-    pub fn of(view: &dyn SolverParticles) -> Option<&DeviceParticlesView> {
+    pub fn of(view: &dyn DeviceParticleView) -> Option<&DeviceParticlesView> {
         view.as_any().downcast_ref()
     }
 
@@ -135,7 +135,7 @@ impl DeviceParticlesView {
     }
 }
 
-impl SolverParticles for DeviceParticlesView {
+impl DeviceParticleView for DeviceParticlesView {
     fn count(&self) -> usize {
         self.count
     }

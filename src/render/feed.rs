@@ -8,7 +8,7 @@ use super::renderer::{Colouring, Renderer};
 use crate::cuda::interop::GlBufferResource;
 use crate::cuda::render::DeviceParticlesView;
 use crate::sim::flow::PARKED_RENDER_ATTRIBUTES;
-use crate::sim::{ColourBy, DeviceParticles, ParticleView, Particles, Simulation, Solver};
+use crate::sim::{ColourBy, DeviceParticleView, ParticleView, Particles, Simulation, Solver};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::CudaSlice;
 use rayon::prelude::*;

@@ -25,4 +25,4 @@ pub use scene::{Particles, Scene, SceneError};
 pub use simulation::{FrameStats, FrameSteps, RunClock, Simulation};
 pub use solver::{ExtremesTicket, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS};
 pub use summary::Summary;
-pub use view::{ColourBy, DeviceParticles, ParticleView};
+pub use view::{ColourBy, DeviceParticleView, ParticleView};

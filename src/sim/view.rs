@@ -1,7 +1,7 @@
 //! How a reader sees a solver's particles without taking them over: in host memory, or left in a
 //! GPU's memory for a reader of the same device (the renderer writes its vertex buffer there through
 //! CUDA-OpenGL interop). This layer names no device type: the backend's own view sits behind
-//! [`DeviceParticles`].
+//! [`DeviceParticleView`].
 
 use super::scene::Particles;
 use anyhow::Result;
@@ -40,13 +40,13 @@ impl ColourBy {
 /// Where a solver keeps its particles.
 pub enum ParticleView<'a> {
     /// In a GPU's memory (the CUDA backend): drawn without a trip through the host.
-    Device(Box<dyn DeviceParticles + 'a>),
+    Device(Box<dyn DeviceParticleView + 'a>),
     /// In host memory (the CPU backends), every slot.
     Host(&'a Particles),
 }
 
 /// A solver's particles in a GPU's memory, valid while the solver is borrowed.
-pub trait DeviceParticles {
+pub trait DeviceParticleView {
     /// Slots, parked ones included.
     fn count(&self) -> usize;
     /// Every slot's `[x, y, z, colour_by value]` (parked slots as the renderer clips them), computed
