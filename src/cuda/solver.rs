@@ -171,6 +171,7 @@ impl CudaSolver {
     /// mirror off, a first-substep scatter after the first substep, a sort not due, do not).
     pub(super) fn run(&mut self, launch: Launch, sort: bool) -> Result<bool> {
         let (k, l, p, d) = (&self.kernels, &self.gpu.launcher, &self.params, &self.state);
+        let pipe = self.pipeline;
         match launch {
             Launch::SortByCell | Launch::Rebin | Launch::RebinInOrder => {
                 if sort {
@@ -187,8 +188,10 @@ impl CudaSolver {
                 }
                 self.scatter_mass(launch)?;
             }
-            Launch::MirrorMass => return self.mirror(MirrorQuantity::Mass),
-            Launch::MirrorMomentum => return self.mirror(MirrorQuantity::Momentum),
+            // Not where the scene turns the walls' mirror off.
+            // Not where the scene turns the walls' mirror off.
+            Launch::MirrorMass => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Mass, p, d),
+            Launch::MirrorMomentum => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Momentum, p, d),
             Launch::P2g => k.p2g.launch(l, p, d)?,
             Launch::P2gOrTiled => {
                 if self.scatters_momentum_by_tile() {
@@ -197,10 +200,10 @@ impl CudaSolver {
                     k.p2g.launch(l, p, d)?;
                 }
             }
-            Launch::GridUpdate => k.grid_update.launch(l, self.pipeline, false, p, d)?,
+            Launch::GridUpdate => k.grid_update.launch(l, pipe, false, p, d)?,
             Launch::GridUpdateBlocks | Launch::GridUpdateBlocksMirrored => {
                 let mirror = launch == Launch::GridUpdateBlocksMirrored;
-                k.grid_update.launch(l, self.pipeline, mirror, p, d)?;
+                k.grid_update.launch(l, pipe, mirror, p, d)?;
                 k.grid_update.clear_crossing_orbits(l, mirror, p, &d.grid)?;
             }
             Launch::G2p => k.g2p.launch(l, p, d)?,
@@ -285,13 +288,6 @@ impl CudaSolver {
         }
         self.mass_scattered = Some(self.params.scatter_mode);
         Ok(())
-    }
-
-    /// Whether it launched (not where the scene turns the mirror off).
-    pub(super) fn mirror(&self, quantity: MirrorQuantity) -> Result<bool> {
-        let (k, l) = (&self.kernels, &self.gpu.launcher);
-        k.mirror_walls
-            .launch(l, self.pipeline, quantity, &self.params, &self.state)
     }
 
     /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
