@@ -72,12 +72,9 @@ pub fn check_ranks(kind: BackendKind, ranks: usize, gpus: usize) -> Result<()> {
         return Ok(());
     }
     let cuda = crate::cuda::library::device_available();
-    let name = match kind {
-        BackendKind::Auto => "auto",
-        BackendKind::Cpu => "cpu",
-        BackendKind::CpuParallel => "cpu-parallel",
-        BackendKind::Cuda => "cuda",
-    };
+    // The name the command line takes (clap's, from the variant), so the advice spells it as typed.
+    let value = clap::ValueEnum::to_possible_value(&kind).expect("every backend has a command-line name");
+    let name = value.get_name();
     let on_gpu = matches!(kind, BackendKind::Cuda | BackendKind::Auto);
     match (&cuda, on_gpu, gpus > 1) {
         (Ok(()), false, true) => bail!(

@@ -514,7 +514,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
 }
 
 /// Where a run's wall time went: start-up (reading the scene, opening the device, making the
-/// particles), stepping the frames (with the backend's own timing of its substeps beside it, where
+/// particles, writing frame 0 where the run exports), stepping the frames (with the backend's own timing of its substeps beside it, where
 /// it times them), and finishing (the surface meshes still queued, the closing lines). What the
 /// process spends after it (the device's teardown at exit) is not in it.
 pub fn time_line(wall: Duration, start_up: Duration, stepping: Duration, frames: &[FrameStats]) -> String {

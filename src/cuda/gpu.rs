@@ -186,11 +186,6 @@ impl Gpu {
         &self.launcher.stream
     }
 
-    /// How the kernels were loaded: embedded PTX, or compiled at run time (and why).
-    pub fn module_origin(&self) -> Origin {
-        self.modules.origin
-    }
-
     /// The device's name, e.g. "NVIDIA H200".
     pub fn name(&self) -> String {
         self.ctx.name().unwrap_or_else(|_| "unknown CUDA device".into())
