@@ -230,24 +230,27 @@ __device__ __forceinline__ float gather_density(const Stencil& s, const Params& 
 struct ParticleImpulse {
     float mv[3];
     float affine[3][3];  // [column][row]
+    float mass;          // m_p, the mass it scatters with the momentum
 };
 
 __device__ __forceinline__ ParticleImpulse particle_impulse(const Params& params, float rho, float4 vp, float4 c0,
                                                             float4 c1, float4 c2) {
-    const Material mat = params.material;
+    const Material& mat = params.materials[material_index(params, vp)];
     const float m_p = mat.particle_mass;
     const float dx = params.dx;
     const float volume = m_p / rho;
     const float pressure = material_pressure(mat, rho);
     const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};  // C as cm[column][row]
+    const float viscosity = material_viscosity(mat, cm);
     const float stress_factor = 4.0f * params.dt * volume / dx;
     ParticleImpulse out;
     for (int col = 0; col < 3; ++col) {
         for (int row = 0; row < 3; ++row) {
-            const float stress = material_stress(mat, pressure, cm, row, col);
+            const float stress = material_stress(viscosity, pressure, cm, row, col);
             out.affine[col][row] = cm[col][row] * (m_p * dx) - stress * stress_factor;
         }
     }
+    out.mass = m_p;
     out.mv[0] = vp.x * m_p;
     out.mv[1] = vp.y * m_p;
     out.mv[2] = vp.z * m_p;
@@ -292,13 +295,12 @@ struct GridDensity {
 };
 
 template <bool DENSITY>
-__device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp, float rho, const float4* grid_vel,
-                                                GridDensity* density) {
+__device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp, float material_tag, float rho,
+                                                const float4* grid_vel, GridDensity* density) {
     const float dx = params.dx, dt = params.dt, tau = params.soft_wall_tau;
     const float res[3] = {(float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]};
     const float wall_lo = (float)(params.boundary_band + 1) * dx;
     const float wall_offset = (float)(params.boundary_band + 2);
-    const Material mat = params.material;
     const Stencil s = make_stencil(xp, params);
     float vel[3] = {0.0f, 0.0f, 0.0f};
     float b[3][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // b[column][row]
@@ -377,30 +379,79 @@ __device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp,
     for (int col = 0; col < 3; ++col) {
         r.c[col] = make_float4(b[col][0] * scale, b[col][1] * scale, b[col][2] * scale, 0.0f);
     }
-    r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
+    r.v = make_float4(vel[0], vel[1], vel[2], material_tag);
     r.x = make_float4(next[0], next[1], next[2], 0.0f);
     r.speed = sqrtf(speed_sq);
-    r.signal = material_signal_speed(mat, rho, r.speed);
+    r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho, r.speed);
     return r;
 }
 
-__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float rho, const float4* grid_vel) {
-    return g2p_gather<false>(params, xp, rho, grid_vel, nullptr);
+// The largest particle mass of the table: what bounds a tile's sums.
+__device__ __forceinline__ float heaviest_particle_mass(const Params& params) {
+    float heaviest = params.materials[0].particle_mass;
+    for (u32 row = 1; row < params.material_count; ++row) heaviest = fmaxf(heaviest, params.materials[row].particle_mass);
+    return heaviest;
 }
 
-__device__ __forceinline__ G2pResult g2p_particle_and_density(const Params& params, float4 xp, const float4* grid_vel,
-                                                              GridDensity& density) {
-    return g2p_gather<true>(params, xp, 0.0f, grid_vel, &density);
+// v.w of particle p: the bits of its material's row (particle_material_tag), 0 in a scene of one
+// material, whose passes do not read it.
+__device__ __forceinline__ float particle_material_tag(const Params& params, const float4* v, u32 p) {
+    return params.material_count > 1u ? reinterpret_cast<const float*>(v)[4 * (size_t)p + 3] : 0.0f;
+}
+
+// The mass of particle p, from its material's row.
+__device__ __forceinline__ float particle_mass_of(const Params& params, const float4* v, u32 p) {
+    return params.materials[material_row(params, particle_material_tag(params, v, p))].particle_mass;
+}
+
+__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float material_tag, float rho,
+                                                  const float4* grid_vel) {
+    return g2p_gather<false>(params, xp, material_tag, rho, grid_vel, nullptr);
+}
+
+__device__ __forceinline__ G2pResult g2p_particle_and_density(const Params& params, float4 xp, float material_tag,
+                                                              const float4* grid_vel, GridDensity& density) {
+    return g2p_gather<true>(params, xp, material_tag, 0.0f, grid_vel, &density);
 }
 
 // DensityRule::advect (src/sim/params.rs): the grid's density at the particle's position before the
 // advection, carried over the substep by the fluid's velocity divergence there, the volume factor
 // held within MAX_VOLUME_CHANGE of 1.
-__device__ __forceinline__ float advected_density(const Params& params, const GridDensity& g) {
-    const float rho_grid = g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
+// Under carried_density (materials of several rest densities) the particle's own last density
+// `rho_before` is carried instead of the grid's, which mixes the liquids' masses at an interface.
+__device__ __forceinline__ float advected_density(const Params& params, const GridDensity& g, float rho_before) {
+    const float rho_grid = params.carried_density
+                               ? rho_before
+                               : g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
     const float volume_factor =
         fminf(fmaxf(1.0f + params.dt * g.divergence, 1.0f - MAX_VOLUME_CHANGE), 1.0f + MAX_VOLUME_CHANGE);
     return rho_grid / volume_factor;
+}
+
+// g2p under carried_density for the passes that gather no density otherwise (g2p.cu, g2p2g.cu): the
+// gather with the fluid's divergence, the particle's density carried over the substep by it, and
+// the signal speed at that density. Out of line, so that those passes' code for scenes of one rest
+// density keeps its registers.
+struct CarriedG2p {
+    G2pResult r;
+    float rho;
+};
+
+__device__ __noinline__ CarriedG2p g2p_particle_carried(const Params params, float4 xp, float material_tag,
+                                                        float rho_before, const float4* grid_vel) {
+    GridDensity density;
+    CarriedG2p out;
+    out.r = g2p_particle_and_density(params, xp, material_tag, grid_vel, density);
+    out.rho = advected_density(params, density, rho_before);
+    out.r.signal = material_signal_speed(params.materials[material_index(params, out.r.v)], out.rho, out.r.speed);
+    return out;
+}
+
+// The density a particle reports for the time step: in row 0's terms, rho rho0_0 / rho0
+// (Material::reported_density in src/sim/material.rs), rho itself in a scene of one material.
+__device__ __forceinline__ float reported_density(const Params& params, float4 vp, float rho) {
+    if (params.material_count == 1u) return rho;
+    return rho * (params.materials[0].rest_density / params.materials[material_index(params, vp)].rest_density);
 }
 
 // The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a
@@ -424,10 +475,9 @@ __device__ __noinline__ Backstop collider_backstop_particle(const Params params,
         speed_sq += vel[a] * vel[a];
     }
     r.x = make_float4(x[0], x[1], x[2], 0.0f);
-    r.v = make_float4(vel[0], vel[1], vel[2], 0.0f);
-    const Material mat = params.material;
+    r.v = make_float4(vel[0], vel[1], vel[2], r.v.w);
     r.speed = sqrtf(speed_sq);
-    r.signal = material_signal_speed(mat, rho, r.speed);
+    r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho, r.speed);
     return Backstop{r, true};
 }
 

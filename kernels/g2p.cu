@@ -11,7 +11,7 @@ extern "C" __global__ void g2p(const Params params,
                                float4* __restrict__ v,
                                float4* __restrict__ c,  // 3 arrays of N: columns 0, 1, 2 of C
                                const float4* __restrict__ grid_vel,
-                               const float* __restrict__ rho,  // p2g's density estimate, this step
+                               float* __restrict__ rho,  // p2g's density estimate; carried_density: carried here
                                StepCounters* __restrict__ counters) {
     const u32 n = params.num_particles;
     float max_speed = 0.0f, max_signal = 0.0f;
@@ -21,7 +21,14 @@ extern "C" __global__ void g2p(const Params params,
     // collapses: 0.12 ms per step in cell order, 0.07 ms in index order); its grid reads are cached
     // gathers, which suffer less from the spawn order's decay than the scatters' atomics do.
     FOR_EACH_INDEX(p, n) {
-        const G2pResult r = g2p_particle(params, x[p], rho[p], grid_vel);
+        G2pResult r;
+        if (params.carried_density) {
+            const CarriedG2p carried = g2p_particle_carried(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
+            r = carried.r;
+            rho[p] = carried.rho;
+        } else {
+            r = g2p_particle(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
+        }
         for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
         v[p] = r.v;
         x[p] = r.x;

@@ -11,7 +11,7 @@ template <bool ADVECT>
 __device__ __forceinline__ void scatter_bins_mass(const Params& params, const BinEntry* __restrict__ bins,
                                                   const u32* __restrict__ order, float4* __restrict__ x,
                                                   float4* __restrict__ v, float4* __restrict__ c,
-                                                  const float4* __restrict__ grid_vel, const float* __restrict__ rho,
+                                                  const float4* __restrict__ grid_vel, float* __restrict__ rho,
                                                   float4* grid_acc, u64* fixed_mass, const BlockMarks& marks,
                                                   u32* work_counts, StepCounters* __restrict__ counters,
                                                   const Colliders& colliders, const float4* __restrict__ sinks,
@@ -21,13 +21,13 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float tile_scale[1] = {tile_scales(params).mass};
     const float inv_scale = 1.0f / params.fixed_mass_scale;
-    const float m_p = params.material.particle_mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f;
     u32 misses = 0, pushes = 0;
     bool far = false;
-    const float unit_mass = m_p * tile_scale[0];
+    // The heaviest particle's tile units bound a chunk's sums (tiles.cuh); each takes its own.
+    const float unit_mass = heaviest_particle_mass(params) * tile_scale[0];
     i64 mass_balance = 0;  // mass units added to the tiles less those flushed (tiles.cuh)
     bool balanced = false;  // whether any of this CUDA block's chunks kept the mass balance
 
@@ -44,7 +44,15 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
             float4 xp = x[p];
             if (is_parked(xp)) continue;  // parked since the last binning: nothing to move or scatter
             if (ADVECT) {
-                G2pResult r = g2p_particle(params, xp, rho[p], grid_vel);
+                const float material_tag = particle_material_tag(params, v, p);
+                G2pResult r;
+                if (params.carried_density) {
+                    const CarriedG2p carried = g2p_particle_carried(params, xp, material_tag, rho[p], grid_vel);
+                    r = carried.r;
+                    rho[p] = carried.rho;
+                } else {
+                    r = g2p_particle(params, xp, material_tag, rho[p], grid_vel);
+                }
                 if (colliders.count) {
                     const Backstop b = collider_backstop_particle(params, colliders, rho[p], r);
                     r = b.r;
@@ -65,10 +73,11 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
                 }
             }
             const Stencil s = make_stencil(xp, params);
+            const float m_p = particle_mass_of(params, v, p);
             u32 first;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
             const u32 added = tile_scatter<1>(
-                s, params, first, in_tile && tile_takes(s, 0.0f, unit_mass), tile, tile_scale,
+                s, params, first, in_tile && tile_takes(s, 0.0f, m_p * tile_scale[0]), tile, tile_scale,
                 [&](float w, float, float, float, float (&mass)[1]) { mass[0] = __fmul_rn(w, m_p); },
                 [&](u32 node, int, float scaled, float mass) {
                     grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, scaled, mass, counters);
@@ -101,7 +110,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p2g(const Params params, const BinEntry* __restrict__ bins,
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
-                                 const float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
+                                 float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
                                  u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
                                  const ColliderState* __restrict__ collider_states, const u32 num_colliders,
                                  const float* __restrict__ collider_sdf, const float4* __restrict__ sinks,
@@ -113,10 +122,10 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
-                                    const u32* __restrict__ order, float4* __restrict__ x, float4* grid_acc,
-                                    u64* fixed_mass, u32* block_marks, u32* block_list, u32* work_counts,
-                                    StepCounters* __restrict__ counters) {
-    scatter_bins_mass<false>(params, bins, order, x, nullptr, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
+                                    const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
+                                    float4* grid_acc, u64* fixed_mass, u32* block_marks, u32* block_list,
+                                    u32* work_counts, StepCounters* __restrict__ counters) {
+    scatter_bins_mass<false>(params, bins, order, x, v, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
                              BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
                              Colliders{nullptr, 0u, nullptr}, nullptr, 0u, nullptr, nullptr);
 }

@@ -108,7 +108,6 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const TileScales scales = tile_scales(params);
     const bool scatter_momentum = params.density_rule == DENSITY_ADVECTED;
-    const float m_p = params.material.particle_mass;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
     for (u32 base = 0; base < num_points; base += blockDim.x) {
@@ -127,12 +126,14 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             const u32 slot = free_slots[available - 1u - rank];
             const u32 p = position[slot];
             const float4 at = points[g];
-            const float4 u = velocities[__float_as_uint(at.w)];
+            const float4 u = velocities[__float_as_uint(at.w)];  // w: the emitter's material tag
             const float4 xp = make_float4(at.x, at.y, at.z, 0.0f);
+            const Material& mat = params.materials[material_index(params, u)];
+            const float m_p = mat.particle_mass;
             x[p] = xp;
-            v[p] = make_float4(u.x, u.y, u.z, 0.0f);
+            v[p] = u;
             for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
-            rho[p] = params.material.rest_density;
+            rho[p] = mat.rest_density;
             last[g] = slot;
             if (scatter_mass) {
                 const Stencil s = make_stencil(xp, params);

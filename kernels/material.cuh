@@ -1,8 +1,8 @@
-// The fluid's constitutive law, the one place a kernel computes it: the Tait equation of state with
-// its pressure floor, the viscous stress, and the sound speed the time step follows
-// (docs/physics.md). `Material`'s methods in src/sim/material.rs are the CPU twins, operation for
-// operation, so the reference and the kernels round alike. A new law (a non-Newtonian viscosity,
-// say) changes these functions and their twins, nothing else.
+// A liquid's constitutive law, the one place a kernel computes it: the Tait equation of state with
+// its pressure floor, the viscosity as the material's law makes it of the shear rate, the viscous
+// stress, and the sound speed the time step follows (docs/physics.md). `Material`'s methods in
+// src/sim/material.rs are the CPU twins, operation for operation. A new law changes these functions
+// and their twins, nothing else.
 #include "contract.cuh"
 
 // powf out of line, for exponents material_power cannot square (no preset has one), so that the
@@ -35,10 +35,57 @@ __device__ __forceinline__ float material_pressure(const Material& mat, float rh
                  mat.pressure_floor);
 }
 
-// Component (row, col) of sigma = -p I + mu (C + C^T), with C given as cm[column][row].
-__device__ __forceinline__ float material_stress(const Material& mat, float pressure, const float (&cm)[3][3], int row,
+// The particle's material: its row of the scene's table, named by the bits of v.w; row 0 in a scene
+// of one material, without reading the index (the table's rows live in the kernel parameters, that
+// is in constant memory).
+__device__ __forceinline__ u32 material_row(const Params& params, float material_tag) {
+    return params.material_count > 1u ? min(__float_as_uint(material_tag), MAX_MATERIALS - 1u) : 0u;
+}
+
+__device__ __forceinline__ u32 material_index(const Params& params, float4 vp) {
+    return material_row(params, vp.w);
+}
+
+// The shear rate gammadot = sqrt(2 D':D'), D' the deviatoric part of D = (C + C^T) / 2, with C given
+// as cm[column][row] (src/sim/material.rs shear_rate).
+__device__ __forceinline__ float material_shear_rate(const float (&cm)[3][3]) {
+    const float third_trace = (cm[0][0] + cm[1][1] + cm[2][2]) * (1.0f / 3.0f);
+    const float d0 = cm[0][0] - third_trace, d1 = cm[1][1] - third_trace, d2 = cm[2][2] - third_trace;
+    const float d01 = 0.5f * (cm[1][0] + cm[0][1]);
+    const float d02 = 0.5f * (cm[2][0] + cm[0][2]);
+    const float d12 = 0.5f * (cm[2][1] + cm[1][2]);
+    const float squares = d0 * d0 + d1 * d1 + d2 * d2 + 2.0f * (d01 * d01 + d02 * d02 + d12 * d12);
+    return sqrtf(2.0f * squares);
+}
+
+// The non-Newtonian laws, out of line: a water scene's particle pass keeps its size and registers.
+__device__ __noinline__ float material_law_viscosity(const Material mat, float rate) {
+    const float n = mat.flow_index;
+    float viscosity = mat.viscosity;
+    if (mat.law == LAW_POWER_LAW) {
+        viscosity = mat.viscosity * material_power(rate, n - 1.0f);
+    } else if (mat.law == LAW_CARREAU_YASUDA) {
+        const float a = mat.transition_exponent;
+        const float thinning = material_power(1.0f + material_power(mat.relaxation_time * rate, a), (n - 1.0f) / a);
+        viscosity = mat.min_viscosity + (mat.viscosity - mat.min_viscosity) * thinning;
+    } else if (mat.law == LAW_HERSCHEL_BULKLEY) {
+        viscosity = mat.viscosity * material_power(rate, n - 1.0f) + mat.yield_stress / rate;
+    }
+    return fminf(fmaxf(viscosity, mat.min_viscosity), mat.max_viscosity);
+}
+
+// The viscosity at the particle's velocity gradient: the constant one of a Newtonian liquid, else
+// its law's at the shear rate, held within [min_viscosity, max_viscosity].
+__device__ __forceinline__ float material_viscosity(const Material& mat, const float (&cm)[3][3]) {
+    if (mat.law == LAW_NEWTONIAN) return mat.viscosity;
+    return material_law_viscosity(mat, material_shear_rate(cm));
+}
+
+// Component (row, col) of sigma = -p I + mu (C + C^T), with C given as cm[column][row] and mu the
+// effective viscosity (material_viscosity).
+__device__ __forceinline__ float material_stress(float viscosity, float pressure, const float (&cm)[3][3], int row,
                                                  int col) {
-    float stress = (cm[col][row] + cm[row][col]) * mat.viscosity;
+    float stress = (cm[col][row] + cm[row][col]) * viscosity;
     if (row == col) stress += -pressure;
     return stress;
 }

@@ -86,7 +86,7 @@ __device__ __forceinline__ void zero_unless_live(bool live, Stencil& s, Particle
 template <int STEPS>
 __device__ __forceinline__ void scatter_runs_in(const Params& params, Stencil s, ParticleImpulse q, bool live,
                                                 WarpRun run, float4* grid_acc) {
-    const float m_p = params.material.particle_mass;
+    const float m_p = q.mass;
     zero_unless_live(live, s, q);
     FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
         float impulse[3];
@@ -112,7 +112,7 @@ __device__ __forceinline__ void scatter_runs(const Params& params, const Stencil
 // of the warp calls it.
 __device__ __forceinline__ void scatter_runs_by_plane(const Params& params, Stencil s, ParticleImpulse q,
                                                       bool live, WarpRun run, float4* grid_acc) {
-    const float m_p = params.material.particle_mass;
+    const float m_p = q.mass;
     zero_unless_live(live, s, q);
     const u32 longest = warp_longest_run(run);
     const u32 row = params.grid_res[0], plane = params.grid_res[0] * params.grid_res[1];
@@ -154,8 +154,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     const BlockMarks marks{block_marks, block_list, work_counts};
     const TileScales scales = tile_scales(params);
     const float tile_scale[SCATTER_CHANNELS] = {scales.mass, scales.momentum, scales.momentum, scales.momentum};
-    const float m_p = params.material.particle_mass;
-    const float unit_mass = m_p * scales.mass;
+    // The heaviest particle's tile units bound a chunk's sums (tiles.cuh); each takes its own.
+    const float unit_mass = heaviest_particle_mass(params) * scales.mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
@@ -191,9 +191,10 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             float4 vp, c0, c1, c2;
             if (gather) {
                 GridDensity density;
-                G2pResult r = g2p_particle_and_density(params, xp, grid_vel, density);
-                rho_p = advected_density(params, density);
-                r.signal = material_signal_speed(params.material, rho_p, r.speed);
+                G2pResult r =
+                    g2p_particle_and_density(params, xp, particle_material_tag(params, v, p), grid_vel, density);
+                rho_p = advected_density(params, density, params.carried_density ? rho[p] : 0.0f);
+                r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho_p, r.speed);
                 if (live && colliders.count) {
                     const Backstop b = collider_backstop_particle(params, colliders, rho_p, r);
                     r = b.r;
@@ -211,7 +212,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     rho[p] = rho_p;
                     max_speed = fmaxf(max_speed, r.speed);
                     max_signal = fmaxf(max_signal, r.signal);
-                    max_rho = fmaxf(max_rho, rho_p);
+                    max_rho = fmaxf(max_rho, reported_density(params, r.v, rho_p));
                     if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
                         // Drained: parked, its slot (not its place in memory: bin_order.cu) pushed on
                         // the free stack (settle_free orders them).
@@ -236,13 +237,13 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
-                const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), unit_mass);
+                const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), q.mass * scales.mass);
                 const u32 added = tile_scatter<SCATTER_CHANNELS>(
                     s, params, first, taken, tile, tile_scale,
                     [&](float w, float d0, float d1, float d2, float (&value)[SCATTER_CHANNELS]) {
                         float impulse[3];
                         impulse_at_pinned(q, w, d0, d1, d2, impulse);
-                        value[0] = __fmul_rn(w, m_p);
+                        value[0] = __fmul_rn(w, q.mass);
                         for (int a = 0; a < 3; ++a) value[1 + a] = impulse[a];
                     },
                     [&](u32 node, int ch, float scaled, float value) {

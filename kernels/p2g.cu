@@ -26,12 +26,14 @@ extern "C" __global__ void p2g(const Params params,
     FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
         const u32 p = order[live ? i : first];
         const Stencil s = make_stencil(x[p], params);
-        const float rho = gather_density(s, params, grid_acc, fixed_mass);
+        // carried_density: the density g2p carried (several rest densities), not the grid's.
+        const float rho = params.carried_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
         if (live) {
             rho_out[p] = rho;
-            max_rho = fmaxf(max_rho, rho);
+            max_rho = fmaxf(max_rho, reported_density(params, v[p], rho));
         }
-        const ParticleImpulse q = particle_impulse(params, rho, v[p], c[p], c[n + p], c[2 * (size_t)n + p]);
+        const float4 vp = v[p];
+        const ParticleImpulse q = particle_impulse(params, rho, vp, c[p], c[n + p], c[2 * (size_t)n + p]);
         const WarpRun run = warp_run(s.base_index);
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             float impulse[3];

@@ -4,16 +4,18 @@
 
 extern "C" __global__ void p2g_init(const Params params,
                                     const float4* __restrict__ x,
+                                    const float4* __restrict__ v,     // .w: the material (several)
                                     const u32* __restrict__ order,    // particles sorted by cell
                                     float4* __restrict__ grid_acc,    // .w = mass (float scatter)
                                     u64* __restrict__ fixed_mass,     // fixed-point scatter
                                     StepCounters* __restrict__ counters) {
-    const float m_p = params.material.particle_mass;
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     // Converged loop: the float scatter aggregates per warp. Lanes past the end take the stencil of
     // the block's first particle and add nothing.
     FOR_EACH_INDEX_CONVERGED(i, live, first, params.num_particles) {
-        const Stencil s = make_stencil(x[order[live ? i : first]], params);
+        const u32 p = order[live ? i : first];
+        const Stencil s = make_stencil(x[p], params);
+        const float m_p = particle_mass_of(params, v, p);
         const WarpRun run = warp_run(s.base_index);
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             const float mass = w * m_p;

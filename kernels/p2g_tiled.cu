@@ -24,7 +24,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
     const TileScales scales = tile_scales(params);
     const float tile_scale[3] = {scales.momentum, scales.momentum, scales.momentum};
     const float inv_scale = 1.0f / params.fixed_momentum_scale;
-    const float unit_mass = params.material.particle_mass * scales.mass;
+    const float unit_mass = heaviest_particle_mass(params) * scales.mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -42,14 +42,16 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             const u32 p = order[bin.start + j];
             if (is_parked(x[p])) continue;  // drained since the last binning
             const Stencil s = make_stencil(x[p], params);
-            const float rho = gather_density(s, params, grid_acc, fixed_mass);
+            // carried_density: the density g2p2g carried (several rest densities), not the grid's.
+            const float rho = params.carried_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
+            const float4 vp = v[p];
             rho_out[p] = rho;
-            max_rho = fmaxf(max_rho, rho);
-            const ParticleImpulse q = particle_impulse(params, rho, v[p], c[p], c[n + p], c[2 * (size_t)n + p]);
+            max_rho = fmaxf(max_rho, reported_density(params, vp, rho));
+            const ParticleImpulse q = particle_impulse(params, rho, vp, c[p], c[n + p], c[2 * (size_t)n + p]);
             u32 first;
             bool far = false;
             const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), unit_mass);
+            const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), q.mass * scales.mass);
             tile_scatter<3>(
                 s, params, first, taken, tile, tile_scale,
                 [&](float w, float d0, float d1, float d2, float (&impulse)[3]) {

@@ -72,7 +72,7 @@ extern "C" __global__ void spawn_count(const SpawnBody* __restrict__ bodies, u32
 // Same launch shape as spawn_count. block_offsets = exclusive prefix sum of its counts.
 extern "C" __global__ void spawn_write(const SpawnBody* __restrict__ bodies, u32 num_bodies, double spacing,
                                        u64 num_candidates, const u32* __restrict__ block_offsets,
-                                       float rest_density, u32 num_particles, float4* __restrict__ x,
+                                       u32 num_particles, float4* __restrict__ x,
                                        float4* __restrict__ v, float4* __restrict__ c,
                                        float* __restrict__ rho) {
     __shared__ u32 warp_totals[32];
@@ -97,12 +97,12 @@ extern "C" __global__ void spawn_write(const SpawnBody* __restrict__ bodies, u32
             const SpawnBody& body = bodies[k];
             x[out] = make_float4(__double2float_rn(p[0]), __double2float_rn(p[1]), __double2float_rn(p[2]),
                                  0.0f);
-            v[out] = make_float4(body.velocity[0], body.velocity[1], body.velocity[2], 0.0f);
+            v[out] = make_float4(body.velocity[0], body.velocity[1], body.velocity[2], body.material_tag);
             const float4 zero = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
             c[out] = zero;
             c[(size_t)num_particles + out] = zero;
             c[2 * (size_t)num_particles + out] = zero;
-            rho[out] = rest_density;
+            rho[out] = body.rest_density;
         }
     }
 }

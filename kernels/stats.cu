@@ -21,14 +21,14 @@ extern "C" __global__ void __launch_bounds__(STATS_THREADS) particle_stats(const
                                                                           const float* __restrict__ rho,
                                                                           StatsPartial* __restrict__ partials) {
     __shared__ StatsPartial shared[STATS_THREADS];
-    const double half_mass = 0.5 * (double)params.material.particle_mass;
     StatsPartial mine{0.0, {0.0, 0.0, 0.0}, 0.0, 0.0f, __int_as_float(0x7f800000), -__int_as_float(0x7f800000), 0u};
     FOR_EACH_INDEX(p, params.num_particles) {
         const float4 xp = x[p], vp = v[p];
         if (is_parked(xp)) continue;
         const float v2 = vp.x * vp.x + vp.y * vp.y + vp.z * vp.z;
-        const float ratio = rho[p] / params.material.rest_density;
-        mine.kinetic_energy += half_mass * (double)v2;
+        const Material& mat = params.materials[material_index(params, vp)];
+        const float ratio = rho[p] / mat.rest_density;
+        mine.kinetic_energy += 0.5 * (double)mat.particle_mass * (double)v2;
         mine.position_sum[0] += (double)xp.x;
         mine.position_sum[1] += (double)xp.y;
         mine.position_sum[2] += (double)xp.z;

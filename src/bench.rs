@@ -524,6 +524,7 @@ pub fn column_scene(particles: u64, grid: u32) -> Result<Scene> {
         max: column.map(|c| (2.0 + c) * dx),
         particles_per_cell: PARTICLES_PER_CELL as u32,
         velocity: [0.0; 3],
+        material: None,
     }];
     spec.spheres.clear();
     let source = format!("generated column of {particles} particles on a {grid}^3 grid");

@@ -411,6 +411,7 @@ impl Body<'_> {
             v: self.vectors::<Vec3>(n, "velocities")?,
             c: self.vectors::<Mat3>(n, "affine matrices")?,
             rho: self.vectors::<f32>(n, "densities")?,
+            material: vec![0; n],
             live: self.take(n, "live flags")?.iter().map(|&b| b != 0).collect(),
         };
         let flow = if meta.flow {

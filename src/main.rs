@@ -825,7 +825,7 @@ fn run(args: RunArgs) -> Result<()> {
         scene.grid_res[1],
         scene.grid_res[2],
         scene.dx,
-        sim.params().material.sound_speed(),
+        sim.params().materials[0].sound_speed(),
         sim.backend(),
         if scene.gpus > 1 {
             format!(" on {} GPUs", scene.gpus)

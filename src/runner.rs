@@ -103,12 +103,13 @@ pub fn format_frame(s: &FrameStats) -> String {
     let m = &s.summary;
     let c = m.centre_of_mass;
     let mut line = format!(
-        "frame {:>5}  t={:.4} s  n={}  substeps={:>3}  |v|max={:.3} m/s  rho/rho0=[{:.3} {:.3} {:.3}]  \
+        "frame {:>5}  t={:.4} s  n={}  substeps={:>3} ({} limit)  |v|max={:.3} m/s  rho/rho0=[{:.3} {:.3} {:.3}]  \
          CFL={:.3}  KE={:.4e} J  com=({:.4}, {:.4}, {:.4}) m",
         s.frame,
         s.time,
         m.particles,
         s.substeps,
+        s.limit.name(),
         m.max_speed,
         m.density_ratio_min,
         m.density_ratio_mean,
@@ -328,7 +329,7 @@ fn frame_comment(sim: &Simulation) -> String {
         scene.grid_res[0],
         scene.grid_res[1],
         scene.grid_res[2],
-        scene.material.rest_density
+        scene.material().rest_density
     )
 }
 

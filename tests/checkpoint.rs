@@ -141,9 +141,9 @@ fn a_checkpoint_reads_back_as_written_and_holds_the_whole_state() {
         read.particles.c.iter().any(|c| *c != glam::Mat3::ZERO),
         "C was not saved"
     );
-    assert_eq!(read.params.material.viscosity, 0.25);
+    assert_eq!(read.params.materials[0].viscosity, 0.25);
     let resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
-    assert_eq!(resumed.params().material.viscosity, 0.25);
+    assert_eq!(resumed.params().materials[0].viscosity, 0.25);
     assert_eq!((resumed.frame(), resumed.time()), (3, saved.clock.time));
     // Nothing but the checkpoint was left in the directory (no temporary file).
     let names: Vec<_> = std::fs::read_dir(dir.path())

@@ -198,7 +198,7 @@ fn piston_wave_maker_matches_linear_wavemaker_theory() {
     ));
     let mut sim = run(&scene, 0);
     let (gauge, width, across) = (0.55f32, 2.0 * dx as f32, 5.0 * dx as f32);
-    let m_p = scene.material.particle_mass;
+    let m_p = scene.material().particle_mass;
     let mut window = Vec::new();
     for _ in 0..150 {
         sim.advance_frame().unwrap();

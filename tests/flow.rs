@@ -21,7 +21,7 @@ fn sim(toml: &str, backend: BackendKind) -> Simulation {
 fn emitted_minus_drained_is_the_change_in_live_particles() {
     let mut sim = sim(&tank(40_000, DRAIN), BackendKind::Cpu);
     let start = sim.scene().num_particles as u64;
-    let m_p = f64::from(sim.params().material.particle_mass);
+    let m_p = f64::from(sim.params().materials[0].particle_mass);
     let sinks: Vec<Sink> = sim.scene().flow.sinks.clone();
     let mut drained_any = false;
     for _ in 0..40 {

@@ -243,7 +243,7 @@ fn assert_grid_velocity_close(
     let (_, velocity) = gpu.read_grid_velocity().unwrap();
     // v = mv / m: at a node that only a stencil's edge touches, m is a tiny weight and the ratio
     // amplifies the momentum's rounding; nodes under 1 % of a particle's mass are left out.
-    let m_min = 0.01 * scene.material.particle_mass;
+    let m_min = 0.01 * scene.material().particle_mass;
     let vmax = common::max_abs(cpu.grid.momentum.iter().map(|v| v.abs().max_element()));
     let mut err = 0.0f32;
     for ((&m, v), cpu_v) in cpu.grid.mass.iter().zip(&velocity).zip(&cpu.grid.momentum) {
@@ -327,7 +327,7 @@ fn grid_update_and_g2p_match_cpu() {
         }
         assert!(
             e_cpu.max_signal_speed
-                <= scene.material.sound_speed_at(e_cpu.max_density) + e_cpu.max_speed * (1.0 + 1e-6),
+                <= scene.material().sound_speed_at(e_cpu.max_density) + e_cpu.max_speed * (1.0 + 1e-6),
             "each particle's signal speed is bounded by the paired maxima"
         );
     }
@@ -484,7 +484,7 @@ fn transfers_conserve_mass_and_momentum() {
         gpu.p2g_init(&params).unwrap();
         gpu.p2g(&params).unwrap();
         let (mass, momentum) = gpu.read_grid_accumulators(&params).unwrap();
-        let m_p = f64::from(scene.material.particle_mass);
+        let m_p = f64::from(scene.material().particle_mass);
         let grid_mass: f64 = mass.iter().map(|&m| f64::from(m)).sum();
         let particle_mass = particles.len() as f64 * m_p;
         let grid_p = momentum.iter().fold(glam::DVec3::ZERO, |s, m| s + m.as_dvec3());
@@ -523,7 +523,7 @@ fn dam_break_follows_cpu_trajectory() {
         scene.mirror_wall_mass = mirror;
         let (_, mut gpu) = follow_cpu(&scene, STEPS, false, &format!("{pipeline:?} (mirror {mirror})"));
         let extremes = gpu.take_extremes().unwrap();
-        assert!(extremes.max_density > scene.material.rest_density * 0.9 && extremes.max_speed > 0.0);
+        assert!(extremes.max_density > scene.material().rest_density * 0.9 && extremes.max_speed > 0.0);
     }
 }
 
@@ -701,11 +701,11 @@ fn fixed_point_tile_wraps_are_caught_after_the_adds() {
             particles.x[i] = node;
             particles.v[i] = Vec3::new(speed, 0.0, 0.0);
             particles.c[i] = Mat3::ZERO;
-            particles.rho[i] = scene.material.rest_density;
+            particles.rho[i] = scene.material().rest_density;
         }
         particles
     };
-    let c0 = scene.material.sound_speed();
+    let c0 = scene.material().sound_speed();
 
     for speed in [0.5 * c0, 1.5 * c0] {
         let what = format!("30 particles at {speed} m/s on one node");
@@ -748,7 +748,7 @@ fn assert_overflow_reported(gpu: &mut CudaSolver, what: &str) {
 fn fixed_point_scatter_past_the_tile_adds_the_same_integers() {
     let scene = small_tank_in(Pipeline::Fused, ScatterMode::FixedPoint);
     let mut particles = random_particles(&scene, 9);
-    let fast = Vec3::new(40.0 * scene.material.sound_speed(), 0.0, 0.0);
+    let fast = Vec3::new(40.0 * scene.material().sound_speed(), 0.0, 0.0);
     let mut thrown = 0;
     for i in 0..particles.len() {
         if particles.x[i].x < 0.25 {
@@ -1088,7 +1088,7 @@ fn binned_pipeline_follows_the_report_pipeline() {
             if step % 300 == 0 {
                 states.push((
                     gpu.read_particles().unwrap(),
-                    gpu.summary(&scene.material).unwrap(),
+                    gpu.summary(&scene.params()).unwrap(),
                 ));
             }
         });
@@ -1125,7 +1125,7 @@ fn device_statistics_match_a_host_reduction() {
     for _ in 0..150 {
         gpu.step(&params).unwrap();
     }
-    let material = &scene.material;
+    let material = &scene.material();
     let device = gpu.summary(material).unwrap();
     let host = mpm::sim::Summary::of(
         &gpu.read_particles().unwrap(),

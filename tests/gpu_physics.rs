@@ -31,7 +31,7 @@ const GAUGE_HALF_WIDTH: f32 = 0.025;
 /// as a gauge of that width reads them.
 fn gauge_height(scene: &Scene, p: &Particles, x: f32) -> f32 {
     let in_slab = p.x.iter().filter(|q| (q.x - x).abs() < GAUGE_HALF_WIDTH).count();
-    let volume = in_slab as f32 * scene.material.particle_mass / scene.material.rest_density;
+    let volume = in_slab as f32 * scene.material().particle_mass / scene.material().rest_density;
     let width = (scene.grid_res[2] - 3) as f32 * scene.dx; // the fluid region [1, R-2] dx
     volume / (2.0 * GAUGE_HALF_WIDTH * width)
 }

@@ -39,7 +39,7 @@ fn interop_round_trip_through_gl() {
     println!("OpenGL: {}", headless.description);
     let scene = Scene::load("drop").expect("preset");
     let n = scene.num_particles;
-    let rest_density = scene.material.rest_density;
+    let rest_density = scene.material().rest_density;
     let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
     let mut sim = Simulation::new(scene, Box::new(solver));
     // A few frames, so speeds differ from particle to particle.

@@ -22,7 +22,7 @@ fn block_at_rest_has_exact_interior_density_and_stays_at_rest() {
         let mut scene = rest_block();
         scene.pipeline = pipeline;
         let (mut s, params) = common::cpu(&scene, 1.6666667e-4);
-        let m_p = params.material.particle_mass;
+        let m_p = params.materials[0].particle_mass;
         s.clear_grid();
         s.p2g_init(&params);
         // Interior nodes (2 or more cells inside the block) carry exactly 8 particles' mass.
@@ -46,7 +46,7 @@ fn block_at_rest_has_exact_interior_density_and_stays_at_rest() {
         // Density of the outermost three particle layers along one line through the block. With nodes at
         // X = i and particles at X = i + 1/4, i + 3/4 the 1D sums give exactly 159/256, 869/1024 and
         // 997/1024 of rest density (docs/physics.md, "Rest").
-        let rho0 = params.material.rest_density;
+        let rho0 = params.materials[0].rest_density;
         let line: Vec<(f32, f32)> = (0..s.particles.len())
             .filter(|&n| {
                 (s.particles.x[n].y - 0.1225).abs() < 1e-4 && (s.particles.x[n].z - 0.1225).abs() < 1e-4
@@ -163,7 +163,7 @@ max = [0.18, 0.52, 0.18]
             pipeline,
             ..scene.clone()
         };
-        let mat = scene.material;
+        let mat = scene.material();
         let (g, h) = (9.81f32, 0.5f32);
         let dt = 3.0e-4;
         let (mut s, mut params) = common::cpu(&scene, dt);
@@ -253,7 +253,7 @@ fn the_wall_mirror_gives_wall_particles_their_interior_density() {
         s.mirror_momentum(&params);
         s.grid_update(&params);
         s.g2p(&params); // the density each particle carries on, under either rule
-        let rho0 = params.material.rest_density;
+        let rho0 = params.materials[0].rest_density;
         // The particle in the corner of three walls, and one on the floor away from the other walls.
         for (at, walls) in [(Vec3::splat(0.0125), 3), (Vec3::new(0.0425, 0.0125, 0.0425), 1)] {
             let n = s

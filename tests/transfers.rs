@@ -23,9 +23,9 @@ fn params() -> Params {
     let mut params = scene.params();
     params.density_rule = DensityRule::Gathered.code();
     params.dt = 1.0e-4;
-    params.material.rest_density = 700.0;
-    params.material.eos_stiffness = 100.0;
-    params.material.viscosity = 0.5;
+    params.materials[0].rest_density = 700.0;
+    params.materials[0].eos_stiffness = 100.0;
+    params.materials[0].viscosity = 0.5;
     params
 }
 
@@ -99,7 +99,7 @@ fn p2g_conserves_mass_and_momentum_with_stress() {
     let mut s = solver(2);
     s.clear_grid();
     s.p2g_init(&params);
-    let m_p = params.material.particle_mass;
+    let m_p = params.materials[0].particle_mass;
     let grid_mass: f64 = s.grid.mass.iter().map(|&m| f64::from(m)).sum();
     let particle_mass = s.particles.len() as f64 * f64::from(m_p);
     assert!(
@@ -112,7 +112,7 @@ fn p2g_conserves_mass_and_momentum_with_stress() {
         .particles
         .rho
         .iter()
-        .filter(|&&r| r > params.material.rest_density)
+        .filter(|&&r| r > params.materials[0].rest_density)
         .count();
     assert!(
         compressed > s.particles.len() / 2,
@@ -139,9 +139,9 @@ fn p2g_angular_momentum(s: &mut CpuSolver, params: &Params) -> (DVec3, f64) {
 #[test]
 fn apic_transfers_conserve_angular_momentum() {
     let mut params = params();
-    params.material.viscosity = 0.0; // pressure only here; the next test adds viscosity
+    params.materials[0].viscosity = 0.0; // pressure only here; the next test adds viscosity
     let mut s = solver(3);
-    let m_p = params.material.particle_mass;
+    let m_p = params.materials[0].particle_mass;
     let before = particle_angular_momentum(&s, m_p, DX);
     let (grid, scale) = p2g_angular_momentum(&mut s, &params);
     assert_close(
@@ -175,7 +175,7 @@ fn apic_transfers_conserve_angular_momentum() {
 fn stress_is_symmetric_so_viscosity_adds_no_torque() {
     let params = params(); // viscosity 0.5 Pa s
     let mut s = solver(4);
-    let before = particle_angular_momentum(&s, params.material.particle_mass, DX);
+    let before = particle_angular_momentum(&s, params.materials[0].particle_mass, DX);
     let (grid, scale) = p2g_angular_momentum(&mut s, &params);
     assert_close(grid, before, 1e-5 * scale, "p2g with viscosity");
 }

@@ -9,7 +9,9 @@
 // one), and use it on both sides; nothing else restates it.
 
 device_structs! {
-    /// The constitutive law of the fluid: the one owner of these values (docs/physics.md, "Parameters").
+    /// One liquid's constitutive law, a row of the scene's material table (docs/physics.md,
+    /// "Materials"): the one owner of these values. kernels/material.cuh and src/sim/material.rs
+    /// compute the law from it.
     struct Material {
         /// rho0, kg/m^3.
         rest_density: f32,
@@ -17,20 +19,45 @@ device_structs! {
         eos_stiffness: f32,
         /// Tait exponent gamma.
         eos_power: f32,
-        /// Dynamic viscosity mu, Pa s.
+        /// `LAW_NEWTONIAN`: the dynamic viscosity mu, Pa s. `LAW_POWER_LAW` and
+        /// `LAW_HERSCHEL_BULKLEY`: the consistency K, Pa s^n. `LAW_CARREAU_YASUDA`: the zero-shear
+        /// viscosity mu_0, Pa s.
         viscosity: f32,
         /// p_min, Pa: pressure is clamped from below so that the free surface does not pull itself
         /// together.
         pressure_floor: f32,
         /// m_p, kg: rho0 dx^3 / particles-per-cell, so the initial packing is at rest density.
         particle_mass: f32,
-        _pad: [u32; 2],
+        /// `LAW_*`: how the viscosity follows the shear rate.
+        law: u32,
+        /// The flow index n of the power law, Carreau-Yasuda and Herschel-Bulkley (1: Newtonian).
+        flow_index: f32,
+        /// Herschel-Bulkley: the yield stress tau_y, Pa.
+        yield_stress: f32,
+        /// The effective viscosity's ceiling, Pa s (every law but the Newtonian): the bi-viscous
+        /// regularisation of the yield stress, and the bound of a power law at rest. It sets the
+        /// explicit viscous limit on the substep.
+        max_viscosity: f32,
+        /// The effective viscosity's floor, Pa s: the power law's at high shear rates, and
+        /// Carreau-Yasuda's infinite-shear viscosity mu_inf.
+        min_viscosity: f32,
+        /// Carreau-Yasuda: the relaxation time lambda, s.
+        relaxation_time: f32,
+        /// Carreau-Yasuda: the transition exponent a.
+        transition_exponent: f32,
+        _pad: [u32; 3],
     }
 
     /// Everything one substep needs: material, solver settings, grid shape and the step size. Written
     /// by `Scene::params`, every kernel's first argument.
     struct Params {
-        material: Material,
+        /// The scene's materials; each particle names its row (`Particles::material`, the bits of
+        /// v.w on the device). Rows past `material_count` are zero. The kernels read the row from
+        /// their parameters, which live in constant memory.
+        materials: [Material; 8],
+        /// Rows of `materials` in use: 1 for a scene of one material, which the kernels take
+        /// without reading a particle's index.
+        material_count: u32,
         /// m/s^2.
         gravity: [f32; 3],
         /// The substep, s. Set by the time-step policy before every frame.
@@ -61,6 +88,10 @@ device_structs! {
         /// How a particle's density is estimated (`DensityRule::code()`): `DENSITY_GATHERED` (the
         /// report's scheme) or `DENSITY_ADVECTED` (the fused pipeline's one particle pass).
         density_rule: u32,
+        /// 1 where the materials' rest densities differ: each particle's density is carried over
+        /// the substep from its own last value by the velocity divergence, never gathered from the
+        /// grid's mass, which mixes the liquids' masses where they meet (`sim::params::carries_density`).
+        carried_density: u32,
     }
 
     /// What the kernels count and reduce between substep choices; the host reads it back once per
@@ -161,6 +192,10 @@ device_structs! {
         velocity: [f32; 3],
         /// `BODY_BLOCK` or `BODY_SPHERE`.
         kind: u32,
+        /// v.w of its particles: the bits of its material's row.
+        material_tag: f32,
+        /// Its material's rest density: its particles' first density, kg/m^3.
+        rest_density: f32,
         /// Offset of this body's range in the list of all candidates.
         first_candidate: u64,
     }
@@ -225,6 +260,19 @@ device_constants! {
     /// in one substep (`DensityRule::advect`).
     MAX_VOLUME_CHANGE: f32 = 0.1;
 
+    /// The most rows of a scene's material table (`Params::materials`).
+    MAX_MATERIALS: u32 = 8;
+    /// `Material::law`: a constant viscosity.
+    LAW_NEWTONIAN: u32 = 0;
+    /// `Material::law`: mu = K gammadot^(n - 1), within [min_viscosity, max_viscosity].
+    LAW_POWER_LAW: u32 = 1;
+    /// `Material::law`: mu = mu_inf + (mu_0 - mu_inf) (1 + (lambda gammadot)^a)^((n - 1) / a),
+    /// within [min_viscosity, max_viscosity].
+    LAW_CARREAU_YASUDA: u32 = 2;
+    /// `Material::law`: mu = min(max_viscosity, K gammadot^(n - 1) + tau_y / gammadot), the
+    /// bi-viscous regularisation of a yield stress (Bingham where n = 1).
+    LAW_HERSCHEL_BULKLEY: u32 = 3;
+
     /// `ColliderState::kind`.
     COLLIDER_BOX: u32 = 0;
     COLLIDER_SPHERE: u32 = 1;
@@ -248,6 +296,7 @@ device_constants! {
     /// The quantity render_attributes writes into w (`ColourBy::code`).
     COLOUR_BY_SPEED: u32 = 0;
     COLOUR_BY_DENSITY: u32 = 1;
+    COLOUR_BY_MATERIAL: u32 = 2;
 
     /// What mirror_walls mirrors (`MirrorQuantity`).
     MIRROR_MASS: u32 = 0;

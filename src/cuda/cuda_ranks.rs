@@ -44,9 +44,7 @@ use crate::dist::nccl::{Comm, DataType, Nccl};
 use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
-use crate::sim::{
-    Material, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
-};
+use crate::sim::{Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary};
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
 
@@ -718,9 +716,9 @@ impl Solver for CudaRanks {
 
     /// Rank 0's statistics kernel over every rank's own slots, on its GPU: what one solver's would
     /// give, without copying the particles to the host.
-    fn summary(&mut self, material: &Material) -> Result<Summary> {
+    fn summary(&mut self, table: &Params) -> Result<Summary> {
         self.take_owned()?;
         let first = &mut self.solvers[0];
-        first.summary_of(material, &self.merged)
+        first.summary_of(table, &self.merged)
     }
 }

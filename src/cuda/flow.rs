@@ -4,7 +4,7 @@
 
 use super::gpu::Gpu;
 use super::launch::Launcher;
-use super::particles::slots_in_place;
+use super::particles::{material_tag, slots_in_place};
 use crate::contract::FlowCounters;
 use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
 use anyhow::{ensure, Context, Result};
@@ -60,7 +60,7 @@ impl DeviceFlow {
                 points.extend([p.x, p.y, p.z, f32::from_bits(e as u32)]);
             }
             let u = emitter.normal * emitter.speed;
-            velocities.extend([u.x, u.y, u.z, 0.0]);
+            velocities.extend([u.x, u.y, u.z, material_tag(emitter.material)]);
         }
         let sinks: Vec<f32> = flow
             .sinks

@@ -56,6 +56,7 @@ impl P2gMass {
                     .arg(list)
                     .arg(&d.bins.order)
                     .arg(&d.particles.x)
+                    .arg(&d.particles.v)
                     .arg(&g.acc)
                     .arg(g.fixed_mass())
                     .node_block_list(d);

@@ -17,6 +17,7 @@ impl P2gInit {
             self.0.launch(l, l.cover(p.count), |a| {
                 a.arg(params)
                     .arg(&p.x)
+                    .arg(&p.v)
                     .arg(&d.bins.order)
                     .arg(&g.acc)
                     .arg(g.fixed_mass())

@@ -21,7 +21,7 @@ pub struct DeviceParticles {
     /// x, y, z, and w: 0 for a live particle, PARKED_W for a parked slot. One float4 per particle (a
     /// layout a GL vertex buffer can share).
     pub x: CudaSlice<f32>,
-    /// vx, vy, vz, unused.
+    /// vx, vy, vz, and w: the bits of the particle's material row (0.0 for row 0).
     pub v: CudaSlice<f32>,
     /// C as three float4 arrays of `count` (columns 0, 1, 2).
     pub c: CudaSlice<f32>,
@@ -57,7 +57,12 @@ impl DeviceParticles {
     pub fn upload(&mut self, stream: &Arc<CudaStream>, particles: &Particles) -> Result<()> {
         let n = particles.len();
         ensure!(n == self.count, "{n} particles for a solver of {}", self.count);
-        let float4 = |v: &[Vec3]| -> Vec<f32> { v.iter().flat_map(|p| [p.x, p.y, p.z, 0.0]).collect() };
+        let velocities: Vec<f32> = particles
+            .v
+            .iter()
+            .zip(&particles.material)
+            .flat_map(|(v, &material)| [v.x, v.y, v.z, material_tag(material)])
+            .collect();
         let positions: Vec<f32> = particles
             .x
             .iter()
@@ -75,7 +80,7 @@ impl DeviceParticles {
             .memcpy_htod(&positions, &mut self.x)
             .context("uploading positions")?;
         stream
-            .memcpy_htod(&float4(&particles.v), &mut self.v)
+            .memcpy_htod(&velocities, &mut self.v)
             .context("uploading velocities")?;
         stream.memcpy_htod(&c, &mut self.c).context("uploading C")?;
         stream
@@ -105,9 +110,21 @@ impl DeviceParticles {
                 .map(|&i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
                 .collect(),
             rho: place.iter().map(|&i| rho[i]).collect(),
+            material: place.iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
             live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
         })
     }
+}
+
+/// v.w of a particle of material row `material`: the row's bits (kernels/material.cuh
+/// `material_row`); 0.0 for row 0, as a scene of one material has it.
+pub fn material_tag(material: u8) -> f32 {
+    f32::from_bits(u32::from(material))
+}
+
+/// The material row a v.w holds ([`material_tag`]).
+pub fn material_of_tag(tag: f32) -> u8 {
+    tag.to_bits().min(u32::from(u8::MAX)) as u8
 }
 
 /// Each particle stored at its own slot: the slot of each place, or the place of each slot.

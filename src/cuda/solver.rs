@@ -22,8 +22,8 @@ use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
 use crate::sim::{
-    ExtremesTicket, Material, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode,
-    Scene, Solver, StepExtremes, Summary, SummaryTicket,
+    ExtremesTicket, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode, Scene,
+    Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::CudaStream;
@@ -135,10 +135,9 @@ impl CudaSolver {
 
     /// The statistics of `particles` (as many slots as this solver's, on its GPU) by its kernel,
     /// waited for: how the ranks reduce the set of every rank's own slots.
-    pub fn summary_of(&mut self, material: &Material, particles: &DeviceParticles) -> Result<Summary> {
+    pub fn summary_of(&mut self, table: &Params, particles: &DeviceParticles) -> Result<Summary> {
         let (k, l) = (&self.kernels, &self.gpu.launcher);
-        self.stats
-            .request(&k.stats, l, &self.params, material, particles)?;
+        self.stats.request(&k.stats, l, &self.params, table, particles)?;
         self.stats.wait()
     }
 
@@ -447,16 +446,15 @@ impl Solver for CudaSolver {
     }
 
     /// A device reduction (kernels/stats.cu): the host reads a few KiB, never the particles.
-    fn summary(&mut self, material: &Material) -> Result<Summary> {
-        let ticket = self.request_summary(material)?;
+    fn summary(&mut self, table: &Params) -> Result<Summary> {
+        let ticket = self.request_summary(table)?;
         self.wait_summary(ticket)
     }
 
-    fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
+    fn request_summary(&mut self, table: &Params) -> Result<SummaryTicket> {
         let (k, l) = (&self.kernels, &self.gpu.launcher);
         let particles = &self.state.particles;
-        self.stats
-            .request(&k.stats, l, &self.params, material, particles)?;
+        self.stats.request(&k.stats, l, &self.params, table, particles)?;
         Ok(SummaryTicket::Pending)
     }
 

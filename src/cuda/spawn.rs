@@ -6,7 +6,7 @@
 use super::gpu::Gpu;
 use super::launch::{Kernel, NvtxRange};
 use super::modules::LoadedModules;
-use super::particles::DeviceParticles;
+use super::particles::{material_tag, DeviceParticles};
 use super::state::StateArgs;
 use crate::contract::{SpawnBody, BODY_BLOCK, BODY_SPHERE};
 use crate::sim::scene::{Scene, Shape};
@@ -44,6 +44,8 @@ pub fn body_table(scene: &Scene) -> Result<(Vec<SpawnBody>, u64)> {
             radius_sq,
             velocity: body.velocity.to_array(),
             kind,
+            material_tag: material_tag(body.material),
+            rest_density: scene.materials[usize::from(body.material)].law.rest_density,
             first_candidate: total,
         });
         total += count;
@@ -123,7 +125,6 @@ pub fn spawn_on_device(
         particles.count
     );
     let offsets = stream.clone_htod(&offsets).context("uploading spawn offsets")?;
-    let rest_density = scene.material.rest_density;
     let n = particles.count as u32;
     // SAFETY: as above; every output holds `n` particles.
     unsafe {
@@ -133,7 +134,6 @@ pub fn spawn_on_device(
                 .arg(&spacing)
                 .arg(&candidates)
                 .arg(&offsets)
-                .arg(&rest_density)
                 .arg(&n)
                 .particle_state(particles);
         })?;

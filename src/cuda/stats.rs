@@ -6,7 +6,7 @@
 use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
 use crate::contract::{StatsPartial, STATS_THREADS};
-use crate::sim::{Material, Params, Summary};
+use crate::sim::{Params, Summary};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaEvent, CudaSlice, CudaStream, LaunchConfig, PinnedHostSlice, PushKernelArg};
 use std::sync::Arc;
@@ -47,11 +47,12 @@ impl ParticleStats {
         kernel: &StatsKernel,
         launcher: &Launcher,
         params: &Params,
-        material: &Material,
+        table: &Params,
         particles: &DeviceParticles,
     ) -> Result<()> {
         let params = &Params {
-            material: *material,
+            materials: table.materials,
+            material_count: table.material_count,
             ..*params
         };
         let config = LaunchConfig {
@@ -113,7 +114,7 @@ fn combine(partials: &[StatsPartial]) -> Summary {
     }
     if count == 0 {
         // Every slot parked (a tank before its emitters start): zeros, as `Summary::of` gives.
-        return Summary::of(&crate::sim::Particles::default(), 0.0, 1.0);
+        return Summary::of(&crate::sim::Particles::default(), &Params::default());
     }
     let inv_n = 1.0 / count.max(1) as f64;
     Summary {

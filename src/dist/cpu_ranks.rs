@@ -237,6 +237,7 @@ impl CpuRanks {
                     bail!("particle {id} is held twice or out of range: the ranks disagree");
                 }
                 (g.x[id], g.v[id], g.c[id], g.rho[id], g.live[id]) = (p.x[i], p.v[i], p.c[i], p.rho[i], true);
+                g.material[id] = p.material[i];
             }
         }
         Ok(())

@@ -15,11 +15,13 @@ use glam::{Mat3, Vec3};
 pub struct Migrant {
     pub id: u32,
     pub rho: f32,
+    /// Its row of the material table.
+    pub material: u32,
     pub x: [f32; 3],
     pub v: [f32; 3],
     pub c: [f32; 9],
 }
-const _: () = assert!(std::mem::size_of::<Migrant>() == 68);
+const _: () = assert!(std::mem::size_of::<Migrant>() == 72);
 
 /// A rank's particles: the slots, each live one's id, and the parked slots free for arrivals.
 #[derive(Debug, Clone, Default)]
@@ -47,18 +49,26 @@ impl RankParticles {
         let mut mine = RankParticles::default();
         for i in (0..all.len()).filter(|&i| all.live[i]) {
             if slabs.owner(layer(all.x[i], slabs.axis, inv_dx)) == rank {
-                mine.push(i as u32, all.x[i], all.v[i], all.c[i], all.rho[i]);
+                mine.push(
+                    i as u32,
+                    all.x[i],
+                    all.v[i],
+                    all.c[i],
+                    all.rho[i],
+                    all.material[i],
+                );
             }
         }
         mine
     }
 
-    fn push(&mut self, id: u32, x: Vec3, v: Vec3, c: Mat3, rho: f32) {
+    fn push(&mut self, id: u32, x: Vec3, v: Vec3, c: Mat3, rho: f32, material: u8) {
         let p = &mut self.particles;
         match self.parked.pop() {
             Some(slot) => {
                 let s = slot as usize;
                 (p.x[s], p.v[s], p.c[s], p.rho[s], p.live[s]) = (x, v, c, rho, true);
+                p.material[s] = material;
                 self.id[s] = id;
             }
             None => {
@@ -66,6 +76,7 @@ impl RankParticles {
                 p.v.push(v);
                 p.c.push(c);
                 p.rho.push(rho);
+                p.material.push(material);
                 p.live.push(true);
                 self.id.push(id);
             }
@@ -88,6 +99,7 @@ impl RankParticles {
                 leaving[to].push(Migrant {
                     id: self.id[i],
                     rho: p.rho[i],
+                    material: u32::from(p.material[i]),
                     x: p.x[i].to_array(),
                     v: p.v[i].to_array(),
                     c: p.c[i].to_cols_array(),
@@ -117,7 +129,7 @@ impl RankParticles {
         // In sender order, each sender's in its slot order: the same slots every run.
         for m in arriving.iter().flatten() {
             let c = Mat3::from_cols_array(&m.c);
-            self.push(m.id, Vec3::from(m.x), Vec3::from(m.v), c, m.rho);
+            self.push(m.id, Vec3::from(m.x), Vec3::from(m.v), c, m.rho, m.material as u8);
         }
         let sent = counts.iter().sum::<u64>();
         let live_after = self.particles.num_live() as u64;

@@ -77,7 +77,7 @@ impl SurfaceSettings {
             smoothing_length: overrides.smoothing_length.unwrap_or(DEFAULT_SMOOTHING_LENGTH),
             threshold: overrides.threshold.unwrap_or(DEFAULT_THRESHOLD),
             cube_size: overrides.cube_size.unwrap_or(DEFAULT_CUBE_SIZE),
-            rest_density: scene.material.rest_density,
+            rest_density: scene.material().rest_density,
         };
         for (flag, value) in [
             ("--surface-particle-radius", settings.particle_radius),

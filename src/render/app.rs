@@ -334,8 +334,8 @@ impl ViewerApp {
         let controls = Controls {
             paused: false,
             render,
-            viscosity: scene.material.viscosity,
-            sound_speed: scene.material.sound_speed(),
+            viscosity: scene.material().viscosity,
+            sound_speed: scene.material().sound_speed(),
             gravity: scene.gravity,
             fixed_pacing: options.fixed_frames.is_some(),
             frames_per_draw: options.fixed_frames.unwrap_or(1).max(1),
@@ -394,8 +394,8 @@ impl ViewerApp {
         }
         // The live sliders follow the simulation's parameters (a checkpoint's may differ from its scene).
         let params = sim.params();
-        self.controls.viscosity = params.material.viscosity;
-        self.controls.sound_speed = params.material.sound_speed();
+        self.controls.viscosity = params.materials[0].viscosity;
+        self.controls.sound_speed = params.materials[0].sound_speed();
         self.controls.gravity = Vec3::from(params.gravity);
         self.sim = Some(sim);
         self.scene = scene;

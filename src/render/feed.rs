@@ -94,7 +94,7 @@ impl ParticleFeed {
     ) -> Result<Fed> {
         // Every slot, parked ones included (they arrive clipped): the buffer keeps the solver's indices.
         let n = sim.scene().slots();
-        let rest_density = sim.params().material.rest_density;
+        let rest_density = sim.params().materials[0].rest_density;
         let quantity = colouring.quantity();
         if renderer.capacity() != n {
             self.release();

@@ -4,7 +4,7 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
-use super::params::{DensityRule, Params, ScatterMode};
+use super::params::{carries_density, DensityRule, Material, Params, ScatterMode};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -255,6 +255,7 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
 /// (`DensityRule::Advected`, [`density_after_g2p`]). Shared by the reference and the parallel
 /// backend, so both compute the same expressions.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn p2g_particle(
     params: &Params,
     st: &Stencil,
@@ -263,12 +264,13 @@ pub fn p2g_particle(
     rho_p: f32,
     v: Vec3,
     c: Mat3,
+    material: u8,
 ) -> (f32, Vec3, Mat3) {
-    let mat = &params.material;
+    let mat = Material::of(params, material);
     let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
     let rho = match DensityRule::of(params) {
-        DensityRule::Gathered => grid_density(params, st, shape, mass),
-        DensityRule::Advected => rho_p,
+        DensityRule::Gathered if !carries_density(params) => grid_density(params, st, shape, mass),
+        _ => rho_p,
     };
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
@@ -289,8 +291,9 @@ pub fn grid_density(params: &Params, st: &Stencil, shape: GridShape, mass: &[f32
 /// The density a particle leaves g2p with. Under `DensityRule::Advected`: gathered from the grid mass
 /// (`mass`, as the substep scattered and mirrored it) at the particle's position before the advection,
 /// `x_before`, and carried over the substep by the fluid's velocity divergence gathered there from
-/// the node velocities `velocity` (`DensityRule::advect`, `DensityRule::fluid_divergence`). Otherwise
-/// the density its p2g gathered, `rho`, unchanged.
+/// the node velocities `velocity` (`DensityRule::advect`, `DensityRule::fluid_divergence`). Where
+/// the scene carries densities ([`carries_density`]), its own `rho` carried the same way, under
+/// either rule. Otherwise the density its p2g gathered, `rho`, unchanged.
 #[inline(always)]
 pub fn density_after_g2p(
     params: &Params,
@@ -300,7 +303,8 @@ pub fn density_after_g2p(
     x_before: Vec3,
     rho: f32,
 ) -> f32 {
-    if DensityRule::of(params) == DensityRule::Gathered {
+    let carried = carries_density(params);
+    if DensityRule::of(params) == DensityRule::Gathered && !carried {
         return rho;
     }
     let (mut grid_mass, mut v_p, mut sum_v_dot_d, mut filled_w_d) = (0.0, Vec3::ZERO, 0.0, Vec3::ZERO);
@@ -315,7 +319,12 @@ pub fn density_after_g2p(
     let inv_dx = params.inv_dx;
     let divergence =
         DensityRule::fluid_divergence(sum_v_dot_d, filled_w_d.to_array(), v_p.to_array(), inv_dx);
-    DensityRule::advect(grid_mass * (inv_dx * inv_dx * inv_dx), divergence, params.dt)
+    let before = if carried {
+        rho
+    } else {
+        grid_mass * (inv_dx * inv_dx * inv_dx)
+    };
+    DensityRule::advect(before, divergence, params.dt)
 }
 
 /// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, the colliders'
@@ -479,19 +488,20 @@ impl CpuSolver {
 
     /// The mass scatter alone: [`Self::p2g_init`] without `settle_mass`.
     pub fn scatter_mass(&mut self, params: &Params) {
-        let m_p = params.material.particle_mass;
         let shape = self.grid.shape;
         let p = &self.particles;
-        let live = p.x.iter().zip(&p.live).filter(|(_, &live)| live).map(|(x, _)| *x);
+        let live = (0..p.len())
+            .filter(|&n| p.live[n])
+            .map(|n| (p.x[n], Material::of(params, p.material[n]).particle_mass));
         if is_fixed_point(params) {
             let (scale, mass) = (params.fixed_mass_scale, &mut self.grid.fixed_mut().mass);
-            for x in live {
+            for (x, m_p) in live {
                 Stencil::new(x, params.inv_dx)
                     .for_each_node(shape, |i, w, _| mass[i] += fixed_point_units(w * m_p * scale));
             }
         } else {
             let mass = &mut self.grid.mass;
-            for x in live {
+            for (x, m_p) in live {
                 Stencil::new(x, params.inv_dx).for_each_node(shape, |i, w, _| mass[i] += w * m_p);
             }
         }
@@ -554,9 +564,11 @@ impl CpuSolver {
         let mut max_rho = 0.0f32;
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let st = Stencil::new(p.x[n], params.inv_dx);
-            let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.rho[n], p.v[n], p.c[n]);
+            let material = p.material[n];
+            let (rho, mv, affine) =
+                p2g_particle(params, &st, *shape, mass, p.rho[n], p.v[n], p.c[n], material);
             p.rho[n] = rho;
-            max_rho = max_rho.max(rho);
+            max_rho = max_rho.max(reported_density(params, material, rho));
             match fixed_grid.as_mut().filter(|_| fixed) {
                 Some(f) => st.for_each_node(*shape, |i, w, d| {
                     let q = &mut f.momentum[i];
@@ -604,11 +616,21 @@ impl CpuSolver {
             let (x, v, c, moved) = g2p_with_backstop(params, *shape, velocity, &self.colliders, p.x[n]);
             p.rho[n] = density_after_g2p(params, *shape, mass, velocity, p.x[n], p.rho[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
-            extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], moved));
+            extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], p.material[n], moved));
         }
         extremes.add_to(&mut self.extremes);
         self.scatter_dt = Some(params.dt);
     }
+}
+
+/// A particle's density `rho` as the solvers report it to the time step: in row 0's terms
+/// ([`Material::reported_density`]; `rho` itself in a scene of one material, as the kernels take it).
+#[inline(always)]
+pub fn reported_density(params: &Params, material: u8, rho: f32) -> f32 {
+    if params.material_count == 1 {
+        return rho;
+    }
+    Material::of(params, material).reported_density(rho, params.materials[0].rest_density)
 }
 
 /// Whether `params` ask for the fixed-point scatter.
@@ -629,14 +651,19 @@ pub struct GatherExtremes {
 }
 
 impl GatherExtremes {
-    /// One particle's, after g2p gave it velocity `v` and density `rho` ([`density_after_g2p`]).
-    pub fn of(params: &Params, v: Vec3, rho: f32, pushed: bool) -> GatherExtremes {
+    /// One particle's, of `material`, after g2p gave it velocity `v` and density `rho`
+    /// ([`density_after_g2p`]).
+    pub fn of(params: &Params, v: Vec3, rho: f32, material: u8, pushed: bool) -> GatherExtremes {
         let speed = v.length();
         let advected = DensityRule::of(params) == DensityRule::Advected;
         GatherExtremes {
             max_speed: speed,
-            max_signal: params.material.signal_speed(rho, speed),
-            max_density: if advected { rho } else { 0.0 },
+            max_signal: Material::of(params, material).signal_speed(rho, speed),
+            max_density: if advected {
+                reported_density(params, material, rho)
+            } else {
+                0.0
+            },
             pushed: u64::from(pushed),
         }
     }
@@ -757,6 +784,7 @@ impl Solver for CpuSolver {
             v: &mut p.v,
             c: &mut p.c,
             rho: &mut p.rho,
+            material: &mut p.material,
             live: &mut p.live,
         };
         lifecycle.emit(slots, mask);

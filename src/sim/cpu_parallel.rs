@@ -31,10 +31,10 @@
 use super::colliders::ColliderFrame;
 use super::cpu::{
     density_after_g2p, g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle,
-    step_phases, CpuPhases, CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
+    reported_density, step_phases, CpuPhases, CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
-use super::params::{DensityRule, Params, ScatterMode};
+use super::params::{DensityRule, Material, Params, ScatterMode};
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -318,8 +318,7 @@ impl ParallelCpuSolver {
 
     /// m_i += w m_p, per tile block, then merged; then the walls' mirror mass.
     pub fn p2g_init(&mut self, params: &Params) {
-        let m_p = params.material.particle_mass;
-        let (bins, x) = (&self.bins, &self.inner.particles.x);
+        let (bins, particles) = (&self.bins, &self.inner.particles);
         self.block_mass.resize(bins.active.len() * BLOCK_NODES, 0.0);
         self.block_mass
             .par_chunks_mut(BLOCK_NODES)
@@ -328,7 +327,9 @@ impl ParallelCpuSolver {
                 block.fill(0.0);
                 let origin = bins.tile_origin(bins.active[k]);
                 for &p in bins.particles(k) {
-                    let st = Stencil::new(x[p as usize], params.inv_dx);
+                    let p = p as usize;
+                    let m_p = Material::of(params, particles.material[p]).particle_mass;
+                    let st = Stencil::new(particles.x[p], params.inv_dx);
                     in_block(&st, origin).for_each_node(BLOCK_SHAPE, |i, w, _| block[i] += w * m_p);
                 }
             });
@@ -375,9 +376,11 @@ impl ParallelCpuSolver {
                 for (&i, rho_out) in bins.particles(k).iter().zip(rho_run.iter_mut()) {
                     let i = i as usize;
                     let st = Stencil::new(p.x[i], params.inv_dx);
-                    let (rho, mv, affine) = p2g_particle(params, &st, *shape, mass, p.rho[i], p.v[i], p.c[i]);
+                    let material = p.material[i];
+                    let (rho, mv, affine) =
+                        p2g_particle(params, &st, *shape, mass, p.rho[i], p.v[i], p.c[i], material);
                     *rho_out = rho;
-                    max_rho = max_rho.max(rho);
+                    max_rho = max_rho.max(reported_density(params, material, rho));
                     in_block(&st, origin)
                         .for_each_node(BLOCK_SHAPE, |n, w, d| block[n] += w * (mv + affine * d));
                 }
@@ -455,15 +458,15 @@ impl ParallelCpuSolver {
             .zip(p.v.par_iter_mut())
             .zip(p.c.par_iter_mut())
             .zip(p.rho.par_iter_mut())
-            .zip(p.live.par_iter())
-            .map(|((((x, v), c), rho), &live)| {
+            .zip(p.live.par_iter().zip(p.material.par_iter()))
+            .map(|((((x, v), c), rho), (&live, &material))| {
                 if !live {
                     return GatherExtremes::default();
                 }
                 let (x_new, v_new, c_new, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
                 *rho = density_after_g2p(params, *shape, mass, velocity, *x, *rho);
                 (*x, *v, *c) = (x_new, v_new, c_new);
-                GatherExtremes::of(params, *v, *rho, moved)
+                GatherExtremes::of(params, *v, *rho, material, moved)
             })
             .reduce(GatherExtremes::default, GatherExtremes::max);
         extremes.add_to(&mut self.extremes);

@@ -51,6 +51,8 @@ pub struct Emitter {
     pub rate: f64,
     /// Where its particles appear: lattice points of the nozzle, h apart.
     pub points: Vec<Vec3>,
+    /// The row of the material table it emits.
+    pub material: u8,
 }
 
 impl Emitter {
@@ -207,7 +209,8 @@ pub struct Lifecycle {
     pub state: FlowState,
     /// The particle spacing h, m.
     pub spacing: f32,
-    pub rest_density: f32,
+    /// Per row of the material table, its rest density: an emitted particle's first density.
+    pub rest_densities: Vec<f32>,
 }
 
 impl Lifecycle {
@@ -217,7 +220,7 @@ impl Lifecycle {
             flow: std::sync::Arc::new(scene.flow.clone()),
             state,
             spacing: scene.lattice().spacing as f32,
-            rest_density: scene.material.rest_density,
+            rest_densities: scene.materials.iter().map(|m| m.law.rest_density).collect(),
         }
     }
 
@@ -239,7 +242,7 @@ impl Lifecycle {
             slots,
             mask,
             self.spacing,
-            self.rest_density,
+            &self.rest_densities,
         );
     }
 }
@@ -253,6 +256,7 @@ pub struct Slots<'a> {
     pub v: &'a mut [Vec3],
     pub c: &'a mut [glam::Mat3],
     pub rho: &'a mut [f32],
+    pub material: &'a mut [u8],
     pub live: &'a mut [bool],
 }
 
@@ -265,7 +269,7 @@ pub fn emit(
     slots: Slots<'_>,
     mask: u32,
     spacing: f32,
-    rest_density: f32,
+    rest_densities: &[f32],
 ) {
     state.settle();
     let clearance_sq = (CLEARANCE * spacing) * (CLEARANCE * spacing);
@@ -285,11 +289,12 @@ pub fn emit(
             wants.push(due && clear);
         }
     }
-    let points = flow
-        .emitters
-        .iter()
-        .flat_map(|e| e.points.iter().map(move |&at| (at, e.normal * e.speed)));
-    for (point, ((at, velocity), _)) in points.zip(&wants).enumerate().filter(|(_, (_, &w))| w) {
+    let points = flow.emitters.iter().flat_map(|e| {
+        e.points
+            .iter()
+            .map(move |&at| (at, e.normal * e.speed, e.material))
+    });
+    for (point, ((at, velocity, material), _)) in points.zip(&wants).enumerate().filter(|(_, (_, &w))| w) {
         let Some(slot) = state.free.pop() else {
             state.counts.exhausted += 1;
             continue;
@@ -298,7 +303,8 @@ pub fn emit(
         slots.x[s] = at;
         slots.v[s] = velocity;
         slots.c[s] = glam::Mat3::ZERO;
-        slots.rho[s] = rest_density;
+        slots.rho[s] = rest_densities[usize::from(material)];
+        slots.material[s] = material;
         slots.live[s] = true;
         state.last[point] = slot;
         state.counts.emitted += 1;

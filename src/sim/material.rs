@@ -1,21 +1,155 @@
-//! The fluid's constitutive law on the CPU: the Tait equation of state with its pressure floor, the
-//! viscous stress, and the sound speed the time step follows (docs/physics.md). The twins of
-//! kernels/material.cuh, operation for operation, so the reference and the kernels round alike: a new
-//! law (a non-Newtonian viscosity, say) changes these methods and those functions, nothing else.
+//! A liquid's constitutive law on the CPU: the Tait equation of state with its pressure floor, the
+//! viscosity as its law makes it of the shear rate, the viscous stress, and the sound speed the time
+//! step follows (docs/physics.md). The twins of kernels/material.cuh, operation for operation, so
+//! the reference and the kernels compute the same expressions: a new law changes these methods and
+//! those functions, nothing else.
 
 use super::params::Material;
+use crate::contract::{LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW};
 use glam::{Mat3, Vec3};
 
+/// One row of a scene's material table: the law the solvers read and what the scene calls it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedMaterial {
+    pub name: String,
+    /// Linear RGB in [0, 1].
+    pub colour: [f32; 3],
+    pub law: Material,
+}
+
+/// The colour of a material the scene gives none: water's blue, then a few that tell liquids apart.
+pub fn default_colour(row: usize) -> [f32; 3] {
+    const COLOURS: [[f32; 3]; 4] = [
+        [0.10, 0.35, 0.80],
+        [0.85, 0.60, 0.10],
+        [0.45, 0.30, 0.15],
+        [0.70, 0.10, 0.10],
+    ];
+    COLOURS[row % COLOURS.len()]
+}
+
+/// The substep's explicit viscous limit, dt <= VISCOUS_LIMIT rho0 dx^2 / mu: diffusion of momentum
+/// over a cell in a substep, with the margin the quadratic stencil needs (docs/physics.md).
+pub const VISCOUS_LIMIT: f32 = 1.0 / 6.0;
+
+/// The materials of a scene, as every solver sees them (`Params::materials`).
+pub trait MaterialTable {
+    /// The rows in use.
+    fn rows(&self) -> &[Material];
+
+    /// Whether the rest densities differ (`DensityRule::Carried`).
+    fn several_densities(&self) -> bool {
+        let rows = self.rows();
+        rows.iter().any(|m| m.rest_density != rows[0].rest_density)
+    }
+
+    /// The largest sound speed at rest, m/s.
+    fn fastest_sound_speed(&self) -> f32 {
+        self.rows().iter().map(Material::sound_speed).fold(0.0, f32::max)
+    }
+
+    /// The largest substep the viscous limit allows at node spacing `dx`, s; infinite where no
+    /// material has viscosity.
+    fn viscous_dt(&self, dx: f32) -> f32 {
+        self.rows()
+            .iter()
+            .map(|m| VISCOUS_LIMIT * m.rest_density * dx * dx / m.viscosity_ceiling())
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// The largest signal speed c(rho) + speed of any material, given the largest density and
+    /// speed any particle reached. The solvers report the density in row 0's terms, rho_p rho0_0 /
+    /// rho0_p ([`Material::reported_density`]): the most compressed particle's, whatever its material.
+    fn signal_speed(&self, max_density: f32, speed: f32) -> f32 {
+        let rows = self.rows();
+        let first = rows[0].rest_density;
+        rows.iter()
+            .map(|m| {
+                let rho = if m.rest_density == first {
+                    max_density
+                } else {
+                    max_density / first * m.rest_density
+                };
+                m.signal_speed(rho, speed)
+            })
+            // A NaN (a diverged state) must reach the time-step policy: f32::max would drop it.
+            .reduce(|a, b| if a.is_nan() || a >= b { a } else { b })
+            .unwrap_or(0.0)
+    }
+}
+
+impl MaterialTable for [Material] {
+    fn rows(&self) -> &[Material] {
+        self
+    }
+}
+
+impl MaterialTable for crate::contract::Params {
+    fn rows(&self) -> &[Material] {
+        &self.materials[..self.material_count as usize]
+    }
+}
+
 impl Material {
+    /// Row `index` of `params`' table (row 0 in a scene of one material, whatever the index).
+    #[inline(always)]
+    pub fn of(params: &crate::contract::Params, index: u8) -> &Material {
+        if params.material_count > 1 {
+            &params.materials[usize::from(index).min(crate::contract::MAX_MATERIALS as usize - 1)]
+        } else {
+            &params.materials[0]
+        }
+    }
+
+    /// A particle's density `rho` as the solvers report it for the time step: in terms of row 0's
+    /// rest density `first`, rho rho0_0 / rho0 (rho itself for row 0's rest density, bit for bit).
+    #[inline(always)]
+    pub fn reported_density(&self, rho: f32, first: f32) -> f32 {
+        rho * (first / self.rest_density)
+    }
+
     /// Tait pressure, clamped to the floor: p(rho) = max(p_min, k ((rho / rho0)^gamma - 1)).
     pub fn pressure(&self, rho: f32) -> f32 {
         let ratio = rho / self.rest_density;
         (self.eos_stiffness * (power(ratio, self.eos_power) - 1.0)).max(self.pressure_floor)
     }
 
-    /// Cauchy stress sigma = -p I + mu (C + C^T) of a particle with affine velocity `c`.
+    /// Cauchy stress sigma = -p I + mu (C + C^T) of a particle with affine velocity `c`, mu its
+    /// effective viscosity there ([`Material::effective_viscosity`]).
     pub fn stress(&self, pressure: f32, c: Mat3) -> Mat3 {
-        Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * self.viscosity
+        let viscosity = self.effective_viscosity(c);
+        Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * viscosity
+    }
+
+    /// The viscosity at velocity gradient `c`: the constant one of a Newtonian liquid, else the law's
+    /// at the shear rate [`shear_rate`], held within [min_viscosity, max_viscosity].
+    pub fn effective_viscosity(&self, c: Mat3) -> f32 {
+        if self.law == LAW_NEWTONIAN {
+            return self.viscosity;
+        }
+        let rate = shear_rate(c);
+        let n = self.flow_index;
+        let viscosity = match self.law {
+            LAW_POWER_LAW => self.viscosity * power(rate, n - 1.0),
+            LAW_CARREAU_YASUDA => {
+                let a = self.transition_exponent;
+                let thinning = power(1.0 + power(self.relaxation_time * rate, a), (n - 1.0) / a);
+                self.min_viscosity + (self.viscosity - self.min_viscosity) * thinning
+            }
+            LAW_HERSCHEL_BULKLEY => self.viscosity * power(rate, n - 1.0) + self.yield_stress / rate,
+            _ => self.viscosity,
+        };
+        viscosity.max(self.min_viscosity).min(self.max_viscosity)
+    }
+
+    /// The largest viscosity the law can take, Pa s: what the explicit viscous limit on the substep
+    /// follows.
+    pub fn viscosity_ceiling(&self) -> f32 {
+        if self.law == LAW_NEWTONIAN {
+            self.viscosity
+        } else {
+            self.max_viscosity
+        }
     }
 
     /// Sound speed at rest, c0 = sqrt(k gamma / rho0).
@@ -33,6 +167,24 @@ impl Material {
     pub fn signal_speed(&self, rho: f32, speed: f32) -> f32 {
         self.sound_speed_at(rho) + speed
     }
+}
+
+/// The shear rate gammadot = sqrt(2 D':D') of velocity gradient `c`, D' the deviatoric part of the
+/// strain rate D = (C + C^T) / 2: the rate of shape change alone, so that the slight compression of
+/// the weakly compressible liquid does not thin or thicken it.
+pub fn shear_rate(c: Mat3) -> f32 {
+    let third_trace = (c.x_axis.x + c.y_axis.y + c.z_axis.z) * (1.0 / 3.0);
+    let (d0, d1, d2) = (
+        c.x_axis.x - third_trace,
+        c.y_axis.y - third_trace,
+        c.z_axis.z - third_trace,
+    );
+    // Off the diagonal, D_ij = (C_ij + C_ji) / 2; C's column j holds C_ij in row i.
+    let d01 = 0.5 * (c.y_axis.x + c.x_axis.y);
+    let d02 = 0.5 * (c.z_axis.x + c.x_axis.z);
+    let d12 = 0.5 * (c.z_axis.y + c.y_axis.z);
+    let squares = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (d01 * d01 + d02 * d02 + d12 * d12);
+    (2.0 * squares).sqrt()
 }
 
 /// `x^e` as kernels/material.cuh's `material_power` takes it: by squaring where `2e` is a whole

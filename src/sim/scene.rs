@@ -17,8 +17,10 @@ use validate::Validator;
 
 use super::colliders::Colliders;
 use super::flow::Flow;
+use super::material::{MaterialTable, NamedMaterial};
 use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
+use crate::contract::MAX_MATERIALS;
 use glam::{DVec3, Vec3};
 use std::path::Path;
 
@@ -48,6 +50,8 @@ pub enum Shape {
 pub struct Body {
     pub shape: Shape,
     pub velocity: Vec3,
+    /// Its row of the material table.
+    pub material: u8,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -58,7 +62,8 @@ pub struct Scene {
     pub source: String,
     pub grid_res: [u32; 3],
     pub dx: f32,
-    pub material: Material,
+    /// The material table: `[material]`'s one row, or the `[[material]]` entries in order.
+    pub materials: Vec<NamedMaterial>,
     pub gravity: Vec3,
     pub boundary_band: u32,
     pub soft_wall: bool,
@@ -97,6 +102,8 @@ pub struct Particles {
     pub c: Vec<glam::Mat3>,
     /// Density estimated in the last p2g, kg/m^3 (rest density before the first step).
     pub rho: Vec<f32>,
+    /// The row of the scene's material table each particle is made of.
+    pub material: Vec<u8>,
     /// False for a parked slot (see `sim::flow`): no part of the fluid, kept for its index.
     pub live: Vec<bool>,
 }
@@ -127,6 +134,7 @@ impl Particles {
             v: pick(n).map(|i| self.v[i]).collect(),
             c: pick(n).map(|i| self.c[i]).collect(),
             rho: pick(n).map(|i| self.rho[i]).collect(),
+            material: pick(n).map(|i| self.material[i]).collect(),
             live: vec![true; pick(n).count()],
         }
     }
@@ -211,8 +219,14 @@ impl Scene {
     pub fn params(&self) -> Params {
         let (mirror_lo, mirror_hi) = fluid_region_nodes(self.grid_res, self.boundary_band, self.soft_wall);
         let (fixed_mass_scale, fixed_momentum_scale) = self.fixed_point_scales();
+        let mut materials = [Material::default(); MAX_MATERIALS as usize];
+        for (row, m) in materials.iter_mut().zip(&self.materials) {
+            *row = m.law;
+        }
+        let carried_density = materials[..self.materials.len()].several_densities();
         Params {
-            material: self.material,
+            materials,
+            material_count: self.materials.len() as u32,
             gravity: self.gravity.to_array(),
             dt: 0.0,
             grid_res: self.grid_res,
@@ -227,6 +241,7 @@ impl Scene {
             wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             density_rule: self.pipeline.density_rule().code(),
+            carried_density: u32::from(carried_density),
         }
     }
 
@@ -239,11 +254,17 @@ impl Scene {
     /// the binned pipeline's tiles (in either scatter mode) use them; the CPU ignores them.
     pub fn fixed_point_scales(&self) -> (f32, f32) {
         let dx = f64::from(self.dx);
-        let cell_mass = f64::from(self.material.rest_density) * dx * dx * dx;
+        let densest = self
+            .materials
+            .iter()
+            .map(|m| m.law.rest_density)
+            .fold(0.0, f32::max);
+        let cell_mass = f64::from(densest) * dx * dx * dx;
         let height = f64::from(self.grid_res.iter().copied().max().unwrap_or(1)) * dx;
         let free_fall = (2.0 * f64::from(self.gravity.length()) * height).sqrt();
         let body_speed = f64::from(self.fastest_start());
-        let speed = f64::from(self.material.sound_speed())
+        let rows: Vec<Material> = self.materials.iter().map(|m| m.law).collect();
+        let speed = f64::from(rows.as_slice().fastest_sound_speed())
             .max(free_fall)
             .max(body_speed)
             .max(1e-3);
@@ -291,9 +312,9 @@ impl Scene {
         bodies.chain(emitters).fold(self.colliders.max_speed(), f32::max)
     }
 
-    /// Total particle mass, kg.
-    pub fn total_mass(&self) -> f64 {
-        self.num_particles as f64 * f64::from(self.material.particle_mass)
+    /// The first row of the material table: the scene's only material where it has one.
+    pub fn material(&self) -> &Material {
+        &self.materials[0].law
     }
 }
 

@@ -3,10 +3,11 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{self, FlowCounts};
+use super::material::MaterialTable;
 use super::params::{Params, Pipeline, FRAME_DT};
 use super::phase::PhaseTimings;
 use super::push::Push;
-use super::scene::{Scene, MAX_CFL};
+use super::scene::{Scene, TimeStepPolicy, MAX_CFL};
 use super::solver::{ExtremesTicket, Solver, SummaryTicket};
 use super::summary::Summary;
 use anyhow::{bail, ensure, Result};
@@ -22,6 +23,28 @@ fn diverged(frame: u64) -> anyhow::Error {
     )
 }
 
+/// What set a frame's substep: the CFL bound's sound speed or flow speed, the materials' viscosity,
+/// or the scene's fixed dt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StepLimit {
+    Acoustic,
+    Advective,
+    Viscous,
+    Fixed,
+}
+
+impl StepLimit {
+    pub fn name(self) -> &'static str {
+        match self {
+            StepLimit::Acoustic => "acoustic",
+            StepLimit::Advective => "advective",
+            StepLimit::Viscous => "viscous",
+            StepLimit::Fixed => "fixed",
+        }
+    }
+}
+
 /// One line of the runner's output.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FrameStats {
@@ -33,6 +56,8 @@ pub struct FrameStats {
     pub dt: f32,
     /// max over the frame's substeps of (c(rho) + |v|) dt / dx, from the per-step extremes.
     pub max_cfl: f32,
+    /// The limit that set the frame's smallest substep.
+    pub limit: StepLimit,
     /// Substeps of the frame run in a stretch whose CFL number went above [`MAX_CFL`] (0 when the
     /// bound held). The step cannot be taken back, so these are counted and reported instead.
     pub substeps_over_cfl: u32,
@@ -57,6 +82,8 @@ pub struct FrameSteps {
     /// The smallest substep of the frame, s.
     pub dt: f32,
     pub max_cfl: f32,
+    /// See [`FrameStats::limit`].
+    pub limit: StepLimit,
     /// See [`FrameStats::substeps_over_cfl`].
     pub substeps_over_cfl: u32,
     /// See [`FrameStats::backstop_pushes`].
@@ -75,6 +102,11 @@ pub struct Simulation {
     signal_speed: f32,
     /// How much it rose over that stretch (0 if it fell): a rising trend is extrapolated one stretch on.
     signal_rise: f32,
+    /// Whether the fastest particle outran the sound speed in `signal_speed` (the advective part of
+    /// the CFL bound is the larger).
+    advective: bool,
+    /// The largest substep the materials' viscosity allows (`MaterialTable::viscous_dt`), s.
+    viscous_dt: f32,
     /// The last frame's per-substep timings, for the benches' medians.
     last_step_timings: Vec<PhaseTimings>,
     /// A frame begun by [`Simulation::step_frame_until`] and not finished yet.
@@ -106,6 +138,7 @@ struct FramePart {
     substeps: u32,
     smallest_dt: f32,
     max_cfl: f32,
+    limit: StepLimit,
     over_cfl: u32,
     backstop_pushes: u64,
     /// Simulated seconds of the frame so far.
@@ -122,6 +155,7 @@ impl FramePart {
         substeps: 0,
         smallest_dt: f32::INFINITY,
         max_cfl: 0.0,
+        limit: StepLimit::Acoustic,
         over_cfl: 0,
         backstop_pushes: 0,
         simulated: 0.0,
@@ -162,6 +196,7 @@ impl Simulation {
         solver.resume_after(&params);
         let mut sim = Simulation::new(scene, solver);
         sim.params = params;
+        sim.viscous_dt = sim.params.viscous_dt(sim.params.dx);
         sim.frame = clock.frame;
         sim.time = clock.time;
         sim.signal_speed = clock.signal_speed;
@@ -187,7 +222,10 @@ impl Simulation {
 
     pub fn new(scene: Scene, solver: Box<dyn Solver>) -> Simulation {
         let params = scene.params();
-        let signal_speed = scene.material.sound_speed() + scene.fastest_start();
+        let sound_speed = params.fastest_sound_speed();
+        let signal_speed = sound_speed + scene.fastest_start();
+        let advective = scene.fastest_start() > sound_speed;
+        let viscous_dt = params.viscous_dt(params.dx);
         let emitter_phases = vec![0.0; scene.flow.emitters.len()];
         Simulation {
             scene,
@@ -197,6 +235,8 @@ impl Simulation {
             time: 0.0,
             signal_speed,
             signal_rise: 0.0,
+            advective,
+            viscous_dt,
             last_step_timings: Vec::new(),
             in_progress: None,
             summary_wanted: false,
@@ -270,7 +310,7 @@ impl Simulation {
         };
         self.signal_speed = self
             .signal_speed
-            .max(self.params.material.sound_speed() + velocity.length() as f32);
+            .max(self.params.fastest_sound_speed() + velocity.length() as f32);
         Ok(())
     }
     pub fn solver(&self) -> &dyn Solver {
@@ -318,12 +358,21 @@ impl Simulation {
     /// again as it rose over the last substeps. Both are added, so the step stays safe. `unknown` is
     /// the stretch of substeps already enqueued whose extremes are not yet known (its length in
     /// seconds, or 0): the speed may grow over it too, by gravity and by one more rise.
-    fn steps_for(&self, span: f32, unknown: f32) -> Result<(u32, f32)> {
+    /// The viscous limit ([`MaterialTable::viscous_dt`]) caps the substep the CFL bound allows; the
+    /// limit that set it comes with it.
+    fn steps_for(&self, span: f32, unknown: f32) -> Result<(u32, f32, StepLimit)> {
         let gravity_gain = Vec3::from(self.params.gravity).length() * (span + unknown);
         let rises = if unknown > 0.0 { 2.0 } else { 1.0 };
         let expected = self.signal_speed + rises * self.signal_rise + gravity_gain;
+        let fixed = matches!(self.scene.time_step, TimeStepPolicy::Fixed { .. });
         match self.scene.time_step.substeps(span, expected, self.params.dx) {
-            Ok(steps) => Ok(steps),
+            Ok((n, dt)) if fixed => Ok((n, dt, StepLimit::Fixed)),
+            Ok((n, dt)) if dt > self.viscous_dt => {
+                let n = (span / self.viscous_dt).ceil().max(n as f32);
+                Ok((n as u32, span / n, StepLimit::Viscous))
+            }
+            Ok((n, dt)) if self.advective => Ok((n, dt, StepLimit::Advective)),
+            Ok((n, dt)) => Ok((n, dt, StepLimit::Acoustic)),
             // The fused pipeline's density is a substep behind an impact that outruns the CFL
             // bound (tests/scenarios.rs, every_substep_above_the_cfl_bound_is_counted).
             Err(why) if self.scene.pipeline == Pipeline::Fused && self.over_cfl_total > 0 => bail!(
@@ -340,7 +389,7 @@ impl Simulation {
 
     /// Substeps per frame and the substep the next frame starts with, as the policy sees them now.
     pub fn next_frame_steps(&self) -> Result<(u32, f32)> {
-        self.steps_for(FRAME_DT, 0.0)
+        self.steps_for(FRAME_DT, 0.0).map(|(n, dt, _)| (n, dt))
     }
 
     /// What a stretch of `n` substeps of `dt` tells the time-step policy once its extremes are in:
@@ -355,10 +404,8 @@ impl Simulation {
         let extremes = self.solver.wait_extremes(ticket)?;
         // The step is chosen from the pairing of the largest density with the largest speed; the
         // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
-        let bound = self
-            .params
-            .material
-            .signal_speed(extremes.max_density, extremes.max_speed);
+        let bound = self.params.signal_speed(extremes.max_density, extremes.max_speed);
+        self.advective = extremes.max_speed > bound - extremes.max_speed;
         self.signal_rise = (bound - self.signal_speed).max(0.0);
         self.signal_speed = bound;
         let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
@@ -397,7 +444,7 @@ impl Simulation {
         let steps = steps?;
         let ticket = match self.summary_ticket.take() {
             Some(ticket) => ticket,
-            None => self.solver.request_summary(&self.params.material)?,
+            None => self.solver.request_summary(&self.params)?,
         };
         let summary = self.solver.wait_summary(ticket)?;
         if !summary.is_finite() {
@@ -409,6 +456,7 @@ impl Simulation {
             substeps: steps.substeps,
             dt: steps.dt,
             max_cfl: steps.max_cfl,
+            limit: steps.limit,
             substeps_over_cfl: steps.substeps_over_cfl,
             backstop_pushes: steps.backstop_pushes,
             summary,
@@ -449,7 +497,7 @@ impl Simulation {
         loop {
             let left = f64::from(FRAME_DT) - part.simulated;
             let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
-            let (to_frame_end, dt) = self.steps_for(left as f32, unknown)?;
+            let (to_frame_end, dt, limit) = self.steps_for(left as f32, unknown)?;
             let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
             let mut n = 0;
@@ -472,13 +520,16 @@ impl Simulation {
                 part.read_step_timings(self.solver.as_mut())?;
             }
             part.substeps += n;
+            if dt < part.smallest_dt {
+                part.limit = limit;
+            }
             part.smallest_dt = part.smallest_dt.min(dt);
             part.simulated += f64::from(n) * f64::from(dt);
             // Decided once: a stretch left in flight when the frame pauses would lose its extremes.
             let done = n == to_frame_end;
             let pause = !done && late();
             if done && self.summary_wanted {
-                self.summary_ticket = Some(self.solver.request_summary(&self.params.material)?);
+                self.summary_ticket = Some(self.solver.request_summary(&self.params)?);
             }
             if done || pause {
                 // Overlapping frames, the frame's last stretch stays in flight (not when its
@@ -503,6 +554,7 @@ impl Simulation {
             substeps,
             smallest_dt,
             max_cfl,
+            limit,
             over_cfl,
             backstop_pushes,
             simulated,
@@ -520,6 +572,7 @@ impl Simulation {
             substeps,
             dt: smallest_dt,
             max_cfl,
+            limit,
             substeps_over_cfl: over_cfl,
             backstop_pushes,
             timings,
@@ -541,7 +594,12 @@ impl Simulation {
             viscosity.is_finite() && viscosity >= 0.0,
             "viscosity must be a finite number >= 0 Pa s, not {viscosity}"
         );
-        self.params.material.viscosity = viscosity;
+        let material = &mut self.params.materials[0];
+        material.viscosity = viscosity;
+        if material.law == crate::contract::LAW_NEWTONIAN {
+            material.max_viscosity = viscosity;
+        }
+        self.viscous_dt = self.params.viscous_dt(self.params.dx);
         Ok(())
     }
 
@@ -553,7 +611,7 @@ impl Simulation {
             "sound speed must be a finite number > 0 m/s, not {sound_speed}"
         );
         self.settle()?;
-        let material = &mut self.params.material;
+        let material = &mut self.params.materials[0];
         let old = material.sound_speed();
         material.eos_stiffness = material.rest_density * sound_speed * sound_speed / material.eos_power;
         // The signal speed scales with c0 (its density factor stays the same).

@@ -3,7 +3,7 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState};
-use super::params::{Material, Params};
+use super::params::Params;
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -156,19 +156,17 @@ pub trait Solver: Send {
         Ok(None)
     }
     /// Statistics of the current state. Backends that can reduce in place override this copy.
-    fn summary(&mut self, material: &Material) -> Result<Summary> {
+    /// `table`: the materials as they are now (the viewer may have changed them since the solver
+    /// last stepped).
+    fn summary(&mut self, table: &Params) -> Result<Summary> {
         let particles = self.read_particles()?;
-        Ok(Summary::of(
-            &particles,
-            material.particle_mass,
-            material.rest_density,
-        ))
+        Ok(Summary::of(&particles, table))
     }
     /// Starts the statistics of the state after the substeps enqueued so far, in stream order;
     /// [`Self::wait_summary`] gives them. A backend whose steps are synchronous answers at once. One
     /// request at a time.
-    fn request_summary(&mut self, material: &Material) -> Result<SummaryTicket> {
-        Ok(SummaryTicket::Ready(self.summary(material)?))
+    fn request_summary(&mut self, table: &Params) -> Result<SummaryTicket> {
+        Ok(SummaryTicket::Ready(self.summary(table)?))
     }
     fn wait_summary(&mut self, ticket: SummaryTicket) -> Result<Summary> {
         match ticket {

@@ -1,6 +1,7 @@
 //! The statistics of a state: the runner's line, the viewer's panel, the tests' checks. The CPU
 //! computes them from the particles; the CUDA backend reduces them on the device (src/cuda/stats.rs).
 
+use super::params::{Material, Params};
 use super::scene::Particles;
 use glam::DVec3;
 use serde::Serialize;
@@ -23,8 +24,9 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Of the live particles; an empty state (a tank before its emitters start) has zeros.
-    pub fn of(particles: &Particles, particle_mass: f32, rest_density: f32) -> Summary {
+    /// Of the live particles, each of its row of `table`'s materials; an empty state (a tank
+    /// before its emitters start) has zeros.
+    pub fn of(particles: &Particles, table: &Params) -> Summary {
         let n = particles.num_live();
         if n == 0 {
             return Summary {
@@ -37,7 +39,6 @@ impl Summary {
                 centre_of_mass: [0.0; 3],
             };
         }
-        let m = f64::from(particle_mass);
         let mut com = DVec3::ZERO;
         let mut ke = 0.0f64;
         let mut max_speed = 0.0f32;
@@ -45,9 +46,10 @@ impl Summary {
         for i in (0..particles.len()).filter(|&i| particles.live[i]) {
             com += particles.x[i].as_dvec3();
             let v2 = particles.v[i].length_squared();
-            ke += 0.5 * m * f64::from(v2);
+            let material = Material::of(table, particles.material[i]);
+            ke += 0.5 * f64::from(material.particle_mass) * f64::from(v2);
             max_speed = max_speed.max(v2.sqrt());
-            let r = particles.rho[i] / rest_density;
+            let r = particles.rho[i] / material.rest_density;
             rmin = rmin.min(r);
             rmax = rmax.max(r);
             rsum += f64::from(r);

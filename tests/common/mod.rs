@@ -46,7 +46,7 @@ pub fn cfl_params(scene: &Scene) -> Params {
     let mut params = scene.params();
     let (_, dt) = scene
         .time_step
-        .substeps(mpm::sim::FRAME_DT, scene.material.sound_speed() + 2.0, scene.dx)
+        .substeps(mpm::sim::FRAME_DT, scene.material().sound_speed() + 2.0, scene.dx)
         .unwrap();
     params.dt = dt;
     params

@@ -84,7 +84,8 @@ impl Scene {
             x: Vec::with_capacity(slots),
             v: Vec::with_capacity(slots),
             c: vec![glam::Mat3::ZERO; slots],
-            rho: vec![self.material.rest_density; slots],
+            rho: Vec::with_capacity(slots),
+            material: Vec::with_capacity(slots),
             live: vec![true; self.num_particles],
         };
         let colliders = self.colliders_at_start();
@@ -92,11 +93,17 @@ impl Scene {
             for p in self.own_points(&lattice, k, &colliders) {
                 particles.x.push(p.as_vec3());
                 particles.v.push(body.velocity);
+                particles
+                    .rho
+                    .push(self.materials[usize::from(body.material)].law.rest_density);
+                particles.material.push(body.material);
             }
         }
         debug_assert_eq!(particles.x.len(), self.num_particles);
         particles.x.resize(slots, Vec3::ZERO);
         particles.v.resize(slots, Vec3::ZERO);
+        particles.rho.resize(slots, self.material().rest_density);
+        particles.material.resize(slots, 0);
         particles.live.resize(slots, false);
         particles
     }

@@ -11,7 +11,9 @@ pub struct SceneSpec {
     pub name: Option<String>,
     pub description: Option<String>,
     pub domain: DomainSpec,
-    pub material: MaterialSpec,
+    /// `[material]`, the one liquid of the scene, or `[[material]]`, a table of named ones that the
+    /// bodies and emitters name.
+    pub material: MaterialsSpec,
     #[serde(default)]
     pub solver: SolverSpec,
     #[serde(default)]
@@ -62,6 +64,8 @@ pub struct EmitterSpec {
     pub rate: Option<f64>,
     #[serde(default = "default_ppc")]
     pub particles_per_cell: u32,
+    /// The `[[material]]` it emits, by name (the scene's only material where omitted).
+    pub material: Option<String>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -80,26 +84,95 @@ pub struct DomainSpec {
     pub resolution: [u32; 3],
 }
 
+/// `[material]` (one table) or `[[material]]` (an array of them): told apart by the TOML's shape.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum MaterialsSpec {
+    One(MaterialSpec),
+    Table(Vec<MaterialSpec>),
+}
+
+impl<'de> Deserialize<'de> for MaterialsSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        match toml::Value::deserialize(deserializer)? {
+            array @ toml::Value::Array(_) => array
+                .try_into()
+                .map(MaterialsSpec::Table)
+                .map_err(D::Error::custom),
+            table => table.try_into().map(MaterialsSpec::One).map_err(D::Error::custom),
+        }
+    }
+}
+
+impl MaterialsSpec {
+    /// The entries, each with its TOML key (`material` or `material[i]`).
+    pub fn entries(&self) -> Vec<(String, &MaterialSpec)> {
+        match self {
+            MaterialsSpec::One(m) => vec![("material".to_string(), m)],
+            MaterialsSpec::Table(ms) => ms
+                .iter()
+                .enumerate()
+                .map(|(i, m)| (format!("material[{i}]"), m))
+                .collect(),
+        }
+    }
+}
+
+/// How a liquid's viscosity follows its shear rate (docs/physics.md, "Materials").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LawSpec {
+    /// A constant viscosity: water, oil, glycerine, honey.
+    #[default]
+    Newtonian,
+    /// mu = K gammadot^(n - 1): shear-thinning below n = 1, thickening above.
+    PowerLaw,
+    /// mu = mu_inf + (mu_0 - mu_inf) (1 + (lambda gammadot)^a)^((n - 1) / a): blood, polymer solutions.
+    CarreauYasuda,
+    /// mu = K gammadot^(n - 1) + tau_y / gammadot up to a ceiling (bi-viscous): mud, ketchup, lava;
+    /// Bingham where n = 1.
+    HerschelBulkley,
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
+    /// What bodies and emitters call it (`[[material]]` only).
+    pub name: Option<String>,
+    #[serde(default)]
+    pub law: LawSpec,
+    /// Linear RGB in [0, 1], for the viewer, the renders and the PLY files' colour.
+    pub colour: Option<[f32; 3]>,
     pub rest_density: f32,
     /// Give either the sound speed (m/s) or the EOS stiffness (Pa); the other follows.
     pub sound_speed: Option<f32>,
     pub eos_stiffness: Option<f32>,
     #[serde(default = "default_eos_power")]
     pub eos_power: f32,
-    #[serde(default = "default_viscosity")]
-    pub viscosity: f32,
+    /// Newtonian: mu, Pa s. Carreau-Yasuda: the zero-shear viscosity mu_0.
+    pub viscosity: Option<f32>,
+    /// Power law and Herschel-Bulkley: K, Pa s^n.
+    pub consistency: Option<f32>,
+    /// n: power law, Carreau-Yasuda, Herschel-Bulkley (default 1 there: Bingham).
+    pub flow_index: Option<f32>,
+    /// Herschel-Bulkley: tau_y, Pa.
+    pub yield_stress: Option<f32>,
+    /// The ceiling of the effective viscosity, Pa s (power law, Herschel-Bulkley, Carreau-Yasuda
+    /// where n > 1): the regularisation, and what the viscous limit on the substep follows.
+    pub max_viscosity: Option<f32>,
+    /// The floor, Pa s: the power law's at high rates; Carreau-Yasuda's mu_inf.
+    pub min_viscosity: Option<f32>,
+    /// Carreau-Yasuda: lambda, s.
+    pub relaxation_time: Option<f32>,
+    /// Carreau-Yasuda: a (2: the Carreau law).
+    pub transition_exponent: Option<f32>,
     #[serde(default)]
     pub pressure_floor: f32,
 }
 
 fn default_eos_power() -> f32 {
     7.0
-}
-fn default_viscosity() -> f32 {
-    1.0e-3
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -172,6 +245,8 @@ pub struct BlockSpec {
     pub particles_per_cell: u32,
     #[serde(default)]
     pub velocity: [f32; 3],
+    /// The `[[material]]` it is made of, by name (the scene's only material where omitted).
+    pub material: Option<String>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -183,6 +258,8 @@ pub struct SphereSpec {
     pub particles_per_cell: u32,
     #[serde(default)]
     pub velocity: [f32; 3],
+    /// The `[[material]]` it is made of, by name (the scene's only material where omitted).
+    pub material: Option<String>,
 }
 
 fn default_ppc() -> u32 {

@@ -6,8 +6,12 @@ use super::{
     default_name, fluid_region, Body, Scene, Shape, TimeStepPolicy, CPU_BYTES_PER_NODE,
     CPU_BYTES_PER_PARTICLE, MAX_CFL,
 };
+use crate::contract::{
+    LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW, MAX_MATERIALS,
+};
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
+use crate::sim::material::{default_colour, MaterialTable, NamedMaterial};
 use crate::sim::params::{Material, FRAME_DT};
 use crate::sim::{mesh, presets};
 use glam::{DVec3, Vec3};
@@ -86,9 +90,9 @@ impl Validator<'_> {
             ));
         }
         let particles_per_axis = self.particles_per_axis(spec)?;
-        let material = self.material(&spec.material, dx, particles_per_axis)?;
+        let materials = self.materials(&spec.material, dx, particles_per_axis)?;
         let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
-        let bodies = self.bodies(spec, grid_res, dx, band, spec.solver.soft_wall)?;
+        let bodies = self.bodies(spec, &materials, grid_res, dx, band, spec.solver.soft_wall)?;
         let emitter_speeds = spec
             .emitters
             .iter()
@@ -100,16 +104,24 @@ impl Validator<'_> {
             .fold(0.0, f32::max);
         let colliders = self.colliders(spec, grid_res, dx)?;
         let max_speed = max_body_speed.max(colliders.max_speed());
-        let time_step = self.time_step(&spec.time_step, &material, dx, max_speed)?;
-        self.plausible_speeds(
-            &spec.material,
-            &material,
-            gravity,
-            &spec.domain,
-            dx,
-            max_speed,
-            &time_step,
-        )?;
+        let fastest = materials
+            .iter()
+            .map(|m| &m.law)
+            .max_by(|a, b| a.sound_speed().total_cmp(&b.sound_speed()))
+            .expect("a scene has at least one material");
+        let time_step = self.time_step(&spec.time_step, fastest, &materials, dx, max_speed)?;
+        for ((key, m), material) in spec.material.entries().into_iter().zip(&materials) {
+            self.plausible_speeds(
+                &key,
+                m,
+                &material.law,
+                gravity,
+                &spec.domain,
+                dx,
+                max_speed,
+                &time_step,
+            )?;
+        }
 
         let mut scene = Scene {
             name: spec.name.clone().unwrap_or_else(|| default_name(self.source)),
@@ -117,7 +129,7 @@ impl Validator<'_> {
             source: self.source.to_string(),
             grid_res,
             dx: dx as f32,
-            material,
+            materials,
             gravity,
             boundary_band: band,
             soft_wall: spec.solver.soft_wall,
@@ -224,67 +236,291 @@ impl Validator<'_> {
         })
     }
 
-    fn material(&self, m: &MaterialSpec, dx: f64, n: u32) -> Result<Material, SceneError> {
+    /// The material table: `[material]` as its one row, or each `[[material]]` in order.
+    fn materials(&self, spec: &MaterialsSpec, dx: f64, n: u32) -> Result<Vec<NamedMaterial>, SceneError> {
+        let entries = spec.entries();
+        if entries.is_empty() {
+            return Err(self.err(
+                "material",
+                "is an empty list",
+                "give at least one [[material]] with a name and a rest_density",
+            ));
+        }
+        if entries.len() > MAX_MATERIALS as usize {
+            return Err(self.err(
+                "material",
+                format!(
+                    "lists {} materials, more than the {MAX_MATERIALS} a scene may have",
+                    entries.len()
+                ),
+                format!("keep at most {MAX_MATERIALS} [[material]] entries"),
+            ));
+        }
+        let table = matches!(spec, MaterialsSpec::Table(_));
+        let mut rows: Vec<NamedMaterial> = Vec::with_capacity(entries.len());
+        for (row, (key, m)) in entries.into_iter().enumerate() {
+            let name = match (&m.name, table) {
+                (Some(name), _) if name.trim().is_empty() => {
+                    return Err(self.err(
+                        format!("{key}.name"),
+                        "is empty",
+                        "give the material a name, e.g. name = \"honey\"",
+                    ))
+                }
+                (Some(name), _) => name.clone(),
+                (None, true) => return Err(self.err(
+                    format!("{key}.name"),
+                    "is missing",
+                    "give every [[material]] a name that bodies and emitters can use, e.g. name = \"oil\"",
+                )),
+                (None, false) => "liquid".to_string(),
+            };
+            if let Some(first) = rows.iter().position(|r| r.name == name) {
+                return Err(self.err(
+                    format!("{key}.name"),
+                    format!("= \"{name}\" is already the name of material[{first}]"),
+                    "give each material a name of its own",
+                ));
+            }
+            let colour = match m.colour {
+                Some(c) if c.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)) => c,
+                Some(c) => {
+                    return Err(self.err(
+                        format!("{key}.colour"),
+                        format!("= {c:?} is not a colour"),
+                        "give linear RGB, three numbers from 0 to 1, e.g. colour = [0.9, 0.6, 0.1]",
+                    ))
+                }
+                None => default_colour(row),
+            };
+            rows.push(NamedMaterial {
+                name,
+                colour,
+                law: self.material(&key, m, dx, n)?,
+            });
+        }
+        Ok(rows)
+    }
+
+    fn material(&self, key: &str, m: &MaterialSpec, dx: f64, n: u32) -> Result<Material, SceneError> {
+        let k = |field: &str| format!("{key}.{field}");
         let rho0 = self.positive(
-            "material.rest_density",
+            &k("rest_density"),
             m.rest_density,
             "give the rest density in kg/m^3, e.g. 1000 for water",
         )?;
-        let gamma = self.positive("material.eos_power", m.eos_power, "use 7 (Tait, water)")?;
+        let gamma = self.positive(&k("eos_power"), m.eos_power, "use 7 (Tait, water)")?;
         let stiffness = match (m.sound_speed, m.eos_stiffness) {
             (Some(c0), None) => {
                 let c0 = self.positive(
-                    "material.sound_speed",
+                    &k("sound_speed"),
                     c0,
                     "give the sound speed in m/s; 10-20 for real-time water",
                 )?;
                 rho0 * c0 * c0 / gamma
             }
-            (None, Some(k)) => self.positive("material.eos_stiffness", k, "give k in Pa")?,
+            (None, Some(stiffness)) => self.positive(&k("eos_stiffness"), stiffness, "give k in Pa")?,
             (Some(_), Some(_)) => {
                 return Err(self.err(
-                    "material.sound_speed",
-                    "and `material.eos_stiffness` are both given",
+                    k("sound_speed"),
+                    format!("and `{}` are both given", k("eos_stiffness")),
                     "give one: the sound speed fixes the stiffness (k = rho0 c0^2 / gamma) and back",
                 ))
             }
             (None, None) => {
                 return Err(self.err(
-                    "material.sound_speed",
+                    k("sound_speed"),
                     "is missing",
                     "give sound_speed (m/s) or eos_stiffness (Pa), e.g. sound_speed = 20.0",
                 ))
             }
         };
-        if !(m.viscosity.is_finite() && m.viscosity >= 0.0) {
-            return Err(self.err(
-                "material.viscosity",
-                format!("= {} must be zero or positive", m.viscosity),
-                "give the dynamic viscosity in Pa s, 1e-3 for water",
-            ));
-        }
         if !(m.pressure_floor.is_finite() && m.pressure_floor <= 0.0) {
             return Err(self.err(
-                "material.pressure_floor",
+                k("pressure_floor"),
                 format!("= {} must be zero or negative", m.pressure_floor),
                 "use 0 (no tension) or a small negative pressure in Pa for surface cohesion",
             ));
         }
         let ppc = f64::from(n * n * n);
-        Ok(Material {
+        let mut material = Material {
             rest_density: rho0,
             eos_stiffness: stiffness,
             eos_power: gamma,
-            viscosity: m.viscosity,
-            pressure_floor: m.pressure_floor,
             particle_mass: (f64::from(rho0) * dx * dx * dx / ppc) as f32,
-            _pad: [0; 2],
-        })
+            pressure_floor: m.pressure_floor,
+            flow_index: 1.0,
+            max_viscosity: f32::INFINITY,
+            ..Material::default()
+        };
+        self.law(key, m, &mut material)?;
+        Ok(material)
+    }
+
+    /// The law's parameters into `material`: those the law needs present and in range, those it
+    /// does not use refused (a yield stress given to a Newtonian liquid is a mistake, not a no-op).
+    fn law(&self, key: &str, m: &MaterialSpec, material: &mut Material) -> Result<(), SceneError> {
+        let k = |field: &str| format!("{key}.{field}");
+        let law_name = match m.law {
+            LawSpec::Newtonian => "newtonian",
+            LawSpec::PowerLaw => "power-law",
+            LawSpec::CarreauYasuda => "carreau-yasuda",
+            LawSpec::HerschelBulkley => "herschel-bulkley",
+        };
+        let given: [(&str, Option<f32>); 8] = [
+            ("viscosity", m.viscosity),
+            ("consistency", m.consistency),
+            ("flow_index", m.flow_index),
+            ("yield_stress", m.yield_stress),
+            ("max_viscosity", m.max_viscosity),
+            ("min_viscosity", m.min_viscosity),
+            ("relaxation_time", m.relaxation_time),
+            ("transition_exponent", m.transition_exponent),
+        ];
+        let (needs, allows): (&[&str], &[&str]) = match m.law {
+            LawSpec::Newtonian => (&[], &["viscosity"]),
+            LawSpec::PowerLaw => (
+                &["consistency", "flow_index", "max_viscosity"],
+                &["min_viscosity"],
+            ),
+            LawSpec::CarreauYasuda => (
+                &["viscosity", "flow_index", "relaxation_time"],
+                &["min_viscosity", "max_viscosity", "transition_exponent"],
+            ),
+            LawSpec::HerschelBulkley => (
+                &["consistency", "yield_stress", "max_viscosity"],
+                &["flow_index", "min_viscosity"],
+            ),
+        };
+        for (field, value) in given {
+            let Some(value) = value else {
+                if needs.contains(&field) {
+                    return Err(self.err(
+                        k(field),
+                        format!("is missing: law = \"{law_name}\" needs {}", needs.join(", ")),
+                        "docs/scenes.md lists each law's parameters and their units",
+                    ));
+                }
+                continue;
+            };
+            if !needs.contains(&field) && !allows.contains(&field) {
+                return Err(self.err(
+                    k(field),
+                    format!("is not a parameter of law = \"{law_name}\""),
+                    format!(
+                        "remove it, or choose the law that has it; \"{law_name}\" takes {}",
+                        needs.iter().chain(allows).copied().collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            let positive = field != "min_viscosity" && !(field == "viscosity" && m.law == LawSpec::Newtonian);
+            if !value.is_finite() || value < 0.0 || (positive && value == 0.0) {
+                return Err(self.err(
+                    k(field),
+                    format!(
+                        "= {value} must be {}",
+                        if positive { "positive" } else { "zero or positive" }
+                    ),
+                    "give it in SI units: Pa s for viscosities, Pa s^n for the consistency, Pa, s",
+                ));
+            }
+        }
+        let get = |field: &str, default: f32| {
+            given
+                .iter()
+                .find(|(f, _)| *f == field)
+                .and_then(|g| g.1)
+                .unwrap_or(default)
+        };
+        material.law = match m.law {
+            LawSpec::Newtonian => LAW_NEWTONIAN,
+            LawSpec::PowerLaw => LAW_POWER_LAW,
+            LawSpec::CarreauYasuda => LAW_CARREAU_YASUDA,
+            LawSpec::HerschelBulkley => LAW_HERSCHEL_BULKLEY,
+        };
+        material.viscosity = match m.law {
+            LawSpec::Newtonian => get("viscosity", 1.0e-3),
+            LawSpec::CarreauYasuda => get("viscosity", 0.0),
+            LawSpec::PowerLaw | LawSpec::HerschelBulkley => get("consistency", 0.0),
+        };
+        material.flow_index = get("flow_index", 1.0);
+        material.yield_stress = get("yield_stress", 0.0);
+        material.min_viscosity = get("min_viscosity", 0.0);
+        material.relaxation_time = get("relaxation_time", 0.0);
+        material.transition_exponent = get("transition_exponent", 2.0);
+        material.max_viscosity = match m.law {
+            LawSpec::Newtonian => material.viscosity,
+            // Shear-thinning Carreau-Yasuda is bounded by its zero-shear viscosity.
+            LawSpec::CarreauYasuda if material.flow_index <= 1.0 => get("max_viscosity", material.viscosity),
+            LawSpec::CarreauYasuda => m.max_viscosity.ok_or_else(|| {
+                self.err(
+                    k("max_viscosity"),
+                    "is missing: a shear-thickening Carreau-Yasuda liquid (flow_index > 1) needs a ceiling",
+                    "give the largest viscosity the liquid may reach, in Pa s",
+                )
+            })?,
+            _ => get("max_viscosity", f32::INFINITY),
+        };
+        if material.min_viscosity > material.max_viscosity {
+            return Err(self.err(
+                k("min_viscosity"),
+                format!(
+                    "= {} is above max_viscosity = {}",
+                    material.min_viscosity, material.max_viscosity
+                ),
+                "the floor must lie below the ceiling",
+            ));
+        }
+        if material.flow_index > 4.0 || material.flow_index < 0.1 {
+            return Err(self.err(
+                k("flow_index"),
+                format!("= {} is outside [0.1, 4]", material.flow_index),
+                "n is 0.2 to 0.8 for shear-thinning liquids, 1 for Newtonian or Bingham, 1.2 to 2 for thickening ones",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The row of the material a body or emitter names (`key`): the only one where the scene has one
+    /// and the body names none.
+    pub(super) fn material_row(
+        &self,
+        key: &str,
+        name: &Option<String>,
+        materials: &[NamedMaterial],
+    ) -> Result<u8, SceneError> {
+        let names = || {
+            materials
+                .iter()
+                .map(|m| format!("\"{}\"", m.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match name {
+            None if materials.len() == 1 => Ok(0),
+            None => Err(self.err(
+                key,
+                "is missing: the scene has several materials",
+                format!("name the material this is made of: one of {}", names()),
+            )),
+            Some(name) => materials
+                .iter()
+                .position(|m| &m.name == name)
+                .map(|row| row as u8)
+                .ok_or_else(|| {
+                    self.err(
+                        key,
+                        format!("= \"{name}\" names no [[material]]"),
+                        format!("use one of {}", names()),
+                    )
+                }),
+        }
     }
 
     fn bodies(
         &self,
         spec: &SceneSpec,
+        materials: &[NamedMaterial],
         res: [u32; 3],
         dx: f64,
         band: u32,
@@ -321,6 +557,7 @@ impl Validator<'_> {
             bodies.push(Body {
                 shape: Shape::Block { min, max },
                 velocity: self.finite3(&format!("block[{i}].velocity"), b.velocity)?,
+                material: self.material_row(&format!("block[{i}].material"), &b.material, materials)?,
             });
         }
         for (i, s) in spec.spheres.iter().enumerate() {
@@ -348,6 +585,7 @@ impl Validator<'_> {
                     radius: s.radius,
                 },
                 velocity: self.finite3(&format!("sphere[{i}].velocity"), s.velocity)?,
+                material: self.material_row(&format!("sphere[{i}].material"), &s.material, materials)?,
             });
         }
         Ok(bodies)
@@ -373,7 +611,7 @@ impl Validator<'_> {
         }
         let mut emitters = Vec::new();
         for (i, e) in spec.emitters.iter().enumerate() {
-            emitters.push(self.emitter(i, e, spacing, (lo, hi), &region)?);
+            emitters.push(self.emitter(i, e, spacing, (lo, hi), &region, &scene.materials)?);
         }
         let domain = DVec3::from(scene.grid_res.map(f64::from)) * f64::from(scene.dx);
         let mut sinks = Vec::new();
@@ -453,6 +691,7 @@ impl Validator<'_> {
         spacing: f64,
         (lo, hi): (DVec3, DVec3),
         region: &str,
+        materials: &[NamedMaterial],
     ) -> Result<Emitter, SceneError> {
         let key = |k: &str| format!("emitter[{i}].{k}");
         let normal = Vec3::from(e.normal);
@@ -540,6 +779,7 @@ impl Validator<'_> {
             speed: e.speed,
             rate,
             points,
+            material: self.material_row(&key("material"), &e.material, materials)?,
         })
     }
 
@@ -588,11 +828,14 @@ impl Validator<'_> {
         &self,
         t: &TimeStepSpec,
         material: &Material,
+        materials: &[NamedMaterial],
         dx: f64,
         max_body_speed: f32,
     ) -> Result<TimeStepPolicy, SceneError> {
         let signal = material.sound_speed() + max_body_speed;
-        let dt_limit = MAX_CFL * dx as f32 / signal;
+        let rows: Vec<Material> = materials.iter().map(|m| m.law).collect();
+        let viscous_dt = rows.as_slice().viscous_dt(dx as f32);
+        let dt_limit = (MAX_CFL * dx as f32 / signal).min(viscous_dt);
         match (t.cfl, t.dt) {
             (Some(_), Some(_)) => Err(self.err(
                 "time_step.dt",
@@ -606,7 +849,8 @@ impl Validator<'_> {
                         "time_step.dt",
                         format!(
                             "= {dt:.3e} s is above the stability limit {dt_limit:.3e} s \
-                             ({MAX_CFL} dx / (c0 + |v|max) with c0 = {:.2} m/s)",
+                             ({MAX_CFL} dx / (c0 + |v|max) with c0 = {:.2} m/s, and the viscous limit \
+                             {viscous_dt:.3e} s)",
                             material.sound_speed()
                         ),
                         format!(
@@ -633,6 +877,29 @@ impl Validator<'_> {
                         format!("drop it (default {DEFAULT_MAX_SUBSTEPS})"),
                     ));
                 }
+                let viscous_substeps = (FRAME_DT / viscous_dt).ceil();
+                if viscous_substeps > max_substeps as f32 {
+                    let stiffest = materials
+                        .iter()
+                        .min_by(|a, b| {
+                            let limit =
+                                |m: &NamedMaterial| std::slice::from_ref(&m.law).viscous_dt(dx as f32);
+                            limit(a).total_cmp(&limit(b))
+                        })
+                        .expect("a scene has at least one material");
+                    return Err(self.err(
+                        "time_step.max_substeps",
+                        format!(
+                            "= {max_substeps} is under the {viscous_substeps:.0} substeps per frame that the \
+                             viscous limit of material \"{}\" needs (dt <= rho0 dx^2 / (6 mu) = {viscous_dt:.3e} s \
+                             with mu up to {} Pa s)",
+                            stiffest.name,
+                            stiffest.law.viscosity_ceiling()
+                        ),
+                        "raise time_step.max_substeps, lower that material's viscosity (or max_viscosity), \
+                         or use a coarser grid (the limit grows with dx^2)",
+                    ));
+                }
                 Ok(TimeStepPolicy::Cfl { cfl, max_substeps })
             }
         }
@@ -645,6 +912,7 @@ impl Validator<'_> {
     #[allow(clippy::too_many_arguments)]
     fn plausible_speeds(
         &self,
+        key: &str,
         m: &MaterialSpec,
         material: &Material,
         gravity: Vec3,
@@ -659,9 +927,9 @@ impl Validator<'_> {
             if c0 + max_body_speed > allowed {
                 let needs = (FRAME_DT * (c0 + max_body_speed) / (cfl * dx as f32)).ceil();
                 let (key, given) = match (m.sound_speed, m.eos_stiffness) {
-                    (Some(c), _) => ("material.sound_speed", format!("= {c} m/s")),
+                    (Some(c), _) => (format!("{key}.sound_speed"), format!("= {c} m/s")),
                     (None, k) => (
-                        "material.eos_stiffness",
+                        format!("{key}.eos_stiffness"),
                         format!(
                             "= {} Pa gives a sound speed of {c0:.3e} m/s, which",
                             k.unwrap_or_default()
@@ -704,7 +972,7 @@ impl Validator<'_> {
                 ),
                 format!(
                     "give |g| from 0 to {:.1} m/s^2 for this sound speed and domain (c0^2 / (2 x {drop:.3} \
-                     m); 9.81 on Earth), or raise material.sound_speed",
+                     m); 9.81 on Earth), or raise {key}.sound_speed",
                     c0 * c0 / (2.0 * drop)
                 ),
             ));
