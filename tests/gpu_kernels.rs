@@ -1125,13 +1125,8 @@ fn device_statistics_match_a_host_reduction() {
     for _ in 0..150 {
         gpu.step(&params).unwrap();
     }
-    let material = &scene.material();
-    let device = gpu.summary(material).unwrap();
-    let host = mpm::sim::Summary::of(
-        &gpu.read_particles().unwrap(),
-        material.particle_mass,
-        material.rest_density,
-    );
+    let device = gpu.summary(&params).unwrap();
+    let host = mpm::sim::Summary::of(&gpu.read_particles().unwrap(), &params);
     println!("device {device:?}\nhost   {host:?}");
     assert_eq!(device.particles, host.particles);
     let close = |a: f64, b: f64, what: &str| {

@@ -75,6 +75,7 @@ mod tests {
             speed: 1.0,
             rate: 1e-4,
             points: flow::nozzle_points(nozzle, center, normal, 0.005),
+            material: 0,
         }
     }
 
