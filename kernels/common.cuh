@@ -430,15 +430,14 @@ __device__ __forceinline__ float advected_density(const Params& params, const Gr
 
 // g2p under carried_density for the passes that gather no density otherwise (g2p.cu, g2p2g.cu): the
 // gather with the fluid's divergence, the particle's density carried over the substep by it, and
-// the signal speed at that density. Out of line, so that those passes' code for scenes of one rest
-// density keeps its registers.
+// the signal speed at that density.
 struct CarriedG2p {
     G2pResult r;
     float rho;
 };
 
-__device__ __noinline__ CarriedG2p g2p_particle_carried(const Params params, float4 xp, float material_tag,
-                                                        float rho_before, const float4* grid_vel) {
+__device__ __forceinline__ CarriedG2p g2p_particle_carried(const Params& params, float4 xp, float material_tag,
+                                                           float rho_before, const float4* grid_vel) {
     GridDensity density;
     CarriedG2p out;
     out.r = g2p_particle_and_density(params, xp, material_tag, grid_vel, density);
@@ -463,22 +462,31 @@ struct Backstop {
     bool pushed;
 };
 
-__device__ __noinline__ Backstop collider_backstop_particle(const Params params, const Colliders colliders, float rho,
-                                                            G2pResult r) {
+__device__ __noinline__ Backstop collider_backstop_moves(const float dx, const float3 res, const Colliders colliders,
+                                                         G2pResult r) {
     float x[3] = {r.x.x, r.x.y, r.x.z};
     float vel[3] = {r.v.x, r.v.y, r.v.z};
     if (!collider_backstop(colliders, x, vel)) return Backstop{r, false};
-    const float dx = params.dx;
+    const float high[3] = {res.x - 2.0f, res.y - 2.0f, res.z - 2.0f};
     float speed_sq = 0.0f;
     for (int a = 0; a < 3; ++a) {
-        x[a] = fminf(fmaxf(x[a], dx), ((float)params.grid_res[a] - 2.0f) * dx);
+        x[a] = fminf(fmaxf(x[a], dx), high[a] * dx);
         speed_sq += vel[a] * vel[a];
     }
     r.x = make_float4(x[0], x[1], x[2], 0.0f);
     r.v = make_float4(vel[0], vel[1], vel[2], r.v.w);
     r.speed = sqrtf(speed_sq);
-    r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho, r.speed);
     return Backstop{r, true};
+}
+
+// The backstop's move (out of line, given only the scalars it needs: a kernel's parameters passed
+// whole to a call would be copied to the stack), then the signal speed at the particle's density.
+__device__ __forceinline__ Backstop collider_backstop_particle(const Params& params, const Colliders& colliders,
+                                                               float rho, const G2pResult& r) {
+    const float3 res = make_float3((float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]);
+    Backstop b = collider_backstop_moves(params.dx, res, colliders, r);
+    if (b.pushed) b.r.signal = material_signal_speed(params.materials[material_index(params, b.r.v)], rho, b.r.speed);
+    return b;
 }
 
 // A node's scattered sums as floats: its mass and momentum.

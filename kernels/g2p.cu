@@ -6,7 +6,8 @@
 // stopped, so pairing the largest density with the largest speed would overstate it).
 #include "common.cuh"
 
-extern "C" __global__ void g2p(const Params params,
+template <bool CARRIED>
+__device__ __forceinline__ void g2p_pass(const Params& params,
                                float4* __restrict__ x,
                                float4* __restrict__ v,
                                float4* __restrict__ c,  // 3 arrays of N: columns 0, 1, 2 of C
@@ -22,7 +23,7 @@ extern "C" __global__ void g2p(const Params params,
     // gathers, which suffer less from the spawn order's decay than the scatters' atomics do.
     FOR_EACH_INDEX(p, n) {
         G2pResult r;
-        if (params.carried_density) {
+        if (CARRIED) {
             const CarriedG2p carried = g2p_particle_carried(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
             r = carried.r;
             rho[p] = carried.rho;
@@ -37,4 +38,17 @@ extern "C" __global__ void g2p(const Params params,
     }
     atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
     atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
+}
+
+extern "C" __global__ void g2p(const Params params, float4* __restrict__ x, float4* __restrict__ v,
+                               float4* __restrict__ c, const float4* __restrict__ grid_vel, float* __restrict__ rho,
+                               StepCounters* __restrict__ counters) {
+    g2p_pass<false>(params, x, v, c, grid_vel, rho, counters);
+}
+
+// Scenes whose rest densities differ (Params::carried_density): the density carried here.
+extern "C" __global__ void g2p_carried(const Params params, float4* __restrict__ x, float4* __restrict__ v,
+                                       float4* __restrict__ c, const float4* __restrict__ grid_vel,
+                                       float* __restrict__ rho, StepCounters* __restrict__ counters) {
+    g2p_pass<true>(params, x, v, c, grid_vel, rho, counters);
 }

@@ -59,26 +59,29 @@ __device__ __forceinline__ float material_shear_rate(const float (&cm)[3][3]) {
 }
 
 // The non-Newtonian laws, out of line: a water scene's particle pass keeps its size and registers.
-__device__ __noinline__ float material_law_viscosity(const Material mat, float rate) {
-    const float n = mat.flow_index;
-    float viscosity = mat.viscosity;
-    if (mat.law == LAW_POWER_LAW) {
-        viscosity = mat.viscosity * material_power(rate, n - 1.0f);
-    } else if (mat.law == LAW_CARREAU_YASUDA) {
-        const float a = mat.transition_exponent;
-        const float thinning = material_power(1.0f + material_power(mat.relaxation_time * rate, a), (n - 1.0f) / a);
-        viscosity = mat.min_viscosity + (mat.viscosity - mat.min_viscosity) * thinning;
-    } else if (mat.law == LAW_HERSCHEL_BULKLEY) {
-        viscosity = mat.viscosity * material_power(rate, n - 1.0f) + mat.yield_stress / rate;
+// Its parameters are the row's scalars, not the row: a struct passed to a call goes through the stack.
+__device__ __noinline__ float material_law_viscosity(u32 law, float consistency, float n, float yield_stress,
+                                                     float min_viscosity, float max_viscosity, float lambda, float a,
+                                                     float rate) {
+    float viscosity = consistency;
+    if (law == LAW_POWER_LAW) {
+        viscosity = consistency * material_power(rate, n - 1.0f);
+    } else if (law == LAW_CARREAU_YASUDA) {
+        const float thinning = material_power(1.0f + material_power(lambda * rate, a), (n - 1.0f) / a);
+        viscosity = min_viscosity + (consistency - min_viscosity) * thinning;
+    } else if (law == LAW_HERSCHEL_BULKLEY) {
+        viscosity = consistency * material_power(rate, n - 1.0f) + yield_stress / rate;
     }
-    return fminf(fmaxf(viscosity, mat.min_viscosity), mat.max_viscosity);
+    return fminf(fmaxf(viscosity, min_viscosity), max_viscosity);
 }
 
 // The viscosity at the particle's velocity gradient: the constant one of a Newtonian liquid, else
 // its law's at the shear rate, held within [min_viscosity, max_viscosity].
 __device__ __forceinline__ float material_viscosity(const Material& mat, const float (&cm)[3][3]) {
     if (mat.law == LAW_NEWTONIAN) return mat.viscosity;
-    return material_law_viscosity(mat, material_shear_rate(cm));
+    return material_law_viscosity(mat.law, mat.viscosity, mat.flow_index, mat.yield_stress, mat.min_viscosity,
+                                  mat.max_viscosity, mat.relaxation_time, mat.transition_exponent,
+                                  material_shear_rate(cm));
 }
 
 // Component (row, col) of sigma = -p I + mu (C + C^T), with C given as cm[column][row] and mu the

@@ -85,8 +85,9 @@ impl MaterialTable for [Material] {
 }
 
 impl MaterialTable for crate::contract::Params {
+    /// Row 0 at least: parameters made by hand (tests, tools) may leave the count at 0.
     fn rows(&self) -> &[Material] {
-        &self.materials[..self.material_count as usize]
+        &self.materials[..(self.material_count as usize).max(1)]
     }
 }
 

@@ -144,6 +144,7 @@ pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed
         let cols: [f32; 9] = std::array::from_fn(|_| r(-shear, shear));
         p.c.push(glam::Mat3::from_cols_array(&cols));
         p.rho.push(0.0);
+        p.material.push(0);
         p.live.push(true);
     }
     p
@@ -324,7 +325,7 @@ pub fn stirred(scene: &Scene) -> Particles {
     p
 }
 
-/// Every slot's x, v, C and density, as bits, slot by slot.
+/// Every slot's x, v, C, density and material row, as bits, slot by slot.
 pub fn particle_bits(p: &Particles) -> Vec<u32> {
     let mut bits = Vec::new();
     for i in 0..p.len() {
@@ -332,6 +333,7 @@ pub fn particle_bits(p: &Particles) -> Vec<u32> {
         bits.extend(p.v[i].to_array().map(f32::to_bits));
         bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
         bits.push(p.rho[i].to_bits());
+        bits.push(u32::from(p.material[i]));
     }
     bits
 }

@@ -1,0 +1,223 @@
+//! Several liquids on the GPU against the CPU oracle: a tank of water, a shear-thinning syrup, a
+//! Bingham mud and a lighter oil, each particle carrying its material row (v.w on the device), the
+//! oil's lower rest density switching every pipeline to the carried density. Every pipeline and
+//! scatter must follow the reference's trajectory, keep each particle's material, run byte for byte
+//! again in fixed point, and give one GPU's bits when split into ranks. Where no CUDA device and
+//! driver are usable, every test is reported as ignored, with the reason (tests/harness).
+
+use glam::Vec3;
+use mpm::cuda::{CudaOptions, CudaRanks, CudaSolver};
+use mpm::sim::cpu::CpuSolver;
+use mpm::sim::{Params, Particles, Pipeline, ScatterMode, Scene, Solver};
+
+mod common;
+mod harness;
+
+fn main() -> std::process::ExitCode {
+    harness::run(
+        "GPU",
+        harness::cuda_device,
+        harness::tests![
+            every_pipeline_follows_the_cpu_with_several_liquids,
+            each_law_alone_follows_the_cpu,
+            several_liquids_in_fixed_point_are_byte_identical,
+            several_liquids_on_ranks_give_one_gpu_s_bits,
+            emitters_pour_their_own_liquid,
+        ],
+    )
+}
+
+/// The materials of the tanks below: water, a Carreau-Yasuda syrup, a Bingham mud and an oil.
+const MATERIALS: &str = r#"
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 10.0
+[[material]]
+name = "syrup"
+law = "carreau-yasuda"
+rest_density = 1000.0
+sound_speed = 10.0
+viscosity = 0.5
+min_viscosity = 0.01
+relaxation_time = 0.2
+flow_index = 0.5
+[[material]]
+name = "mud"
+law = "herschel-bulkley"
+rest_density = 1000.0
+sound_speed = 10.0
+consistency = 0.1
+yield_stress = 20.0
+max_viscosity = 2.0
+[[material]]
+name = "oil"
+rest_density = 800.0
+sound_speed = 10.0
+viscosity = 0.05
+"#;
+
+/// A 32 x 24 x 24 tank at dx = 1/32 m with four blocks side by side, one of each material (or
+/// `only`'s for all four), stirred by their starting velocities so every term of the laws works.
+fn tank(pipeline: Pipeline, scatter: ScatterMode, only: Option<&str>) -> Scene {
+    let names = ["water", "syrup", "mud", "oil"];
+    let mut toml = format!(
+        "name = \"liquids\"\n[domain]\nsize = [1.0, 0.75, 0.75]\nresolution = [32, 24, 24]\n{MATERIALS}"
+    );
+    for (k, name) in names.iter().enumerate() {
+        let x0 = 0.03125 + 0.15 * k as f64;
+        let speed = if k % 2 == 0 { 1.0 } else { -1.0 };
+        toml += &format!(
+            "[[block]]\nmin = [{x0}, 0.03125, 0.03125]\nmax = [{}, 0.4, 0.5]\nmaterial = \"{}\"\nvelocity = [{speed}, 0.0, 0.5]\n",
+            x0 + 0.14,
+            only.unwrap_or(name)
+        );
+    }
+    let mut scene = common::scene(&toml);
+    scene.pipeline = pipeline;
+    scene.scatter = scatter;
+    scene
+}
+
+/// The substep of the tanks: the CFL policy's at c0 + 2 m/s, within the viscous limit.
+fn params_of(scene: &Scene) -> Params {
+    let mut params = common::cfl_params(scene);
+    params.dt = params.dt.min(mpm::sim::material::MaterialTable::viscous_dt(&params, params.dx));
+    params
+}
+
+/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
+fn position_gap(a: &[Vec3], b: &[Vec3], dx: f32) -> (f32, f64) {
+    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
+    let max = errors.iter().copied().fold(0.0, f32::max);
+    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+    (max, rms)
+}
+
+/// `steps` substeps on the CPU reference and the GPU, held together every 100 (the bound of
+/// tests/gpu_kernels.rs: rounding differences grow along the trajectory; a wrong term moves particles
+/// by whole cells), and every particle keeping its material.
+fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
+    let params = params_of(scene);
+    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+    for step in 1..=steps {
+        cpu.step(&params).unwrap();
+        gpu.step(&params).unwrap();
+        if step % 100 == 0 {
+            let p = gpu.read_particles().unwrap();
+            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            println!("{what} step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
+            assert!(max <= 0.1 && rms <= 0.01, "{what} step {step}: max {max} dx, rms {rms} dx");
+            assert_eq!(p.material, cpu.particles.material, "{what}: materials differ");
+            let worst_rho = p
+                .rho
+                .iter()
+                .zip(&cpu.particles.rho)
+                .map(|(a, b)| (a - b).abs() / b)
+                .fold(0.0f32, f32::max);
+            assert!(worst_rho <= 1e-3, "{what} step {step}: densities {worst_rho} apart");
+        }
+    }
+    let moved = common::max_diff_vec3(&cpu.particles.x, &scene.spawn().x) / scene.dx;
+    assert!(moved > 1.0, "{what}: the liquids did not move ({moved} dx)");
+    gpu.read_particles().unwrap()
+}
+
+/// Every pipeline and scatter: four liquids, the oil's rest density making the density carried.
+fn every_pipeline_follows_the_cpu_with_several_liquids() {
+    for pipeline in Pipeline::ALL {
+        for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
+            let scene = tank(pipeline, scatter, None);
+            assert_eq!(scene.params().carried_density, 1);
+            let p = follow_cpu(&scene, 300, &format!("{pipeline:?} {scatter:?}"));
+            let rows: Vec<usize> = (0..4).map(|r| p.material.iter().filter(|&&m| m == r).count()).collect();
+            assert!(rows.iter().all(|&n| n > 1000), "particles per material {rows:?}");
+        }
+    }
+}
+
+/// Each law as the scene's only liquid (one rest density: the gathered or advected density, the
+/// kernels' path of a single material): fused and binned against the CPU.
+fn each_law_alone_follows_the_cpu() {
+    for name in ["syrup", "mud", "oil"] {
+        for pipeline in [Pipeline::Fused, Pipeline::Binned] {
+            let scene = tank(pipeline, ScatterMode::FixedPoint, Some(name));
+            assert_eq!(scene.params().carried_density, 0, "{name}: one rest density in use");
+            follow_cpu(&scene, 300, &format!("{name} alone, {pipeline:?}"));
+        }
+    }
+}
+
+fn run(scene: &Scene, steps: usize) -> Particles {
+    let params = params_of(scene);
+    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+    for _ in 0..steps {
+        gpu.step(&params).unwrap();
+    }
+    gpu.read_particles().unwrap()
+}
+
+fn several_liquids_in_fixed_point_are_byte_identical() {
+    for pipeline in Pipeline::ALL {
+        let scene = tank(pipeline, ScatterMode::FixedPoint, None);
+        let (first, second) = (run(&scene, 200), run(&scene, 200));
+        assert!(
+            common::same_particles(&first, &second),
+            "{pipeline:?}: two fixed-point runs of several liquids differ"
+        );
+    }
+}
+
+/// Two and three ranks on one GPU (slabs, halos, migration) give one solver's bits with several
+/// liquids: the material travels with each migrant.
+fn several_liquids_on_ranks_give_one_gpu_s_bits() {
+    let scene = tank(Pipeline::Fused, ScatterMode::FixedPoint, None);
+    let params = params_of(&scene);
+    let expected = run(&scene, 200);
+    for ranks in [2, 3] {
+        let mut split = CudaRanks::new(&scene, scene.spawn(), ranks, CudaOptions::default()).unwrap();
+        for _ in 0..200 {
+            split.step(&params).unwrap();
+        }
+        let got = split.read_particles().unwrap();
+        let (_, migrated) = split.migrated();
+        println!("{ranks} ranks: {} particles migrated", migrated.sent);
+        assert!(
+            common::same_particles(&got, &expected),
+            "{ranks} ranks differ from one GPU with several liquids"
+        );
+    }
+}
+
+/// An emitter of oil into water: the emitted particles are oil on the GPU as on the CPU, at the
+/// oil's rest density, and the runs agree.
+fn emitters_pour_their_own_liquid() {
+    let toml = format!(
+        "name = \"pour\"\n[domain]\nsize = [0.5, 0.5, 0.5]\nresolution = [32, 32, 32]\n{MATERIALS}\n\
+         [particles]\ncapacity = 60000\n\
+         [[block]]\nmin = [0.03125, 0.03125, 0.03125]\nmax = [0.46, 0.15, 0.46]\nmaterial = \"water\"\n\
+         [[emitter]]\nshape = \"disc\"\ncenter = [0.25, 0.4, 0.25]\nnormal = [0.0, -1.0, 0.0]\nradius = 0.04\nspeed = 1.0\nmaterial = \"oil\"\n"
+    );
+    for backend in ["cpu", "cuda"] {
+        let scene = common::scene(&toml);
+        let solver = mpm::backend::create(backend_kind(backend), &scene).unwrap();
+        let mut sim = mpm::sim::Simulation::new(scene, solver);
+        for _ in 0..20 {
+            sim.advance_frame().unwrap();
+        }
+        let p = sim.solver_mut().read_particles().unwrap();
+        let oil: Vec<usize> = (0..p.len()).filter(|&i| p.live[i] && p.material[i] == 3).collect();
+        println!("{backend}: {} oil particles emitted", oil.len());
+        assert!(oil.len() > 500, "{backend}: only {} oil particles", oil.len());
+        let water = (0..p.len()).filter(|&i| p.live[i] && p.material[i] == 0).count();
+        assert_eq!(water + oil.len(), p.num_live(), "{backend}: a live particle of another material");
+    }
+}
+
+fn backend_kind(name: &str) -> mpm::backend::BackendKind {
+    match name {
+        "cpu" => mpm::backend::BackendKind::Cpu,
+        _ => mpm::backend::BackendKind::Cuda,
+    }
+}
