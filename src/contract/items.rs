@@ -51,13 +51,6 @@ device_structs! {
     /// Everything one substep needs: material, solver settings, grid shape and the step size. Written
     /// by `Scene::params`, every kernel's first argument.
     struct Params {
-        /// The scene's materials; each particle names its row (`Particles::material`, the bits of
-        /// v.w on the device). Rows past `material_count` are zero. The kernels read the row from
-        /// their parameters, which live in constant memory.
-        materials: [Material; 8],
-        /// Rows of `materials` in use: 1 for a scene of one material, which the kernels take
-        /// without reading a particle's index.
-        material_count: u32,
         /// m/s^2.
         gravity: [f32; 3],
         /// The substep, s. Set by the time-step policy before every frame.
@@ -92,6 +85,13 @@ device_structs! {
         /// the substep from its own last value by the velocity divergence, never gathered from the
         /// grid's mass, which mixes the liquids' masses where they meet (`sim::params::carries_density`).
         carried_density: u32,
+        /// The scene's materials; each particle names its row (`Particles::material`, the bits of
+        /// v.w on the device). Rows past `material_count` are zero. The kernels read the row from
+        /// their parameters, which live in constant memory.
+        materials: [Material; 8],
+        /// Rows of `materials` in use: 1 for a scene of one material, which the kernels take
+        /// without reading a particle's index.
+        material_count: u32,
     }
 
     /// What the kernels count and reduce between substep choices; the host reads it back once per
