@@ -150,13 +150,16 @@ impl Checkpoint {
             scene.slots() == self.particles.len()
                 && scene.grid_res == self.params.grid_res
                 && scene.flow.is_active() == self.flow.is_some()
-                && scene.flow.emitters.len() == self.clock.emitter_phases.len(),
-            "the checkpoint holds {} particle slots on a {:?} grid, but its scene has {} on {:?}: the file \
-             is inconsistent",
+                && scene.flow.emitters.len() == self.clock.emitter_phases.len()
+                && scene.materials.len() == self.params.material_count as usize,
+            "the checkpoint holds {} particle slots on a {:?} grid and {} materials, but its scene has {} \
+             on {:?} and {} materials: the file is inconsistent",
             self.particles.len(),
             self.params.grid_res,
+            self.params.material_count,
             scene.slots(),
-            scene.grid_res
+            scene.grid_res,
+            scene.materials.len()
         );
         Ok(scene)
     }
