@@ -263,8 +263,10 @@ struct LookArgs {
     /// metres; default from the scene: 0.6 (spheres) or 0.75 (surface) particle spacings.
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     particle_radius: Option<f32>,
-    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
-    colour: Colouring,
+    /// What the particles' colour shows [default: material in a scene of several materials, else
+    /// speed].
+    #[arg(long, value_enum)]
+    colour: Option<Colouring>,
     /// Smooth the water surface's depth at full resolution (slower; by default it is smoothed at half
     /// resolution and brought back with a depth-aware upsample, silhouettes kept sharp).
     #[arg(long)]
