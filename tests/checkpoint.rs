@@ -619,9 +619,10 @@ fn a_checkpoint_of_several_materials_round_trips_them_and_resumes_exactly() {
     );
 }
 
-/// A material row past the table is damage, not a particle of some other liquid.
+/// A material row past the table is damage, not a particle of some other liquid; a table of another
+/// size than the scene's is an inconsistent file.
 #[test]
-fn a_material_row_past_the_table_is_refused() {
+fn a_material_row_past_the_table_or_a_table_unlike_the_scenes_is_refused() {
     let mut sim = Simulation::new(
         two_liquids(),
         backend::create(BackendKind::Cpu, &two_liquids()).unwrap(),
@@ -633,4 +634,16 @@ fn a_material_row_past_the_table_is_refused() {
     cp.write_new(&file).unwrap();
     let text = format!("{:#}", Checkpoint::read(&file).unwrap_err());
     assert!(text.contains("slot 7 is made of material row 2"), "{text}");
+
+    // A table of one row for a scene of two: every row is in range, but the scene disagrees.
+    cp.particles.material.fill(0);
+    cp.params.material_count = 1;
+    let file = dir.path().join("one-row.mpmck");
+    cp.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    let text = format!("{:#}", read.scene().unwrap_err());
+    assert!(
+        text.contains("1 materials, but its scene has") && text.contains("and 2 materials"),
+        "{text}"
+    );
 }
