@@ -2,7 +2,8 @@
 // CUDA has mapped (CUDA-OpenGL interop: no host round trip).
 #include "common.cuh"
 
-// One float4 per particle: position xyz, and w = the colour quantity (|v| in m/s, or rho / rho0).
+// One float4 per particle: position xyz, and w = the colour quantity (|v| in m/s, rho / rho0, or the
+// particle's row of the material table as a float, whose colour the shaders look up).
 // Written at the particle's slot, not at its place in memory: the fused pipeline stores particles in
 // bin order (bin_order.cu), and drawn in that order the surface's additive thickness splats land
 // on the same pixels back to back and queue there (its thickness pass took 2.21 ms a frame instead
@@ -22,6 +23,9 @@ extern "C" __global__ void render_attributes(const float4* __restrict__ x, const
         float value;
         if (colour_by == COLOUR_BY_DENSITY) {
             value = rho[i] * inv_rest_density;
+        } else if (colour_by == COLOUR_BY_MATERIAL) {
+            // v.w holds the row's bits (material.cuh, material_row), 0 in a scene of one material.
+            value = (float)min(__float_as_uint(v[i].w), MAX_MATERIALS - 1u);
         } else {
             const float4 u = v[i];
             value = sqrtf(u.x * u.x + u.y * u.y + u.z * u.z);

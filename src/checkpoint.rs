@@ -12,7 +12,7 @@
 //! the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
 //! checks a resumed run byte for byte against an uninterrupted one).
 //!
-//! # File format (version 1), all numbers little-endian
+//! # File format (version 2), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -25,20 +25,29 @@
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows); the
-//! 28 words of [`Params`]; the clock (frame u64, time f64, signal speed f32, signal rise f32, late
-//! emitter layers u64, E emitter phases f64); then x (3N f32), v (3N), C (9N, column by column per
-//! slot), density (N) and the live flags (N bytes, 1 live, 0 parked); then, with emitters or sinks,
+//! 150 words of [`Params`] (the material table's 8 rows of 16 words first); the clock (frame u64,
+//! time f64, signal speed f32, signal rise f32, late emitter layers u64, E emitter phases f64); then
+//! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
+//! live, 0 parked) and each slot's material row (N bytes); then, with emitters or sinks,
 //! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
 //! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
 //! drained, exhausted, blocked: u64 each). Floats are stored as their bits, so a resumed state is the
 //! saved one exactly.
 //!
+//! Version 1, written before scenes had a material table, still loads: its parameters are 28 words
+//! (one material of 8 words: rest density, EOS stiffness, EOS power, viscosity, pressure floor,
+//! particle mass and two of padding; then gravity to the density rule, as in version 2) and no
+//! material rows follow the live flags. It reads as a table of one Newtonian row and every particle
+//! made of it ([`params_from_version_1`]).
+//!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
 
 use crate::backend::{self, BackendKind};
+use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
 use crate::sim::flow::{FlowCounts, FlowState};
+use crate::sim::params::Material;
 use crate::sim::{Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
@@ -50,18 +59,22 @@ use std::path::{Path, PathBuf};
 
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
-/// The format this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The format this build writes; it reads this one and every earlier one.
+pub const FORMAT_VERSION: u32 = 2;
+/// The oldest format this build reads: version 1, before the material table.
+pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
 pub const EXTENSION: &str = "mpmck";
 /// Magic, version, reserved word and body length.
 const HEADER_BYTES: usize = 8 + 4 + 4 + 8;
 const CHECKSUM_BYTES: usize = 4;
 const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4;
+/// Version 1's parameters: one material (8 words), then gravity to the density rule (20 words).
+const VERSION_1_PARAMS_WORDS: usize = 28;
 /// Frame, time, signal speed and rise, late layers (the emitters' phases follow, 8 bytes each).
 const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
-/// Bytes per particle slot: x, v, C, density as f32, and the live flag.
-const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1;
+/// Bytes per particle slot: x, v, C, density as f32, the live flag and the material row.
+const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1 + 1;
 
 /// What the body's JSON holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -137,13 +150,16 @@ impl Checkpoint {
             scene.slots() == self.particles.len()
                 && scene.grid_res == self.params.grid_res
                 && scene.flow.is_active() == self.flow.is_some()
-                && scene.flow.emitters.len() == self.clock.emitter_phases.len(),
-            "the checkpoint holds {} particle slots on a {:?} grid, but its scene has {} on {:?}: the file \
-             is inconsistent",
+                && scene.flow.emitters.len() == self.clock.emitter_phases.len()
+                && scene.materials.len() == self.params.material_count as usize,
+            "the checkpoint holds {} particle slots on a {:?} grid and {} materials, but its scene has {} \
+             on {:?} and {} materials: the file is inconsistent",
             self.particles.len(),
             self.params.grid_res,
+            self.params.material_count,
             scene.slots(),
-            scene.grid_res
+            scene.grid_res,
+            scene.materials.len()
         );
         Ok(scene)
     }
@@ -267,6 +283,7 @@ impl Checkpoint {
         write_words(out, bytemuck::cast_slice(&p.rho))?;
         let live: Vec<u8> = p.live.iter().map(|&l| u8::from(l)).collect();
         out.write_all(&live)?;
+        out.write_all(&p.material)?;
         out.write_all(&flow)?;
         Ok(())
     }
@@ -302,9 +319,10 @@ impl Checkpoint {
         }
         let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
         let version = word(8);
-        if version != FORMAT_VERSION {
+        if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
             bail!(
-                "is of checkpoint format version {version}, but this mpm reads version {FORMAT_VERSION}{}",
+                "is of checkpoint format version {version}, but this mpm reads versions \
+                 {OLDEST_FORMAT_VERSION} to {FORMAT_VERSION}{}",
                 if version > FORMAT_VERSION {
                     ": it was written by a newer mpm; resume it with that one"
                 } else {
@@ -342,6 +360,7 @@ impl Checkpoint {
         }
         Body {
             bytes: &bytes[HEADER_BYTES..end],
+            version,
         }
         .checkpoint()
         .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")
@@ -351,6 +370,8 @@ impl Checkpoint {
 /// Reads the body's fields in order.
 struct Body<'a> {
     bytes: &'a [u8],
+    /// The file's format version: what the parameters and particles look like.
+    version: u32,
 }
 
 impl Body<'_> {
@@ -385,8 +406,16 @@ impl Body<'_> {
     fn checkpoint(mut self) -> Result<Checkpoint> {
         let meta_len = usize::try_from(self.u64("the scene's length")?)?;
         let meta: Meta = serde_json::from_slice(self.take(meta_len, "the scene")?)?;
-        let params: Params =
-            bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?));
+        let params: Params = if self.version == 1 {
+            params_from_version_1(&self.words(VERSION_1_PARAMS_WORDS, "the parameters")?)
+        } else {
+            bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?))
+        };
+        ensure!(
+            (1..=MAX_MATERIALS).contains(&params.material_count),
+            "a table of {} materials (1 to {MAX_MATERIALS} exist)",
+            params.material_count
+        );
         let mut clock = RunClock {
             frame: self.u64("the clock")?,
             time: f64::from_bits(self.u64("the clock")?),
@@ -401,8 +430,13 @@ impl Body<'_> {
                 .push(f64::from_bits(self.u64("the emitters' phases")?));
         }
         let n = usize::try_from(meta.particles)?;
+        let per_particle = if self.version == 1 {
+            BYTES_PER_PARTICLE - 1
+        } else {
+            BYTES_PER_PARTICLE
+        };
         ensure!(
-            self.bytes.len() >= BYTES_PER_PARTICLE * n,
+            self.bytes.len() >= per_particle * n,
             "{} bytes of particles for {n} particles",
             self.bytes.len()
         );
@@ -411,9 +445,25 @@ impl Body<'_> {
             v: self.vectors::<Vec3>(n, "velocities")?,
             c: self.vectors::<Mat3>(n, "affine matrices")?,
             rho: self.vectors::<f32>(n, "densities")?,
-            material: vec![0; n],
             live: self.take(n, "live flags")?.iter().map(|&b| b != 0).collect(),
+            // Version 1 knew one material: every particle is made of row 0.
+            material: if self.version == 1 {
+                vec![0; n]
+            } else {
+                self.take(n, "material rows")?.to_vec()
+            },
         };
+        if let Some(slot) = particles
+            .material
+            .iter()
+            .position(|&m| u32::from(m) >= params.material_count)
+        {
+            bail!(
+                "slot {slot} is made of material row {}, but the table has {}",
+                particles.material[slot],
+                params.material_count
+            );
+        }
         let flow = if meta.flow {
             let free_len = usize::try_from(self.u64("the free slots")?)?;
             let free = self.words(free_len, "the free slots")?;
@@ -461,6 +511,55 @@ impl Body<'_> {
             clock,
             particles,
         })
+    }
+}
+
+/// Version 1's 28 words of parameters as today's [`Params`]: its one material becomes row 0 of a
+/// table of one, a Newtonian liquid with exactly the row loading its scene's `[material]` gives
+/// (the flow index 1, the viscosity its own ceiling, the unused Carreau-Yasuda exponent 2), and the
+/// density is not carried (one rest density). The fields after the material keep their order.
+pub fn params_from_version_1(words: &[u32]) -> Params {
+    assert_eq!(
+        words.len(),
+        VERSION_1_PARAMS_WORDS,
+        "version 1's parameters are 28 words"
+    );
+    let f = |i: usize| f32::from_bits(words[i]);
+    let u3 = |i: usize| [words[i], words[i + 1], words[i + 2]];
+    let f3 = |i: usize| u3(i).map(f32::from_bits);
+    let mut materials = [Material::default(); MAX_MATERIALS as usize];
+    materials[0] = Material {
+        rest_density: f(0),
+        eos_stiffness: f(1),
+        eos_power: f(2),
+        viscosity: f(3),
+        pressure_floor: f(4),
+        particle_mass: f(5),
+        law: LAW_NEWTONIAN,
+        flow_index: 1.0,
+        max_viscosity: f(3),
+        transition_exponent: 2.0,
+        ..Material::default()
+    };
+    // words[6..8] were the material's padding.
+    Params {
+        materials,
+        material_count: 1,
+        gravity: f3(8),
+        dt: f(11),
+        grid_res: u3(12),
+        dx: f(15),
+        inv_dx: f(16),
+        boundary_band: words[17],
+        soft_wall_tau: f(18),
+        num_particles: words[19],
+        scatter_mode: words[20],
+        fixed_mass_scale: f(21),
+        fixed_momentum_scale: f(22),
+        wall_mirror_lo: words[23],
+        wall_mirror_hi: u3(24),
+        density_rule: words[27],
+        carried_density: 0,
     }
 }
 

@@ -1,5 +1,6 @@
 //! Frame export. `--export`: one binary little-endian PLY of the particles per frame (positions,
-//! velocities, density), which ParaView, Blender, Open3D and meshio open as they are.
+//! velocities, density, material row; the material table's names and colours in header comments),
+//! which ParaView, Blender, Open3D and meshio open as they are.
 //! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]). Both go
 //! through [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a
 //! user saved is replaced silently, and a failed write never leaves a truncated file behind.
@@ -7,6 +8,7 @@
 pub mod mesh_files;
 pub mod surface;
 
+use crate::sim::material::NamedMaterial;
 use crate::sim::Particles;
 use crate::text::{io_reason, plural};
 use anyhow::{bail, Context, Result};
@@ -281,9 +283,17 @@ impl PlyExporter {
     }
 
     /// Writes the frame to a temporary name and renames it, so a failed write never leaves a
-    /// truncated file under a frame's name.
-    pub fn write(&self, frame: u64, comment: &str, particles: &Particles) -> Result<PathBuf> {
-        self.frames.write(frame, |out| write_ply(out, comment, particles))
+    /// truncated file under a frame's name. `materials` is the scene's table, which the particles'
+    /// rows index.
+    pub fn write(
+        &self,
+        frame: u64,
+        comment: &str,
+        particles: &Particles,
+        materials: &[NamedMaterial],
+    ) -> Result<PathBuf> {
+        self.frames
+            .write(frame, |out| write_ply(out, comment, particles, materials))
     }
 }
 
@@ -374,18 +384,40 @@ pub fn check_every(every: u64) -> Result<()> {
     Ok(())
 }
 
-/// The vertex properties, in file order.
+/// The float vertex properties, in file order; [`PLY_MATERIAL_PROPERTY`] follows them.
 pub const PLY_PROPERTIES: [&str; 7] = ["x", "y", "z", "vx", "vy", "vz", "density"];
+/// The last vertex property, a `uchar`: the particle's row of the material table, which the
+/// header's `comment material ROW NAME R G B` lines name and colour.
+pub const PLY_MATERIAL_PROPERTY: &str = "material";
 
-pub fn write_ply(mut out: impl Write, comment: &str, particles: &Particles) -> Result<()> {
+/// The header comment naming row `row` of the material table: `material ROW NAME R G B`, the colour
+/// linear RGB from 0 to 1 (the name may hold spaces: the colour is the last three words).
+pub fn material_comment(row: usize, material: &NamedMaterial) -> String {
+    let [r, g, b] = material.colour;
+    format!("material {row} {} {r:.3} {g:.3} {b:.3}", material.name)
+}
+
+/// A binary little-endian PLY of `particles`: `comment` (each line a `comment`), a `comment
+/// material` line for each of `materials`, then per vertex the float [`PLY_PROPERTIES`] and the
+/// `uchar` material row.
+pub fn write_ply(
+    mut out: impl Write,
+    comment: &str,
+    particles: &Particles,
+    materials: &[NamedMaterial],
+) -> Result<()> {
     writeln!(out, "ply\nformat binary_little_endian 1.0")?;
     for line in comment.lines() {
         writeln!(out, "comment {line}")?;
+    }
+    for (row, material) in materials.iter().enumerate() {
+        writeln!(out, "comment {}", material_comment(row, material))?;
     }
     writeln!(out, "element vertex {}", particles.len())?;
     for p in PLY_PROPERTIES {
         writeln!(out, "property float {p}")?;
     }
+    writeln!(out, "property uchar {PLY_MATERIAL_PROPERTY}")?;
     writeln!(out, "end_header")?;
     let mut record = [0f32; 7];
     for i in 0..particles.len() {
@@ -395,6 +427,7 @@ pub fn write_ply(mut out: impl Write, comment: &str, particles: &Particles) -> R
         for value in record {
             out.write_all(&value.to_le_bytes())?;
         }
+        out.write_all(&[particles.material[i]])?;
     }
     out.flush()?;
     Ok(())

@@ -101,9 +101,12 @@ enum Command {
     /// Time the step per phase (CUDA events), the CPU baseline and the scaling sweep; markdown tables
     /// on stdout, everything as JSON with --json.
     Bench(BenchArgs),
-    /// List the built-in scenes, or print one as a TOML file to start your own from.
+    /// List the built-in scenes, or print one as a TOML file to start your own from. A scene file
+    /// holds the domain, one `[material]` (or up to 8 named `[[material]]` liquids, which its
+    /// bodies and emitters name), the fluid bodies, and optionally colliders, emitters and sinks:
+    /// docs/scenes.md.
     Scenes {
-        /// Print this preset's scene file (without a name: list the presets).
+        /// Print this preset's scene file, exactly as it is built in (without a name: list the presets).
         #[arg(long, value_name = "PRESET", num_args = 0..=1)]
         show: Option<Option<String>>,
         /// Print a mesh file a preset uses (`glass.obj`, the tap's glass), to save beside a scene file
@@ -260,8 +263,10 @@ struct LookArgs {
     /// metres; default from the scene: 0.6 (spheres) or 0.75 (surface) particle spacings.
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     particle_radius: Option<f32>,
-    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
-    colour: Colouring,
+    /// What the particles' colour shows [default: material in a scene of several materials, else
+    /// speed].
+    #[arg(long, value_enum)]
+    colour: Option<Colouring>,
     /// Smooth the water surface's depth at full resolution (slower; by default it is smoothed at half
     /// resolution and brought back with a depth-aware upsample, silhouettes kept sharp).
     #[arg(long)]
@@ -897,12 +902,7 @@ fn scenes(show: Option<Option<String>>, mesh: Option<String>) -> Result<()> {
         None => {
             for name in presets::NAMES {
                 let scene = Scene::load(name)?;
-                writeln!(
-                    std::io::stdout(),
-                    "{name:<18} {:>9} particles  {}",
-                    scene.num_particles,
-                    scene.description
-                )?;
+                writeln!(std::io::stdout(), "{}", presets::listing(name, &scene))?;
             }
         }
     }

@@ -350,7 +350,7 @@ fn export_frame(
     let comment = frame_comment(sim);
     let particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
-        exporter.write(frame, &comment, &particles)?;
+        exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
     }
     if let Some(queue) = surface {
         let job = SurfaceJob {

@@ -404,3 +404,246 @@ fn a_resumed_run_is_not_mixed_with_another_scenes_checkpoints() {
     );
     assert!(!mixed.join("checkpoint_000004.mpmck").exists());
 }
+
+/// The bytes a version-1 mpm (before the material table) wrote for `cp`'s state, built from that
+/// format's layout (docs/checkpoints.md): 28 words of parameters, one material of 8 of them, and no
+/// material rows after the live flags. `cp` must be of a scene of one material.
+fn version_1_bytes(cp: &Checkpoint) -> Vec<u8> {
+    assert_eq!(cp.params.material_count, 1);
+    let meta = serde_json::to_vec(&serde_json::json!({
+        "written_by": "mpm 0.1.0",
+        "scene_source": cp.scene_source,
+        "scene_toml": cp.scene_toml,
+        "backend": cp.backend,
+        "pipeline": cp.pipeline,
+        "scatter": cp.scatter,
+        "particles": cp.particles.len() as u64,
+        "emitters": cp.clock.emitter_phases.len() as u64,
+        "flow": cp.flow.is_some(),
+    }))
+    .unwrap();
+    let (p, m) = (&cp.params, &cp.params.materials[0]);
+    let f = |x: f32| x.to_bits();
+    let mut params = vec![
+        f(m.rest_density),
+        f(m.eos_stiffness),
+        f(m.eos_power),
+        f(m.viscosity),
+        f(m.pressure_floor),
+        f(m.particle_mass),
+        0,
+        0,
+    ];
+    params.extend(p.gravity.map(f));
+    params.push(f(p.dt));
+    params.extend(p.grid_res);
+    params.extend([f(p.dx), f(p.inv_dx), p.boundary_band, f(p.soft_wall_tau)]);
+    params.extend([p.num_particles, p.scatter_mode]);
+    params.extend([f(p.fixed_mass_scale), f(p.fixed_momentum_scale), p.wall_mirror_lo]);
+    params.extend(p.wall_mirror_hi);
+    params.push(p.density_rule);
+    assert_eq!(params.len(), 28);
+
+    let mut body = Vec::new();
+    body.extend((meta.len() as u64).to_le_bytes());
+    body.extend(&meta);
+    body.extend(params.iter().flat_map(|w| w.to_le_bytes()));
+    let clock = &cp.clock;
+    body.extend(clock.frame.to_le_bytes());
+    body.extend(clock.time.to_bits().to_le_bytes());
+    body.extend(clock.signal_speed.to_bits().to_le_bytes());
+    body.extend(clock.signal_rise.to_bits().to_le_bytes());
+    body.extend(clock.late_layers.to_le_bytes());
+    for phase in &clock.emitter_phases {
+        body.extend(phase.to_bits().to_le_bytes());
+    }
+    let q = &cp.particles;
+    let floats =
+        |values: &[f32], body: &mut Vec<u8>| body.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    floats(bytemuck::cast_slice(&q.x), &mut body);
+    floats(bytemuck::cast_slice(&q.v), &mut body);
+    floats(bytemuck::cast_slice(&q.c), &mut body);
+    floats(&q.rho, &mut body);
+    body.extend(q.live.iter().map(|&l| u8::from(l)));
+    assert!(cp.flow.is_none(), "this builder writes no lifecycle");
+
+    let mut file = b"MPMCKPT\0".to_vec();
+    file.extend(1u32.to_le_bytes());
+    file.extend(0u32.to_le_bytes());
+    file.extend((body.len() as u64).to_le_bytes());
+    file.extend(body);
+    let crc = crc32fast::hash(&file);
+    file.extend(crc.to_le_bytes());
+    file
+}
+
+/// A checkpoint of format version 1, written before scenes had a material table, loads as a table of
+/// one Newtonian liquid with every particle made of it, and resumes to the same bytes as the
+/// uninterrupted run.
+#[test]
+fn a_version_1_checkpoint_loads_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, old, resumed) = (
+        dir.path().join("whole"),
+        dir.path().join("old"),
+        dir.path().join("resumed"),
+    );
+    let run = ["run", "--backend", "cpu", "--scatter", "fixed-point"];
+    let mut args = run.to_vec();
+    args.extend([
+        "--scene",
+        "dam-break-coarse",
+        "--frames",
+        "5",
+        "--checkpoint-every",
+        "3",
+        "--checkpoint",
+        path(&whole),
+    ]);
+    let uninterrupted = ok(&mpm(&args));
+    let current = Checkpoint::read(&whole.join("checkpoint_000003.mpmck")).unwrap();
+    let bytes = version_1_bytes(&current);
+    std::fs::create_dir(&old).unwrap();
+    let start = old.join("checkpoint_000003.mpmck");
+    std::fs::write(&start, &bytes).unwrap();
+
+    let read = Checkpoint::read(&start).unwrap();
+    let row = read.params.materials[0];
+    assert_eq!(read.params.material_count, 1);
+    assert_eq!(row.law, mpm::contract::LAW_NEWTONIAN);
+    assert_eq!((row.flow_index, row.max_viscosity), (1.0, row.viscosity));
+    assert_eq!(read.params.carried_density, 0);
+    assert!(read.particles.material.iter().all(|&m| m == 0));
+    // Everything else is the state the current format saved, bit for bit: the converted row is the
+    // one loading the scene gives.
+    assert_eq!(read, current);
+
+    let mut args = run.to_vec();
+    args.extend([
+        "--resume",
+        path(&start),
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(&resumed),
+    ]);
+    let continued = ok(&mpm(&args));
+    assert_eq!(frame_lines(&continued), frame_lines(&uninterrupted)[3..]);
+    let last = "checkpoint_000005.mpmck";
+    let resumed_last = std::fs::read(resumed.join(last)).unwrap();
+    assert_eq!(
+        u32::from_le_bytes(resumed_last[8..12].try_into().unwrap()),
+        FORMAT_VERSION,
+        "a resumed run writes the current format"
+    );
+    assert!(
+        resumed_last == std::fs::read(whole.join(last)).unwrap(),
+        "the run resumed from a version-1 file differs from the uninterrupted one"
+    );
+}
+
+/// Water and oil side by side: two rest densities (the density carried), two rows.
+fn two_liquids() -> Scene {
+    let mut scene = Scene::from_toml(
+        r#"
+[domain]
+size = [0.2, 0.2, 0.2]
+resolution = [20, 20, 20]
+
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 20.0
+
+[[material]]
+name = "oil"
+rest_density = 800.0
+sound_speed = 20.0
+viscosity = 0.05
+colour = [0.9, 0.6, 0.1]
+
+[[block]]
+min = [0.03, 0.03, 0.03]
+max = [0.09, 0.12, 0.17]
+material = "water"
+
+[[block]]
+min = [0.11, 0.03, 0.03]
+max = [0.17, 0.12, 0.17]
+material = "oil"
+"#,
+        "two-liquids.toml",
+    )
+    .unwrap();
+    scene.scatter = ScatterMode::FixedPoint;
+    scene
+}
+
+#[test]
+fn a_checkpoint_of_several_materials_round_trips_them_and_resumes_exactly() {
+    let scene = two_liquids();
+    let step = |sim: &mut Simulation, frames: u64| {
+        for _ in 0..frames {
+            sim.advance_frame().unwrap();
+        }
+    };
+    let new_sim =
+        |scene: &Scene| Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, scene).unwrap());
+    let mut sim = new_sim(&scene);
+    step(&mut sim, 2);
+    let saved = Checkpoint::capture(&mut sim).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("two.mpmck");
+    saved.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    assert_eq!(read, saved);
+    assert_eq!(read.params.material_count, 2);
+    assert_eq!(read.params.carried_density, 1);
+    for (row, named) in scene.materials.iter().enumerate() {
+        assert_eq!(read.params.materials[row], named.law, "row {row}");
+    }
+    // Both liquids are there, each particle with its own row, where the spawn put them.
+    let spawned = scene.spawn();
+    assert_eq!(read.particles.material, spawned.material);
+    for row in [0, 1] {
+        assert!(read.particles.material.contains(&row), "no particle of row {row}");
+    }
+
+    let mut resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
+    step(&mut resumed, 2);
+    step(&mut sim, 2);
+    assert_eq!(
+        Checkpoint::capture(&mut resumed).unwrap(),
+        Checkpoint::capture(&mut sim).unwrap(),
+        "the resumed two-liquid run differs from the uninterrupted one"
+    );
+}
+
+/// A material row past the table is damage, not a particle of some other liquid; a table of another
+/// size than the scene's is an inconsistent file.
+#[test]
+fn a_material_row_past_the_table_or_a_table_unlike_the_scenes_is_refused() {
+    let mut sim = Simulation::new(
+        two_liquids(),
+        backend::create(BackendKind::Cpu, &two_liquids()).unwrap(),
+    );
+    let mut cp = Checkpoint::capture(&mut sim).unwrap();
+    cp.particles.material[7] = 2;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("past.mpmck");
+    cp.write_new(&file).unwrap();
+    let text = format!("{:#}", Checkpoint::read(&file).unwrap_err());
+    assert!(text.contains("slot 7 is made of material row 2"), "{text}");
+
+    // A table of one row for a scene of two: every row is in range, but the scene disagrees.
+    cp.particles.material.fill(0);
+    cp.params.material_count = 1;
+    let file = dir.path().join("one-row.mpmck");
+    cp.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    let text = format!("{:#}", read.scene().unwrap_err());
+    assert!(
+        text.contains("1 materials, but its scene has") && text.contains("and 2 materials"),
+        "{text}"
+    );
+}

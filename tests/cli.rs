@@ -50,6 +50,30 @@ fn scenes_show_without_a_name_lists_the_presets() {
     }
 }
 
+/// `--show` prints every preset's file byte for byte, and the listing names a scene's materials
+/// where it has several.
+#[test]
+fn scenes_show_prints_each_preset_exactly_and_the_listing_names_materials() {
+    for preset in mpm::sim::presets::NAMES {
+        let out = mpm(&["scenes", "--show", preset]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert!(
+            out.stdout == mpm::sim::presets::get(preset).unwrap().as_bytes(),
+            "`mpm scenes --show {preset}` is not the preset's file"
+        );
+    }
+    let one = mpm::sim::Scene::load("drop").unwrap();
+    assert!(!mpm::sim::presets::listing("drop", &one).contains("materials"));
+    let two = common::scene(
+        "[domain]\nsize = [0.2, 0.2, 0.2]\nresolution = [20, 20, 20]\n\
+         [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\n\
+         [[material]]\nname = \"oil\"\nrest_density = 900.0\nsound_speed = 20.0\n\
+         [[block]]\nmin = [0.03, 0.03, 0.03]\nmax = [0.08, 0.08, 0.08]\nmaterial = \"oil\"\n",
+    );
+    let line = mpm::sim::presets::listing("two", &two);
+    assert!(line.ends_with("(materials: water, oil)"), "{line}");
+}
+
 #[test]
 fn negative_and_zero_numbers_are_named() {
     for (args, words) in [

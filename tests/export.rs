@@ -4,8 +4,9 @@
 mod common;
 
 use mpm::backend::{self, BackendKind};
-use mpm::export::{PlyExporter, PLY_PROPERTIES};
+use mpm::export::{PlyExporter, PLY_MATERIAL_PROPERTY, PLY_PROPERTIES};
 use mpm::runner::{self, RunOptions, StatsFile};
+use mpm::sim::material::NamedMaterial;
 use mpm::sim::{Particles, Simulation};
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
@@ -18,17 +19,36 @@ fn small_scene() -> mpm::sim::Scene {
 }
 
 fn read_back(path: &std::path::Path) -> Vec<[f32; 7]> {
+    read_back_all(path)
+        .0
+        .into_iter()
+        .map(|(floats, _)| floats)
+        .collect()
+}
+
+/// Each vertex's floats and material row, and the header's comments.
+fn read_back_all(path: &std::path::Path) -> (Vec<([f32; 7], u8)>, Vec<String>) {
     let mut f = std::fs::File::open(path).unwrap();
     let ply = Parser::<DefaultElement>::new().read_ply(&mut f).unwrap();
-    ply.payload["vertex"]
+    let names: Vec<&String> = ply.header.elements["vertex"].properties.keys().collect();
+    let mut expected: Vec<&str> = PLY_PROPERTIES.to_vec();
+    expected.push(PLY_MATERIAL_PROPERTY);
+    assert_eq!(names, expected, "the vertex properties or their order changed");
+    let vertices = ply.payload["vertex"]
         .iter()
         .map(|v| {
-            PLY_PROPERTIES.map(|name| match v[name] {
+            let floats = PLY_PROPERTIES.map(|name| match v[name] {
                 Property::Float(x) => x,
                 ref other => panic!("{name} is {other:?}, not a float"),
-            })
+            });
+            let material = match v[PLY_MATERIAL_PROPERTY] {
+                Property::UChar(m) => m,
+                ref other => panic!("material is {other:?}, not a uchar"),
+            };
+            (floats, material)
         })
-        .collect()
+        .collect();
+    (vertices, ply.header.comments.clone())
 }
 
 #[test]
@@ -37,19 +57,35 @@ fn exported_ply_reads_back_to_the_same_numbers() {
     let p = common::random_particles(500, 0.0, 1.0, 3.0, 1.0, 7);
     let p = Particles {
         rho: (0..500).map(|i| 900.0 + i as f32).collect(),
+        material: (0..500).map(|i| (i % 3) as u8).collect(),
         ..p
     };
+    let table = ["water", "olive oil", "honey"].map(|name| NamedMaterial {
+        name: name.to_string(),
+        colour: [0.25, 0.5, 1.0],
+        law: Default::default(),
+    });
     let exporter = PlyExporter::new(dir.path(), 1, false).unwrap();
-    let path = exporter.write(3, "a test frame", &p).unwrap();
+    let path = exporter.write(3, "a test frame", &p, &table).unwrap();
     assert_eq!(path.file_name().unwrap(), "frame_000003.ply");
-    let back = read_back(&path);
+    let (back, comments) = read_back_all(&path);
     assert_eq!(back.len(), 500);
-    for (i, r) in back.iter().enumerate() {
+    for (i, (r, material)) in back.iter().enumerate() {
         let expected = [
             p.x[i].x, p.x[i].y, p.x[i].z, p.v[i].x, p.v[i].y, p.v[i].z, p.rho[i],
         ];
         assert_eq!(r, &expected, "particle {i}");
+        assert_eq!(*material, p.material[i], "particle {i}'s material");
     }
+    assert_eq!(
+        comments,
+        [
+            "a test frame",
+            "material 0 water 0.250 0.500 1.000",
+            "material 1 olive oil 0.250 0.500 1.000",
+            "material 2 honey 0.250 0.500 1.000",
+        ]
+    );
 }
 
 #[test]
@@ -220,4 +256,75 @@ fn a_huge_frame_count_does_not_abort() {
     };
     let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();
     assert!(format!("{e:#}").to_lowercase().contains("pipe"), "{e:#}");
+}
+
+/// A run of two liquids writes each particle's row, and the header names and colours the rows as the
+/// scene does.
+#[test]
+fn a_run_of_two_liquids_exports_each_particles_material() {
+    let scene = common::scene(
+        r#"
+[domain]
+size = [0.16, 0.16, 0.16]
+resolution = [16, 16, 16]
+
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 20.0
+
+[[material]]
+name = "syrup"
+rest_density = 1300.0
+sound_speed = 20.0
+viscosity = 0.5
+colour = [0.6, 0.3, 0.05]
+
+[[block]]
+min = [0.03, 0.03, 0.03]
+max = [0.07, 0.08, 0.13]
+material = "syrup"
+
+[[block]]
+min = [0.09, 0.03, 0.03]
+max = [0.13, 0.08, 0.13]
+material = "water"
+"#,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let opts = RunOptions {
+        frames: 1,
+        export: Some(PlyExporter::new(&frames, 1, false).unwrap()),
+        surface: None,
+        stats: None,
+        checkpoints: None,
+        progress: false,
+        started: std::time::Instant::now(),
+    };
+    runner::run(&mut sim, opts, &mut std::io::sink()).unwrap();
+    let (vertices, comments) = read_back_all(&frames.join("frame_000000.ply"));
+    assert!(
+        comments.contains(&"material 0 water 0.100 0.350 0.800".to_string())
+            && comments.contains(&"material 1 syrup 0.600 0.300 0.050".to_string()),
+        "{comments:?}"
+    );
+    // The syrup (row 1) block is left of x = 0.08 m, the water (row 0) right of it.
+    for (floats, material) in &vertices {
+        assert_eq!(
+            *material,
+            u8::from(floats[0] < 0.08),
+            "particle at x = {}",
+            floats[0]
+        );
+    }
+    let (after, _) = read_back_all(&frames.join("frame_000001.ply"));
+    let count = |rows: &[([f32; 7], u8)], row: u8| rows.iter().filter(|(_, m)| *m == row).count();
+    assert!(count(&vertices, 0) > 0 && count(&vertices, 1) > 0);
+    assert_eq!(
+        (count(&after, 0), count(&after, 1)),
+        (count(&vertices, 0), count(&vertices, 1)),
+        "a liquid changed its particle count"
+    );
 }

@@ -54,8 +54,10 @@ fn interop_round_trip_through_gl() {
 
     let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
     renderer.ensure_capacity(n);
-    for round in 0..2 {
-        // Register, map, write with the kernel, unmap; twice, so release and re-registration work.
+    let quantities = [ColourBy::Speed, ColourBy::Density, ColourBy::Material];
+    for (round, colour_by) in quantities.into_iter().enumerate() {
+        // Register, map, write with the kernel, unmap; once for each quantity, so release and
+        // re-registration work.
         let mut registration =
             unsafe { GlBufferResource::register(cuda.context(), renderer.particle_buffer_name()) }
                 .expect("cuGraphicsGLRegisterBuffer");
@@ -66,11 +68,6 @@ fn interop_round_trip_through_gl() {
             "mapped {} bytes for {n} particles",
             mapped.bytes
         );
-        let colour_by = if round == 0 {
-            ColourBy::Speed
-        } else {
-            ColourBy::Density
-        };
         unsafe { cuda.write_render_attributes(colour_by, rest_density, mapped.ptr) }.expect("kernel");
         registration.unmap(&stream).expect("unmap");
         let seen = renderer.read_particle_buffer(n);
@@ -83,7 +80,7 @@ fn interop_round_trip_through_gl() {
                 expected.x[i].to_array(),
                 "particle {i} position"
             );
-            let want = colour_by.value(expected.v[i], expected.rho[i], rest_density);
+            let want = colour_by.value(expected.v[i], expected.rho[i], rest_density, expected.material[i]);
             worst = worst.max((v[3] - want).abs() / want.abs().max(1e-3));
         }
         println!("round {round} ({colour_by:?}): {n} particles, worst relative error {worst:.2e}");

@@ -26,6 +26,7 @@ fn main() -> std::process::ExitCode {
             colour_bar_carries_its_numbers,
             a_narrow_view_frames_the_tank_clear_of_the_colour_bar,
             every_live_particle_of_a_draining_scene_is_fed_for_drawing,
+            each_material_is_drawn_in_its_colour,
         ],
     )
 }
@@ -300,4 +301,108 @@ fn every_live_particle_of_a_draining_scene_is_fed_for_drawing() {
         "the drain parked no slot below a live one: the scene no longer tests what it should"
     );
     assert!(highest < fed.slots, "a live slot lies beyond what is drawn");
+}
+
+/// Two liquids side by side, red on the left (low x) and blue on the right: colouring by material
+/// draws each block's particles in its material's colour, as points (the colour itself) and as the
+/// surface (tinted by it); no scale bar is drawn.
+fn each_material_is_drawn_in_its_colour() {
+    let size = [320, 180];
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = Scene::from_toml(
+        r#"
+[domain]
+size = [0.4, 0.2, 0.2]
+resolution = [40, 20, 20]
+
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 20.0
+colour = [0.1, 0.2, 0.9]
+
+[[material]]
+name = "paint"
+rest_density = 1000.0
+sound_speed = 20.0
+colour = [0.9, 0.1, 0.1]
+
+[[block]]
+min = [0.03, 0.03, 0.03]
+max = [0.17, 0.15, 0.17]
+material = "paint"
+
+[[block]]
+min = [0.23, 0.03, 0.03]
+max = [0.37, 0.15, 0.17]
+material = "water"
+"#,
+        "two-colours.toml",
+    )
+    .expect("scene");
+    assert_eq!(Colouring::default_for(&scene), Colouring::Material);
+    let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let viewport = Viewport::full(size);
+    let mut sim = Simulation::new(scene.clone(), solver);
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let count = feed
+        .update(&mut sim, &mut renderer, Colouring::Material)
+        .expect("particles")
+        .slots;
+    let mut image = |mode: DrawMode| {
+        let settings = RenderSettings::for_scene(&scene, mode, Colouring::Material, None).expect("settings");
+        assert_eq!(settings.legend(), None);
+        let camera = settings.framing(domain.0, domain.1, viewport);
+        renderer
+            .draw(viewport, &camera, &settings, count, domain)
+            .expect("draw");
+        headless.read_image()
+    };
+    let (points, surface) = (image(DrawMode::Points), image(DrawMode::Surface));
+    renderer.destroy();
+
+    // Reddish and bluish pixels in each half of the frame.
+    let tally = |image: &Image, x: u32| {
+        let half = crop(image, x, 0, size[0] / 2, size[1]);
+        let (mut red, mut blue) = (0, 0);
+        for p in half.rgba.chunks_exact(4) {
+            let (r, b) = (i32::from(p[0]), i32::from(p[2]));
+            if r > b + 30 {
+                red += 1;
+            } else if b > r + 30 {
+                blue += 1;
+            }
+        }
+        (red, blue)
+    };
+    for (what, image) in [("points", &points), ("surface", &surface)] {
+        let (left, right) = (tally(image, 0), tally(image, size[0] / 2));
+        println!("{what}: left (red, blue) {left:?}, right {right:?}");
+        assert!(
+            left.0 > 800,
+            "{what}: the red liquid is missing on the left: {left:?}"
+        );
+        assert!(
+            right.1 > 800,
+            "{what}: the blue liquid is missing on the right: {right:?}"
+        );
+        assert!(
+            left.0 > 5 * left.1,
+            "{what}: the left is not mostly red: {left:?}"
+        );
+        assert!(
+            right.0 * 5 < right.1,
+            "{what}: the right is not mostly blue: {right:?}"
+        );
+    }
+    // The points are drawn in the material's colour itself.
+    let exact = points
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[0].abs_diff(230) <= 1 && p[1].abs_diff(26) <= 1 && p[2].abs_diff(26) <= 1)
+        .count();
+    assert!(exact > 200, "{exact} pixels of paint's colour (230, 26, 26)");
 }

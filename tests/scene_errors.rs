@@ -13,10 +13,106 @@ fn refuse(toml: &str) -> SceneError {
     }
 }
 
+/// A 20 cm tank at dx = 1 cm with `materials` (TOML `[[material]]` entries) and `bodies` after them.
+fn liquids(materials: &str, bodies: &str) -> String {
+    format!("[domain]\nsize = [0.2, 0.2, 0.2]\nresolution = [20, 20, 20]\n{materials}{bodies}")
+}
+
+/// A `[[material]]` entry named `name` of water's density and sound speed, with `extra` keys.
+fn entry(name: &str, extra: &str) -> String {
+    format!("[[material]]\nname = \"{name}\"\nrest_density = 1000.0\nsound_speed = 20.0\n{extra}")
+}
+
+/// A block of `material` (none where empty), the `i`-th of a row of them along x.
+fn block_of(i: usize, material: &str) -> String {
+    let x = 0.03 + 0.04 * i as f64;
+    let name = if material.is_empty() {
+        String::new()
+    } else {
+        format!("material = \"{material}\"\n")
+    };
+    format!(
+        "[[block]]\nmin = [{x}, 0.03, 0.03]\nmax = [{}, 0.08, 0.08]\n{name}",
+        x + 0.03
+    )
+}
+
+/// Water and oil, each in its own block.
+fn water_and_oil(water_block: &str) -> String {
+    liquids(
+        &format!("{}{}", entry("water", ""), entry("oil", "viscosity = 0.05\n")),
+        &format!("{}{}", block_of(0, water_block), block_of(1, "oil")),
+    )
+}
+
 /// (what, scene text, expected key, words the message must contain)
 fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
     let water = |extra: &str| common::water_box(20, extra);
+    let herschel_bulkley = "law = \"herschel-bulkley\"\nconsistency = 2.0\nmax_viscosity = 50.0\n";
     vec![
+        // The material table (issue "Liquids beyond water", item 3).
+        (
+            "a body naming an unknown material",
+            water_and_oil("watr"),
+            "block[0].material",
+            "use one of \"water\", \"oil\"",
+        ),
+        (
+            "a [[material]] without a name",
+            liquids(
+                &format!(
+                    "{}[[material]]\nrest_density = 900.0\nsound_speed = 20.0\n",
+                    entry("water", "")
+                ),
+                &block_of(0, "water"),
+            ),
+            "material[1].name",
+            "is missing",
+        ),
+        (
+            "a law given a parameter it does not take",
+            liquids(&entry("water", "yield_stress = 5.0\n"), &block_of(0, "")),
+            "material[0].yield_stress",
+            "not a parameter of law = \"newtonian\"",
+        ),
+        (
+            "herschel-bulkley without its yield stress",
+            liquids(&entry("mud", herschel_bulkley), &block_of(0, "")),
+            "material[0].yield_stress",
+            "give yield_stress (Pa)",
+        ),
+        (
+            "two materials of one name",
+            liquids(
+                &format!("{}{}", entry("water", ""), entry("water", "viscosity = 0.01\n")),
+                &block_of(0, "water"),
+            ),
+            "material[1].name",
+            "already the name of material[0]",
+        ),
+        (
+            "more than 8 materials",
+            liquids(
+                &(0..9)
+                    .map(|i| entry(&format!("liquid {i}"), ""))
+                    .collect::<String>(),
+                &block_of(0, "liquid 0"),
+            ),
+            "material",
+            "more than the 8",
+        ),
+        (
+            "several materials and a block naming none",
+            water_and_oil(""),
+            "block[0].material",
+            "is missing: the scene has several materials",
+        ),
+        (
+            "a material name with a line break",
+            liquids(&entry("water\\nplus", ""), &block_of(0, "")),
+            "material[0].name",
+            "line break",
+        ),
         (
             "unknown key",
             water(&format!("[solver]\ngravty = [0.0, -9.8, 0.0]\n{BLOCK}")),
@@ -280,4 +376,51 @@ fn every_preset_passes_the_speed_checks() {
     for name in mpm::sim::presets::NAMES {
         Scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
     }
+}
+
+/// Each material-table refusal's fix, done as it says, loads: the name it suggests, the parameter it
+/// asks for, the law it names.
+#[test]
+fn the_material_tables_fixes_load() {
+    let loads = |what: &str, toml: &str| {
+        Scene::from_toml(toml, "fixed.toml").unwrap_or_else(|e| panic!("{what}: the fix is refused: {e}"))
+    };
+    // An unknown name: one of those listed.
+    let e = refuse(&water_and_oil("watr"));
+    assert!(e.fix.contains("\"water\""), "{e}");
+    let scene = loads("the unknown name", &water_and_oil("water"));
+    assert_eq!(scene.materials.len(), 2);
+    assert_eq!(scene.bodies[0].material, 0);
+    assert_eq!(scene.bodies[1].material, 1);
+    // A block naming none: the example the fix gives.
+    let e = refuse(&water_and_oil(""));
+    assert!(e.fix.contains("material = \"water\""), "{e}");
+    // Herschel-Bulkley without a yield stress: give it.
+    let mud = |extra: &str| {
+        liquids(
+            &entry(
+                "mud",
+                &format!("law = \"herschel-bulkley\"\nconsistency = 2.0\nmax_viscosity = 50.0\n{extra}"),
+            ),
+            &block_of(0, ""),
+        )
+    };
+    let e = refuse(&mud(""));
+    assert!(e.fix.contains("docs/scenes.md"), "{e}");
+    let scene = loads("the missing yield stress", &mud("yield_stress = 20.0\n"));
+    assert_eq!(scene.materials[0].law.yield_stress, 20.0);
+    // A parameter of another law: the fix names the laws that take it.
+    let e = refuse(&liquids(
+        &entry("water", "yield_stress = 5.0\n"),
+        &block_of(0, ""),
+    ));
+    assert!(e.fix.contains("\"herschel-bulkley\""), "{e}");
+    // More than eight: eight load.
+    let eight = liquids(
+        &(0..8)
+            .map(|i| entry(&format!("liquid {i}"), ""))
+            .collect::<String>(),
+        &block_of(0, "liquid 0"),
+    );
+    assert_eq!(loads("eight materials", &eight).materials.len(), 8);
 }

@@ -53,7 +53,9 @@ pub struct ViewerOptions {
     pub vsync: bool,
     pub size: [u32; 2],
     pub mode: DrawMode,
-    pub colouring: Colouring,
+    /// `None`: each scene's own default ([`Colouring::default_for`]: by material where it has
+    /// several, else by speed).
+    pub colouring: Option<Colouring>,
     /// Replaces the particle radius derived from the scene (spheres and surface), m.
     pub particle_radius: Option<f32>,
     /// Smooth the surface's depth at full resolution (`SurfaceSettings::half_res_smoothing` off).
@@ -326,8 +328,8 @@ impl ViewerApp {
 
     fn scene_defaults(scene: &Scene, options: &ViewerOptions) -> Result<(OrbitCamera, Controls)> {
         let (lo, hi) = scene.fluid_region();
-        let mut render =
-            RenderSettings::for_scene(scene, options.mode, options.colouring, options.particle_radius)?;
+        let colouring = options.colouring.unwrap_or_else(|| Colouring::default_for(scene));
+        let mut render = RenderSettings::for_scene(scene, options.mode, colouring, options.particle_radius)?;
         render.surface.half_res_smoothing = !options.full_res_smoothing;
         // The window's whole size until the panel's width is known; the first draw frames it anew.
         let camera = render.framing(lo.as_vec3(), hi.as_vec3(), Viewport::full(options.size));
@@ -369,6 +371,10 @@ impl ViewerApp {
         } else {
             None
         };
+        // The colouring carries over where the user chose one; one left at the old scene's default
+        // becomes the new scene's (by material where it has several).
+        let colouring_chosen = self.options.colouring.is_none()
+            && self.controls.render.colouring != Colouring::default_for(&self.scene);
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
@@ -385,8 +391,10 @@ impl ViewerApp {
                 ..self.controls.render.surface
             };
             controls.render.mode = self.controls.render.mode;
-            controls.render.colouring = self.controls.render.colouring;
-            controls.render.scale_range = self.controls.render.scale_range;
+            if self.options.colouring.is_some() || colouring_chosen {
+                controls.render.colouring = self.controls.render.colouring;
+                controls.render.scale_range = self.controls.render.scale_range;
+            }
             controls.paused = self.controls.paused;
             self.camera = camera;
             self.camera_follows_view = true;
@@ -531,11 +539,7 @@ impl ViewerApp {
                 "m" => self.controls.render.mode = self.controls.render.mode.next(),
                 "c" => {
                     let r = &mut self.controls.render;
-                    r.colouring = match r.colouring {
-                        Colouring::Solid => Colouring::Speed,
-                        Colouring::Speed => Colouring::Density,
-                        Colouring::Density => Colouring::Solid,
-                    };
+                    r.colouring = r.colouring.next();
                     r.scale_range = RenderSettings::default_range(r.colouring);
                 }
                 "f" => self.act(Action::FrameCamera, event_loop),
@@ -743,6 +747,7 @@ impl ViewerApp {
         if self.show_panel {
             let info = HudInfo {
                 scene: &self.scene.name,
+                materials: &self.scene.materials,
                 backend: glance.map_or("none", |g| g.backend),
                 particles: fed.live,
                 fps: self.fps,

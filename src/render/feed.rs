@@ -191,7 +191,7 @@ pub fn host_attribute(p: &Particles, i: usize, colour_by: ColourBy, rest_density
     if !p.live[i] {
         return PARKED_RENDER_ATTRIBUTES;
     }
-    let value = colour_by.value(p.v[i], p.rho[i], rest_density);
+    let value = colour_by.value(p.v[i], p.rho[i], rest_density, p.material[i]);
     [p.x[i].x, p.x[i].y, p.x[i].z, value]
 }
 

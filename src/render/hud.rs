@@ -13,6 +13,8 @@ use glam::Vec3;
 /// Values the panel displays, gathered by the app each frame.
 pub struct HudInfo<'a> {
     pub scene: &'a str,
+    /// The scene's material table: the material colouring's key.
+    pub materials: &'a [crate::sim::material::NamedMaterial],
     pub backend: &'a str,
     pub particles: usize,
     pub fps: f64,
@@ -116,7 +118,7 @@ pub fn panel(ctx: &egui::Context, controls: &mut Controls, info: &HudInfo) -> Ve
                 ui.separator();
                 run_controls(ui, controls, info, &mut actions);
                 ui.separator();
-                view_controls(ui, controls, &mut actions);
+                view_controls(ui, controls, info.materials, &mut actions);
                 ui.separator();
                 physics_controls(ui, controls, &mut actions);
                 ui.separator();
@@ -268,7 +270,12 @@ fn snapshot_buttons(ui: &mut egui::Ui, actions: &mut Vec<Action>) {
     });
 }
 
-fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+fn view_controls(
+    ui: &mut egui::Ui,
+    c: &mut Controls,
+    materials: &[crate::sim::material::NamedMaterial],
+    actions: &mut Vec<Action>,
+) {
     let r = &mut c.render;
     ui.horizontal(|ui| {
         ui.label("draw");
@@ -282,6 +289,7 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
         ui.selectable_value(&mut r.colouring, Colouring::Solid, "solid");
         ui.selectable_value(&mut r.colouring, Colouring::Speed, "speed");
         ui.selectable_value(&mut r.colouring, Colouring::Density, "density");
+        ui.selectable_value(&mut r.colouring, Colouring::Material, "material");
         if r.colouring != before {
             r.scale_range = RenderSettings::default_range(r.colouring);
         }
@@ -325,7 +333,10 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
             }
         }
     }
-    if r.colouring != Colouring::Solid {
+    if r.colouring == Colouring::Material {
+        material_key(ui, materials);
+    }
+    if r.colouring != Colouring::Solid && r.colouring != Colouring::Material {
         let unit = if r.colouring == Colouring::Speed {
             "m/s"
         } else {
@@ -349,6 +360,18 @@ fn view_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>)
 }
 
 /// The colour scale with its end values, as the particles use it.
+/// A swatch and the name of each material, in the colours the particles are drawn in.
+fn material_key(ui: &mut egui::Ui, materials: &[crate::sim::material::NamedMaterial]) {
+    for (row, m) in materials.iter().enumerate() {
+        ui.horizontal(|ui| {
+            let (rect, _) = ui.allocate_exact_size(egui::vec2(14.0, 14.0), egui::Sense::hover());
+            let [r, g, b] = m.colour.map(|c| (c.clamp(0.0, 1.0) * 255.0) as u8);
+            ui.painter().rect_filled(rect, 2.0, Color32::from_rgb(r, g, b));
+            ui.label(format!("{row}: {}", m.name));
+        });
+    }
+}
+
 fn legend(ui: &mut egui::Ui, scale: &Scale) {
     let range = scale.range;
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 14.0), egui::Sense::hover());

@@ -22,7 +22,8 @@ pub struct RenderOptions {
     pub out: Option<PathBuf>,
     pub size: [u32; 2],
     pub mode: DrawMode,
-    pub colouring: Colouring,
+    /// `None`: the scene's default ([`Colouring::default_for`]).
+    pub colouring: Option<Colouring>,
     /// Replaces the particle radius derived from the scene (spheres and surface), m.
     pub particle_radius: Option<f32>,
     /// Smooth the surface's depth at full resolution (`SurfaceSettings::half_res_smoothing` off).
@@ -83,8 +84,10 @@ pub fn render(options: RenderOptions, log: &mut dyn Write) -> Result<RenderRepor
     writeln!(log, "OpenGL: {}", headless.description)?;
     let mut renderer = Renderer::new(headless.gl().clone())?;
     let scene = options.scene;
-    let mut settings =
-        RenderSettings::for_scene(&scene, options.mode, options.colouring, options.particle_radius)?;
+    let colouring = options
+        .colouring
+        .unwrap_or_else(|| Colouring::default_for(&scene));
+    let mut settings = RenderSettings::for_scene(&scene, options.mode, colouring, options.particle_radius)?;
     settings.surface.half_res_smoothing = !options.full_res_smoothing;
     let solver = backend::create(options.backend, &scene)?;
     writeln!(

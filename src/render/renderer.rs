@@ -51,6 +51,9 @@ pub enum Colouring {
     Speed,
     /// rho / rho0, on the colour scale.
     Density,
+    /// Each particle in its material's colour (the scene's `colour`); the default in a scene of
+    /// several materials.
+    Material,
 }
 
 impl Colouring {
@@ -58,6 +61,7 @@ impl Colouring {
     pub fn quantity(self) -> ColourBy {
         match self {
             Colouring::Density => ColourBy::Density,
+            Colouring::Material => ColourBy::Material,
             Colouring::Solid | Colouring::Speed => ColourBy::Speed,
         }
     }
@@ -66,8 +70,75 @@ impl Colouring {
     pub fn unit(self) -> &'static str {
         match self {
             Colouring::Density => "ρ/ρ0",
+            Colouring::Material => "",
             Colouring::Solid | Colouring::Speed => "m/s",
         }
+    }
+
+    /// The colouring `scene` starts with where none is asked for: by material where it has several,
+    /// else by speed.
+    pub fn default_for(scene: &crate::sim::Scene) -> Colouring {
+        if scene.materials.len() > 1 {
+            Colouring::Material
+        } else {
+            Colouring::Speed
+        }
+    }
+
+    /// The next colouring for the C key: solid, speed, density, material, solid, ...
+    pub fn next(self) -> Colouring {
+        match self {
+            Colouring::Solid => Colouring::Speed,
+            Colouring::Speed => Colouring::Density,
+            Colouring::Density => Colouring::Material,
+            Colouring::Material => Colouring::Solid,
+        }
+    }
+}
+
+/// The material table's colours as the shaders take them: a row per material (linear RGB), unused
+/// rows black.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaterialColours {
+    pub colours: [[f32; 3]; crate::contract::MAX_MATERIALS as usize],
+    /// Rows in use (at least 1).
+    pub count: u32,
+}
+
+impl MaterialColours {
+    pub fn of(materials: &[crate::sim::material::NamedMaterial]) -> MaterialColours {
+        let mut colours = [[0.0; 3]; crate::contract::MAX_MATERIALS as usize];
+        for (row, m) in colours.iter_mut().zip(materials) {
+            *row = m.colour;
+        }
+        MaterialColours {
+            colours,
+            count: (materials.len() as u32).clamp(1, crate::contract::MAX_MATERIALS),
+        }
+    }
+
+    /// Sets `u_material_colours` and `u_material_count` of `program` (the prelude's
+    /// `material_colour`).
+    ///
+    /// # Safety
+    /// `gl` is current on this thread and `program` is its own, in use.
+    pub unsafe fn set(&self, gl: &glow::Context, program: glow::Program) {
+        let flat: Vec<f32> = self.colours.iter().flatten().copied().collect();
+        // SAFETY: as the caller vouches.
+        unsafe {
+            let loc = gl.get_uniform_location(program, "u_material_colours");
+            gl.uniform_3_f32_slice(loc.as_ref(), &flat);
+            set_i32(gl, program, "u_material_count", self.count as i32);
+        }
+    }
+}
+
+impl Default for MaterialColours {
+    /// One material, water's default colour.
+    fn default() -> MaterialColours {
+        let mut colours = [[0.0; 3]; crate::contract::MAX_MATERIALS as usize];
+        colours[0] = crate::sim::material::default_colour(0);
+        MaterialColours { colours, count: 1 }
     }
 }
 
@@ -87,6 +158,8 @@ pub struct RenderSettings {
     /// Values mapped to the two ends of the colour scale.
     pub scale_range: [f32; 2],
     pub show_box: bool,
+    /// The scene's materials' colours, for colouring by material.
+    pub materials: MaterialColours,
 }
 
 impl RenderSettings {
@@ -101,6 +174,7 @@ impl RenderSettings {
             spacing: particle_spacing,
             scale_range: [0.0, 3.0],
             show_box: true,
+            materials: MaterialColours::default(),
         }
     }
 
@@ -117,6 +191,7 @@ impl RenderSettings {
         settings.mode = mode;
         settings.colouring = colouring;
         settings.scale_range = RenderSettings::default_range(colouring);
+        settings.materials = MaterialColours::of(&scene.materials);
         if let Some(radius) = particle_radius {
             let (lo, hi) = scene.fluid_region();
             let extent = (hi - lo).max_element() as f32;
@@ -133,10 +208,11 @@ impl RenderSettings {
     }
 
     /// What the colour bar shows, if anything: the scale of the colouring, or for the surface coloured
-    /// by speed, water turning to whitewater.
+    /// by speed, water turning to whitewater. Solid and material colouring have no scale (the
+    /// panel lists the materials' colours).
     pub fn legend(&self) -> Option<Scale> {
         let whitewater = match (self.mode, self.colouring) {
-            (_, Colouring::Solid) => return None,
+            (_, Colouring::Solid | Colouring::Material) => return None,
             (DrawMode::Surface, Colouring::Speed) => true,
             _ => false,
         };
@@ -158,11 +234,12 @@ impl RenderSettings {
         OrbitCamera::framing(lo, hi, size, clear)
     }
 
-    /// A sensible scale for the colouring: 0..3 m/s for speed, 0.9..1.1 for density.
+    /// A sensible scale for the colouring: 0..3 m/s for speed, 0.9..1.1 for density (material
+    /// colouring has none; it keeps speed's).
     pub fn default_range(colouring: Colouring) -> [f32; 2] {
         match colouring {
             Colouring::Density => [0.9, 1.1],
-            Colouring::Solid | Colouring::Speed => [0.0, 3.0],
+            Colouring::Solid | Colouring::Speed | Colouring::Material => [0.0, 3.0],
         }
     }
 }
@@ -226,6 +303,20 @@ fn glsl_scale() -> String {
     )
 }
 
+/// The material table's colours and their lookup, shared by the particles' and the surface's shaders:
+/// `material_colour(row)` for a particle's row, or for a row averaged through the water (the surface),
+/// blended between the two rows it lies between.
+const GLSL_MATERIALS: &str = "
+uniform vec3 u_material_colours[8];
+uniform int u_material_count;
+vec3 material_colour(float row) {
+    float r = clamp(row, 0.0, float(max(u_material_count - 1, 0)));
+    int i = int(floor(r));
+    int j = min(i + 1, max(u_material_count - 1, 0));
+    return mix(u_material_colours[i], u_material_colours[j], r - float(i));
+}
+";
+
 const PARTICLE_VS: &str = r#"
 layout(location = 0) in vec4 a_particle; // xyz position, w the colour quantity
 uniform mat4 u_view;
@@ -235,6 +326,7 @@ uniform float u_point_size;
 uniform float u_radius;
 uniform float u_pixels_per_metre_at_unit_depth;
 uniform int u_solid;
+uniform int u_by_material;
 uniform vec3 u_solid_colour;
 uniform vec2 u_range;
 out vec3 v_colour;
@@ -251,7 +343,8 @@ void main() {
         gl_PointSize = u_point_size;
     }
     float t = (a_particle.w - u_range.x) / max(u_range.y - u_range.x, 1e-6);
-    v_colour = u_solid == 1 ? u_solid_colour : scale_colour(t);
+    v_colour = u_solid == 1 ? u_solid_colour
+             : u_by_material == 1 ? material_colour(a_particle.w) : scale_colour(t);
 }
 "#;
 
@@ -361,7 +454,11 @@ impl Renderer {
     pub fn new(gl: Arc<glow::Context>) -> Result<Renderer> {
         // SAFETY: the caller's GL context is current on this thread; every object is created here.
         unsafe {
-            let prelude = format!("{}{}", glsl_scale(), super::surface::glsl_constants());
+            let prelude = format!(
+                "{}{GLSL_MATERIALS}{}",
+                glsl_scale(),
+                super::surface::glsl_constants()
+            );
             let programs = Programs {
                 points: link(&gl, "points", &[PARTICLE_VS], &[POINTS_FS], &prelude)?,
                 spheres: link(&gl, "spheres", &[PARTICLE_VS], &[SPHERES_FS], &prelude)?,
@@ -621,6 +718,13 @@ impl Renderer {
                 "u_solid",
                 i32::from(settings.colouring == Colouring::Solid),
             );
+            set_i32(
+                gl,
+                program,
+                "u_by_material",
+                i32::from(settings.colouring == Colouring::Material),
+            );
+            settings.materials.set(gl, program);
             let loc = gl.get_uniform_location(program, "u_solid_colour");
             gl.uniform_3_f32(loc.as_ref(), SOLID_COLOUR[0], SOLID_COLOUR[1], SOLID_COLOUR[2]);
             let loc = gl.get_uniform_location(program, "u_range");
@@ -658,6 +762,7 @@ impl Renderer {
             Colouring::Solid => Tint::Clear,
             Colouring::Speed => Tint::Whitewater,
             Colouring::Density => Tint::Scale,
+            Colouring::Material => Tint::Material,
         };
         let frame = SurfaceFrame {
             view,
@@ -669,6 +774,7 @@ impl Renderer {
             settings: &settings.surface,
             tint,
             range: settings.scale_range,
+            materials: settings.materials,
         };
         self.surface.splat_thickness_by_cuda(&frame, &mut self.timer);
         self.timer.begin(Pass::Scene);
@@ -917,5 +1023,43 @@ mod tests {
         );
         settings.colouring = Colouring::Density;
         assert_eq!(settings.legend().map(|s| s.unit), Some("ρ/ρ0"));
+        settings.colouring = Colouring::Material;
+        assert_eq!(settings.legend(), None, "the panel keys the materials; no scale");
+    }
+
+    #[test]
+    fn several_materials_are_coloured_by_material_unless_asked_otherwise() {
+        let one = Scene::load("drop").unwrap();
+        assert_eq!(Colouring::default_for(&one), Colouring::Speed);
+        let two = Scene::from_toml(
+            "[domain]\nsize = [0.2, 0.2, 0.2]\nresolution = [20, 20, 20]\n\
+             [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\n\
+             [[material]]\nname = \"oil\"\nrest_density = 900.0\nsound_speed = 20.0\n\
+             colour = [0.9, 0.6, 0.1]\n\
+             [[block]]\nmin = [0.03, 0.03, 0.03]\nmax = [0.08, 0.08, 0.08]\nmaterial = \"oil\"\n",
+            "two.toml",
+        )
+        .unwrap();
+        assert_eq!(Colouring::default_for(&two), Colouring::Material);
+        let settings = RenderSettings::for_scene(&two, DrawMode::Spheres, Colouring::Material, None).unwrap();
+        assert_eq!(settings.materials.count, 2);
+        assert_eq!(settings.materials.colours[1], [0.9, 0.6, 0.1]);
+        assert_eq!(settings.materials.colours[0], two.materials[0].colour);
+        // The C key reaches every colouring and comes back.
+        let mut c = Colouring::Solid;
+        let mut seen = Vec::new();
+        for _ in 0..4 {
+            c = c.next();
+            seen.push(c);
+        }
+        assert_eq!(
+            seen,
+            [
+                Colouring::Speed,
+                Colouring::Density,
+                Colouring::Material,
+                Colouring::Solid
+            ]
+        );
     }
 }

@@ -115,6 +115,9 @@ pub enum Tint {
     Whitewater = 1,
     /// The water takes the colour scale's colour of the quantity (density).
     Scale = 2,
+    /// The water takes its material's colour: the quantity is the material row, averaged through
+    /// the water, so where two liquids lie along one view ray their colours blend by thickness.
+    Material = 3,
 }
 
 /// What the passes need to know about the view and the particles.
@@ -128,6 +131,8 @@ pub struct SurfaceFrame<'a> {
     pub particle_volume: f32,
     pub settings: &'a SurfaceSettings,
     pub tint: Tint,
+    /// The material table's colours ([`Tint::Material`]).
+    pub materials: super::renderer::MaterialColours,
     pub range: [f32; 2],
 }
 
@@ -568,10 +573,12 @@ impl Surface {
             );
             set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
             set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
+            set_f32(gl, p, "u_absorption_scale", s.absorption);
             set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
             set_f32(gl, p, "u_refraction", s.refraction);
             set_i32(gl, p, "u_tint", frame.tint as i32);
             set_vec2(gl, p, "u_range", frame.range);
+            frame.materials.set(gl, p);
             gl.draw_arrays(glow::TRIANGLES, 0, 3);
             timer.end();
 

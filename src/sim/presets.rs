@@ -32,6 +32,20 @@ const FILES: [&str; 11] = [
     include_str!("../../scenes/bench-655k.toml"),
 ];
 
+/// The line `mpm scenes` lists a loaded scene with: its name, particles and description, and where
+/// it has several materials, their names.
+pub fn listing(name: &str, scene: &super::Scene) -> String {
+    let mut line = format!(
+        "{name:<18} {:>9} particles  {}",
+        scene.num_particles, scene.description
+    );
+    if scene.materials.len() > 1 {
+        let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+        line.push_str(&format!(" (materials: {})", names.join(", ")));
+    }
+    line
+}
+
 /// The default scene of the runner and the viewer.
 pub const DEFAULT: &str = NAMES[0];
 

@@ -17,6 +17,9 @@ pub enum ColourBy {
     Speed,
     /// rho / rho0.
     Density,
+    /// The particle's row of the material table (0, 1, ...), which the renderer turns into that
+    /// material's colour.
+    Material,
 }
 
 impl ColourBy {
@@ -25,14 +28,16 @@ impl ColourBy {
         match self {
             ColourBy::Speed => crate::contract::COLOUR_BY_SPEED,
             ColourBy::Density => crate::contract::COLOUR_BY_DENSITY,
+            ColourBy::Material => crate::contract::COLOUR_BY_MATERIAL,
         }
     }
 
-    /// The value written for one particle.
-    pub fn value(self, v: Vec3, rho: f32, rest_density: f32) -> f32 {
+    /// The value written for one particle of material row `material`.
+    pub fn value(self, v: Vec3, rho: f32, rest_density: f32, material: u8) -> f32 {
         match self {
             ColourBy::Speed => v.length(),
             ColourBy::Density => rho / rest_density,
+            ColourBy::Material => f32::from(material.min(crate::contract::MAX_MATERIALS as u8 - 1)),
         }
     }
 }

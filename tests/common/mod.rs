@@ -100,7 +100,7 @@ pub fn render_options(
         out: Some(out.to_path_buf()),
         size: [320, 180],
         mode: mpm::render::DrawMode::Spheres,
-        colouring: mpm::render::Colouring::Speed,
+        colouring: Some(mpm::render::Colouring::Speed),
         particle_radius: None,
         full_res_smoothing: false,
         transfer: mpm::render::Transfer::Interop,

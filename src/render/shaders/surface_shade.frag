@@ -12,10 +12,12 @@ uniform mat3 u_view_to_world;
 uniform vec3 u_sun_view;             // towards the sun, view space
 uniform vec3 u_sun_world;
 uniform vec3 u_absorption;           // 1/m per channel
+uniform float u_absorption_scale;    // the panel's absorption (1: the defaults above)
 uniform float u_scattering;          // 1/m: how fast the water's own colour replaces what is behind
 uniform vec3 u_water_colour;
 uniform float u_refraction;
-uniform int u_tint;                  // 0 clear water, 1 whitewater from speed, 2 the colour scale
+uniform int u_tint;                  // 0 clear water, 1 whitewater from speed, 2 the colour scale,
+                                     // 3 the materials' colours (the quantity: the material row)
 uniform vec2 u_range;
 out vec4 o_colour;
 
@@ -72,7 +74,7 @@ void main() {
 
     vec2 th = texture(u_thickness, v_uv).rg;
     float thickness = max(th.x, 0.0);
-    float quantity = th.x > 1e-6 ? th.y / th.x : u_range.x;
+    float quantity = th.x > 1e-6 ? th.y / th.x : (u_tint == 3 ? 0.0 : u_range.x);
     float t = (quantity - u_range.x) / max(u_range.y - u_range.x, 1e-6);
 
     float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
@@ -82,10 +84,17 @@ void main() {
     // the water (along a crease) must not throw the picture across the screen.
     vec2 bent = clamp(v_uv + n.xy * u_refraction * min(thickness, 0.05) / z, vec2(0.0), vec2(1.0));
     vec3 behind = texture(u_scene, bent).rgb;
-    vec3 transmitted = exp(-u_absorption * thickness);
+    // Coloured by material, each liquid absorbs the light its colour lacks (water's default colour
+    // absorbs red first, as u_absorption does), at most about water's red absorption per metre.
+    vec3 absorption = u_absorption;
+    if (u_tint == 3) {
+        absorption = u_absorption_scale * (1.0 + 6.0 * (1.0 - material_colour(quantity)));
+    }
+    vec3 transmitted = exp(-absorption * thickness);
     float scattered = 1.0 - exp(-u_scattering * thickness);
     float lit = max(dot(n, u_sun_view), 0.0);
-    vec3 water = u_tint == 2 ? scale_colour(t) : u_water_colour;
+    vec3 water = u_tint == 2 ? scale_colour(t)
+               : u_tint == 3 ? material_colour(quantity) : u_water_colour;
     vec3 body = behind * transmitted + water * (0.6 + 0.4 * lit) * scattered;
     vec3 colour = mix(body, reflection, fresnel);
 

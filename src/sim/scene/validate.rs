@@ -253,7 +253,10 @@ impl Validator<'_> {
                     "lists {} materials, more than the {MAX_MATERIALS} a scene may have",
                     entries.len()
                 ),
-                format!("keep at most {MAX_MATERIALS} [[material]] entries"),
+                format!(
+                    "keep at most {MAX_MATERIALS} [[material]] entries; bodies and emitters of the same \
+                     liquid can name one entry"
+                ),
             ));
         }
         let table = matches!(spec, MaterialsSpec::Table(_));
@@ -265,6 +268,14 @@ impl Validator<'_> {
                         format!("{key}.name"),
                         "is empty",
                         "give the material a name, e.g. name = \"honey\"",
+                    ))
+                }
+                // PLY headers and the panel show the name on one line.
+                (Some(name), _) if name.chars().any(char::is_control) => {
+                    return Err(self.err(
+                        format!("{key}.name"),
+                        format!("= {name:?} holds a line break or another control character"),
+                        "give a name of letters, digits, spaces and punctuation, e.g. name = \"olive oil\"",
                     ))
                 }
                 (Some(name), _) => name.clone(),
@@ -377,20 +388,14 @@ impl Validator<'_> {
             ("relaxation_time", m.relaxation_time),
             ("transition_exponent", m.transition_exponent),
         ];
-        let (needs, allows): (&[&str], &[&str]) = match m.law {
-            LawSpec::Newtonian => (&[], &["viscosity"]),
-            LawSpec::PowerLaw => (
-                &["consistency", "flow_index", "max_viscosity"],
-                &["min_viscosity"],
-            ),
-            LawSpec::CarreauYasuda => (
-                &["viscosity", "flow_index", "relaxation_time"],
-                &["min_viscosity", "max_viscosity", "transition_exponent"],
-            ),
-            LawSpec::HerschelBulkley => (
-                &["consistency", "yield_stress", "max_viscosity"],
-                &["flow_index", "min_viscosity"],
-            ),
+        let (needs, allows) = law_parameters(m.law);
+        let takes = || {
+            let optional = if allows.is_empty() {
+                String::new()
+            } else {
+                format!(", and optionally {}", allows.join(", "))
+            };
+            format!("\"{law_name}\" takes {}{optional}", needs.join(", "))
         };
         for (field, value) in given {
             let Some(value) = value else {
@@ -398,18 +403,38 @@ impl Validator<'_> {
                     return Err(self.err(
                         k(field),
                         format!("is missing: law = \"{law_name}\" needs {}", needs.join(", ")),
-                        "docs/scenes.md lists each law's parameters and their units",
+                        format!(
+                            "give {field} ({}) in this material; {} (docs/scenes.md lists each law's \
+                             parameters and their units)",
+                            law_parameter_unit(field),
+                            takes()
+                        ),
                     ));
                 }
                 continue;
             };
             if !needs.contains(&field) && !allows.contains(&field) {
+                let laws_with_it: Vec<String> = [
+                    (LawSpec::Newtonian, "newtonian"),
+                    (LawSpec::PowerLaw, "power-law"),
+                    (LawSpec::CarreauYasuda, "carreau-yasuda"),
+                    (LawSpec::HerschelBulkley, "herschel-bulkley"),
+                ]
+                .into_iter()
+                .filter(|(law, _)| {
+                    let (needs, allows) = law_parameters(*law);
+                    needs.contains(&field) || allows.contains(&field)
+                })
+                .map(|(_, name)| format!("\"{name}\""))
+                .collect();
                 return Err(self.err(
                     k(field),
                     format!("is not a parameter of law = \"{law_name}\""),
                     format!(
-                        "remove it, or choose the law that has it; \"{law_name}\" takes {}",
-                        needs.iter().chain(allows).copied().collect::<Vec<_>>().join(", ")
+                        "remove it, or choose a law that takes it ({}); {} (docs/scenes.md lists each \
+                         law's parameters)",
+                        laws_with_it.join(", "),
+                        takes()
                     ),
                 ));
             }
@@ -501,7 +526,11 @@ impl Validator<'_> {
             None => Err(self.err(
                 key,
                 "is missing: the scene has several materials",
-                format!("name the material this is made of: one of {}", names()),
+                format!(
+                    "name the material it is made of, e.g. material = \"{}\"; the scene's materials are {}",
+                    materials[0].name,
+                    names()
+                ),
             )),
             Some(name) => materials
                 .iter()
@@ -510,8 +539,12 @@ impl Validator<'_> {
                 .ok_or_else(|| {
                     self.err(
                         key,
-                        format!("= \"{name}\" names no [[material]]"),
-                        format!("use one of {}", names()),
+                        format!("= \"{name}\" names no material of this scene"),
+                        format!(
+                            "use one of {} (names are matched exactly, case included), or add a \
+                             [[material]] named \"{name}\"",
+                            names()
+                        ),
                     )
                 }),
         }
@@ -1065,6 +1098,36 @@ impl Validator<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// The parameters a law needs and those it may take besides.
+fn law_parameters(law: LawSpec) -> (&'static [&'static str], &'static [&'static str]) {
+    match law {
+        LawSpec::Newtonian => (&[], &["viscosity"]),
+        LawSpec::PowerLaw => (
+            &["consistency", "flow_index", "max_viscosity"],
+            &["min_viscosity"],
+        ),
+        LawSpec::CarreauYasuda => (
+            &["viscosity", "flow_index", "relaxation_time"],
+            &["min_viscosity", "max_viscosity", "transition_exponent"],
+        ),
+        LawSpec::HerschelBulkley => (
+            &["consistency", "yield_stress", "max_viscosity"],
+            &["flow_index", "min_viscosity"],
+        ),
+    }
+}
+
+/// What a law parameter is given in, for a refusal's fix.
+fn law_parameter_unit(field: &str) -> &'static str {
+    match field {
+        "viscosity" | "max_viscosity" | "min_viscosity" => "Pa s",
+        "consistency" => "Pa s^n",
+        "yield_stress" => "Pa",
+        "relaxation_time" => "s",
+        _ => "a plain number",
     }
 }
 
