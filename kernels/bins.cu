@@ -21,7 +21,7 @@
 #include "tiles.cuh"
 
 // Key = the bin of the stencil's base node times edge^3, plus the base's cell within the bin.
-extern "C" __global__ void bin_count(const Params params,
+extern "C" __global__ void bin_count(const KernelParams params,
                                     const u32 edge,
                                     const float4* __restrict__ x,
                                     u32* __restrict__ cell_counts,  // zeroed, one per key and parked key

@@ -37,7 +37,7 @@ struct Stencil {
     float w[3][3];   // w[o][axis]: weight of node base + o along axis
 };
 
-__device__ __forceinline__ Stencil make_stencil(float4 x, const Params& params) {
+__device__ __forceinline__ Stencil make_stencil(float4 x, const KernelParams& params) {
     Stencil s;
     float xg[3] = {x.x * params.inv_dx, x.y * params.inv_dx, x.z * params.inv_dx};
     for (int a = 0; a < 3; ++a) {
@@ -212,7 +212,7 @@ __device__ __forceinline__ void atomic_max_nonnegative(u32* target, float value)
 // binned, tiled passes), so the two cannot drift apart. Operation order follows src/sim/cpu.rs.
 
 // Grid mass at the stencil, as a density: rho_p = sum_i w m_i / dx^3 (docs/physics.md step 2).
-__device__ __forceinline__ float gather_density(const Stencil& s, const Params& params, const float4* grid_acc,
+__device__ __forceinline__ float gather_density(const Stencil& s, const KernelParams& params, const float4* grid_acc,
                                                 const u64* fixed_mass) {
     const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
     const float inv_mass_scale = fixed ? 1.0f / params.fixed_mass_scale : 0.0f;
@@ -233,9 +233,9 @@ struct ParticleImpulse {
     float mass;          // m_p, the mass it scatters with the momentum
 };
 
-__device__ __forceinline__ ParticleImpulse particle_impulse(const Params& params, float rho, float4 vp, float4 c0,
+__device__ __forceinline__ ParticleImpulse particle_impulse(const KernelParams& params, float rho, float4 vp, float4 c0,
                                                             float4 c1, float4 c2) {
-    const Material& mat = params.materials[material_index(params, vp)];
+    const Material& mat = material_table[material_index(params, vp)];
     const float m_p = mat.particle_mass;
     const float dx = params.dx;
     const float volume = m_p / rho;
@@ -295,7 +295,7 @@ struct GridDensity {
 };
 
 template <bool DENSITY>
-__device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp, float material_tag, float rho,
+__device__ __forceinline__ G2pResult g2p_gather(const KernelParams& params, float4 xp, float material_tag, float rho,
                                                 const float4* grid_vel, GridDensity* density) {
     const float dx = params.dx, dt = params.dt, tau = params.soft_wall_tau;
     const float res[3] = {(float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]};
@@ -382,34 +382,34 @@ __device__ __forceinline__ G2pResult g2p_gather(const Params& params, float4 xp,
     r.v = make_float4(vel[0], vel[1], vel[2], material_tag);
     r.x = make_float4(next[0], next[1], next[2], 0.0f);
     r.speed = sqrtf(speed_sq);
-    r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho, r.speed);
+    r.signal = material_signal_speed(material_table[material_index(params, r.v)], rho, r.speed);
     return r;
 }
 
 // The largest particle mass of the table: what bounds a tile's sums.
-__device__ __forceinline__ float heaviest_particle_mass(const Params& params) {
-    float heaviest = params.materials[0].particle_mass;
-    for (u32 row = 1; row < params.material_count; ++row) heaviest = fmaxf(heaviest, params.materials[row].particle_mass);
+__device__ __forceinline__ float heaviest_particle_mass(const KernelParams& params) {
+    float heaviest = material_table[0].particle_mass;
+    for (u32 row = 1; row < params.material_count; ++row) heaviest = fmaxf(heaviest, material_table[row].particle_mass);
     return heaviest;
 }
 
 // v.w of particle p: the bits of its material's row (particle_material_tag), 0 in a scene of one
 // material, whose passes do not read it.
-__device__ __forceinline__ float particle_material_tag(const Params& params, const float4* v, u32 p) {
+__device__ __forceinline__ float particle_material_tag(const KernelParams& params, const float4* v, u32 p) {
     return params.material_count > 1u ? reinterpret_cast<const float*>(v)[4 * (size_t)p + 3] : 0.0f;
 }
 
 // The mass of particle p, from its material's row.
-__device__ __forceinline__ float particle_mass_of(const Params& params, const float4* v, u32 p) {
-    return params.materials[material_row(params, particle_material_tag(params, v, p))].particle_mass;
+__device__ __forceinline__ float particle_mass_of(const KernelParams& params, const float4* v, u32 p) {
+    return material_table[material_row(params, particle_material_tag(params, v, p))].particle_mass;
 }
 
-__device__ __forceinline__ G2pResult g2p_particle(const Params& params, float4 xp, float material_tag, float rho,
+__device__ __forceinline__ G2pResult g2p_particle(const KernelParams& params, float4 xp, float material_tag, float rho,
                                                   const float4* grid_vel) {
     return g2p_gather<false>(params, xp, material_tag, rho, grid_vel, nullptr);
 }
 
-__device__ __forceinline__ G2pResult g2p_particle_and_density(const Params& params, float4 xp, float material_tag,
+__device__ __forceinline__ G2pResult g2p_particle_and_density(const KernelParams& params, float4 xp, float material_tag,
                                                               const float4* grid_vel, GridDensity& density) {
     return g2p_gather<true>(params, xp, material_tag, 0.0f, grid_vel, &density);
 }
@@ -419,7 +419,7 @@ __device__ __forceinline__ G2pResult g2p_particle_and_density(const Params& para
 // held within MAX_VOLUME_CHANGE of 1.
 // Under carried_density (materials of several rest densities) the particle's own last density
 // `rho_before` is carried instead of the grid's, which mixes the liquids' masses at an interface.
-__device__ __forceinline__ float advected_density(const Params& params, const GridDensity& g, float rho_before) {
+__device__ __forceinline__ float advected_density(const KernelParams& params, const GridDensity& g, float rho_before) {
     const float rho_grid = params.carried_density
                                ? rho_before
                                : g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
@@ -436,21 +436,21 @@ struct CarriedG2p {
     float rho;
 };
 
-__device__ __forceinline__ CarriedG2p g2p_particle_carried(const Params& params, float4 xp, float material_tag,
+__device__ __forceinline__ CarriedG2p g2p_particle_carried(const KernelParams& params, float4 xp, float material_tag,
                                                            float rho_before, const float4* grid_vel) {
     GridDensity density;
     CarriedG2p out;
     out.r = g2p_particle_and_density(params, xp, material_tag, grid_vel, density);
     out.rho = advected_density(params, density, rho_before);
-    out.r.signal = material_signal_speed(params.materials[material_index(params, out.r.v)], out.rho, out.r.speed);
+    out.r.signal = material_signal_speed(material_table[material_index(params, out.r.v)], out.rho, out.r.speed);
     return out;
 }
 
 // The density a particle reports for the time step: in row 0's terms, rho rho0_0 / rho0
 // (Material::reported_density in src/sim/material.rs), rho itself in a scene of one material.
-__device__ __forceinline__ float reported_density(const Params& params, float4 vp, float rho) {
+__device__ __forceinline__ float reported_density(const KernelParams& params, float4 vp, float rho) {
     if (params.material_count == 1u) return rho;
-    return rho * (params.materials[0].rest_density / params.materials[material_index(params, vp)].rest_density);
+    return rho * (material_table[0].rest_density / material_table[material_index(params, vp)].rest_density);
 }
 
 // The colliders' backstop after g2p_particle (src/sim/cpu.rs g2p_backstop): a particle that ended inside a
@@ -481,11 +481,11 @@ __device__ __noinline__ Backstop collider_backstop_moves(const float dx, const f
 
 // The backstop's move (out of line, given only the scalars it needs: a kernel's parameters passed
 // whole to a call would be copied to the stack), then the signal speed at the particle's density.
-__device__ __forceinline__ Backstop collider_backstop_particle(const Params& params, const Colliders& colliders,
+__device__ __forceinline__ Backstop collider_backstop_particle(const KernelParams& params, const Colliders& colliders,
                                                                float rho, const G2pResult& r) {
     const float3 res = make_float3((float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]);
     Backstop b = collider_backstop_moves(params.dx, res, colliders, r);
-    if (b.pushed) b.r.signal = material_signal_speed(params.materials[material_index(params, b.r.v)], rho, b.r.speed);
+    if (b.pushed) b.r.signal = material_signal_speed(material_table[material_index(params, b.r.v)], rho, b.r.speed);
     return b;
 }
 
@@ -495,7 +495,7 @@ struct NodeSums {
 };
 
 // Fixed-point sums (mass, then momentum) as floats; a sum at or beyond FIXED_SUM_LIMIT is counted.
-__device__ __forceinline__ NodeSums fixed_point_sums(const Params& params, const i64 q[4], StepCounters* counters) {
+__device__ __forceinline__ NodeSums fixed_point_sums(const KernelParams& params, const i64 q[4], StepCounters* counters) {
     bool out_of_range = false;
     for (int ch = 0; ch < 4; ++ch) out_of_range |= q[ch] >= FIXED_SUM_LIMIT || q[ch] <= -FIXED_SUM_LIMIT;
     if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
@@ -511,7 +511,7 @@ __device__ __forceinline__ NodeSums float_sums(float4 acc) {
 }
 
 // Zeroes node i's accumulators (the grid clear, done by their one reader).
-__device__ __forceinline__ void zero_node_sums(const Params& params, u32 i, float4* grid_acc, u64* fixed_mass,
+__device__ __forceinline__ void zero_node_sums(const KernelParams& params, u32 i, float4* grid_acc, u64* fixed_mass,
                                                u64* fixed_momentum) {
     if (params.scatter_mode == SCATTER_FIXED_POINT) {
         fixed_mass[i] = 0;
@@ -525,7 +525,7 @@ __device__ __forceinline__ void zero_node_sums(const Params& params, u32 i, floa
 
 // grid_update for node i (docs/physics.md step 3) from its sums: momentum to velocity, gravity, the
 // colliders' boundary conditions, free slip in the walls' boundary band (last, as in src/sim/cpu.rs).
-__device__ __forceinline__ void update_node_velocity(const Params& params, u32 i, const NodeSums& s,
+__device__ __forceinline__ void update_node_velocity(const KernelParams& params, u32 i, const NodeSums& s,
                                                      float4* grid_vel, const Colliders& colliders) {
     const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
     const u32 band = params.boundary_band;
@@ -549,7 +549,7 @@ __device__ __forceinline__ void update_node_velocity(const Params& params, u32 i
 
 // The grid update of node i as it was scattered. Consume-and-zero: the accumulators are zeroed as they
 // are read, which is the grid clear.
-__device__ __forceinline__ void update_node(const Params& params, u32 i, float4* grid_acc, float4* grid_vel,
+__device__ __forceinline__ void update_node(const KernelParams& params, u32 i, float4* grid_acc, float4* grid_vel,
                                             u64* fixed_mass, u64* fixed_momentum, StepCounters* counters,
                                             const Colliders& colliders) {
     NodeSums s;

@@ -7,7 +7,7 @@
 #include "common.cuh"
 
 template <bool CARRIED>
-__device__ __forceinline__ void g2p_pass(const Params& params,
+__device__ __forceinline__ void g2p_pass(const KernelParams& params,
                                float4* __restrict__ x,
                                float4* __restrict__ v,
                                float4* __restrict__ c,  // 3 arrays of N: columns 0, 1, 2 of C
@@ -40,14 +40,14 @@ __device__ __forceinline__ void g2p_pass(const Params& params,
     atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
 }
 
-extern "C" __global__ void g2p(const Params params, float4* __restrict__ x, float4* __restrict__ v,
+extern "C" __global__ void g2p(const KernelParams params, float4* __restrict__ x, float4* __restrict__ v,
                                float4* __restrict__ c, const float4* __restrict__ grid_vel, float* __restrict__ rho,
                                StepCounters* __restrict__ counters) {
     g2p_pass<false>(params, x, v, c, grid_vel, rho, counters);
 }
 
 // Scenes whose rest densities differ (Params::carried_density): the density carried here.
-extern "C" __global__ void g2p_carried(const Params params, float4* __restrict__ x, float4* __restrict__ v,
+extern "C" __global__ void g2p_carried(const KernelParams params, float4* __restrict__ x, float4* __restrict__ v,
                                        float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                        float* __restrict__ rho, StepCounters* __restrict__ counters) {
     g2p_pass<true>(params, x, v, c, grid_vel, rho, counters);

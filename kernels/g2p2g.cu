@@ -8,7 +8,7 @@
 #include "tiles.cuh"
 
 template <bool ADVECT, bool CARRIED>
-__device__ __forceinline__ void scatter_bins_mass(const Params& params, const BinEntry* __restrict__ bins,
+__device__ __forceinline__ void scatter_bins_mass(const KernelParams& params, const BinEntry* __restrict__ bins,
                                                   const u32* __restrict__ order, float4* __restrict__ x,
                                                   float4* __restrict__ v, float4* __restrict__ c,
                                                   const float4* __restrict__ grid_vel, float* __restrict__ rho,
@@ -107,7 +107,7 @@ __device__ __forceinline__ void scatter_bins_mass(const Params& params, const Bi
     if (far) counters->rebin_needed = 1u;
 }
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p2g(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p2g(const KernelParams params, const BinEntry* __restrict__ bins,
                                  const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                  float4* __restrict__ c, const float4* __restrict__ grid_vel,
                                  float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
@@ -124,7 +124,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
 // Scenes whose rest densities differ (Params::carried_density): g2p2g with the density carried
 // over the substep (g2p_particle_carried), a path the entry above is compiled without.
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS)
-    g2p2g_carried(const Params params, const BinEntry* __restrict__ bins, const u32* __restrict__ order,
+    g2p2g_carried(const KernelParams params, const BinEntry* __restrict__ bins, const u32* __restrict__ order,
                   float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c,
                   const float4* __restrict__ grid_vel, float* __restrict__ rho, float4* grid_acc, u64* fixed_mass,
                   u32* block_marks, u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
@@ -137,7 +137,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS)
                                   free_slots, flow);
 }
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const Params params, const BinEntry* __restrict__ bins,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const KernelParams params, const BinEntry* __restrict__ bins,
                                     const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                     float4* grid_acc, u64* fixed_mass, u32* block_marks, u32* block_list,
                                     u32* work_counts, StepCounters* __restrict__ counters) {

@@ -19,7 +19,7 @@
 // block is listed for them: a block no scatter touched is read by no particle.
 #include "mirror.cuh"
 
-extern "C" __global__ void grid_update(const Params params,
+extern "C" __global__ void grid_update(const KernelParams params,
                                        float4* __restrict__ grid_acc,     // in: momentum, mass; zeroed
                                        float4* __restrict__ grid_vel,     // out: .xyz velocity, .w mass
                                        u64* __restrict__ fixed_mass,      // in (fixed-point); zeroed
@@ -33,11 +33,11 @@ extern "C" __global__ void grid_update(const Params params,
 }
 
 // The scatter's sums of one node as floats (fixed-point units converted, out-of-range sums counted).
-__device__ __forceinline__ NodeSums node_sums(const Params& params, const i64 v[4], StepCounters* counters) {
+__device__ __forceinline__ NodeSums node_sums(const KernelParams& params, const i64 v[4], StepCounters* counters) {
     return fixed_point_sums(params, v, counters);
 }
 
-__device__ __forceinline__ NodeSums node_sums(const Params&, const float v[4], StepCounters*) {
+__device__ __forceinline__ NodeSums node_sums(const KernelParams&, const float v[4], StepCounters*) {
     return NodeSums{v[0], {v[1], v[2], v[3]}};
 }
 
@@ -88,7 +88,7 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
 // mirror_walls would have written), and whether another node block reads it too (`crossing`: it
 // must be left unzeroed). V: i64 in fixed point, float otherwise.
 template <typename V>
-__device__ __forceinline__ NodeSums mirrored_sums(const Params& params, const MirrorAxis m[3], const u32 c[3],
+__device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, const MirrorAxis m[3], const u32 c[3],
                                                   const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, StepCounters* counters,
                                                   bool& crossing) {
@@ -120,7 +120,7 @@ __device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], c
 // One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
 // last CUDA block to finish empties the list, so the next substep's scatters start with neither.
 // `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
-extern "C" __global__ void grid_update_blocks(const Params params,
+extern "C" __global__ void grid_update_blocks(const KernelParams params,
                                               const u32 mirror,
                                               const u32* __restrict__ block_list,
                                               u32* __restrict__ work_counts,
@@ -181,7 +181,7 @@ extern "C" __global__ void grid_update_blocks(const Params params,
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other
 // two axes.
-__device__ __forceinline__ u32 wall_reach_nodes(const Params& params, u32 walls, u32 w) {
+__device__ __forceinline__ u32 wall_reach_nodes(const KernelParams& params, u32 walls, u32 w) {
     if (!((walls >> w) & 1u)) return 0;
     const u32 a = w / 2;
     const MirrorAxis m = mirror_axis(params, a);
@@ -193,7 +193,7 @@ __device__ __forceinline__ u32 wall_reach_nodes(const Params& params, u32 walls,
 // blocks: zeroes the reach of every wall in `walls` (bit 2a: axis a's low wall, 2a + 1 its high
 // wall; the host sets those whose reach spans two node blocks), where grid_update_blocks left the
 // crossing nodes' sums.
-extern "C" __global__ void clear_crossing_orbits(const Params params, const u32 walls,
+extern "C" __global__ void clear_crossing_orbits(const KernelParams params, const u32 walls,
                                                  float4* __restrict__ grid_acc,
                                                  u64* __restrict__ fixed_mass,
                                                  u64* __restrict__ fixed_momentum) {

@@ -16,7 +16,7 @@
 
 // Node `j` of the `num_nodes` nodes of the planes from `first` across `axis`, counted in the grid's
 // memory order (x fastest), so that neighbouring threads read neighbouring nodes whichever the axis.
-__device__ __forceinline__ u32 halo_node(const Params& params, u32 axis, u32 first, u32 num_nodes, u32 j) {
+__device__ __forceinline__ u32 halo_node(const KernelParams& params, u32 axis, u32 first, u32 num_nodes, u32 j) {
     u32 box[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
     box[axis] = num_nodes / (box[0] * box[1] * box[2] / box[axis]);
     u32 c[3] = {j % box[0], (j / box[0]) % box[1], j / (box[0] * box[1])};
@@ -24,14 +24,14 @@ __device__ __forceinline__ u32 halo_node(const Params& params, u32 axis, u32 fir
     return c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
 }
 
-__device__ __forceinline__ u32 halo_node_block(const Params& params, const NodeBlocks& blocks, u32 i) {
+__device__ __forceinline__ u32 halo_node_block(const KernelParams& params, const NodeBlocks& blocks, u32 i) {
     const u32 rx = params.grid_res[0], ry = params.grid_res[1];
     return node_block_index(blocks, (i % rx) / NODE_BLOCK_EDGE, ((i / rx) % ry) / NODE_BLOCK_EDGE,
                             (i / (rx * ry)) / NODE_BLOCK_EDGE);
 }
 
 // Packs and zeroes the scatter's sums on `num_nodes` nodes of the ghost planes from `first`.
-extern "C" __global__ void halo_pack_sums(const Params params, const u32 axis, const u32 first, const u32 num_nodes,
+extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
                                           float4* __restrict__ grid_acc, u64* __restrict__ fixed_mass,
                                           u64* __restrict__ fixed_momentum, const u32* __restrict__ block_marks,
                                           u64* __restrict__ out) {
@@ -59,7 +59,7 @@ extern "C" __global__ void halo_pack_sums(const Params params, const u32 axis, c
 }
 
 // Adds packed sums to the edge planes from `first` and lists the blocks the sender listed.
-extern "C" __global__ void halo_add_sums(const Params params, const u32 axis, const u32 first, const u32 num_nodes,
+extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
                                          const u64* __restrict__ in, float4* __restrict__ grid_acc,
                                          u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
                                          u32* __restrict__ block_marks, u32* __restrict__ block_list,
@@ -85,14 +85,14 @@ extern "C" __global__ void halo_add_sums(const Params params, const u32 axis, co
 }
 
 // Copies the grid update's velocity and mass of `num_nodes` nodes of the planes from `first`.
-extern "C" __global__ void halo_pack_velocities(const Params params, const u32 axis, const u32 first,
+extern "C" __global__ void halo_pack_velocities(const KernelParams params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ grid_vel,
                                                 float4* __restrict__ out) {
     FOR_EACH_INDEX(j, num_nodes) out[j] = grid_vel[halo_node(params, axis, first, num_nodes, j)];
 }
 
 // Writes packed velocities over the ghost planes from `first`.
-extern "C" __global__ void halo_fill_velocities(const Params params, const u32 axis, const u32 first,
+extern "C" __global__ void halo_fill_velocities(const KernelParams params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ in,
                                                 float4* __restrict__ grid_vel) {
     FOR_EACH_INDEX(j, num_nodes) grid_vel[halo_node(params, axis, first, num_nodes, j)] = in[j];

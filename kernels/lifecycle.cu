@@ -67,7 +67,7 @@ extern "C" __global__ void __launch_bounds__(1024) settle_free(u32* __restrict__
 // scattered the momentum too) so is their momentum, m_p u: at rest density with C = 0 a particle's
 // stress impulse is zero. Otherwise the next scatter covers them.
 extern "C" __global__ void __launch_bounds__(1024) emit_particles(
-    const Params params, const u32 mask,
+    const KernelParams params, const u32 mask,
     const float4* __restrict__ points,      // xyz, w = the emitter's index as bits
     const u32 num_points,
     const float4* __restrict__ velocities,  // per emitter
@@ -128,7 +128,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             const float4 at = points[g];
             const float4 u = velocities[__float_as_uint(at.w)];  // w: the emitter's material tag
             const float4 xp = make_float4(at.x, at.y, at.z, 0.0f);
-            const Material& mat = params.materials[material_index(params, u)];
+            const Material& mat = material_table[material_index(params, u)];
             const float m_p = mat.particle_mass;
             x[p] = xp;
             v[p] = u;

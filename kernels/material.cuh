@@ -5,6 +5,11 @@
 // and their twins, nothing else.
 #include "contract.cuh"
 
+// The scene's material table (sim::Params::materials): in constant memory, where a warp whose
+// particles share a row reads it in one broadcast. Each module holds its own copy; the host writes
+// every module's where the table changes (src/cuda/modules.rs). Rows past material_count are zero.
+__constant__ Material material_table[MAX_MATERIALS];
+
 // powf out of line, for exponents material_power cannot square (no preset has one), so that the
 // particle pass's code stays near its size without it: with no fallback at all the fountain ran
 // 1.3 % faster than with powf inlined there (H100, BENCHMARKS.md 0y).
@@ -38,11 +43,11 @@ __device__ __forceinline__ float material_pressure(const Material& mat, float rh
 // The particle's material: its row of the scene's table, named by the bits of v.w; row 0 in a scene
 // of one material, without reading the index (the table's rows live in the kernel parameters, that
 // is in constant memory).
-__device__ __forceinline__ u32 material_row(const Params& params, float material_tag) {
+__device__ __forceinline__ u32 material_row(const KernelParams& params, float material_tag) {
     return params.material_count > 1u ? min(__float_as_uint(material_tag), MAX_MATERIALS - 1u) : 0u;
 }
 
-__device__ __forceinline__ u32 material_index(const Params& params, float4 vp) {
+__device__ __forceinline__ u32 material_index(const KernelParams& params, float4 vp) {
     return material_row(params, vp.w);
 }
 

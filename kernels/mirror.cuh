@@ -17,7 +17,7 @@ struct MirrorAxis {
     u32 lo, lo_reach, hi, hi_reach;
 };
 
-__device__ __forceinline__ MirrorAxis mirror_axis(const Params& params, int a) {
+__device__ __forceinline__ MirrorAxis mirror_axis(const KernelParams& params, int a) {
     const u32 r = params.grid_res[a];
     const u32 lo = params.wall_mirror_lo, hi = params.wall_mirror_hi[a];
     return MirrorAxis{lo, min(lo, r - 1 - lo), hi, min(hi, r - 1 - hi)};

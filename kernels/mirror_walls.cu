@@ -57,7 +57,7 @@ __device__ __forceinline__ void mirror_orbit_in_place(const MirrorAxis m[3], con
     }
 }
 
-extern "C" __global__ void mirror_walls(const Params params, const u32 quantity,
+extern "C" __global__ void mirror_walls(const KernelParams params, const u32 quantity,
                                         float4* __restrict__ grid_acc,
                                         u64* __restrict__ fixed_mass,
                                         u64* __restrict__ fixed_momentum,

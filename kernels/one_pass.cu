@@ -39,7 +39,7 @@
 
 // The kernel's parameters, and their names, for its entry points below.
 #define ONE_PASS_PARAMETERS                                                                                     \
-    const Params params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
+    const KernelParams params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
         float4 *__restrict__ x, float4 *__restrict__ v, float4 *__restrict__ c, float *__restrict__ rho,         \
         const u32 *__restrict__ slot, const float4 *__restrict__ grid_vel, float4 *grid_acc, u64 *fixed_mass,     \
         u64 *fixed_momentum, u32 *block_marks, u32 *block_list, u32 *work_counts,                                \
@@ -84,7 +84,7 @@ __device__ __forceinline__ void zero_unless_live(bool live, Stencil& s, Particle
 // Scatter::FloatRuns for one particle a lane, in STEPS shuffle steps (runs of up to 2^STEPS lanes).
 // Every lane of the warp calls it.
 template <int STEPS>
-__device__ __forceinline__ void scatter_runs_in(const Params& params, Stencil s, ParticleImpulse q, bool live,
+__device__ __forceinline__ void scatter_runs_in(const KernelParams& params, Stencil s, ParticleImpulse q, bool live,
                                                 WarpRun run, float4* grid_acc) {
     const float m_p = q.mass;
     zero_unless_live(live, s, q);
@@ -98,7 +98,7 @@ __device__ __forceinline__ void scatter_runs_in(const Params& params, Stencil s,
 }
 
 // Scatter::FloatRuns in the fewest steps among 3, 4 and 5 that the warp's longest run needs.
-__device__ __forceinline__ void scatter_runs(const Params& params, const Stencil& s, const ParticleImpulse& q,
+__device__ __forceinline__ void scatter_runs(const KernelParams& params, const Stencil& s, const ParticleImpulse& q,
                                              bool live, WarpRun run, float4* grid_acc) {
     const u32 longest = warp_longest_run(run);
     if (longest <= 8) scatter_runs_in<3>(params, s, q, live, run, grid_acc);
@@ -110,7 +110,7 @@ __device__ __forceinline__ void scatter_runs(const Params& params, const Stencil
 // runs (warp_run_sum, in the steps the warp's longest run needs), then the run's head adds each
 // node's sums with one vector atomic. The heads' sums are scatter_runs's, bit for bit. Every lane
 // of the warp calls it.
-__device__ __forceinline__ void scatter_runs_by_plane(const Params& params, Stencil s, ParticleImpulse q,
+__device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params, Stencil s, ParticleImpulse q,
                                                       bool live, WarpRun run, float4* grid_acc) {
     const float m_p = q.mass;
     zero_unless_live(live, s, q);
@@ -194,7 +194,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 G2pResult r =
                     g2p_particle_and_density(params, xp, particle_material_tag(params, v, p), grid_vel, density);
                 rho_p = advected_density(params, density, params.carried_density ? rho[p] : 0.0f);
-                r.signal = material_signal_speed(params.materials[material_index(params, r.v)], rho_p, r.speed);
+                r.signal = material_signal_speed(material_table[material_index(params, r.v)], rho_p, r.speed);
                 if (live && colliders.count) {
                     const Backstop b = collider_backstop_particle(params, colliders, rho_p, r);
                     r = b.r;

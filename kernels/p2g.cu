@@ -7,7 +7,7 @@
 // Reads only the mass word of each accumulator while other threads add to its momentum words.
 #include "common.cuh"
 
-extern "C" __global__ void p2g(const Params params,
+extern "C" __global__ void p2g(const KernelParams params,
                                const float4* __restrict__ x,
                                const u32* __restrict__ order,  // particles sorted by cell
                                const float4* __restrict__ v,

@@ -2,7 +2,7 @@
 // One thread per particle, in cell order (kernels/bins.cu); float or fixed-point atomics per Params.scatter_mode.
 #include "common.cuh"
 
-extern "C" __global__ void p2g_init(const Params params,
+extern "C" __global__ void p2g_init(const KernelParams params,
                                     const float4* __restrict__ x,
                                     const float4* __restrict__ v,     // .w: the material (several)
                                     const u32* __restrict__ order,    // particles sorted by cell

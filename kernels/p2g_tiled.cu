@@ -7,7 +7,7 @@
 // which the previous substep's g2p2g (or p2g_mass) scattered and mirror_walls completed.
 #include "tiles.cuh"
 
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS) p2g_tiled(const Params params,
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS) p2g_tiled(const KernelParams params,
                                      const BinEntry* __restrict__ bins,
                                      const u32* __restrict__ order,  // particles by bin
                                      const float4* __restrict__ x,

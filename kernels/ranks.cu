@@ -5,7 +5,7 @@
 
 // The stencil base node of `xp` along `axis`, rounded as `dist::migrate::base` (no fused
 // multiply-add), so host and device agree on every particle's block layer.
-__device__ __forceinline__ int stencil_base_along(const Params& params, u32 axis, float4 xp) {
+__device__ __forceinline__ int stencil_base_along(const KernelParams& params, u32 axis, float4 xp) {
     const float along = axis == 0u ? xp.x : axis == 1u ? xp.y : xp.z;
     return (int)floorf(__fsub_rn(__fmul_rn(along, params.inv_dx), 0.5f));
 }
@@ -18,7 +18,7 @@ __device__ __forceinline__ u32 block_layer(int base, u32 layers) {
 // Counts the live particles whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
 // that one more substep could carry past the rank's ghost planes (`Slabs::keeps`), so the ranks
 // migrate first.
-extern "C" __global__ void count_strays(const Params params, const u32 axis, const int keep_lo, const int keep_hi,
+extern "C" __global__ void count_strays(const KernelParams params, const u32 axis, const int keep_lo, const int keep_hi,
                                         const float4* __restrict__ x, u32* __restrict__ strays) {
     FOR_EACH_INDEX(p, params.num_particles) {
         const float4 xp = x[p];
@@ -31,7 +31,7 @@ extern "C" __global__ void count_strays(const Params params, const u32 axis, con
 // Adds one rank's live particles per block layer along `axis` to `counts` (`layers` of them, as
 // `dist::migrate::layer_counts` counts): a histogram in shared memory (`layers` u32), then one
 // atomic per layer and CUDA block.
-extern "C" __global__ void count_layers(const Params params, const u32 axis, const u32 layers,
+extern "C" __global__ void count_layers(const KernelParams params, const u32 axis, const u32 layers,
                                         const float4* __restrict__ x, u32* __restrict__ counts) {
     extern __shared__ u32 histogram[];
     for (u32 k = threadIdx.x; k < layers; k += blockDim.x) histogram[k] = 0u;
@@ -49,7 +49,7 @@ extern "C" __global__ void count_layers(const Params params, const u32 axis, con
 // Migration on one device: every slot live on rank `from` whose block layer lies in
 // first_layer..end_layer (rank `to`'s slab) is copied to `to` live and parked on `from`; `moved`
 // counts them. Both ranks hold every slot, so indices stay as they are.
-extern "C" __global__ void move_owned(const Params params, const u32 axis, const u32 layers, const u32 first_layer,
+extern "C" __global__ void move_owned(const KernelParams params, const u32 axis, const u32 layers, const u32 first_layer,
                                       const u32 end_layer, float4* __restrict__ from_x,
                                       const float4* __restrict__ from_v, const float4* __restrict__ from_c,
                                       const float* __restrict__ from_rho, float4* __restrict__ to_x,

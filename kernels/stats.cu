@@ -15,7 +15,7 @@ __device__ __forceinline__ void combine(StatsPartial& a, const StatsPartial& b) 
     a.count += b.count;
 }
 
-extern "C" __global__ void __launch_bounds__(STATS_THREADS) particle_stats(const Params params,
+extern "C" __global__ void __launch_bounds__(STATS_THREADS) particle_stats(const KernelParams params,
                                                                           const float4* __restrict__ x,
                                                                           const float4* __restrict__ v,
                                                                           const float* __restrict__ rho,
@@ -26,7 +26,7 @@ extern "C" __global__ void __launch_bounds__(STATS_THREADS) particle_stats(const
         const float4 xp = x[p], vp = v[p];
         if (is_parked(xp)) continue;
         const float v2 = vp.x * vp.x + vp.y * vp.y + vp.z * vp.z;
-        const Material& mat = params.materials[material_index(params, vp)];
+        const Material& mat = material_table[material_index(params, vp)];
         const float ratio = rho[p] / mat.rest_density;
         mine.kinetic_energy += 0.5 * (double)mat.particle_mass * (double)v2;
         mine.position_sum[0] += (double)xp.x;

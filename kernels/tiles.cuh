@@ -69,7 +69,7 @@ struct NodeBlocks {
     u32 count[3];  // node blocks per axis
 };
 
-__device__ __forceinline__ NodeBlocks node_blocks(const Params& params) {
+__device__ __forceinline__ NodeBlocks node_blocks(const KernelParams& params) {
     NodeBlocks b;
     for (int a = 0; a < 3; ++a) b.count[a] = (params.grid_res[a] + NODE_BLOCK_EDGE - 1) / NODE_BLOCK_EDGE;
     return b;
@@ -213,7 +213,7 @@ struct TileScales {
     float mass, momentum;
 };
 
-__device__ __forceinline__ TileScales tile_scales(const Params& params) {
+__device__ __forceinline__ TileScales tile_scales(const KernelParams& params) {
     const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
     return TileScales{params.fixed_mass_scale * unit, params.fixed_momentum_scale * unit};
 }
@@ -296,7 +296,7 @@ __device__ __forceinline__ void tile_count_mass_wraps(i64 balance, StepCounters*
 
 // The grid node of a stencil node given as its tile offset from the stencil's base (a constant in the
 // unrolled stencil loops, so this folds to one multiply-add).
-__device__ __forceinline__ u32 stencil_node(const Stencil& s, const Params& params, u32 offset) {
+__device__ __forceinline__ u32 stencil_node(const Stencil& s, const KernelParams& params, u32 offset) {
     const u32 o[3] = {offset % TILE_EDGE, (offset / TILE_EDGE) % TILE_EDGE, offset / (TILE_EDGE * TILE_EDGE)};
     return s.base_index + o[0] + params.grid_res[0] * (o[1] + params.grid_res[1] * o[2]);
 }
@@ -372,7 +372,7 @@ __device__ __forceinline__ StaggeredAxis staggered_axis(const Stencil& s, int a,
 // one_pass_fixed's 108 contributions, instruction fetch stalled 23 % of its samples and its
 // fixed-point substep took 0.239 ms at bench-655k, 0.178 without.
 template <int CHANNELS, typename Values, typename ToGrid>
-__device__ __forceinline__ u32 tile_scatter(const Stencil& s, const Params& params, u32 first, bool taken, int* tile,
+__device__ __forceinline__ u32 tile_scatter(const Stencil& s, const KernelParams& params, u32 first, bool taken, int* tile,
                                             const float (&tile_scale)[CHANNELS], Values values, ToGrid to_grid) {
     u32 added = 0;
     if (taken) {

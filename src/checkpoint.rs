@@ -47,7 +47,7 @@ use crate::backend::{self, BackendKind};
 use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
 use crate::sim::flow::{FlowCounts, FlowState};
-use crate::sim::params::Material;
+use crate::sim::params::{KernelParams, Material};
 use crate::sim::{Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
@@ -178,13 +178,11 @@ impl Checkpoint {
         // --scatter and --pipeline may override); checkpoints written before the scene authored the
         // scales hold zeros there.
         let authored = scene.params();
-        let params = Params {
-            scatter_mode: authored.scatter_mode,
-            fixed_mass_scale: authored.fixed_mass_scale,
-            fixed_momentum_scale: authored.fixed_momentum_scale,
-            density_rule: authored.density_rule,
-            ..self.params
-        };
+        let mut params = self.params;
+        params.scatter_mode = authored.scatter_mode;
+        params.fixed_mass_scale = authored.fixed_mass_scale;
+        params.fixed_momentum_scale = authored.fixed_momentum_scale;
+        params.density_rule = authored.density_rule;
         Ok(Simulation::resume(scene, solver, params, self.clock.clone()))
     }
 
@@ -542,8 +540,7 @@ pub fn params_from_version_1(words: &[u32]) -> Params {
         ..Material::default()
     };
     // words[6..8] were the material's padding.
-    Params {
-        materials,
+    let kernel = KernelParams {
         material_count: 1,
         gravity: f3(8),
         dt: f(11),
@@ -560,7 +557,8 @@ pub fn params_from_version_1(words: &[u32]) -> Params {
         wall_mirror_hi: u3(24),
         density_rule: words[27],
         carried_density: 0,
-    }
+    };
+    Params { kernel, materials }
 }
 
 /// The lifecycle's state as the body stores it.

@@ -82,7 +82,9 @@ fn tank(pipeline: Pipeline, scatter: ScatterMode, only: Option<&str>) -> Scene {
 /// The substep of the tanks: the CFL policy's at c0 + 2 m/s, within the viscous limit.
 fn params_of(scene: &Scene) -> Params {
     let mut params = common::cfl_params(scene);
-    params.dt = params.dt.min(mpm::sim::material::MaterialTable::viscous_dt(&params, params.dx));
+    params.dt = params
+        .dt
+        .min(mpm::sim::material::MaterialTable::viscous_dt(&params, params.dx));
     params
 }
 
@@ -108,7 +110,10 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
             let p = gpu.read_particles().unwrap();
             let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
             println!("{what} step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
-            assert!(max <= 0.1 && rms <= 0.01, "{what} step {step}: max {max} dx, rms {rms} dx");
+            assert!(
+                max <= 0.1 && rms <= 0.01,
+                "{what} step {step}: max {max} dx, rms {rms} dx"
+            );
             assert_eq!(p.material, cpu.particles.material, "{what}: materials differ");
             let worst_rho = p
                 .rho
@@ -116,7 +121,10 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
                 .zip(&cpu.particles.rho)
                 .map(|(a, b)| (a - b).abs() / b)
                 .fold(0.0f32, f32::max);
-            assert!(worst_rho <= 1e-3, "{what} step {step}: densities {worst_rho} apart");
+            assert!(
+                worst_rho <= 1e-3,
+                "{what} step {step}: densities {worst_rho} apart"
+            );
         }
     }
     let moved = common::max_diff_vec3(&cpu.particles.x, &scene.spawn().x) / scene.dx;
@@ -131,7 +139,9 @@ fn every_pipeline_follows_the_cpu_with_several_liquids() {
             let scene = tank(pipeline, scatter, None);
             assert_eq!(scene.params().carried_density, 1);
             let p = follow_cpu(&scene, 300, &format!("{pipeline:?} {scatter:?}"));
-            let rows: Vec<usize> = (0..4).map(|r| p.material.iter().filter(|&&m| m == r).count()).collect();
+            let rows: Vec<usize> = (0..4)
+                .map(|r| p.material.iter().filter(|&&m| m == r).count())
+                .collect();
             assert!(rows.iter().all(|&n| n > 1000), "particles per material {rows:?}");
         }
     }
@@ -143,7 +153,11 @@ fn each_law_alone_follows_the_cpu() {
     for name in ["syrup", "mud", "oil"] {
         for pipeline in [Pipeline::Fused, Pipeline::Binned] {
             let scene = tank(pipeline, ScatterMode::FixedPoint, Some(name));
-            assert_eq!(scene.params().carried_density, 0, "{name}: one rest density in use");
+            assert_eq!(
+                scene.params().carried_density,
+                0,
+                "{name}: one rest density in use"
+            );
             follow_cpu(&scene, 300, &format!("{name} alone, {pipeline:?}"));
         }
     }
@@ -207,11 +221,17 @@ fn emitters_pour_their_own_liquid() {
             sim.advance_frame().unwrap();
         }
         let p = sim.solver_mut().read_particles().unwrap();
-        let oil: Vec<usize> = (0..p.len()).filter(|&i| p.live[i] && p.material[i] == 3).collect();
+        let oil: Vec<usize> = (0..p.len())
+            .filter(|&i| p.live[i] && p.material[i] == 3)
+            .collect();
         println!("{backend}: {} oil particles emitted", oil.len());
         assert!(oil.len() > 500, "{backend}: only {} oil particles", oil.len());
         let water = (0..p.len()).filter(|&i| p.live[i] && p.material[i] == 0).count();
-        assert_eq!(water + oil.len(), p.num_live(), "{backend}: a live particle of another material");
+        assert_eq!(
+            water + oil.len(),
+            p.num_live(),
+            "{backend}: a live particle of another material"
+        );
     }
 }
 

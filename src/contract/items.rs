@@ -48,9 +48,11 @@ device_structs! {
         _pad: [u32; 3],
     }
 
-    /// Everything one substep needs: material, solver settings, grid shape and the step size. Written
-    /// by `Scene::params`, every kernel's first argument.
-    struct Params {
+    /// What every kernel gets by value, its first argument: solver settings, grid shape, the step
+    /// size and the size of the material table (the table itself is in the kernels' constant memory,
+    /// `material_table` in kernels/material.cuh). Part of `sim::Params`, which `Scene::params`
+    /// writes.
+    struct KernelParams {
         /// m/s^2.
         gravity: [f32; 3],
         /// The substep, s. Set by the time-step policy before every frame.
@@ -85,12 +87,8 @@ device_structs! {
         /// the substep from its own last value by the velocity divergence, never gathered from the
         /// grid's mass, which mixes the liquids' masses where they meet (`sim::params::carries_density`).
         carried_density: u32,
-        /// The scene's materials; each particle names its row (`Particles::material`, the bits of
-        /// v.w on the device). Rows past `material_count` are zero. The kernels read the row from
-        /// their parameters, which live in constant memory.
-        materials: [Material; 8],
-        /// Rows of `materials` in use: 1 for a scene of one material, which the kernels take
-        /// without reading a particle's index.
+        /// Rows of the material table in use (`sim::Params::materials`): 1 for a scene of one
+        /// material, whose kernels take row 0 without reading a particle's index.
         material_count: u32,
     }
 
@@ -260,7 +258,7 @@ device_constants! {
     /// in one substep (`DensityRule::advect`).
     MAX_VOLUME_CHANGE: f32 = 0.1;
 
-    /// The most rows of a scene's material table (`Params::materials`).
+    /// The most rows of a scene's material table (`sim::Params::materials`).
     MAX_MATERIALS: u32 = 8;
     /// `Material::law`: a constant viscosity.
     LAW_NEWTONIAN: u32 = 0;

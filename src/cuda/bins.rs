@@ -52,7 +52,7 @@ impl Bins {
         // key and rank one value per particle.
         unsafe {
             k.count.launch(launcher, particles, |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&self.edge)
                     .arg(x)
                     .arg(&self.levels[0])

@@ -15,7 +15,7 @@ impl G2p {
         // SAFETY: the arguments match g2p in kernels/g2p.cu; buffers are sized for params.
         unsafe {
             self.entry(params).launch(l, l.cover(p.count), |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&p.x)
                     .arg(&p.v)
                     .arg(&p.c)

@@ -24,7 +24,7 @@ impl G2p2g {
         // pointers are null and never read (no sinks).
         unsafe {
             self.entry(params).launch(l, config, |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(list)
                     .arg(&d.bins.order)
                     .arg(&p.x)
@@ -52,7 +52,7 @@ impl P2gMass {
         // SAFETY: the arguments match p2g_mass in kernels/g2p2g.cu; sized as for g2p2g.
         unsafe {
             self.0.launch(l, config, |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(list)
                     .arg(&d.bins.order)
                     .arg(&d.particles.x)

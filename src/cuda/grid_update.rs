@@ -53,7 +53,7 @@ impl GridUpdate {
             // SAFETY: the arguments match grid_update in kernels/grid_update.cu.
             Pipeline::Report => unsafe {
                 self.whole_grid.launch(l, l.cover(g.num_nodes()), |a| {
-                    a.arg(params)
+                    a.arg(&params.kernel)
                         .arg(&g.acc)
                         .arg(&g.vel)
                         .arg(g.fixed_mass())
@@ -67,7 +67,7 @@ impl GridUpdate {
                 // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
                 unsafe {
                     self.listed_blocks.launch(l, config, |a| {
-                        a.arg(params)
+                        a.arg(&params.kernel)
                             .arg(&mirror)
                             .arg(&g.node_blocks.list)
                             .arg(&g.work_counts)
@@ -108,7 +108,7 @@ impl GridUpdate {
         // `nodes` nodes, all inside the grid.
         unsafe {
             self.clear_crossing_orbits.launch(l, l.cover(nodes), |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&walls)
                     .arg(&grid.acc)
                     .arg(grid.fixed_mass())

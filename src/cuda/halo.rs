@@ -179,7 +179,7 @@ unsafe fn over_planes<'a>(
     // SAFETY: the caller vouches for the arguments `rest` pushes.
     unsafe {
         kernel.launch(l, l.cover(*nodes as usize), |a| {
-            a.arg(params).arg(axis).arg(first).arg(nodes);
+            a.arg(&params.kernel).arg(axis).arg(first).arg(nodes);
             rest(a);
         })
     }

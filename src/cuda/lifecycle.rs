@@ -58,7 +58,7 @@ impl LifecycleKernels {
         // num_points entries, the particle buffers every slot, `free` the capacity.
         unsafe {
             self.emit.launch(l, ONE_BLOCK, |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&mask)
                     .arg(&flow.points)
                     .arg(&flow.num_points)

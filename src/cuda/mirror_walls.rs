@@ -46,7 +46,7 @@ impl MirrorWalls {
         // pointers, which the kernel checks, for the report's pipeline).
         unsafe {
             self.0.launch(l, l.cover(threads), |a| {
-                a.arg(params).arg(&quantity_code).accumulators(g);
+                a.arg(&params.kernel).arg(&quantity_code).accumulators(g);
                 if pipeline.is_binned() {
                     a.arg(&g.node_blocks.marks)
                         .arg(&g.node_blocks.list)

@@ -4,11 +4,15 @@
 
 use super::library;
 use super::nvrtc_search::COMPILE_OPTIONS;
+use crate::contract::{Material, MAX_MATERIALS};
 use anyhow::{anyhow, bail, Context, Result};
-use cudarc::driver::{sys::CUresult, CudaContext, CudaFunction, CudaModule, DriverError};
+use cudarc::driver::{sys::CUresult, CudaContext, CudaFunction, CudaModule, CudaStream, DriverError};
 use cudarc::nvrtc::{result as nvrtc, sys as nvrtc_sys, Ptx};
 use std::ffi::{CStr, CString};
 use std::sync::Arc;
+
+/// The `__constant__` array of material rows every module that includes material.cuh holds.
+const MATERIAL_TABLE: &str = "material_table";
 
 /// One `kernels/*.cu` file as build.rs embedded it.
 #[derive(Debug, Clone, Copy)]
@@ -70,6 +74,36 @@ impl LoadedModules {
             modules.push((module.name, loaded));
         }
         Ok(LoadedModules { modules, origin })
+    }
+
+    /// Writes the material table (`sim::Params::materials`) into every module's `material_table`
+    /// (kernels/material.cuh), in `stream`'s order: each module holds its own copy of a
+    /// `__constant__`. A module without the symbol has no kernel that reads it.
+    pub fn write_material_table(
+        &self,
+        stream: &Arc<CudaStream>,
+        table: &[Material; MAX_MATERIALS as usize],
+    ) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(table);
+        for (name, module) in &self.modules {
+            let mut symbol = match module.get_global(MATERIAL_TABLE, stream) {
+                Ok(symbol) => symbol,
+                Err(DriverError(CUresult::CUDA_ERROR_NOT_FOUND)) => continue,
+                Err(e) => {
+                    return Err(e).with_context(|| format!("finding {MATERIAL_TABLE} in kernels/{name}.cu"))
+                }
+            };
+            anyhow::ensure!(
+                symbol.len() == bytes.len(),
+                "kernels/{name}.cu's {MATERIAL_TABLE} holds {} bytes, the host's table {}",
+                symbol.len(),
+                bytes.len()
+            );
+            stream
+                .memcpy_htod(bytes, &mut symbol)
+                .with_context(|| format!("writing the material table of kernels/{name}.cu"))?;
+        }
+        Ok(())
     }
 
     /// Kernel `function` of module `module`.

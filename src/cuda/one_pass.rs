@@ -106,7 +106,7 @@ impl OnePass {
         // null and never read (no sinks); without `gather` the node velocities are not read.
         unsafe {
             kernel.launch(l, config, |a| {
-                a.arg(params).arg(&gather).arg(list);
+                a.arg(&params.kernel).arg(&gather).arg(list);
                 // Particles stored in bin order are read at their places (every binning gathered
                 // them), without `order`.
                 match d.bin_order {

@@ -17,7 +17,7 @@ impl P2g {
         // binned pipeline, g2p2g marked every node block these stencils cover (same positions).
         unsafe {
             self.0.launch(l, l.cover(p.count), |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&p.x)
                     .arg(&d.bins.order)
                     .arg(&p.v)

@@ -15,7 +15,7 @@ impl P2gInit {
         // SAFETY: the arguments match p2g_init in kernels/p2g_init.cu; buffers are sized for params.
         unsafe {
             self.0.launch(l, l.cover(p.count), |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(&p.x)
                     .arg(&p.v)
                     .arg(&d.bins.order)

@@ -19,7 +19,7 @@ impl P2gTiled {
         // node-block list are sized for this grid and these particles.
         unsafe {
             self.0.launch(l, config, |a| {
-                a.arg(params)
+                a.arg(&params.kernel)
                     .arg(list)
                     .arg(&d.bins.order)
                     .particle_state(p)

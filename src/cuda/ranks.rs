@@ -46,7 +46,7 @@ impl RanksKernels {
         unsafe {
             self.count_strays
                 .launch(l, l.cover(params.num_particles as usize), |a| {
-                    a.arg(params)
+                    a.arg(&params.kernel)
                         .arg(&axis)
                         .arg(&keep.0)
                         .arg(&keep.1)
@@ -76,7 +76,7 @@ impl RanksKernels {
         // u32, and the shared histogram is sized for them.
         unsafe {
             self.count_layers.launch(l, config, |a| {
-                a.arg(params).arg(&axis).arg(&layers).arg(x).arg(counts);
+                a.arg(&params.kernel).arg(&axis).arg(&layers).arg(x).arg(counts);
             })
         }
     }
@@ -98,7 +98,7 @@ impl RanksKernels {
         unsafe {
             self.move_owned
                 .launch(l, l.cover(params.num_particles as usize), |a| {
-                    a.arg(params)
+                    a.arg(&params.kernel)
                         .arg(&axis)
                         .arg(&layers)
                         .arg(&mine.start)

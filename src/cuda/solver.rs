@@ -18,6 +18,7 @@ use super::render::DeviceParticlesView;
 use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
+use crate::contract::{Material, MAX_MATERIALS};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
@@ -55,6 +56,8 @@ pub struct CudaSolver {
     /// Fused pipeline: the step of the substep before a restored state (`Solver::resume_after`),
     /// which its first scatter takes, as the uninterrupted run's last one_pass did.
     resumed_dt: Option<f32>,
+    /// The material table in the kernels' constant memory (`use_materials`).
+    device_materials: Option<[Material; MAX_MATERIALS as usize]>,
 }
 
 impl CudaSolver {
@@ -86,16 +89,31 @@ impl CudaSolver {
             graphs: SubstepGraphs::default(),
             substeps: 0,
             resumed_dt: None,
+            device_materials: None,
         };
         let params = solver.params;
         solver.check_params(&params)?;
+        solver.use_materials(&params)?;
         Ok(solver)
+    }
+
+    /// Writes `params`' material table into the kernels' constant memory where it differs from the
+    /// one there (the viewer's controls change row 0), before the work that reads it.
+    fn use_materials(&mut self, params: &Params) -> Result<()> {
+        if self.device_materials != Some(params.materials) {
+            self.gpu
+                .modules
+                .write_material_table(self.gpu.stream(), &params.materials)?;
+            self.device_materials = Some(params.materials);
+        }
+        Ok(())
     }
 
     /// Takes `params` for the coming work, checking them once where they changed.
     pub(super) fn accept(&mut self, params: &Params) -> Result<()> {
         if bytemuck::bytes_of(params) != bytemuck::bytes_of(&self.params) {
             self.check_params(params)?;
+            self.use_materials(params)?;
             self.params = *params;
         }
         Ok(())
@@ -136,8 +154,9 @@ impl CudaSolver {
     /// The statistics of `particles` (as many slots as this solver's, on its GPU) by its kernel,
     /// waited for: how the ranks reduce the set of every rank's own slots.
     pub fn summary_of(&mut self, table: &Params, particles: &DeviceParticles) -> Result<Summary> {
+        self.use_materials(table)?;
         let (k, l) = (&self.kernels, &self.gpu.launcher);
-        self.stats.request(&k.stats, l, &self.params, table, particles)?;
+        self.stats.request(&k.stats, l, &self.params.kernel, particles)?;
         self.stats.wait()
     }
 
@@ -280,7 +299,7 @@ impl CudaSolver {
         let (k, l) = (&self.kernels, &self.gpu.launcher);
         if launch == Launch::OnePassScatter {
             let dt = self.resumed_dt.take().unwrap_or(self.params.dt);
-            let params = Params { dt, ..self.params };
+            let params = self.params.with_dt(dt);
             k.one_pass.launch(l, Gather::None, &params, &self.state)?;
         } else {
             k.p2g_mass.launch(l, &self.params, &self.state)?;
@@ -452,9 +471,10 @@ impl Solver for CudaSolver {
     }
 
     fn request_summary(&mut self, table: &Params) -> Result<SummaryTicket> {
+        self.use_materials(table)?;
         let (k, l) = (&self.kernels, &self.gpu.launcher);
         let particles = &self.state.particles;
-        self.stats.request(&k.stats, l, &self.params, table, particles)?;
+        self.stats.request(&k.stats, l, &self.params.kernel, particles)?;
         Ok(SummaryTicket::Pending)
     }
 

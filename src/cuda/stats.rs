@@ -5,7 +5,7 @@
 
 use super::launch::{host_kernel, Launcher};
 use super::particles::DeviceParticles;
-use crate::contract::{StatsPartial, STATS_THREADS};
+use crate::contract::{KernelParams, StatsPartial, STATS_THREADS};
 use crate::sim::{Params, Summary};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaEvent, CudaSlice, CudaStream, LaunchConfig, PinnedHostSlice, PushKernelArg};
@@ -40,21 +40,15 @@ impl ParticleStats {
     }
 
     /// Enqueues the reduction of the particles as they are after the work enqueued so far, under
-    /// `params` with `material`'s mass and density, and the copy of its partials to the host;
-    /// nothing waits.
+    /// `params` with the material table in the kernels' constant memory (`CudaSolver::use_materials`),
+    /// and the copy of its partials to the host; nothing waits.
     pub fn request(
         &mut self,
         kernel: &StatsKernel,
         launcher: &Launcher,
-        params: &Params,
-        table: &Params,
+        params: &KernelParams,
         particles: &DeviceParticles,
     ) -> Result<()> {
-        let params = &Params {
-            materials: table.materials,
-            material_count: table.material_count,
-            ..*params
-        };
         let config = LaunchConfig {
             grid_dim: (STATS_BLOCKS as u32, 1, 1),
             block_dim: (STATS_THREADS as u32, 1, 1),

@@ -442,7 +442,7 @@ impl CpuSolver {
     /// substep where there was one (`Solver::step`).
     pub fn scatter_params(&self, params: &Params) -> Params {
         match (DensityRule::of(params), self.scatter_dt) {
-            (DensityRule::Advected, Some(dt)) => Params { dt, ..*params },
+            (DensityRule::Advected, Some(dt)) => params.with_dt(dt),
             _ => *params,
         }
     }

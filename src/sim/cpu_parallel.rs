@@ -503,10 +503,8 @@ impl Solver for ParallelCpuSolver {
     fn step(&mut self, params: &Params) -> anyhow::Result<()> {
         if self.sequential() {
             // Float sums whatever the scatter mode, as the tiles' (whose order is fixed already).
-            let float = Params {
-                scatter_mode: ScatterMode::Float.code(),
-                ..*params
-            };
+            let mut float = *params;
+            float.scatter_mode = ScatterMode::Float.code();
             return self.inner.step(&float);
         }
         step_phases(self, params);

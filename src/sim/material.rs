@@ -84,7 +84,7 @@ impl MaterialTable for [Material] {
     }
 }
 
-impl MaterialTable for crate::contract::Params {
+impl MaterialTable for super::params::Params {
     /// Row 0 at least: parameters made by hand (tests, tools) may leave the count at 0.
     fn rows(&self) -> &[Material] {
         &self.materials[..(self.material_count as usize).max(1)]
@@ -94,7 +94,7 @@ impl MaterialTable for crate::contract::Params {
 impl Material {
     /// Row `index` of `params`' table (row 0 in a scene of one material, whatever the index).
     #[inline(always)]
-    pub fn of(params: &crate::contract::Params, index: u8) -> &Material {
+    pub fn of(params: &super::params::Params, index: u8) -> &Material {
         if params.material_count > 1 {
             &params.materials[usize::from(index).min(crate::contract::MAX_MATERIALS as usize - 1)]
         } else {

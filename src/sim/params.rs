@@ -1,10 +1,48 @@
-//! What a substep needs: the scatter mode and pipeline choices, and `Params`. `Material` and `Params`
-//! themselves are defined in the host/device contract (src/contract/items.rs), which the kernels'
-//! header is written from; the material's law is in `material.rs`.
+//! What a substep needs: the scatter mode and pipeline choices, and `Params`: the kernels' parameters
+//! (`KernelParams`) and the material table. `Material` and `KernelParams` themselves are defined in
+//! the host/device contract (src/contract/items.rs), which the kernels' header is written from; the
+//! material's law is in `material.rs`.
 
 pub use crate::contract::MAX_VOLUME_CHANGE;
-pub use crate::contract::{Material, Params};
+pub use crate::contract::{KernelParams, Material, MAX_MATERIALS};
 use crate::contract::{DENSITY_ADVECTED, DENSITY_GATHERED, SCATTER_FIXED_POINT, SCATTER_FLOAT};
+
+/// Everything a substep needs, written by `Scene::params`: the parameters every kernel gets by value
+/// ([`KernelParams`], which this derefs to: `params.dt`, `params.dx`, ...) and the scene's material
+/// table. The table lives apart from the kernels' parameters, in their constant memory (the CUDA
+/// solver writes it where it changes): 512 bytes more in every launch's parameters made the
+/// compiler address them through a register, which cost the grid update 6 registers and 11 % of its
+/// time on the H100 (BENCHMARKS.md 1a).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Params {
+    pub kernel: KernelParams,
+    /// The scene's materials; each particle names its row (`Particles::material`, the bits of v.w on
+    /// the device). Rows past `material_count` are zero.
+    pub materials: [Material; MAX_MATERIALS as usize],
+}
+
+impl Params {
+    /// These parameters with the substep `dt`.
+    pub fn with_dt(&self, dt: f32) -> Params {
+        let mut params = *self;
+        params.dt = dt;
+        params
+    }
+}
+
+impl std::ops::Deref for Params {
+    type Target = KernelParams;
+    fn deref(&self) -> &KernelParams {
+        &self.kernel
+    }
+}
+
+impl std::ops::DerefMut for Params {
+    fn deref_mut(&mut self) -> &mut KernelParams {
+        &mut self.kernel
+    }
+}
 
 /// Simulated seconds per displayed frame: the runner and the viewer advance one 60 Hz frame at a time.
 pub const FRAME_DT: f32 = 1.0 / 60.0;
@@ -154,7 +192,7 @@ pub fn carries_density(params: &Params) -> bool {
     params.carried_density != 0
 }
 
-impl Params {
+impl KernelParams {
     pub fn num_nodes(&self) -> usize {
         self.grid_res.iter().map(|&r| r as usize).product()
     }

@@ -18,7 +18,7 @@ use validate::Validator;
 use super::colliders::Colliders;
 use super::flow::Flow;
 use super::material::{MaterialTable, NamedMaterial};
-use super::params::{Material, Params, Pipeline, ScatterMode, FRAME_DT};
+use super::params::{KernelParams, Material, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use crate::contract::MAX_MATERIALS;
 use glam::{DVec3, Vec3};
@@ -223,9 +223,7 @@ impl Scene {
         for (row, m) in materials.iter_mut().zip(&self.materials) {
             *row = m.law;
         }
-        let carried_density = materials[..self.materials.len()].several_densities();
-        Params {
-            materials,
+        let kernel = KernelParams {
             material_count: self.materials.len() as u32,
             gravity: self.gravity.to_array(),
             dt: 0.0,
@@ -241,8 +239,22 @@ impl Scene {
             wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             density_rule: self.pipeline.density_rule().code(),
-            carried_density: u32::from(carried_density),
-        }
+            carried_density: u32::from(self.rest_densities_differ()),
+        };
+        Params { kernel, materials }
+    }
+
+    /// Whether the materials the bodies and emitters are made of differ in rest density: then every
+    /// particle's density is carried rather than gathered (`KernelParams::carried_density`). A row
+    /// no body uses changes nothing.
+    pub fn rest_densities_differ(&self) -> bool {
+        let rows = self
+            .bodies
+            .iter()
+            .map(|b| b.material)
+            .chain(self.flow.emitters.iter().map(|e| e.material));
+        let used: Vec<Material> = rows.map(|row| self.materials[usize::from(row)].law).collect();
+        !used.is_empty() && used.as_slice().several_densities()
     }
 
     /// Fixed-point scales (units per kg, units per kg m/s): a grid node at rest holds one cell's mass,
