@@ -203,10 +203,8 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
         assert_eq!(params.scatter_mode, mpm::sim::ScatterMode::FixedPoint.code());
         let mut one = CpuSolver::new(common::stirred(&scene), scene.grid_res);
         let mut float = CpuSolver::new(common::stirred(&scene), scene.grid_res);
-        let float_params = mpm::sim::Params {
-            scatter_mode: mpm::sim::ScatterMode::Float.code(),
-            ..params
-        };
+        let mut float_params = params;
+        float_params.scatter_mode = mpm::sim::ScatterMode::Float.code();
         for _ in 0..200 {
             one.step(&params).unwrap();
             float.step(&float_params).unwrap();
