@@ -233,15 +233,18 @@ struct ParticleImpulse {
     float mass;          // m_p, the mass it scatters with the momentum
 };
 
+// MATERIALS false: a scene of one Newtonian liquid (water), whose pass is compiled without the
+// table's index and the laws' call (one_pass.cu's water entries).
+template <bool MATERIALS = true>
 __device__ __forceinline__ ParticleImpulse particle_impulse(const KernelParams& params, float rho, float4 vp, float4 c0,
                                                             float4 c1, float4 c2) {
-    const Material& mat = material_table[material_index(params, vp)];
+    const Material& mat = material_table[MATERIALS ? material_index(params, vp) : 0u];
     const float m_p = mat.particle_mass;
     const float dx = params.dx;
     const float volume = m_p / rho;
     const float pressure = material_pressure(mat, rho);
     const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};  // C as cm[column][row]
-    const float viscosity = material_viscosity(mat, cm);
+    const float viscosity = MATERIALS ? material_viscosity(mat, cm) : mat.viscosity;
     const float stress_factor = 4.0f * params.dt * volume / dx;
     ParticleImpulse out;
     for (int col = 0; col < 3; ++col) {

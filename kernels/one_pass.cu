@@ -146,7 +146,10 @@ __device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params
     }
 }
 
-template <Scatter SCATTER>
+// MATERIALS false: the scene is one Newtonian liquid (water): no particle's material row is read,
+// no law's viscosity computed, no density carried, so the pass is compiled as it was before the
+// material table (BENCHMARKS.md M1: 2.7 % off the fixed-point substep).
+template <Scatter SCATTER, bool MATERIALS>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     constexpr bool FIXED = SCATTER == Scatter::FixedTile;
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
@@ -155,7 +158,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     const TileScales scales = tile_scales(params);
     const float tile_scale[SCATTER_CHANNELS] = {scales.mass, scales.momentum, scales.momentum, scales.momentum};
     // The heaviest particle's tile units bound a chunk's sums (tiles.cuh); each takes its own.
-    const float unit_mass = heaviest_particle_mass(params) * scales.mass;
+    const float unit_mass = (MATERIALS ? heaviest_particle_mass(params) : material_table[0].particle_mass) * scales.mass;
     const u32 n = params.num_particles;
     const NodeBlocks blocks = node_blocks(params);
     float max_speed = 0.0f, max_signal = 0.0f, max_rho = 0.0f;
@@ -191,10 +194,11 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             float4 vp, c0, c1, c2;
             if (gather) {
                 GridDensity density;
-                G2pResult r =
-                    g2p_particle_and_density(params, xp, particle_material_tag(params, v, p), grid_vel, density);
-                rho_p = advected_density(params, density, params.carried_density ? rho[p] : 0.0f);
-                r.signal = material_signal_speed(material_table[material_index(params, r.v)], rho_p, r.speed);
+                const float tag = MATERIALS ? particle_material_tag(params, v, p) : 0.0f;
+                G2pResult r = g2p_particle_and_density(params, xp, tag, grid_vel, density);
+                rho_p = advected_density(params, density, MATERIALS && params.carried_density ? rho[p] : 0.0f);
+                r.signal = material_signal_speed(material_table[MATERIALS ? material_index(params, r.v) : 0u], rho_p,
+                                                 r.speed);
                 if (live && colliders.count) {
                     const Backstop b = collider_backstop_particle(params, colliders, rho_p, r);
                     r = b.r;
@@ -212,7 +216,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     rho[p] = rho_p;
                     max_speed = fmaxf(max_speed, r.speed);
                     max_signal = fmaxf(max_signal, r.signal);
-                    max_rho = fmaxf(max_rho, reported_density(params, r.v, rho_p));
+                    max_rho = fmaxf(max_rho, MATERIALS ? reported_density(params, r.v, rho_p) : rho_p);
                     if (num_sinks && in_a_sink(xp, sinks, num_sinks)) {
                         // Drained: parked, its slot (not its place in memory: bin_order.cu) pushed on
                         // the free stack (settle_free orders them).
@@ -229,7 +233,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 c1 = c[n + p];
                 c2 = c[2 * (size_t)n + p];
             }
-            const ParticleImpulse q = particle_impulse(params, rho_p, vp, c0, c1, c2);
+            const ParticleImpulse q = particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;
             bool in_tile = false;
@@ -298,18 +302,15 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
 }
 
 // One entry point per scatter (the host launches the one it chose, src/cuda/one_pass.rs), each
-// compiled for the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh).
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FLOAT_MIN_BLOCKS)
-    one_pass_float(ONE_PASS_PARAMETERS) {
-    one_pass<Scatter::FloatRuns>(ONE_PASS_ARGUMENTS);
-}
-
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS)
-    one_pass_float_planes(ONE_PASS_PARAMETERS) {
-    one_pass<Scatter::FloatPlanes>(ONE_PASS_ARGUMENTS);
-}
-
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, ONE_PASS_FIXED_MIN_BLOCKS)
-    one_pass_fixed(ONE_PASS_PARAMETERS) {
-    one_pass<Scatter::FixedTile>(ONE_PASS_ARGUMENTS);
-}
+// compiled for the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh); each for
+// water (one Newtonian liquid) and for any table of liquids (_liquids).
+#define ONE_PASS_ENTRY(NAME, MIN_BLOCKS, SCATTER, MATERIALS)                                  \
+    extern "C" __global__ void __launch_bounds__(TILE_THREADS, MIN_BLOCKS) NAME(ONE_PASS_PARAMETERS) { \
+        one_pass<SCATTER, MATERIALS>(ONE_PASS_ARGUMENTS);                                     \
+    }
+ONE_PASS_ENTRY(one_pass_float, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, false)
+ONE_PASS_ENTRY(one_pass_float_planes, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, false)
+ONE_PASS_ENTRY(one_pass_fixed, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, false)
+ONE_PASS_ENTRY(one_pass_float_liquids, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, true)
+ONE_PASS_ENTRY(one_pass_float_planes_liquids, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, true)
+ONE_PASS_ENTRY(one_pass_fixed_liquids, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, true)

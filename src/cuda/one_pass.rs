@@ -10,7 +10,7 @@ use super::gpu::FloatScatter;
 use super::launch::{Kernel, Launcher, NULL_POINTER};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
-use crate::contract::TILE_THREADS;
+use crate::contract::{LAW_NEWTONIAN, TILE_THREADS};
 use crate::sim::{Params, ScatterMode};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -36,10 +36,28 @@ const PLANES_FROM_WAVES: u64 = 2;
 
 /// The kernel's entry points: one per scatter (two for the float scatter), each compiled for its own
 /// blocks per SM.
-pub struct OnePass {
+struct Entries {
     float: Kernel,
     float_planes: Kernel,
     fixed: Kernel,
+}
+
+impl Entries {
+    /// The entries named `[float, float_planes, fixed]`.
+    fn load(modules: &LoadedModules, [float, float_planes, fixed]: [&'static str; 3]) -> Result<Entries> {
+        Ok(Entries {
+            float: Kernel::load(modules, "one_pass", float)?,
+            float_planes: Kernel::load(modules, "one_pass", float_planes)?,
+            fixed: Kernel::load(modules, "one_pass", fixed)?,
+        })
+    }
+}
+
+/// The pass's entries for water (a scene of one Newtonian liquid, compiled without the material
+/// table's index and laws) and for any table of liquids.
+pub struct OnePass {
+    water: Entries,
+    liquids: Entries,
     /// The particles from which the float scatter runs by planes (0: always, u64::MAX: never).
     planes_from: u64,
 }
@@ -50,40 +68,42 @@ impl OnePass {
         float_scatter: FloatScatter,
         multiprocessors: u32,
     ) -> Result<OnePass> {
-        let float_planes = Kernel::load(modules, "one_pass", "one_pass_float_planes")?;
+        let water = Entries::load(modules, ["one_pass_float", "one_pass_float_planes", "one_pass_fixed"])?;
         let planes_from = match float_scatter {
             FloatScatter::Runs => u64::MAX,
             FloatScatter::Planes => 0,
             FloatScatter::BySize => {
-                let resident_threads = u64::from(float_planes.resident_blocks(TILE_THREADS as u32, 0)?)
+                let resident_threads = u64::from(water.float_planes.resident_blocks(TILE_THREADS as u32, 0)?)
                     * u64::from(TILE_THREADS as u32)
                     * u64::from(multiprocessors);
                 PLANES_FROM_WAVES * resident_threads
             }
         };
         Ok(OnePass {
-            float: Kernel::load(modules, "one_pass", "one_pass_float")?,
-            float_planes,
-            fixed: Kernel::load(modules, "one_pass", "one_pass_fixed")?,
+            water,
+            liquids: Entries::load(
+                modules,
+                [
+                    "one_pass_float_liquids",
+                    "one_pass_float_planes_liquids",
+                    "one_pass_fixed_liquids",
+                ],
+            )?,
             planes_from,
         })
     }
 
-    /// The float scatter's entry point for `num_particles` particles.
-    fn float_kernel(&self, num_particles: u32) -> &Kernel {
-        if u64::from(num_particles) >= self.planes_from {
-            &self.float_planes
-        } else {
-            &self.float
-        }
-    }
-
-    /// The entry point that runs for `params` (its scatter mode and particles).
+    /// The entry point that runs for `params`: water's or the liquids', for its scatter mode and
+    /// particles.
     pub fn kernel(&self, params: &Params) -> &Kernel {
+        let water = params.material_count == 1 && params.materials[0].law == LAW_NEWTONIAN;
+        let entries = if water { &self.water } else { &self.liquids };
         if params.scatter_mode == ScatterMode::FixedPoint.code() {
-            &self.fixed
+            &entries.fixed
+        } else if u64::from(params.num_particles) >= self.planes_from {
+            &entries.float_planes
         } else {
-            self.float_kernel(params.num_particles)
+            &entries.float
         }
     }
 
@@ -92,15 +112,15 @@ impl OnePass {
         let list = d.bins.list()?;
         let kernel = self.kernel(params);
         // The float scatter sums in registers and needs no tile.
-        let tile_channels = if std::ptr::eq(kernel, &self.fixed) {
+        let tile_channels = if params.scatter_mode == ScatterMode::FixedPoint.code() {
             SCATTER_CHANNELS
         } else {
             0
         };
         let config = d.bins.tiled_pass(l, tile_channels);
         let gather = u32::from(gather == Gather::Substep);
-        // SAFETY: the arguments match one_pass_float, one_pass_float_planes and one_pass_fixed in
-        // kernels/one_pass.cu (one parameter list); the bin list, order and node-block list are
+        // SAFETY: the arguments match every one_pass entry in kernels/one_pass.cu (one parameter
+        // list); the bin list, order and node-block list are
         // sized for this grid and these particles; a null order where the particles are stored in
         // bin order (the kernel reads places). Without a flow the sink and free-slot pointers are
         // null and never read (no sinks); without `gather` the node velocities are not read.
