@@ -213,7 +213,182 @@ pub fn power(x: f32, e: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::power;
+    use super::{power, shear_rate, Material};
+    use crate::contract::{LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW};
+    use glam::Mat3;
+
+    /// Simple shear u_x = gamma y: C has the one entry C_xy = gamma (column y, row x).
+    fn simple_shear(gamma: f32) -> Mat3 {
+        let mut c = Mat3::ZERO;
+        c.y_axis.x = gamma;
+        c
+    }
+
+    fn law(law: u32, viscosity: f32, flow_index: f32) -> Material {
+        Material {
+            rest_density: 1000.0,
+            eos_stiffness: 1.0e5,
+            eos_power: 7.0,
+            viscosity,
+            law,
+            flow_index,
+            max_viscosity: f32::INFINITY,
+            ..Default::default()
+        }
+    }
+
+    fn assert_close(ours: f32, expected: f32, what: &str) {
+        let tolerance = 1e-5 * expected.abs();
+        assert!(
+            (ours - expected).abs() <= tolerance,
+            "{what}: {ours} against the closed form {expected}"
+        );
+    }
+
+    const RATES: [f32; 5] = [0.01, 0.3, 1.0, 7.5, 200.0];
+
+    #[test]
+    fn simple_shear_has_the_shear_rate_of_its_one_entry() {
+        for gamma in [-50.0f32, -0.2, 0.0, 1.0, 3.7, 1000.0] {
+            assert_close(shear_rate(simple_shear(gamma)), gamma.abs(), "shear rate");
+            // In any plane and either way round.
+            let mut c = Mat3::ZERO;
+            c.x_axis.z = gamma;
+            assert_close(shear_rate(c), gamma.abs(), "shear rate, C_zx");
+        }
+        // A pure expansion (trace only) changes volume, not shape: no shear.
+        assert_eq!(shear_rate(Mat3::from_diagonal(glam::Vec3::splat(4.0))), 0.0);
+        // Planar extension u = (e x, -e y, 0): D' = diag(e, -e, 0), sqrt(2 D':D') = 2 e.
+        let e = 1.5;
+        assert_close(
+            shear_rate(Mat3::from_diagonal(glam::Vec3::new(e, -e, 0.0))),
+            2.0 * e,
+            "extension",
+        );
+        // A rotation (antisymmetric C) deforms nothing.
+        let mut spin = simple_shear(2.0);
+        spin.x_axis.y = -2.0;
+        assert!(shear_rate(spin) < 1e-6, "rotation: {}", shear_rate(spin));
+    }
+
+    #[test]
+    fn newtonian_returns_its_viscosity_exactly_whatever_the_shear() {
+        let mut water = law(LAW_NEWTONIAN, 1.0e-3, 1.0);
+        // The clamps are not consulted: a Newtonian row's floor and ceiling do not change mu.
+        water.min_viscosity = 5.0;
+        water.max_viscosity = 1.0e-6;
+        for gamma in [0.0f32, 1e-8, 1.0, 1e6] {
+            assert_eq!(water.effective_viscosity(simple_shear(gamma)), 1.0e-3);
+        }
+        assert_eq!(water.viscosity_ceiling(), 1.0e-3);
+    }
+
+    #[test]
+    fn power_law_follows_k_gamma_to_the_n_minus_one_within_its_clamps() {
+        for n in [0.5f32, 1.5] {
+            let m = law(LAW_POWER_LAW, 2.0, n);
+            for gamma in RATES {
+                let expected = 2.0 * gamma.powf(n - 1.0);
+                assert_close(m.effective_viscosity(simple_shear(gamma)), expected, "power law");
+            }
+        }
+        // Shear-thinning at rest: infinite, held at the ceiling; fast: held at the floor.
+        let mut thinning = law(LAW_POWER_LAW, 2.0, 0.5);
+        thinning.max_viscosity = 40.0;
+        thinning.min_viscosity = 0.5;
+        assert_eq!(thinning.effective_viscosity(Mat3::ZERO), 40.0);
+        assert_eq!(thinning.effective_viscosity(simple_shear(1e-4)), 40.0); // 200 unclamped
+        assert_eq!(thinning.effective_viscosity(simple_shear(100.0)), 0.5); // 0.2 unclamped
+        assert_close(
+            thinning.effective_viscosity(simple_shear(4.0)),
+            1.0,
+            "inside the clamps",
+        );
+        assert_eq!(thinning.viscosity_ceiling(), 40.0);
+        // Shear-thickening at rest: zero, held at the floor.
+        let mut thickening = law(LAW_POWER_LAW, 2.0, 1.5);
+        thickening.min_viscosity = 0.1;
+        thickening.max_viscosity = 8.0;
+        assert_eq!(thickening.effective_viscosity(Mat3::ZERO), 0.1);
+        assert_eq!(thickening.effective_viscosity(simple_shear(100.0)), 8.0); // 20 unclamped
+    }
+
+    #[test]
+    fn carreau_yasuda_follows_its_closed_form() {
+        let (mu0, mu_inf, lambda) = (10.0f32, 0.01f32, 0.5f32);
+        for (n, a) in [(0.4f32, 2.0f32), (0.6, 1.3)] {
+            let mut m = law(LAW_CARREAU_YASUDA, mu0, n);
+            m.min_viscosity = mu_inf;
+            m.max_viscosity = mu0;
+            m.relaxation_time = lambda;
+            m.transition_exponent = a;
+            for gamma in RATES {
+                let expected = mu_inf + (mu0 - mu_inf) * (1.0 + (lambda * gamma).powf(a)).powf((n - 1.0) / a);
+                assert_close(
+                    m.effective_viscosity(simple_shear(gamma)),
+                    expected,
+                    "Carreau-Yasuda",
+                );
+            }
+            // At rest: the zero-shear viscosity; very fast: down towards mu_inf (within 3 mu_inf
+            // at 1e7 1/s for these n and a), never below it.
+            assert_eq!(m.effective_viscosity(Mat3::ZERO), mu0);
+            let fast = m.effective_viscosity(simple_shear(1e7));
+            assert!(fast >= mu_inf && fast < 4.0 * mu_inf, "{fast}");
+        }
+        // A ceiling below mu_0 holds.
+        let mut capped = law(LAW_CARREAU_YASUDA, mu0, 0.4);
+        capped.relaxation_time = lambda;
+        capped.transition_exponent = 2.0;
+        capped.max_viscosity = 3.0;
+        assert_eq!(capped.effective_viscosity(Mat3::ZERO), 3.0);
+    }
+
+    #[test]
+    fn herschel_bulkley_adds_the_yield_stress_over_the_rate_and_holds_the_ceiling() {
+        let (k, tau) = (0.8f32, 50.0f32);
+        for n in [1.0f32, 0.6] {
+            let mut m = law(LAW_HERSCHEL_BULKLEY, k, n);
+            m.yield_stress = tau;
+            m.max_viscosity = 1.0e3;
+            for gamma in [0.1f32, 1.0, 7.5, 200.0] {
+                let expected = (k * gamma.powf(n - 1.0) + tau / gamma).min(1.0e3);
+                assert_close(
+                    m.effective_viscosity(simple_shear(gamma)),
+                    expected,
+                    "Herschel-Bulkley",
+                );
+            }
+            // Below the rate tau / mu_max the bi-viscous ceiling holds (the "unyielded" branch),
+            // at rest too (tau / 0 is infinite, never NaN).
+            assert_eq!(m.effective_viscosity(simple_shear(0.01)), 1.0e3);
+            assert_eq!(m.effective_viscosity(Mat3::ZERO), 1.0e3);
+            assert_eq!(m.viscosity_ceiling(), 1.0e3);
+            // The stress it carries in simple shear is tau_y + K gamma^n once yielded.
+            let gamma = 20.0;
+            let sigma = m.stress(0.0, simple_shear(gamma));
+            assert_close(sigma.y_axis.x, tau + k * gamma.powf(n), "shear stress");
+        }
+    }
+
+    #[test]
+    fn the_viscous_limit_follows_the_stiffest_ceiling() {
+        use super::MaterialTable;
+        let honey = law(LAW_NEWTONIAN, 10.0, 1.0);
+        let mut mud = law(LAW_HERSCHEL_BULKLEY, 1.0, 1.0);
+        mud.yield_stress = 100.0;
+        mud.max_viscosity = 40.0;
+        let dx = 0.01f32;
+        assert_close([honey].viscous_dt(dx), 1000.0 * dx * dx / (6.0 * 10.0), "honey");
+        // The bi-viscous ceiling, not the consistency, limits the mud's substep.
+        assert_close(
+            [honey, mud].viscous_dt(dx),
+            1000.0 * dx * dx / (6.0 * 40.0),
+            "mud",
+        );
+        let inviscid = law(LAW_NEWTONIAN, 0.0, 1.0);
+        assert_eq!([inviscid].viscous_dt(dx), f32::INFINITY);
+    }
 
     #[test]
     fn power_by_squaring_agrees_with_powf() {

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 11] = [
+pub const NAMES: [&str; 14] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -14,11 +14,14 @@ pub const NAMES: [&str; 11] = [
     "drop",
     "fountain",
     "tap",
+    "honey",
+    "mud-dam-break",
+    "oil-on-water",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 11] = [
+const FILES: [&str; 14] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -28,6 +31,9 @@ const FILES: [&str; 11] = [
     include_str!("../../scenes/drop.toml"),
     include_str!("../../scenes/fountain.toml"),
     include_str!("../../scenes/tap.toml"),
+    include_str!("../../scenes/honey.toml"),
+    include_str!("../../scenes/mud-dam-break.toml"),
+    include_str!("../../scenes/oil-on-water.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];
