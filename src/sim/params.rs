@@ -12,7 +12,7 @@ use crate::contract::{DENSITY_ADVECTED, DENSITY_GATHERED, SCATTER_FIXED_POINT, S
 /// table. The table lives apart from the kernels' parameters, in their constant memory (the CUDA
 /// solver writes it where it changes): 512 bytes more in every launch's parameters made the
 /// compiler address them through a register, which cost the grid update 6 registers and 11 % of its
-/// time on the H100 (BENCHMARKS.md 1a).
+/// time on the H100 (BENCHMARKS.md M1).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Params {
