@@ -144,6 +144,7 @@ pub fn random_particles(n: usize, lo: f32, hi: f32, speed: f32, shear: f32, seed
         let cols: [f32; 9] = std::array::from_fn(|_| r(-shear, shear));
         p.c.push(glam::Mat3::from_cols_array(&cols));
         p.rho.push(0.0);
+        p.material.push(0);
         p.live.push(true);
     }
     p
