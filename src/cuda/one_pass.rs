@@ -68,7 +68,10 @@ impl OnePass {
         float_scatter: FloatScatter,
         multiprocessors: u32,
     ) -> Result<OnePass> {
-        let water = Entries::load(modules, ["one_pass_float", "one_pass_float_planes", "one_pass_fixed"])?;
+        let water = Entries::load(
+            modules,
+            ["one_pass_float", "one_pass_float_planes", "one_pass_fixed"],
+        )?;
         let planes_from = match float_scatter {
             FloatScatter::Runs => u64::MAX,
             FloatScatter::Planes => 0,
