@@ -40,9 +40,9 @@ __device__ __forceinline__ float material_pressure(const Material& mat, float rh
                  mat.pressure_floor);
 }
 
-// The particle's material: its row of the scene's table, named by the bits of v.w; row 0 in a scene
-// of one material, without reading the index (the table's rows live in the kernel parameters, that
-// is in constant memory).
+// The particle's material: its row of the scene's table (material_table), named by the bits of
+// v.w; row 0 in a scene of one material, without reading the index (a scene of one material keeps
+// 0 there, but the passes need not look).
 __device__ __forceinline__ u32 material_row(const KernelParams& params, float material_tag) {
     return params.material_count > 1u ? min(__float_as_uint(material_tag), MAX_MATERIALS - 1u) : 0u;
 }
