@@ -34,6 +34,21 @@ fn path(p: &Path) -> &str {
     p.to_str().expect("temp paths are UTF-8")
 }
 
+/// `mpm` with the run's options `run`, resumed from the checkpoint `from` for two more frames,
+/// checkpointing into `into`: its stdout.
+fn resume_for_two_frames(run: &[&str], from: &Path, into: &Path) -> String {
+    let mut args = run.to_vec();
+    args.extend([
+        "--resume",
+        path(from),
+        "--frames",
+        "2",
+        "--checkpoint",
+        path(into),
+    ]);
+    ok(&mpm(&args))
+}
+
 /// The dam break at 2.5 cm under the CFL policy: the substep follows the collapse's rising speeds, so
 /// the time-step policy's memory matters to the frames after a resume.
 fn run_and_resume(backend: &str) {
@@ -344,16 +359,7 @@ fn the_fountain_resumed_from_the_command_line_is_byte_identical() {
         "{:?}",
         flow.counts
     );
-    let mut args = run.to_vec();
-    args.extend([
-        "--resume",
-        path(&start),
-        "--frames",
-        "2",
-        "--checkpoint",
-        path(&resumed),
-    ]);
-    let continued = ok(&mpm(&args));
+    let continued = resume_for_two_frames(&run, &start, &resumed);
     assert_eq!(frame_lines(&continued), frame_lines(&uninterrupted)[2..]);
     let name = "checkpoint_000004.mpmck";
     assert!(
@@ -518,16 +524,7 @@ fn a_version_1_checkpoint_loads_and_resumes() {
     // one loading the scene gives.
     assert_eq!(read, current);
 
-    let mut args = run.to_vec();
-    args.extend([
-        "--resume",
-        path(&start),
-        "--frames",
-        "2",
-        "--checkpoint",
-        path(&resumed),
-    ]);
-    let continued = ok(&mpm(&args));
+    let continued = resume_for_two_frames(&run, &start, &resumed);
     assert_eq!(frame_lines(&continued), frame_lines(&uninterrupted)[3..]);
     let last = "checkpoint_000005.mpmck";
     let resumed_last = std::fs::read(resumed.join(last)).unwrap();
