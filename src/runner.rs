@@ -226,7 +226,7 @@ pub fn long_run_note(per_frame: Duration, frames: u64, what: &str, scene: &str) 
     let light = if scene == "dam-break-coarse" {
         String::new()
     } else {
-        " (`--scene dam-break-coarse` is the dam break at a size a CPU steps at about a third of real \
+        " (`--scene dam-break-coarse` is the dam break at a size a CPU steps at about a fifth of real \
          time)"
             .to_string()
     };
