@@ -244,7 +244,7 @@ __device__ __forceinline__ ParticleImpulse particle_impulse(const KernelParams& 
     const float volume = m_p / rho;
     const float pressure = material_pressure(mat, rho);
     const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};  // C as cm[column][row]
-    const float viscosity = MATERIALS ? material_viscosity(mat, cm) : mat.viscosity;
+    const float viscosity = MATERIALS ? material_viscosity(mat, cm, rho) : mat.viscosity;
     const float stress_factor = 4.0f * params.dt * volume / dx;
     ParticleImpulse out;
     for (int col = 0; col < 3; ++col) {

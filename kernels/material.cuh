@@ -80,13 +80,24 @@ __device__ __noinline__ float material_law_viscosity(u32 law, float consistency,
     return fminf(fmaxf(viscosity, min_viscosity), max_viscosity);
 }
 
-// The viscosity at the particle's velocity gradient: the constant one of a Newtonian liquid, else
-// its law's at the shear rate, held within [min_viscosity, max_viscosity].
-__device__ __forceinline__ float material_viscosity(const Material& mat, const float (&cm)[3][3]) {
-    if (mat.law == LAW_NEWTONIAN) return mat.viscosity;
-    return material_law_viscosity(mat.law, mat.viscosity, mat.flow_index, mat.yield_stress, mat.min_viscosity,
-                                  mat.max_viscosity, mat.relaxation_time, mat.transition_exponent,
-                                  material_shear_rate(cm));
+// Whether the liquid scatters its viscous stress with its rest volume (`viscous_at_rest_volume` in
+// src/sim/material.rs).
+__device__ __forceinline__ bool material_viscous_at_rest_volume(const Material& mat) {
+    return mat.law != LAW_NEWTONIAN || mat.viscosity >= VISCOUS_REST_VOLUME_FROM;
+}
+
+// The viscosity the particle's stress is scattered with at density rho (`scattered_viscosity` in
+// src/sim/material.rs): the constant one of a Newtonian liquid, else its law's at the shear rate,
+// held within [min_viscosity, max_viscosity]; times rho / rho0 where the liquid scatters at its rest
+// volume and reads less than its rest density, so that V mu = (m / rho) mu (rho / rho0) = (m / rho0) mu.
+__device__ __forceinline__ float material_viscosity(const Material& mat, const float (&cm)[3][3], float rho) {
+    float viscosity = mat.viscosity;
+    if (mat.law != LAW_NEWTONIAN)
+        viscosity = material_law_viscosity(mat.law, mat.viscosity, mat.flow_index, mat.yield_stress,
+                                           mat.min_viscosity, mat.max_viscosity, mat.relaxation_time,
+                                           mat.transition_exponent, material_shear_rate(cm));
+    if (material_viscous_at_rest_volume(mat) && rho < mat.rest_density) viscosity *= rho / mat.rest_density;
+    return viscosity;
 }
 
 // Component (row, col) of sigma = -p I + mu (C + C^T), with C given as cm[column][row] and mu the

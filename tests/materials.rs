@@ -148,11 +148,11 @@ fn height_at(p: &Particles, x0: f32, dx: f32, floor: f32) -> f32 {
 /// tau_y / max_viscosity the liquid is a Newtonian one of max_viscosity, so it never stops but
 /// creeps, its surface at about tau_y h / (2 max_viscosity), while the explicit viscous limit takes
 /// substeps of rho0 dx^2 / (6 max_viscosity). 3000 Pa s (0.14 ms, 120 substeps a frame) is the
-/// choice: its front creeps 3 cm (0.6 cells) in the last second and its mound keeps the profile;
+/// choice: its front creeps 2.5 cm (0.5 cells) in the last second and its mound keeps the profile;
 /// 2000 Pa s (with K = 1 Pa s) crept 2.6 cm in the fourth second and flattened the mound to 16 %
 /// under the profile at the wall, and twice the ceiling costs twice the substeps. The kinetic
-/// energy does not fall to 1e-6 of its peak at any such ceiling: it levels off at about 2e-4 of it,
-/// the creep (printed; docs/physics.md, "Materials").
+/// energy does not fall to 1e-6 of its peak: it levels off at about 1.7e-4 of it (printed;
+/// docs/physics.md, "Materials", says why a higher ceiling does not help).
 #[test]
 fn a_bingham_slump_stops_on_its_yield_stress_profile() {
     let (dx, rho, tau, ceiling) = (0.05f32, 1000.0f32, 800.0f32, 3000.0f32);
@@ -340,10 +340,12 @@ fn film(n: f32, consistency: f32, degrees: f32, ceiling: f32, floor_viscosity: f
 /// 400 Pa s, holds in the top quarter of the film, which then moves 0.8 % of U faster than the pure
 /// law there. The thickening one's floor, 1 Pa s, holds only where the shear rate is below 2e-4 1/s.
 ///
-/// The target is 5 %. n = 1.5 meets it (2.1 %). n = 0.5 does not: its worst layer is 10.9 % of U
-/// off, the film shearing too little at the wall and too much in its upper half (its amplitude 0.94
-/// of the developed film's surface speed; more time does not change it). Its bound here is 12 %,
-/// what it reaches, so that a change for the worse fails; docs/physics.md, "Materials", says so.
+/// The target is 5 %. n = 1.5 meets it (1.4 %). n = 0.5 does not: its worst layer is 7.3 % of U
+/// off, the film shearing too little at the wall and too much in its upper half (its amplitude 1.12
+/// of the developed film's surface speed). Its bound here is 8 %, what it reaches, so that a change
+/// for the worse fails; docs/physics.md, "Materials", says so. (10.9 % and 2.1 % before the viscous
+/// stress took the rest volume: the film's first layers, on the collider, read 0.62 and 0.85 of the
+/// rest density.)
 #[test]
 fn power_law_films_have_the_power_law_velocity_profile() {
     for (n, consistency, degrees, ceiling, floor_viscosity) in [
@@ -351,7 +353,7 @@ fn power_law_films_have_the_power_law_velocity_profile() {
         (1.5, 45.2, 90.0, 150.0, 1.0),
     ] {
         let (worst, amplitude) = film(n, consistency, degrees, ceiling, floor_viscosity);
-        let allowed = if n < 1.0 { 0.12 } else { 0.05 };
+        let allowed = if n < 1.0 { 0.08 } else { 0.05 };
         assert!(
             worst < allowed,
             "n = {n}: the profile strays {:.1} % of U from the power law's ({:.0} % allowed)",

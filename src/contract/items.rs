@@ -270,6 +270,10 @@ device_constants! {
     /// `Material::law`: mu = min(max_viscosity, K gammadot^(n - 1) + tau_y / gammadot), the
     /// bi-viscous regularisation of a yield stress (Bingham where n = 1).
     LAW_HERSCHEL_BULKLEY: u32 = 3;
+    /// Pa s: a Newtonian liquid this viscous or more, and every other law, scatters its viscous
+    /// stress with its rest volume wherever it reads less than its rest density (docs/physics.md,
+    /// "The viscous stress's volume"); thinner ones (water) with the volume it reads.
+    VISCOUS_REST_VOLUME_FROM: f32 = 0.1;
 
     /// `ColliderState::kind`.
     COLLIDER_BOX: u32 = 0;

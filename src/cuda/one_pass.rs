@@ -53,8 +53,9 @@ impl Entries {
     }
 }
 
-/// The pass's entries for water (a scene of one Newtonian liquid, compiled without the material
-/// table's index and laws) and for any table of liquids.
+/// The pass's entries for water (a scene of one Newtonian liquid thinner than
+/// `VISCOUS_REST_VOLUME_FROM`, compiled without the material table's index and laws) and for any
+/// table of liquids.
 pub struct OnePass {
     water: Entries,
     liquids: Entries,
@@ -99,7 +100,9 @@ impl OnePass {
     /// The entry point that runs for `params`: water's or the liquids', for its scatter mode and
     /// particles.
     pub fn kernel(&self, params: &Params) -> &Kernel {
-        let water = params.material_count == 1 && params.materials[0].law == LAW_NEWTONIAN;
+        let first = &params.materials[0];
+        let water =
+            params.material_count == 1 && first.law == LAW_NEWTONIAN && !first.viscous_at_rest_volume();
         let entries = if water { &self.water } else { &self.liquids };
         if params.scatter_mode == ScatterMode::FixedPoint.code() {
             &entries.fixed

@@ -274,7 +274,7 @@ pub fn p2g_particle(
     };
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
-    let stress = mat.stress(pressure, c);
+    let stress = mat.stress(pressure, c, rho);
     // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
     let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
     (rho, v * m_p, affine)

@@ -5,7 +5,9 @@
 //! those functions, nothing else.
 
 use super::params::Material;
-use crate::contract::{LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW};
+use crate::contract::{
+    LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW, VISCOUS_REST_VOLUME_FROM,
+};
 use glam::{Mat3, Vec3};
 
 /// One row of a scene's material table: the law the solvers read and what the scene calls it.
@@ -115,11 +117,41 @@ impl Material {
         (self.eos_stiffness * (power(ratio, self.eos_power) - 1.0)).max(self.pressure_floor)
     }
 
-    /// Cauchy stress sigma = -p I + mu (C + C^T) of a particle with affine velocity `c`, mu its
-    /// effective viscosity there ([`Material::effective_viscosity`]).
-    pub fn stress(&self, pressure: f32, c: Mat3) -> Mat3 {
-        let viscosity = self.effective_viscosity(c);
+    /// Cauchy stress sigma = -p I + mu (C + C^T) of a particle with affine velocity `c` at density
+    /// `rho`, mu the viscosity it is scattered with ([`Material::scattered_viscosity`]).
+    pub fn stress(&self, pressure: f32, c: Mat3, rho: f32) -> Mat3 {
+        let viscosity = self.scattered_viscosity(c, rho);
         Mat3::from_diagonal(Vec3::splat(-pressure)) + (c + c.transpose()) * viscosity
+    }
+
+    /// Whether the liquid scatters its viscous stress with its rest volume m / rho0 where it reads
+    /// less than its rest density, rather than with the volume m / rho it reads: every law but the
+    /// Newtonian, and Newtonian liquids of [`VISCOUS_REST_VOLUME_FROM`] or more. A particle at a free
+    /// surface, at a collider or in a thin thread reads less than its rest density because its
+    /// stencil reaches past the liquid, not because the liquid has expanded; with the volume it
+    /// reads, its viscous stress would count up to eight times over there, the film on a no-slip
+    /// collider would shear too little at its foot, and a rope of honey (reading 0.12 of its rest
+    /// density) would outrun the viscous limit on the substep. The pressure keeps the volume it
+    /// reads. Thinner Newtonian liquids keep it for their viscous stress too: water's is far below
+    /// its pressure, and every water scene keeps its results bit for bit (docs/physics.md, "The
+    /// viscous stress's volume").
+    #[inline(always)]
+    pub fn viscous_at_rest_volume(&self) -> bool {
+        self.law != LAW_NEWTONIAN || self.viscosity >= VISCOUS_REST_VOLUME_FROM
+    }
+
+    /// The viscosity a particle's stress is scattered with at density `rho`: the law's
+    /// ([`Material::effective_viscosity`]), times rho / rho0 where the liquid scatters at its rest
+    /// volume and reads less than its rest density (V mu = (m / rho) mu (rho / rho0) = (m / rho0)
+    /// mu). kernels/material.cuh's `material_viscosity`, operation for operation.
+    #[inline(always)]
+    pub fn scattered_viscosity(&self, c: Mat3, rho: f32) -> f32 {
+        let viscosity = self.effective_viscosity(c);
+        if self.viscous_at_rest_volume() && rho < self.rest_density {
+            viscosity * (rho / self.rest_density)
+        } else {
+            viscosity
+        }
     }
 
     /// The viscosity at velocity gradient `c`: the constant one of a Newtonian liquid, else the law's
@@ -214,7 +246,9 @@ pub fn power(x: f32, e: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::{power, shear_rate, Material};
-    use crate::contract::{LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW};
+    use crate::contract::{
+        LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW, VISCOUS_REST_VOLUME_FROM,
+    };
     use glam::Mat3;
 
     /// Simple shear u_x = gamma y: C has the one entry C_xy = gamma (column y, row x).
@@ -366,9 +400,42 @@ mod tests {
             assert_eq!(m.viscosity_ceiling(), 1.0e3);
             // The stress it carries in simple shear is tau_y + K gamma^n once yielded.
             let gamma = 20.0;
-            let sigma = m.stress(0.0, simple_shear(gamma));
+            let sigma = m.stress(0.0, simple_shear(gamma), m.rest_density);
             assert_close(sigma.y_axis.x, tau + k * gamma.powf(n), "shear stress");
         }
+    }
+
+    #[test]
+    fn viscous_liquids_scatter_their_viscous_stress_at_their_rest_volume() {
+        let shear = simple_shear(2.0);
+        // Water keeps the volume it reads, bit for bit, at any density.
+        let water = law(LAW_NEWTONIAN, 1.0e-3, 1.0);
+        assert!(!water.viscous_at_rest_volume());
+        for rho in [120.0, 620.0, 1000.0, 1040.0] {
+            assert_eq!(water.scattered_viscosity(shear, rho), 1.0e-3);
+        }
+        // Honey, and every other law: mu rho / rho0 below the rest density, so V mu = (m / rho0) mu.
+        let honey = law(LAW_NEWTONIAN, 10.0, 1.0);
+        let thinning = law(LAW_POWER_LAW, 2.0, 0.5);
+        for m in [honey, thinning] {
+            assert!(m.viscous_at_rest_volume());
+            let mu = m.effective_viscosity(shear);
+            let rho0 = m.rest_density;
+            assert_eq!(
+                m.scattered_viscosity(shear, 0.12 * rho0),
+                mu * (0.12 * rho0 / rho0)
+            );
+            assert_eq!(m.scattered_viscosity(shear, rho0), mu);
+            assert_eq!(m.scattered_viscosity(shear, 1.04 * rho0), mu);
+            let (volume_read, volume_rest) = (1.0 / (0.12 * rho0), 1.0 / rho0);
+            assert_close(
+                volume_read * m.scattered_viscosity(shear, 0.12 * rho0),
+                volume_rest * mu,
+                "the viscous stress's volume",
+            );
+        }
+        // The threshold is the Newtonian viscosity's, inclusive.
+        assert!(law(LAW_NEWTONIAN, VISCOUS_REST_VOLUME_FROM, 1.0).viscous_at_rest_volume());
     }
 
     #[test]
