@@ -135,6 +135,12 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
 }
 
 /// Every pipeline and scatter: four liquids, the oil's rest density making the density carried.
+///
+/// Known flake, not yet explained: after the viscous stress took the rest volume (49a2b96) this
+/// failed 2 of 6 runs on H100s (2026-11-27), the binned pipeline's float scatter at step 300 with
+/// one particle's density 1.5 % from the CPU's (the bound is 0.1 %), and passed the other 4. On the
+/// CPU a one-ulp nudge of every position moves no density by more than 6e-5 by step 300, with the
+/// rule or without it, so the rule does not make the trajectories more sensitive to rounding.
 fn every_pipeline_follows_the_cpu_with_several_liquids() {
     for pipeline in Pipeline::ALL {
         for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
