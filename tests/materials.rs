@@ -10,21 +10,10 @@ mod common;
 mod materials_checks;
 
 use glam::Vec3;
-use materials_checks::{film, THICKENING, THINNING};
-use mpm::backend::{self, BackendKind};
+use materials_checks::{film, particles, simulation, G, THICKENING, THINNING};
+use mpm::backend::BackendKind;
 use mpm::sim::cpu::{grid_density, CpuSolver, Stencil};
-use mpm::sim::{Material, Particles, Scene, Simulation};
-
-const G: f32 = 9.81;
-
-fn simulation(scene: &Scene) -> Simulation {
-    let solver = backend::create(BackendKind::CpuParallel, scene).expect("a CPU backend");
-    Simulation::new(scene.clone(), solver)
-}
-
-fn particles(sim: &mut Simulation) -> Particles {
-    sim.solver_mut().read_particles().unwrap()
-}
+use mpm::sim::{Material, Particles, Scene};
 
 /// The value below which a fraction `q` of `values` lie (nearest rank).
 fn quantile(mut values: Vec<f32>, q: f32) -> f32 {
@@ -82,7 +71,7 @@ fn a_viscous_current_spreads_as_huppert_s_similarity_solution() {
         no_slip_floor(0.97, 0.08, dx),
         floor + 0.2
     ));
-    let mut sim = simulation(&scene);
+    let mut sim = simulation(&scene, BackendKind::CpuParallel);
     let count = particles(&mut sim).num_live();
     let a = area(count, dx, 8.0, 0.05);
     let wall = dx; // the low x wall's mirror plane, node 1
@@ -168,7 +157,7 @@ fn a_bingham_slump_stops_on_its_yield_stress_profile() {
         no_slip_floor(2.0, 0.4, dx),
         floor + 1.0
     ));
-    let mut sim = simulation(&scene);
+    let mut sim = simulation(&scene, BackendKind::CpuParallel);
     let count = particles(&mut sim).num_live();
     let a = area(count, dx, 8.0, 0.25);
     let scale = 2.0 * tau / (rho * G); // h^2 = scale (x_f - x)
@@ -335,7 +324,7 @@ fn oil_and_water_settle_into_two_flat_layers_under_the_right_pressure() {
         dx + depth,
         dx + 2.0 * depth
     ));
-    let mut sim = simulation(&scene);
+    let mut sim = simulation(&scene, BackendKind::CpuParallel);
     let params = *sim.params();
     let floor = dx;
     let interface_at_rest = floor + depth;

@@ -1,19 +1,26 @@
-//! The power-law films of tests/materials.rs on any backend and at any resolution: on the CPU in CI
-//! at 10 cells across (tests/materials.rs), finer on the GPU (tests/gpu_materials.rs), where the
-//! viscous limit's substeps at a fine cell cost seconds.
+//! What the liquids' checks share: a run on any backend, and the power-law films of
+//! tests/materials.rs at any resolution, on the CPU in CI at 10 cells across (tests/materials.rs),
+//! finer on the GPU (tests/gpu_materials.rs), where the viscous limit's substeps at a fine cell cost
+//! seconds.
 #![allow(dead_code)]
 
 use glam::Vec3;
 use mpm::backend::{self, BackendKind};
-use mpm::sim::{Scene, Simulation};
+use mpm::sim::{Particles, Scene, Simulation};
 
 use super::common;
 
-const G: f32 = 9.81;
+/// Standard gravity, m/s^2.
+pub const G: f32 = 9.81;
 
-fn simulation(scene: &Scene, backend: BackendKind) -> Simulation {
+/// `scene` on `backend`.
+pub fn simulation(scene: &Scene, backend: BackendKind) -> Simulation {
     let solver = backend::create(backend, scene).expect("a backend");
     Simulation::new(scene.clone(), solver)
+}
+
+pub fn particles(sim: &mut Simulation) -> Particles {
+    sim.solver_mut().read_particles().unwrap()
 }
 
 /// A power-law liquid and the film's slope: mu = K gammadot^(n - 1) within [floor, ceiling].
@@ -108,7 +115,7 @@ pub fn film(backend: BackendKind, cells: u32, law: FilmLaw) -> (f32, f32) {
         if frame < 4 {
             continue;
         }
-        let p = sim.solver_mut().read_particles().unwrap();
+        let p = particles(&mut sim);
         // The middle 4 cm, 6 cm from either end of the film.
         let middle = |x: Vec3| x.x > 0.09 && x.x < 0.13;
         let top =
