@@ -145,7 +145,7 @@ fn small_sim(frames: u64) -> Simulation {
 fn a_checkpoint_reads_back_as_written_and_holds_the_whole_state() {
     let dir = tempfile::tempdir().unwrap();
     let mut sim = small_sim(3);
-    sim.set_viscosity(0.25).unwrap(); // a live change the scene text does not know
+    sim.set_viscosity(0, 0.25).unwrap(); // a live change the scene text does not know
     let saved = Checkpoint::capture(&mut sim).unwrap();
     let file = dir.path().join("a.mpmck");
     saved.write_new(&file).unwrap();

@@ -1,7 +1,8 @@
 //! Liquids beyond water against published results (docs/physics.md, "Materials" and "Several
 //! liquids"), on the CPU: a viscous gravity current against Huppert's similarity solution, a Bingham
 //! slump against its static profile, power-law films down an incline against their velocity profile,
-//! and oil over water settling into two layers with the floor's hydrostatic pressure. Each is a
+//! and oil over water settling into two layers with the floor's hydrostatic pressure; and the
+//! viewer's live controls acting on the liquid they name. Each check of physics is a
 //! quasi-2D slab, 5 cells thick in z between the free-slip walls (the fewest a grid of 8 nodes, the
 //! smallest allowed, leaves), on a coarse grid; each prints what it measured
 //! (`cargo test --release --test materials -- --nocapture`).
@@ -13,6 +14,8 @@ use glam::Vec3;
 use materials_checks::{film, particles, simulation, G, THICKENING, THINNING};
 use mpm::backend::BackendKind;
 use mpm::sim::cpu::{grid_density, CpuSolver, Stencil};
+use mpm::sim::material::MaterialTable;
+use mpm::sim::simulation::StepLimit;
 use mpm::sim::{Material, Particles, Scene};
 
 /// The value below which a fraction `q` of `values` lie (nearest rank).
@@ -458,4 +461,45 @@ fn oil_and_water_settle_into_two_flat_layers_under_the_right_pressure() {
         carried_worst < 0.03,
         "a carried density {carried_worst} off rest by the interface"
     );
+}
+
+/// The viewer's live controls change the material row they name and no other; the substep's viscous
+/// limit follows a row's new viscosity; a row the table lacks is refused with the table's size.
+#[test]
+fn live_controls_change_the_liquid_they_name() {
+    let scene = common::scene(
+        "[domain]\nsize = [0.2, 0.2, 0.2]\nresolution = [20, 20, 20]\n\
+         [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\n\
+         [[material]]\nname = \"oil\"\nrest_density = 850.0\nsound_speed = 20.0\nviscosity = 0.05\n\
+         [[block]]\nmaterial = \"water\"\nmin = [0.03, 0.03, 0.03]\nmax = [0.08, 0.08, 0.08]\n\
+         [[block]]\nmaterial = \"oil\"\nmin = [0.1, 0.03, 0.03]\nmax = [0.15, 0.08, 0.08]",
+    );
+    let mut sim = simulation(&scene, BackendKind::Cpu);
+    let before = *sim.params();
+    sim.set_viscosity(1, 1000.0).unwrap();
+    sim.set_sound_speed(1, 30.0).unwrap();
+    let after = *sim.params();
+    assert_eq!(after.materials[0], before.materials[0], "water changed");
+    assert_eq!(after.materials[1].viscosity, 1000.0);
+    assert_eq!(
+        after.materials[1].max_viscosity, 1000.0,
+        "a Newtonian row's ceiling is its viscosity"
+    );
+    assert!((after.materials[1].sound_speed() - 30.0).abs() < 1e-3);
+    // 1000 Pa s (the slider's top) at dx = 1 cm: the viscous limit, rho0 dx^2 / (6 mu), is 14 us,
+    // under the acoustic limit (0.13 ms at 30 m/s).
+    let stats = sim.advance_frame().unwrap();
+    let viscous = MaterialTable::viscous_dt(&after, after.dx);
+    println!(
+        "substep {:.3e} s ({:?}), the viscous limit {viscous:.3e} s",
+        stats.dt, stats.limit
+    );
+    assert_eq!(stats.limit, StepLimit::Viscous);
+    assert!(
+        viscous < 2e-5 && stats.dt <= viscous,
+        "the substep {} ignores the new viscosity",
+        stats.dt
+    );
+    let refused = sim.set_viscosity(2, 1.0).unwrap_err().to_string();
+    assert!(refused.contains("2 materials"), "{refused}");
 }

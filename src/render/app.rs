@@ -333,11 +333,13 @@ impl ViewerApp {
         render.surface.half_res_smoothing = !options.full_res_smoothing;
         // The window's whole size until the panel's width is known; the first draw frames it anew.
         let camera = render.framing(lo.as_vec3(), hi.as_vec3(), Viewport::full(options.size));
+        let params = scene.params();
         let controls = Controls {
             paused: false,
             render,
-            viscosity: scene.material().viscosity,
-            sound_speed: scene.material().sound_speed(),
+            liquid: 0,
+            viscosity: params.materials.map(|m| m.viscosity),
+            sound_speed: params.materials.map(|m| m.sound_speed()),
             gravity: scene.gravity,
             fixed_pacing: options.fixed_frames.is_some(),
             frames_per_draw: options.fixed_frames.unwrap_or(1).max(1),
@@ -402,8 +404,12 @@ impl ViewerApp {
         }
         // The live sliders follow the simulation's parameters (a checkpoint's may differ from its scene).
         let params = sim.params();
-        self.controls.viscosity = params.materials[0].viscosity;
-        self.controls.sound_speed = params.materials[0].sound_speed();
+        let rows = params.material_count as usize;
+        for (row, m) in params.materials.iter().enumerate().take(rows) {
+            self.controls.viscosity[row] = m.viscosity;
+            self.controls.sound_speed[row] = m.sound_speed();
+        }
+        self.controls.liquid = self.controls.liquid.min(rows.saturating_sub(1));
         self.controls.gravity = Vec3::from(params.gravity);
         self.sim = Some(sim);
         self.scene = scene;
@@ -576,8 +582,8 @@ impl ViewerApp {
                 self.camera_follows_view = true;
                 Ok(())
             }
-            Action::SetViscosity(mu) => self.with_sim(|sim| sim.set_viscosity(mu)),
-            Action::SetSoundSpeed(c) => self.with_sim(|sim| sim.set_sound_speed(c)),
+            Action::SetViscosity(row, mu) => self.with_sim(|sim| sim.set_viscosity(row, mu)),
+            Action::SetSoundSpeed(row, c) => self.with_sim(|sim| sim.set_sound_speed(row, c)),
             Action::SetGravity(g) => self.with_sim(|sim| sim.set_gravity(g)),
             Action::Quit => {
                 event_loop.exit();

@@ -5,10 +5,15 @@ use super::legend::Scale;
 use super::renderer::{Colouring, DrawMode, RenderSettings};
 use super::surface::MAX_THICKNESS_DOWNSAMPLE;
 use super::timer::{Pass, PassTimes};
+use crate::contract::{LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_POWER_LAW, MAX_MATERIALS};
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{presets, PhaseTimings};
 use egui::{Color32, RichText};
 use glam::Vec3;
+
+/// The viscosity slider's top, Pa s: past honey's 10 and the yield-stress liquids' consistencies
+/// (the viscous limit on the substep makes the top costly: see docs/physics.md).
+const MAX_SLIDER_VISCOSITY: f32 = 1000.0;
 
 /// Values the panel displays, gathered by the app each frame.
 pub struct HudInfo<'a> {
@@ -48,8 +53,12 @@ pub struct HudInfo<'a> {
 pub struct Controls {
     pub paused: bool,
     pub render: RenderSettings,
-    pub viscosity: f32,
-    pub sound_speed: f32,
+    /// The material row the physics sliders change.
+    pub liquid: usize,
+    /// Per material row: the viscosity (`Material::viscosity`: mu, K or mu_0 by law) and the
+    /// sound speed, as the simulation has them.
+    pub viscosity: [f32; MAX_MATERIALS as usize],
+    pub sound_speed: [f32; MAX_MATERIALS as usize],
     pub gravity: Vec3,
     /// Step a fixed number of 60 Hz frames per drawn frame instead of following wall time.
     pub fixed_pacing: bool,
@@ -72,8 +81,9 @@ pub enum Action {
     SaveSnapshot,
     LoadSnapshot,
     FrameCamera,
-    SetViscosity(f32),
-    SetSoundSpeed(f32),
+    /// Row, value.
+    SetViscosity(usize, f32),
+    SetSoundSpeed(usize, f32),
     SetGravity(Vec3),
     Quit,
 }
@@ -120,7 +130,7 @@ pub fn panel(ctx: &egui::Context, controls: &mut Controls, info: &HudInfo) -> Ve
                 ui.separator();
                 view_controls(ui, controls, info.materials, &mut actions);
                 ui.separator();
-                physics_controls(ui, controls, &mut actions);
+                physics_controls(ui, controls, info.materials, &mut actions);
                 ui.separator();
                 scene_controls(ui, controls, &mut actions);
                 ui.separator();
@@ -395,27 +405,48 @@ fn legend(ui: &mut egui::Ui, scale: &Scale) {
     });
 }
 
-fn physics_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+fn physics_controls(
+    ui: &mut egui::Ui,
+    c: &mut Controls,
+    materials: &[crate::sim::material::NamedMaterial],
+    actions: &mut Vec<Action>,
+) {
     ui.label("physics (applies at once)");
+    let row = c.liquid.min(materials.len().saturating_sub(1));
+    if materials.len() > 1 {
+        egui::ComboBox::from_label("liquid the sliders change")
+            .selected_text(&materials[row].name)
+            .show_ui(ui, |ui| {
+                for (k, m) in materials.iter().enumerate() {
+                    ui.selectable_value(&mut c.liquid, k, &m.name);
+                }
+            });
+    }
+    let row = c.liquid.min(materials.len().saturating_sub(1));
+    let what = match materials.get(row).map(|m| m.law.law) {
+        Some(LAW_POWER_LAW | LAW_HERSCHEL_BULKLEY) => "consistency K (Pa s^n)",
+        Some(LAW_CARREAU_YASUDA) => "zero-shear viscosity (Pa s)",
+        _ => "viscosity (Pa s)",
+    };
     if ui
         .add(
-            egui::Slider::new(&mut c.viscosity, 0.0..=1.0)
+            egui::Slider::new(&mut c.viscosity[row], 0.0..=MAX_SLIDER_VISCOSITY)
                 .logarithmic(true)
-                .text("viscosity (Pa s)"),
+                .text(what),
         )
         .changed()
     {
-        actions.push(Action::SetViscosity(c.viscosity));
+        actions.push(Action::SetViscosity(row, c.viscosity[row]));
     }
     if ui
         .add(
-            egui::Slider::new(&mut c.sound_speed, 1.0..=200.0)
+            egui::Slider::new(&mut c.sound_speed[row], 1.0..=200.0)
                 .logarithmic(true)
                 .text("sound speed (m/s)"),
         )
         .changed()
     {
-        actions.push(Action::SetSoundSpeed(c.sound_speed));
+        actions.push(Action::SetSoundSpeed(row, c.sound_speed[row]));
     }
     let mut changed = false;
     ui.horizontal(|ui| {

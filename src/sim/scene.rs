@@ -374,6 +374,15 @@ impl TimeStepPolicy {
         }
     }
 
+    /// The longest substep the policy allows for a fastest signal speed (c + |v|) in m/s, whatever
+    /// the span to cover: a fixed policy's dt, the CFL policy's `cfl dx / signal_speed`.
+    pub fn longest_substep(&self, signal_speed: f32, dx: f32) -> f32 {
+        match *self {
+            TimeStepPolicy::Fixed { dt } => dt,
+            TimeStepPolicy::Cfl { cfl, .. } => cfl * dx / signal_speed,
+        }
+    }
+
     /// Substeps and the substep to cover `span` seconds, for a fastest signal speed (c + |v|) in m/s.
     pub fn substeps(&self, span: f32, signal_speed: f32, dx: f32) -> Result<(u32, f32), String> {
         match *self {

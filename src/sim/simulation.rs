@@ -371,6 +371,11 @@ impl Simulation {
                 let n = (span / self.viscous_dt).ceil().max(n as f32);
                 Ok((n as u32, span / n, StepLimit::Viscous))
             }
+            // A span shorter than either limit's step (the frame's last stretch) takes its own
+            // length; the limit named is still the tighter of the two.
+            Ok((n, dt)) if self.viscous_dt < self.scene.time_step.longest_substep(expected, self.params.dx) => {
+                Ok((n, dt, StepLimit::Viscous))
+            }
             Ok((n, dt)) if self.advective => Ok((n, dt, StepLimit::Advective)),
             Ok((n, dt)) => Ok((n, dt, StepLimit::Acoustic)),
             // The fused pipeline's density is a substep behind an impact that outruns the CFL
@@ -588,13 +593,15 @@ impl Simulation {
         Ok(())
     }
 
-    /// Dynamic viscosity mu, Pa s (live control). Must be finite and non-negative.
-    pub fn set_viscosity(&mut self, viscosity: f32) -> Result<()> {
+    /// The viscosity of material `row` (live control): a Newtonian liquid's mu, Pa s, the power law's
+    /// and Herschel-Bulkley's consistency K, Carreau-Yasuda's mu_0 (`Material::viscosity`). Must be
+    /// finite and non-negative.
+    pub fn set_viscosity(&mut self, row: usize, viscosity: f32) -> Result<()> {
         ensure!(
             viscosity.is_finite() && viscosity >= 0.0,
             "viscosity must be a finite number >= 0 Pa s, not {viscosity}"
         );
-        let material = &mut self.params.materials[0];
+        let material = self.material_row(row)?;
         material.viscosity = viscosity;
         if material.law == crate::contract::LAW_NEWTONIAN {
             material.max_viscosity = viscosity;
@@ -603,21 +610,32 @@ impl Simulation {
         Ok(())
     }
 
-    /// Sound speed at rest c0, m/s (live control): sets the Tait stiffness k = rho0 c0^2 / gamma, the
-    /// one quantity c0 derives from. The next frame's substep follows the new speed.
-    pub fn set_sound_speed(&mut self, sound_speed: f32) -> Result<()> {
+    /// Sound speed at rest c0 of material `row`, m/s (live control): sets the Tait stiffness
+    /// k = rho0 c0^2 / gamma, the one quantity c0 derives from. The next frame's substep follows the
+    /// new speed.
+    pub fn set_sound_speed(&mut self, row: usize, sound_speed: f32) -> Result<()> {
         ensure!(
             sound_speed.is_finite() && sound_speed > 0.0,
             "sound speed must be a finite number > 0 m/s, not {sound_speed}"
         );
         self.settle()?;
-        let material = &mut self.params.materials[0];
+        let material = self.material_row(row)?;
         let old = material.sound_speed();
         material.eos_stiffness = material.rest_density * sound_speed * sound_speed / material.eos_power;
+        let new = material.sound_speed();
         // The signal speed scales with c0 (its density factor stays the same).
-        self.signal_speed += material.sound_speed() - old;
-        self.signal_speed = self.signal_speed.max(material.sound_speed());
+        self.signal_speed = (self.signal_speed + new - old).max(new);
         Ok(())
+    }
+
+    /// Row `row` of the material table, to change.
+    fn material_row(&mut self, row: usize) -> Result<&mut crate::contract::Material> {
+        let rows = self.params.material_count as usize;
+        ensure!(
+            row < rows,
+            "the scene has {rows} materials: there is no row {row}"
+        );
+        Ok(&mut self.params.materials[row])
     }
 
     /// Gravity, m/s^2 (live control). Every component must be finite.
