@@ -61,6 +61,7 @@ fn exported_ply_reads_back_to_the_same_numbers() {
         ..p
     };
     let table = ["water", "olive oil", "honey"].map(|name| NamedMaterial {
+        absorption: 1.0,
         name: name.to_string(),
         colour: [0.25, 0.5, 1.0],
         law: Default::default(),

@@ -52,6 +52,18 @@ fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
     vec![
         // The material table (issue "Liquids beyond water", item 3).
         (
+            "a material's absorption past the opaque end",
+            liquids(&entry("ink", "absorption = 500.0\n"), &block_of(0, "ink")),
+            "material[0].absorption",
+            "from 0 (clear) to 100 (opaque)",
+        ),
+        (
+            "a negative absorption",
+            liquids(&entry("ink", "absorption = -1.0\n"), &block_of(0, "ink")),
+            "material[0].absorption",
+            "from 0 (clear)",
+        ),
+        (
             "a body naming an unknown material",
             water_and_oil("watr"),
             "block[0].material",

@@ -101,6 +101,8 @@ impl Colouring {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MaterialColours {
     pub colours: [[f32; 3]; crate::contract::MAX_MATERIALS as usize],
+    /// The surface's absorption per row, a multiple of what the colour gives (`NamedMaterial::absorption`).
+    pub absorptions: [f32; crate::contract::MAX_MATERIALS as usize],
     /// Rows in use (at least 1).
     pub count: u32,
 }
@@ -108,17 +110,20 @@ pub struct MaterialColours {
 impl MaterialColours {
     pub fn of(materials: &[crate::sim::material::NamedMaterial]) -> MaterialColours {
         let mut colours = [[0.0; 3]; crate::contract::MAX_MATERIALS as usize];
-        for (row, m) in colours.iter_mut().zip(materials) {
-            *row = m.colour;
+        let mut absorptions = [1.0; crate::contract::MAX_MATERIALS as usize];
+        for (row, m) in materials.iter().enumerate().take(colours.len()) {
+            colours[row] = m.colour;
+            absorptions[row] = m.absorption;
         }
         MaterialColours {
             colours,
+            absorptions,
             count: (materials.len() as u32).clamp(1, crate::contract::MAX_MATERIALS),
         }
     }
 
-    /// Sets `u_material_colours` and `u_material_count` of `program` (the prelude's
-    /// `material_colour`).
+    /// Sets `u_material_colours`, `u_material_absorptions` and `u_material_count` of `program` (the
+    /// prelude's `material_colour` and `material_absorption`).
     ///
     /// # Safety
     /// `gl` is current on this thread and `program` is its own, in use.
@@ -128,6 +133,8 @@ impl MaterialColours {
         unsafe {
             let loc = gl.get_uniform_location(program, "u_material_colours");
             gl.uniform_3_f32_slice(loc.as_ref(), &flat);
+            let loc = gl.get_uniform_location(program, "u_material_absorptions");
+            gl.uniform_1_f32_slice(loc.as_ref(), &self.absorptions);
             set_i32(gl, program, "u_material_count", self.count as i32);
         }
     }
@@ -138,7 +145,11 @@ impl Default for MaterialColours {
     fn default() -> MaterialColours {
         let mut colours = [[0.0; 3]; crate::contract::MAX_MATERIALS as usize];
         colours[0] = crate::sim::material::default_colour(0);
-        MaterialColours { colours, count: 1 }
+        MaterialColours {
+            colours,
+            absorptions: [1.0; crate::contract::MAX_MATERIALS as usize],
+            count: 1,
+        }
     }
 }
 
@@ -305,10 +316,17 @@ fn glsl_scale() -> String {
 
 /// The material table's colours and their lookup, shared by the particles' and the surface's shaders:
 /// `material_colour(row)` for a particle's row, or for a row averaged through the water (the surface),
-/// blended between the two rows it lies between.
+/// blended between the two rows it lies between; `material_absorption(row)`, the surface's light
+/// absorbed per metre of the liquid of `row`, from its colour (what the colour lacks goes first, at
+/// most about water's red per metre) times its own factor.
 const GLSL_MATERIALS: &str = "
 uniform vec3 u_material_colours[8];
+uniform float u_material_absorptions[8];
 uniform int u_material_count;
+vec3 material_absorption(int row) {
+    int r = clamp(row, 0, max(u_material_count - 1, 0));
+    return u_material_absorptions[r] * (1.0 + 6.0 * (1.0 - u_material_colours[r]));
+}
 vec3 material_colour(float row) {
     float r = clamp(row, 0.0, float(max(u_material_count - 1, 0)));
     int i = int(floor(r));
@@ -791,8 +809,7 @@ impl Renderer {
             &mut self.timer,
             target,
             [viewport.x, viewport.y, w as i32, h as i32],
-        );
-        Ok(())
+        )
     }
 
     /// The tiled floor at the box's bottom and the box's edges, each where asked.

@@ -136,6 +136,18 @@ pub struct SurfaceFrame<'a> {
     pub range: [f32; 2],
 }
 
+impl SurfaceFrame<'_> {
+    /// How many surfaces the frame draws, one per liquid, where it is coloured by material and
+    /// the table has several rows; 1 otherwise (the one surface of every particle).
+    pub fn liquid_surfaces(&self) -> u32 {
+        if self.tint == Tint::Material {
+            self.materials.count.max(1)
+        } else {
+            1
+        }
+    }
+}
+
 struct Programs {
     depth: glow::Program,
     thickness: glow::Program,
@@ -166,11 +178,46 @@ struct Targets {
     half: [glow::Texture; 2],
 }
 
+/// Several liquids' surfaces ([`SurfaceFrame::liquid_surfaces`]): a layer per material row of the
+/// smoothed depth and of the thickness, each the size of the one surface's texture.
+struct LayerTargets {
+    size: [u32; 2],
+    thickness_downsample: u32,
+    count: u32,
+    /// R32F layers, as `Targets::depth`.
+    depth: glow::Texture,
+    /// RG16F layers, as `Targets::thickness` (the quantity's channel unused).
+    thickness: glow::Texture,
+    /// A layer of `depth` attached at a time, with the depth test's buffer of `Targets`.
+    depth_fbo: glow::Framebuffer,
+    /// A layer of `thickness` attached at a time.
+    thickness_fbo: glow::Framebuffer,
+}
+
+impl LayerTargets {
+    /// Attaches layer `row` of `texture` to `fbo` as its colour.
+    unsafe fn attach(&self, gl: &glow::Context, fbo: glow::Framebuffer, texture: glow::Texture, row: u32) {
+        // SAFETY: as the caller vouches: our objects, on the current context.
+        unsafe {
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
+            gl.framebuffer_texture_layer(
+                glow::FRAMEBUFFER,
+                glow::COLOR_ATTACHMENT0,
+                Some(texture),
+                0,
+                row as i32,
+            );
+        }
+    }
+}
+
 pub struct Surface {
     gl: Arc<glow::Context>,
     programs: Programs,
     empty_vao: glow::VertexArray,
     targets: Option<Targets>,
+    /// Made when several liquids are first drawn each as its own surface.
+    layers: Option<LayerTargets>,
     /// The indices `len - 1` down to 0, to draw the particles last to first (see [`Surface::draw`]).
     reversed: glow::Buffer,
     reversed_len: usize,
@@ -246,6 +293,7 @@ impl Surface {
                 programs,
                 empty_vao,
                 targets: None,
+                layers: None,
                 reversed,
                 reversed_len: 0,
                 cuda: None,
@@ -379,7 +427,8 @@ impl Surface {
         let (Some(targets), Some(cuda)) = (&self.targets, &mut self.cuda) else {
             return;
         };
-        if !fed || cuda.count() < frame.count {
+        // Several liquids' thicknesses are a layer each, which GL splats.
+        if !fed || cuda.count() < frame.count || frame.liquid_surfaces() > 1 {
             return;
         }
         let (thick_w, thick_h) = downsampled(targets.size, targets.thickness_downsample);
@@ -425,38 +474,170 @@ impl Surface {
 
     /// The depth, thickness (unless CUDA summed it, [`splat_thickness_by_cuda`](Self::splat_thickness_by_cuda))
     /// and smoothing passes (after [`bind_scene`](Self::bind_scene) and the scene), each timed; then
-    /// the shading into `target` at `viewport` (x, y, w, h).
+    /// the shading into `target` at `viewport` (x, y, w, h). Coloured by material with several
+    /// liquids, the passes run once per material row, each liquid a surface of its own
+    /// ([`SurfaceFrame::liquid_surfaces`]).
     pub fn draw(
         &mut self,
         frame: &SurfaceFrame,
         timer: &mut GpuTimer,
         target: Option<glow::Framebuffer>,
         viewport: [i32; 4],
-    ) {
-        if self.targets.is_none() {
-            return;
-        }
+    ) -> Result<()> {
+        let Some(size) = self.targets.as_ref().map(|t| t.size) else {
+            return Ok(());
+        };
         let back_first = draws_back_first(&frame.view);
         if back_first {
             // SAFETY: our buffer, on the current context.
             unsafe { self.ensure_reversed(frame.count) };
         }
-        let Some(targets) = &self.targets else { return };
+        let liquids = frame.liquid_surfaces();
+        if liquids > 1 {
+            // SAFETY: the context is current.
+            unsafe { self.ensure_layers(size, liquids)? };
+        }
+        let Some(targets) = &self.targets else {
+            return Ok(());
+        };
         let gl = &self.gl;
-        let [w, h] = targets.size.map(|s| s as i32);
-        let downsample = targets.thickness_downsample;
-        let (thick_w, thick_h) = downsampled(targets.size, downsample);
-        let s = frame.settings;
-        let count = frame.count as i32;
         // SAFETY: every object is ours or the caller's (the VAO, the target), on the current context.
         unsafe {
             gl.disable(glow::BLEND);
             gl.disable(glow::SCISSOR_TEST);
             gl.disable(glow::CULL_FACE);
             gl.enable(glow::PROGRAM_POINT_SIZE);
+            let smoothed = match &self.layers {
+                Some(layers) if liquids > 1 => {
+                    self.layered_passes(targets, layers, frame, timer, back_first);
+                    None
+                }
+                _ => {
+                    timer.begin(Pass::Depth);
+                    self.depth_pass(targets, frame, back_first, -1, targets.depth_fbos[0]);
+                    if !self.last_by_cuda {
+                        timer.begin(Pass::Thickness);
+                        self.thickness_pass(targets, frame, -1, targets.thickness_fbo);
+                    }
+                    gl.disable(glow::PROGRAM_POINT_SIZE);
+                    timer.begin(Pass::Smoothing);
+                    Some(self.smoothing_pass(targets, frame))
+                }
+            };
 
+            timer.begin(Pass::Shading);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, target);
+            gl.viewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+            gl.bind_vertex_array(Some(self.empty_vao));
+            let p = self.programs.shade;
+            gl.use_program(Some(p));
+            bind_texture(gl, p, "u_scene", 0, targets.scene_colour);
+            bind_texture(gl, p, "u_scene_depth", 1, targets.scene_depth);
+            bind_texture(gl, p, "u_depth", 2, smoothed.unwrap_or(targets.depth[0]));
+            bind_texture(gl, p, "u_thickness", 3, targets.thickness);
+            // The arrays' samplers always name units of their own: two samplers of different types
+            // on one unit fail the draw, whether the shader reads them or not.
+            let layers = self.layers.as_ref().filter(|_| liquids > 1);
+            bind_array_texture(gl, p, "u_layer_depth", 4, layers.map(|l| l.depth));
+            bind_array_texture(gl, p, "u_layer_thickness", 5, layers.map(|l| l.thickness));
+            set_i32(
+                gl,
+                p,
+                "u_layers",
+                if layers.is_some() { liquids as i32 } else { 0 },
+            );
+            set_mat4(gl, p, "u_proj", &frame.proj);
+            let view_to_world = Mat3::from_mat4(frame.view).transpose();
+            set_mat3(gl, p, "u_view_to_world", &view_to_world);
+            let sun = Vec3::from(SUN).normalize();
+            set_vec3(gl, p, "u_sun_world", sun.to_array());
+            set_vec3(
+                gl,
+                p,
+                "u_sun_view",
+                (Mat3::from_mat4(frame.view) * sun).to_array(),
+            );
+            let s = frame.settings;
+            set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
+            set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
+            set_f32(gl, p, "u_absorption_scale", s.absorption);
+            set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
+            set_f32(gl, p, "u_refraction", s.refraction);
+            set_i32(gl, p, "u_tint", frame.tint as i32);
+            set_vec2(gl, p, "u_range", frame.range);
+            frame.materials.set(gl, p);
+            gl.draw_arrays(glow::TRIANGLES, 0, 3);
+            timer.end();
+
+            gl.bind_vertex_array(None);
+            gl.use_program(None);
+            for unit in [5, 4] {
+                gl.active_texture(glow::TEXTURE0 + unit);
+                gl.bind_texture(glow::TEXTURE_2D_ARRAY, None);
+            }
+            gl.active_texture(glow::TEXTURE0);
+            gl.bind_texture(glow::TEXTURE_2D, None);
+        }
+        Ok(())
+    }
+
+    /// Several liquids: each pass for every material row in turn (so that each pass is timed once,
+    /// over all of them), into the rows' layers: the depth, the thickness, then the smoothing, which
+    /// runs in the one surface's textures and is copied back.
+    unsafe fn layered_passes(
+        &self,
+        targets: &Targets,
+        layers: &LayerTargets,
+        frame: &SurfaceFrame,
+        timer: &mut GpuTimer,
+        back_first: bool,
+    ) {
+        let gl = &self.gl;
+        let [w, h] = targets.size.map(|s| s as i32);
+        // SAFETY: as the caller vouches: our objects, on the current context.
+        unsafe {
             timer.begin(Pass::Depth);
-            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.depth_fbos[0]));
+            for row in 0..layers.count {
+                layers.attach(gl, layers.depth_fbo, layers.depth, row);
+                self.depth_pass(targets, frame, back_first, row as i32, layers.depth_fbo);
+            }
+            timer.begin(Pass::Thickness);
+            for row in 0..layers.count {
+                layers.attach(gl, layers.thickness_fbo, layers.thickness, row);
+                self.thickness_pass(targets, frame, row as i32, layers.thickness_fbo);
+            }
+            gl.disable(glow::PROGRAM_POINT_SIZE);
+            timer.begin(Pass::Smoothing);
+            for row in 0..layers.count {
+                layers.attach(gl, layers.depth_fbo, layers.depth, row);
+                blit(gl, layers.depth_fbo, targets.depth_fbos[0], (w, h));
+                let smoothed = self.smoothing_pass(targets, frame);
+                let from = if smoothed == targets.depth[0] {
+                    targets.depth_fbos[0]
+                } else {
+                    targets.depth_fbos[1]
+                };
+                blit(gl, from, layers.depth_fbo, (w, h));
+            }
+        }
+    }
+
+    /// The nearest sphere's view distance per pixel into `fbo` (the depth texture and the depth test's
+    /// buffer attached), of the particles of material row `only_row` (every particle where it is -1).
+    unsafe fn depth_pass(
+        &self,
+        targets: &Targets,
+        frame: &SurfaceFrame,
+        back_first: bool,
+        only_row: i32,
+        fbo: glow::Framebuffer,
+    ) {
+        let gl = &self.gl;
+        let [w, h] = targets.size.map(|s| s as i32);
+        let count = frame.count as i32;
+        // SAFETY: as the caller vouches.
+        unsafe {
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
             gl.viewport(0, 0, w, h);
             gl.clear_color(EMPTY_DEPTH, 0.0, 0.0, 0.0);
             gl.clear_depth_f32(1.0);
@@ -465,7 +646,7 @@ impl Surface {
             gl.depth_func(glow::LESS);
             let p = self.programs.depth;
             gl.use_program(Some(p));
-            set_particle_uniforms(gl, p, frame, frame.pixels_per_metre, 0.5);
+            set_particle_uniforms(gl, p, frame, frame.pixels_per_metre, 0.5, only_row);
             gl.bind_vertex_array(Some(frame.particles));
             if back_first {
                 // The last `count` of the indices: count - 1 down to 0.
@@ -477,29 +658,53 @@ impl Surface {
             } else {
                 gl.draw_arrays(glow::POINTS, 0, count);
             }
-
             gl.disable(glow::DEPTH_TEST);
-            if !self.last_by_cuda {
-                timer.begin(Pass::Thickness);
-                let (pixels_per_metre, min_splat_px) = thickness_splat_size(frame, downsample);
-                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(targets.thickness_fbo));
-                gl.viewport(0, 0, thick_w, thick_h);
-                gl.clear_color(0.0, 0.0, 0.0, 0.0);
-                gl.clear(glow::COLOR_BUFFER_BIT);
-                gl.enable(glow::BLEND);
-                gl.blend_equation(glow::FUNC_ADD);
-                gl.blend_func(glow::ONE, glow::ONE);
-                let p = self.programs.thickness;
-                gl.use_program(Some(p));
-                set_particle_uniforms(gl, p, frame, pixels_per_metre, min_splat_px);
-                set_f32(gl, p, "u_particle_volume", frame.particle_volume);
-                gl.draw_arrays(glow::POINTS, 0, count);
-                gl.disable(glow::BLEND);
-            }
             gl.bind_vertex_array(None);
-            gl.disable(glow::PROGRAM_POINT_SIZE);
+        }
+    }
 
-            timer.begin(Pass::Smoothing);
+    /// The thickness splats, blended, into `fbo` (a thickness texture attached), of the particles of
+    /// material row `only_row` (every particle where it is -1).
+    unsafe fn thickness_pass(
+        &self,
+        targets: &Targets,
+        frame: &SurfaceFrame,
+        only_row: i32,
+        fbo: glow::Framebuffer,
+    ) {
+        let gl = &self.gl;
+        let downsample = targets.thickness_downsample;
+        let (thick_w, thick_h) = downsampled(targets.size, downsample);
+        let (pixels_per_metre, min_splat_px) = thickness_splat_size(frame, downsample);
+        // SAFETY: as the caller vouches.
+        unsafe {
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
+            gl.viewport(0, 0, thick_w, thick_h);
+            gl.clear_color(0.0, 0.0, 0.0, 0.0);
+            gl.clear(glow::COLOR_BUFFER_BIT);
+            gl.enable(glow::BLEND);
+            gl.blend_equation(glow::FUNC_ADD);
+            gl.blend_func(glow::ONE, glow::ONE);
+            let p = self.programs.thickness;
+            gl.use_program(Some(p));
+            set_particle_uniforms(gl, p, frame, pixels_per_metre, min_splat_px, only_row);
+            set_f32(gl, p, "u_particle_volume", frame.particle_volume);
+            gl.bind_vertex_array(Some(frame.particles));
+            gl.draw_arrays(glow::POINTS, 0, frame.count as i32);
+            gl.disable(glow::BLEND);
+            gl.bind_vertex_array(None);
+        }
+    }
+
+    /// The narrow-range filter over `depth[0]`; returns the texture holding the smoothed depth at
+    /// full resolution: `depth[0]` (smoothed in place), or `depth[1]` from the half-resolution
+    /// result and the unsmoothed `depth[0]`.
+    unsafe fn smoothing_pass(&self, targets: &Targets, frame: &SurfaceFrame) -> glow::Texture {
+        let gl = &self.gl;
+        let [w, h] = targets.size.map(|s| s as i32);
+        let s = frame.settings;
+        // SAFETY: as the caller vouches.
+        unsafe {
             gl.bind_vertex_array(Some(self.empty_vao));
             // Depths within a few particle radii of each other belong to one surface.
             let range = 4.0 * s.radius;
@@ -535,8 +740,6 @@ impl Surface {
                     gl.draw_arrays(glow::TRIANGLES, 0, 3);
                 }
             }
-            // The smoothed depth at full resolution: depth[0] (smoothed in place), or depth[1] from
-            // the half-resolution result and the unsmoothed depth[0].
             let smoothed = if s.half_res_smoothing {
                 let p = self.programs.depth_up;
                 gl.use_program(Some(p));
@@ -550,43 +753,82 @@ impl Surface {
             } else {
                 targets.depth[0]
             };
-
-            timer.begin(Pass::Shading);
-            gl.bind_framebuffer(glow::FRAMEBUFFER, target);
-            gl.viewport(viewport[0], viewport[1], viewport[2], viewport[3]);
-            let p = self.programs.shade;
-            gl.use_program(Some(p));
-            bind_texture(gl, p, "u_scene", 0, targets.scene_colour);
-            bind_texture(gl, p, "u_scene_depth", 1, targets.scene_depth);
-            bind_texture(gl, p, "u_depth", 2, smoothed);
-            bind_texture(gl, p, "u_thickness", 3, targets.thickness);
-            set_mat4(gl, p, "u_proj", &frame.proj);
-            let view_to_world = Mat3::from_mat4(frame.view).transpose();
-            set_mat3(gl, p, "u_view_to_world", &view_to_world);
-            let sun = Vec3::from(SUN).normalize();
-            set_vec3(gl, p, "u_sun_world", sun.to_array());
-            set_vec3(
-                gl,
-                p,
-                "u_sun_view",
-                (Mat3::from_mat4(frame.view) * sun).to_array(),
-            );
-            set_vec3(gl, p, "u_absorption", ABSORPTION.map(|k| k * s.absorption));
-            set_f32(gl, p, "u_scattering", SCATTERING * s.absorption);
-            set_f32(gl, p, "u_absorption_scale", s.absorption);
-            set_vec3(gl, p, "u_water_colour", WATER_COLOUR);
-            set_f32(gl, p, "u_refraction", s.refraction);
-            set_i32(gl, p, "u_tint", frame.tint as i32);
-            set_vec2(gl, p, "u_range", frame.range);
-            frame.materials.set(gl, p);
-            gl.draw_arrays(glow::TRIANGLES, 0, 3);
-            timer.end();
-
             gl.bind_vertex_array(None);
-            gl.use_program(None);
-            gl.active_texture(glow::TEXTURE0);
-            gl.bind_texture(glow::TEXTURE_2D, None);
+            smoothed
         }
+    }
+
+    /// Makes the layers for `count` liquids at the targets' sizes (reallocating only when either
+    /// changed).
+    unsafe fn ensure_layers(&mut self, size: [u32; 2], count: u32) -> Result<()> {
+        let Some(targets) = &self.targets else {
+            return Ok(());
+        };
+        let downsample = targets.thickness_downsample;
+        let wanted = (size, downsample, count);
+        if self
+            .layers
+            .as_ref()
+            .is_some_and(|l| (l.size, l.thickness_downsample, l.count) == wanted)
+        {
+            return Ok(());
+        }
+        let gl = &self.gl;
+        // SAFETY: as the caller vouches: the context is current; the old layers are ours, deleted once.
+        unsafe {
+            if let Some(old) = self.layers.take() {
+                delete_layers(gl, &old);
+            }
+            let array = |internal: u32, (w, h): (i32, i32)| -> Result<glow::Texture> {
+                let t = gl.create_texture().map_err(gl_error("a texture array"))?;
+                gl.bind_texture(glow::TEXTURE_2D_ARRAY, Some(t));
+                gl.tex_storage_3d(glow::TEXTURE_2D_ARRAY, 1, internal, w, h, count as i32);
+                for (key, value) in [
+                    (glow::TEXTURE_MIN_FILTER, glow::LINEAR),
+                    (glow::TEXTURE_MAG_FILTER, glow::LINEAR),
+                    (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
+                    (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
+                ] {
+                    gl.tex_parameter_i32(glow::TEXTURE_2D_ARRAY, key, value as i32);
+                }
+                gl.bind_texture(glow::TEXTURE_2D_ARRAY, None);
+                Ok(t)
+            };
+            let full = (size[0] as i32, size[1] as i32);
+            let layers = LayerTargets {
+                size,
+                thickness_downsample: downsample,
+                count,
+                depth: array(glow::R32F, full)?,
+                thickness: array(glow::RG16F, downsampled(size, downsample))?,
+                depth_fbo: gl.create_framebuffer().map_err(gl_error("a framebuffer"))?,
+                thickness_fbo: gl.create_framebuffer().map_err(gl_error("a framebuffer"))?,
+            };
+            layers.attach(gl, layers.depth_fbo, layers.depth, 0);
+            gl.framebuffer_renderbuffer(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::RENDERBUFFER,
+                Some(targets.depth_test),
+            );
+            layers.attach(gl, layers.thickness_fbo, layers.thickness, 0);
+            for (name, fbo) in [("depth", layers.depth_fbo), ("thickness", layers.thickness_fbo)] {
+                gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fbo));
+                let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+                if status != glow::FRAMEBUFFER_COMPLETE {
+                    delete_layers(gl, &layers);
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+                    bail!(
+                        "the surface's per-liquid {name} framebuffer is incomplete (status {status:#x}): this \
+                         OpenGL cannot render into texture arrays; colour by speed or density, or draw \
+                         with --draw spheres"
+                    );
+                }
+            }
+            gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+            self.layers = Some(layers);
+        }
+        Ok(())
     }
 
     /// Makes the reversed indices cover at least `count` particles (grown by doubling: an emitter's
@@ -779,6 +1021,10 @@ impl Surface {
     pub fn destroy(&mut self) {
         self.release_cuda_target();
         self.cuda = None;
+        if let Some(layers) = self.layers.take() {
+            // SAFETY: our objects, deleted once.
+            unsafe { delete_layers(&self.gl, &layers) };
+        }
         if let Some(t) = self.targets.take() {
             // SAFETY: our objects, deleted once.
             unsafe { self.delete_targets(&t) };
@@ -844,14 +1090,53 @@ fn downsampled(size: [u32; 2], factor: u32) -> (i32, i32) {
     )
 }
 
+unsafe fn delete_layers(gl: &glow::Context, layers: &LayerTargets) {
+    // SAFETY: as the caller vouches: its objects, on the current context.
+    unsafe {
+        gl.delete_framebuffer(layers.depth_fbo);
+        gl.delete_framebuffer(layers.thickness_fbo);
+        gl.delete_texture(layers.depth);
+        gl.delete_texture(layers.thickness);
+    }
+}
+
+/// Copies the colour of framebuffer `from` into `to`, both `(w, h)`.
+unsafe fn blit(gl: &glow::Context, from: glow::Framebuffer, to: glow::Framebuffer, (w, h): (i32, i32)) {
+    // SAFETY: as the caller vouches.
+    unsafe {
+        gl.bind_framebuffer(glow::READ_FRAMEBUFFER, Some(from));
+        gl.bind_framebuffer(glow::DRAW_FRAMEBUFFER, Some(to));
+        gl.blit_framebuffer(0, 0, w, h, 0, 0, w, h, glow::COLOR_BUFFER_BIT, glow::NEAREST);
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+    }
+}
+
+/// Binds the texture array `texture` (or none) to `unit` and points `program`'s sampler `name` at it.
+unsafe fn bind_array_texture(
+    gl: &glow::Context,
+    program: glow::Program,
+    name: &str,
+    unit: u32,
+    texture: Option<glow::Texture>,
+) {
+    // SAFETY: as the caller vouches.
+    unsafe {
+        gl.active_texture(glow::TEXTURE0 + unit);
+        gl.bind_texture(glow::TEXTURE_2D_ARRAY, texture);
+        set_i32(gl, program, name, unit as i32);
+    }
+}
+
 unsafe fn set_particle_uniforms(
     gl: &glow::Context,
     program: glow::Program,
     frame: &SurfaceFrame,
     pixels_per_metre: f32,
     min_splat_px: f32,
+    only_row: i32,
 ) {
     unsafe {
+        set_i32(gl, program, "u_only_row", only_row);
         set_mat4(gl, program, "u_view", &frame.view);
         set_mat4(gl, program, "u_proj", &frame.proj);
         set_f32(gl, program, "u_radius", frame.settings.radius);

@@ -16,8 +16,15 @@ pub struct NamedMaterial {
     pub name: String,
     /// Linear RGB in [0, 1].
     pub colour: [f32; 3],
+    /// The rendered surface's absorption, a multiple of what its colour gives (`absorption` in
+    /// the scene; 1 by default).
+    pub absorption: f32,
     pub law: Material,
 }
+
+/// The largest `absorption` a scene may give a material: by then the surface is opaque within a
+/// few millimetres.
+pub const MAX_ABSORPTION: f32 = 100.0;
 
 /// The colour of a material the scene gives none: water's blue, then a few that tell liquids apart.
 pub fn default_colour(row: usize) -> [f32; 3] {

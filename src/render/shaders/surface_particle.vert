@@ -6,10 +6,17 @@ uniform mat4 u_proj;
 uniform float u_radius;              // the sphere's radius, m
 uniform float u_pixels_per_metre;    // pixels per metre at unit depth, in this pass's target
 uniform float u_min_splat_px;        // smallest splat radius, pixels
+uniform int u_only_row;              // >= 0: only the particles of this material row (w, coloured
+                                     // by material), the others clipped away
 out vec3 v_centre;                   // view space, m
 out float v_splat;                   // the splat's radius, m (>= u_radius)
 out float v_quantity;
 void main() {
+    if (u_only_row >= 0 && int(a_particle.w + 0.5) != u_only_row) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        gl_PointSize = 1.0;
+        return;
+    }
     vec4 view = u_view * vec4(a_particle.xyz, 1.0);
     gl_Position = u_proj * view;
     float depth = max(-view.z, 1e-4);

@@ -144,6 +144,9 @@ pub struct MaterialSpec {
     pub law: LawSpec,
     /// Linear RGB in [0, 1], for the viewer, the renders and the PLY files' colour.
     pub colour: Option<[f32; 3]>,
+    /// How quickly the liquid hides what is behind it in the rendered surface: a multiple of the
+    /// absorption its colour gives (1; 0 is clear, 10 nearly opaque within a centimetre or two).
+    pub absorption: Option<f32>,
     pub rest_density: f32,
     /// Give either the sound speed (m/s) or the EOS stiffness (Pa); the other follows.
     pub sound_speed: Option<f32>,

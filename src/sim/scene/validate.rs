@@ -11,7 +11,7 @@ use crate::contract::{
 };
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
-use crate::sim::material::{default_colour, MaterialTable, NamedMaterial};
+use crate::sim::material::{default_colour, MaterialTable, NamedMaterial, MAX_ABSORPTION};
 use crate::sim::params::{Material, FRAME_DT};
 use crate::sim::{mesh, presets};
 use glam::{DVec3, Vec3};
@@ -304,9 +304,23 @@ impl Validator<'_> {
                 }
                 None => default_colour(row),
             };
+            let absorption = match m.absorption {
+                None => 1.0,
+                Some(a) if a.is_finite() && (0.0..=MAX_ABSORPTION).contains(&a) => a,
+                Some(a) => {
+                    return Err(self.err(
+                        format!("{key}.absorption"),
+                        format!("= {a} is not an absorption"),
+                        format!(
+                        "give a number from 0 (clear) to {MAX_ABSORPTION} (opaque), 1 being the colour's own"
+                    ),
+                    ))
+                }
+            };
             rows.push(NamedMaterial {
                 name,
                 colour,
+                absorption,
                 law: self.material(&key, m, dx, n)?,
             });
         }
