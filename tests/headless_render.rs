@@ -310,75 +310,19 @@ fn every_live_particle_of_a_draining_scene_is_fed_for_drawing() {
 fn each_material_is_drawn_in_its_colour() {
     let size = [320, 180];
     let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
-    let scene = Scene::from_toml(
-        r#"
-[domain]
-size = [0.4, 0.2, 0.2]
-resolution = [40, 20, 20]
-
-[[material]]
-name = "water"
-rest_density = 1000.0
-sound_speed = 20.0
-colour = [0.1, 0.2, 0.9]
-
-[[material]]
-name = "paint"
-rest_density = 1000.0
-sound_speed = 20.0
-colour = [0.9, 0.1, 0.1]
-
-[[block]]
-min = [0.03, 0.03, 0.03]
-max = [0.17, 0.15, 0.17]
-material = "paint"
-
-[[block]]
-min = [0.23, 0.03, 0.03]
-max = [0.37, 0.15, 0.17]
-material = "water"
-"#,
-        "two-colours.toml",
-    )
-    .expect("scene");
+    let scene = water_and_paint(
+        [0.4, 0.2, 0.2],
+        "",
+        "[[block]]\nmin = [0.03, 0.03, 0.03]\nmax = [0.17, 0.15, 0.17]\nmaterial = \"paint\"\n\
+         [[block]]\nmin = [0.23, 0.03, 0.03]\nmax = [0.37, 0.15, 0.17]\nmaterial = \"water\"\n",
+    );
     assert_eq!(Colouring::default_for(&scene), Colouring::Material);
-    let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
-    let (lo, hi) = scene.fluid_region();
-    let domain = (lo.as_vec3(), hi.as_vec3());
-    let viewport = Viewport::full(size);
-    let mut sim = Simulation::new(scene.clone(), solver);
-    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
-    let mut feed = ParticleFeed::new(Transfer::HostCopy);
-    let count = feed
-        .update(&mut sim, &mut renderer, Colouring::Material)
-        .expect("particles")
-        .slots;
-    let mut image = |mode: DrawMode| {
-        let settings = RenderSettings::for_scene(&scene, mode, Colouring::Material, None).expect("settings");
-        assert_eq!(settings.legend(), None);
-        let camera = settings.framing(domain.0, domain.1, viewport);
-        renderer
-            .draw(viewport, &camera, &settings, count, domain)
-            .expect("draw");
-        headless.read_image()
-    };
-    let (points, surface) = (image(DrawMode::Points), image(DrawMode::Surface));
-    renderer.destroy();
-
-    // Reddish and bluish pixels in each half of the frame.
-    let tally = |image: &Image, x: u32| {
-        let half = crop(image, x, 0, size[0] / 2, size[1]);
-        let (mut red, mut blue) = (0, 0);
-        for p in half.rgba.chunks_exact(4) {
-            let (r, b) = (i32::from(p[0]), i32::from(p[2]));
-            if r > b + 30 {
-                red += 1;
-            } else if b > r + 30 {
-                blue += 1;
-            }
-        }
-        (red, blue)
-    };
+    let settings =
+        RenderSettings::for_scene(&scene, DrawMode::Points, Colouring::Material, None).expect("settings");
+    assert_eq!(settings.legend(), None);
+    let points = drawn_by_material(&headless, &scene, DrawMode::Points, size);
+    let surface = drawn_by_material(&headless, &scene, DrawMode::Surface, size);
+    let tally = |image: &Image, x: u32| red_and_blue(image, (x, 0, size[0] / 2, size[1]));
     for (what, image) in [("points", &points), ("surface", &surface)] {
         let (left, right) = (tally(image, 0), tally(image, size[0] / 2));
         println!("{what}: left (red, blue) {left:?}, right {right:?}");
@@ -416,74 +360,13 @@ fn each_liquid_is_a_surface_of_its_own() {
     let size = [320, 180];
     let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
     let image_with = |front_absorption: f32| {
-        let scene = Scene::from_toml(
-            &format!(
-                r#"
-[domain]
-size = [0.4, 0.2, 0.4]
-resolution = [40, 20, 40]
-
-[[material]]
-name = "water"
-rest_density = 1000.0
-sound_speed = 20.0
-colour = [0.1, 0.2, 0.9]
-
-[[material]]
-name = "paint"
-rest_density = 1000.0
-sound_speed = 20.0
-colour = [0.9, 0.1, 0.1]
-absorption = {front_absorption}
-
-[[block]]
-min = [0.03, 0.03, 0.03]
-max = [0.37, 0.15, 0.15]
-material = "water"
-
-[[block]]
-min = [0.03, 0.03, 0.25]
-max = [0.19, 0.15, 0.37]
-material = "paint"
-"#
-            ),
-            "front-and-back.toml",
-        )
-        .expect("scene");
-        let solver = backend::create(BackendKind::Cpu, &scene).expect("CPU solver");
-        let (lo, hi) = scene.fluid_region();
-        let domain = (lo.as_vec3(), hi.as_vec3());
-        let viewport = Viewport::full(size);
-        let mut sim = Simulation::new(scene.clone(), solver);
-        let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
-        let mut feed = ParticleFeed::new(Transfer::HostCopy);
-        let count = feed
-            .update(&mut sim, &mut renderer, Colouring::Material)
-            .expect("particles")
-            .slots;
-        let settings = RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Material, None)
-            .expect("settings");
-        let camera = settings.framing(domain.0, domain.1, viewport);
-        renderer
-            .draw(viewport, &camera, &settings, count, domain)
-            .expect("draw");
-        let image = headless.read_image();
-        renderer.destroy();
-        image
-    };
-    // Pixels that are mostly red, and mostly blue, in the `w` x `h` rectangle at (x, y).
-    let tally = |image: &Image, (x, y, w, h): (u32, u32, u32, u32)| {
-        let part = crop(image, x, y, w, h);
-        let (mut red, mut blue) = (0, 0);
-        for p in part.rgba.chunks_exact(4) {
-            let (r, b) = (i32::from(p[0]), i32::from(p[2]));
-            if r > b + 30 {
-                red += 1;
-            } else if b > r + 30 {
-                blue += 1;
-            }
-        }
-        (red, blue)
+        let scene = water_and_paint(
+            [0.4, 0.2, 0.4],
+            &format!("absorption = {front_absorption}\n"),
+            "[[block]]\nmin = [0.03, 0.03, 0.03]\nmax = [0.37, 0.15, 0.15]\nmaterial = \"water\"\n\
+             [[block]]\nmin = [0.03, 0.03, 0.25]\nmax = [0.19, 0.15, 0.37]\nmaterial = \"paint\"\n",
+        );
+        drawn_by_material(&headless, &scene, DrawMode::Surface, size)
     };
     let left = (0, 0, size[0] / 2, size[1]);
     let right = (size[0] / 2, 0, size[0] / 2, size[1]);
@@ -494,34 +377,91 @@ material = "paint"
     for (what, image) in [("opaque", &opaque), ("clear", &clear)] {
         println!(
             "{what} paint in front: (red, blue) left {:?}, right {:?}, the paint's face {:?}",
-            tally(image, left),
-            tally(image, right),
-            tally(image, paint)
+            red_and_blue(image, left),
+            red_and_blue(image, right),
+            red_and_blue(image, paint)
         );
     }
-    let face = tally(&opaque, paint);
+    let face = red_and_blue(&opaque, paint);
     assert!(
         face.0 >= 570,
         "the opaque paint's face is not red (of 600 pixels): {face:?}"
     );
-    let (r, b) = tally(&opaque, right);
+    let (r, b) = red_and_blue(&opaque, right);
     assert!(
         b > 800 && b > 5 * r,
         "the water on the right is not blue: {:?}",
         (r, b)
     );
-    let see_through = tally(&clear, paint);
+    let see_through = red_and_blue(&clear, paint);
     assert!(
         see_through.0 <= 30,
         "a clear liquid tints what is behind it: {see_through:?} (red, blue) on the paint's face"
     );
     // Much of what lies behind the paint's face is floor, not water: on an H100 the clear paint
     // showed 343 more blue pixels in the left half than the opaque.
-    let (opaque_left, clear_left) = (tally(&opaque, left), tally(&clear, left));
+    let (opaque_left, clear_left) = (red_and_blue(&opaque, left), red_and_blue(&clear, left));
     assert!(
         clear_left.1 > opaque_left.1 + 150,
         "the water does not show through a clear liquid in front of it: blue pixels {} behind clear paint, {} behind opaque",
         clear_left.1,
         opaque_left.1
     );
+}
+
+/// A tank of `size` m at dx = 1 cm with two liquids of water's density, "water" (blue) and "paint"
+/// (red, with `paint_keys` added to its entry), and `bodies`.
+fn water_and_paint(size: [f32; 3], paint_keys: &str, bodies: &str) -> Scene {
+    let [x, y, z] = size;
+    let res = size.map(|s| (s / 0.01).round() as u32);
+    Scene::from_toml(
+        &format!(
+            "[domain]\nsize = [{x}, {y}, {z}]\nresolution = [{}, {}, {}]\n\
+             [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.1, 0.2, 0.9]\n\
+             [[material]]\nname = \"paint\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.9, 0.1, 0.1]\n\
+             {paint_keys}{bodies}",
+            res[0], res[1], res[2]
+        ),
+        "water-and-paint.toml",
+    )
+    .expect("scene")
+}
+
+/// `scene`'s first state on the CPU backend, coloured by material and drawn in `mode` at `size`,
+/// framed as the viewer frames it.
+fn drawn_by_material(headless: &HeadlessGl, scene: &Scene, mode: DrawMode, size: [u32; 2]) -> Image {
+    let solver = backend::create(BackendKind::Cpu, scene).expect("CPU solver");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let viewport = Viewport::full(size);
+    let mut sim = Simulation::new(scene.clone(), solver);
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let count = feed
+        .update(&mut sim, &mut renderer, Colouring::Material)
+        .expect("particles")
+        .slots;
+    let settings = RenderSettings::for_scene(scene, mode, Colouring::Material, None).expect("settings");
+    let camera = settings.framing(domain.0, domain.1, viewport);
+    renderer
+        .draw(viewport, &camera, &settings, count, domain)
+        .expect("draw");
+    let image = headless.read_image();
+    renderer.destroy();
+    image
+}
+
+/// Pixels that are mostly red, and mostly blue, in the `w` x `h` rectangle of `image` at (x, y).
+fn red_and_blue(image: &Image, (x, y, w, h): (u32, u32, u32, u32)) -> (usize, usize) {
+    let part = crop(image, x, y, w, h);
+    let (mut red, mut blue) = (0, 0);
+    for p in part.rgba.chunks_exact(4) {
+        let (r, b) = (i32::from(p[0]), i32::from(p[2]));
+        if r > b + 30 {
+            red += 1;
+        } else if b > r + 30 {
+            blue += 1;
+        }
+    }
+    (red, blue)
 }
