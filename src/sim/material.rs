@@ -22,8 +22,8 @@ pub struct NamedMaterial {
     pub law: Material,
 }
 
-/// The largest `absorption` a scene may give a material: by then the surface is opaque within a
-/// few millimetres.
+/// The largest `absorption` a scene may give a material: the liquid's colour then hides 95 % of
+/// what is behind it within 1.2 cm.
 pub const MAX_ABSORPTION: f32 = 100.0;
 
 /// The colour of a material the scene gives none: water's blue, then a few that tell liquids apart.

@@ -145,7 +145,8 @@ pub struct MaterialSpec {
     /// Linear RGB in [0, 1], for the viewer, the renders and the PLY files' colour.
     pub colour: Option<[f32; 3]>,
     /// How quickly the liquid hides what is behind it in the rendered surface: a multiple of the
-    /// absorption its colour gives (1; 0 is clear, 10 nearly opaque within a centimetre or two).
+    /// absorption its colour gives (1; 0 is clear; at `a` the liquid's own colour has replaced 95 %
+    /// of what is behind after 1.2 / `a` metres of it, 4 cm at 30).
     pub absorption: Option<f32>,
     pub rest_density: f32,
     /// Give either the sound speed (m/s) or the EOS stiffness (Pa); the other follows.
