@@ -5,7 +5,7 @@
 //! `epaint_default_fonts`, both already in the build for the panel) into a small texture, only when
 //! the text or its size changes; each frame draws a few textured quads.
 
-use super::program::{bind_texture, gl_error, link, set_f32, set_i32, set_vec3};
+use super::program::{bind_texture, gl_error, link, set_f32, set_i32, set_sampling, set_vec3};
 use super::renderer::scale_colour;
 use super::surface::{foam_amount, FOAM_COLOUR, WATER_COLOUR};
 use super::Viewport;
@@ -298,14 +298,7 @@ impl Legend {
                 glow::PixelUnpackData::Slice(Some(&pixels)),
             );
             gl.pixel_store_i32(glow::UNPACK_ALIGNMENT, 4);
-            for (parameter, value) in [
-                (glow::TEXTURE_MIN_FILTER, glow::NEAREST),
-                (glow::TEXTURE_MAG_FILTER, glow::NEAREST),
-                (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
-                (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
-            ] {
-                gl.tex_parameter_i32(glow::TEXTURE_2D, parameter, value as i32);
-            }
+            set_sampling(gl, glow::TEXTURE_2D, glow::NEAREST);
             gl.bind_texture(glow::TEXTURE_2D, None);
             self.atlas = Some(Atlas {
                 texts,

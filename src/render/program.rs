@@ -77,10 +77,36 @@ pub unsafe fn bind_texture(
     unit: u32,
     texture: glow::Texture,
 ) {
+    unsafe { bind_texture_as(gl, program, name, unit, glow::TEXTURE_2D, Some(texture)) }
+}
+
+/// [`bind_texture`] for a texture of another `target` (`TEXTURE_2D_ARRAY`), or none.
+pub unsafe fn bind_texture_as(
+    gl: &glow::Context,
+    program: glow::Program,
+    name: &str,
+    unit: u32,
+    target: u32,
+    texture: Option<glow::Texture>,
+) {
     unsafe {
         gl.active_texture(glow::TEXTURE0 + unit);
-        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+        gl.bind_texture(target, texture);
         set_i32(gl, program, name, unit as i32);
+    }
+}
+
+/// The bound `target` texture's sampling: `filter` both ways, clamped to its edges.
+pub unsafe fn set_sampling(gl: &glow::Context, target: u32, filter: u32) {
+    unsafe {
+        for (parameter, value) in [
+            (glow::TEXTURE_MIN_FILTER, filter),
+            (glow::TEXTURE_MAG_FILTER, filter),
+            (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
+            (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
+        ] {
+            gl.tex_parameter_i32(target, parameter, value as i32);
+        }
     }
 }
 

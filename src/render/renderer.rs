@@ -323,9 +323,14 @@ const GLSL_MATERIALS: &str = "
 uniform vec3 u_material_colours[8];
 uniform float u_material_absorptions[8];
 uniform int u_material_count;
+// The row's own factor (`absorption` in the scene), which also scales how fast its colour
+// replaces what is behind it.
+float material_absorption_factor(int row) {
+    return u_material_absorptions[clamp(row, 0, max(u_material_count - 1, 0))];
+}
 vec3 material_absorption(int row) {
     int r = clamp(row, 0, max(u_material_count - 1, 0));
-    return u_material_absorptions[r] * (1.0 + 6.0 * (1.0 - u_material_colours[r]));
+    return material_absorption_factor(r) * (1.0 + 6.0 * (1.0 - u_material_colours[r]));
 }
 vec3 material_colour(float row) {
     float r = clamp(row, 0.0, float(max(u_material_count - 1, 0)));

@@ -18,7 +18,8 @@
 //! frame. Nothing is read back to the CPU.
 
 use super::program::{
-    bind_texture, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_vec2, set_vec3, FULLSCREEN_VS,
+    bind_texture, bind_texture_as, gl_error, link, set_f32, set_i32, set_mat3, set_mat4, set_sampling,
+    set_vec2, set_vec3, FULLSCREEN_VS,
 };
 use super::timer::{GpuTimer, Pass};
 use crate::contract::SplatCamera;
@@ -501,14 +502,15 @@ impl Surface {
             return Ok(());
         };
         let gl = &self.gl;
+        let layers = self.layers.as_ref().filter(|_| liquids > 1);
         // SAFETY: every object is ours or the caller's (the VAO, the target), on the current context.
         unsafe {
             gl.disable(glow::BLEND);
             gl.disable(glow::SCISSOR_TEST);
             gl.disable(glow::CULL_FACE);
             gl.enable(glow::PROGRAM_POINT_SIZE);
-            let smoothed = match &self.layers {
-                Some(layers) if liquids > 1 => {
+            let smoothed = match layers {
+                Some(layers) => {
                     self.layered_passes(targets, layers, frame, timer, back_first);
                     None
                 }
@@ -537,9 +539,9 @@ impl Surface {
             bind_texture(gl, p, "u_thickness", 3, targets.thickness);
             // The arrays' samplers always name units of their own: two samplers of different types
             // on one unit fail the draw, whether the shader reads them or not.
-            let layers = self.layers.as_ref().filter(|_| liquids > 1);
-            bind_array_texture(gl, p, "u_layer_depth", 4, layers.map(|l| l.depth));
-            bind_array_texture(gl, p, "u_layer_thickness", 5, layers.map(|l| l.thickness));
+            let array = glow::TEXTURE_2D_ARRAY;
+            bind_texture_as(gl, p, "u_layer_depth", 4, array, layers.map(|l| l.depth));
+            bind_texture_as(gl, p, "u_layer_thickness", 5, array, layers.map(|l| l.thickness));
             set_i32(
                 gl,
                 p,
@@ -783,14 +785,7 @@ impl Surface {
                 let t = gl.create_texture().map_err(gl_error("a texture array"))?;
                 gl.bind_texture(glow::TEXTURE_2D_ARRAY, Some(t));
                 gl.tex_storage_3d(glow::TEXTURE_2D_ARRAY, 1, internal, w, h, count as i32);
-                for (key, value) in [
-                    (glow::TEXTURE_MIN_FILTER, glow::LINEAR),
-                    (glow::TEXTURE_MAG_FILTER, glow::LINEAR),
-                    (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
-                    (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
-                ] {
-                    gl.tex_parameter_i32(glow::TEXTURE_2D_ARRAY, key, value as i32);
-                }
+                set_sampling(gl, glow::TEXTURE_2D_ARRAY, glow::LINEAR);
                 gl.bind_texture(glow::TEXTURE_2D_ARRAY, None);
                 Ok(t)
             };
@@ -876,10 +871,7 @@ impl Surface {
                     kind,
                     glow::PixelUnpackData::Slice(None),
                 );
-                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MIN_FILTER, filter as i32);
-                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_MAG_FILTER, filter as i32);
-                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE as i32);
-                gl.tex_parameter_i32(glow::TEXTURE_2D, glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE as i32);
+                set_sampling(gl, glow::TEXTURE_2D, filter);
                 Ok(t)
             };
             let scene_colour = texture(glow::RGBA8, glow::RGBA, glow::UNSIGNED_BYTE, w, h, glow::LINEAR)?;
@@ -1108,22 +1100,6 @@ unsafe fn blit(gl: &glow::Context, from: glow::Framebuffer, to: glow::Framebuffe
         gl.bind_framebuffer(glow::DRAW_FRAMEBUFFER, Some(to));
         gl.blit_framebuffer(0, 0, w, h, 0, 0, w, h, glow::COLOR_BUFFER_BIT, glow::NEAREST);
         gl.bind_framebuffer(glow::FRAMEBUFFER, None);
-    }
-}
-
-/// Binds the texture array `texture` (or none) to `unit` and points `program`'s sampler `name` at it.
-unsafe fn bind_array_texture(
-    gl: &glow::Context,
-    program: glow::Program,
-    name: &str,
-    unit: u32,
-    texture: Option<glow::Texture>,
-) {
-    // SAFETY: as the caller vouches.
-    unsafe {
-        gl.active_texture(glow::TEXTURE0 + unit);
-        gl.bind_texture(glow::TEXTURE_2D_ARRAY, texture);
-        set_i32(gl, program, name, unit as i32);
     }
 }
 

@@ -127,7 +127,7 @@ void shade_layers(ivec2 pixel, ivec2 size, vec3 scene, float scene_z) {
         vec3 behind = i == 0 ? texture(u_scene, bent_uv(nrm, thickness, z[i])).rgb : colour;
         colour = body_and_reflection(behind, nrm, v, thickness, material_colour(float(row[i])),
                                      u_absorption_scale * material_absorption(row[i]),
-                                     u_scattering * u_material_absorptions[row[i]])
+                                     u_scattering * material_absorption_factor(row[i]))
                + vec3(highlight(nrm, v));
     }
     o_colour = vec4(colour, 1.0);
@@ -159,8 +159,7 @@ void main() {
     vec3 behind = texture(u_scene, bent_uv(n, thickness, z)).rgb;
     // Coloured by material (one liquid here), the liquid absorbs the light its colour lacks.
     vec3 absorption = u_tint == 3 ? u_absorption_scale * material_absorption(int(quantity + 0.5)) : u_absorption;
-    float scattering = u_tint == 3 ? u_scattering * u_material_absorptions[clamp(int(quantity + 0.5), 0, 7)]
-                                   : u_scattering;
+    float scattering = u_tint == 3 ? u_scattering * material_absorption_factor(int(quantity + 0.5)) : u_scattering;
     vec3 water = u_tint == 2 ? scale_colour(t)
                : u_tint == 3 ? material_colour(quantity) : u_water_colour;
     vec3 colour = body_and_reflection(behind, n, v, thickness, water, absorption, scattering);
