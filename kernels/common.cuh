@@ -225,6 +225,18 @@ __device__ __forceinline__ float gather_density(const Stencil& s, const KernelPa
     return grid_mass * params.inv_dx * params.inv_dx * params.inv_dx;
 }
 
+// The grid's volume at the stencil times the particle's own mass, as a density (Params::volume_density:
+// the rest densities differ): rho_p = m_p sum_i w V_i / dx^3, V_i the node's weights in
+// VOLUME_UNITS_PER_WEIGHT (volume.cu, the walls' images added). `volume_density` in src/sim/cpu.rs
+// is the twin.
+__device__ __forceinline__ float gather_volume_density(const Stencil& s, const KernelParams& params,
+                                                       const u64* volume, float m_p) {
+    const float inv_units = 1.0f / VOLUME_UNITS_PER_WEIGHT;
+    float weights = 0.0f;
+    FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, { weights += w * fixed_point_value(volume[node], inv_units); })
+    return weights * m_p * (params.inv_dx * params.inv_dx * params.inv_dx);
+}
+
 // What a particle scatters to node d (in cells from it): w (mv + affine d), with
 //   affine = m_p dx C - (4 dt V_p / dx) sigma,  sigma = -p I + mu (C + C^T),  V_p = m_p / rho.
 struct ParticleImpulse {
@@ -417,36 +429,19 @@ __device__ __forceinline__ G2pResult g2p_particle_and_density(const KernelParams
     return g2p_gather<true>(params, xp, material_tag, 0.0f, grid_vel, &density);
 }
 
-// DensityRule::advect (src/sim/params.rs): the grid's density at the particle's position before the
-// advection, carried over the substep by the fluid's velocity divergence there, the volume factor
-// held within MAX_VOLUME_CHANGE of 1.
-// Under carried_density (materials of several rest densities) the particle's own last density
-// `rho_before` is carried instead of the grid's, which mixes the liquids' masses at an interface.
-__device__ __forceinline__ float advected_density(const KernelParams& params, const GridDensity& g, float rho_before) {
-    const float rho_grid = params.carried_density
-                               ? rho_before
-                               : g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
+// DensityRule::advect (src/sim/params.rs): `rho_grid`, the density gathered at the particle's position
+// before the advection (from the grid's mass, mass_density, or its volume where the rest densities
+// differ), carried over the substep by the fluid's velocity divergence there, the volume factor held
+// within MAX_VOLUME_CHANGE of 1.
+__device__ __forceinline__ float advected_density(const KernelParams& params, float rho_grid, const GridDensity& g) {
     const float volume_factor =
         fminf(fmaxf(1.0f + params.dt * g.divergence, 1.0f - MAX_VOLUME_CHANGE), 1.0f + MAX_VOLUME_CHANGE);
     return rho_grid / volume_factor;
 }
 
-// g2p under carried_density for the passes that gather no density otherwise (g2p.cu, g2p2g.cu): the
-// gather with the fluid's divergence, the particle's density carried over the substep by it, and
-// the signal speed at that density.
-struct CarriedG2p {
-    G2pResult r;
-    float rho;
-};
-
-__device__ __forceinline__ CarriedG2p g2p_particle_carried(const KernelParams& params, float4 xp, float material_tag,
-                                                           float rho_before, const float4* grid_vel) {
-    GridDensity density;
-    CarriedG2p out;
-    out.r = g2p_particle_and_density(params, xp, material_tag, grid_vel, density);
-    out.rho = advected_density(params, density, rho_before);
-    out.r.signal = material_signal_speed(material_table[material_index(params, out.r.v)], out.rho, out.r.speed);
-    return out;
+// The density of the grid's mass the gather found (GridDensity::mass).
+__device__ __forceinline__ float mass_density(const KernelParams& params, const GridDensity& g) {
+    return g.mass * (params.inv_dx * params.inv_dx * params.inv_dx);
 }
 
 // The density a particle reports for the time step: in row 0's terms, rho rho0_0 / rho0

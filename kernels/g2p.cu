@@ -6,13 +6,12 @@
 // stopped, so pairing the largest density with the largest speed would overstate it).
 #include "common.cuh"
 
-template <bool CARRIED>
-__device__ __forceinline__ void g2p_pass(const KernelParams& params,
+extern "C" __global__ void g2p(const KernelParams params,
                                float4* __restrict__ x,
                                float4* __restrict__ v,
                                float4* __restrict__ c,  // 3 arrays of N: columns 0, 1, 2 of C
                                const float4* __restrict__ grid_vel,
-                               float* __restrict__ rho,  // p2g's density estimate; carried_density: carried here
+                               const float* __restrict__ rho,  // p2g's density estimate
                                StepCounters* __restrict__ counters) {
     const u32 n = params.num_particles;
     float max_speed = 0.0f, max_signal = 0.0f;
@@ -22,14 +21,7 @@ __device__ __forceinline__ void g2p_pass(const KernelParams& params,
     // collapses: 0.12 ms per step in cell order, 0.07 ms in index order); its grid reads are cached
     // gathers, which suffer less from the spawn order's decay than the scatters' atomics do.
     FOR_EACH_INDEX(p, n) {
-        G2pResult r;
-        if (CARRIED) {
-            const CarriedG2p carried = g2p_particle_carried(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
-            r = carried.r;
-            rho[p] = carried.rho;
-        } else {
-            r = g2p_particle(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
-        }
+        const G2pResult r = g2p_particle(params, x[p], particle_material_tag(params, v, p), rho[p], grid_vel);
         for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = r.c[col];
         v[p] = r.v;
         x[p] = r.x;
@@ -38,17 +30,4 @@ __device__ __forceinline__ void g2p_pass(const KernelParams& params,
     }
     atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
     atomic_max_nonnegative(&counters->max_signal_bits, max_signal);
-}
-
-extern "C" __global__ void g2p(const KernelParams params, float4* __restrict__ x, float4* __restrict__ v,
-                               float4* __restrict__ c, const float4* __restrict__ grid_vel, float* __restrict__ rho,
-                               StepCounters* __restrict__ counters) {
-    g2p_pass<false>(params, x, v, c, grid_vel, rho, counters);
-}
-
-// Scenes whose rest densities differ (Params::carried_density): the density carried here.
-extern "C" __global__ void g2p_carried(const KernelParams params, float4* __restrict__ x, float4* __restrict__ v,
-                                       float4* __restrict__ c, const float4* __restrict__ grid_vel,
-                                       float* __restrict__ rho, StepCounters* __restrict__ counters) {
-    g2p_pass<true>(params, x, v, c, grid_vel, rho, counters);
 }

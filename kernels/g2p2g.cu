@@ -7,7 +7,7 @@
 // Also flags `rebin_needed` where a particle moved about a cell since binning.
 #include "tiles.cuh"
 
-template <bool ADVECT, bool CARRIED>
+template <bool ADVECT>
 __device__ __forceinline__ void scatter_bins_mass(const KernelParams& params, const BinEntry* __restrict__ bins,
                                                   const u32* __restrict__ order, float4* __restrict__ x,
                                                   float4* __restrict__ v, float4* __restrict__ c,
@@ -45,14 +45,7 @@ __device__ __forceinline__ void scatter_bins_mass(const KernelParams& params, co
             if (is_parked(xp)) continue;  // parked since the last binning: nothing to move or scatter
             if (ADVECT) {
                 const float material_tag = particle_material_tag(params, v, p);
-                G2pResult r;
-                if (CARRIED) {
-                    const CarriedG2p carried = g2p_particle_carried(params, xp, material_tag, rho[p], grid_vel);
-                    r = carried.r;
-                    rho[p] = carried.rho;
-                } else {
-                    r = g2p_particle(params, xp, material_tag, rho[p], grid_vel);
-                }
+                G2pResult r = g2p_particle(params, xp, material_tag, rho[p], grid_vel);
                 if (colliders.count) {
                     const Backstop b = collider_backstop_particle(params, colliders, rho[p], r);
                     r = b.r;
@@ -115,33 +108,17 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
                                  const ColliderState* __restrict__ collider_states, const u32 num_colliders,
                                  const float* __restrict__ collider_sdf, const float4* __restrict__ sinks,
                                  u32 num_sinks, u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
-    scatter_bins_mass<true, false>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
-                                   BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                                   Colliders{collider_states, num_colliders, collider_sdf}, sinks, num_sinks,
-                                   free_slots, flow);
-}
-
-// Scenes whose rest densities differ (Params::carried_density): g2p2g with the density carried
-// over the substep (g2p_particle_carried), a path the entry above is compiled without.
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS)
-    g2p2g_carried(const KernelParams params, const BinEntry* __restrict__ bins, const u32* __restrict__ order,
-                  float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c,
-                  const float4* __restrict__ grid_vel, float* __restrict__ rho, float4* grid_acc, u64* fixed_mass,
-                  u32* block_marks, u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
-                  const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-                  const float* __restrict__ collider_sdf, const float4* __restrict__ sinks, u32 num_sinks,
-                  u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
-    scatter_bins_mass<true, true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
-                                  BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                                  Colliders{collider_states, num_colliders, collider_sdf}, sinks, num_sinks,
-                                  free_slots, flow);
+    scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
+                            BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
+                            Colliders{collider_states, num_colliders, collider_sdf}, sinks, num_sinks,
+                            free_slots, flow);
 }
 
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g_mass(const KernelParams params, const BinEntry* __restrict__ bins,
                                     const u32* __restrict__ order, float4* __restrict__ x, float4* __restrict__ v,
                                     float4* grid_acc, u64* fixed_mass, u32* block_marks, u32* block_list,
                                     u32* work_counts, StepCounters* __restrict__ counters) {
-    scatter_bins_mass<false, false>(params, bins, order, x, v, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
+    scatter_bins_mass<false>(params, bins, order, x, v, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
                              BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
                              Colliders{nullptr, 0u, nullptr}, nullptr, 0u, nullptr, nullptr);
 }

@@ -9,7 +9,10 @@
 // Packed sums hold HALO_SUM_WORDS u64 per node: mass, momentum x, y, z (the fixed-point units, or
 // the float's bits in the low half under the float scatter), then whether the sender's scatter listed
 // the node's block. The owner lists every such block, so its grid update visits the nodes the
-// one-rank run would, zeros included.
+// one-rank run would, zeros included. Where the rest densities differ (Params::volume_density),
+// the grid's volume (volume.cu) travels too, a u64 per node after all the nodes' sums or
+// velocities: summed to the owner with the scatter's sums, written over the ghosts with the
+// velocities.
 #include "tiles.cuh"
 
 #define HALO_SUM_WORDS 5u
@@ -33,8 +36,8 @@ __device__ __forceinline__ u32 halo_node_block(const KernelParams& params, const
 // Packs and zeroes the scatter's sums on `num_nodes` nodes of the ghost planes from `first`.
 extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
                                           float4* __restrict__ grid_acc, u64* __restrict__ fixed_mass,
-                                          u64* __restrict__ fixed_momentum, const u32* __restrict__ block_marks,
-                                          u64* __restrict__ out) {
+                                          u64* __restrict__ fixed_momentum, u64* __restrict__ volume,
+                                          const u32* __restrict__ block_marks, u64* __restrict__ out) {
     const NodeBlocks blocks = node_blocks(params);
     FOR_EACH_INDEX(j, num_nodes) {
         const u32 i = halo_node(params, axis, first, num_nodes, j);
@@ -55,6 +58,10 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
             o[3] = __float_as_uint(acc.z);
         }
         o[4] = block_marks[halo_node_block(params, blocks, i)];
+        if (params.volume_density) {
+            out[(size_t)HALO_SUM_WORDS * num_nodes + j] = volume[i];
+            volume[i] = 0;
+        }
     }
 }
 
@@ -62,7 +69,7 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
 extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
                                          const u64* __restrict__ in, float4* __restrict__ grid_acc,
                                          u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
-                                         u32* __restrict__ block_marks, u32* __restrict__ block_list,
+                                         u64* __restrict__ volume, u32* __restrict__ block_marks, u32* __restrict__ block_list,
                                          u32* __restrict__ work_counts) {
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
@@ -81,19 +88,31 @@ extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 ax
             grid_acc[i] = acc;
         }
         if (w[4]) mark_node_block(marks, halo_node_block(params, blocks, i));
+        if (params.volume_density) volume[i] += in[(size_t)HALO_SUM_WORDS * num_nodes + j];
     }
 }
 
-// Copies the grid update's velocity and mass of `num_nodes` nodes of the planes from `first`.
+// Copies the grid update's velocity and mass of `num_nodes` nodes of the planes from `first` (and
+// the volume, mirrored, after them).
 extern "C" __global__ void halo_pack_velocities(const KernelParams params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ grid_vel,
-                                                float4* __restrict__ out) {
-    FOR_EACH_INDEX(j, num_nodes) out[j] = grid_vel[halo_node(params, axis, first, num_nodes, j)];
+                                                const u64* __restrict__ volume, float4* __restrict__ out) {
+    u64* volume_out = reinterpret_cast<u64*>(out + num_nodes);
+    FOR_EACH_INDEX(j, num_nodes) {
+        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        out[j] = grid_vel[i];
+        if (params.volume_density) volume_out[j] = volume[i];
+    }
 }
 
-// Writes packed velocities over the ghost planes from `first`.
+// Writes packed velocities (and volumes) over the ghost planes from `first`.
 extern "C" __global__ void halo_fill_velocities(const KernelParams params, const u32 axis, const u32 first,
                                                 const u32 num_nodes, const float4* __restrict__ in,
-                                                float4* __restrict__ grid_vel) {
-    FOR_EACH_INDEX(j, num_nodes) grid_vel[halo_node(params, axis, first, num_nodes, j)] = in[j];
+                                                float4* __restrict__ grid_vel, u64* __restrict__ volume) {
+    const u64* volume_in = reinterpret_cast<const u64*>(in + num_nodes);
+    FOR_EACH_INDEX(j, num_nodes) {
+        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        grid_vel[i] = in[j];
+        if (params.volume_density) volume[i] = volume_in[j];
+    }
 }

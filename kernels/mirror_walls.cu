@@ -1,5 +1,6 @@
 // mirror_walls: adds the mirror image of the fluid beyond the walls to the grid, in place, for the
-// mass (after the mass scatter) or the momentum (after p2g); the rule of `mirror_walls`
+// mass (after the mass scatter), the momentum (after p2g), or the volume of a scene whose rest
+// densities differ (after scatter_volume, passed as the fixed-point mass); the rule of `mirror_walls`
 // in src/sim/cpu.rs (mirror.cuh says how an orbit's images are added). The fused pipeline mirrors
 // inside its grid update instead (grid_update.cu).
 //
@@ -63,7 +64,8 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
                                         u64* __restrict__ fixed_momentum,
                                         u32* block_marks, u32* block_list, u32* work_counts) {
     if (params.wall_mirror_lo == 0) return;
-    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
+    // The volume is fixed-point units whatever the scatter mode.
+    const bool fixed = quantity == MIRROR_VOLUME || params.scatter_mode == SCATTER_FIXED_POINT;
     const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
     const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
     // Slab of axis a: its fluid-side coordinates (fastest), then the other two axes in order.
@@ -106,7 +108,7 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
         if (!touched) continue;  // every node of the orbit holds zeros
 
         const int first = quantity == MIRROR_MOMENTUM ? 1 : 0;
-        const int end = quantity == MIRROR_MASS ? 1 : 4;
+        const int end = quantity == MIRROR_MOMENTUM ? 4 : 1;
         if (fixed) mirror_orbit_in_place<i64>(m, o, node, first, end, grid_acc, fixed_mass, fixed_momentum);
         else mirror_orbit_in_place<float>(m, o, node, first, end, grid_acc, fixed_mass, fixed_momentum);
 #pragma unroll

@@ -147,7 +147,7 @@ __device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params
 }
 
 // MATERIALS false: the scene is one Newtonian liquid (water): no particle's material row is read,
-// no law's viscosity computed, no density carried, so the pass is compiled as it was before the
+// no law's viscosity computed, no density taken from the grid's volume, so the pass is compiled as it was before the
 // material table (BENCHMARKS.md M1: the fixed-point substep 2.7 % over the build before the table
 // without these entries, 1.3 % with them).
 template <Scatter SCATTER, bool MATERIALS>
@@ -197,7 +197,11 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 GridDensity density;
                 const float tag = MATERIALS ? particle_material_tag(params, v, p) : 0.0f;
                 G2pResult r = g2p_particle_and_density(params, xp, tag, grid_vel, density);
-                rho_p = advected_density(params, density, MATERIALS && params.carried_density ? rho[p] : 0.0f);
+                // Several rest densities: the density gathered from the grid's volume where the
+                // gather was (volume.cu, this substep), not from the liquids' mixed mass.
+                const float rho_grid =
+                    MATERIALS && params.volume_density ? rho[p] : mass_density(params, density);
+                rho_p = advected_density(params, rho_grid, density);
                 r.signal = material_signal_speed(material_table[MATERIALS ? material_index(params, r.v) : 0u], rho_p,
                                                  r.speed);
                 if (live && colliders.count) {

@@ -26,8 +26,9 @@ extern "C" __global__ void p2g(const KernelParams params,
     FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
         const u32 p = order[live ? i : first];
         const Stencil s = make_stencil(x[p], params);
-        // carried_density: the density g2p carried (several rest densities), not the grid's.
-        const float rho = params.carried_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
+        // volume_density: the density gathered from the grid's volume (several rest densities,
+        // volume.cu), not from its mass.
+        const float rho = params.volume_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
         if (live) {
             rho_out[p] = rho;
             max_rho = fmaxf(max_rho, reported_density(params, v[p], rho));

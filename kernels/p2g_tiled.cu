@@ -42,8 +42,9 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             const u32 p = order[bin.start + j];
             if (is_parked(x[p])) continue;  // drained since the last binning
             const Stencil s = make_stencil(x[p], params);
-            // carried_density: the density g2p2g carried (several rest densities), not the grid's.
-            const float rho = params.carried_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
+            // volume_density: the density gathered from the grid's volume (several rest densities,
+            // volume.cu), not from its mass.
+            const float rho = params.volume_density ? rho_out[p] : gather_density(s, params, grid_acc, fixed_mass);
             const float4 vp = v[p];
             rho_out[p] = rho;
             max_rho = fmaxf(max_rho, reported_density(params, vp, rho));

@@ -515,7 +515,7 @@ impl Body<'_> {
 /// Version 1's 28 words of parameters as today's [`Params`]: its one material becomes row 0 of a
 /// table of one, a Newtonian liquid with exactly the row loading its scene's `[material]` gives
 /// (the flow index 1, the viscosity its own ceiling, the unused Carreau-Yasuda exponent 2), and the
-/// density is not carried (one rest density). The fields after the material keep their order.
+/// density is gathered from the grid's mass (one rest density). The fields after the material keep their order.
 pub fn params_from_version_1(words: &[u32]) -> Params {
     assert_eq!(
         words.len(),
@@ -556,7 +556,7 @@ pub fn params_from_version_1(words: &[u32]) -> Params {
         wall_mirror_lo: words[23],
         wall_mirror_hi: u3(24),
         density_rule: words[27],
-        carried_density: 0,
+        volume_density: 0,
     };
     Params { kernel, materials }
 }

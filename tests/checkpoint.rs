@@ -518,7 +518,7 @@ fn a_version_1_checkpoint_loads_and_resumes() {
     assert_eq!(read.params.material_count, 1);
     assert_eq!(row.law, mpm::contract::LAW_NEWTONIAN);
     assert_eq!((row.flow_index, row.max_viscosity), (1.0, row.viscosity));
-    assert_eq!(read.params.carried_density, 0);
+    assert_eq!(read.params.volume_density, 0);
     assert!(read.particles.material.iter().all(|&m| m == 0));
     // Everything else is the state the current format saved, bit for bit: the converted row is the
     // one loading the scene gives.
@@ -539,7 +539,7 @@ fn a_version_1_checkpoint_loads_and_resumes() {
     );
 }
 
-/// Water and oil side by side: two rest densities (the density carried), two rows.
+/// Water and oil side by side: two rest densities (the density gathered from the volume), two rows.
 fn two_liquids() -> Scene {
     let mut scene = Scene::from_toml(
         r#"
@@ -595,7 +595,7 @@ fn a_checkpoint_of_several_materials_round_trips_them_and_resumes_exactly() {
     let read = Checkpoint::read(&file).unwrap();
     assert_eq!(read, saved);
     assert_eq!(read.params.material_count, 2);
-    assert_eq!(read.params.carried_density, 1);
+    assert_eq!(read.params.volume_density, 1);
     for (row, named) in scene.materials.iter().enumerate() {
         assert_eq!(read.params.materials[row], named.law, "row {row}");
     }

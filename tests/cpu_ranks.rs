@@ -16,8 +16,9 @@ use mpm::sim::cpu::CpuSolver;
 use mpm::sim::cpu_parallel::ParallelCpuSolver;
 use mpm::sim::{Phase, Pipeline, Scene, Solver};
 
-fn tank(pipeline: Pipeline) -> Scene {
-    let mut scene = common::scene(common::STIRRED_TANK);
+/// `source` (a scene's TOML) in `pipeline`.
+fn tank(source: &str, pipeline: Pipeline) -> Scene {
+    let mut scene = common::scene(source);
     scene.pipeline = pipeline;
     scene
 }
@@ -28,10 +29,10 @@ fn max_diff(a: &[Vec3], b: &[Vec3]) -> f32 {
         .fold(0.0, |m, (a, b)| m.max((*a - *b).abs().max_element()))
 }
 
-/// `ranks` ranks against the reference over `substeps`: (position gap in dx, cpu-parallel's gap in dx,
-/// largest move in dx, the ranks).
-fn compare(pipeline: Pipeline, ranks: usize, substeps: u32) -> (f32, f32, f32, CpuRanks) {
-    let scene = tank(pipeline);
+/// `ranks` ranks against the reference over `substeps` of the scene `source`: (position gap in dx,
+/// cpu-parallel's gap in dx, largest move in dx, the ranks).
+fn compare(source: &str, pipeline: Pipeline, ranks: usize, substeps: u32) -> (f32, f32, f32, CpuRanks) {
+    let scene = tank(source, pipeline);
     let mut params = common::cfl_params(&scene);
     params.density_rule = pipeline.density_rule().code();
     let mut reference = CpuSolver::new(common::stirred(&scene), scene.grid_res);
@@ -65,7 +66,7 @@ fn compare(pipeline: Pipeline, ranks: usize, substeps: u32) -> (f32, f32, f32, C
 fn one_substep_on_ranks_is_the_reference_s() {
     for pipeline in [Pipeline::Fused, Pipeline::Binned] {
         for ranks in [2, 3] {
-            let (gap, _, _, _) = compare(pipeline, ranks, 1);
+            let (gap, _, _, _) = compare(common::STIRRED_TANK, pipeline, ranks, 1);
             assert!(
                 gap <= 1e-5,
                 "{pipeline:?}, {ranks} ranks: apart by {gap} dx after one substep"
@@ -74,9 +75,9 @@ fn one_substep_on_ranks_is_the_reference_s() {
     }
 }
 
-/// 200 substeps: within 4 times cpu-parallel's rounding gap on the same run.
-fn follows_the_reference(pipeline: Pipeline, ranks: usize) {
-    let (gap, yardstick, moved, split) = compare(pipeline, ranks, 200);
+/// 200 substeps of the scene `source`: within 4 times cpu-parallel's rounding gap on the same run.
+fn follows_the_reference(source: &str, pipeline: Pipeline, ranks: usize) {
+    let (gap, yardstick, moved, split) = compare(source, pipeline, ranks, 200);
     let (rebins, migrated) = split.migrated();
     println!(
         "{pipeline:?}, {ranks} ranks: moved up to {moved:.2} dx, apart by {gap:.2e} dx (cpu-parallel: \
@@ -98,13 +99,21 @@ fn follows_the_reference(pipeline: Pipeline, ranks: usize) {
 
 #[test]
 fn two_and_three_ranks_follow_the_reference_with_the_advected_density() {
-    follows_the_reference(Pipeline::Fused, 2);
-    follows_the_reference(Pipeline::Fused, 3);
+    follows_the_reference(common::STIRRED_TANK, Pipeline::Fused, 2);
+    follows_the_reference(common::STIRRED_TANK, Pipeline::Fused, 3);
 }
 
 #[test]
 fn two_ranks_follow_the_reference_with_the_gathered_density() {
-    follows_the_reference(Pipeline::Binned, 2);
+    follows_the_reference(common::STIRRED_TANK, Pipeline::Binned, 2);
+}
+
+/// Water and oil side by side: the grid's volume, from which both read their densities, summed
+/// across the cut and filled into the ghosts with the mass, under either density rule.
+#[test]
+fn two_ranks_follow_the_reference_with_two_liquids() {
+    follows_the_reference(common::STIRRED_LIQUIDS, Pipeline::Fused, 2);
+    follows_the_reference(common::STIRRED_LIQUIDS, Pipeline::Binned, 2);
 }
 
 /// Whole block layers are the finest step a bound takes: the busiest rank within 10 % of the mean,
@@ -120,7 +129,7 @@ fn balanced(split: &CpuRanks) -> bool {
 /// lies, as finely as the thinnest slab (2 layers) allows.
 #[test]
 fn the_slabs_start_where_the_water_is() {
-    let scene = tank(Pipeline::Fused);
+    let scene = tank(common::STIRRED_TANK, Pipeline::Fused);
     let two = CpuRanks::new(&scene, scene.spawn(), 2).unwrap();
     println!(
         "2 ranks: bounds {:?}, counts {:?}",
@@ -141,7 +150,7 @@ fn the_slabs_start_where_the_water_is() {
 /// particles to their new owners, nothing lost.
 #[test]
 fn the_first_rebin_balances_even_slabs() {
-    let scene = tank(Pipeline::Fused);
+    let scene = tank(common::STIRRED_TANK, Pipeline::Fused);
     let mut params = common::cfl_params(&scene);
     params.density_rule = Pipeline::Fused.density_rule().code();
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
@@ -169,7 +178,7 @@ fn the_first_rebin_balances_even_slabs() {
 /// The exchanges are phases of their own: timed on ranks, zero on one.
 #[test]
 fn the_halo_phases_are_timed() {
-    let scene = tank(Pipeline::Fused);
+    let scene = tank(common::STIRRED_TANK, Pipeline::Fused);
     let params = common::cfl_params(&scene);
     let mut split = CpuRanks::new(&scene, scene.spawn(), 2).unwrap();
     split.step(&params).unwrap();
@@ -184,7 +193,7 @@ fn the_halo_phases_are_timed() {
 
 #[test]
 fn more_ranks_than_the_grid_holds_is_a_clear_error() {
-    let scene = tank(Pipeline::Fused);
+    let scene = tank(common::STIRRED_TANK, Pipeline::Fused);
     let err = CpuRanks::new(&scene, scene.spawn(), 7).err().unwrap().to_string();
     assert!(err.contains("at most 6 ranks"), "{err}");
 }
@@ -196,7 +205,7 @@ fn more_ranks_than_the_grid_holds_is_a_clear_error() {
 #[test]
 fn fixed_point_ranks_are_byte_identical_to_one() {
     for pipeline in [Pipeline::Fused, Pipeline::Binned] {
-        let mut scene = tank(pipeline);
+        let mut scene = tank(common::STIRRED_TANK, pipeline);
         scene.scatter = mpm::sim::ScatterMode::FixedPoint;
         let mut params = common::cfl_params(&scene);
         params.density_rule = pipeline.density_rule().code();

@@ -17,6 +17,7 @@ fn main() -> std::process::ExitCode {
         harness::cuda_device,
         harness::tests![
             fixed_point_ranks_give_one_gpu_s_bits,
+            two_liquids_on_ranks_give_one_gpu_s_bits,
             float_ranks_follow_one_gpu,
             a_moving_collider_across_the_cut_gives_one_gpu_s_bits,
             a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
@@ -66,4 +67,8 @@ fn ranks_refuse_what_they_do_not_run() {
         .unwrap()
         .to_string();
     assert!(err.contains("at most 6 ranks"), "{err}");
+}
+
+fn two_liquids_on_ranks_give_one_gpu_s_bits() {
+    ranks_checks::two_liquids_on_ranks_give_one_gpu_s_bits(On::OneGpu);
 }

@@ -83,10 +83,11 @@ device_structs! {
         /// How a particle's density is estimated (`DensityRule::code()`): `DENSITY_GATHERED` (the
         /// report's scheme) or `DENSITY_ADVECTED` (the fused pipeline's one particle pass).
         density_rule: u32,
-        /// 1 where the materials' rest densities differ: each particle's density is carried over
-        /// the substep from its own last value by the velocity divergence, never gathered from the
-        /// grid's mass, which mixes the liquids' masses where they meet (`sim::params::carries_density`).
-        carried_density: u32,
+        /// 1 where the materials' rest densities differ: each particle's density is gathered from
+        /// the grid's volume (the particles' stencil weights summed in `VOLUME_UNITS_PER_WEIGHT`)
+        /// times its own particle mass, never from the grid's mass, which mixes the liquids' masses
+        /// where they meet (`sim::params::gathers_volume`).
+        volume_density: u32,
         /// Rows of the material table in use (`sim::Params::materials`): 1 for a scene of one
         /// material, whose kernels take row 0 without reading a particle's index.
         material_count: u32,
@@ -257,6 +258,10 @@ device_constants! {
     /// `DENSITY_ADVECTED`: the largest relative volume change a particle's density is carried over
     /// in one substep (`DensityRule::advect`).
     MAX_VOLUME_CHANGE: f32 = 0.1;
+    /// `Params::volume_density`: the fixed-point units of one stencil weight in the grid's volume
+    /// (2^22: a weight is resolved to 2.4e-7; a shared tile node's 32-bit sum holds 512 weights, a
+    /// chunk of 1,200 particles, and a node's 64-bit sum 2^41).
+    VOLUME_UNITS_PER_WEIGHT: f32 = 4194304.0;
 
     /// The most rows of a scene's material table (`sim::Params::materials`).
     MAX_MATERIALS: u32 = 8;
@@ -303,6 +308,8 @@ device_constants! {
     /// What mirror_walls mirrors (`MirrorQuantity`).
     MIRROR_MASS: u32 = 0;
     MIRROR_MOMENTUM: u32 = 1;
+    /// The volume (kernels/volume.cu) of a scene whose rest densities differ.
+    MIRROR_VOLUME: u32 = 2;
 
     /// Nodes per axis of a node block: a bin of the binned pipeline.
     NODE_BLOCK_EDGE: u32 = 4;

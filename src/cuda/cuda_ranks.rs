@@ -32,7 +32,7 @@
 //! (a copy on the receiver's stream reads the sender's buffer).
 
 use super::gpu::CudaOptions;
-use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS};
+use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS, HALO_VELOCITY_WORDS, HALO_VOLUME_WORDS};
 use super::launch::Launcher;
 use super::particles::DeviceParticles;
 use super::render::DeviceParticlesView;
@@ -93,12 +93,14 @@ enum Exchange {
 }
 
 impl Exchange {
-    /// u64 words a node takes packed: HALO_SUM_WORDS, or one float4 of velocity and mass.
-    fn words_per_node(self) -> usize {
-        match self {
+    /// u64 words a node takes packed: HALO_SUM_WORDS, or one float4 of velocity and mass; and the
+    /// grid's volume where the rest densities differ (`volume`).
+    fn words_per_node(self, volume: bool) -> usize {
+        let words = match self {
             Exchange::Sums => HALO_SUM_WORDS,
-            Exchange::Velocities => 2,
-        }
+            Exchange::Velocities => HALO_VELOCITY_WORDS,
+        };
+        words + if volume { HALO_VOLUME_WORDS } else { 0 }
     }
 }
 
@@ -341,12 +343,12 @@ impl CudaRanks {
     /// copy on the receiver's stream once every rank has packed; across GPUs NCCL's sends and
     /// receives on each rank's stream, after its packing and before its unpacking.
     fn carry(&mut self, links: &[Link], what: Exchange) -> Result<()> {
-        let res = self.solvers[0].params.grid_res;
+        let params = self.solvers[0].params;
         match &self.carrier {
             Carrier::DeviceCopy => {
                 self.wait_all()?; // every rank's packing
                 for link in links {
-                    let (words, _) = link.words(what, res);
+                    let (words, _) = link.words(what, &params);
                     let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
                     let src = from.send[link.side as usize].slice(..words);
                     let mut dst = to.recv[opposite(link.side) as usize].slice_mut(..words);
@@ -364,7 +366,7 @@ impl CudaRanks {
                     let mut recvs = Vec::new();
                     // The pointers stay valid: the buffers live as long as the ranks.
                     for link in links.iter().filter(|link| link.rank == comm.rank) {
-                        let (send_words, recv_words) = link.words(what, res);
+                        let (send_words, recv_words) = link.words(what, &params);
                         let side = link.side as usize;
                         let (send, _) = halo.send[side].device_ptr(stream);
                         let (recv, _) = halo.recv[side].device_ptr(stream);
@@ -597,12 +599,13 @@ struct Link {
 impl Link {
     /// The u64 words this rank sends and receives on the link for `what`: its ghost planes' sums go
     /// out and its edge planes' come in; its edge planes' velocities go out and its ghosts' come in.
-    fn words(&self, what: Exchange, res: [u32; 3]) -> (usize, usize) {
+    fn words(&self, what: Exchange, params: &Params) -> (usize, usize) {
+        let res = params.grid_res;
         let (send, recv) = match what {
             Exchange::Sums => (&self.ghosts, &self.edge),
             Exchange::Velocities => (&self.edge, &self.ghosts),
         };
-        let words = what.words_per_node();
+        let words = what.words_per_node(params.volume_density != 0);
         (words * send.nodes(res), words * recv.nodes(res))
     }
 }

@@ -7,14 +7,14 @@ use crate::sim::Params;
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
-host_kernel!(G2p = "g2p" / "g2p", carried "g2p_carried");
+host_kernel!(G2p = "g2p" / "g2p");
 
 impl G2p {
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let p = &d.particles;
         // SAFETY: the arguments match g2p in kernels/g2p.cu; buffers are sized for params.
         unsafe {
-            self.entry(params).launch(l, l.cover(p.count), |a| {
+            self.0.launch(l, l.cover(p.count), |a| {
                 a.arg(&params.kernel)
                     .arg(&p.x)
                     .arg(&p.v)

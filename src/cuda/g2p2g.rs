@@ -12,7 +12,7 @@ use cudarc::driver::PushKernelArg;
 /// One channel per tile node: the mass.
 const MASS_CHANNELS: u32 = 1;
 
-host_kernel!(G2p2g = "g2p2g" / "g2p2g", carried "g2p2g_carried");
+host_kernel!(G2p2g = "g2p2g" / "g2p2g");
 
 impl G2p2g {
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
@@ -23,7 +23,7 @@ impl G2p2g {
         // list are sized for this grid and these particles. Without a flow the sink and free-slot
         // pointers are null and never read (no sinks).
         unsafe {
-            self.entry(params).launch(l, config, |a| {
+            self.0.launch(l, config, |a| {
                 a.arg(&params.kernel)
                     .arg(list)
                     .arg(&d.bins.order)

@@ -15,6 +15,8 @@ use std::sync::Arc;
 pub const BYTES_PER_NODE: usize = 4 * (4 + 4 + 1);
 /// Added per node by the fixed-point scatter: mass and three momentum components as u64.
 pub const FIXED_BYTES_PER_NODE: usize = 8 * 4;
+/// Added per node where the rest densities differ: the grid's volume as u64.
+pub const VOLUME_BYTES_PER_NODE: usize = 8;
 
 /// Fixed-point accumulators, allocated on first use of the fixed-point scatter.
 struct FixedGrid {
@@ -37,6 +39,9 @@ pub struct DeviceGrid {
     /// Node velocity xyz and mass w, written by the grid update, read by the gather.
     pub vel: CudaSlice<f32>,
     fixed: Option<FixedGrid>,
+    /// The grid's volume where the rest densities differ (kernels/volume.cu): a u64 of
+    /// fixed-point weights per node.
+    volume: Option<CudaSlice<u64>>,
     /// Passed for the fixed-point pointers when the float scatter runs (never dereferenced).
     unused_fixed: CudaSlice<u64>,
     pub node_blocks: NodeBlockList,
@@ -85,6 +90,7 @@ impl DeviceGrid {
             acc: alloc(4 * nodes, "grid accumulators")?,
             vel: alloc(4 * nodes, "grid velocities")?,
             fixed: None,
+            volume: None,
             unused_fixed: stream.alloc_zeros::<u64>(1).context("allocating a placeholder")?,
             node_blocks,
             work_counts,
@@ -109,6 +115,41 @@ impl DeviceGrid {
             });
         }
         Ok(())
+    }
+
+    /// Allocates the grid's volume if it is not yet there (scenes whose rest densities differ).
+    pub fn ensure_volume(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        if self.volume.is_none() {
+            let nodes = self.num_nodes();
+            self.volume = Some(
+                stream
+                    .alloc_zeros::<u64>(nodes)
+                    .context("allocating the grid's volume")?,
+            );
+        }
+        Ok(())
+    }
+
+    /// The grid's volume, or a placeholder that scenes of one rest density never dereference.
+    pub fn volume(&self) -> &CudaSlice<u64> {
+        self.volume.as_ref().unwrap_or(&self.unused_fixed)
+    }
+
+    /// The grid's volume to scatter into, zeroed; `None` where it was never allocated.
+    pub fn zeroed_volume(&mut self, stream: &Arc<CudaStream>) -> Result<Option<&mut CudaSlice<u64>>> {
+        match &mut self.volume {
+            Some(volume) => {
+                stream.memset_zeros(volume).context("zeroing the grid's volume")?;
+                Ok(Some(volume))
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// The grid's volume read back as the CPU reference holds it (`Grid::volume`). Waits.
+    pub fn read_volume(&self, gpu: &Gpu) -> Result<Vec<i64>> {
+        let volume = self.volume.as_ref().context("the scene gathers no volume")?;
+        Ok(gpu.download(volume)?.into_iter().map(|q| q as i64).collect())
     }
 
     /// The fixed-point mass accumulators, or a placeholder the float scatter never dereferences.

@@ -16,6 +16,10 @@ use std::ops::Range;
 /// u64 words per node of packed sums: mass, momentum x, y, z, and the sender's block mark
 /// (`HALO_SUM_WORDS` in kernels/halo.cu).
 pub const HALO_SUM_WORDS: usize = 5;
+/// u64 words per node of packed velocities: a float4 of velocity and mass.
+pub const HALO_VELOCITY_WORDS: usize = 2;
+/// u64 words per node added to either where the rest densities differ: the grid's volume.
+pub const HALO_VOLUME_WORDS: usize = 1;
 
 pub struct HaloKernels {
     pack_sums: Kernel,
@@ -40,7 +44,7 @@ impl Planes {
 }
 
 /// One rank's send and receive buffers, below ([0]) and above ([1]), each large enough for a block
-/// of planes of packed sums (velocities take less).
+/// of planes of packed sums and volumes (velocities take less).
 pub struct HaloBuffers {
     pub send: [CudaSlice<u64>; 2],
     pub recv: [CudaSlice<u64>; 2],
@@ -52,7 +56,7 @@ impl HaloBuffers {
             axis,
             range: 0..BLOCK,
         };
-        let words = HALO_SUM_WORDS * block.nodes(res);
+        let words = (HALO_SUM_WORDS + HALO_VOLUME_WORDS) * block.nodes(res);
         let stream = gpu.stream();
         let alloc = || {
             stream
@@ -86,11 +90,14 @@ impl HaloKernels {
         d: &DeviceState,
         out: &CudaSlice<u64>,
     ) -> Result<()> {
-        // SAFETY: the rest of halo_pack_sums' arguments; `out` holds HALO_SUM_WORDS per node of a
-        // block of planes (`HaloBuffers::allocate`) and ghost planes are at most a block.
+        // SAFETY: the rest of halo_pack_sums' arguments; `out` holds HALO_SUM_WORDS and a volume per
+        // node of a block of planes (`HaloBuffers::allocate`) and ghost planes are at most a block.
         unsafe {
             over_planes(&self.pack_sums, l, params, &extent(planes, params), |a| {
-                a.accumulators(&d.grid).arg(&d.grid.node_blocks.marks).arg(out);
+                a.accumulators(&d.grid)
+                    .arg(d.grid.volume())
+                    .arg(&d.grid.node_blocks.marks)
+                    .arg(out);
             })
         }
     }
@@ -110,6 +117,7 @@ impl HaloKernels {
             over_planes(&self.add_sums, l, params, &extent(planes, params), |a| {
                 a.arg(received)
                     .accumulators(&d.grid)
+                    .arg(d.grid.volume())
                     .arg(&blocks.marks)
                     .arg(&blocks.list)
                     .arg(&d.grid.work_counts);
@@ -126,11 +134,11 @@ impl HaloKernels {
         d: &DeviceState,
         out: &CudaSlice<u64>,
     ) -> Result<()> {
-        // SAFETY: the rest of halo_pack_velocities' arguments; a float4 per node takes less than
-        // the HALO_SUM_WORDS u64 per node `out` holds.
+        // SAFETY: the rest of halo_pack_velocities' arguments; a float4 and a volume per node take
+        // less than the words per node `out` holds.
         unsafe {
             over_planes(&self.pack_velocities, l, params, &extent(planes, params), |a| {
-                a.arg(&d.grid.vel).arg(out);
+                a.arg(&d.grid.vel).arg(d.grid.volume()).arg(out);
             })
         }
     }
@@ -147,7 +155,7 @@ impl HaloKernels {
         // SAFETY: the rest of halo_fill_velocities' arguments; `received` as in `pack_velocities`.
         unsafe {
             over_planes(&self.fill_velocities, l, params, &extent(planes, params), |a| {
-                a.arg(received).arg(&d.grid.vel);
+                a.arg(received).arg(&d.grid.vel).arg(d.grid.volume());
             })
         }
     }

@@ -20,6 +20,7 @@ use super::ranks::RanksKernels;
 use super::render::RenderAttributes;
 use super::spawn::SpawnKernels;
 use super::stats::StatsKernel;
+use super::volume::VolumeKernels;
 use anyhow::Result;
 
 /// Every kernel of one GPU.
@@ -28,6 +29,7 @@ pub struct Kernels {
     pub bin_order: GatherIntoBinOrder,
     pub p2g_init: P2gInit,
     pub p2g_mass: P2gMass,
+    pub volume: VolumeKernels,
     pub mirror_walls: MirrorWalls,
     pub p2g: P2g,
     pub p2g_tiled: P2gTiled,
@@ -53,6 +55,7 @@ impl Kernels {
             bin_order: GatherIntoBinOrder::load(modules)?,
             p2g_init: P2gInit::load(modules)?,
             p2g_mass: P2gMass::load(modules)?,
+            volume: VolumeKernels::load(modules)?,
             mirror_walls: MirrorWalls::load(modules)?,
             p2g: P2g::load(modules)?,
             p2g_tiled: P2gTiled::load(modules)?,

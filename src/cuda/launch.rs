@@ -88,34 +88,6 @@ macro_rules! host_kernel {
             }
         }
     };
-    // A kernel with an entry of its own for scenes that carry each particle's density
-    // (`Params::carried_density`): the kernel's template parameter, so that a scene of one rest
-    // density runs code compiled without that path.
-    ($host:ident = $module:literal / $function:literal, carried $carried:literal) => {
-        #[derive(Clone)]
-        pub struct $host {
-            gathered: crate::cuda::launch::Kernel,
-            carried: crate::cuda::launch::Kernel,
-        }
-
-        impl $host {
-            pub fn load(modules: &crate::cuda::modules::LoadedModules) -> anyhow::Result<$host> {
-                Ok($host {
-                    gathered: crate::cuda::launch::Kernel::load(modules, $module, $function)?,
-                    carried: crate::cuda::launch::Kernel::load(modules, $module, $carried)?,
-                })
-            }
-
-            /// The entry for `params`' density rule.
-            fn entry(&self, params: &crate::sim::Params) -> &crate::cuda::launch::Kernel {
-                if crate::sim::params::carries_density(params) {
-                    &self.carried
-                } else {
-                    &self.gathered
-                }
-            }
-        }
-    };
 }
 pub(crate) use host_kernel;
 

@@ -5,7 +5,7 @@
 
 use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
-use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM, NODE_BLOCK_EDGE};
+use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM, MIRROR_VOLUME, NODE_BLOCK_EDGE};
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
@@ -17,6 +17,8 @@ pub enum MirrorQuantity {
     Mass,
     /// The image momentum, wall-normal component reflected, between p2g and the grid update.
     Momentum,
+    /// The image volume (kernels/volume.cu), before the density is gathered from it.
+    Volume,
 }
 
 host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
@@ -41,13 +43,21 @@ impl MirrorWalls {
         let quantity_code = match quantity {
             MirrorQuantity::Mass => MIRROR_MASS,
             MirrorQuantity::Momentum => MIRROR_MOMENTUM,
+            MirrorQuantity::Volume => MIRROR_VOLUME,
         };
+        let volume = matches!(quantity, MirrorQuantity::Volume);
         // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
-        // pointers, which the kernel checks, for the report's pipeline).
+        // pointers, which the kernel checks, for the report's pipeline and the volume, which no
+        // grid update walks). The volume goes in the fixed-point mass's place, channel 0.
         unsafe {
             self.0.launch(l, l.cover(threads), |a| {
-                a.arg(&params.kernel).arg(&quantity_code).accumulators(g);
-                if pipeline.is_binned() {
+                a.arg(&params.kernel).arg(&quantity_code);
+                if volume {
+                    a.arg(&g.acc).arg(g.volume()).arg(g.fixed_momentum());
+                } else {
+                    a.accumulators(g);
+                }
+                if pipeline.is_binned() && !volume {
                     a.arg(&g.node_blocks.marks)
                         .arg(&g.node_blocks.list)
                         .arg(&g.work_counts);

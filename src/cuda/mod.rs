@@ -11,7 +11,7 @@
 //!
 //! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
 //! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`bins`],
-//! [`bin_order`], [`p2g_init`], [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`],
+//! [`bin_order`], [`p2g_init`], [`volume`], [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`],
 //! [`g2p2g`], [`one_pass`], [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`],
 //! [`ranks`], [`thickness`].
 //!
@@ -58,6 +58,7 @@ pub mod render;
 pub mod spawn;
 pub mod stats;
 pub mod thickness;
+pub mod volume;
 
 // On top: the kernel table, which pipeline runs what in each phase, and the substep, on one GPU or
 // as several ranks.

@@ -17,6 +17,14 @@ pub enum Launch {
     Rebin,
     /// `Rebin`, then bin_order.cu stores the particle state in that order.
     RebinInOrder,
+    /// volume.cu's scatter_volume: the grid's volume, from which the density is gathered where the
+    /// rest densities differ (nothing otherwise), every substep.
+    ScatterVolume,
+    /// mirror_walls.cu: the walls' image volume (where the rest densities differ).
+    MirrorVolume,
+    /// volume.cu's gather_volume_density: each particle's density from the volume, for the pass
+    /// that takes it (where the rest densities differ).
+    GatherVolumeDensity,
     /// p2g_init.cu: the mass scatter by warp-aggregated global atomics, every substep.
     P2gInit,
     /// g2p2g.cu's p2g_mass: the mass scatter through a tile per bin chunk, first substep only (g2p2g
@@ -58,18 +66,33 @@ pub const fn launches(pipeline: Pipeline, phase: Phase) -> &'static [Launch] {
         (Pipeline::Report, Phase::Sort) => &[SortByCell],
         (Pipeline::Binned, Phase::Sort) => &[Rebin],
         (Pipeline::Fused, Phase::Sort) => &[RebinInOrder],
-        (Pipeline::Report, Phase::P2gInit) => &[P2gInit, MirrorMass],
-        (Pipeline::Binned, Phase::P2gInit) => &[P2gMass, MirrorMass],
-        (Pipeline::Fused, Phase::P2gInit) => &[OnePassScatter],
+        // The volume at the substep's starting positions, where p2g gathers the density; in the
+        // fused pipeline where one_pass's gather is, mirrored after the ranks' ghost sums and
+        // gathered after their fill.
+        (Pipeline::Report, Phase::P2gInit) => &[
+            ScatterVolume,
+            MirrorVolume,
+            GatherVolumeDensity,
+            P2gInit,
+            MirrorMass,
+        ],
+        (Pipeline::Binned, Phase::P2gInit) => &[
+            ScatterVolume,
+            MirrorVolume,
+            GatherVolumeDensity,
+            P2gMass,
+            MirrorMass,
+        ],
+        (Pipeline::Fused, Phase::P2gInit) => &[ScatterVolume, OnePassScatter],
         (Pipeline::Report, Phase::P2g) => &[P2g],
         (Pipeline::Binned, Phase::P2g) => &[P2gOrTiled],
         (Pipeline::Fused, Phase::P2g) => &[],
         (Pipeline::Report, Phase::GridUpdate) => &[MirrorMomentum, GridUpdate],
         (Pipeline::Binned, Phase::GridUpdate) => &[MirrorMomentum, GridUpdateBlocks],
-        (Pipeline::Fused, Phase::GridUpdate) => &[GridUpdateBlocksMirrored],
+        (Pipeline::Fused, Phase::GridUpdate) => &[MirrorVolume, GridUpdateBlocksMirrored],
         (Pipeline::Report, Phase::G2p) => &[G2p],
         (Pipeline::Binned, Phase::G2p) => &[G2p2g],
-        (Pipeline::Fused, Phase::G2p) => &[OnePass],
+        (Pipeline::Fused, Phase::G2p) => &[GatherVolumeDensity, OnePass],
     }
 }
 
@@ -83,6 +106,9 @@ impl Launch {
             Launch::RebinInOrder => {
                 "bins (by node block, sooner when a particle moved a cell) + gather_into_bin_order".into()
             }
+            Launch::ScatterVolume => "scatter_volume (several rest densities)".into(),
+            Launch::MirrorVolume => "mirror_walls (volume; several rest densities)".into(),
+            Launch::GatherVolumeDensity => "gather_volume_density (several rest densities)".into(),
             Launch::P2gInit => "p2g_init".into(),
             Launch::P2gMass => "p2g_mass (first substep only)".into(),
             Launch::OnePassScatter => "one_pass without its gather (first substep only)".into(),
@@ -171,13 +197,10 @@ mod tests {
                 .iter()
                 .flat_map(|&phase| launches(pipeline, phase).iter().copied())
                 .collect();
-            let gathers = all
-                .iter()
-                .filter(|l| matches!(l, Launch::G2p | Launch::G2p2g | Launch::OnePass))
-                .count();
-            assert_eq!(gathers, 1, "{pipeline:?}: {all:?}");
+            let is_gather = |l: &&Launch| matches!(l, Launch::G2p | Launch::G2p2g | Launch::OnePass);
+            assert_eq!(all.iter().filter(is_gather).count(), 1, "{pipeline:?}: {all:?}");
             assert_eq!(
-                launches(pipeline, Phase::G2p).len(),
+                launches(pipeline, Phase::G2p).iter().filter(is_gather).count(),
                 1,
                 "{pipeline:?} gathers in its g2p phase"
             );

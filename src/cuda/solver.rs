@@ -21,6 +21,7 @@ use super::timing::PhaseEvents;
 use crate::contract::{Material, MAX_MATERIALS};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
+use crate::sim::params::gathers_volume;
 use crate::sim::Phase;
 use crate::sim::{
     ExtremesTicket, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode, Scene,
@@ -188,6 +189,10 @@ impl CudaSolver {
     /// One launch of the table. Whether it enqueued work (a mirror where the scene turns the walls'
     /// mirror off, a first-substep scatter after the first substep, a sort not due, do not).
     pub(super) fn run(&mut self, launch: Launch, sort: bool) -> Result<bool> {
+        if launch == Launch::ScatterVolume {
+            let (k, l) = (&self.kernels, &self.gpu.launcher);
+            return k.volume.scatter(l, self.pipeline, &self.params, &mut self.state);
+        }
         let (k, l, p, d) = (&self.kernels, &self.gpu.launcher, &self.params, &self.state);
         let pipe = self.pipeline;
         match launch {
@@ -206,8 +211,12 @@ impl CudaSolver {
                 }
                 self.scatter_mass(launch)?;
             }
-            // Not where the scene turns the walls' mirror off.
-            // Not where the scene turns the walls' mirror off.
+            Launch::ScatterVolume => unreachable!("launched above, with the state to zero"),
+            // Not where the scene turns the walls' mirror off (nor the volume's where the scene has
+            // one rest density).
+            Launch::MirrorVolume if !gathers_volume(p) => return Ok(false),
+            Launch::MirrorVolume => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Volume, p, d),
+            Launch::GatherVolumeDensity => return k.volume.gather_density(l, p, d),
             Launch::MirrorMass => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Mass, p, d),
             Launch::MirrorMomentum => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Momentum, p, d),
             Launch::P2g => k.p2g.launch(l, p, d)?,

@@ -7,7 +7,7 @@ use super::colliders::DeviceColliders;
 use super::counters::CounterRing;
 use super::flow::DeviceFlow;
 use super::gpu::Gpu;
-use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
+use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE};
 use super::launch::NULL_POINTER;
 use super::particles::{DeviceParticles, BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE};
 use crate::sim::flow::FlowState;
@@ -56,8 +56,12 @@ impl DeviceState {
         let n = scene.slots();
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
+        let gathers_volume = scene.rest_densities_differ();
         let needed = n * BYTES_PER_PARTICLE
-            + nodes * (BYTES_PER_NODE + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 });
+            + nodes
+                * (BYTES_PER_NODE
+                    + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 }
+                    + if gathers_volume { VOLUME_BYTES_PER_NODE } else { 0 });
         gpu.ensure_fits(
             needed,
             &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
@@ -102,6 +106,9 @@ impl DeviceState {
         let counters = CounterRing::allocate(&gpu.ctx, stream)?;
         if fixed_scatter {
             grid.ensure_fixed(stream)?;
+        }
+        if gathers_volume {
+            grid.ensure_volume(stream)?;
         }
         let flow = if scene.flow.is_active() {
             let start;
@@ -180,6 +187,9 @@ impl DeviceState {
         );
         if fixed {
             self.grid.ensure_fixed(stream)?;
+        }
+        if params.volume_density != 0 {
+            self.grid.ensure_volume(stream)?;
         }
         Ok(())
     }

@@ -10,7 +10,7 @@ use super::slabs::Slabs;
 use super::{check_ranks, starting_slabs};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::cpu::{is_fixed_point, CpuSolver};
-use crate::sim::params::{DensityRule, Params};
+use crate::sim::params::{gathers_volume, DensityRule, Params};
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::push::Push;
 use crate::sim::solver::{push_step_timing, Solver, StepExtremes};
@@ -76,7 +76,7 @@ impl Rank {
             self.solver.settle_mass(params);
             self.solver.mirror_mass(params);
             clock.lap(Phase::P2gInit);
-            self.halo.fill_ghosts(comm, &mut self.solver.grid.mass)?;
+            self.fill_mass(comm, params)?;
             clock.lap(Phase::HaloFill);
         }
         self.solver.scatter_momentum(params);
@@ -94,10 +94,10 @@ impl Rank {
         self.solver.mirror_momentum(params);
         self.solver.grid_update(params);
         clock.lap(Phase::GridUpdate);
-        let (halo, grid) = (&self.halo, &mut self.solver.grid);
         if !gathered {
-            halo.fill_ghosts(comm, &mut grid.mass)?;
+            self.fill_mass(comm, params)?;
         }
+        let (halo, grid) = (&self.halo, &mut self.solver.grid);
         halo.fill_ghosts(comm, &mut grid.momentum)?; // velocities by now
         clock.lap(Phase::HaloFill);
         self.solver.g2p(params);
@@ -106,14 +106,27 @@ impl Rank {
     }
 
     /// The mass scatter's ghost sums to their owners: its integer units under the fixed-point
-    /// scatter, else the float mass.
+    /// scatter, else the float mass; and the volume's, where the rest densities differ.
     fn sum_mass(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<()> {
         let grid = &mut self.solver.grid;
+        if gathers_volume(params) {
+            self.halo.sum_into_owners(comm, &mut grid.volume)?;
+        }
         if is_fixed_point(params) {
             self.halo.sum_into_owners(comm, &mut grid.fixed_mut().mass)
         } else {
             self.halo.sum_into_owners(comm, &mut grid.mass)
         }
+    }
+
+    /// The owners' settled, mirrored mass over their neighbours' ghosts; and the volume, where the
+    /// rest densities differ.
+    fn fill_mass(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<()> {
+        let grid = &mut self.solver.grid;
+        if gathers_volume(params) {
+            self.halo.fill_ghosts(comm, &mut grid.volume)?;
+        }
+        self.halo.fill_ghosts(comm, &mut grid.mass)
     }
 
     /// The momentum scatter's ghost sums to their owners, as `sum_mass`.

@@ -4,12 +4,13 @@
 
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
-use super::params::{carries_density, DensityRule, Material, Params, ScatterMode};
+use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
 use super::solver::{push_step_timing, Solver, StepExtremes};
 use super::view::ParticleView;
+use crate::contract::VOLUME_UNITS_PER_WEIGHT;
 use glam::{IVec3, Mat3, UVec3, Vec3};
 
 /// Quadratic B-spline weights of one particle on its 3x3x3 stencil.
@@ -95,6 +96,10 @@ pub struct Grid {
     pub momentum: Vec<Vec3>,
     /// The fixed-point scatter's sums (`ScatterMode::FixedPoint`), made on its first use.
     pub fixed: Option<FixedGrid>,
+    /// The grid's volume where the rest densities differ ([`gathers_volume`]): each node's sum of
+    /// the particles' stencil weights in fixed-point units ([`volume_units`]), whatever the scatter
+    /// mode, so that it is the same integer on every backend; empty until the first such scatter.
+    pub volume: Vec<i64>,
 }
 
 impl Grid {
@@ -107,6 +112,7 @@ impl Grid {
             mass: vec![0.0; shape.num_nodes()],
             momentum: vec![Vec3::ZERO; shape.num_nodes()],
             fixed: None,
+            volume: Vec::new(),
         }
     }
 
@@ -146,6 +152,13 @@ pub fn fixed_point_units(scaled: f32) -> i64 {
 #[inline(always)]
 pub fn fixed_point_value(units: i64, inv_scale: f32) -> f32 {
     units as f32 * inv_scale
+}
+
+/// A stencil weight's units in the grid's volume ([`Grid::volume`]), rounded to nearest even as
+/// kernels/volume.cu rounds `w * VOLUME_UNITS_PER_WEIGHT`, in a tile or not.
+#[inline(always)]
+pub fn volume_units(w: f32) -> i64 {
+    fixed_point_units(w * VOLUME_UNITS_PER_WEIGHT)
 }
 
 /// 2^52 units: a contribution beyond it is dropped (kernels/common.cuh's FIXED_CONTRIBUTION_LIMIT).
@@ -250,8 +263,9 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
 }
 
 /// p2g for one particle with stencil `st`: its density, and what it adds to the grid momentum,
-/// `w (mv + affine d)` on each stencil node. Returns `(rho, mv, affine)`. The density is gathered from
-/// the grid mass (`DensityRule::Gathered`), or the particle's own `rho_p`, which its last g2p advected
+/// `w (mv + affine d)` on each stencil node. Returns `(rho, mv, affine)`. The density is gathered
+/// (`DensityRule::Gathered`) from the grid's mass, or from its volume where the rest densities
+/// differ ([`gathered_density`]), or it is the particle's own `rho_p`, which its last g2p advected
 /// (`DensityRule::Advected`, [`density_after_g2p`]). Shared by the reference and the parallel
 /// backend, so both compute the same expressions.
 #[inline(always)]
@@ -260,7 +274,7 @@ pub fn p2g_particle(
     params: &Params,
     st: &Stencil,
     shape: GridShape,
-    mass: &[f32],
+    grid: DensitySource,
     rho_p: f32,
     v: Vec3,
     c: Mat3,
@@ -269,8 +283,8 @@ pub fn p2g_particle(
     let mat = Material::of(params, material);
     let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
     let rho = match DensityRule::of(params) {
-        DensityRule::Gathered if !carries_density(params) => grid_density(params, st, shape, mass),
-        _ => rho_p,
+        DensityRule::Gathered => gathered_density(params, st, shape, grid, m_p),
+        DensityRule::Advected => rho_p,
     };
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
@@ -278,6 +292,56 @@ pub fn p2g_particle(
     // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
     let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
     (rho, v * m_p, affine)
+}
+
+/// What a particle's density is gathered from: the grid's mass, settled and mirrored, and its
+/// volume (empty unless the rest densities differ, [`gathers_volume`]).
+#[derive(Clone, Copy)]
+pub struct DensitySource<'a> {
+    pub mass: &'a [f32],
+    pub volume: &'a [i64],
+}
+
+impl<'a> DensitySource<'a> {
+    pub fn of(grid: &'a Grid) -> DensitySource<'a> {
+        DensitySource {
+            mass: &grid.mass,
+            volume: &grid.volume,
+        }
+    }
+}
+
+/// A particle's density gathered over its stencil `st`: from the grid's mass ([`grid_density`]), or,
+/// where the rest densities differ, from the grid's volume times its own particle mass `m_p`
+/// ([`volume_density`]).
+#[inline(always)]
+pub fn gathered_density(
+    params: &Params,
+    st: &Stencil,
+    shape: GridShape,
+    grid: DensitySource,
+    m_p: f32,
+) -> f32 {
+    if gathers_volume(params) {
+        volume_density(params, st, shape, grid.volume, m_p)
+    } else {
+        grid_density(params, st, shape, grid.mass)
+    }
+}
+
+/// rho = m_p sum w V_i / dx^3 over the stencil `st`, V_i the node's weights ([`Grid::volume`]): the
+/// number of particles about the particle times its own mass, so each liquid reads its own rest
+/// density wherever it is packed as at rest, beside another liquid or not. In a scene of one
+/// material it is `grid_density`, the mass being m_p V_i. kernels/common.cuh `gather_volume_density`
+/// is the twin.
+#[inline(always)]
+pub fn volume_density(params: &Params, st: &Stencil, shape: GridShape, volume: &[i64], m_p: f32) -> f32 {
+    let inv_units = 1.0 / VOLUME_UNITS_PER_WEIGHT;
+    let mut weights = 0.0;
+    st.for_each_node(shape, |i, w, _| {
+        weights += w * fixed_point_value(volume[i], inv_units)
+    });
+    weights * m_p * (params.inv_dx * params.inv_dx * params.inv_dx)
 }
 
 /// rho = sum w m_i / dx^3 over the stencil `st`.
@@ -288,27 +352,30 @@ pub fn grid_density(params: &Params, st: &Stencil, shape: GridShape, mass: &[f32
     grid_mass * (params.inv_dx * params.inv_dx * params.inv_dx)
 }
 
-/// The density a particle leaves g2p with. Under `DensityRule::Advected`: gathered from the grid mass
-/// (`mass`, as the substep scattered and mirrored it) at the particle's position before the advection,
+/// The density a particle of `material` leaves g2p with. Under `DensityRule::Advected`: gathered
+/// from the grid (its mass, or its volume where the rest densities differ: [`gathered_density`], as
+/// the substep scattered and mirrored them) at the particle's position before the advection,
 /// `x_before`, and carried over the substep by the fluid's velocity divergence gathered there from
-/// the node velocities `velocity` (`DensityRule::advect`, `DensityRule::fluid_divergence`). Where
-/// the scene carries densities ([`carries_density`]), its own `rho` carried the same way, under
-/// either rule. Otherwise the density its p2g gathered, `rho`, unchanged.
+/// the node velocities `velocity` (`DensityRule::advect`, `DensityRule::fluid_divergence`).
+/// Otherwise the density its p2g gathered, `rho`, unchanged.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn density_after_g2p(
     params: &Params,
     shape: GridShape,
-    mass: &[f32],
+    grid: DensitySource,
     velocity: &[Vec3],
     x_before: Vec3,
     rho: f32,
+    material: u8,
 ) -> f32 {
-    let carried = carries_density(params);
-    if DensityRule::of(params) == DensityRule::Gathered && !carried {
+    if DensityRule::of(params) == DensityRule::Gathered {
         return rho;
     }
+    let mass = grid.mass;
     let (mut grid_mass, mut v_p, mut sum_v_dot_d, mut filled_w_d) = (0.0, Vec3::ZERO, 0.0, Vec3::ZERO);
-    Stencil::new(x_before, params.inv_dx).for_each_node(shape, |i, w, d| {
+    let st = Stencil::new(x_before, params.inv_dx);
+    st.for_each_node(shape, |i, w, d| {
         grid_mass += w * mass[i];
         v_p += w * velocity[i];
         sum_v_dot_d += w * velocity[i].dot(d);
@@ -319,8 +386,9 @@ pub fn density_after_g2p(
     let inv_dx = params.inv_dx;
     let divergence =
         DensityRule::fluid_divergence(sum_v_dot_d, filled_w_d.to_array(), v_p.to_array(), inv_dx);
-    let before = if carried {
-        rho
+    let before = if gathers_volume(params) {
+        let m_p = Material::of(params, material).particle_mass;
+        volume_density(params, &st, shape, grid.volume, m_p)
     } else {
         grid_mass * (inv_dx * inv_dx * inv_dx)
     };
@@ -473,6 +541,7 @@ impl CpuSolver {
     pub fn clear_grid(&mut self) {
         self.grid.mass.fill(0.0);
         self.grid.momentum.fill(Vec3::ZERO);
+        self.grid.volume.fill(0);
         if let Some(fixed) = &mut self.grid.fixed {
             fixed.mass.fill(0);
             fixed.momentum.fill([0; 3]);
@@ -486,8 +555,12 @@ impl CpuSolver {
         self.settle_mass(params);
     }
 
-    /// The mass scatter alone: [`Self::p2g_init`] without `settle_mass`.
+    /// The mass scatter alone: [`Self::p2g_init`] without `settle_mass`; and the volume's, where
+    /// the rest densities differ.
     pub fn scatter_mass(&mut self, params: &Params) {
+        if gathers_volume(params) {
+            self.scatter_volume(params);
+        }
         let shape = self.grid.shape;
         let p = &self.particles;
         let live = (0..p.len())
@@ -504,6 +577,18 @@ impl CpuSolver {
             for (x, m_p) in live {
                 Stencil::new(x, params.inv_dx).for_each_node(shape, |i, w, _| mass[i] += w * m_p);
             }
+        }
+    }
+
+    /// The grid's volume ([`Grid::volume`]): every live particle's stencil weights in fixed-point
+    /// units, at the positions the mass is scattered from.
+    pub fn scatter_volume(&mut self, params: &Params) {
+        let shape = self.grid.shape;
+        let volume = &mut self.grid.volume;
+        volume.resize(shape.num_nodes(), 0);
+        let p = &self.particles;
+        for n in (0..p.len()).filter(|&n| p.live[n]) {
+            Stencil::new(p.x[n], params.inv_dx).for_each_node(shape, |i, w, _| volume[i] += volume_units(w));
         }
     }
 
@@ -528,9 +613,12 @@ impl CpuSolver {
         }
     }
 
-    /// The walls' image mass (see [`mirror_walls`]), between p2g_init and p2g.
+    /// The walls' image mass (see [`mirror_walls`]), between p2g_init and p2g; and the image volume.
     pub fn mirror_mass(&mut self, params: &Params) {
         mirror_walls(self.grid.shape, params, &mut self.grid.mass, |_, m, _, _| m);
+        if gathers_volume(params) {
+            mirror_walls(self.grid.shape, params, &mut self.grid.volume, |_, v, _, _| v);
+        }
     }
 
     /// The walls' image momentum ([`momentum_image`]), between p2g and grid_update.
@@ -558,7 +646,9 @@ impl CpuSolver {
             mass,
             momentum,
             fixed: fixed_grid,
+            volume,
         } = &mut self.grid;
+        let source = DensitySource { mass, volume };
         let p = &mut self.particles;
         let scale = params.fixed_momentum_scale;
         let mut max_rho = 0.0f32;
@@ -566,7 +656,7 @@ impl CpuSolver {
             let st = Stencil::new(p.x[n], params.inv_dx);
             let material = p.material[n];
             let (rho, mv, affine) =
-                p2g_particle(params, &st, *shape, mass, p.rho[n], p.v[n], p.c[n], material);
+                p2g_particle(params, &st, *shape, source, p.rho[n], p.v[n], p.c[n], material);
             p.rho[n] = rho;
             max_rho = max_rho.max(reported_density(params, material, rho));
             match fixed_grid.as_mut().filter(|_| fixed) {
@@ -604,17 +694,13 @@ impl CpuSolver {
     /// carries on ([`density_after_g2p`]); and the extremes the next substep is chosen from (each
     /// particle's own signal speed c(rho_p) + |v_p|).
     pub fn g2p(&mut self, params: &Params) {
-        let Grid {
-            shape,
-            mass,
-            momentum: velocity,
-            ..
-        } = &self.grid;
+        let grid = &self.grid;
+        let (shape, velocity, source) = (grid.shape, &grid.momentum, DensitySource::of(grid));
         let p = &mut self.particles;
         let mut extremes = GatherExtremes::default();
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
-            let (x, v, c, moved) = g2p_with_backstop(params, *shape, velocity, &self.colliders, p.x[n]);
-            p.rho[n] = density_after_g2p(params, *shape, mass, velocity, p.x[n], p.rho[n]);
+            let (x, v, c, moved) = g2p_with_backstop(params, shape, velocity, &self.colliders, p.x[n]);
+            p.rho[n] = density_after_g2p(params, shape, source, velocity, p.x[n], p.rho[n], p.material[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], p.material[n], moved));
         }

@@ -31,10 +31,11 @@
 use super::colliders::ColliderFrame;
 use super::cpu::{
     density_after_g2p, g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle,
-    reported_density, step_phases, CpuPhases, CpuSolver, GatherExtremes, Grid, GridShape, Stencil,
+    reported_density, step_phases, volume_units, CpuPhases, CpuSolver, DensitySource, GatherExtremes, Grid,
+    GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
-use super::params::{DensityRule, Material, Params, ScatterMode};
+use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
 use super::phase::{Phase, PhaseTimings};
 use super::push::Push;
 use super::scene::Particles;
@@ -159,6 +160,30 @@ impl Bins {
     }
 }
 
+/// One value per stencil node and particle, `contribution(particle, w)`, summed per tile block into
+/// `blocks` (BLOCK_NODES values a block, in parallel), for [`merge`] to add to the grid.
+fn scatter_blocks<T: Copy + Default + Send + std::ops::AddAssign>(
+    bins: &Bins,
+    particles: &Particles,
+    params: &Params,
+    blocks: &mut Vec<T>,
+    contribution: impl Fn(usize, f32) -> T + Sync,
+) {
+    blocks.resize(bins.active.len() * BLOCK_NODES, T::default());
+    blocks
+        .par_chunks_mut(BLOCK_NODES)
+        .enumerate()
+        .for_each(|(k, block)| {
+            block.fill(T::default());
+            let origin = bins.tile_origin(bins.active[k]);
+            for &p in bins.particles(k) {
+                let p = p as usize;
+                let st = Stencil::new(particles.x[p], params.inv_dx);
+                in_block(&st, origin).for_each_node(BLOCK_SHAPE, |i, w, _| block[i] += contribution(p, w));
+            }
+        });
+}
+
 /// Adds the tiles' blocks into the grid, one task per 4-node z slab (see the module notes).
 fn merge<T: Copy + Send + Sync + std::ops::AddAssign>(
     bins: &Bins,
@@ -219,6 +244,8 @@ pub struct ParallelCpuSolver {
     inner: CpuSolver,
     bins: Bins,
     block_mass: Vec<f32>,
+    /// The grid's volume per tile block, where the rest densities differ (`scatter_volume`).
+    block_volume: Vec<i64>,
     block_momentum: Vec<Vec3>,
     /// p2g's densities in tile order, before they go back to the particles.
     rho_binned: Vec<f32>,
@@ -232,6 +259,7 @@ impl ParallelCpuSolver {
             inner: CpuSolver::new(particles, grid_res),
             bins: Bins::default(),
             block_mass: Vec::new(),
+            block_volume: Vec::new(),
             block_momentum: Vec::new(),
             rho_binned: Vec::new(),
             extremes: StepExtremes::default(),
@@ -316,23 +344,16 @@ impl ParallelCpuSolver {
         );
     }
 
-    /// m_i += w m_p, per tile block, then merged; then the walls' mirror mass.
+    /// m_i += w m_p, per tile block, then merged; then the walls' mirror mass. The volume too, where
+    /// the rest densities differ.
     pub fn p2g_init(&mut self, params: &Params) {
-        let (bins, particles) = (&self.bins, &self.inner.particles);
-        self.block_mass.resize(bins.active.len() * BLOCK_NODES, 0.0);
-        self.block_mass
-            .par_chunks_mut(BLOCK_NODES)
-            .enumerate()
-            .for_each(|(k, block)| {
-                block.fill(0.0);
-                let origin = bins.tile_origin(bins.active[k]);
-                for &p in bins.particles(k) {
-                    let p = p as usize;
-                    let m_p = Material::of(params, particles.material[p]).particle_mass;
-                    let st = Stencil::new(particles.x[p], params.inv_dx);
-                    in_block(&st, origin).for_each_node(BLOCK_SHAPE, |i, w, _| block[i] += w * m_p);
-                }
-            });
+        if gathers_volume(params) {
+            self.scatter_volume(params);
+        }
+        let particles = &self.inner.particles;
+        scatter_blocks(&self.bins, particles, params, &mut self.block_mass, |p, w| {
+            w * Material::of(params, particles.material[p]).particle_mass
+        });
         merge(
             &self.bins,
             self.inner.grid.shape,
@@ -347,11 +368,25 @@ impl ParallelCpuSolver {
         );
     }
 
+    /// The grid's volume (`CpuSolver::scatter_volume`) per tile block, merged, then its walls' image:
+    /// integer sums, the reference's whatever the order.
+    fn scatter_volume(&mut self, params: &Params) {
+        let particles = &self.inner.particles;
+        scatter_blocks(&self.bins, particles, params, &mut self.block_volume, |_, w| {
+            volume_units(w)
+        });
+        let grid = &mut self.inner.grid;
+        grid.volume.clear();
+        grid.volume.resize(grid.shape.num_nodes(), 0);
+        merge(&self.bins, grid.shape, &self.block_volume, &mut grid.volume);
+        mirror_walls(grid.shape, params, &mut grid.volume, |_, v, _, _| v);
+    }
+
     /// Density from grid mass, pressure and stress (`p2g_particle`), momentum per tile block, merged.
     pub fn p2g(&mut self, params: &Params) {
         let params = &self.inner.scatter_params(params);
         let bins = &self.bins;
-        let Grid { shape, mass, .. } = &self.inner.grid;
+        let (shape, source) = (&self.inner.grid.shape, DensitySource::of(&self.inner.grid));
         let p = &self.inner.particles;
         self.block_momentum
             .resize(bins.active.len() * BLOCK_NODES, Vec3::ZERO);
@@ -378,7 +413,7 @@ impl ParallelCpuSolver {
                     let st = Stencil::new(p.x[i], params.inv_dx);
                     let material = p.material[i];
                     let (rho, mv, affine) =
-                        p2g_particle(params, &st, *shape, mass, p.rho[i], p.v[i], p.c[i], material);
+                        p2g_particle(params, &st, *shape, source, p.rho[i], p.v[i], p.c[i], material);
                     *rho_out = rho;
                     max_rho = max_rho.max(reported_density(params, material, rho));
                     in_block(&st, origin)
@@ -443,12 +478,8 @@ impl ParallelCpuSolver {
     /// Velocity and C from the grid, advection (`g2p_particle`), the density carried on
     /// (`density_after_g2p`), and the extremes.
     pub fn g2p(&mut self, params: &Params) {
-        let Grid {
-            shape,
-            mass,
-            momentum: velocity,
-            ..
-        } = &self.inner.grid;
+        let grid = &self.inner.grid;
+        let (shape, velocity, source) = (&grid.shape, &grid.momentum, DensitySource::of(grid));
         let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
         let extremes = p
@@ -464,7 +495,7 @@ impl ParallelCpuSolver {
                     return GatherExtremes::default();
                 }
                 let (x_new, v_new, c_new, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
-                *rho = density_after_g2p(params, *shape, mass, velocity, *x, *rho);
+                *rho = density_after_g2p(params, *shape, source, velocity, *x, *rho, material);
                 (*x, *v, *c) = (x_new, v_new, c_new);
                 GatherExtremes::of(params, *v, *rho, material, moved)
             })

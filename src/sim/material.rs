@@ -46,7 +46,7 @@ pub trait MaterialTable {
     /// The rows in use.
     fn rows(&self) -> &[Material];
 
-    /// Whether the rest densities differ (`DensityRule::Carried`).
+    /// Whether the rest densities differ (`sim::params::gathers_volume`).
     fn several_densities(&self) -> bool {
         let rows = self.rows();
         rows.iter().any(|m| m.rest_density != rows[0].rest_density)

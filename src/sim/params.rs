@@ -181,15 +181,16 @@ impl DensityRule {
     }
 }
 
-/// Whether `params` carry each particle's density rather than gather it (`Params::carried_density`):
-/// the materials' rest densities differ. The grid's mass mixes two liquids' masses where they meet:
-/// gathered, an oil particle beside water reads up to 25 % over its rest density and is pushed off
-/// the interface, and a water particle reads under its own and loses its support. Carried, rho_p
-/// / (1 + dt div v) from its own last value, each keeps its own liquid's density; what the gather
-/// would correct (a spacing that drifts) it does not (docs/physics.md, "Several liquids").
+/// Whether `params` gather each particle's density from the grid's volume rather than its mass
+/// (`Params::volume_density`): the materials' rest densities differ. The grid's mass mixes two
+/// liquids' masses where they meet: gathered from it, an oil particle beside water reads up to 25 %
+/// over its rest density and is pushed off the interface, and a water particle reads under its own
+/// and loses its support. The volume, sum w_ip over the particles whatever their liquid, times the
+/// particle's own rest density reads each liquid at its own density on both sides of the interface
+/// (docs/physics.md, "Several liquids").
 #[inline(always)]
-pub fn carries_density(params: &Params) -> bool {
-    params.carried_density != 0
+pub fn gathers_volume(params: &Params) -> bool {
+    params.volume_density != 0
 }
 
 impl KernelParams {

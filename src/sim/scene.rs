@@ -239,14 +239,14 @@ impl Scene {
             wall_mirror_lo: if self.mirror_wall_mass { mirror_lo } else { 0 },
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             density_rule: self.pipeline.density_rule().code(),
-            carried_density: u32::from(self.rest_densities_differ()),
+            volume_density: u32::from(self.rest_densities_differ()),
         };
         Params { kernel, materials }
     }
 
     /// Whether the materials the bodies and emitters are made of differ in rest density: then every
-    /// particle's density is carried rather than gathered (`KernelParams::carried_density`). A row
-    /// no body uses changes nothing.
+    /// particle's density is gathered from the grid's volume rather than its mass
+    /// (`KernelParams::volume_density`). A row no body uses changes nothing.
     pub fn rest_densities_differ(&self) -> bool {
         let rows = self
             .bodies

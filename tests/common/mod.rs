@@ -299,6 +299,29 @@ max = [0.5, 0.5, 0.6]
 "#
 );
 
+/// [`STIRRED_TANK`]'s block as water (x below 0.25 m) and oil (800 kg/m^3) side by side.
+pub const STIRRED_LIQUIDS: &str = r#"
+[domain]
+size = [1.5, 0.75, 0.75]
+resolution = [48, 24, 24]
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 10.0
+[[material]]
+name = "oil"
+rest_density = 800.0
+sound_speed = 10.0
+[[block]]
+material = "water"
+min = [0.03125, 0.03125, 0.03125]
+max = [0.25, 0.5, 0.6]
+[[block]]
+material = "oil"
+min = [0.25, 0.03125, 0.03125]
+max = [0.5, 0.5, 0.6]
+"#;
+
 /// [`STIRRED_TANK`] in fixed point with a box moving across it at x 0.2 to 0.3 m, where the first
 /// rebin of two ranks puts the cut.
 pub fn stirred_tank_with_moving_box() -> String {

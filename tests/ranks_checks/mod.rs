@@ -48,6 +48,18 @@ pub fn tank(scatter: ScatterMode) -> (Scene, Params) {
     (scene, params)
 }
 
+/// [`tank`]'s block as two liquids side by side, water (1000 kg/m^3) and oil (800), in fixed point:
+/// every particle's density gathered from the grid's volume, which the ranks sum and fill with the
+/// mass and the velocities.
+pub fn liquids_tank() -> (Scene, Params) {
+    let mut scene = common::scene(common::STIRRED_LIQUIDS);
+    scene.scatter = ScatterMode::FixedPoint;
+    let mut params = common::cfl_params(&scene);
+    params.density_rule = scene.pipeline.density_rule().code();
+    assert_eq!(params.volume_density, 1, "two rest densities");
+    (scene, params)
+}
+
 pub fn one_gpu(scene: &Scene) -> CudaSolver {
     CudaSolver::from_particles(scene, &common::stirred(scene), CudaOptions::default()).unwrap()
 }
@@ -81,6 +93,20 @@ pub fn max_gap(a: &Particles, b: &Particles, dx: f32) -> f32 {
 /// the even slabs are rebalanced): the split run gives one GPU's bits, slot for slot.
 pub fn fixed_point_ranks_give_one_gpu_s_bits(on: On) {
     let (scene, params) = tank(ScatterMode::FixedPoint);
+    split_runs_give_one_gpu_s_bits(&scene, &params, on);
+}
+
+/// [`fixed_point_ranks_give_one_gpu_s_bits`] with two liquids of different rest densities
+/// ([`liquids_tank`]): the grid's volume crosses the cuts as the mass does.
+pub fn two_liquids_on_ranks_give_one_gpu_s_bits(on: On) {
+    let (scene, params) = liquids_tank();
+    split_runs_give_one_gpu_s_bits(&scene, &params, on);
+}
+
+/// 200 substeps of `scene` split `on` its rank counts give one GPU's bits, slot for slot, after
+/// thousands of particles crossed the cuts and the even slabs moved.
+fn split_runs_give_one_gpu_s_bits(scene: &Scene, params: &Params, on: On) {
+    let (scene, params) = (scene.clone(), *params);
     let expected = run(&mut one_gpu(&scene), &params, 200);
     let again = run(&mut one_gpu(&scene), &params, 200);
     assert!(
