@@ -185,9 +185,9 @@ impl DensityRule {
 /// (`Params::volume_density`): the materials' rest densities differ. The grid's mass mixes two
 /// liquids' masses where they meet: gathered from it, an oil particle beside water reads up to 25 %
 /// over its rest density and is pushed off the interface, and a water particle reads under its own
-/// and loses its support. The volume, sum w_ip over the particles whatever their liquid, times the
-/// particle's own rest density reads each liquid at its own density on both sides of the interface
-/// (docs/physics.md, "Several liquids").
+/// and loses its support. The volume, V_i = sum w_ip over the particles whatever their liquid, read
+/// with the particle's own mass, rho_p = m_p sum w_ip V_i / dx^3, gives each liquid its own density
+/// on both sides of the interface (docs/physics.md, "Several liquids").
 #[inline(always)]
 pub fn gathers_volume(params: &Params) -> bool {
     params.volume_density != 0
