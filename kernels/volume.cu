@@ -4,8 +4,9 @@
 //
 // The volume: V_i = sum_p w_ip over every live particle whatever its liquid, each weight rounded to
 // fixed-point units (VOLUME_UNITS_PER_WEIGHT) and summed as integers whatever the scatter mode, so it
-// is the same on any number of ranks and on the CPU. At the positions the substep's density is
-// gathered at; the caller zeroes it first. Two scatters, the same integers:
+// is the same in any order and on any number of ranks (the CPU's differs by a unit where a weight's
+// last bit does: NVRTC contracts the stencil's weights into fused multiply-adds). At the positions
+// the substep's density is gathered at; the caller zeroes it first. Two scatters, the same integers:
 // - scatter_volume_tiled (binned and fused pipelines): a CUDA block per bin chunk sums its particles'
 //   weights in a shared 32-bit tile (tiles.cuh) and flushes each tile node with one 64-bit atomic. At
 //   bench-655k's size on an H100 it replaced the warp runs below at 0.062 ms a substep;

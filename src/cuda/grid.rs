@@ -146,6 +146,12 @@ impl DeviceGrid {
         }
     }
 
+    /// The grid's volume read back as the CPU reference holds it (`Grid::volume`). Waits.
+    pub fn read_volume(&self, gpu: &Gpu) -> Result<Vec<i64>> {
+        let volume = self.volume.as_ref().context("the scene gathers no volume")?;
+        Ok(gpu.download(volume)?.into_iter().map(|q| q as i64).collect())
+    }
+
     /// The fixed-point mass accumulators, or a placeholder the float scatter never dereferences.
     pub fn fixed_mass(&self) -> &CudaSlice<u64> {
         self.fixed.as_ref().map_or(&self.unused_fixed, |f| &f.mass)

@@ -37,6 +37,16 @@ impl CudaSolver {
         Ok(())
     }
 
+    /// The grid's volume at the particles' positions now, the walls' images added (kernels/volume.cu,
+    /// mirror_walls.cu), read back as the CPU reference holds it (`Grid::volume`), in a scene whose
+    /// rest densities differ.
+    pub fn scatter_and_read_volume(&mut self, params: &Params) -> Result<Vec<i64>> {
+        self.accept(params)?;
+        self.run(Launch::ScatterVolume, false)?;
+        self.run(Launch::MirrorVolume, false)?;
+        self.state.grid.read_volume(&self.gpu)
+    }
+
     /// The walls' image mass, between the mass scatter and p2g (kernels/mirror_walls.cu).
     pub fn mirror_mass(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;

@@ -98,7 +98,7 @@ pub struct Grid {
     pub fixed: Option<FixedGrid>,
     /// The grid's volume where the rest densities differ ([`gathers_volume`]): each node's sum of
     /// the particles' stencil weights in fixed-point units ([`volume_units`]), whatever the scatter
-    /// mode, so that it is the same integer on every backend; empty until the first such scatter.
+    /// mode, so that no sum depends on the order of its terms; empty until the first such scatter.
     pub volume: Vec<i64>,
 }
 
