@@ -135,15 +135,13 @@ impl DeviceGrid {
         self.volume.as_ref().unwrap_or(&self.unused_fixed)
     }
 
-    /// The grid's volume to scatter into, zeroed; `None` where it was never allocated.
-    pub fn zeroed_volume(&mut self, stream: &Arc<CudaStream>) -> Result<Option<&mut CudaSlice<u64>>> {
-        match &mut self.volume {
-            Some(volume) => {
-                stream.memset_zeros(volume).context("zeroing the grid's volume")?;
-                Ok(Some(volume))
-            }
-            None => Ok(None),
-        }
+    /// Zeroes the grid's volume before its scatter.
+    pub fn zero_volume(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        let volume = self
+            .volume
+            .as_mut()
+            .context("the grid's volume was never allocated (DeviceState::check_params allocates it)")?;
+        stream.memset_zeros(volume).context("zeroing the grid's volume")
     }
 
     /// The grid's volume read back as the CPU reference holds it (`Grid::volume`). Waits.

@@ -6,6 +6,7 @@
 use super::launch::{host_kernel, Launcher};
 use super::state::{DeviceState, StateArgs};
 use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM, MIRROR_VOLUME, NODE_BLOCK_EDGE};
+use crate::sim::params::gathers_volume;
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
@@ -24,7 +25,8 @@ pub enum MirrorQuantity {
 host_kernel!(MirrorWalls = "mirror_walls" / "mirror_walls");
 
 impl MirrorWalls {
-    /// Nothing where the mirror is off (`wall_mirror_lo == 0`). Whether it launched.
+    /// Nothing where the mirror is off (`wall_mirror_lo == 0`), nor the volume's where the scene has
+    /// one rest density. Whether it launched.
     pub fn launch(
         &self,
         l: &Launcher,
@@ -33,7 +35,8 @@ impl MirrorWalls {
         params: &Params,
         d: &DeviceState,
     ) -> Result<bool> {
-        if params.wall_mirror_lo == 0 {
+        let volume = matches!(quantity, MirrorQuantity::Volume);
+        if params.wall_mirror_lo == 0 || (volume && !gathers_volume(params)) {
             return Ok(false);
         }
         let threads = orbits(params)?;
@@ -45,7 +48,6 @@ impl MirrorWalls {
             MirrorQuantity::Momentum => MIRROR_MOMENTUM,
             MirrorQuantity::Volume => MIRROR_VOLUME,
         };
-        let volume = matches!(quantity, MirrorQuantity::Volume);
         // SAFETY: the arguments match mirror_walls; the marks, list and counts are this grid's (or null
         // pointers, which the kernel checks, for the report's pipeline and the volume, which no
         // grid update walks). The volume goes in the fixed-point mass's place, channel 0.

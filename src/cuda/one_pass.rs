@@ -7,7 +7,7 @@
 //! size of the scene choosing (`FloatScatter`).
 
 use super::gpu::FloatScatter;
-use super::launch::{Kernel, Launcher, NULL_POINTER};
+use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::contract::{LAW_NEWTONIAN, TILE_THREADS};
@@ -132,14 +132,11 @@ impl OnePass {
         // null and never read (no sinks); without `gather` the node velocities are not read.
         unsafe {
             kernel.launch(l, config, |a| {
-                a.arg(&params.kernel).arg(&gather).arg(list);
-                // Particles stored in bin order are read at their places (every binning gathered
-                // them), without `order`.
-                match d.bin_order {
-                    Some(_) => a.arg(&NULL_POINTER),
-                    None => a.arg(&d.bins.order),
-                };
-                a.particle_state(p)
+                a.arg(&params.kernel)
+                    .arg(&gather)
+                    .arg(list)
+                    .bin_order_or_places(d)
+                    .particle_state(p)
                     .arg(&p.slot)
                     .arg(&g.vel)
                     .accumulators(g)

@@ -21,7 +21,6 @@ use super::timing::PhaseEvents;
 use crate::contract::{Material, MAX_MATERIALS};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
-use crate::sim::params::gathers_volume;
 use crate::sim::Phase;
 use crate::sim::{
     ExtremesTicket, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode, Scene,
@@ -214,7 +213,6 @@ impl CudaSolver {
             Launch::ScatterVolume => unreachable!("launched above, with the state to zero"),
             // Not where the scene turns the walls' mirror off (nor the volume's where the scene has
             // one rest density).
-            Launch::MirrorVolume if !gathers_volume(p) => return Ok(false),
             Launch::MirrorVolume => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Volume, p, d),
             Launch::GatherVolumeDensity => return k.volume.gather_density(l, p, d),
             Launch::MirrorMass => return k.mirror_walls.launch(l, pipe, MirrorQuantity::Mass, p, d),

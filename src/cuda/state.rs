@@ -209,6 +209,9 @@ pub trait StateArgs<'a> {
     fn particle_state(&mut self, particles: &'a DeviceParticles) -> &mut Self;
     /// `grid_acc, fixed_mass, fixed_momentum`: the scatter accumulators, float and fixed point.
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self;
+    /// `order`: the bins' particle order, or a null pointer where the particles are stored in bin
+    /// order (every binning gathered them, so a tiled pass reads them at their places).
+    fn bin_order_or_places(&mut self, state: &'a DeviceState) -> &mut Self;
     /// `block_marks, block_list, work_counts, counters`: the node-block list a scatter appends to
     /// (`BlockMarks` in kernels/tiles.cuh), then the step counters.
     fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self;
@@ -231,6 +234,13 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
         self.arg(&grid.acc)
             .arg(grid.fixed_mass())
             .arg(grid.fixed_momentum())
+    }
+
+    fn bin_order_or_places(&mut self, state: &'a DeviceState) -> &mut Self {
+        match state.bin_order {
+            Some(_) => self.arg(&NULL_POINTER),
+            None => self.arg(&state.bins.order),
+        }
     }
 
     fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self {

@@ -2,12 +2,12 @@
 //! the particles' stencil weights in fixed-point units) and every particle's density gathered from
 //! it (`sim::params::gathers_volume`). Nothing launches where the scene has one rest density.
 
-use super::launch::{Kernel, Launcher, NULL_POINTER};
+use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::sim::params::gathers_volume;
 use crate::sim::{Params, Pipeline};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use cudarc::driver::PushKernelArg;
 
 pub struct VolumeKernels {
@@ -38,9 +38,7 @@ impl VolumeKernels {
         if !gathers_volume(params) {
             return Ok(false);
         }
-        d.grid
-            .zeroed_volume(&l.stream)?
-            .context("the grid's volume was never allocated (DeviceState::check_params allocates it)")?;
+        d.grid.zero_volume(&l.stream)?;
         let (p, g) = (&d.particles, &d.grid);
         if !pipeline.is_binned() {
             // SAFETY: the arguments match scatter_volume in kernels/volume.cu; the volume holds a u64
@@ -59,12 +57,12 @@ impl VolumeKernels {
         // particles are stored in bin order (the kernel reads places).
         unsafe {
             self.scatter_tiled.launch(l, config, |a| {
-                a.arg(&params.kernel).arg(list);
-                match d.bin_order {
-                    Some(_) => a.arg(&NULL_POINTER),
-                    None => a.arg(&d.bins.order),
-                };
-                a.arg(&p.x).arg(g.volume()).node_block_list(d);
+                a.arg(&params.kernel)
+                    .arg(list)
+                    .bin_order_or_places(d)
+                    .arg(&p.x)
+                    .arg(g.volume())
+                    .node_block_list(d);
             })?;
         }
         Ok(true)
