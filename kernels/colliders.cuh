@@ -149,7 +149,7 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
         if (!(phi < s.band)) continue;
         const Vec3f vc = collider_velocity_at(s, x);
         Vec3f rel = v3(vel[0] - vc.x, vel[1] - vc.y, vel[2] - vc.z);
-        if (s.boundary == BOUNDARY_STICK) {
+        if (s.boundary == BOUNDARY_STICK || s.boundary == BOUNDARY_PIPE) {
             rel = v3(0.0f, 0.0f, 0.0f);
         } else {
             const float vn = rel.x * n.x + rel.y * n.y + rel.z * n.z;
@@ -176,11 +176,12 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
 
 // The particle backstop after advection (ColliderFrame::backstop): a particle that ended inside a
 // collider goes back to its surface along the normal and loses its velocity into it. True where it did.
+// A nozzle's pipe holds its liquid rather than keeping it out.
 __device__ __forceinline__ bool collider_backstop(const Colliders& colliders, float (&x)[3], float (&vel)[3]) {
     bool pushed = false;
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
-        if (collider_beyond(s, v3(x[0], x[1], x[2]), 0.0f)) continue;
+        if (s.boundary == BOUNDARY_PIPE || collider_beyond(s, v3(x[0], x[1], x[2]), 0.0f)) continue;
         Vec3f n;
         const float phi = collider_distance(s, colliders.sdf, v3(x[0], x[1], x[2]), n);
         if (phi < 0.0f) {

@@ -31,6 +31,7 @@ fn main() -> std::process::ExitCode {
             gpu_flow_runs_in_bin_order_are_the_runs_in_place,
             gpu_capacity_exhaustion_is_counted,
             the_report_pipeline_refuses_emitters,
+            a_pipe_holds_its_rope_on_the_gpu_as_on_the_cpu,
             a_run_stepped_on_other_threads_is_byte_identical,
         ],
     )
@@ -190,6 +191,39 @@ fn gpu_emission_and_draining_follow_the_cpu() {
     let attributes =
         mpm::render::feed::read_attributes(gpu.solver(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
     assert_eq!(attributes.iter().filter(|a| !a[0].is_nan()).count(), p.num_live());
+}
+
+/// The emitter's pipe (the grid update's BOUNDARY_PIPE, kernels/colliders.cuh) in both pipelines:
+/// the liquid inside it at the nozzle's speed, the rope below as the CPU reference has it
+/// (tests/flow.rs holds the CPU to the physics).
+fn a_pipe_holds_its_rope_on_the_gpu_as_on_the_cpu() {
+    use common::{piped_rope, rope, ROPE_PIPE, ROPE_SPEED};
+    let scene = common::scene(&piped_rope(ROPE_PIPE));
+    let run = |backend: BackendKind, pipeline: Pipeline| {
+        let mut scene = scene.clone();
+        scene.pipeline = pipeline;
+        let mut sim = flow_sim(&scene, backend);
+        frames(&mut sim, 45);
+        rope(&sim.solver_mut().read_particles().unwrap())
+    };
+    let cpu = run(BackendKind::CpuParallel, Pipeline::Fused);
+    println!("cpu-parallel: {cpu:?}");
+    for pipeline in [Pipeline::Fused, Pipeline::Binned] {
+        let gpu = run(BackendKind::Cuda, pipeline);
+        println!("{pipeline:?}: {gpu:?}");
+        assert!(
+            gpu.inside == cpu.inside && gpu.worst_inside < 1e-3 * ROPE_SPEED,
+            "{pipeline:?}: {gpu:?}"
+        );
+        assert!(
+            (gpu.fastest / cpu.fastest - 1.0).abs() < 0.02,
+            "{pipeline:?}: {gpu:?} against {cpu:?}"
+        );
+        assert!(
+            (gpu.lowest - cpu.lowest).abs() < 0.005,
+            "{pipeline:?}: {gpu:?} against {cpu:?}"
+        );
+    }
 }
 
 fn gpu_flow_runs_are_byte_identical_and_resume_exactly() {

@@ -290,6 +290,9 @@ device_constants! {
     BOUNDARY_SLIP: u32 = 0;
     BOUNDARY_STICK: u32 = 1;
     BOUNDARY_FRICTION: u32 = 2;
+    /// A nozzle's pipe (`[[emitter]] pipe_length`): nodes inside take its velocity, and particles
+    /// pass through it (no backstop).
+    BOUNDARY_PIPE: u32 = 3;
 
     /// x.w of a parked particle slot (0 for a live particle).
     PARKED_W: f32 = 1.0;

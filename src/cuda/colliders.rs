@@ -3,9 +3,13 @@
 //! colliders' distance samples, uploaded once.
 
 use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
+use crate::sim::flow::MAX_EMITTERS;
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
 use std::sync::Arc;
+
+/// The colliders, then the emitters' pipes.
+const MAX_STATES: usize = MAX_COLLIDERS + MAX_EMITTERS;
 
 pub struct DeviceColliders {
     pub states: CudaSlice<ColliderState>,
@@ -22,7 +26,7 @@ impl DeviceColliders {
     pub fn allocate(stream: &Arc<CudaStream>) -> Result<DeviceColliders> {
         Ok(DeviceColliders {
             states: stream
-                .alloc_zeros::<ColliderState>(MAX_COLLIDERS)
+                .alloc_zeros::<ColliderState>(MAX_STATES)
                 .context("allocating the collider states")?,
             count: 0,
             uploaded: Vec::new(),
@@ -37,8 +41,8 @@ impl DeviceColliders {
     /// substeps already enqueued keep the states they were launched with).
     pub fn set(&mut self, stream: &Arc<CudaStream>, frame: &ColliderFrame) -> Result<()> {
         ensure!(
-            frame.states.len() <= MAX_COLLIDERS,
-            "{} colliders, more than the {MAX_COLLIDERS} the kernels take",
+            frame.states.len() <= MAX_STATES,
+            "{} colliders and pipes, more than the {MAX_STATES} the kernels take",
             frame.states.len()
         );
         let sdf_is_new = self

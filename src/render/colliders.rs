@@ -5,7 +5,7 @@
 
 use super::camera::OrbitCamera;
 use super::program::{gl_error, link, set_mat4};
-use crate::sim::colliders::{ColliderFrame, ColliderState, Colliders, Shape};
+use crate::sim::colliders::{ColliderFrame, ColliderState, Colliders, Shape, BOUNDARY_PIPE};
 use crate::sim::{Simulation, FRAME_DT};
 use anyhow::Result;
 use glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
@@ -268,6 +268,9 @@ pub fn pick(
     let direction = direction.normalize_or_zero();
     let mut best: Option<(usize, f32)> = None;
     for (index, state) in frame.states.iter().enumerate() {
+        if state.boundary == BOUNDARY_PIPE {
+            continue; // a nozzle's pipe is the emitter's, not a body to drag
+        }
         let mut t = 0.0f32;
         for _ in 0..256 {
             let (phi, _) = frame.distance(state, origin + direction * t);

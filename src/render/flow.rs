@@ -1,6 +1,7 @@
 //! Emitters and sinks in the viewer and `mpm render`: outlined in the scene pass, in one colour of
 //! their own. An emitter is its nozzle's rim (a disc's circle, a rectangle's four edges) with a
-//! short stroke along its normal, the way the water leaves; a sink is its box's twelve edges.
+//! short stroke along its normal, the way the water leaves, and where it has a pipe, the pipe's far
+//! rim and four lines along it; a sink is its box's twelve edges.
 
 use crate::sim::flow::{self, Flow, Nozzle};
 use glam::Vec3;
@@ -40,7 +41,16 @@ pub fn outline(flow: &Flow, (lo, hi): (Vec3, Vec3)) -> Vec<[Vec3; 2]> {
         for (k, &a) in rim.iter().enumerate() {
             lines.push([a, rim[(k + 1) % rim.len()]]);
         }
-        lines.push([center, center + emitter.normal * width]);
+        let pipe = emitter.normal * emitter.pipe_length as f32;
+        if emitter.pipe_length > 0.0 {
+            for (k, &a) in rim.iter().enumerate() {
+                lines.push([a + pipe, rim[(k + 1) % rim.len()] + pipe]);
+                if k % (rim.len() / 4) == 0 {
+                    lines.push([a, a + pipe]);
+                }
+            }
+        }
+        lines.push([center + pipe, center + pipe + emitter.normal * width]);
     }
     for sink in &flow.sinks {
         let (min, max) = (sink.min.max(lo), sink.max.min(hi));
@@ -76,6 +86,7 @@ mod tests {
             rate: 1e-4,
             points: flow::nozzle_points(nozzle, center, normal, 0.005),
             material: 0,
+            pipe_length: 0.0,
         }
     }
 

@@ -14,11 +14,16 @@
 //! - after advection, a particle that still ended inside a collider is put back on its surface along
 //!   the distance field's gradient and loses its velocity into it: the backstop
 //!   ([`ColliderFrame::backstop`]), counted and reported.
+//!
+//! A nozzle's pipe (`[[emitter]] pipe_length`) rides in the same frame, after the colliders: a
+//! cylinder or box along the nozzle's normal whose inside nodes take the nozzle's velocity, as a
+//! pump-fed pipe drives what it holds ([`BOUNDARY_PIPE`]: no band, no backstop, no fluid kept out).
 
+use super::flow::{self, Emitter, Nozzle};
 use super::mesh::MeshSdf;
 pub use crate::contract::{
-    ColliderState, BOUNDARY_FRICTION, BOUNDARY_SLIP, BOUNDARY_STICK, COLLIDER_BOX, COLLIDER_CAPSULE,
-    COLLIDER_CYLINDER, COLLIDER_MESH, COLLIDER_SPHERE,
+    ColliderState, BOUNDARY_FRICTION, BOUNDARY_PIPE, BOUNDARY_SLIP, BOUNDARY_STICK, COLLIDER_BOX,
+    COLLIDER_CAPSULE, COLLIDER_CYLINDER, COLLIDER_MESH, COLLIDER_SPHERE,
 };
 use glam::{DMat3, DQuat, DVec3, Vec3};
 use std::sync::Arc;
@@ -286,6 +291,8 @@ pub struct Colliders {
     pub dx: f32,
     sdf: Arc<[f32]>,
     sdf_offsets: Vec<u32>,
+    /// The emitters' pipes ([`Colliders::set_pipes`]), static: after the colliders in every frame.
+    pipes: Vec<ColliderState>,
 }
 
 impl Colliders {
@@ -303,15 +310,59 @@ impl Colliders {
             dx,
             sdf: sdf.into(),
             sdf_offsets,
+            pipes: Vec::new(),
         }
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.list.is_empty()
+    /// The pipes of the emitters that have one (`pipe_length > 0`): from a cell behind the nozzle
+    /// (so that a new particle's whole stencil is held) to `pipe_length` past it, as wide as the
+    /// nozzle, moving nothing but giving the nodes inside the nozzle's velocity.
+    pub fn set_pipes(&mut self, emitters: &[Emitter]) {
+        let dx = f64::from(self.dx);
+        self.pipes = emitters
+            .iter()
+            .filter(|e| e.pipe_length > 0.0)
+            .map(|e| {
+                let n = e.normal.as_dvec3();
+                // Local y along the normal (a rectangle's second side along local z).
+                let u = flow::frame(e.normal).0.as_dvec3();
+                let rotation = DMat3::from_cols(u, n, u.cross(n));
+                let half_length = 0.5 * (e.pipe_length + dx);
+                let (kind, size) = match e.nozzle {
+                    Nozzle::Disc { radius } => (COLLIDER_CYLINDER, DVec3::new(radius, half_length, 0.0)),
+                    Nozzle::Rectangle { size } => (
+                        COLLIDER_BOX,
+                        DVec3::new(0.5 * size[0], half_length, 0.5 * size[1]),
+                    ),
+                };
+                ColliderState {
+                    kind,
+                    boundary: BOUNDARY_PIPE,
+                    band: 0.0,
+                    rotation: rotation.transpose().as_mat3().to_cols_array(),
+                    center: (e.center + n * (half_length - dx)).as_vec3().to_array(),
+                    velocity: (e.normal * e.speed).to_array(),
+                    size: size.as_vec3().to_array(),
+                    reach: (size.length() * (1.0 + 1e-4)) as f32 + 1e-3 * self.dx,
+                    ..bytemuck::Zeroable::zeroed()
+                }
+            })
+            .collect();
     }
 
+    /// Whether nothing bounds the flow but the walls: no collider and no pipe.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty() && self.pipes.is_empty()
+    }
+
+    /// The scene's colliders (not counting the pipes).
     pub fn len(&self) -> usize {
         self.list.len()
+    }
+
+    /// How many emitters have a pipe.
+    pub fn num_pipes(&self) -> usize {
+        self.pipes.len()
     }
 
     /// Whether any collider moves.
@@ -330,6 +381,7 @@ impl Colliders {
                     sdf_offset: offset,
                     ..c.state(t, self.dx)
                 })
+                .chain(self.pipes.iter().copied())
                 .collect(),
             sdf: self.sdf.clone(),
         }
@@ -455,5 +507,69 @@ mod tests {
             "{x} {v}"
         );
         assert!(frame.backstop(at, into).is_none());
+    }
+
+    /// A pipe gives the nodes inside it (from a cell behind the nozzle to its length past it, as
+    /// wide as the nozzle) the nozzle's velocity and leaves every other node alone; it keeps no
+    /// particle out and no fluid from spawning, and it rides after the colliders in the frame.
+    #[test]
+    fn a_pipe_drives_the_nodes_inside_it_at_the_nozzle_s_velocity() {
+        let dx = 0.01f32;
+        let normal = Vec3::new(1.0, -2.0, 0.5).normalize();
+        let center = DVec3::new(0.5, 0.6, 0.4);
+        let emitter = |nozzle, pipe_length| Emitter {
+            nozzle,
+            center,
+            normal,
+            speed: 0.3,
+            rate: 1e-5,
+            points: flow::nozzle_points(nozzle, center, normal, 0.005),
+            material: 0,
+            pipe_length,
+        };
+        let disc = Nozzle::Disc { radius: 0.02 };
+        let rectangle = Nozzle::Rectangle { size: [0.04, 0.01] };
+        let mut colliders = Colliders::new(Vec::new(), dx);
+        colliders.set_pipes(&[emitter(disc, 0.05), emitter(rectangle, 0.0)]);
+        assert_eq!(colliders.num_pipes(), 1, "a nozzle without a pipe has none");
+        assert!(!colliders.is_empty());
+        let frame = colliders.frame(1.0);
+        let (u, v) = flow::frame(normal);
+        let at = |along: f32, across: f32| center.as_vec3() + normal * along + u * across;
+        let still = Vec3::new(0.1, 0.2, -0.3);
+        let driven = normal * 0.3;
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+        for (x, inside) in [
+            (at(0.0, 0.0), true),
+            (at(0.049, 0.019), true),
+            (at(-0.009, 0.0), true), // a cell behind the nozzle
+            (at(-0.011, 0.0), false),
+            (at(0.051, 0.0), false),
+            (at(0.02, 0.021), false),
+            (at(0.02, 0.0) + v * 0.021, false),
+        ] {
+            let want = if inside { driven } else { still };
+            assert!(
+                close(frame.project_node(x, still), want),
+                "{x}: {}",
+                frame.project_node(x, still)
+            );
+            assert!(!frame.contains(x), "a pipe keeps no fluid from spawning");
+            assert!(
+                frame.backstop(x, still).is_none(),
+                "a pipe pushes no particle out"
+            );
+        }
+        // Rectangles too, their sides across the normal as the nozzle's.
+        let mut boxed = Colliders::new(Vec::new(), dx);
+        boxed.set_pipes(&[emitter(rectangle, 0.03)]);
+        let frame = boxed.frame(0.0);
+        assert!(close(frame.project_node(at(0.02, 0.019), still), driven));
+        assert!(close(frame.project_node(at(0.02, 0.021), still), still));
+        assert!(close(
+            frame.project_node(at(0.02, 0.0) + v * 0.004, still),
+            driven
+        ));
+        assert!(close(frame.project_node(at(0.02, 0.0) + v * 0.006, still), still));
     }
 }

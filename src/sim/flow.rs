@@ -53,6 +53,8 @@ pub struct Emitter {
     pub points: Vec<Vec3>,
     /// The row of the material table it emits.
     pub material: u8,
+    /// m past the nozzle that its pipe drives the liquid at `speed` (0: no pipe; `Colliders::set_pipes`).
+    pub pipe_length: f64,
 }
 
 impl Emitter {

@@ -300,15 +300,17 @@ impl Scene {
         self.flow.capacity
     }
 
-    /// Refuses colliders on the report pipeline (whose kernels do not apply them), naming the fix.
+    /// Refuses colliders and emitters' pipes on the report pipeline (whose kernels do not apply
+    /// them), naming the fix.
     pub fn check_pipeline(&self) -> Result<(), SceneError> {
         if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
             return Err(SceneError {
                 source: self.source.clone(),
                 key: "solver.pipeline".into(),
                 problem: format!(
-                    "= \"report\" cannot run this scene's {} collider(s): only the fused and binned pipelines apply colliders",
-                    self.colliders.len()
+                    "= \"report\" cannot run this scene's {} collider(s) and {} emitter pipe(s): only the fused and binned pipelines apply them",
+                    self.colliders.len(),
+                    self.colliders.num_pipes()
                 ),
                 fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default)".into(),
             });

@@ -229,6 +229,55 @@ speed = 1.5
     )
 }
 
+/// The nozzle speed, the nozzle's height and the pipe's length of [`piped_rope`], m/s and m.
+pub const ROPE_SPEED: f32 = 0.05;
+pub const ROPE_NOZZLE_Y: f32 = 0.27;
+pub const ROPE_PIPE: f32 = 0.02;
+
+/// A rope of 150 Pa s poured at [`ROPE_SPEED`] from a 3 cm nozzle at [`ROPE_NOZZLE_Y`] with a pipe of
+/// `pipe_length` (0: none), in a tank of 30 x 60 x 30 cells of 5 mm.
+pub fn piped_rope(pipe_length: f32) -> String {
+    format!(
+        "[domain]\nsize = [0.15, 0.3, 0.15]\nresolution = [30, 60, 30]\n\
+         [material]\nrest_density = 1400.0\nsound_speed = 8.0\nviscosity = 150.0\n\
+         [particles]\ncapacity = 20000\n\
+         [[emitter]]\nshape = \"disc\"\ncenter = [0.075, {ROPE_NOZZLE_Y}, 0.075]\nnormal = [0.0, -1.0, 0.0]\n\
+         radius = 0.015\nspeed = {ROPE_SPEED}\npipe_length = {pipe_length}\n"
+    )
+}
+
+/// What [`piped_rope`] did: the particles well inside the pipe (every node of their stencils
+/// driven), the worst of their velocities' differences from the nozzle's,
+/// the fastest live particle's speed and the lowest one's height.
+#[derive(Debug)]
+pub struct Rope {
+    pub inside: usize,
+    pub worst_inside: f32,
+    pub fastest: f32,
+    pub lowest: f32,
+}
+
+pub fn rope(p: &Particles) -> Rope {
+    let live = || (0..p.len()).filter(|&i| p.live[i]);
+    let axis = |i: usize| (p.x[i].x - 0.075).hypot(p.x[i].z - 0.075);
+    let nozzle = glam::Vec3::new(0.0, -ROPE_SPEED, 0.0);
+    let inside: Vec<usize> = live()
+        .filter(|&i| {
+            let y = p.x[i].y;
+            y > ROPE_NOZZLE_Y - ROPE_PIPE + 0.0075 && y < ROPE_NOZZLE_Y - 0.0025 && axis(i) < 0.0075 - 0.0025
+        })
+        .collect();
+    Rope {
+        inside: inside.len(),
+        worst_inside: inside
+            .iter()
+            .map(|&i| (p.v[i] - nozzle).length())
+            .fold(0.0, f32::max),
+        fastest: live().map(|i| p.v[i].length()).fold(0.0, f32::max),
+        lowest: live().map(|i| p.x[i].y).fold(f32::MAX, f32::min),
+    }
+}
+
 /// A drain in the jet tank's floor, where the jet lands.
 pub const JET_TANK_DRAIN: &str = r#"
 [[sink]]

@@ -164,9 +164,12 @@ impl ColliderFrame {
         self.states.is_empty()
     }
 
-    /// Whether x lies inside a collider (where a scene spawns no fluid).
+    /// Whether x lies inside a collider (where a scene spawns no fluid; a nozzle's pipe is no
+    /// obstacle).
     pub fn contains(&self, x: Vec3) -> bool {
-        self.states.iter().any(|s| self.distance(s, x).0 < 0.0)
+        self.states
+            .iter()
+            .any(|s| s.boundary != BOUNDARY_PIPE && self.distance(s, x).0 < 0.0)
     }
 
     /// Signed distance and outward unit normal (world frame) of collider `s` at world point x.
@@ -185,7 +188,7 @@ impl ColliderFrame {
     /// turn (scene order) whose surface is within the band, the velocity relative to the collider
     /// loses its part into the collider (slip), all of it (stick), or that and a Coulomb share of its
     /// tangential part (friction). A relative velocity leaving the collider is left alone, so fluid
-    /// can separate from it.
+    /// can separate from it. A nozzle's pipe (band 0) gives the nodes inside it its velocity.
     pub fn project_node(&self, x: Vec3, mut v: Vec3) -> Vec3 {
         for s in &self.states {
             if beyond(s, x, s.band) {
@@ -197,7 +200,7 @@ impl ColliderFrame {
             }
             let vc = Self::velocity_at(s, x);
             let mut rel = v - vc;
-            if s.boundary == BOUNDARY_STICK {
+            if s.boundary == BOUNDARY_STICK || s.boundary == BOUNDARY_PIPE {
                 rel = Vec3::ZERO;
             } else {
                 let vn = rel.dot(n);
@@ -223,10 +226,11 @@ impl ColliderFrame {
     /// The particle backstop, after advection: a particle at x that ended inside a collider is put
     /// back on its surface along the normal, and its velocity into the collider (relative to it) is
     /// removed. Returns the new position and velocity where it did; `None` where no collider holds x.
+    /// A nozzle's pipe holds its liquid rather than keeping it out.
     pub fn backstop(&self, mut x: Vec3, mut v: Vec3) -> Option<(Vec3, Vec3)> {
         let mut pushed = false;
         for s in &self.states {
-            if beyond(s, x, 0.0) {
+            if s.boundary == BOUNDARY_PIPE || beyond(s, x, 0.0) {
                 continue;
             }
             let (phi, n) = self.distance(s, x);

@@ -62,6 +62,9 @@ pub struct EmitterSpec {
     pub speed: f32,
     /// m^3/s; default: what the nozzle passes at `speed` (its area times the speed).
     pub rate: Option<f64>,
+    /// m: a pipe past the nozzle, in which the liquid moves at `speed` (a pump's push, which holds
+    /// the weight of a viscous rope hanging from it). Default 0: particles leave the nozzle free.
+    pub pipe_length: Option<f64>,
     #[serde(default = "default_ppc")]
     pub particles_per_cell: u32,
     /// The `[[material]]` it emits, by name (the scene's only material where omitted).

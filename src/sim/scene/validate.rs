@@ -151,6 +151,7 @@ impl Validator<'_> {
         self.fits_in_memory(&scene, self.estimate_particles(&scene))?;
         scene.num_particles = self.count_particles(&scene, !spec.emitters.is_empty())?;
         scene.flow = self.flow(spec, &scene)?;
+        scene.colliders.set_pipes(&scene.flow.emitters);
         self.fits_in_memory(&scene, scene.slots())?;
         Ok(scene)
     }
@@ -819,6 +820,22 @@ impl Validator<'_> {
                 ))
             }
         };
+        let pipe_length = e.pipe_length.unwrap_or(0.0);
+        if !(pipe_length.is_finite() && pipe_length >= 0.0) {
+            return Err(self.err(
+                key("pipe_length"),
+                format!("= {pipe_length} must be a length of 0 or more, m"),
+                "give the pipe's length past the nozzle in metres (0, the default, for none)",
+            ));
+        }
+        let pipe_end = (center + normal.as_dvec3() * pipe_length).as_vec3();
+        if pipe_end.cmplt(lo32).any() || pipe_end.cmpgt(hi32).any() {
+            return Err(self.err(
+                key("pipe_length"),
+                format!("= {pipe_length} m takes the pipe's end outside the domain's fluid region {region}"),
+                "shorten the pipe, or move the nozzle back from the wall it points at",
+            ));
+        }
         Ok(Emitter {
             nozzle,
             center,
@@ -827,6 +844,7 @@ impl Validator<'_> {
             rate,
             points,
             material: self.material_row(&key("material"), &e.material, materials)?,
+            pipe_length,
         })
     }
 
