@@ -159,6 +159,58 @@ mod tests {
         }
     }
 
+    /// A pipe adds its far rim, the nozzle's rim moved `pipe_length` along the normal, and four lines
+    /// along it from the nozzle's rim; the stroke leaves from the pipe's end.
+    #[test]
+    fn a_pipe_s_outline_runs_from_the_nozzle_to_its_end() {
+        let normal = Vec3::new(1.0, 0.6, 0.0).normalize();
+        let length = 0.04f32;
+        for nozzle in [
+            Nozzle::Disc { radius: 0.025 },
+            Nozzle::Rectangle { size: [0.06, 0.02] },
+        ] {
+            let bare = emitter(nozzle, normal);
+            let piped = Emitter {
+                pipe_length: f64::from(length),
+                ..bare.clone()
+            };
+            let lines = |e: &Emitter| {
+                outline(
+                    &Flow {
+                        emitters: vec![e.clone()],
+                        sinks: vec![],
+                        capacity: 1,
+                    },
+                    TANK,
+                )
+            };
+            let (without, with) = (lines(&bare), lines(&piped));
+            let rim = without.len() - 1;
+            assert_eq!(with.len(), 2 * rim + 4 + 1, "{nozzle:?}");
+            let center = bare.center.as_vec3();
+            let height = |p: Vec3| (p - center).dot(normal);
+            let far = with
+                .iter()
+                .filter(|[a, b]| (height(*a) - length).abs() < 1e-6 && (height(*b) - length).abs() < 1e-6);
+            assert_eq!(far.count(), rim, "{nozzle:?}: the far rim");
+            let along = with
+                .iter()
+                .filter(|[a, b]| height(*a).abs() < 1e-6 && (height(*b) - length).abs() < 1e-6);
+            assert_eq!(
+                along
+                    .filter(|[a, b]| ((*b - *a) - normal * length).length() < 1e-6)
+                    .count(),
+                4,
+                "{nozzle:?}"
+            );
+            let stroke = with.last().unwrap();
+            assert!(
+                (stroke[0] - (center + normal * length)).length() < 1e-6,
+                "{nozzle:?}"
+            );
+        }
+    }
+
     /// A sink is its box's 12 edges, cut to the tank; a sink wholly outside it draws nothing.
     #[test]
     fn a_sinks_outline_is_its_box_cut_to_the_tank() {
