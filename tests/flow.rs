@@ -333,8 +333,9 @@ fn a_rectangle_nozzle_covers_its_size_across_the_normal() {
 
 /// A nozzle with a pipe drives its liquid at its speed, as a pump-fed pipe does, and a viscous rope
 /// hangs from it; without the pipe the same rope falls freely from the nozzle. (A rope of 150 Pa s
-/// hanging 2 to 3 cm below the pipe stretches by its weight over 3 mu, Trouton's extensional
-/// viscosity: its fastest particle moves at about 1.15 times the nozzle's speed after 0.75 s.)
+/// hanging 2 to 3 cm below the pipe stretches slowly under its weight, resisted by its extensional
+/// viscosity (about 2 mu here, not Trouton's 3 mu: docs/physics.md, "Pouring a viscous rope"): its
+/// fastest particle moves at about 1.15 times the nozzle's speed after 0.75 s.)
 /// tests/gpu_lifecycle.rs holds the GPU's pipelines to the same.
 #[test]
 fn a_pipe_drives_its_liquid_at_the_nozzle_s_speed_and_holds_a_viscous_rope() {

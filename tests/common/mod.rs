@@ -258,13 +258,20 @@ pub struct Rope {
 }
 
 pub fn rope(p: &Particles) -> Rope {
+    // The cell (5 mm), the nozzle's axis and radius, and the stencil's reach (1.5 cells).
+    let (dx, axis_xz, radius) = (0.005f32, 0.075f32, 0.015f32);
+    let reach = 1.5 * dx;
     let live = || (0..p.len()).filter(|&i| p.live[i]);
-    let axis = |i: usize| (p.x[i].x - 0.075).hypot(p.x[i].z - 0.075);
+    let axis = |i: usize| (p.x[i].x - axis_xz).hypot(p.x[i].z - axis_xz);
     let nozzle = glam::Vec3::new(0.0, -ROPE_SPEED, 0.0);
+    // Off the pipe's far end and rim by a stencil's reach; below the nozzle's plane by half a cell
+    // (the pipe begins a cell behind it).
     let inside: Vec<usize> = live()
         .filter(|&i| {
             let y = p.x[i].y;
-            y > ROPE_NOZZLE_Y - ROPE_PIPE + 0.0075 && y < ROPE_NOZZLE_Y - 0.0025 && axis(i) < 0.0075 - 0.0025
+            y > ROPE_NOZZLE_Y - ROPE_PIPE + reach
+                && y < ROPE_NOZZLE_Y - 0.5 * dx
+                && axis(i) < radius - reach - 0.5 * dx
         })
         .collect();
     Rope {
