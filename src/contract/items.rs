@@ -45,7 +45,24 @@ device_structs! {
         relaxation_time: f32,
         /// Carreau-Yasuda: the transition exponent a.
         transition_exponent: f32,
-        _pad: [u32; 3],
+        /// Solids (`law >= FIRST_SOLID_LAW`): the Lame shear modulus mu = E / (2 (1 + nu)), Pa.
+        shear_modulus: f32,
+        /// Solids: the Lame first parameter lambda = E nu / ((1 + nu) (1 - 2 nu)), Pa.
+        lame_lambda: f32,
+        /// `LAW_SNOW`: the critical compression theta_c (singular values of the elastic part of F
+        /// are clamped to [1 - theta_c, 1 + theta_s]).
+        critical_compression: f32,
+        /// `LAW_SNOW`: the critical stretch theta_s.
+        critical_stretch: f32,
+        /// `LAW_SNOW`: the hardening coefficient xi (mu and lambda times exp(xi (1 - J_p))).
+        hardening: f32,
+        /// `LAW_SAND`: the Drucker-Prager coefficient alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi)),
+        /// phi the friction angle.
+        friction_alpha: f32,
+        /// `LAW_SAND`: the cohesion, as the Hencky strain of isotropic tension the sand bears
+        /// before it yields (0: cohesionless).
+        cohesion: f32,
+        _pad: [u32; 4],
     }
 
     /// What every kernel gets by value, its first argument: solver settings, grid shape, the step
@@ -275,6 +292,20 @@ device_constants! {
     /// `Material::law`: mu = min(max_viscosity, K gammadot^(n - 1) + tau_y / gammadot), the
     /// bi-viscous regularisation of a yield stress (Bingham where n = 1).
     LAW_HERSCHEL_BULKLEY: u32 = 3;
+    /// `Material::law`: the first solid; every law from here on is a solid's, whose particles carry
+    /// a deformation gradient (`sim::Deformation`) and scatter its stress instead of a pressure.
+    FIRST_SOLID_LAW: u32 = 4;
+    /// `Material::law`: an elastic solid, fixed-corotated (Stomakhin et al. 2012):
+    /// tau = 2 mu (F - R) F^T + lambda (J - 1) J I.
+    LAW_FIXED_COROTATED: u32 = 4;
+    /// `Material::law`: an elastic solid, Neo-Hookean: tau = mu (F F^T - I) + lambda ln(J) I.
+    LAW_NEO_HOOKEAN: u32 = 5;
+    /// `Material::law`: snow (Stomakhin et al. 2013): fixed-corotated with the elastic part's
+    /// singular values clamped to [1 - theta_c, 1 + theta_s] and hardening exp(xi (1 - J_p)).
+    LAW_SNOW: u32 = 6;
+    /// `Material::law`: sand (Klar et al. 2016): Hencky-strain elasticity with a Drucker-Prager
+    /// return mapping in log-strain space.
+    LAW_SAND: u32 = 7;
     /// Pa s: a Newtonian liquid this viscous or more, and every other law, scatters its viscous
     /// stress with its rest volume wherever it reads less than its rest density (docs/physics.md,
     /// "The viscous stress's volume"); thinner ones (water) with the volume it reads.
