@@ -15,6 +15,7 @@ pub mod scene;
 pub mod simulation;
 pub mod solver;
 pub mod summary;
+pub mod svd;
 pub mod view;
 
 pub use colliders::{ColliderFrame, Colliders};
