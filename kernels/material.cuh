@@ -115,3 +115,6 @@ __device__ __forceinline__ float material_signal_speed(const Material& mat, floa
     const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
     return sound_speed * material_power(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f)) + speed;
 }
+
+// The solids' laws (issue 41), beside the liquids' and taking the same rows.
+#include "solid.cuh"

@@ -13,6 +13,7 @@ pub mod presets;
 pub mod push;
 pub mod scene;
 pub mod simulation;
+pub mod solid;
 pub mod solver;
 pub mod summary;
 pub mod svd;
