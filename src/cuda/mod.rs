@@ -13,7 +13,7 @@
 //! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`bins`],
 //! [`bin_order`], [`p2g_init`], [`volume`], [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`],
 //! [`g2p2g`], [`one_pass`], [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`],
-//! [`ranks`], [`thickness`].
+//! [`ranks`], [`thickness`], and [`solid_laws`], which only the tests launch.
 //!
 //! **On top: the substep.** [`kernels::Kernels`] is every kernel loaded on one GPU;
 //! [`pipelines`] says which launches each pipeline runs in each phase; [`solver::CudaSolver`] steps
@@ -55,6 +55,7 @@ pub mod p2g_tiled;
 pub mod push;
 pub mod ranks;
 pub mod render;
+pub mod solid_laws;
 pub mod spawn;
 pub mod stats;
 pub mod thickness;
