@@ -1,6 +1,6 @@
 // bin_order: the fused pipeline keeps its particles stored in bin order. After each binning the
-// particle state (x, v, C's three columns, density, and each particle's slot) is gathered from its
-// place in memory into the place `order` gives it, in a second set of buffers that the host then
+// particle state (x, v, C's three columns, density, each particle's slot, and where the scene has
+// solids their deformation) is gathered from its place in memory into the place `order` gives it, in a second set of buffers that the host then
 // swaps in (src/cuda/bin_order.rs), and `order` becomes the identity. one_pass then reads and
 // writes each warp's particles as whole consecutive runs of memory instead of 32 scattered places
 // reached through `order`: measured on the H100 (BENCHMARKS.md 0r), 6 to 10 % off the mean substep
@@ -18,15 +18,20 @@ extern "C" __global__ void gather_into_bin_order(const u32 n,
                                                 u32* __restrict__ order,  // read, then left as the identity
                                                 const float4* __restrict__ x, const float4* __restrict__ v,
                                                 const float4* __restrict__ c, const float* __restrict__ rho,
-                                                const u32* __restrict__ slot, float4* __restrict__ x_out,
-                                                float4* __restrict__ v_out, float4* __restrict__ c_out,
-                                                float* __restrict__ rho_out, u32* __restrict__ slot_out,
+                                                const u32* __restrict__ slot,
+                                                const float4* __restrict__ deformation,  // null without solids
+                                                float4* __restrict__ x_out, float4* __restrict__ v_out,
+                                                float4* __restrict__ c_out, float* __restrict__ rho_out,
+                                                u32* __restrict__ slot_out, float4* __restrict__ deformation_out,
                                                 u32* __restrict__ position) {  // null without a flow
     FOR_EACH_INDEX(i, n) {
         const u32 p = order[i];
         x_out[i] = x[p];
         v_out[i] = v[p];
         for (u32 col = 0; col < 3u; ++col) c_out[(size_t)col * n + i] = c[(size_t)col * n + p];
+        if (deformation) {
+            for (u32 col = 0; col < 3u; ++col) deformation_out[(size_t)col * n + i] = deformation[(size_t)col * n + p];
+        }
         rho_out[i] = rho[p];
         const u32 s = slot[p];
         slot_out[i] = s;

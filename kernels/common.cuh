@@ -272,6 +272,70 @@ __device__ __forceinline__ ParticleImpulse particle_impulse(const KernelParams& 
     return out;
 }
 
+// A solid particle's deformation as the particle pass holds it (Deformation in src/sim/scene.rs):
+// F_E as f[column][row] and its law's plastic scalar; stored as three float4 arrays of n, F_E's
+// columns, the scalar in column 0's w.
+struct Deformation {
+    float f[3][3];
+    float plastic;
+};
+
+__device__ __forceinline__ Deformation load_deformation(const float4* deformation, u32 n, u32 p) {
+    Deformation d;
+    for (int col = 0; col < 3; ++col) {
+        const float4 column = deformation[(size_t)col * n + p];
+        d.f[col][0] = column.x;
+        d.f[col][1] = column.y;
+        d.f[col][2] = column.z;
+        if (col == 0) d.plastic = column.w;
+    }
+    return d;
+}
+
+__device__ __forceinline__ void store_deformation(float4* deformation, u32 n, u32 p, const Deformation& d) {
+    for (int col = 0; col < 3; ++col)
+        deformation[(size_t)col * n + p] = make_float4(d.f[col][0], d.f[col][1], d.f[col][2], col == 0 ? d.plastic : 0.0f);
+}
+
+// g2p's update of a solid's deformation from its new velocity gradient C (c[column]): F carried over
+// the substep, F <- (I + dt C) F, then its law's return mapping (solid.cuh). `advance_deformation` in
+// src/sim/cpu.rs, with glam's order: column j of A F is ((A_0 F_0j + A_1 F_1j) + A_2 F_2j).
+__device__ __forceinline__ void advance_deformation(const KernelParams& params, const Material& mat,
+                                                    const float4 (&c)[3], Deformation& d) {
+    const float dt = params.dt;
+    const float a[3][3] = {{1.0f + c[0].x * dt, c[0].y * dt, c[0].z * dt},
+                           {c[1].x * dt, 1.0f + c[1].y * dt, c[1].z * dt},
+                           {c[2].x * dt, c[2].y * dt, 1.0f + c[2].z * dt}};
+    const float f[3][3] = {{d.f[0][0], d.f[0][1], d.f[0][2]}, {d.f[1][0], d.f[1][1], d.f[1][2]},
+                           {d.f[2][0], d.f[2][1], d.f[2][2]}};
+    for (int col = 0; col < 3; ++col) {
+        for (int row = 0; row < 3; ++row) d.f[col][row] = a[0][row] * f[col][0] + a[1][row] * f[col][1] + a[2][row] * f[col][2];
+    }
+    d.plastic = solid_plastic_return(mat, d.f, d.plastic);
+}
+
+// What a solid particle scatters (p2g_particle in src/sim/cpu.rs): its law's Kirchhoff stress tau =
+// J sigma over its rest volume V0 = m_p / rho0, as V sigma = V0 tau, in place of the liquids'
+// pressure and viscous stress: affine = m_p dx C - (4 dt V0 / dx) tau.
+__device__ __forceinline__ ParticleImpulse solid_impulse(const KernelParams& params, const Material& mat, float4 vp,
+                                                         float4 c0, float4 c1, float4 c2, const Deformation& d) {
+    const float m_p = mat.particle_mass;
+    const float dx = params.dx;
+    float tau[3][3];
+    solid_kirchhoff_stress(mat, d.f, d.plastic, tau);
+    const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};
+    const float stress_factor = 4.0f * params.dt * (m_p / mat.rest_density) / dx;
+    ParticleImpulse out;
+    for (int col = 0; col < 3; ++col) {
+        for (int row = 0; row < 3; ++row) out.affine[col][row] = cm[col][row] * (m_p * dx) - tau[col][row] * stress_factor;
+    }
+    out.mass = m_p;
+    out.mv[0] = vp.x * m_p;
+    out.mv[1] = vp.y * m_p;
+    out.mv[2] = vp.z * m_p;
+    return out;
+}
+
 // The affine product is summed z first and x last, so the terms before x are the same for a plane
 // or a row of the stencil and the compiler computes them once there: 6 instructions a node (an FMA
 // and a multiply a row) where summed x first they took 9 to 15.

@@ -41,13 +41,15 @@
 #define ONE_PASS_PARAMETERS                                                                                     \
     const KernelParams params, const u32 gather, const BinEntry *__restrict__ bins, const u32 *__restrict__ order,      \
         float4 *__restrict__ x, float4 *__restrict__ v, float4 *__restrict__ c, float *__restrict__ rho,         \
-        const u32 *__restrict__ slot, const float4 *__restrict__ grid_vel, float4 *grid_acc, u64 *fixed_mass,     \
+        const u32 *__restrict__ slot, float4 *__restrict__ deformation, const float4 *__restrict__ grid_vel,      \
+        float4 *grid_acc, u64 *fixed_mass,                                                                        \
         u64 *fixed_momentum, u32 *block_marks, u32 *block_list, u32 *work_counts,                                \
         StepCounters *__restrict__ counters, const ColliderState *__restrict__ collider_states,                  \
         const u32 num_colliders, const float *__restrict__ collider_sdf, const float4 *__restrict__ sinks,       \
         u32 num_sinks, u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
 #define ONE_PASS_ARGUMENTS                                                                                      \
-    params, gather, bins, order, x, v, c, rho, slot, grid_vel, grid_acc, fixed_mass, fixed_momentum, block_marks, \
+    params, gather, bins, order, x, v, c, rho, slot, deformation, grid_vel, grid_acc, fixed_mass, fixed_momentum,    \
+        block_marks,                                                                                             \
         block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, sinks, num_sinks,       \
         free_slots, flow
 
@@ -149,8 +151,10 @@ __device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params
 // MATERIALS false: the scene is one Newtonian liquid (water): no particle's material row is read,
 // no law's viscosity computed, no density taken from the grid's volume, so the pass is compiled as it was before the
 // material table (BENCHMARKS.md M1: the fixed-point substep 2.7 % over the build before the table
-// without these entries, 1.3 % with them).
-template <Scatter SCATTER, bool MATERIALS>
+// without these entries, 1.3 % with them). SOLIDS: the table has a solid, whose particles' deformation
+// the gather advances and the scatter takes its stress from (`deformation`, null in the other
+// entries, which neither read it nor pay for it).
+template <Scatter SCATTER, bool MATERIALS, bool SOLIDS>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     constexpr bool FIXED = SCATTER == Scatter::FixedTile;
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
@@ -193,6 +197,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             live &= !is_parked(xp);  // parked since the last binning: nothing to move or scatter
             float rho_p;
             float4 vp, c0, c1, c2;
+            Deformation d;       // a solid's (SOLIDS), advanced by the gather, scattered from
+            bool solid = false;  // whether the particle is a solid's
             if (gather) {
                 GridDensity density;
                 const float tag = MATERIALS ? particle_material_tag(params, v, p) : 0.0f;
@@ -209,6 +215,15 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     r = b.r;
                     pushes += b.pushed;
                 }
+                if (SOLIDS) {
+                    const Material& mat = material_table[material_index(params, r.v)];
+                    solid = solid_is_solid(mat.law);
+                    if (solid) {
+                        d = load_deformation(deformation, n, p);
+                        advance_deformation(params, mat, r.c, d);
+                        r.signal = solid_wave_speed(mat, d.plastic) + r.speed;
+                    }
+                }
                 xp = r.x;
                 vp = r.v;
                 c0 = r.c[0];
@@ -219,6 +234,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     v[p] = r.v;
                     x[p] = r.x;
                     rho[p] = rho_p;
+                    if (SOLIDS && solid) store_deformation(deformation, n, p, d);
                     max_speed = fmaxf(max_speed, r.speed);
                     max_signal = fmaxf(max_signal, r.signal);
                     max_rho = fmaxf(max_rho, MATERIALS ? reported_density(params, r.v, rho_p) : rho_p);
@@ -237,8 +253,14 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 c0 = c[p];
                 c1 = c[n + p];
                 c2 = c[2 * (size_t)n + p];
+                if (SOLIDS) {
+                    solid = solid_is_solid(material_table[material_index(params, vp)].law);
+                    if (solid) d = load_deformation(deformation, n, p);
+                }
             }
-            const ParticleImpulse q = particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
+            const ParticleImpulse q =
+                SOLIDS && solid ? solid_impulse(params, material_table[material_index(params, vp)], vp, c0, c1, c2, d)
+                                : particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;
             bool in_tile = false;
@@ -308,14 +330,18 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
 
 // One entry point per scatter (the host launches the one it chose, src/cuda/one_pass.rs), each
 // compiled for the blocks per SM it runs fastest at (ONE_PASS_*_MIN_BLOCKS, tiles.cuh); each for
-// water (one Newtonian liquid) and for any table of liquids (_liquids).
-#define ONE_PASS_ENTRY(NAME, MIN_BLOCKS, SCATTER, MATERIALS)                                  \
+// water (one Newtonian liquid), for any table of liquids (_liquids) and for a table with solids
+// (_solids).
+#define ONE_PASS_ENTRY(NAME, MIN_BLOCKS, SCATTER, MATERIALS, SOLIDS)                            \
     extern "C" __global__ void __launch_bounds__(TILE_THREADS, MIN_BLOCKS) NAME(ONE_PASS_PARAMETERS) { \
-        one_pass<SCATTER, MATERIALS>(ONE_PASS_ARGUMENTS);                                     \
+        one_pass<SCATTER, MATERIALS, SOLIDS>(ONE_PASS_ARGUMENTS);                               \
     }
-ONE_PASS_ENTRY(one_pass_float, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, false)
-ONE_PASS_ENTRY(one_pass_float_planes, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, false)
-ONE_PASS_ENTRY(one_pass_fixed, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, false)
-ONE_PASS_ENTRY(one_pass_float_liquids, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, true)
-ONE_PASS_ENTRY(one_pass_float_planes_liquids, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, true)
-ONE_PASS_ENTRY(one_pass_fixed_liquids, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, true)
+ONE_PASS_ENTRY(one_pass_float, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, false, false)
+ONE_PASS_ENTRY(one_pass_float_planes, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, false, false)
+ONE_PASS_ENTRY(one_pass_fixed, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, false, false)
+ONE_PASS_ENTRY(one_pass_float_liquids, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, true, false)
+ONE_PASS_ENTRY(one_pass_float_planes_liquids, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, true, false)
+ONE_PASS_ENTRY(one_pass_fixed_liquids, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, true, false)
+ONE_PASS_ENTRY(one_pass_float_solids, ONE_PASS_FLOAT_MIN_BLOCKS, Scatter::FloatRuns, true, true)
+ONE_PASS_ENTRY(one_pass_float_planes_solids, ONE_PASS_FLOAT_PLANES_MIN_BLOCKS, Scatter::FloatPlanes, true, true)
+ONE_PASS_ENTRY(one_pass_fixed_solids, ONE_PASS_FIXED_MIN_BLOCKS, Scatter::FixedTile, true, true)

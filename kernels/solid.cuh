@@ -12,11 +12,6 @@
 #include "contract.cuh"
 #include "svd.cuh"
 
-// The smallest |sigma| whose logarithm sand takes, and the smallest J whose logarithm the
-// Neo-Hookean law takes (MIN_STRETCH and MIN_VOLUME in src/sim/solid.rs): a crushed or inverted
-// element pushes back as a finite one instead of with NaN stresses.
-#define SOLID_MIN_STRETCH 1.0e-4f
-#define SOLID_MIN_VOLUME 1.0e-12f
 
 // Whether particles of `law` carry a deformation gradient and scatter its stress (`is_solid`).
 __device__ __forceinline__ bool solid_is_solid(u32 law) { return law >= FIRST_SOLID_LAW; }
@@ -24,9 +19,10 @@ __device__ __forceinline__ bool solid_is_solid(u32 law) { return law >= FIRST_SO
 // The plastic scalar at rest (`rest_plastic`): J_p = 1 for snow, 0 otherwise.
 __device__ __forceinline__ float solid_rest_plastic(u32 law) { return law == LAW_SNOW ? 1.0f : 0.0f; }
 
-// Snow's hardening exp(xi (1 - J_p)); 1 for other laws (`hardening`).
+// Snow's hardening exp(xi (1 - J_p)) held within [SNOW_MIN_HARDENING, SNOW_MAX_HARDENING]; 1 for
+// other laws (`hardening`).
 __device__ __forceinline__ float solid_hardening(u32 law, float xi, float plastic) {
-    return law == LAW_SNOW ? expf(xi * (1.0f - plastic)) : 1.0f;
+    return law == LAW_SNOW ? fminf(fmaxf(expf(xi * (1.0f - plastic)), SNOW_MIN_HARDENING), SNOW_MAX_HARDENING) : 1.0f;
 }
 
 // U diag(s) V^T (`compose`).
@@ -51,7 +47,7 @@ __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu,
 #pragma unroll
         for (int i = 0; i < 3; ++i) clamped[i] = fminf(fmaxf(sigma[i], lowest), highest);
         if (clamped[0] == sigma[0] && clamped[1] == sigma[1] && clamped[2] == sigma[2]) return plastic;
-        const float ratio = (sigma[0] * sigma[1] * sigma[2]) / (clamped[0] * clamped[1] * clamped[2]);
+        const float ratio = fabsf(sigma[0] * sigma[1] * sigma[2]) / (clamped[0] * clamped[1] * clamped[2]);
         solid_compose(u, clamped, v, f);
         return plastic * ratio;
     }

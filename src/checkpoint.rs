@@ -12,7 +12,7 @@
 //! the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
 //! checks a resumed run byte for byte against an uninterrupted one).
 //!
-//! # File format (version 2), all numbers little-endian
+//! # File format (version 3), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -24,11 +24,13 @@
 //! | 4 | CRC-32 (IEEE) of everything before it |
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
-//! solver options, the particle slot count N, the emitter count E, whether a flow state follows); the
-//! 150 words of [`Params`] (the material table's 8 rows of 16 words first); the clock (frame u64,
+//! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
+//! whether the particles' deformation follows); the 214 words of [`Params`] (the kernel parameters,
+//! then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, late emitter layers u64, E emitter phases f64); then
 //! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
-//! live, 0 parked) and each slot's material row (N bytes); then, with emitters or sinks,
+//! live, 0 parked) and each slot's material row (N bytes); then, where the scene has solids, each
+//! slot's deformation (F_E column by column and the plastic scalar: 10N f32); then, with emitters or sinks,
 //! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
 //! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
 //! drained, exhausted, blocked: u64 each). Floats are stored as their bits, so a resumed state is the
@@ -38,7 +40,9 @@
 //! (one material of 8 words: rest density, EOS stiffness, EOS power, viscosity, pressure floor,
 //! particle mass and two of padding; then gravity to the density rule, as in version 2) and no
 //! material rows follow the live flags. It reads as a table of one Newtonian row and every particle
-//! made of it ([`params_from_version_1`]).
+//! made of it ([`params_from_version_1`]). Version 2, written before the solids, had rows of 16
+//! words (the liquids' 13, then padding: 150 words in all) and no deformation; its rows
+//! read with the solids' parameters zero ([`params_from_version_2`]).
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
@@ -48,7 +52,7 @@ use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::params::{KernelParams, Material};
-use crate::sim::{Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
+use crate::sim::{Deformation, Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use glam::{Mat3, Vec3};
@@ -60,7 +64,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -71,6 +75,17 @@ const CHECKSUM_BYTES: usize = 4;
 const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4;
 /// Version 1's parameters: one material (8 words), then gravity to the density rule (20 words).
 const VERSION_1_PARAMS_WORDS: usize = 28;
+/// Version 2's material rows: the liquids' 13 words and 3 of padding.
+const VERSION_2_MATERIAL_WORDS: usize = 16;
+/// Version 2's parameters: the table of 8 rows of 16 words, then the kernel parameters.
+const VERSION_2_PARAMS_WORDS: usize =
+    PARAMS_WORDS - (MATERIAL_WORDS - VERSION_2_MATERIAL_WORDS) * MAX_MATERIALS as usize;
+const MATERIAL_WORDS: usize = std::mem::size_of::<Material>() / 4;
+/// The liquids' parameters at the head of a material row (rest density to transition exponent).
+const LIQUID_MATERIAL_WORDS: usize = 13;
+const KERNEL_WORDS: usize = std::mem::size_of::<KernelParams>() / 4;
+const _: () = assert!(std::mem::offset_of!(Material, shear_modulus) == 4 * LIQUID_MATERIAL_WORDS);
+const _: () = assert!(VERSION_2_PARAMS_WORDS == 150);
 /// Frame, time, signal speed and rise, late layers (the emitters' phases follow, 8 bytes each).
 const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
 /// Bytes per particle slot: x, v, C, density as f32, the live flag and the material row.
@@ -92,6 +107,9 @@ struct Meta {
     emitters: u64,
     /// Whether the lifecycle's state follows the particles.
     flow: bool,
+    /// Whether the particles' deformation follows their material rows (version 3 on).
+    #[serde(default)]
+    deformation: bool,
 }
 
 /// A run's state between two frames.
@@ -245,6 +263,7 @@ impl Checkpoint {
             particles: self.particles.len() as u64,
             emitters: self.clock.emitter_phases.len() as u64,
             flow: self.flow.is_some(),
+            deformation: !self.particles.deformation.is_empty(),
         })?;
         let n = self.particles.len();
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
@@ -254,6 +273,7 @@ impl Checkpoint {
             + CLOCK_BYTES
             + 8 * self.clock.emitter_phases.len()
             + BYTES_PER_PARTICLE * n
+            + std::mem::size_of_val(self.particles.deformation.as_slice())
             + flow.len();
         out.write_all(&MAGIC)?;
         out.write_all(&FORMAT_VERSION.to_le_bytes())?;
@@ -282,6 +302,7 @@ impl Checkpoint {
         let live: Vec<u8> = p.live.iter().map(|&l| u8::from(l)).collect();
         out.write_all(&live)?;
         out.write_all(&p.material)?;
+        write_words(out, bytemuck::cast_slice(&p.deformation))?;
         out.write_all(&flow)?;
         Ok(())
     }
@@ -406,6 +427,8 @@ impl Body<'_> {
         let meta: Meta = serde_json::from_slice(self.take(meta_len, "the scene")?)?;
         let params: Params = if self.version == 1 {
             params_from_version_1(&self.words(VERSION_1_PARAMS_WORDS, "the parameters")?)
+        } else if self.version == 2 {
+            params_from_version_2(&self.words(VERSION_2_PARAMS_WORDS, "the parameters")?)
         } else {
             bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?))
         };
@@ -449,6 +472,11 @@ impl Body<'_> {
                 vec![0; n]
             } else {
                 self.take(n, "material rows")?.to_vec()
+            },
+            deformation: if meta.deformation {
+                self.vectors::<Deformation>(n, "deformations")?
+            } else {
+                Vec::new()
             },
         };
         if let Some(slot) = particles
@@ -510,6 +538,24 @@ impl Body<'_> {
             particles,
         })
     }
+}
+
+/// Version 2's 150 words of parameters as today's [`Params`]: the kernel parameters as they were,
+/// then each material row's 13 words of the liquids' parameters (its 3 of padding dropped), the
+/// solids' parameters zero.
+pub fn params_from_version_2(words: &[u32]) -> Params {
+    assert_eq!(
+        words.len(),
+        VERSION_2_PARAMS_WORDS,
+        "version 2's parameters are 150 words"
+    );
+    let (kernel, table) = words.split_at(KERNEL_WORDS);
+    let mut today = kernel.to_vec();
+    for row in table.chunks_exact(VERSION_2_MATERIAL_WORDS) {
+        today.extend_from_slice(&row[..LIQUID_MATERIAL_WORDS]);
+        today.resize(today.len() + MATERIAL_WORDS - LIQUID_MATERIAL_WORDS, 0);
+    }
+    bytemuck::pod_read_unaligned(bytemuck::cast_slice(&today))
 }
 
 /// Version 1's 28 words of parameters as today's [`Params`]: its one material becomes row 0 of a

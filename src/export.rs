@@ -1,5 +1,6 @@
 //! Frame export. `--export`: one binary little-endian PLY of the particles per frame (positions,
-//! velocities, density, material row; the material table's names and colours in header comments),
+//! velocities, density, material row; a solid's volume ratio and von Mises stress where the scene
+//! has solids; the material table's names and colours in header comments),
 //! which ParaView, Blender, Open3D and meshio open as they are.
 //! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]). Both go
 //! through [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a
@@ -9,6 +10,7 @@ pub mod mesh_files;
 pub mod surface;
 
 use crate::sim::material::NamedMaterial;
+use crate::sim::solid;
 use crate::sim::Particles;
 use crate::text::{io_reason, plural};
 use anyhow::{bail, Context, Result};
@@ -397,9 +399,16 @@ pub fn material_comment(row: usize, material: &NamedMaterial) -> String {
     format!("material {row} {} {r:.3} {g:.3} {b:.3}", material.name)
 }
 
+/// The float vertex properties that follow [`PLY_MATERIAL_PROPERTY`] where the particles carry a
+/// deformation (the scene has solids): `J`, a solid's volume ratio det F (the elastic part's times
+/// snow's plastic J_p; a liquid's rest density over its density), and `von_mises`, a solid's von
+/// Mises stress sqrt(3/2 s:s) in Pa, s the deviatoric part of its Cauchy stress tau / J_E (0 for a
+/// liquid).
+pub const PLY_SOLID_PROPERTIES: [&str; 2] = ["J", "von_mises"];
+
 /// A binary little-endian PLY of `particles`: `comment` (each line a `comment`), a `comment
-/// material` line for each of `materials`, then per vertex the float [`PLY_PROPERTIES`] and the
-/// `uchar` material row.
+/// material` line for each of `materials`, then per vertex the float [`PLY_PROPERTIES`], the
+/// `uchar` material row and, where the particles carry a deformation, [`PLY_SOLID_PROPERTIES`].
 pub fn write_ply(
     mut out: impl Write,
     comment: &str,
@@ -418,6 +427,12 @@ pub fn write_ply(
         writeln!(out, "property float {p}")?;
     }
     writeln!(out, "property uchar {PLY_MATERIAL_PROPERTY}")?;
+    let solids = !particles.deformation.is_empty();
+    if solids {
+        for p in PLY_SOLID_PROPERTIES {
+            writeln!(out, "property float {p}")?;
+        }
+    }
     writeln!(out, "end_header")?;
     let mut record = [0f32; 7];
     for i in 0..particles.len() {
@@ -428,6 +443,22 @@ pub fn write_ply(
             out.write_all(&value.to_le_bytes())?;
         }
         out.write_all(&[particles.material[i]])?;
+        if solids {
+            let law = materials.get(usize::from(particles.material[i])).map(|m| &m.law);
+            let (j, von_mises) = match law {
+                Some(law) if law.is_solid() => {
+                    let d = &particles.deformation[i];
+                    (
+                        solid::volume_ratio(law, d.f, d.plastic),
+                        solid::von_mises(law, d.f, d.plastic),
+                    )
+                }
+                Some(law) => (law.rest_density / particles.rho[i], 0.0),
+                None => (1.0, 0.0),
+            };
+            out.write_all(&j.to_le_bytes())?;
+            out.write_all(&von_mises.to_le_bytes())?;
+        }
     }
     out.flush()?;
     Ok(())

@@ -306,6 +306,16 @@ device_constants! {
     /// `Material::law`: sand (Klar et al. 2016): Hencky-strain elasticity with a Drucker-Prager
     /// return mapping in log-strain space.
     LAW_SAND: u32 = 7;
+    /// `LAW_SNOW`: the bounds of the hardening exp(xi (1 - J_p)), Taichi's mpm128's: compacted snow
+    /// stiffens at most 5-fold (its wave speed, and so the substep, within sqrt(5) of the unhardened
+    /// one), snow pulled apart keeps a tenth of its stiffness.
+    SNOW_MIN_HARDENING: f32 = 0.1;
+    SNOW_MAX_HARDENING: f32 = 5.0;
+    /// The smallest |sigma| whose logarithm sand takes: a singular value crushed to zero, or inverted
+    /// through it, reads as this stretch (a Hencky strain of -9.2) rather than ln 0 = -inf.
+    SOLID_MIN_STRETCH: f32 = 1.0e-4;
+    /// The smallest J whose logarithm the Neo-Hookean law takes, `SOLID_MIN_STRETCH` cubed.
+    SOLID_MIN_VOLUME: f32 = 1.0e-12;
     /// Pa s: a Newtonian liquid this viscous or more, and every other law, scatters its viscous
     /// stress with its rest volume wherever it reads less than its rest density (docs/physics.md,
     /// "The viscous stress's volume"); thinner ones (water) with the volume it reads.

@@ -1,7 +1,8 @@
 //! kernels/bin_order.cu: after each binning the fused pipeline gathers its particles into the bins'
 //! order, in its spare buffers, and swaps them in (`DeviceState::swap_particle_buffers`), so that
 //! one_pass reads each chunk's particles from consecutive memory. Each particle's slot travels with
-//! it; so does the lifecycle's slot -> place map where the scene has emitters or sinks.
+//! it, and its deformation where the scene has solids; so does the lifecycle's slot -> place map
+//! where the scene has emitters or sinks.
 
 use super::launch::{host_kernel, Launcher, NULL_POINTER};
 use super::state::{DeviceState, StateArgs};
@@ -20,16 +21,19 @@ impl GatherIntoBinOrder {
         let (from, to) = (&state.particles, &bin_order.spare);
         let n = from.count as u32;
         // SAFETY: the arguments match gather_into_bin_order; both particle sets hold n slots of
-        // each array, `order` is a permutation of 0..n (the binning just wrote it), and `position`
-        // holds a place per slot (or is null without a flow).
+        // each array, `order` is a permutation of 0..n (the binning just wrote it), `position`
+        // holds a place per slot (or is null without a flow), and both sets hold a deformation or
+        // neither does (null, not read).
         unsafe {
             self.0.launch(l, l.cover(from.count), |a| {
                 a.arg(&n)
                     .arg(&state.bins.order)
                     .particle_state(from)
                     .arg(&from.slot)
+                    .deformation(from)
                     .particle_state(to)
-                    .arg(&to.slot);
+                    .arg(&to.slot)
+                    .deformation(to);
                 match &state.flow {
                     Some(flow) => a.arg(&flow.position),
                     None => a.arg(&NULL_POINTER),

@@ -161,7 +161,7 @@ impl CudaRanks {
             );
             solvers.push(solver);
         }
-        let mut merged = DeviceParticles::allocate(solvers[0].stream(), particles.len())?;
+        let mut merged = DeviceParticles::allocate(solvers[0].stream(), particles.len(), false)?;
         merged.upload(solvers[0].stream(), &particles)?;
         let carrier = if scene.gpus > 1 {
             enable_peer_access(&solvers)?;

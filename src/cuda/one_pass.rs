@@ -11,6 +11,7 @@ use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::contract::{LAW_NEWTONIAN, TILE_THREADS};
+use crate::sim::material::MaterialTable;
 use crate::sim::{Params, ScatterMode};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -54,11 +55,12 @@ impl Entries {
 }
 
 /// The pass's entries for water (a scene of one Newtonian liquid thinner than
-/// `VISCOUS_REST_VOLUME_FROM`, compiled without the material table's index and laws) and for any
-/// table of liquids.
+/// `VISCOUS_REST_VOLUME_FROM`, compiled without the material table's index and laws), for any
+/// table of liquids, and for a table with solids (which reads and advances their deformation).
 pub struct OnePass {
     water: Entries,
     liquids: Entries,
+    solids: Entries,
     /// The particles from which the float scatter runs by planes (0: always, u64::MAX: never).
     planes_from: u64,
 }
@@ -93,6 +95,14 @@ impl OnePass {
                     "one_pass_fixed_liquids",
                 ],
             )?,
+            solids: Entries::load(
+                modules,
+                [
+                    "one_pass_float_solids",
+                    "one_pass_float_planes_solids",
+                    "one_pass_fixed_solids",
+                ],
+            )?,
             planes_from,
         })
     }
@@ -103,7 +113,13 @@ impl OnePass {
         let first = &params.materials[0];
         let water =
             params.material_count == 1 && first.law == LAW_NEWTONIAN && !first.viscous_at_rest_volume();
-        let entries = if water { &self.water } else { &self.liquids };
+        let entries = if water {
+            &self.water
+        } else if params.has_solids() {
+            &self.solids
+        } else {
+            &self.liquids
+        };
         if params.scatter_mode == ScatterMode::FixedPoint.code() {
             &entries.fixed
         } else if u64::from(params.num_particles) >= self.planes_from {
@@ -129,7 +145,8 @@ impl OnePass {
         // list); the bin list, order and node-block list are
         // sized for this grid and these particles; a null order where the particles are stored in
         // bin order (the kernel reads places). Without a flow the sink and free-slot pointers are
-        // null and never read (no sinks); without `gather` the node velocities are not read.
+        // null and never read (no sinks); without `gather` the node velocities are not read. The
+        // deformation is null where the scene has no solid, and only the solids' entries read it.
         unsafe {
             kernel.launch(l, config, |a| {
                 a.arg(&params.kernel)
@@ -138,6 +155,7 @@ impl OnePass {
                     .bin_order_or_places(d)
                     .particle_state(p)
                     .arg(&p.slot)
+                    .deformation(p)
                     .arg(&g.vel)
                     .accumulators(g)
                     .node_block_list(d)

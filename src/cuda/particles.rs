@@ -5,14 +5,17 @@
 
 use super::gpu::Gpu;
 use crate::contract::PARKED_W;
-use crate::sim::Particles;
-use anyhow::{ensure, Context, Result};
+use crate::sim::{Deformation, Particles};
+use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
 use glam::{Mat3, Vec3};
 use std::sync::Arc;
 
 /// Bytes of one particle's state: x, v as float4; C as 3 float4; rho; its slot.
 pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
+/// Bytes of one particle's deformation, where the scene has solids: F_E as 3 float4 columns, the
+/// plastic scalar in the first column's w.
+pub const DEFORMATION_BYTES_PER_PARTICLE: usize = 4 * 12;
 /// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
 pub const BYTES_PER_PARTICLE: usize = STATE_BYTES_PER_PARTICLE + 4 * 3;
 
@@ -30,11 +33,16 @@ pub struct DeviceParticles {
     /// Per place in memory, the slot of the particle stored there: the identity until the fused
     /// pipeline first gathers the particles into bin order.
     pub slot: CudaSlice<u32>,
+    /// Where the scene has solids (`Params::has_solids`), each particle's deformation as three
+    /// float4 arrays of `count` (F_E's columns 0, 1, 2; column 0's w the plastic scalar); `None` for a
+    /// scene of liquids, which holds nothing more than it did before the solids.
+    pub deformation: Option<CudaSlice<f32>>,
 }
 
 impl DeviceParticles {
-    /// Zeroed buffers for `count` particles, each stored at its slot.
-    pub fn allocate(stream: &Arc<CudaStream>, count: usize) -> Result<DeviceParticles> {
+    /// Zeroed buffers for `count` particles, each stored at its slot, with their deformation where
+    /// `solids`.
+    pub fn allocate(stream: &Arc<CudaStream>, count: usize, solids: bool) -> Result<DeviceParticles> {
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<f32>(len)
@@ -49,6 +57,10 @@ impl DeviceParticles {
             slot: stream
                 .clone_htod(&slots_in_place(count))
                 .context("allocating the particle slots")?,
+            deformation: match solids {
+                true => Some(alloc(12 * count, "particle deformation gradients")?),
+                false => None,
+            },
         })
     }
 
@@ -89,6 +101,23 @@ impl DeviceParticles {
         stream
             .memcpy_htod(&slots_in_place(n), &mut self.slot)
             .context("uploading the particle slots")?;
+        match (&mut self.deformation, particles.deformation.is_empty()) {
+            (Some(buffer), false) => {
+                let mut columns = Vec::with_capacity(12 * n);
+                for col in 0..3 {
+                    columns.extend(particles.deformation.iter().flat_map(|d| {
+                        let v = d.f.col(col);
+                        [v.x, v.y, v.z, if col == 0 { d.plastic } else { 0.0 }]
+                    }));
+                }
+                stream
+                    .memcpy_htod(&columns, buffer)
+                    .context("uploading the deformation gradients")?;
+            }
+            (None, true) => {}
+            (Some(_), true) => bail!("the particles carry no deformation, but the scene has solids"),
+            (None, false) => bail!("the particles carry a deformation, but the scene has no solid"),
+        }
         stream.synchronize().context("uploading particles")?;
         Ok(())
     }
@@ -102,6 +131,20 @@ impl DeviceParticles {
         let rho = gpu.download(&self.rho)?;
         let place = places_of_slots(&gpu.download(&self.slot)?)?;
         let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
+        let deformation = match &self.deformation {
+            Some(buffer) => {
+                let d = gpu.download(buffer)?;
+                let column = |col: usize, i: usize| vec3(&d, col * n + i);
+                place
+                    .iter()
+                    .map(|&i| Deformation {
+                        f: Mat3::from_cols(column(0, i), column(1, i), column(2, i)),
+                        plastic: d[4 * i + 3],
+                    })
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         Ok(Particles {
             x: place.iter().map(|&i| vec3(&x, i)).collect(),
             v: place.iter().map(|&i| vec3(&v, i)).collect(),
@@ -112,6 +155,7 @@ impl DeviceParticles {
             rho: place.iter().map(|&i| rho[i]).collect(),
             material: place.iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
             live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
+            deformation,
         })
     }
 }

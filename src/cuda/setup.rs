@@ -12,9 +12,10 @@ use anyhow::{ensure, Result};
 impl CudaSolver {
     /// Spawns `scene`'s particles on the device, in the order of `Scene::spawn()`. A scene with
     /// emitters or sinks is spawned on the host (its parked slots with it) and uploaded, and so is one
-    /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid).
+    /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid),
+    /// and one with solids (their deformation starts at rest on the host).
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
-        if scene.flow.is_active() || !scene.colliders.is_empty() {
+        if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_solids() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
         let solver = CudaSolver::allocate(scene, None, options)?;

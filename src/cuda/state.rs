@@ -9,7 +9,9 @@ use super::flow::DeviceFlow;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE};
 use super::launch::NULL_POINTER;
-use super::particles::{DeviceParticles, BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE};
+use super::particles::{
+    DeviceParticles, BYTES_PER_PARTICLE, DEFORMATION_BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE,
+};
 use crate::sim::flow::FlowState;
 use crate::sim::{Params, Pipeline, ScatterMode, Scene};
 use anyhow::{ensure, Result};
@@ -40,6 +42,13 @@ impl DeviceState {
              solver.pipeline = \"report\" (or --pipeline report), or use a CPU backend",
             scene.source
         );
+        ensure!(
+            !scene.has_solids() || scene.pipeline == Pipeline::Fused,
+            "scene {}: solids run in the fused GPU pipeline only (the binned and report pipelines carry \
+             no deformation gradient); drop solver.pipeline = \"{}\" (or --pipeline), or use a CPU backend",
+            scene.source,
+            scene.pipeline.name()
+        );
         ensure!(scene.slots() > 0, "scene {}: no particles", scene.source);
         Ok(())
     }
@@ -57,7 +66,10 @@ impl DeviceState {
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
-        let needed = n * BYTES_PER_PARTICLE
+        let solids = scene.has_solids();
+        let per_particle_state =
+            STATE_BYTES_PER_PARTICLE + if solids { DEFORMATION_BYTES_PER_PARTICLE } else { 0 };
+        let needed = n * (BYTES_PER_PARTICLE + per_particle_state - STATE_BYTES_PER_PARTICLE)
             + nodes
                 * (BYTES_PER_NODE
                     + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 }
@@ -69,7 +81,7 @@ impl DeviceState {
         )?;
         // Bin order is a speed-up, not a need: a run it would not leave room for keeps its
         // particles in place rather than being refused.
-        let room_for_spare = gpu.fits(needed + n * STATE_BYTES_PER_PARTICLE)?;
+        let room_for_spare = gpu.fits(needed + n * per_particle_state)?;
         if bin_order && !room_for_spare {
             eprintln!(
                 "note: scene {}: no room on the GPU for a second copy of {n} particles' state, so they \
@@ -93,10 +105,10 @@ impl DeviceState {
         // break's p2g ran 4 % slower with the grid allocated before the particles).
         let colliders = DeviceColliders::allocate(stream)?;
         let node_blocks = NodeBlockList::allocate(stream, if binned { bins.num_bins() } else { 0 })?;
-        let particles = DeviceParticles::allocate(stream, n)?;
+        let particles = DeviceParticles::allocate(stream, n, solids)?;
         let bin_order = if bin_order {
             Some(BinOrder {
-                spare: DeviceParticles::allocate(stream, n)?,
+                spare: DeviceParticles::allocate(stream, n, solids)?,
                 swapped: false,
             })
         } else {
@@ -207,6 +219,9 @@ pub struct BinOrder {
 pub trait StateArgs<'a> {
     /// `x, v, c, rho`: a particle set's state arrays.
     fn particle_state(&mut self, particles: &'a DeviceParticles) -> &mut Self;
+    /// `deformation`: a particle set's deformation gradients, or a null pointer where the scene has
+    /// no solid.
+    fn deformation(&mut self, particles: &'a DeviceParticles) -> &mut Self;
     /// `grid_acc, fixed_mass, fixed_momentum`: the scatter accumulators, float and fixed point.
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self;
     /// `order`: the bins' particle order, or a null pointer where the particles are stored in bin
@@ -228,6 +243,13 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
             .arg(&particles.v)
             .arg(&particles.c)
             .arg(&particles.rho)
+    }
+
+    fn deformation(&mut self, particles: &'a DeviceParticles) -> &mut Self {
+        match &particles.deformation {
+            Some(f) => self.arg(f),
+            None => self.arg(&NULL_POINTER),
+        }
     }
 
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self {

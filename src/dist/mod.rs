@@ -51,6 +51,12 @@ pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
     if scene.flow.is_active() {
         bail!("emitters and sinks do not run on several ranks yet: run this scene on one rank");
     }
+    if scene.has_solids() {
+        bail!(
+            "solids do not run on several ranks yet (a migrant carries no deformation gradient): run this \
+             scene on one rank or GPU"
+        );
+    }
     let params = scene.params();
     if !slabs.holds_mirror(params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]) {
         bail!(

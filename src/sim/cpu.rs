@@ -7,7 +7,8 @@ use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
-use super::scene::Particles;
+use super::scene::{Deformation, Particles};
+use super::solid;
 use super::solver::{push_step_timing, Solver, StepExtremes};
 use super::view::ParticleView;
 use crate::contract::VOLUME_UNITS_PER_WEIGHT;
@@ -279,6 +280,7 @@ pub fn p2g_particle(
     v: Vec3,
     c: Mat3,
     material: u8,
+    deformation: Option<&Deformation>,
 ) -> (f32, Vec3, Mat3) {
     let mat = Material::of(params, material);
     let (dx, dt, m_p) = (params.dx, params.dt, mat.particle_mass);
@@ -286,6 +288,12 @@ pub fn p2g_particle(
         DensityRule::Gathered => gathered_density(params, st, shape, grid, m_p),
         DensityRule::Advected => rho_p,
     };
+    if let Some(d) = deformation.filter(|_| mat.is_solid()) {
+        // A solid's Kirchhoff stress tau = J sigma over its rest volume: V sigma = V0 tau.
+        let tau = solid::kirchhoff_stress(mat, d.f, d.plastic);
+        let affine = c * (m_p * dx) - tau * (4.0 * dt * (m_p / mat.rest_density) / dx);
+        return (rho, v * m_p, affine);
+    }
     let volume = m_p / rho;
     let pressure = mat.pressure(rho);
     let stress = mat.stress(pressure, c, rho);
@@ -478,6 +486,25 @@ pub fn g2p_with_backstop(
     }
 }
 
+/// A solid particle's deformation after g2p gave it velocity gradient `c`: F_E carried over the
+/// substep, F <- (I + dt C) F, then its law's return mapping ([`solid::plastic_return`]); nothing
+/// for a liquid's or where the scene has no solid (`deformation` `None`). Returns what it advanced.
+#[inline(always)]
+pub fn advance_deformation<'d>(
+    params: &Params,
+    material: u8,
+    c: Mat3,
+    deformation: Option<&'d mut Deformation>,
+) -> Option<&'d Deformation> {
+    let d = deformation?;
+    let mat = Material::of(params, material);
+    if mat.is_solid() {
+        let trial = (Mat3::IDENTITY + c * params.dt) * d.f;
+        (d.f, d.plastic) = solid::plastic_return(mat, trial, d.plastic);
+    }
+    Some(d)
+}
+
 pub struct CpuSolver {
     pub particles: Particles,
     pub grid: Grid,
@@ -655,8 +682,17 @@ impl CpuSolver {
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
             let st = Stencil::new(p.x[n], params.inv_dx);
             let material = p.material[n];
-            let (rho, mv, affine) =
-                p2g_particle(params, &st, *shape, source, p.rho[n], p.v[n], p.c[n], material);
+            let (rho, mv, affine) = p2g_particle(
+                params,
+                &st,
+                *shape,
+                source,
+                p.rho[n],
+                p.v[n],
+                p.c[n],
+                material,
+                p.deformation.get(n),
+            );
             p.rho[n] = rho;
             max_rho = max_rho.max(reported_density(params, material, rho));
             match fixed_grid.as_mut().filter(|_| fixed) {
@@ -702,7 +738,16 @@ impl CpuSolver {
             let (x, v, c, moved) = g2p_with_backstop(params, shape, velocity, &self.colliders, p.x[n]);
             p.rho[n] = density_after_g2p(params, shape, source, velocity, p.x[n], p.rho[n], p.material[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
-            extremes = extremes.max(GatherExtremes::of(params, v, p.rho[n], p.material[n], moved));
+            let deformation = p.deformation.get_mut(n);
+            let deformation = advance_deformation(params, p.material[n], c, deformation);
+            extremes = extremes.max(GatherExtremes::of(
+                params,
+                v,
+                p.rho[n],
+                p.material[n],
+                moved,
+                deformation,
+            ));
         }
         extremes.add_to(&mut self.extremes);
         self.scatter_dt = Some(params.dt);
@@ -737,14 +782,26 @@ pub struct GatherExtremes {
 }
 
 impl GatherExtremes {
-    /// One particle's, of `material`, after g2p gave it velocity `v` and density `rho`
-    /// ([`density_after_g2p`]).
-    pub fn of(params: &Params, v: Vec3, rho: f32, material: u8, pushed: bool) -> GatherExtremes {
+    /// One particle's, of `material`, after g2p gave it velocity `v`, density `rho`
+    /// ([`density_after_g2p`]) and, a solid's, its `deformation` ([`advance_deformation`]): a
+    /// solid's signal is its own wave speed, hardening included.
+    pub fn of(
+        params: &Params,
+        v: Vec3,
+        rho: f32,
+        material: u8,
+        pushed: bool,
+        deformation: Option<&Deformation>,
+    ) -> GatherExtremes {
         let speed = v.length();
         let advected = DensityRule::of(params) == DensityRule::Advected;
+        let mat = Material::of(params, material);
         GatherExtremes {
             max_speed: speed,
-            max_signal: Material::of(params, material).signal_speed(rho, speed),
+            max_signal: match deformation {
+                Some(d) if mat.is_solid() => solid::solid_wave_speed(mat, d.plastic) + speed,
+                _ => mat.signal_speed(rho, speed),
+            },
             max_density: if advected {
                 reported_density(params, material, rho)
             } else {

@@ -30,9 +30,9 @@
 
 use super::colliders::ColliderFrame;
 use super::cpu::{
-    density_after_g2p, g2p_with_backstop, mirror_walls, momentum_image, node_velocity, p2g_particle,
-    reported_density, step_phases, volume_units, CpuPhases, CpuSolver, DensitySource, GatherExtremes, Grid,
-    GridShape, Stencil,
+    advance_deformation, density_after_g2p, g2p_with_backstop, mirror_walls, momentum_image, node_velocity,
+    p2g_particle, reported_density, step_phases, volume_units, CpuPhases, CpuSolver, DensitySource,
+    GatherExtremes, Grid, GridShape, Stencil,
 };
 use super::flow::{FlowCounts, FlowState, Lifecycle};
 use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
@@ -42,6 +42,7 @@ use super::scene::Particles;
 use super::solver::{Solver, StepExtremes};
 use super::view::ParticleView;
 use glam::{IVec3, UVec3, Vec3};
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 /// The tile key and rank of a parked slot: in no tile.
@@ -412,8 +413,17 @@ impl ParallelCpuSolver {
                     let i = i as usize;
                     let st = Stencil::new(p.x[i], params.inv_dx);
                     let material = p.material[i];
-                    let (rho, mv, affine) =
-                        p2g_particle(params, &st, *shape, source, p.rho[i], p.v[i], p.c[i], material);
+                    let (rho, mv, affine) = p2g_particle(
+                        params,
+                        &st,
+                        *shape,
+                        source,
+                        p.rho[i],
+                        p.v[i],
+                        p.c[i],
+                        material,
+                        p.deformation.get(i),
+                    );
                     *rho_out = rho;
                     max_rho = max_rho.max(reported_density(params, material, rho));
                     in_block(&st, origin)
@@ -482,6 +492,11 @@ impl ParallelCpuSolver {
         let (shape, velocity, source) = (&grid.shape, &grid.momentum, DensitySource::of(grid));
         let colliders = &self.inner.colliders;
         let p = &mut self.inner.particles;
+        // Each slot's deformation where the scene has solids; `None` for every slot where it has none.
+        let deformations = match p.deformation.is_empty() {
+            false => Either::Left(p.deformation.par_iter_mut().map(Some)),
+            true => Either::Right((0..p.x.len()).into_par_iter().map(|_| None)),
+        };
         let extremes = p
             .x
             .par_iter_mut()
@@ -490,14 +505,16 @@ impl ParallelCpuSolver {
             .zip(p.c.par_iter_mut())
             .zip(p.rho.par_iter_mut())
             .zip(p.live.par_iter().zip(p.material.par_iter()))
-            .map(|((((x, v), c), rho), (&live, &material))| {
+            .zip(deformations)
+            .map(|(((((x, v), c), rho), (&live, &material)), deformation)| {
                 if !live {
                     return GatherExtremes::default();
                 }
                 let (x_new, v_new, c_new, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
                 *rho = density_after_g2p(params, *shape, source, velocity, *x, *rho, material);
                 (*x, *v, *c) = (x_new, v_new, c_new);
-                GatherExtremes::of(params, *v, *rho, material, moved)
+                let deformation = advance_deformation(params, material, c_new, deformation);
+                GatherExtremes::of(params, *v, *rho, material, moved, deformation)
             })
             .reduce(GatherExtremes::default, GatherExtremes::max);
         extremes.add_to(&mut self.extremes);

@@ -46,6 +46,11 @@ pub trait MaterialTable {
     /// The rows in use.
     fn rows(&self) -> &[Material];
 
+    /// Whether any row is a solid's: then the particles carry their deformation.
+    fn has_solids(&self) -> bool {
+        self.rows().iter().any(Material::is_solid)
+    }
+
     /// Whether the rest densities differ (`sim::params::gathers_volume`).
     fn several_densities(&self) -> bool {
         let rows = self.rows();
@@ -101,6 +106,13 @@ impl MaterialTable for super::params::Params {
 }
 
 impl Material {
+    /// Whether the row is a solid's: its particles carry a deformation gradient and scatter the
+    /// law's stress from it, with no equation of state.
+    #[inline(always)]
+    pub fn is_solid(&self) -> bool {
+        super::solid::is_solid(self.law)
+    }
+
     /// Row `index` of `params`' table (row 0 in a scene of one material, whatever the index).
     #[inline(always)]
     pub fn of(params: &super::params::Params, index: u8) -> &Material {
@@ -185,6 +197,9 @@ impl Material {
     /// The largest viscosity the law can take, Pa s: what the explicit viscous limit on the substep
     /// follows.
     pub fn viscosity_ceiling(&self) -> f32 {
+        if self.is_solid() {
+            return 0.0;
+        }
         if self.law == LAW_NEWTONIAN {
             self.viscosity
         } else {
@@ -192,13 +207,21 @@ impl Material {
         }
     }
 
-    /// Sound speed at rest, c0 = sqrt(k gamma / rho0).
+    /// Sound speed at rest, c0 = sqrt(k gamma / rho0); a solid's P-wave speed, sqrt((lambda + 2
+    /// mu) / rho0), unhardened ([`super::solid::solid_wave_speed`] gives a particle's own).
     pub fn sound_speed(&self) -> f32 {
+        if self.is_solid() {
+            return ((self.lame_lambda + 2.0 * self.shear_modulus) / self.rest_density).sqrt();
+        }
         (self.eos_stiffness * self.eos_power / self.rest_density).sqrt()
     }
 
-    /// Sound speed at density `rho`: c0 (rho/rho0)^((gamma-1)/2), from dp/drho of the Tait law.
+    /// Sound speed at density `rho`: c0 (rho/rho0)^((gamma-1)/2), from dp/drho of the Tait law; a
+    /// solid's whatever its density.
     pub fn sound_speed_at(&self, rho: f32) -> f32 {
+        if self.is_solid() {
+            return self.sound_speed();
+        }
         let ratio = (rho / self.rest_density).max(0.0);
         self.sound_speed() * power(ratio, 0.5 * (self.eos_power - 1.0))
     }

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 14] = [
+pub const NAMES: [&str; 17] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -17,11 +17,14 @@ pub const NAMES: [&str; 14] = [
     "honey",
     "mud-dam-break",
     "oil-on-water",
+    "jelly-drop",
+    "sand-column",
+    "snowball",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 14] = [
+const FILES: [&str; 17] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -34,6 +37,9 @@ const FILES: [&str; 14] = [
     include_str!("../../scenes/honey.toml"),
     include_str!("../../scenes/mud-dam-break.toml"),
     include_str!("../../scenes/oil-on-water.toml"),
+    include_str!("../../scenes/jelly-drop.toml"),
+    include_str!("../../scenes/sand-column.toml"),
+    include_str!("../../scenes/snowball.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];

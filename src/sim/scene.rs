@@ -106,6 +106,31 @@ pub struct Particles {
     pub material: Vec<u8>,
     /// False for a parked slot (see `sim::flow`): no part of the fluid, kept for its index.
     pub live: Vec<bool>,
+    /// Each slot's deformation where the scene has a solid (`Params::has_solids`), else empty: a
+    /// scene of liquids carries none. The slots of liquids hold the rest state and nothing reads it.
+    pub deformation: Vec<Deformation>,
+}
+
+/// A solid particle's deformation (docs/physics.md, "Solids"): the elastic part of its deformation
+/// gradient, and the one plastic scalar its law keeps.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Deformation {
+    /// F_E, the elastic part of the deformation gradient (all of it for an elastic solid).
+    pub f: glam::Mat3,
+    /// Snow: J_p, the plastic part's volume ratio (1 at rest). Sand: the log-volume the return
+    /// mapping took out in expansion (0 at rest). Elastic solids: 0, unused.
+    pub plastic: f32,
+}
+
+impl Deformation {
+    /// The undeformed state of a particle of law `law`.
+    pub fn at_rest(law: u32) -> Deformation {
+        Deformation {
+            f: glam::Mat3::IDENTITY,
+            plastic: super::solid::rest_plastic(law),
+        }
+    }
 }
 
 impl Particles {
@@ -136,6 +161,11 @@ impl Particles {
             rho: pick(n).map(|i| self.rho[i]).collect(),
             material: pick(n).map(|i| self.material[i]).collect(),
             live: vec![true; pick(n).count()],
+            deformation: if self.deformation.is_empty() {
+                Vec::new()
+            } else {
+                pick(n).map(|i| self.deformation[i]).collect()
+            },
         }
     }
 }
@@ -327,6 +357,11 @@ impl Scene {
     }
 
     /// The first row of the material table: the scene's only material where it has one.
+    /// Whether any material of the table is a solid: then the particles carry their deformation.
+    pub fn has_solids(&self) -> bool {
+        self.materials.iter().any(|m| m.law.is_solid())
+    }
+
     pub fn material(&self) -> &Material {
         &self.materials[0].law
     }

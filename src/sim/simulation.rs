@@ -409,7 +409,13 @@ impl Simulation {
         let extremes = self.solver.wait_extremes(ticket)?;
         // The step is chosen from the pairing of the largest density with the largest speed; the
         // CFL number reported is docs/physics.md's, each particle's own (see StepExtremes).
-        let bound = self.params.signal_speed(extremes.max_density, extremes.max_speed);
+        let mut bound = self.params.signal_speed(extremes.max_density, extremes.max_speed);
+        // A solid's wave speed follows its own state (snow hardens as it compacts), not the density
+        // the liquids' bound pairs with the speed: its particles' own signal speeds bound it. (A
+        // liquid's own signal is never above the pairing, so this changes nothing for liquids.)
+        if self.params.has_solids() && extremes.max_signal_speed > bound {
+            bound = extremes.max_signal_speed;
+        }
         self.advective = extremes.max_speed > bound - extremes.max_speed;
         self.signal_rise = (bound - self.signal_speed).max(0.0);
         self.signal_speed = bound;

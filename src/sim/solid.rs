@@ -11,18 +11,11 @@
 
 use super::params::Material;
 use super::svd::{svd3_cols, times_transpose, Cols};
-use crate::contract::{FIRST_SOLID_LAW, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW};
+use crate::contract::{
+    FIRST_SOLID_LAW, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW, SNOW_MAX_HARDENING, SNOW_MIN_HARDENING,
+    SOLID_MIN_STRETCH as MIN_STRETCH, SOLID_MIN_VOLUME as MIN_VOLUME,
+};
 use glam::Mat3;
-
-/// The smallest |sigma| whose logarithm sand takes (its Hencky strain and return mapping): a
-/// singular value crushed to zero, or inverted through it, reads as this stretch, a Hencky strain
-/// of -9.2, rather than as ln 0 = -inf and NaN stresses. `SOLID_MIN_STRETCH` in kernels/solid.cuh.
-pub const MIN_STRETCH: f32 = 1.0e-4;
-
-/// The smallest J whose logarithm the Neo-Hookean law takes, [`MIN_STRETCH`] cubed: an element
-/// crushed flat or inverted pushes back as one of that volume instead of with a NaN pressure.
-/// `SOLID_MIN_VOLUME` in kernels/solid.cuh.
-pub const MIN_VOLUME: f32 = 1.0e-12;
 
 /// Whether particles of `law` are solid: they carry a deformation gradient and scatter its stress
 /// instead of a pressure.
@@ -42,10 +35,14 @@ pub fn rest_plastic(law: u32) -> f32 {
 
 /// Snow's hardening, mu and lambda times exp(xi (1 - J_p)) (Stomakhin et al. 2013, "A material
 /// point method for snow simulation"): packed snow (J_p < 1) stiffens, snow that has been pulled
-/// apart (J_p > 1) softens. 1 for other laws.
+/// apart (J_p > 1) softens; held within [`SNOW_MIN_HARDENING`, `SNOW_MAX_HARDENING`]. 1 for other
+/// laws.
 fn hardening(law: u32, xi: f32, plastic: f32) -> f32 {
     if law == LAW_SNOW {
-        (xi * (1.0 - plastic)).exp()
+        (xi * (1.0 - plastic))
+            .exp()
+            .max(SNOW_MIN_HARDENING)
+            .min(SNOW_MAX_HARDENING)
     } else {
         1.0
     }
@@ -134,7 +131,8 @@ fn plastic_law(
         if clamped == sigma {
             return plastic;
         }
-        let ratio = (sigma[0] * sigma[1] * sigma[2]) / (clamped[0] * clamped[1] * clamped[2]);
+        // |det|: an inverted F_trial comes out of the clamp the right way round, its volume kept.
+        let ratio = (sigma[0] * sigma[1] * sigma[2]).abs() / (clamped[0] * clamped[1] * clamped[2]);
         *f = compose(&u, &clamped, &v);
         return plastic * ratio;
     }
@@ -252,6 +250,28 @@ fn stress_law(law: u32, mu: f32, lambda: f32, xi: f32, plastic: f32, f: &Cols) -
 pub fn solid_wave_speed(mat: &Material, plastic: f32) -> f32 {
     let scale = hardening(mat.law, mat.hardening, plastic);
     ((mat.lame_lambda + 2.0 * mat.shear_modulus) * scale / mat.rest_density).sqrt()
+}
+
+/// A solid particle's volume ratio det F, for export: its elastic part's, times snow's plastic
+/// J_p (the volume it lost or gained for good). Sand's expansion past its tip leaves no trace in F
+/// (the volume correction stores it as a strain to recover), so its ratio is the elastic part's.
+pub fn volume_ratio(mat: &Material, f: Mat3, plastic: f32) -> f32 {
+    let elastic = f.determinant();
+    if mat.law == LAW_SNOW {
+        elastic * plastic
+    } else {
+        elastic
+    }
+}
+
+/// A solid particle's von Mises stress, Pa, for export: sqrt(3/2 s:s), s the deviatoric part of its
+/// Cauchy stress sigma = tau / J, tau its [`kirchhoff_stress`] and J = det F_E.
+pub fn von_mises(mat: &Material, f: Mat3, plastic: f32) -> f32 {
+    let sigma = kirchhoff_stress(mat, f, plastic) * (1.0 / f.determinant());
+    let mean = (sigma.x_axis.x + sigma.y_axis.y + sigma.z_axis.z) / 3.0;
+    let deviator = sigma - Mat3::from_diagonal(glam::Vec3::splat(mean));
+    let squares: f32 = deviator.to_cols_array().iter().map(|s| s * s).sum();
+    (1.5 * squares).sqrt()
 }
 
 #[cfg(test)]

@@ -404,7 +404,8 @@ pub fn stirred(scene: &Scene) -> Particles {
     p
 }
 
-/// Every slot's x, v, C, density and material row, as bits, slot by slot.
+/// Every slot's x, v, C, density and material row, and its deformation where the particles carry
+/// one, as bits, slot by slot.
 pub fn particle_bits(p: &Particles) -> Vec<u32> {
     let mut bits = Vec::new();
     for i in 0..p.len() {
@@ -413,11 +414,15 @@ pub fn particle_bits(p: &Particles) -> Vec<u32> {
         bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
         bits.push(p.rho[i].to_bits());
         bits.push(u32::from(p.material[i]));
+        if let Some(d) = p.deformation.get(i) {
+            bits.extend(d.f.to_cols_array().map(f32::to_bits));
+            bits.push(d.plastic.to_bits());
+        }
     }
     bits
 }
 
-/// Two particle sets are the same state: every slot's x, v, C, density and liveness, bit for bit.
+/// Two particle sets are the same state: every slot's x, v, C, density, liveness and deformation, bit for bit.
 pub fn same_particles(a: &Particles, b: &Particles) -> bool {
     particle_bits(a) == particle_bits(b) && a.live == b.live
 }

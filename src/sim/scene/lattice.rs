@@ -1,7 +1,7 @@
 //! The particle lattice a scene spawns: its points, which body owns each, and the particles in the
 //! order every backend (and the device spawn, src/cuda/spawn.rs) lays them out.
 
-use super::{Particles, Scene, Shape};
+use super::{Deformation, Particles, Scene, Shape};
 use crate::sim::colliders::ColliderFrame;
 use glam::{DVec3, Vec3};
 
@@ -87,6 +87,7 @@ impl Scene {
             rho: Vec::with_capacity(slots),
             material: Vec::with_capacity(slots),
             live: vec![true; self.num_particles],
+            deformation: Vec::new(),
         };
         let colliders = self.colliders_at_start();
         for (k, body) in self.bodies.iter().enumerate() {
@@ -98,6 +99,11 @@ impl Scene {
                     .push(self.materials[usize::from(body.material)].law.rest_density);
                 particles.material.push(body.material);
             }
+        }
+        if self.has_solids() {
+            let at_rest = |row: u8| Deformation::at_rest(self.materials[usize::from(row)].law.law);
+            particles.deformation = particles.material.iter().map(|&row| at_rest(row)).collect();
+            particles.deformation.resize(slots, at_rest(0));
         }
         debug_assert_eq!(particles.x.len(), self.num_particles);
         particles.x.resize(slots, Vec3::ZERO);

@@ -136,6 +136,49 @@ pub enum LawSpec {
     /// mu = K gammadot^(n - 1) + tau_y / gammadot up to a ceiling (bi-viscous): mud, ketchup, lava;
     /// Bingham where n = 1.
     HerschelBulkley,
+    /// An elastic solid, fixed-corotated (Stomakhin et al. 2012): a jelly.
+    FixedCorotated,
+    /// An elastic solid, Neo-Hookean.
+    NeoHookean,
+    /// Snow (Stomakhin et al. 2013): fixed-corotated with clamped stretch and hardening.
+    Snow,
+    /// Sand (Klar et al. 2016): Drucker-Prager plasticity in Hencky strain.
+    Sand,
+}
+
+impl LawSpec {
+    /// The name a scene gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LawSpec::Newtonian => "newtonian",
+            LawSpec::PowerLaw => "power-law",
+            LawSpec::CarreauYasuda => "carreau-yasuda",
+            LawSpec::HerschelBulkley => "herschel-bulkley",
+            LawSpec::FixedCorotated => "fixed-corotated",
+            LawSpec::NeoHookean => "neo-hookean",
+            LawSpec::Snow => "snow",
+            LawSpec::Sand => "sand",
+        }
+    }
+
+    pub const ALL: [LawSpec; 8] = [
+        LawSpec::Newtonian,
+        LawSpec::PowerLaw,
+        LawSpec::CarreauYasuda,
+        LawSpec::HerschelBulkley,
+        LawSpec::FixedCorotated,
+        LawSpec::NeoHookean,
+        LawSpec::Snow,
+        LawSpec::Sand,
+    ];
+
+    /// A solid's law: its particles carry a deformation gradient, and it has no equation of state.
+    pub fn is_solid(self) -> bool {
+        matches!(
+            self,
+            LawSpec::FixedCorotated | LawSpec::NeoHookean | LawSpec::Snow | LawSpec::Sand
+        )
+    }
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -174,6 +217,20 @@ pub struct MaterialSpec {
     pub relaxation_time: Option<f32>,
     /// Carreau-Yasuda: a (2: the Carreau law).
     pub transition_exponent: Option<f32>,
+    /// Solids: Young's modulus E, Pa.
+    pub youngs_modulus: Option<f32>,
+    /// Solids: Poisson's ratio nu, in [0, 0.5).
+    pub poisson_ratio: Option<f32>,
+    /// Snow: theta_c, the compression past which it yields (2.5e-2 by default).
+    pub critical_compression: Option<f32>,
+    /// Snow: theta_s, the stretch past which it yields (7.5e-3 by default).
+    pub critical_stretch: Option<f32>,
+    /// Snow: xi, how much it hardens as it compacts (10 by default).
+    pub hardening: Option<f32>,
+    /// Sand: the friction angle phi, degrees (its angle of repose).
+    pub friction_angle: Option<f32>,
+    /// Sand: the Hencky strain of isotropic tension it bears before it yields (0: cohesionless).
+    pub cohesion: Option<f32>,
     #[serde(default)]
     pub pressure_floor: f32,
 }

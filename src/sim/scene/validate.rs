@@ -7,7 +7,8 @@ use super::{
     CPU_BYTES_PER_PARTICLE, MAX_CFL,
 };
 use crate::contract::{
-    LAW_CARREAU_YASUDA, LAW_HERSCHEL_BULKLEY, LAW_NEWTONIAN, LAW_POWER_LAW, MAX_MATERIALS,
+    LAW_CARREAU_YASUDA, LAW_FIXED_COROTATED, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_NEWTONIAN,
+    LAW_POWER_LAW, LAW_SAND, LAW_SNOW, MAX_MATERIALS,
 };
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
@@ -335,6 +336,9 @@ impl Validator<'_> {
             m.rest_density,
             "give the rest density in kg/m^3, e.g. 1000 for water",
         )?;
+        if m.law.is_solid() {
+            return self.solid(key, m, rho0, dx, n);
+        }
         let gamma = self.positive(&k("eos_power"), m.eos_power, "use 7 (Tait, water)")?;
         let stiffness = match (m.sound_speed, m.eos_stiffness) {
             (Some(c0), None) => {
@@ -383,17 +387,41 @@ impl Validator<'_> {
         Ok(material)
     }
 
+    /// A solid's row: no equation of state (its stress comes from its deformation), its law's
+    /// parameters.
+    fn solid(&self, key: &str, m: &MaterialSpec, rho0: f32, dx: f64, n: u32) -> Result<Material, SceneError> {
+        let k = |field: &str| format!("{key}.{field}");
+        let law_name = m.law.name();
+        for (field, given) in [
+            ("sound_speed", m.sound_speed.is_some()),
+            ("eos_stiffness", m.eos_stiffness.is_some()),
+            ("pressure_floor", m.pressure_floor != 0.0),
+        ] {
+            if given {
+                return Err(self.err(
+                    k(field),
+                    format!("is not a parameter of law = \"{law_name}\": a solid's stress comes from its deformation"),
+                    "remove it; a solid's stiffness is youngs_modulus (Pa) and poisson_ratio",
+                ));
+            }
+        }
+        let ppc = f64::from(n * n * n);
+        let mut material = Material {
+            rest_density: rho0,
+            particle_mass: (f64::from(rho0) * dx * dx * dx / ppc) as f32,
+            flow_index: 1.0,
+            ..Material::default()
+        };
+        self.law(key, m, &mut material)?;
+        Ok(material)
+    }
+
     /// The law's parameters into `material`: those the law needs present and in range, those it
     /// does not use refused (a yield stress given to a Newtonian liquid is a mistake, not a no-op).
     fn law(&self, key: &str, m: &MaterialSpec, material: &mut Material) -> Result<(), SceneError> {
         let k = |field: &str| format!("{key}.{field}");
-        let law_name = match m.law {
-            LawSpec::Newtonian => "newtonian",
-            LawSpec::PowerLaw => "power-law",
-            LawSpec::CarreauYasuda => "carreau-yasuda",
-            LawSpec::HerschelBulkley => "herschel-bulkley",
-        };
-        let given: [(&str, Option<f32>); 8] = [
+        let law_name = m.law.name();
+        let given: [(&str, Option<f32>); 15] = [
             ("viscosity", m.viscosity),
             ("consistency", m.consistency),
             ("flow_index", m.flow_index),
@@ -402,6 +430,13 @@ impl Validator<'_> {
             ("min_viscosity", m.min_viscosity),
             ("relaxation_time", m.relaxation_time),
             ("transition_exponent", m.transition_exponent),
+            ("youngs_modulus", m.youngs_modulus),
+            ("poisson_ratio", m.poisson_ratio),
+            ("critical_compression", m.critical_compression),
+            ("critical_stretch", m.critical_stretch),
+            ("hardening", m.hardening),
+            ("friction_angle", m.friction_angle),
+            ("cohesion", m.cohesion),
         ];
         let (needs, allows) = law_parameters(m.law);
         let takes = || {
@@ -429,19 +464,14 @@ impl Validator<'_> {
                 continue;
             };
             if !needs.contains(&field) && !allows.contains(&field) {
-                let laws_with_it: Vec<String> = [
-                    (LawSpec::Newtonian, "newtonian"),
-                    (LawSpec::PowerLaw, "power-law"),
-                    (LawSpec::CarreauYasuda, "carreau-yasuda"),
-                    (LawSpec::HerschelBulkley, "herschel-bulkley"),
-                ]
-                .into_iter()
-                .filter(|(law, _)| {
-                    let (needs, allows) = law_parameters(*law);
-                    needs.contains(&field) || allows.contains(&field)
-                })
-                .map(|(_, name)| format!("\"{name}\""))
-                .collect();
+                let laws_with_it: Vec<String> = LawSpec::ALL
+                    .into_iter()
+                    .filter(|law| {
+                        let (needs, allows) = law_parameters(*law);
+                        needs.contains(&field) || allows.contains(&field)
+                    })
+                    .map(|law| format!("\"{}\"", law.name()))
+                    .collect();
                 return Err(self.err(
                     k(field),
                     format!("is not a parameter of law = \"{law_name}\""),
@@ -453,7 +483,8 @@ impl Validator<'_> {
                     ),
                 ));
             }
-            let positive = field != "min_viscosity" && !(field == "viscosity" && m.law == LawSpec::Newtonian);
+            let positive = !["min_viscosity", "poisson_ratio", "cohesion"].contains(&field)
+                && !(field == "viscosity" && m.law == LawSpec::Newtonian);
             if !value.is_finite() || value < 0.0 || (positive && value == 0.0) {
                 return Err(self.err(
                     k(field),
@@ -463,6 +494,27 @@ impl Validator<'_> {
                     ),
                     "give it in SI units: Pa s for viscosities, Pa s^n for the consistency, Pa, s",
                 ));
+            }
+            let bounds = match field {
+                "poisson_ratio" => Some((0.0, 0.49, "0.2 to 0.45 for jelly and snow, 0.3 for sand")),
+                "critical_compression" | "critical_stretch" => Some((
+                    0.0,
+                    0.5,
+                    "snow: 2.5e-2 for the compression, 7.5e-3 for the stretch",
+                )),
+                "friction_angle" => Some((1.0, 60.0, "degrees: 30 to 35 for dry sand")),
+                "cohesion" => Some((0.0, 0.1, "a Hencky strain: 0 for dry sand, up to 1e-2 for damp")),
+                "hardening" => Some((0.0, 50.0, "10 for snow (Stomakhin et al. 2013)")),
+                _ => None,
+            };
+            if let Some((lo, hi, typical)) = bounds {
+                if value < lo || value > hi {
+                    return Err(self.err(
+                        k(field),
+                        format!("= {value} is outside [{lo}, {hi}]"),
+                        format!("give it inside: {typical}"),
+                    ));
+                }
             }
         }
         let get = |field: &str, default: f32| {
@@ -477,11 +529,27 @@ impl Validator<'_> {
             LawSpec::PowerLaw => LAW_POWER_LAW,
             LawSpec::CarreauYasuda => LAW_CARREAU_YASUDA,
             LawSpec::HerschelBulkley => LAW_HERSCHEL_BULKLEY,
+            LawSpec::FixedCorotated => LAW_FIXED_COROTATED,
+            LawSpec::NeoHookean => LAW_NEO_HOOKEAN,
+            LawSpec::Snow => LAW_SNOW,
+            LawSpec::Sand => LAW_SAND,
         };
+        if m.law.is_solid() {
+            let (e, nu) = (get("youngs_modulus", 0.0), get("poisson_ratio", 0.0));
+            material.shear_modulus = e / (2.0 * (1.0 + nu));
+            material.lame_lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+            material.critical_compression = get("critical_compression", 2.5e-2);
+            material.critical_stretch = get("critical_stretch", 7.5e-3);
+            material.hardening = get("hardening", 10.0);
+            let sin_phi = get("friction_angle", 0.0).to_radians().sin();
+            material.friction_alpha = (2.0f32 / 3.0).sqrt() * 2.0 * sin_phi / (3.0 - sin_phi);
+            material.cohesion = get("cohesion", 0.0);
+            return Ok(());
+        }
         material.viscosity = match m.law {
             LawSpec::Newtonian => get("viscosity", 1.0e-3),
             LawSpec::CarreauYasuda => get("viscosity", 0.0),
-            LawSpec::PowerLaw | LawSpec::HerschelBulkley => get("consistency", 0.0),
+            _ => get("consistency", 0.0),
         };
         material.flow_index = get("flow_index", 1.0);
         material.yield_stress = get("yield_stress", 0.0);
@@ -836,6 +904,15 @@ impl Validator<'_> {
                 "shorten the pipe, or move the nozzle back from the wall it points at",
             ));
         }
+        let material = self.material_row(&key("material"), &e.material, materials)?;
+        let row = &materials[usize::from(material)];
+        if row.law.is_solid() {
+            return Err(self.err(
+                key("material"),
+                format!("names \"{}\", a solid: an emitter pours liquids", row.name),
+                "name a liquid, or place the solid as a [[block]] or [[sphere]] with a velocity",
+            ));
+        }
         Ok(Emitter {
             nozzle,
             center,
@@ -843,7 +920,7 @@ impl Validator<'_> {
             speed: e.speed,
             rate,
             points,
-            material: self.material_row(&key("material"), &e.material, materials)?,
+            material,
             pipe_length,
         })
     }
@@ -1149,6 +1226,15 @@ fn law_parameters(law: LawSpec) -> (&'static [&'static str], &'static [&'static 
             &["consistency", "yield_stress", "max_viscosity"],
             &["flow_index", "min_viscosity"],
         ),
+        LawSpec::FixedCorotated | LawSpec::NeoHookean => (&["youngs_modulus", "poisson_ratio"], &[]),
+        LawSpec::Snow => (
+            &["youngs_modulus", "poisson_ratio"],
+            &["critical_compression", "critical_stretch", "hardening"],
+        ),
+        LawSpec::Sand => (
+            &["youngs_modulus", "poisson_ratio", "friction_angle"],
+            &["cohesion"],
+        ),
     }
 }
 
@@ -1159,6 +1245,8 @@ fn law_parameter_unit(field: &str) -> &'static str {
         "consistency" => "Pa s^n",
         "yield_stress" => "Pa",
         "relaxation_time" => "s",
+        "youngs_modulus" => "Pa",
+        "friction_angle" => "degrees",
         _ => "a plain number",
     }
 }
