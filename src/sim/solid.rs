@@ -39,6 +39,8 @@ pub fn rest_plastic(law: u32) -> f32 {
 /// laws.
 fn hardening(law: u32, xi: f32, plastic: f32) -> f32 {
     if law == LAW_SNOW {
+        // max then min, not clamp: the kernels' fmaxf and fminf, which turn a NaN into the bound.
+        #[allow(clippy::manual_clamp)]
         (xi * (1.0 - plastic))
             .exp()
             .max(SNOW_MIN_HARDENING)

@@ -483,8 +483,9 @@ impl Validator<'_> {
                     ),
                 ));
             }
-            let positive = !["min_viscosity", "poisson_ratio", "cohesion"].contains(&field)
-                && !(field == "viscosity" && m.law == LawSpec::Newtonian);
+            let may_be_zero = ["min_viscosity", "poisson_ratio", "cohesion"].contains(&field)
+                || (field == "viscosity" && m.law == LawSpec::Newtonian);
+            let positive = !may_be_zero;
             if !value.is_finite() || value < 0.0 || (positive && value == 0.0) {
                 return Err(self.err(
                     k(field),
