@@ -388,6 +388,11 @@ impl Surface {
         let mut bytes = vec![0u8; 8 * (w * h) as usize];
         // SAFETY: our framebuffer; `bytes` holds w x h RG floats.
         unsafe {
+            // Bound back afterwards: the next draw goes where the caller's last one went.
+            let (draw, read) = (
+                self.gl.get_parameter_framebuffer(glow::DRAW_FRAMEBUFFER_BINDING),
+                self.gl.get_parameter_framebuffer(glow::READ_FRAMEBUFFER_BINDING),
+            );
             self.gl.bind_framebuffer(glow::FRAMEBUFFER, Some(t.thickness_fbo));
             self.gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
             self.gl.read_pixels(
@@ -399,7 +404,8 @@ impl Surface {
                 glow::FLOAT,
                 glow::PixelPackData::Slice(Some(&mut bytes)),
             );
-            self.gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+            self.gl.bind_framebuffer(glow::DRAW_FRAMEBUFFER, draw);
+            self.gl.bind_framebuffer(glow::READ_FRAMEBUFFER, read);
         }
         let texels = bytemuck::pod_collect_to_vec::<u8, [f32; 2]>(&bytes);
         Some(([w as u32, h as u32], texels))
