@@ -49,6 +49,8 @@ pub struct ParticleFeed {
     /// Set once interop failed here (e.g. GL runs on another GPU than CUDA): host copies from then on.
     interop_refused: Option<String>,
     host: Vec<[f32; 4]>,
+    /// The slots' material rows, for the host copy, in a scene with solids (`Renderer::ensure_layout`).
+    host_rows: Vec<[f32; 4]>,
     /// The host-copy path's device buffer, on the CUDA solver's GPU (dropped with the registration).
     device_scratch: Option<CudaSlice<f32>>,
 }
@@ -60,6 +62,7 @@ impl ParticleFeed {
             registration: None,
             interop_refused: None,
             host: Vec::new(),
+            host_rows: Vec::new(),
             device_scratch: None,
         }
     }
@@ -85,7 +88,9 @@ impl ParticleFeed {
         self.device_scratch = None;
     }
 
-    /// Writes the simulation's current particles, every slot, into the renderer's buffer.
+    /// Writes the simulation's current particles, every slot, into the renderer's buffer; in a scene
+    /// with solids, their material rows too, whatever the colouring (the surface draws the solids
+    /// apart from the liquid).
     pub fn update(
         &mut self,
         sim: &mut Simulation,
@@ -96,17 +101,20 @@ impl ParticleFeed {
         let n = sim.scene().slots();
         let rest_density = sim.params().materials[0].rest_density;
         let quantity = colouring.quantity();
-        if renderer.capacity() != n {
+        // Fed every frame, not once per scene: a sink can park a solid's slot and an emitter fill it
+        // with a liquid.
+        let rows = sim.scene().has_solids();
+        if renderer.capacity() != n || renderer.holds_material_rows() != rows {
             self.release();
-            renderer.ensure_capacity(n);
+            renderer.ensure_layout(n, rows);
         }
         let want_interop = self.transfer == Transfer::Interop && self.interop_refused.is_none();
         let drawn_in_place = match sim.solver().particles() {
             ParticleView::Device(view) => {
                 let view = DeviceParticlesView::of(view.as_ref())
                     .context("the renderer draws device particles of the CUDA backend only")?;
-                let written =
-                    want_interop.then(|| self.write_through_interop(view, renderer, quantity, rest_density));
+                let written = want_interop
+                    .then(|| self.write_through_interop(view, renderer, quantity, rest_density, rows));
                 match written {
                     Some(Ok(())) => true,
                     refused => {
@@ -124,17 +132,31 @@ impl ParticleFeed {
                             &mut self.device_scratch,
                             &mut self.host,
                         )?;
+                        if rows {
+                            view.copy_render_attributes_through(
+                                ColourBy::Material,
+                                rest_density,
+                                &mut self.device_scratch,
+                                &mut self.host_rows,
+                            )?;
+                        }
                         false
                     }
                 }
             }
             ParticleView::Host(particles) => {
                 host_attributes(particles, quantity, rest_density, &mut self.host);
+                if rows {
+                    host_attributes(particles, ColourBy::Material, rest_density, &mut self.host_rows);
+                }
                 false
             }
         };
         if !drawn_in_place {
             renderer.upload(&self.host);
+            if rows {
+                renderer.upload_material_rows(&self.host_rows);
+            }
         }
         Fed::of(sim, n)
     }
@@ -145,6 +167,7 @@ impl ParticleFeed {
         renderer: &mut Renderer,
         quantity: ColourBy,
         rest_density: f32,
+        rows: bool,
     ) -> Result<()> {
         let registration = match &mut self.registration {
             Some(registration) => registration,
@@ -158,17 +181,33 @@ impl ParticleFeed {
         };
         let stream = cuda.stream().clone();
         let mapped = registration.map(&stream)?;
-        let needed = 16 * cuda.count();
+        let rows_at = renderer.material_rows_offset();
+        let needed = if rows {
+            rows_at + 16 * cuda.count()
+        } else {
+            16 * cuda.count()
+        };
         let written = if mapped.bytes >= needed {
-            // SAFETY: the mapped buffer is a device allocation of `mapped.bytes` >= needed bytes.
-            unsafe { cuda.write_render_attributes(quantity, rest_density, mapped.ptr) }
+            // SAFETY: the mapped buffer is a device allocation of `mapped.bytes` >= needed bytes: the
+            // attributes from its start, the rows (where asked) from `rows_at`.
+            unsafe {
+                let attributes = cuda.write_render_attributes(quantity, rest_density, mapped.ptr);
+                if rows && attributes.is_ok() {
+                    let at = mapped.ptr + rows_at as u64;
+                    cuda.write_render_attributes(ColourBy::Material, rest_density, at)
+                } else {
+                    attributes
+                }
+            }
         } else {
             Err(anyhow::anyhow!(
                 "the mapped GL buffer holds {} bytes, {needed} needed",
                 mapped.bytes
             ))
         };
-        if written.is_ok() {
+        // With solids the surface has GL splat the thickness, leaving them out: CUDA's copy would be
+        // wasted.
+        if written.is_ok() && !rows {
             // SAFETY: the mapped buffer holds the `count` float4 just written, and the copy is queued
             // on `stream` before the unmap hands the buffer back to GL.
             unsafe { renderer.take_cuda_particles(cuda.context(), mapped.ptr, cuda.count(), &stream) };

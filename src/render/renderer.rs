@@ -1,8 +1,10 @@
 //! The particle renderer, shared by the window and the headless path: the fluid as a screen-space
 //! water surface (the default; [`super::surface`]), as flat points (the report's minimal mode) or as
 //! lit sphere impostors with true depth; the domain box as a wireframe (and, under the water, a tiled
-//! floor); the colour scale as a bar with its numbers at the right edge ([`super::legend`]). It draws
-//! into whatever framebuffer is bound, and times each pass on the GPU ([`super::timer`]).
+//! floor); the colour scale as a bar with its numbers at the right edge ([`super::legend`]). A solid
+//! material's particles are no part of the surface: it draws them as lit spheres of their colour into
+//! the scene the liquid refracts. It draws into whatever framebuffer is bound, and times each pass
+//! on the GPU ([`super::timer`]).
 
 use super::camera::OrbitCamera;
 use super::colliders::ColliderRenderer;
@@ -105,20 +107,28 @@ pub struct MaterialColours {
     pub absorptions: [f32; crate::contract::MAX_MATERIALS as usize],
     /// Rows in use (at least 1).
     pub count: u32,
+    /// Bit `row` set where that row is a solid's: the surface draws those particles as lit spheres
+    /// of their colour, in no liquid's surface. 0 in a scene of liquids alone.
+    pub solid_rows: u32,
 }
 
 impl MaterialColours {
     pub fn of(materials: &[crate::sim::material::NamedMaterial]) -> MaterialColours {
         let mut colours = [[0.0; 3]; crate::contract::MAX_MATERIALS as usize];
         let mut absorptions = [1.0; crate::contract::MAX_MATERIALS as usize];
+        let mut solid_rows = 0;
         for (row, m) in materials.iter().enumerate().take(colours.len()) {
             colours[row] = m.colour;
             absorptions[row] = m.absorption;
+            if m.law.is_solid() {
+                solid_rows |= 1 << row;
+            }
         }
         MaterialColours {
             colours,
             absorptions,
             count: (materials.len() as u32).clamp(1, crate::contract::MAX_MATERIALS),
+            solid_rows,
         }
     }
 
@@ -149,6 +159,7 @@ impl Default for MaterialColours {
             colours,
             absorptions: [1.0; crate::contract::MAX_MATERIALS as usize],
             count: 1,
+            solid_rows: 0,
         }
     }
 }
@@ -342,6 +353,12 @@ vec3 material_colour(float row) {
 
 const PARTICLE_VS: &str = r#"
 layout(location = 0) in vec4 a_particle; // xyz position, w the colour quantity
+#ifdef SOLIDS_ONLY
+// The surface's solids: whatever the colouring, each solid particle in its material's colour, found
+// by its row in the buffer's rows section (Renderer::ensure_layout); the liquids' are clipped.
+layout(location = 1) in float a_row;
+uniform int u_solid_rows;
+#endif
 uniform mat4 u_view;
 uniform mat4 u_proj;
 uniform int u_spheres;
@@ -365,9 +382,15 @@ void main() {
     } else {
         gl_PointSize = u_point_size;
     }
+#ifdef SOLIDS_ONLY
+    int row = clamp(int(a_row + 0.5), 0, 31);
+    if (isnan(a_particle.x) || ((u_solid_rows >> row) & 1) == 0) gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+    v_colour = material_colour(float(row));
+#else
     float t = (a_particle.w - u_range.x) / max(u_range.y - u_range.x, 1e-6);
     v_colour = u_solid == 1 ? u_solid_colour
              : u_by_material == 1 ? material_colour(a_particle.w) : scale_colour(t);
+#endif
 }
 "#;
 
@@ -440,6 +463,8 @@ void main() {
 struct Programs {
     points: glow::Program,
     spheres: glow::Program,
+    /// The surface's solids as spheres ([`PARTICLE_VS`] with `SOLIDS_ONLY`).
+    solids: glow::Program,
     lines: glow::Program,
     floor: glow::Program,
 }
@@ -455,6 +480,10 @@ pub struct Renderer {
     particle_vbo: glow::Buffer,
     /// Particles the VBO has room for.
     capacity: usize,
+    /// Whether the VBO holds, after the particles' float4s, as many again whose w is each slot's
+    /// material row: the surface needs the row, whatever the colouring, to leave the solids out of
+    /// the liquid and draw them itself. Fed only for scenes with solids.
+    material_rows: bool,
     stage_vao: glow::VertexArray,
     stage_vbo: glow::Buffer,
     surface: Surface,
@@ -485,6 +514,13 @@ impl Renderer {
             let programs = Programs {
                 points: link(&gl, "points", &[PARTICLE_VS], &[POINTS_FS], &prelude)?,
                 spheres: link(&gl, "spheres", &[PARTICLE_VS], &[SPHERES_FS], &prelude)?,
+                solids: link(
+                    &gl,
+                    "solids",
+                    &[PARTICLE_VS],
+                    &[SPHERES_FS],
+                    &format!("#define SOLIDS_ONLY\n{prelude}"),
+                )?,
                 lines: link(&gl, "lines", &[LINES_VS], &[LINES_FS], "")?,
                 floor: link(&gl, "floor", &[FLOOR_VS], &[FLOOR_FS], "")?,
             };
@@ -528,6 +564,7 @@ impl Renderer {
                 particle_vao,
                 particle_vbo,
                 capacity: 1,
+                material_rows: false,
                 stage_vao,
                 stage_vbo,
                 surface,
@@ -552,28 +589,59 @@ impl Renderer {
         self.particle_vbo.0.get()
     }
 
-    /// Makes the particle buffer hold `particles` float4s. Returns true when it was reallocated: a
+    /// Makes the particle buffer hold `particles` float4s, keeping its material rows section if it
+    /// has one ([`ensure_layout`](Self::ensure_layout)). Returns true when it was reallocated: a
     /// CUDA registration of the old storage must then be dropped (before this call) and redone.
     pub fn ensure_capacity(&mut self, particles: usize) -> bool {
-        if particles == self.capacity {
+        self.ensure_layout(particles, self.material_rows)
+    }
+
+    /// Makes the particle buffer hold `particles` float4s and, where `material_rows`, as many again
+    /// after them, at byte [`material_rows_offset`](Self::material_rows_offset): each slot's
+    /// `ColourBy::Material` attributes, whose w the surface reads as the slot's row. Returns true
+    /// when it was reallocated, as [`ensure_capacity`](Self::ensure_capacity).
+    pub fn ensure_layout(&mut self, particles: usize, material_rows: bool) -> bool {
+        if (particles, material_rows) == (self.capacity, self.material_rows) {
             return false;
         }
-        // SAFETY: our buffer, our context (current).
+        let sections = if material_rows { 2 } else { 1 };
+        // SAFETY: our buffer and vertex array, our context (current).
         unsafe {
-            self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.particle_vbo));
-            self.gl.buffer_data_size(
+            let gl = &self.gl;
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.particle_vbo));
+            gl.buffer_data_size(
                 glow::ARRAY_BUFFER,
-                (16 * particles.max(1)) as i32,
+                (16 * sections * particles.max(1)) as i32,
                 glow::DYNAMIC_DRAW,
             );
-            self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
+            gl.bind_vertex_array(Some(self.particle_vao));
+            if material_rows {
+                // Only the rows' w: the row, as a float.
+                gl.vertex_attrib_pointer_f32(1, 1, glow::FLOAT, false, 16, (16 * particles + 12) as i32);
+                gl.enable_vertex_attrib_array(1);
+            } else {
+                gl.disable_vertex_attrib_array(1);
+            }
+            gl.bind_vertex_array(None);
+            gl.bind_buffer(glow::ARRAY_BUFFER, None);
         }
         self.capacity = particles;
+        self.material_rows = material_rows;
         true
     }
 
     pub fn capacity(&self) -> usize {
         self.capacity
+    }
+
+    /// Whether the particle buffer has a material rows section ([`ensure_layout`](Self::ensure_layout)).
+    pub fn holds_material_rows(&self) -> bool {
+        self.material_rows
+    }
+
+    /// Where the material rows section starts in the particle buffer, bytes.
+    pub fn material_rows_offset(&self) -> usize {
+        16 * self.capacity
     }
 
     /// Uploads host particle attributes (the CPU backend and the host-copy path): glBufferSubData
@@ -589,15 +657,49 @@ impl Renderer {
         }
     }
 
+    /// The slots' material rows (each slot's `ColourBy::Material` attributes, the buffer's
+    /// `particles.len()` float4s of [`upload`](Self::upload)) into the rows section; nothing where the
+    /// buffer has none or is not that size.
+    pub fn upload_material_rows(&mut self, rows: &[[f32; 4]]) {
+        debug_assert!(self.material_rows && rows.len() == self.capacity);
+        if !self.material_rows || rows.len() != self.capacity {
+            return;
+        }
+        // SAFETY: the buffer holds two sections of `capacity` float4 (checked above).
+        unsafe {
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.particle_vbo));
+            self.gl.buffer_sub_data_u8_slice(
+                glow::ARRAY_BUFFER,
+                self.material_rows_offset() as i32,
+                bytemuck::cast_slice(rows),
+            );
+            self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
+        }
+    }
+
     /// Reads the first `count` vertices of the particle buffer back through GL (tests: what CUDA
     /// wrote through interop, as GL sees it).
     pub fn read_particle_buffer(&self, count: usize) -> Vec<[f32; 4]> {
+        self.read_particle_section(0, count)
+    }
+
+    /// Reads the first `count` float4s of the material rows section back through GL (tests); none
+    /// where the buffer has no such section.
+    pub fn read_material_rows(&self, count: usize) -> Vec<[f32; 4]> {
+        if !self.material_rows {
+            return Vec::new();
+        }
+        self.read_particle_section(self.material_rows_offset(), count)
+    }
+
+    fn read_particle_section(&self, offset: usize, count: usize) -> Vec<[f32; 4]> {
         let count = count.min(self.capacity);
         let mut bytes = vec![0u8; 16 * count];
-        // SAFETY: the buffer holds `capacity` >= count float4.
+        // SAFETY: the section at `offset` holds `capacity` >= count float4.
         unsafe {
             self.gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.particle_vbo));
-            self.gl.get_buffer_sub_data(glow::ARRAY_BUFFER, 0, &mut bytes);
+            self.gl
+                .get_buffer_sub_data(glow::ARRAY_BUFFER, offset as i32, &mut bytes);
             self.gl.bind_buffer(glow::ARRAY_BUFFER, None);
         }
         bytes
@@ -798,6 +900,7 @@ impl Renderer {
             tint,
             range: settings.scale_range,
             materials: settings.materials,
+            solid_rows: self.solid_rows(settings),
         };
         self.surface.splat_thickness_by_cuda(&frame, &mut self.timer);
         self.timer.begin(Pass::Scene);
@@ -808,6 +911,10 @@ impl Renderer {
             // The floor stays without the box: the water refracts it.
             self.draw_stage(&(proj * view), domain, true, settings.show_box);
             self.draw_scene_objects(&(proj * view), domain);
+            if frame.solid_rows != 0 {
+                self.timer.begin(Pass::Solids);
+                self.draw_solids(&frame, settings, h as i32);
+            }
         }
         self.surface.draw(
             &frame,
@@ -815,6 +922,48 @@ impl Renderer {
             target,
             [viewport.x, viewport.y, w as i32, h as i32],
         )
+    }
+
+    /// The material rows the surface draws as solids: the scene's solids', where the particle buffer
+    /// holds the slots' rows (the feed gives them for a scene with solids); else none.
+    fn solid_rows(&self, settings: &RenderSettings) -> u32 {
+        if self.material_rows {
+            settings.materials.solid_rows
+        } else {
+            0
+        }
+    }
+
+    /// The solids' particles as lit spheres of their materials' colours into the surface's scene
+    /// (bound, `height` pixels high), which the liquid then refracts and covers where it lies in front,
+    /// as it does the colliders. The surface's particle radius: at its default, 0.75 of the spacing,
+    /// the spheres of a lattice face overlap even seen head-on (that takes 1/sqrt(2)), so a solid
+    /// body shows no gaps, and it is the radius the panel offers in this mode.
+    unsafe fn draw_solids(&self, frame: &SurfaceFrame, settings: &RenderSettings, height: i32) {
+        let gl = &self.gl;
+        let p = self.programs.solids;
+        // SAFETY: as the caller vouches: the scene pass is bound, every object is ours.
+        unsafe {
+            gl.use_program(Some(p));
+            gl.enable(glow::PROGRAM_POINT_SIZE);
+            set_mat4(gl, p, "u_view", &frame.view);
+            set_mat4(gl, p, "u_proj", &frame.proj);
+            set_i32(gl, p, "u_spheres", 1);
+            set_f32(gl, p, "u_radius", settings.surface.radius);
+            set_f32(
+                gl,
+                p,
+                "u_pixels_per_metre_at_unit_depth",
+                pixels_per_metre(&frame.proj, height),
+            );
+            settings.materials.set(gl, p);
+            set_i32(gl, p, "u_solid_rows", frame.solid_rows as i32);
+            gl.bind_vertex_array(Some(self.particle_vao));
+            gl.draw_arrays(glow::POINTS, 0, frame.count as i32);
+            gl.bind_vertex_array(None);
+            gl.use_program(None);
+            gl.disable(glow::PROGRAM_POINT_SIZE);
+        }
     }
 
     /// The tiled floor at the box's bottom and the box's edges, each where asked.
@@ -963,6 +1112,7 @@ impl Renderer {
             for program in [
                 self.programs.points,
                 self.programs.spheres,
+                self.programs.solids,
                 self.programs.lines,
                 self.programs.floor,
             ] {

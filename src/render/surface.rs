@@ -1,8 +1,9 @@
 //! The `surface` draw mode: screen-space fluid rendering. The particles are never shown as such; the
 //! water's surface is rebuilt per pixel each frame from them:
 //!
-//! 1. **scene**: the floor and the domain box into a colour and a depth texture (what the water
-//!    refracts), drawn by the renderer into [`Surface::bind_scene`];
+//! 1. **scene**: the floor, the domain box, the colliders and the solids' particles (as spheres)
+//!    into a colour and a depth texture (what the water refracts), drawn by the renderer into
+//!    [`Surface::bind_scene`]; the passes below leave the solids out ([`SurfaceFrame::solid_rows`]);
 //! 2. **depth**: every particle as a sphere impostor; the nearest sphere's view distance per pixel;
 //! 3. **thickness**: additive splats at a fraction of the resolution (a quarter per axis by
 //!    default): how much water each pixel looks through, and the colour quantity averaged along the
@@ -135,17 +136,29 @@ pub struct SurfaceFrame<'a> {
     /// The material table's colours ([`Tint::Material`]).
     pub materials: super::renderer::MaterialColours,
     pub range: [f32; 2],
+    /// The material rows left out of every surface (bit `row`): the solids', which the renderer
+    /// draws as spheres into the scene. Non-zero only where the particles' buffer holds their rows
+    /// (`Renderer::ensure_layout`).
+    pub solid_rows: u32,
 }
 
 impl SurfaceFrame<'_> {
     /// How many surfaces the frame draws, one per liquid, where it is coloured by material and
-    /// the table has several rows; 1 otherwise (the one surface of every particle).
+    /// the table has several liquids; 1 otherwise (the one surface of every liquid particle).
     pub fn liquid_surfaces(&self) -> u32 {
         if self.tint == Tint::Material {
-            self.materials.count.max(1)
+            let solids = (0..self.materials.count)
+                .filter(|&row| self.drawn_as_solid(row))
+                .count();
+            (self.materials.count - solids as u32).max(1)
         } else {
             1
         }
+    }
+
+    /// Whether material row `row` is left out of the surfaces ([`SurfaceFrame::solid_rows`]).
+    pub fn drawn_as_solid(&self, row: u32) -> bool {
+        self.solid_rows.checked_shr(row).is_some_and(|bits| bits & 1 != 0)
     }
 }
 
@@ -434,8 +447,9 @@ impl Surface {
         let (Some(targets), Some(cuda)) = (&self.targets, &mut self.cuda) else {
             return;
         };
-        // Several liquids' thicknesses are a layer each, which GL splats.
-        if !fed || cuda.count() < frame.count || frame.liquid_surfaces() > 1 {
+        // Several liquids' thicknesses are a layer each, which GL splats; CUDA's splats would count
+        // the solids in, which GL's leave out.
+        if !fed || cuda.count() < frame.count || frame.liquid_surfaces() > 1 || frame.solid_rows != 0 {
             return;
         }
         let (thick_w, thick_h) = downsampled(targets.size, targets.thickness_downsample);
@@ -501,8 +515,9 @@ impl Surface {
         }
         let liquids = frame.liquid_surfaces();
         if liquids > 1 {
+            // A layer per row, a solid's left empty: the shading finds a liquid's layer by its row.
             // SAFETY: the context is current.
-            unsafe { self.ensure_layers(size, liquids)? };
+            unsafe { self.ensure_layers(size, frame.materials.count)? };
         }
         let Some(targets) = &self.targets else {
             return Ok(());
@@ -548,12 +563,7 @@ impl Surface {
             let array = glow::TEXTURE_2D_ARRAY;
             bind_texture_as(gl, p, "u_layer_depth", 4, array, layers.map(|l| l.depth));
             bind_texture_as(gl, p, "u_layer_thickness", 5, array, layers.map(|l| l.thickness));
-            set_i32(
-                gl,
-                p,
-                "u_layers",
-                if layers.is_some() { liquids as i32 } else { 0 },
-            );
+            set_i32(gl, p, "u_layers", layers.map_or(0, |l| l.count as i32));
             set_mat4(gl, p, "u_proj", &frame.proj);
             let view_to_world = Mat3::from_mat4(frame.view).transpose();
             set_mat3(gl, p, "u_view_to_world", &view_to_world);
@@ -604,19 +614,27 @@ impl Surface {
         let [w, h] = targets.size.map(|s| s as i32);
         // SAFETY: as the caller vouches: our objects, on the current context.
         unsafe {
+            // A solid's layer stays empty (no depth, so the shading never reads its thickness).
+            let liquid = |row: &u32| !frame.drawn_as_solid(*row);
             timer.begin(Pass::Depth);
             for row in 0..layers.count {
                 layers.attach(gl, layers.depth_fbo, layers.depth, row);
-                self.depth_pass(targets, frame, back_first, row as i32, layers.depth_fbo);
+                if liquid(&row) {
+                    self.depth_pass(targets, frame, back_first, row as i32, layers.depth_fbo);
+                } else {
+                    gl.viewport(0, 0, w, h);
+                    gl.clear_color(EMPTY_DEPTH, 0.0, 0.0, 0.0);
+                    gl.clear(glow::COLOR_BUFFER_BIT);
+                }
             }
             timer.begin(Pass::Thickness);
-            for row in 0..layers.count {
+            for row in (0..layers.count).filter(liquid) {
                 layers.attach(gl, layers.thickness_fbo, layers.thickness, row);
                 self.thickness_pass(targets, frame, row as i32, layers.thickness_fbo);
             }
             gl.disable(glow::PROGRAM_POINT_SIZE);
             timer.begin(Pass::Smoothing);
-            for row in 0..layers.count {
+            for row in (0..layers.count).filter(liquid) {
                 layers.attach(gl, layers.depth_fbo, layers.depth, row);
                 blit(gl, layers.depth_fbo, targets.depth_fbos[0], (w, h));
                 let smoothed = self.smoothing_pass(targets, frame);
@@ -1119,6 +1137,7 @@ unsafe fn set_particle_uniforms(
 ) {
     unsafe {
         set_i32(gl, program, "u_only_row", only_row);
+        set_i32(gl, program, "u_solid_rows", frame.solid_rows as i32);
         set_mat4(gl, program, "u_view", &frame.view);
         set_mat4(gl, program, "u_proj", &frame.proj);
         set_f32(gl, program, "u_radius", frame.settings.radius);

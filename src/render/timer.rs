@@ -7,11 +7,14 @@ use glow::HasContext;
 use std::sync::Arc;
 
 /// The passes a frame is drawn in. Points and spheres draw `Scene`, `Particles`, `Legend`; the surface
-/// draws `Scene` (into a texture), `Depth`, `Thickness`, `Smoothing`, `Shading`, `Legend`.
+/// draws `Scene` (into a texture), `Solids` (where the scene has any), `Depth`, `Thickness`,
+/// `Smoothing`, `Shading`, `Legend`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Pass {
     /// Clearing, the floor (surface) and the domain box.
     Scene,
+    /// Surface: the solids' particles as sphere impostors into the scene texture.
+    Solids,
     /// Points or sphere impostors straight into the frame.
     Particles,
     /// Surface: sphere impostors into the fluid depth texture.
@@ -27,8 +30,9 @@ pub enum Pass {
 }
 
 impl Pass {
-    pub const ALL: [Pass; 7] = [
+    pub const ALL: [Pass; 8] = [
         Pass::Scene,
+        Pass::Solids,
         Pass::Particles,
         Pass::Depth,
         Pass::Thickness,
@@ -40,6 +44,7 @@ impl Pass {
     pub fn name(self) -> &'static str {
         match self {
             Pass::Scene => "scene",
+            Pass::Solids => "solids",
             Pass::Particles => "particles",
             Pass::Depth => "depth",
             Pass::Thickness => "thickness",

@@ -8,11 +8,15 @@ uniform float u_pixels_per_metre;    // pixels per metre at unit depth, in this 
 uniform float u_min_splat_px;        // smallest splat radius, pixels
 uniform int u_only_row;              // >= 0: only the particles of this material row (w, coloured
                                      // by material), the others clipped away
+layout(location = 1) in float a_row; // the slot's material row, where the buffer holds the rows
+uniform int u_solid_rows;            // bit r: row r is a solid's, drawn as spheres by the renderer
+                                     // and part of no surface (0: none; a_row then goes unread)
 out vec3 v_centre;                   // view space, m
 out float v_splat;                   // the splat's radius, m (>= u_radius)
 out float v_quantity;
 void main() {
-    if (u_only_row >= 0 && int(a_particle.w + 0.5) != u_only_row) {
+    bool solid = u_solid_rows != 0 && ((u_solid_rows >> clamp(int(a_row + 0.5), 0, 31)) & 1) != 0;
+    if ((u_only_row >= 0 && int(a_particle.w + 0.5) != u_only_row) || solid) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         gl_PointSize = 1.0;
         return;
