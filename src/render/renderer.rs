@@ -132,6 +132,11 @@ impl MaterialColours {
         }
     }
 
+    /// Whether every row is a solid's: the surface then shows no liquid for a scale to tint.
+    pub fn all_solid(&self) -> bool {
+        self.solid_rows != 0 && self.solid_rows.count_ones() >= self.count
+    }
+
     /// Sets `u_material_colours`, `u_material_absorptions` and `u_material_count` of `program` (the
     /// prelude's `material_colour` and `material_absorption`).
     ///
@@ -231,10 +236,12 @@ impl RenderSettings {
 
     /// What the colour bar shows, if anything: the scale of the colouring, or for the surface coloured
     /// by speed, water turning to whitewater. Solid and material colouring have no scale (the
-    /// panel lists the materials' colours).
+    /// panel lists the materials' colours), nor has the surface of a scene of solids alone (they
+    /// keep their own colours).
     pub fn legend(&self) -> Option<Scale> {
         let whitewater = match (self.mode, self.colouring) {
             (_, Colouring::Solid | Colouring::Material) => return None,
+            (DrawMode::Surface, _) if self.materials.all_solid() => return None,
             (DrawMode::Surface, Colouring::Speed) => true,
             _ => false,
         };
@@ -1197,6 +1204,27 @@ mod tests {
         assert_eq!(settings.legend().map(|s| s.unit), Some("ρ/ρ0"));
         settings.colouring = Colouring::Material;
         assert_eq!(settings.legend(), None, "the panel keys the materials; no scale");
+    }
+
+    #[test]
+    fn the_solid_rows_are_marked_and_a_surface_of_solids_has_no_scale() {
+        let jelly = Scene::load("jelly-drop").unwrap();
+        let colours = MaterialColours::of(&jelly.materials);
+        assert_eq!(colours.solid_rows, 0b110, "water, then two jellies");
+        assert!(!colours.all_solid());
+        assert_eq!(
+            MaterialColours::of(&Scene::load("dam-break").unwrap().materials).solid_rows,
+            0
+        );
+        let sand = Scene::load("sand-column").unwrap();
+        let surface = RenderSettings::for_scene(&sand, DrawMode::Surface, Colouring::Speed, None).unwrap();
+        assert!(surface.materials.all_solid());
+        assert_eq!(surface.legend(), None, "no liquid to turn to whitewater");
+        let spheres = RenderSettings::for_scene(&sand, DrawMode::Spheres, Colouring::Speed, None).unwrap();
+        assert!(spheres.legend().is_some(), "spheres take the scale, solids too");
+        let with_water =
+            RenderSettings::for_scene(&jelly, DrawMode::Surface, Colouring::Speed, None).unwrap();
+        assert!(with_water.legend().is_some_and(|scale| scale.whitewater));
     }
 
     #[test]
