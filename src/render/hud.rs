@@ -344,7 +344,10 @@ fn view_controls(
         }
     }
     if r.colouring == Colouring::Material {
-        material_key(ui, materials);
+        material_key(ui, materials, |_| true);
+    } else if r.mode == DrawMode::Surface && materials.iter().any(|m| m.law.is_solid()) {
+        // The surface draws the solids in their own colours whatever the colouring.
+        material_key(ui, materials, |m| m.law.is_solid());
     }
     if r.colouring != Colouring::Solid && r.colouring != Colouring::Material {
         let unit = if r.colouring == Colouring::Speed {
@@ -369,19 +372,25 @@ fn view_controls(
     });
 }
 
-/// The colour scale with its end values, as the particles use it.
-/// A swatch and the name of each material, in the colours the particles are drawn in.
-fn material_key(ui: &mut egui::Ui, materials: &[crate::sim::material::NamedMaterial]) {
-    for (row, m) in materials.iter().enumerate() {
+/// A swatch and the name of each material `listed` picks, in the colours the particles are drawn
+/// in; a solid's marked as one (the surface draws it as spheres, not as a liquid).
+fn material_key(
+    ui: &mut egui::Ui,
+    materials: &[crate::sim::material::NamedMaterial],
+    listed: impl Fn(&crate::sim::material::NamedMaterial) -> bool,
+) {
+    for (row, m) in materials.iter().enumerate().filter(|(_, m)| listed(m)) {
         ui.horizontal(|ui| {
             let (rect, _) = ui.allocate_exact_size(egui::vec2(14.0, 14.0), egui::Sense::hover());
             let [r, g, b] = m.colour.map(|c| (c.clamp(0.0, 1.0) * 255.0) as u8);
             ui.painter().rect_filled(rect, 2.0, Color32::from_rgb(r, g, b));
-            ui.label(format!("{row}: {}", m.name));
+            let solid = if m.law.is_solid() { " (solid)" } else { "" };
+            ui.label(format!("{row}: {}{solid}", m.name));
         });
     }
 }
 
+/// The colour scale with its end values, as the particles use it.
 fn legend(ui: &mut egui::Ui, scale: &Scale) {
     let range = scale.range;
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 14.0), egui::Sense::hover());
