@@ -30,6 +30,7 @@ fn main() -> std::process::ExitCode {
             surface_render_matches_reference,
             surface_render_through_host_copy_matches_reference,
             thickness_summed_by_cuda_is_the_thickness_gl_blends,
+            solid_rows_arrive_through_interop_and_host_copy,
         ],
     )
 }
@@ -326,4 +327,54 @@ fn thickness_summed_by_cuda_is_the_thickness_gl_blends() {
             "texels differ by {mean_abs_difference} on average"
         );
     }
+}
+
+/// A scene with solids on CUDA: the feed writes each slot's material row after its attributes, by a
+/// second launch of the render kernel into the mapped buffer (interop) or through the host, and both
+/// hold the solver's own rows; the surface, drawing the solids apart, has GL splat the thickness (CUDA
+/// would count the solids in), although the jelly drop's 467,200 particles are enough for CUDA's.
+fn solid_rows_arrive_through_interop_and_host_copy() {
+    let size = [320, 180];
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = Scene::load("jelly-drop").expect("preset");
+    let settings =
+        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).expect("settings");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let camera = settings.framing(domain.0, domain.1, Viewport::full(size));
+    let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
+    let mut sim = Simulation::new(scene, Box::new(solver));
+    sim.step_frame().expect("step");
+    let expected = sim.solver_mut().read_particles().expect("read back");
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    for (transfer, path) in [
+        (Transfer::Interop, "CUDA-GL interop"),
+        (Transfer::HostCopy, "host copy + glBufferSubData"),
+    ] {
+        let mut feed = ParticleFeed::new(transfer);
+        let fed = feed
+            .update(&mut sim, &mut renderer, settings.colouring)
+            .expect("feed");
+        assert_eq!(feed.path(), path);
+        let rows = renderer.read_material_rows(fed.slots);
+        assert_eq!(rows.len(), fed.slots, "{path}: a row per slot");
+        for (slot, row) in rows.iter().enumerate() {
+            assert_eq!(
+                row[3],
+                f32::from(expected.material[slot]),
+                "{path}: slot {slot}'s row"
+            );
+        }
+        renderer
+            .draw(Viewport::full(size), &camera, &settings, fed.slots, domain)
+            .expect("draw");
+        headless.finish();
+        assert!(
+            !renderer.thickness_by_cuda(),
+            "{path}: CUDA splatted the thickness of a scene with solids"
+        );
+        println!("{path}: the {} slots' rows are the solver's", fed.slots);
+        feed.release();
+    }
+    renderer.destroy();
 }

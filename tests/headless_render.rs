@@ -28,6 +28,8 @@ fn main() -> std::process::ExitCode {
             every_live_particle_of_a_draining_scene_is_fed_for_drawing,
             each_material_is_drawn_in_its_colour,
             each_liquid_is_a_surface_of_its_own,
+            a_solid_is_drawn_as_itself_and_in_no_liquid_surface,
+            a_solid_behind_water_is_seen_through_it,
         ],
     )
 }
@@ -407,6 +409,298 @@ fn each_liquid_is_a_surface_of_its_own() {
         clear_left.1,
         opaque_left.1
     );
+}
+
+/// A green jelly cube (fixed-corotated) on the floor at the left of a small tank, a pool of blue water
+/// at the right, three frames on: the surface draws the jelly as lit spheres of its own colour, in
+/// the scene behind the water, and leaves it out of the water's surface. Against the same tank without
+/// the jelly: the jelly's part of the frame is its colour and shows no more water, the water's
+/// thickness there stays nil, and its colour is nowhere else; whether the surface is coloured by
+/// material (one surface per liquid: here one) or by speed (the one surface of every particle).
+fn a_solid_is_drawn_as_itself_and_in_no_liquid_surface() {
+    let size = [320, 180];
+    let viewport = Viewport::full(size);
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let jelly = "[[block]]\nmin = [0.02, 0.01, 0.06]\nmax = [0.12, 0.11, 0.16]\nmaterial = \"jelly\"\n";
+    let (with_jelly, water_alone) = (water_and_jelly(jelly), water_and_jelly(""));
+    let green = |p: &[u8]| i32::from(p[1]) > i32::from(p[0]) + 40 && i32::from(p[1]) > i32::from(p[2]) + 40;
+    let blue = |p: &[u8]| i32::from(p[2]) > i32::from(p[0]) + 30 && i32::from(p[2]) > i32::from(p[1]) + 10;
+    let count = |image: &Image, rect: Rect, keep: &dyn Fn(&[u8]) -> bool| {
+        let part = crop(image, rect.0, rect.1, rect.2, rect.3);
+        part.rgba.chunks_exact(4).filter(|p| keep(p)).count()
+    };
+    for colouring in [Colouring::Material, Colouring::Speed] {
+        let drawn = drawn_after_frames(&headless, &with_jelly, colouring, size, 3);
+        let alone = drawn_after_frames(&headless, &water_alone, colouring, size, 3);
+        let (rows, water_rows) = (drawn.rows.len(), alone.rows.len());
+        assert!(
+            rows == drawn.particles.len() && water_rows == alone.particles.len(),
+            "a scene with a solid feeds every slot's material row ({rows} rows, {water_rows} without the jelly)"
+        );
+        // Where the jelly's particles are on screen, and the water's; the jelly's box grown by its
+        // spheres' radius and a margin (the legend's strip kept out for the speed's colour bar).
+        let jelly_box = drawn.screen_box(|row| row == 1).expect("jelly on screen");
+        let water_box = drawn.screen_box(|row| row == 0).expect("water on screen");
+        let around_jelly = grow(jelly_box, 8, size);
+        assert!(
+            !overlap(around_jelly, water_box),
+            "the water has reached the jelly on screen: the scene no longer tests what it should \
+             (jelly {jelly_box:?}, water {water_box:?})"
+        );
+        let inside_jelly = shrink(jelly_box, 0.2);
+        let inside = inside_jelly.2 as usize * inside_jelly.3 as usize;
+        let jelly_green = count(&drawn.image, inside_jelly, &green);
+        let (blue_jelly, blue_alone) = (
+            count(&drawn.image, around_jelly, &blue),
+            count(&alone.image, around_jelly, &blue),
+        );
+        let strip = match colouring {
+            Colouring::Speed => mpm::render::legend::clearance(viewport).ceil() as u32,
+            _ => 0,
+        };
+        let everywhere = (0, 0, size[0] - strip, size[1]);
+        let green_elsewhere =
+            count(&drawn.image, everywhere, &green) - count(&drawn.image, around_jelly, &green);
+        let water_thickness = thickness_in(&drawn, water_box);
+        let jelly_thickness = thickness_in(&drawn, around_jelly);
+        println!(
+            "{colouring:?}: jelly at {jelly_box:?}, {jelly_green} of {inside} pixels inside it green, \
+             {green_elsewhere} green elsewhere; blue around it {blue_jelly} (without the jelly {blue_alone}); \
+             water thickness summed {water_thickness:.4} m over its part, {jelly_thickness:.6} m over the jelly's"
+        );
+        assert!(
+            jelly_green * 10 >= inside * 9,
+            "{colouring:?}: the jelly is not drawn in its colour: {jelly_green} of {inside} pixels green"
+        );
+        assert!(
+            green_elsewhere <= 4,
+            "{colouring:?}: the jelly's colour where there is no jelly: {green_elsewhere} pixels"
+        );
+        assert!(
+            blue_jelly <= blue_alone,
+            "{colouring:?}: the jelly is drawn as water: {blue_jelly} blue pixels around it, {blue_alone} without it"
+        );
+        assert!(water_thickness > 0.0, "{colouring:?}: the water has no thickness");
+        assert_eq!(
+            jelly_thickness, 0.0,
+            "{colouring:?}: the jelly adds to the liquid's thickness"
+        );
+    }
+}
+
+/// A green jelly cube on the floor behind a wall of blue water (nearer the camera), and red paint
+/// aside, as drawn at the start: the jelly is in the scene the water covers, so through the water it
+/// shows tinted blue and still green, coloured by material (two liquids, a surface each, the jelly's
+/// row in neither) and by speed (one surface); drawn as one surface, the water's thickness over the
+/// jelly is the wall's alone.
+fn a_solid_behind_water_is_seen_through_it() {
+    let size = [320, 180];
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = |bodies: &str| {
+        Scene::from_toml(
+            &format!(
+                "[domain]\nsize = [0.4, 0.2, 0.2]\nresolution = [40, 20, 20]\n\
+                 [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.1, 0.2, 0.9]\n\
+                 [[material]]\nname = \"jelly\"\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\n\
+                 youngs_modulus = 4.0e4\npoisson_ratio = 0.3\ncolour = [0.15, 0.8, 0.2]\n\
+                 [[material]]\nname = \"paint\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.9, 0.1, 0.1]\n\
+                 [[block]]\nmin = [0.28, 0.01, 0.05]\nmax = [0.36, 0.07, 0.13]\nmaterial = \"paint\"\n{bodies}"
+            ),
+            "jelly-behind-water.toml",
+        )
+        .expect("scene")
+    };
+    let jelly = "[[block]]\nmin = [0.05, 0.01, 0.03]\nmax = [0.13, 0.07, 0.09]\nmaterial = \"jelly\"\n";
+    let wall = "[[block]]\nmin = [0.01, 0.01, 0.11]\nmax = [0.2, 0.13, 0.18]\nmaterial = \"water\"\n";
+    let behind_water = scene(&format!("{jelly}{wall}"));
+    let (in_the_open, wall_alone) = (scene(jelly), scene(wall));
+    for colouring in [Colouring::Material, Colouring::Speed] {
+        let covered = drawn_after_frames(&headless, &behind_water, colouring, size, 0);
+        let open = drawn_after_frames(&headless, &in_the_open, colouring, size, 0);
+        let water = drawn_after_frames(&headless, &wall_alone, colouring, size, 0);
+        let jelly = shrink(covered.screen_box(|row| row == 1).expect("jelly on screen"), 0.2);
+        let pixels = crop(&covered.image, jelly.0, jelly.1, jelly.2, jelly.3);
+        let bare = crop(&open.image, jelly.0, jelly.1, jelly.2, jelly.3);
+        let mean = |image: &Image, channel: usize| {
+            let values = image.rgba.chunks_exact(4).map(|p| f64::from(p[channel]));
+            values.sum::<f64>() / f64::from(image.width * image.height)
+        };
+        // Green over blue: the water's own colour has more blue than green.
+        let greenish = common::pixel_fraction(&pixels, |p| i32::from(p[1]) > i32::from(p[2]) + 10);
+        let (blue, bare_blue) = (mean(&pixels, 2), mean(&bare, 2));
+        let changed = pixels
+            .rgba
+            .chunks_exact(4)
+            .zip(bare.rgba.chunks_exact(4))
+            .filter(|(a, b)| a != b)
+            .count();
+        let area = (jelly.2 * jelly.3) as usize;
+        let (over_jelly, wall_only) = (thickness_in(&covered, jelly), thickness_in(&water, jelly));
+        println!(
+            "{colouring:?}: jelly's middle {jelly:?}: {changed} of {area} pixels changed by the water in front, \
+             {:.0}% still green over blue, mean blue {blue:.0} (bare {bare_blue:.0}); water thickness over it \
+             {over_jelly:.4} m (the wall alone {wall_only:.4} m)",
+            100.0 * greenish
+        );
+        assert!(
+            changed * 2 > area,
+            "{colouring:?}: the water in front does not cover the jelly: {changed} of {area} pixels changed"
+        );
+        assert!(
+            blue > bare_blue + 10.0,
+            "{colouring:?}: the jelly behind the water is not tinted by it: mean blue {blue:.0}, bare {bare_blue:.0}"
+        );
+        assert!(
+            greenish > 0.3,
+            "{colouring:?}: the jelly does not show through the water: {:.0}% green over blue",
+            100.0 * greenish
+        );
+        // By material, each liquid's thickness is a layer of its own, not the texture read here.
+        if colouring == Colouring::Speed {
+            assert!(
+                wall_only > 0.0,
+                "no water over the jelly: the scene no longer tests what it should"
+            );
+            // The same water splatted in another order: half floats round differently.
+            assert!(
+                (over_jelly - wall_only).abs() <= 0.02 * wall_only,
+                "the jelly adds to the water's thickness: {over_jelly} m over it, the wall alone {wall_only} m"
+            );
+        }
+    }
+}
+
+/// A `(x, y, w, h)` rectangle of a frame, pixels from its bottom-left corner (GL's convention).
+type Rect = (u32, u32, u32, u32);
+
+fn grow((x, y, w, h): Rect, by: u32, size: [u32; 2]) -> Rect {
+    let (x0, y0) = (x.saturating_sub(by), y.saturating_sub(by));
+    let (x1, y1) = ((x + w + by).min(size[0]), (y + h + by).min(size[1]));
+    (x0, y0, x1 - x0, y1 - y0)
+}
+
+/// The middle of `rect`, `by` of its width and height off each side.
+fn shrink((x, y, w, h): Rect, by: f32) -> Rect {
+    let (dx, dy) = ((w as f32 * by) as u32, (h as f32 * by) as u32);
+    (x + dx, y + dy, w - 2 * dx, h - 2 * dy)
+}
+
+fn overlap(a: Rect, b: Rect) -> bool {
+    a.0 < b.0 + b.2 && b.0 < a.0 + a.2 && a.1 < b.1 + b.3 && b.1 < a.1 + a.3
+}
+
+/// The liquid's thickness summed over the thickness texels that cover `rect`, m.
+fn thickness_in(drawn: &Drawn, (x, y, w, h): Rect) -> f32 {
+    let ([tw, th], texels) = &drawn.thickness;
+    let scale = |v: u32, full: u32, texels: u32| (v * texels / full).min(texels);
+    let [fw, fh] = [drawn.image.width, drawn.image.height];
+    let (x0, x1) = (
+        scale(x, fw, *tw),
+        scale(x + w, fw, *tw).max(scale(x, fw, *tw) + 1),
+    );
+    let (y0, y1) = (
+        scale(y, fh, *th),
+        scale(y + h, fh, *th).max(scale(y, fh, *th) + 1),
+    );
+    let mut sum = 0.0;
+    for ty in y0..y1.min(*th) {
+        for tx in x0..x1.min(*tw) {
+            sum += texels[(ty * tw + tx) as usize][0];
+        }
+    }
+    sum
+}
+
+/// A frame drawn by [`drawn_after_frames`], with what the renderer was given and made.
+struct Drawn {
+    image: Image,
+    /// The surface's thickness texture ([`Renderer::read_thickness`]).
+    thickness: ([u32; 2], Vec<[f32; 2]>),
+    /// The particle buffer: position and colour quantity per slot.
+    particles: Vec<[f32; 4]>,
+    /// The buffer's material rows section: each slot's row in w.
+    rows: Vec<[f32; 4]>,
+    view_proj: glam::Mat4,
+}
+
+impl Drawn {
+    /// The pixels that the centres of the particles whose row `pick` picks project into.
+    fn screen_box(&self, pick: impl Fn(u32) -> bool) -> Option<Rect> {
+        let [w, h] = [self.image.width as f32, self.image.height as f32];
+        let (mut lo, mut hi) = (
+            glam::Vec2::splat(f32::INFINITY),
+            glam::Vec2::splat(f32::NEG_INFINITY),
+        );
+        for (p, row) in self.particles.iter().zip(&self.rows) {
+            if p[0].is_nan() || !pick(row[3] as u32) {
+                continue;
+            }
+            let ndc = self.view_proj.project_point3(glam::Vec3::new(p[0], p[1], p[2]));
+            let pixel = glam::Vec2::new((ndc.x + 1.0) * 0.5 * w, (ndc.y + 1.0) * 0.5 * h);
+            (lo, hi) = (lo.min(pixel), hi.max(pixel));
+        }
+        (lo.x <= hi.x).then(|| {
+            let (x0, y0) = (lo.x.max(0.0) as u32, lo.y.max(0.0) as u32);
+            let (x1, y1) = (hi.x.min(w).ceil() as u32, hi.y.min(h).ceil() as u32);
+            (x0, y0, x1 - x0, y1 - y0)
+        })
+    }
+}
+
+/// `scene` after `frames` frames on the CPU backend, drawn as its surface coloured by `colouring` at
+/// `size`, framed as the viewer frames it.
+fn drawn_after_frames(
+    headless: &HeadlessGl,
+    scene: &Scene,
+    colouring: Colouring,
+    size: [u32; 2],
+    frames: usize,
+) -> Drawn {
+    let solver = backend::create(BackendKind::Cpu, scene).expect("CPU solver");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let viewport = Viewport::full(size);
+    let mut sim = Simulation::new(scene.clone(), solver);
+    for _ in 0..frames {
+        sim.step_frame().expect("a frame");
+    }
+    let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");
+    let mut feed = ParticleFeed::new(Transfer::HostCopy);
+    let count = feed
+        .update(&mut sim, &mut renderer, colouring)
+        .expect("particles")
+        .slots;
+    let settings = RenderSettings::for_scene(scene, DrawMode::Surface, colouring, None).expect("settings");
+    let camera = settings.framing(domain.0, domain.1, viewport);
+    renderer
+        .draw(viewport, &camera, &settings, count, domain)
+        .expect("draw");
+    let drawn = Drawn {
+        image: headless.read_image(),
+        thickness: renderer.read_thickness().expect("a surface frame"),
+        particles: renderer.read_particle_buffer(count),
+        rows: renderer.read_material_rows(count),
+        view_proj: camera.projection(size[0] as f32 / size[1] as f32) * camera.view(),
+    };
+    renderer.destroy();
+    drawn
+}
+
+/// A tank 0.4 x 0.2 x 0.2 m at dx = 1 cm holding a shallow pool of blue water at its right and
+/// `bodies`, with a material "jelly": a firm green solid (fixed-corotated, E = 40 kPa, nu = 0.3).
+fn water_and_jelly(bodies: &str) -> Scene {
+    Scene::from_toml(
+        &format!(
+            "[domain]\nsize = [0.4, 0.2, 0.2]\nresolution = [40, 20, 20]\n\
+             [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.1, 0.2, 0.9]\n\
+             [[material]]\nname = \"jelly\"\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\n\
+             youngs_modulus = 4.0e4\npoisson_ratio = 0.3\ncolour = [0.15, 0.8, 0.2]\n\
+             [[block]]\nmin = [0.26, 0.01, 0.01]\nmax = [0.38, 0.07, 0.18]\nmaterial = \"water\"\n\
+             {bodies}"
+        ),
+        "water-and-jelly.toml",
+    )
+    .expect("scene")
 }
 
 /// A tank of `size` m at dx = 1 cm with two liquids of water's density, "water" (blue) and "paint"
