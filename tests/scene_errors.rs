@@ -49,7 +49,57 @@ fn water_and_oil(water_block: &str) -> String {
 fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
     let water = |extra: &str| common::water_box(20, extra);
     let herschel_bulkley = "law = \"herschel-bulkley\"\nconsistency = 2.0\nmax_viscosity = 50.0\n";
+    let solid = |extra: &str| {
+        format!("[[material]]\nname = \"jelly\"\nlaw = \"fixed-corotated\"\nrest_density = 500.0\n{extra}")
+    };
+    let jelly = "youngs_modulus = 4.0e4\npoisson_ratio = 0.3\n";
     vec![
+        // Solids (issue "Solids in the tank").
+        (
+            "a solid given a sound speed",
+            liquids(&solid(&format!("{jelly}sound_speed = 10.0\n")), &block_of(0, "jelly")),
+            "material[0].sound_speed",
+            "not a parameter of law = \"fixed-corotated\"",
+        ),
+        (
+            "a solid without its Young's modulus",
+            liquids(&solid("poisson_ratio = 0.3\n"), &block_of(0, "jelly")),
+            "material[0].youngs_modulus",
+            "is missing",
+        ),
+        (
+            "a Poisson's ratio of a half",
+            liquids(&solid("youngs_modulus = 4.0e4\npoisson_ratio = 0.5\n"), &block_of(0, "jelly")),
+            "material[0].poisson_ratio",
+            "outside [0, 0.49]",
+        ),
+        (
+            "a liquid's viscosity on a solid",
+            liquids(&solid(&format!("{jelly}viscosity = 1.0\n")), &block_of(0, "jelly")),
+            "material[0].viscosity",
+            "choose a law that takes it",
+        ),
+        (
+            "sand without its friction angle",
+            liquids(
+                "[[material]]\nname = \"sand\"\nlaw = \"sand\"\nrest_density = 1600.0\nyoungs_modulus = 3.5e5\npoisson_ratio = 0.3\n",
+                &block_of(0, "sand"),
+            ),
+            "material[0].friction_angle",
+            "is missing",
+        ),
+        (
+            "an emitter of a solid",
+            liquids(
+                &format!("{}{}", entry("water", ""), solid(jelly)),
+                &format!(
+                    "{}[particles]\ncapacity = 20000\n[[emitter]]\nmaterial = \"jelly\"\nshape = \"disc\"\nparticles_per_cell = 8\ncenter = [0.1, 0.15, 0.1]\nnormal = [0.0, -1.0, 0.0]\nradius = 0.02\nspeed = 1.0\n",
+                    block_of(0, "water")
+                ),
+            ),
+            "emitter[0].material",
+            "an emitter pours liquids",
+        ),
         // The material table (issue "Liquids beyond water", item 3).
         (
             "a material's absorption past the opaque end",
