@@ -414,27 +414,17 @@ fn legend(ui: &mut egui::Ui, scale: &Scale) {
     });
 }
 
-fn physics_controls(
+/// The viscosity and sound speed sliders of material row `row`, a liquid.
+fn liquid_sliders(
     ui: &mut egui::Ui,
     c: &mut Controls,
-    materials: &[crate::sim::material::NamedMaterial],
+    material: &crate::sim::material::NamedMaterial,
+    row: usize,
     actions: &mut Vec<Action>,
 ) {
-    ui.label("physics (applies at once)");
-    let row = c.liquid.min(materials.len().saturating_sub(1));
-    if materials.len() > 1 {
-        egui::ComboBox::from_label("liquid the sliders change")
-            .selected_text(&materials[row].name)
-            .show_ui(ui, |ui| {
-                for (k, m) in materials.iter().enumerate() {
-                    ui.selectable_value(&mut c.liquid, k, &m.name);
-                }
-            });
-    }
-    let row = c.liquid.min(materials.len().saturating_sub(1));
-    let what = match materials.get(row).map(|m| m.law.law) {
-        Some(LAW_POWER_LAW | LAW_HERSCHEL_BULKLEY) => "consistency K (Pa s^n)",
-        Some(LAW_CARREAU_YASUDA) => "zero-shear viscosity (Pa s)",
+    let what = match material.law.law {
+        LAW_POWER_LAW | LAW_HERSCHEL_BULKLEY => "consistency K (Pa s^n)",
+        LAW_CARREAU_YASUDA => "zero-shear viscosity (Pa s)",
         _ => "viscosity (Pa s)",
     };
     if ui
@@ -456,6 +446,38 @@ fn physics_controls(
         .changed()
     {
         actions.push(Action::SetSoundSpeed(row, c.sound_speed[row]));
+    }
+}
+
+fn physics_controls(
+    ui: &mut egui::Ui,
+    c: &mut Controls,
+    materials: &[crate::sim::material::NamedMaterial],
+    actions: &mut Vec<Action>,
+) {
+    ui.label("physics (applies at once)");
+    // The sliders set a liquid's viscosity and sound speed; a solid's stiffness is its Young's
+    // modulus and Poisson's ratio, which the scene file gives.
+    let liquids: Vec<usize> = (0..materials.len())
+        .filter(|&k| !materials[k].law.is_solid())
+        .collect();
+    if liquids.is_empty() {
+        ui.label("no liquid here: a solid's stiffness is the scene file's youngs_modulus and poisson_ratio");
+    } else {
+        if !liquids.contains(&c.liquid) {
+            c.liquid = liquids[0];
+        }
+        let row = c.liquid;
+        if liquids.len() > 1 {
+            egui::ComboBox::from_label("liquid the sliders change")
+                .selected_text(&materials[row].name)
+                .show_ui(ui, |ui| {
+                    for &k in &liquids {
+                        ui.selectable_value(&mut c.liquid, k, &materials[k].name);
+                    }
+                });
+        }
+        liquid_sliders(ui, c, &materials[c.liquid], c.liquid, actions);
     }
     let mut changed = false;
     ui.horizontal(|ui| {
