@@ -3,7 +3,8 @@
 // backstop, advect, clamp, sinks), the particle's density for substep n + 1 (advected_density: the
 // grid's density at its old position carried over the substep by the fluid's divergence,
 // docs/physics.md), then the whole scatter of substep n + 1 at the new position: mass and momentum
-// with the stress impulse (particle_impulse). Each particle's state is read and written once per
+// with the stress impulse (particle_impulse; a solid's, solid_impulse, from the deformation the
+// gather advanced: advance_deformation). Each particle's state is read and written once per
 // substep and its stencil gathered once, where the binned pipeline reads it twice and gathers twice
 // (g2p2g.cu, then p2g.cu's density gather).
 //
