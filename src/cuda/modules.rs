@@ -53,9 +53,14 @@ pub struct LoadedModules {
     pub origin: Origin,
 }
 
+/// Modules no solver or renderer launches, only a test: kernels/solid_laws.cu, the solid laws on
+/// their own. A GPU's start-up leaves them out; their test loads them (`load_named`).
+pub const TEST_ONLY_MODULES: [&str; 1] = ["solid_laws"];
+
 impl LoadedModules {
+    /// Every module a solver or renderer launches (all but [`TEST_ONLY_MODULES`]).
     pub fn load(ctx: &Arc<CudaContext>) -> Result<LoadedModules> {
-        Self::load_some(ctx, |_| true)
+        Self::load_some(ctx, |name| !TEST_ONLY_MODULES.contains(&name))
     }
 
     /// The modules named in `names` only (a renderer's kernels, without the solver's).

@@ -4,6 +4,7 @@
 
 use super::gpu::Gpu;
 use super::launch::host_kernel;
+use super::modules::{LoadedModules, TEST_ONLY_MODULES};
 use crate::contract::{Material, MAX_MATERIALS};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::PushKernelArg;
@@ -49,9 +50,9 @@ impl SolidLawsResult {
 }
 
 /// Runs every solid-law function on the device for each `f[i]` with plastic scalar `plastic[i]`
-/// under row `rows[i]` of `materials`, and waits for the results. Writes `materials` into every
-/// loaded module's material table (as `CudaSolver::use_materials` does), so it is for a `Gpu` no
-/// solver is using.
+/// under row `rows[i]` of `materials`, and waits for the results. Loads kernels/solid_laws.cu on its
+/// own (a GPU's start-up leaves it out: `TEST_ONLY_MODULES`) and writes `materials` into that
+/// module's material table alone, so a solver on the same `Gpu` keeps its own.
 pub fn solid_laws_on_device(
     gpu: &Gpu,
     materials: &[Material],
@@ -82,8 +83,9 @@ pub fn solid_laws_on_device(
     let mut table = [Material::default(); MAX_MATERIALS as usize];
     table[..materials.len()].copy_from_slice(materials);
     let stream = gpu.stream();
-    gpu.modules.write_material_table(stream, &table)?;
-    let kernel = SolidLawsCheck::load(&gpu.modules)?;
+    let modules = LoadedModules::load_named(&gpu.ctx, &TEST_ONLY_MODULES)?;
+    modules.write_material_table(stream, &table)?;
+    let kernel = SolidLawsCheck::load(&modules)?;
 
     let matrices: Vec<f32> = f.iter().flat_map(|m| m.to_cols_array()).collect();
     let rows: Vec<u32> = rows.iter().map(|&row| u32::from(row)).collect();
