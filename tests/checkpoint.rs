@@ -473,8 +473,14 @@ fn version_1_bytes(cp: &Checkpoint) -> Vec<u8> {
     body.extend(q.live.iter().map(|&l| u8::from(l)));
     assert!(cp.flow.is_none(), "this builder writes no lifecycle");
 
+    checkpoint_file(1, body)
+}
+
+/// A checkpoint file of format `version` around `body`: the magic, the version, the reserved word,
+/// the body's length, the body and the CRC-32 of all before it (docs/checkpoints.md).
+fn checkpoint_file(version: u32, body: Vec<u8>) -> Vec<u8> {
     let mut file = b"MPMCKPT\0".to_vec();
-    file.extend(1u32.to_le_bytes());
+    file.extend(version.to_le_bytes());
     file.extend(0u32.to_le_bytes());
     file.extend((body.len() as u64).to_le_bytes());
     file.extend(body);
@@ -669,14 +675,7 @@ fn version_2_bytes(cp: &Checkpoint) -> Vec<u8> {
     let mut body = file[24..params_at].to_vec();
     body.extend(old.iter().flat_map(|w| w.to_le_bytes()));
     body.extend(&file[params_at + 4 * current.len()..file.len() - 4]);
-    let mut out = b"MPMCKPT\0".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend(0u32.to_le_bytes());
-    out.extend((body.len() as u64).to_le_bytes());
-    out.extend(body);
-    let crc = crc32fast::hash(&out);
-    out.extend(crc.to_le_bytes());
-    out
+    checkpoint_file(2, body)
 }
 
 /// A checkpoint of format version 2, written before the solids, loads with its table's rows as they

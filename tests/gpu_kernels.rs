@@ -544,7 +544,7 @@ fn follow_cpu(scene: &Scene, steps: usize, moving_colliders: bool, what: &str) -
         gpu.step(&params).unwrap();
         if step % 100 == 0 {
             let p = gpu.read_particles().unwrap();
-            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            let (max, rms) = common::position_gap(&p.x, &cpu.particles.x, scene.dx);
             let what = format!("{what} step {step}");
             println!("{what}: position error max {max:.3e} dx, rms {rms:.3e} dx");
             assert_on_track(&what, (max, rms));
@@ -553,15 +553,7 @@ fn follow_cpu(scene: &Scene, steps: usize, moving_colliders: bool, what: &str) -
     (cpu, gpu)
 }
 
-/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
-fn position_gap(a: &[Vec3], b: &[Vec3], dx: f32) -> (f32, f64) {
-    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
-    let max = errors.iter().copied().fold(0.0, f32::max);
-    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
-    (max, rms)
-}
-
-/// A run on the track of its reference ([`position_gap`]). Rounding differences (see the top of the
+/// A run on the track of its reference ([`common::position_gap`]). Rounding differences (see the top of the
 /// file) grow along the trajectory; a wrong term would move particles by whole cells within these
 /// steps.
 fn assert_on_track(what: &str, (max, rms): (f32, f64)) {
@@ -1098,7 +1090,7 @@ fn binned_pipeline_follows_the_report_pipeline() {
     for (k, ((report, report_summary), (binned, binned_summary))) in runs[0].iter().zip(&runs[1]).enumerate()
     {
         let step = 300 * (k + 1);
-        let (max, rms) = position_gap(&report.x, &binned.x, dx);
+        let (max, rms) = common::position_gap(&report.x, &binned.x, dx);
         let com = (0..3)
             .map(|a| (report_summary.centre_of_mass[a] - binned_summary.centre_of_mass[a]).abs())
             .fold(0.0, f64::max)

@@ -93,14 +93,6 @@ fn params_of(scene: &Scene) -> Params {
     params
 }
 
-/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
-fn position_gap(a: &[Vec3], b: &[Vec3], dx: f32) -> (f32, f64) {
-    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
-    let max = errors.iter().copied().fold(0.0, f32::max);
-    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
-    (max, rms)
-}
-
 /// `steps` substeps on the CPU reference and the GPU, held together every 100 (the bound of
 /// tests/gpu_kernels.rs: rounding differences grow along the trajectory; a wrong term moves particles
 /// by whole cells), and every particle keeping its material.
@@ -113,7 +105,7 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
         gpu.step(&params).unwrap();
         if step % 100 == 0 {
             let p = gpu.read_particles().unwrap();
-            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            let (max, rms) = common::position_gap(&p.x, &cpu.particles.x, scene.dx);
             println!("{what} step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
             assert!(
                 max <= 0.1 && rms <= 0.01,

@@ -24,7 +24,9 @@ use mpm::cuda::gpu::Gpu;
 use mpm::cuda::solid_laws::{solid_laws_on_device, SolidLawsResult};
 use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::cpu::CpuSolver;
-use mpm::sim::solid::{kirchhoff_stress, plastic_return, rest_plastic, solid_wave_speed};
+use mpm::sim::solid::{
+    drucker_prager_alpha, kirchhoff_stress, lame_parameters, plastic_return, rest_plastic, solid_wave_speed,
+};
 use mpm::sim::svd::svd3;
 use mpm::sim::{Scene, Solver};
 
@@ -75,16 +77,16 @@ impl Xorshift {
 
 /// The rows of the material table: each solid law, and sand with cohesion. E = 1e5 Pa, nu = 0.3.
 fn materials() -> Vec<Material> {
-    let (young, poisson) = (1.0e5f32, 0.3f32);
+    let (shear_modulus, lame_lambda) = lame_parameters(1.0e5, 0.3);
     let solid = |law| Material {
         rest_density: 400.0,
         law,
-        shear_modulus: young / (2.0 * (1.0 + poisson)),
-        lame_lambda: young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)),
+        shear_modulus,
+        lame_lambda,
         critical_compression: 2.5e-2,
         critical_stretch: 7.5e-3,
         hardening: 10.0,
-        friction_alpha: (2.0f32 / 3.0).sqrt() * 2.0 * 0.5 / (3.0 - 0.5),
+        friction_alpha: drucker_prager_alpha(30.0),
         ..Default::default()
     };
     let mut cohesive = solid(LAW_SAND);
@@ -395,14 +397,6 @@ fn svd_and_solid_laws_match_their_cpu_twins() {
 // Solids in the fused pipeline against the CPU reference
 // ---------------------------------------------------------------------------------------------
 
-/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
-fn position_gap(a: &[Vec3], b: &[Vec3], dx: f32) -> (f32, f64) {
-    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
-    let max = errors.iter().copied().fold(0.0, f32::max);
-    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
-    (max, rms)
-}
-
 /// `steps` substeps of `scene` on the CPU reference and the GPU's fused pipeline, held together
 /// every 100 as tests/gpu_materials.rs holds the liquids (positions within 0.1 dx, 0.01 dx rms), and
 /// each solid particle's deformation gradient within 1e-3 of the CPU's (a strain of 1e-3: rounding
@@ -416,7 +410,7 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) {
         gpu.step(&params).unwrap();
         if step % 100 == 0 {
             let p = gpu.read_particles().unwrap();
-            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            let (max, rms) = common::position_gap(&p.x, &cpu.particles.x, scene.dx);
             let strain = p
                 .deformation
                 .iter()

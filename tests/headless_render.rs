@@ -497,18 +497,10 @@ fn a_solid_behind_water_is_seen_through_it() {
     let size = [320, 180];
     let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
     let scene = |bodies: &str| {
-        Scene::from_toml(
-            &format!(
-                "[domain]\nsize = [0.4, 0.2, 0.2]\nresolution = [40, 20, 20]\n\
-                 [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.1, 0.2, 0.9]\n\
-                 [[material]]\nname = \"jelly\"\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\n\
-                 youngs_modulus = 4.0e4\npoisson_ratio = 0.3\ncolour = [0.15, 0.8, 0.2]\n\
-                 [[material]]\nname = \"paint\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.9, 0.1, 0.1]\n\
-                 [[block]]\nmin = [0.28, 0.01, 0.05]\nmax = [0.36, 0.07, 0.13]\nmaterial = \"paint\"\n{bodies}"
-            ),
-            "jelly-behind-water.toml",
-        )
-        .expect("scene")
+        jelly_tank(&format!(
+            "[[material]]\nname = \"paint\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.9, 0.1, 0.1]\n\
+             [[block]]\nmin = [0.28, 0.01, 0.05]\nmax = [0.36, 0.07, 0.13]\nmaterial = \"paint\"\n{bodies}"
+        ))
     };
     let jelly = "[[block]]\nmin = [0.05, 0.01, 0.03]\nmax = [0.13, 0.07, 0.09]\nmaterial = \"jelly\"\n";
     let wall = "[[block]]\nmin = [0.01, 0.01, 0.11]\nmax = [0.2, 0.13, 0.18]\nmaterial = \"water\"\n";
@@ -689,16 +681,23 @@ fn drawn_after_frames(
 /// A tank 0.4 x 0.2 x 0.2 m at dx = 1 cm holding a shallow pool of blue water at its right and
 /// `bodies`, with a material "jelly": a firm green solid (fixed-corotated, E = 40 kPa, nu = 0.3).
 fn water_and_jelly(bodies: &str) -> Scene {
+    jelly_tank(&format!(
+        "[[block]]\nmin = [0.26, 0.01, 0.01]\nmax = [0.38, 0.07, 0.18]\nmaterial = \"water\"\n{bodies}"
+    ))
+}
+
+/// A tank 0.4 x 0.2 x 0.2 m at dx = 1 cm with the materials "water" (blue) and "jelly" (a firm green
+/// solid: fixed-corotated, E = 40 kPa, nu = 0.3), rows 0 and 1, and `rest` after them (more
+/// materials, then the bodies).
+fn jelly_tank(rest: &str) -> Scene {
     Scene::from_toml(
         &format!(
             "[domain]\nsize = [0.4, 0.2, 0.2]\nresolution = [40, 20, 20]\n\
              [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 20.0\ncolour = [0.1, 0.2, 0.9]\n\
              [[material]]\nname = \"jelly\"\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\n\
-             youngs_modulus = 4.0e4\npoisson_ratio = 0.3\ncolour = [0.15, 0.8, 0.2]\n\
-             [[block]]\nmin = [0.26, 0.01, 0.01]\nmax = [0.38, 0.07, 0.18]\nmaterial = \"water\"\n\
-             {bodies}"
+             youngs_modulus = 4.0e4\npoisson_ratio = 0.3\ncolour = [0.15, 0.8, 0.2]\n{rest}"
         ),
-        "water-and-jelly.toml",
+        "jelly-tank.toml",
     )
     .expect("scene")
 }

@@ -11,7 +11,7 @@ mod common;
 mod materials_checks;
 
 use glam::Vec3;
-use materials_checks::{film, particles, simulation, G, THICKENING, THINNING};
+use materials_checks::{film, no_slip_floor, particles, simulation, G, THICKENING, THINNING};
 use mpm::backend::BackendKind;
 use mpm::sim::cpu::{grid_density, CpuSolver, Stencil};
 use mpm::sim::material::MaterialTable;
@@ -29,23 +29,6 @@ fn quantile(mut values: Vec<f32>, q: f32) -> f32 {
 /// area A. Each particle of a body stands for dx^3 / ppc of liquid at rest.
 fn area(count: usize, dx: f32, ppc: f32, thickness: f32) -> f32 {
     count as f32 * dx * dx * dx / ppc / thickness
-}
-
-/// A `stick` collider under the floor of a tank `length` x `depth` m: its top half a cell below
-/// the floor wall's mirror plane (node 1, y = dx), so that its band (the nodes within a cell of its
-/// surface) holds nodes 0 and 1 still and leaves node 2 free. The floor is then no-slip at y = dx,
-/// and the wall's mirror still gives the fluid there its interior density; a collider's own
-/// surface has no mirror (docs/physics.md, "Colliders"), and fluid on it packs into the half cell
-/// above it, which takes the lowest layer out of the flow.
-fn no_slip_floor(length: f32, depth: f32, dx: f32) -> String {
-    format!(
-        "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{}, 0.2, {}]\nboundary = \"stick\"\n",
-        0.5 * length,
-        0.5 * dx - 0.1,
-        0.5 * depth,
-        length + 0.2,
-        depth + 0.2
-    )
 }
 
 // ---------------------------------------------------------------------------------------------

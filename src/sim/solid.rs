@@ -23,6 +23,22 @@ pub fn is_solid(law: u32) -> bool {
     law >= FIRST_SOLID_LAW
 }
 
+/// Lame's shear modulus mu and first parameter lambda, Pa, of Young's modulus `young` (Pa) and
+/// Poisson's ratio `poisson`: mu = E / (2 (1 + nu)), lambda = E nu / ((1 + nu) (1 - 2 nu)).
+pub fn lame_parameters(young: f32, poisson: f32) -> (f32, f32) {
+    (
+        young / (2.0 * (1.0 + poisson)),
+        young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)),
+    )
+}
+
+/// The Drucker-Prager coefficient alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi)) of friction angle
+/// `degrees` (Klar et al. 2016: the cone through Mohr-Coulomb's in triaxial compression).
+pub fn drucker_prager_alpha(degrees: f32) -> f32 {
+    let sin_phi = degrees.to_radians().sin();
+    (2.0f32 / 3.0).sqrt() * 2.0 * sin_phi / (3.0 - sin_phi)
+}
+
 /// The plastic scalar of a particle of `law` at rest: J_p = 1 for snow, 0 (no volume correction)
 /// for sand and for the elastic laws, which do not read it.
 pub fn rest_plastic(law: u32) -> f32 {
@@ -289,19 +305,18 @@ mod tests {
 
     const SOLID_LAWS: [u32; 4] = [LAW_FIXED_COROTATED, LAW_NEO_HOOKEAN, LAW_SNOW, LAW_SAND];
 
-    /// E = 1e5 Pa, nu = 0.3: mu = 38,462 Pa, lambda = 57,692 Pa.
+    /// E = 1e5 Pa, nu = 0.3: mu = 38,462 Pa, lambda = 57,692 Pa; a friction angle of 30 degrees.
     fn solid(law: u32) -> Material {
-        let (young, poisson) = (1.0e5f32, 0.3f32);
+        let (shear_modulus, lame_lambda) = super::lame_parameters(1.0e5, 0.3);
         Material {
             rest_density: 400.0,
             law,
-            shear_modulus: young / (2.0 * (1.0 + poisson)),
-            lame_lambda: young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)),
+            shear_modulus,
+            lame_lambda,
             critical_compression: 2.5e-2,
             critical_stretch: 7.5e-3,
             hardening: 10.0,
-            // A friction angle of 30 degrees.
-            friction_alpha: (2.0f32 / 3.0).sqrt() * 2.0 * 0.5 / (3.0 - 0.5),
+            friction_alpha: super::drucker_prager_alpha(30.0),
             ..Default::default()
         }
     }

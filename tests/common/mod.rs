@@ -52,6 +52,14 @@ pub fn cfl_params(scene: &Scene) -> Params {
     params
 }
 
+/// How far apart two runs' particles are, in dx: the largest distance and the root mean square.
+pub fn position_gap(a: &[glam::Vec3], b: &[glam::Vec3], dx: f32) -> (f32, f64) {
+    let errors: Vec<f32> = a.iter().zip(b).map(|(a, b)| (*a - *b).length() / dx).collect();
+    let max = errors.iter().copied().fold(0.0, f32::max);
+    let rms = (errors.iter().map(|e| f64::from(e * e)).sum::<f64>() / errors.len() as f64).sqrt();
+    (max, rms)
+}
+
 /// The largest magnitude among `values` (0 for none).
 pub fn max_abs(values: impl Iterator<Item = f32>) -> f32 {
     values.fold(0.0, |m, v| m.max(v.abs()))

@@ -23,6 +23,23 @@ pub fn particles(sim: &mut Simulation) -> Particles {
     sim.solver_mut().read_particles().unwrap()
 }
 
+/// A `stick` collider under the floor of a tank `length` x `depth` m: its top half a cell below
+/// the floor wall's mirror plane (node 1, y = dx), so that its band (the nodes within a cell of its
+/// surface) holds nodes 0 and 1 still and leaves node 2 free. The floor is then no-slip at y = dx,
+/// and the wall's mirror still gives the fluid there its interior density; a collider's own
+/// surface has no mirror (docs/physics.md, "Colliders"), and fluid on it packs into the half cell
+/// above it, which takes the lowest layer out of the flow.
+pub fn no_slip_floor(length: f32, depth: f32, dx: f32) -> String {
+    format!(
+        "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{}, 0.2, {}]\nboundary = \"stick\"\n",
+        0.5 * length,
+        0.5 * dx - 0.1,
+        0.5 * depth,
+        length + 0.2,
+        depth + 0.2
+    )
+}
+
 /// A power-law liquid and the film's slope: mu = K gammadot^(n - 1) within [floor, ceiling].
 #[derive(Clone, Copy)]
 pub struct FilmLaw {

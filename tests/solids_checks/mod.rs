@@ -6,7 +6,7 @@ use glam::Vec3;
 use mpm::sim::{Scene, Simulation};
 
 use super::common;
-use super::materials_checks::{particles, G};
+use super::materials_checks::{no_slip_floor, particles, G};
 
 /// A `[[material]]` row: a fixed-corotated jelly of Young's modulus `e` (Pa) and Poisson's ratio `nu`.
 pub fn jelly(name: &str, rho: f32, e: f32, nu: f32) -> String {
@@ -35,11 +35,7 @@ pub fn colliding_cubes(scatter: &str) -> Scene {
 /// kg/m^3), 6 cm square, 3 cm above the floor. Rows: water 0, the block 1. `extra` goes after the
 /// materials (a `[solver]` table, say).
 pub fn block_in_water(dx: f32, rho: f32, extra: &str) -> Scene {
-    block_in_tank(dx, rho, 0.2, extra)
-}
-
-/// [`block_in_water`] in a tank `tank` m long.
-pub fn block_in_tank(dx: f32, rho: f32, tank: f32, extra: &str) -> Scene {
+    let tank = 0.2f32;
     let floor = dx; // the floor wall's mirror plane, node 1
     let (width, height, bottom) = if rho < 1000.0 {
         (0.1, FLOAT_HEIGHT, floor + FLOAT_DEPTH - 0.01)
@@ -135,28 +131,10 @@ pub fn settle_block(sim: &mut Simulation, dx: f32) -> Settled {
 pub const SAND: &str = "[[material]]\nname = \"sand\"\nlaw = \"sand\"\nrest_density = 1600.0\n\
                         youngs_modulus = 3.5e5\npoisson_ratio = 0.3\nfriction_angle = 30.0\n";
 
-/// A `stick` collider under the floor of a tank `length` x `depth` m, its top half a cell below the
-/// floor wall's mirror plane (node 1), so that its band holds nodes 0 and 1 still: a rough floor,
-/// as the channels of Lube et al. (2005) had (tests/materials.rs's `no_slip_floor`).
-pub fn rough_floor(length: f32, depth: f32, dx: f32) -> String {
-    format!(
-        "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{}, 0.2, {}]\nboundary = \"stick\"\n",
-        0.5 * length,
-        0.5 * dx - 0.1,
-        0.5 * depth,
-        length + 0.2,
-        depth + 0.2
-    )
-}
-
 /// A quasi-2D column of [`SAND`] `length` m long and `height` m high against the low x wall of a
-/// tank 80 cm long on a rough floor ([`rough_floor`]), a slab 5 cells of `dx` thick.
+/// tank 80 cm long on a rough floor (a stick collider just under the floor's plane, as the channels
+/// of Lube et al. (2005) had: [`no_slip_floor`]), a slab 5 cells of `dx` thick.
 pub fn sand_column(dx: f32, length: f32, height: f32) -> Scene {
-    sand_column_on(dx, length, height, "boundary = \"stick\"")
-}
-
-/// [`sand_column`] on a floor of `boundary` (a collider's boundary keys).
-pub fn sand_column_on(dx: f32, length: f32, height: f32, boundary: &str) -> Scene {
     let (tank, floor) = (0.8f32, dx);
     let cells = |metres: f32| (metres / dx).round() as u32;
     common::scene(&format!(
@@ -167,7 +145,7 @@ pub fn sand_column_on(dx: f32, length: f32, height: f32, boundary: &str) -> Scen
         8.0 * dx,
         cells(tank),
         cells((height + 0.05).max(0.1)),
-        rough_floor(tank, 8.0 * dx, dx).replace("boundary = \"stick\"", boundary),
+        no_slip_floor(tank, 8.0 * dx, dx),
         floor + length,
         floor + height,
         6.0 * dx,

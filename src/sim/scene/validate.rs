@@ -14,7 +14,7 @@ use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use crate::sim::material::{default_colour, MaterialTable, NamedMaterial, MAX_ABSORPTION};
 use crate::sim::params::{Material, FRAME_DT};
-use crate::sim::{mesh, presets};
+use crate::sim::{mesh, presets, solid};
 use glam::{DVec3, Vec3};
 use std::fmt;
 use std::path::Path;
@@ -536,14 +536,12 @@ impl Validator<'_> {
             LawSpec::Sand => LAW_SAND,
         };
         if m.law.is_solid() {
-            let (e, nu) = (get("youngs_modulus", 0.0), get("poisson_ratio", 0.0));
-            material.shear_modulus = e / (2.0 * (1.0 + nu));
-            material.lame_lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+            (material.shear_modulus, material.lame_lambda) =
+                solid::lame_parameters(get("youngs_modulus", 0.0), get("poisson_ratio", 0.0));
             material.critical_compression = get("critical_compression", 2.5e-2);
             material.critical_stretch = get("critical_stretch", 7.5e-3);
             material.hardening = get("hardening", 10.0);
-            let sin_phi = get("friction_angle", 0.0).to_radians().sin();
-            material.friction_alpha = (2.0f32 / 3.0).sqrt() * 2.0 * sin_phi / (3.0 - sin_phi);
+            material.friction_alpha = solid::drucker_prager_alpha(get("friction_angle", 0.0));
             material.cohesion = get("cohesion", 0.0);
             return Ok(());
         }
