@@ -582,24 +582,44 @@ material = "oil"
     scene
 }
 
+/// `scene` on the CPU reference after `frames` frames, and its checkpoint written to a file and read
+/// back, which must be the state captured, bit for bit: (the run, the checkpoint read).
+fn saved_after(scene: &Scene, frames: u64) -> (Simulation, Checkpoint) {
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, scene).unwrap());
+    for _ in 0..frames {
+        sim.advance_frame().unwrap();
+    }
+    let saved = Checkpoint::capture(&mut sim).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("saved.mpmck");
+    saved.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    assert_eq!(
+        read, saved,
+        "the checkpoint read back differs from the state saved"
+    );
+    (sim, read)
+}
+
+/// Two more frames of the run `read` resumes and of `sim`, the run it was saved from: the same
+/// state, bit for bit.
+fn assert_resumes_as_uninterrupted(read: &Checkpoint, sim: &mut Simulation, what: &str) {
+    let mut resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
+    for _ in 0..2 {
+        resumed.advance_frame().unwrap();
+        sim.advance_frame().unwrap();
+    }
+    assert_eq!(
+        Checkpoint::capture(&mut resumed).unwrap(),
+        Checkpoint::capture(sim).unwrap(),
+        "the resumed {what} run differs from the uninterrupted one"
+    );
+}
+
 #[test]
 fn a_checkpoint_of_several_materials_round_trips_them_and_resumes_exactly() {
     let scene = two_liquids();
-    let step = |sim: &mut Simulation, frames: u64| {
-        for _ in 0..frames {
-            sim.advance_frame().unwrap();
-        }
-    };
-    let new_sim =
-        |scene: &Scene| Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, scene).unwrap());
-    let mut sim = new_sim(&scene);
-    step(&mut sim, 2);
-    let saved = Checkpoint::capture(&mut sim).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("two.mpmck");
-    saved.write_new(&file).unwrap();
-    let read = Checkpoint::read(&file).unwrap();
-    assert_eq!(read, saved);
+    let (mut sim, read) = saved_after(&scene, 2);
     assert_eq!(read.params.material_count, 2);
     assert_eq!(read.params.volume_density, 1);
     for (row, named) in scene.materials.iter().enumerate() {
@@ -611,15 +631,7 @@ fn a_checkpoint_of_several_materials_round_trips_them_and_resumes_exactly() {
     for row in [0, 1] {
         assert!(read.particles.material.contains(&row), "no particle of row {row}");
     }
-
-    let mut resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
-    step(&mut resumed, 2);
-    step(&mut sim, 2);
-    assert_eq!(
-        Checkpoint::capture(&mut resumed).unwrap(),
-        Checkpoint::capture(&mut sim).unwrap(),
-        "the resumed two-liquid run differs from the uninterrupted one"
-    );
+    assert_resumes_as_uninterrupted(&read, &mut sim, "two-liquid");
 }
 
 /// A material row past the table is damage, not a particle of some other liquid; a table of another
@@ -728,30 +740,11 @@ material = "jelly"
         "snow-in-water.toml",
     )
     .unwrap();
-    let step = |sim: &mut Simulation, frames: u64| {
-        for _ in 0..frames {
-            sim.advance_frame().unwrap();
-        }
-    };
-    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
-    step(&mut sim, 3);
-    let saved = Checkpoint::capture(&mut sim).unwrap();
-    assert_eq!(saved.particles.deformation.len(), saved.particles.len());
+    let (mut sim, read) = saved_after(&scene, 3);
+    assert_eq!(read.particles.deformation.len(), read.particles.len());
     assert!(
-        saved.particles.deformation.iter().any(|d| d.plastic != 1.0),
+        read.particles.deformation.iter().any(|d| d.plastic != 1.0),
         "the snow has not yielded: a weak test of its plastic state"
     );
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("snow.mpmck");
-    saved.write_new(&file).unwrap();
-    let read = Checkpoint::read(&file).unwrap();
-    assert_eq!(read, saved);
-    let mut resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
-    step(&mut resumed, 2);
-    step(&mut sim, 2);
-    assert_eq!(
-        Checkpoint::capture(&mut resumed).unwrap(),
-        Checkpoint::capture(&mut sim).unwrap(),
-        "the resumed run with snow differs from the uninterrupted one"
-    );
+    assert_resumes_as_uninterrupted(&read, &mut sim, "snow");
 }
