@@ -272,7 +272,8 @@ __device__ __forceinline__ ParticleImpulse particle_impulse(const KernelParams& 
     return out;
 }
 
-// A solid particle's deformation as the particle pass holds it (Deformation in src/sim/scene.rs):
+// A particle's deformation (a solid's, or an elastoviscoplastic liquid's) as the particle pass holds
+// it (Deformation in src/sim/scene.rs):
 // F_E as f[column][row] and its law's plastic scalar; stored as three float4 arrays of n, F_E's
 // columns, the scalar in column 0's w.
 struct Deformation {
@@ -297,7 +298,7 @@ __device__ __forceinline__ void store_deformation(float4* deformation, u32 n, u3
         deformation[(size_t)col * n + p] = make_float4(d.f[col][0], d.f[col][1], d.f[col][2], col == 0 ? d.plastic : 0.0f);
 }
 
-// g2p's update of a solid's deformation from its new velocity gradient C (c[column]): F carried over
+// g2p's update of a particle's deformation from its new velocity gradient C (c[column]): F carried over
 // the substep, F <- (I + dt C) F, then its law's return mapping (solid.cuh). `advance_deformation` in
 // src/sim/cpu.rs, with glam's order: column j of A F is ((A_0 F_0j + A_1 F_1j) + A_2 F_2j).
 __device__ __forceinline__ void advance_deformation(const KernelParams& params, const Material& mat,
@@ -334,6 +335,31 @@ __device__ __forceinline__ ParticleImpulse solid_impulse(const KernelParams& par
     out.mv[1] = vp.y * m_p;
     out.mv[2] = vp.z * m_p;
     return out;
+}
+
+// What a particle that carries a deformation scatters (p2g_particle in src/sim/cpu.rs): a solid's
+// (solid_impulse), or an elastoviscoplastic liquid's: the liquid's pressure and viscous stress, then
+// its elastic part's deviatoric Kirchhoff stress over its rest volume as a solid's.
+__device__ __forceinline__ ParticleImpulse deformed_impulse(const KernelParams& params, const Material& mat, float rho,
+                                                            float4 vp, float4 c0, float4 c1, float4 c2,
+                                                            const Deformation& d) {
+    if (solid_is_solid(mat.law)) return solid_impulse(params, mat, vp, c0, c1, c2, d);
+    ParticleImpulse out = particle_impulse<true>(params, rho, vp, c0, c1, c2);
+    float elastic[3][3];
+    solid_kirchhoff_stress(mat, d.f, d.plastic, elastic);
+    const float stress_factor = 4.0f * params.dt * (mat.particle_mass / mat.rest_density) / params.dx;
+    for (int col = 0; col < 3; ++col) {
+        for (int row = 0; row < 3; ++row) out.affine[col][row] -= elastic[col][row] * stress_factor;
+    }
+    return out;
+}
+
+// The signal speed of a particle that carries a deformation: a solid's own wave speed (snow's
+// hardening included), or an elastoviscoplastic liquid's (`GatherExtremes` in src/sim/cpu.rs).
+__device__ __forceinline__ float deformed_signal_speed(const Material& mat, float rho, float speed,
+                                                       const Deformation& d) {
+    return solid_is_solid(mat.law) ? solid_wave_speed(mat, d.plastic) + speed
+                                   : material_elastic_signal_speed(mat, rho, speed);
 }
 
 // The affine product is summed z first and x last, so the terms before x are the same for a plane

@@ -65,6 +65,7 @@ __device__ __forceinline__ float material_shear_rate(const float (&cm)[3][3]) {
 
 // The non-Newtonian laws, out of line: a water scene's particle pass keeps its size and registers.
 // Its parameters are the row's scalars, not the row: a struct passed to a call goes through the stack.
+// An elastoviscoplastic liquid passes a yield stress of 0: its elastic part bears it (solid.cuh).
 __device__ __noinline__ float material_law_viscosity(u32 law, float consistency, float n, float yield_stress,
                                                      float min_viscosity, float max_viscosity, float lambda, float a,
                                                      float rate) {
@@ -75,7 +76,8 @@ __device__ __noinline__ float material_law_viscosity(u32 law, float consistency,
         const float thinning = material_power(1.0f + material_power(lambda * rate, a), (n - 1.0f) / a);
         viscosity = min_viscosity + (consistency - min_viscosity) * thinning;
     } else if (law == LAW_HERSCHEL_BULKLEY) {
-        viscosity = consistency * material_power(rate, n - 1.0f) + yield_stress / rate;
+        viscosity = consistency * material_power(rate, n - 1.0f);
+        if (yield_stress > 0.0f) viscosity += yield_stress / rate;
     }
     return fminf(fmaxf(viscosity, min_viscosity), max_viscosity);
 }
@@ -93,7 +95,8 @@ __device__ __forceinline__ bool material_viscous_at_rest_volume(const Material& 
 __device__ __forceinline__ float material_viscosity(const Material& mat, const float (&cm)[3][3], float rho) {
     float viscosity = mat.viscosity;
     if (mat.law != LAW_NEWTONIAN)
-        viscosity = material_law_viscosity(mat.law, mat.viscosity, mat.flow_index, mat.yield_stress,
+        viscosity = material_law_viscosity(mat.law, mat.viscosity, mat.flow_index,
+                                           mat.shear_modulus > 0.0f ? 0.0f : mat.yield_stress,
                                            mat.min_viscosity, mat.max_viscosity, mat.relaxation_time,
                                            mat.transition_exponent, material_shear_rate(cm));
     if (material_viscous_at_rest_volume(mat) && rho < mat.rest_density) viscosity *= rho / mat.rest_density;
@@ -109,12 +112,24 @@ __device__ __forceinline__ float material_stress(float viscosity, float pressure
     return stress;
 }
 
-// c(rho) + speed, the signal speed of the CFL bound: c(rho) = c0 (rho / rho0)^((gamma - 1) / 2),
-// c0 = sqrt(k gamma / rho0).
-__device__ __forceinline__ float material_signal_speed(const Material& mat, float rho, float speed) {
+// c(rho) = c0 (rho / rho0)^((gamma - 1) / 2), c0 = sqrt(k gamma / rho0).
+__device__ __forceinline__ float material_sound_speed(const Material& mat, float rho) {
     const float sound_speed = sqrtf(mat.eos_stiffness * mat.eos_power / mat.rest_density);
-    return sound_speed * material_power(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f)) + speed;
+    return sound_speed * material_power(fmaxf(rho / mat.rest_density, 0.0f), 0.5f * (mat.eos_power - 1.0f));
 }
 
-// The solids' laws (issue 41), beside the liquids' and taking the same rows.
+// c(rho) + speed, the signal speed of the CFL bound.
+__device__ __forceinline__ float material_signal_speed(const Material& mat, float rho, float speed) {
+    return material_sound_speed(mat, rho) + speed;
+}
+
+// An elastoviscoplastic liquid's: sqrt(c(rho)^2 + 4 mu / (3 rho0)) + speed, the P-wave speed of bulk
+// modulus rho0 c^2 and its elastic part's shear modulus mu (`Material::sound_speed_at`).
+__device__ __forceinline__ float material_elastic_signal_speed(const Material& mat, float rho, float speed) {
+    const float sound = material_sound_speed(mat, rho);
+    return sqrtf(sound * sound + 4.0f * mat.shear_modulus / (3.0f * mat.rest_density)) + speed;
+}
+
+// The laws of rows that carry a deformation (the solids, and the elastic part of an elastoviscoplastic
+// liquid), beside the liquids' and taking the same rows.
 #include "solid.cuh"

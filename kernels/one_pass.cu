@@ -152,9 +152,9 @@ __device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params
 // MATERIALS false: the scene is one Newtonian liquid (water): no particle's material row is read,
 // no law's viscosity computed, no density taken from the grid's volume, so the pass is compiled as it was before the
 // material table (BENCHMARKS.md M1: the fixed-point substep 2.7 % over the build before the table
-// without these entries, 1.3 % with them). SOLIDS: the table has a solid, whose particles' deformation
-// the gather advances and the scatter takes its stress from (`deformation`, null in the other
-// entries, which neither read it nor pay for it).
+// without these entries, 1.3 % with them). SOLIDS: a row of the table carries a deformation (a solid,
+// or an elastoviscoplastic liquid), which the gather advances and the scatter takes its stress from
+// (`deformation`, null in the other entries, which neither read it nor pay for it).
 template <Scatter SCATTER, bool MATERIALS, bool SOLIDS>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     constexpr bool FIXED = SCATTER == Scatter::FixedTile;
@@ -198,8 +198,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             live &= !is_parked(xp);  // parked since the last binning: nothing to move or scatter
             float rho_p;
             float4 vp, c0, c1, c2;
-            Deformation d;       // a solid's (SOLIDS), advanced by the gather, scattered from
-            bool solid = false;  // whether the particle is a solid's
+            Deformation d;          // (SOLIDS) advanced by the gather, scattered from
+            bool deformed = false;  // whether the particle's material carries a deformation
             if (gather) {
                 GridDensity density;
                 const float tag = MATERIALS ? particle_material_tag(params, v, p) : 0.0f;
@@ -218,11 +218,11 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 }
                 if (SOLIDS) {
                     const Material& mat = material_table[material_index(params, r.v)];
-                    solid = solid_is_solid(mat.law);
-                    if (solid) {
+                    deformed = material_carries_deformation(mat);
+                    if (deformed) {
                         d = load_deformation(deformation, n, p);
                         advance_deformation(params, mat, r.c, d);
-                        r.signal = solid_wave_speed(mat, d.plastic) + r.speed;
+                        r.signal = deformed_signal_speed(mat, rho_p, r.speed, d);
                     }
                 }
                 xp = r.x;
@@ -235,7 +235,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     v[p] = r.v;
                     x[p] = r.x;
                     rho[p] = rho_p;
-                    if (SOLIDS && solid) store_deformation(deformation, n, p, d);
+                    if (SOLIDS && deformed) store_deformation(deformation, n, p, d);
                     max_speed = fmaxf(max_speed, r.speed);
                     max_signal = fmaxf(max_signal, r.signal);
                     max_rho = fmaxf(max_rho, MATERIALS ? reported_density(params, r.v, rho_p) : rho_p);
@@ -255,13 +255,14 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                 c1 = c[n + p];
                 c2 = c[2 * (size_t)n + p];
                 if (SOLIDS) {
-                    solid = solid_is_solid(material_table[material_index(params, vp)].law);
-                    if (solid) d = load_deformation(deformation, n, p);
+                    deformed = material_carries_deformation(material_table[material_index(params, vp)]);
+                    if (deformed) d = load_deformation(deformation, n, p);
                 }
             }
             const ParticleImpulse q =
-                SOLIDS && solid ? solid_impulse(params, material_table[material_index(params, vp)], vp, c0, c1, c2, d)
-                                : particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
+                SOLIDS && deformed
+                    ? deformed_impulse(params, material_table[material_index(params, vp)], rho_p, vp, c0, c1, c2, d)
+                    : particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;
             bool in_tile = false;

@@ -1,8 +1,10 @@
 // A solid's constitutive law (issue 41), the one place a kernel computes it: the plasticity that
 // follows the advection of a particle's deformation gradient, the Kirchhoff stress it scatters and
-// the wave speed the time step follows. src/sim/solid.rs holds the CPU twins, operation for
-// operation, and the formulas with their references. Matrices are float[3][3] indexed
-// [column][row]. Included by material.cuh, after the material table.
+// the wave speed the time step follows; and the elastic part of an elastoviscoplastic liquid (a
+// Herschel-Bulkley row with a shear modulus), whose deviatoric stress bears its yield stress.
+// src/sim/solid.rs holds the CPU twins, operation for operation, and the formulas with their
+// references. Matrices are float[3][3] indexed [column][row]. Included by material.cuh, after the
+// material table.
 //
 // The return mapping and the stress each take an SVD, several hundred instructions: they are out of
 // line (__noinline__), taking the row's scalars, not the row (a struct passed to a call goes through
@@ -13,8 +15,15 @@
 #include "svd.cuh"
 
 
-// Whether particles of `law` carry a deformation gradient and scatter its stress (`is_solid`).
+// Whether particles of `law` are solid: they scatter their deformation's stress in place of a
+// pressure (`is_solid`).
 __device__ __forceinline__ bool solid_is_solid(u32 law) { return law >= FIRST_SOLID_LAW; }
+
+// Whether a row's particles carry a deformation gradient: a solid's, or an elastoviscoplastic liquid's
+// (`carries_deformation`).
+__device__ __forceinline__ bool material_carries_deformation(const Material& mat) {
+    return solid_is_solid(mat.law) || (mat.law == LAW_HERSCHEL_BULKLEY && mat.shear_modulus > 0.0f);
+}
 
 // The plastic scalar at rest (`rest_plastic`): J_p = 1 for snow, 0 otherwise.
 __device__ __forceinline__ float solid_rest_plastic(u32 law) { return law == LAW_SNOW ? 1.0f : 0.0f; }
@@ -78,9 +87,39 @@ __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu,
     return 0.0f;
 }
 
+// The deviatoric Hencky strain of singular values sigma (`deviatoric_strain`).
+__device__ __forceinline__ void solid_deviatoric_strain(const float (&sigma)[3], float (&hat)[3]) {
+    float eps[3];
+#pragma unroll
+    for (int i = 0; i < 3; ++i) eps[i] = logf(fmaxf(fabsf(sigma[i]), SOLID_MIN_STRETCH));
+    const float mean = (eps[0] + eps[1] + eps[2]) / 3.0f;
+#pragma unroll
+    for (int i = 0; i < 3; ++i) hat[i] = eps[i] - mean;
+}
+
+// An elastoviscoplastic liquid's return to the von Mises yield surface (`yield_return` in
+// src/sim/solid.rs, which gives the formulas): replaces f (F_trial) by its isochoric elastic part.
+__device__ __noinline__ void solid_yield_return(float mu, float yield_stress, float (&f)[3][3]) {
+    float u[3][3], sigma[3], v[3][3];
+    svd3(f, u, sigma, v);
+    float hat[3];
+    solid_deviatoric_strain(sigma, hat);
+    const float norm = sqrtf(hat[0] * hat[0] + hat[1] * hat[1] + hat[2] * hat[2]);
+    const float limit = yield_stress / (1.41421356237309504880f * mu);
+    const float shrink = norm > limit ? limit / norm : 1.0f;
+    float stretch[3];
+#pragma unroll
+    for (int i = 0; i < 3; ++i) stretch[i] = expf(shrink * hat[i]);
+    solid_compose(u, stretch, v, f);
+}
+
 // The plasticity of a substep (`plastic_return`): f is F_trial = (I + dt C) F on entry, F_E on
 // return; returns the plastic scalar. The elastic laws (and liquids) make no call.
 __device__ __forceinline__ float solid_plastic_return(const Material& mat, float (&f)[3][3], float plastic) {
+    if (mat.law == LAW_HERSCHEL_BULKLEY) {
+        solid_yield_return(mat.shear_modulus, mat.yield_stress, f);
+        return plastic;
+    }
     if (mat.law != LAW_SNOW && mat.law != LAW_SAND) return plastic;
     return solid_plastic_law(mat.law, mat.lame_lambda, mat.shear_modulus, mat.critical_compression,
                              mat.critical_stretch, mat.friction_alpha, mat.cohesion, plastic, f);
@@ -95,7 +134,8 @@ __device__ __forceinline__ float solid_determinant(const float (&f)[3][3]) {
 }
 
 // The Kirchhoff stress of each solid law (`stress_law` in src/sim/solid.rs, which gives the
-// formulas): Neo-Hookean, fixed-corotated, snow (fixed-corotated, hardened) and sand (Hencky).
+// formulas): Neo-Hookean, fixed-corotated, snow (fixed-corotated, hardened), sand (Hencky) and an
+// elastoviscoplastic liquid's elastic part (Hencky, deviatoric).
 __device__ __noinline__ void solid_stress_law(u32 law, float mu, float lambda, float xi, float plastic,
                                               const float (&f)[3][3], float (&tau)[3][3]) {
     if (law == LAW_NEO_HOOKEAN) {
@@ -112,14 +152,21 @@ __device__ __noinline__ void solid_stress_law(u32 law, float mu, float lambda, f
     }
     float u[3][3], sigma[3], v[3][3];
     svd3(f, u, sigma, v);
-    if (law == LAW_SAND) {
-        float eps[3];
-#pragma unroll
-        for (int i = 0; i < 3; ++i) eps[i] = logf(fmaxf(fabsf(sigma[i]), SOLID_MIN_STRETCH));
-        const float trace = eps[0] + eps[1] + eps[2];
+    if (law == LAW_SAND || law == LAW_HERSCHEL_BULKLEY) {
         float principal[3];
+        if (law == LAW_SAND) {
+            float eps[3];
 #pragma unroll
-        for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * eps[i] + lambda * trace;
+            for (int i = 0; i < 3; ++i) eps[i] = logf(fmaxf(fabsf(sigma[i]), SOLID_MIN_STRETCH));
+            const float trace = eps[0] + eps[1] + eps[2];
+#pragma unroll
+            for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * eps[i] + lambda * trace;
+        } else {
+            float hat[3];
+            solid_deviatoric_strain(sigma, hat);
+#pragma unroll
+            for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * hat[i];
+        }
 #pragma unroll
         for (int c = 0; c < 3; ++c)
 #pragma unroll
@@ -145,11 +192,11 @@ __device__ __noinline__ void solid_stress_law(u32 law, float mu, float lambda, f
         }
 }
 
-// tau = P F^T of elastic deformation f with plastic scalar `plastic` (`kirchhoff_stress`), Pa;
-// zero for a liquid's row.
+// tau = P F^T of elastic deformation f with plastic scalar `plastic` (`kirchhoff_stress`), Pa: an
+// elastoviscoplastic liquid's deviatoric elastic part; zero for a row that carries no deformation.
 __device__ __forceinline__ void solid_kirchhoff_stress(const Material& mat, const float (&f)[3][3], float plastic,
                                                        float (&tau)[3][3]) {
-    if (!solid_is_solid(mat.law)) {
+    if (!material_carries_deformation(mat)) {
 #pragma unroll
         for (int c = 0; c < 3; ++c)
 #pragma unroll

@@ -1,6 +1,6 @@
 //! Frame export. `--export`: one binary little-endian PLY of the particles per frame (positions,
-//! velocities, density, material row; a solid's volume ratio and von Mises stress where the scene
-//! has solids; the material table's names and colours in header comments),
+//! velocities, density, material row; the volume ratio and von Mises stress where a material
+//! carries a deformation; the material table's names and colours in header comments),
 //! which ParaView, Blender, Open3D and meshio open as they are.
 //! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]). Both go
 //! through [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a
@@ -400,10 +400,11 @@ pub fn material_comment(row: usize, material: &NamedMaterial) -> String {
 }
 
 /// The float vertex properties that follow [`PLY_MATERIAL_PROPERTY`] where the particles carry a
-/// deformation (the scene has solids): `J`, a solid's volume ratio det F (the elastic part's times
-/// snow's plastic J_p; a liquid's rest density over its density), and `von_mises`, a solid's von
-/// Mises stress sqrt(3/2 s:s) in Pa, s the deviatoric part of its Cauchy stress tau / J_E (0 for a
-/// liquid).
+/// deformation (a solid, or a liquid with the elastic regularisation of its yield stress): `J`, a
+/// solid's volume ratio det F (the elastic part's times snow's plastic J_p; a liquid's rest density
+/// over its density), and `von_mises`, the von Mises stress sqrt(3/2 s:s) in Pa of a solid, s the
+/// deviatoric part of its Cauchy stress tau / J_E, or of an elastoviscoplastic liquid's elastic
+/// part (sqrt(3) tau_y where it yields); 0 for other liquids.
 pub const PLY_SOLID_PROPERTIES: [&str; 2] = ["J", "von_mises"];
 
 /// A binary little-endian PLY of `particles`: `comment` (each line a `comment`), a `comment
@@ -427,8 +428,8 @@ pub fn write_ply(
         writeln!(out, "property float {p}")?;
     }
     writeln!(out, "property uchar {PLY_MATERIAL_PROPERTY}")?;
-    let solids = !particles.deformation.is_empty();
-    if solids {
+    let deformed = !particles.deformation.is_empty();
+    if deformed {
         for p in PLY_SOLID_PROPERTIES {
             writeln!(out, "property float {p}")?;
         }
@@ -443,13 +444,20 @@ pub fn write_ply(
             out.write_all(&value.to_le_bytes())?;
         }
         out.write_all(&[particles.material[i]])?;
-        if solids {
+        if deformed {
             let law = materials.get(usize::from(particles.material[i])).map(|m| &m.law);
             let (j, von_mises) = match law {
                 Some(law) if law.is_solid() => {
                     let d = &particles.deformation[i];
                     (
                         solid::volume_ratio(law, d.f, d.plastic),
+                        solid::von_mises(law, d.f, d.plastic),
+                    )
+                }
+                Some(law) if law.is_elastoviscoplastic() => {
+                    let d = &particles.deformation[i];
+                    (
+                        law.rest_density / particles.rho[i],
                         solid::von_mises(law, d.f, d.plastic),
                     )
                 }

@@ -28,6 +28,9 @@ fn main() -> std::process::ExitCode {
             emitters_pour_their_own_liquid,
             power_law_films_forty_cells_across_have_the_power_law_profile,
             the_honey_preset_s_rope_coils,
+            an_elastoviscoplastic_mud_follows_the_cpu,
+            an_elastoviscoplastic_mud_in_fixed_point_is_byte_identical,
+            the_slump_test_at_5_and_2_5_mm_comes_to_rest_at_its_runout,
         ],
     )
 }
@@ -62,12 +65,31 @@ sound_speed = 10.0
 viscosity = 0.05
 "#;
 
+/// The mud of [`MATERIALS`] with the elastic regularisation of its yield stress in place of the
+/// bi-viscous ceiling (it yields past a deviatoric strain of 7e-3), its particles carrying their
+/// deformation: the fused pipeline's only.
+const ELASTIC_MUD: &str = r#"
+[[material]]
+name = "mud"
+law = "herschel-bulkley"
+rest_density = 1000.0
+sound_speed = 10.0
+consistency = 0.1
+yield_stress = 20.0
+shear_modulus = 2000.0
+"#;
+
 /// A 32 x 24 x 24 tank at dx = 1/32 m with four blocks side by side, one of each material (or
 /// `only`'s for all four), stirred by their starting velocities so every term of the laws works.
 fn tank(pipeline: Pipeline, scatter: ScatterMode, only: Option<&str>) -> Scene {
+    tank_of(MATERIALS, pipeline, scatter, only)
+}
+
+/// [`tank`] of the liquids `materials`.
+fn tank_of(materials: &str, pipeline: Pipeline, scatter: ScatterMode, only: Option<&str>) -> Scene {
     let names = ["water", "syrup", "mud", "oil"];
     let mut toml = format!(
-        "name = \"liquids\"\n[domain]\nsize = [1.0, 0.75, 0.75]\nresolution = [32, 24, 24]\n{MATERIALS}"
+        "name = \"liquids\"\n[domain]\nsize = [1.0, 0.75, 0.75]\nresolution = [32, 24, 24]\n{materials}"
     );
     for (k, name) in names.iter().enumerate() {
         let x0 = 0.03125 + 0.15 * k as f64;
@@ -95,7 +117,8 @@ fn params_of(scene: &Scene) -> Params {
 
 /// `steps` substeps on the CPU reference and the GPU, held together every 100 (the bound of
 /// tests/gpu_kernels.rs: rounding differences grow along the trajectory; a wrong term moves particles
-/// by whole cells), and every particle keeping its material.
+/// by whole cells), every particle keeping its material, and a deformation where the particles
+/// carry one within 1e-3 of the CPU's (tests/gpu_solids.rs's bound).
 fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
     let params = params_of(scene);
     let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
@@ -112,6 +135,27 @@ fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
                 "{what} step {step}: max {max} dx, rms {rms} dx"
             );
             assert_eq!(p.material, cpu.particles.material, "{what}: materials differ");
+            assert_eq!(
+                p.deformation.len(),
+                cpu.particles.deformation.len(),
+                "{what}: deformations"
+            );
+            let strain = p
+                .deformation
+                .iter()
+                .zip(&cpu.particles.deformation)
+                .map(|(a, b)| {
+                    (a.f - b.f)
+                        .abs()
+                        .to_cols_array()
+                        .into_iter()
+                        .fold(0.0f32, f32::max)
+                })
+                .fold(0.0f32, f32::max);
+            assert!(
+                strain <= 1e-3,
+                "{what} step {step}: deformation gradients {strain} apart"
+            );
             let (worst, worst_rho) = p
                 .rho
                 .iter()
@@ -193,6 +237,53 @@ fn run(scene: &Scene, steps: usize) -> Particles {
         gpu.step(&params).unwrap();
     }
     gpu.read_particles().unwrap()
+}
+
+/// The elastoviscoplastic mud in all four blocks, the fused pipeline in each scatter: its elastic
+/// part (the return to the yield surface, the deviatoric stress, the signal speed) follows the CPU.
+fn an_elastoviscoplastic_mud_follows_the_cpu() {
+    for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
+        let scene = tank_of(ELASTIC_MUD, Pipeline::Fused, scatter, Some("mud"));
+        assert!(scene.has_deformation());
+        let p = follow_cpu(&scene, 300, &format!("elastoviscoplastic mud, {scatter:?}"));
+        // At yield, the elastic part's von Mises stress is sqrt(3) tau_y.
+        let mud = &scene.materials[0].law;
+        let at_yield = 0.99 * 3.0f32.sqrt() * mud.yield_stress;
+        let yielded = p
+            .deformation
+            .iter()
+            .filter(|d| mpm::sim::solid::von_mises(mud, d.f, d.plastic) >= at_yield)
+            .count();
+        println!(
+            "{scatter:?}: {yielded} of {} particles at the yield stress",
+            p.len()
+        );
+        assert!(
+            yielded > 100,
+            "{scatter:?}: {yielded} particles yielded: the return went untested"
+        );
+    }
+}
+
+/// Two fixed-point runs of the elastoviscoplastic mud: the same bits, the deformation included.
+fn an_elastoviscoplastic_mud_in_fixed_point_is_byte_identical() {
+    let scene = tank_of(ELASTIC_MUD, Pipeline::Fused, ScatterMode::FixedPoint, Some("mud"));
+    let (first, second) = (run(&scene, 200), run(&scene, 200));
+    assert!(
+        common::same_particles(&first, &second)
+            && bytemuck::cast_slice::<_, u8>(&first.deformation)
+                == bytemuck::cast_slice::<_, u8>(&second.deformation),
+        "two fixed-point runs of the elastoviscoplastic mud differ"
+    );
+}
+
+/// tests/materials.rs's slump test at a half and a quarter of its cell (5 and 2.5 mm: 8 and 64
+/// times the particles): at rest after 6 s, its runout within 10 % of Roussel and Coussot's.
+fn the_slump_test_at_5_and_2_5_mm_comes_to_rest_at_its_runout() {
+    for dx in [0.005, 0.0025] {
+        materials_checks::axisymmetric_slump(mpm::backend::BackendKind::Cuda, dx)
+            .assert_at_rest_at_its_runout();
+    }
 }
 
 fn several_liquids_in_fixed_point_are_byte_identical() {

@@ -17,8 +17,8 @@
 
 use glam::{DMat3, Mat3, Quat, Vec3};
 use mpm::contract::{
-    Material, LAW_FIXED_COROTATED, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW, SNOW_MAX_HARDENING,
-    SNOW_MIN_HARDENING,
+    Material, LAW_FIXED_COROTATED, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW,
+    SNOW_MAX_HARDENING, SNOW_MIN_HARDENING,
 };
 use mpm::cuda::gpu::Gpu;
 use mpm::cuda::solid_laws::{solid_laws_on_device, SolidLawsResult};
@@ -75,7 +75,9 @@ impl Xorshift {
     }
 }
 
-/// The rows of the material table: each solid law, and sand with cohesion. E = 1e5 Pa, nu = 0.3.
+/// The rows of the material table: each solid law, and sand with cohesion (E = 1e5 Pa, nu = 0.3);
+/// the elastic part of an elastoviscoplastic liquid (G = 1e5 Pa, tau_y = 800 Pa: it yields past a
+/// deviatoric strain of 5.7e-3).
 fn materials() -> Vec<Material> {
     let (shear_modulus, lame_lambda) = lame_parameters(1.0e5, 0.3);
     let solid = |law| Material {
@@ -97,6 +99,13 @@ fn materials() -> Vec<Material> {
         solid(LAW_SNOW),
         solid(LAW_SAND),
         cohesive,
+        Material {
+            rest_density: 1000.0,
+            law: LAW_HERSCHEL_BULKLEY,
+            shear_modulus: 1.0e5,
+            yield_stress: 800.0,
+            ..Default::default()
+        },
     ]
 }
 

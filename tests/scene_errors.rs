@@ -100,6 +100,62 @@ fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
             "emitter[0].material",
             "an emitter pours liquids",
         ),
+        (
+            "an emitter of a liquid with shear_modulus",
+            liquids(
+                &format!(
+                    "{}{}",
+                    entry("water", ""),
+                    entry("mud", "law = \"herschel-bulkley\"\nconsistency = 2.0\nyield_stress = 50.0\nshear_modulus = 1.0e4\n")
+                ),
+                &format!(
+                    "{}[particles]\ncapacity = 20000\n[[emitter]]\nmaterial = \"mud\"\nshape = \"disc\"\nparticles_per_cell = 8\ncenter = [0.1, 0.15, 0.1]\nnormal = [0.0, -1.0, 0.0]\nradius = 0.02\nspeed = 1.0\n",
+                    block_of(0, "water")
+                ),
+            ),
+            "emitter[0].material",
+            "max_viscosity in place of shear_modulus",
+        ),
+        // The yield stress's regularisation (docs/physics.md, "Yield stress").
+        (
+            "herschel-bulkley without a regularisation",
+            liquids(
+                &entry("mud", "law = \"herschel-bulkley\"\nconsistency = 2.0\nyield_stress = 50.0\n"),
+                &block_of(0, ""),
+            ),
+            "material[0].max_viscosity",
+            "or shear_modulus (Pa",
+        ),
+        (
+            "an elastic herschel-bulkley of n != 1 without a ceiling",
+            liquids(
+                &entry(
+                    "paste",
+                    "law = \"herschel-bulkley\"\nconsistency = 2.0\nflow_index = 0.5\nyield_stress = 50.0\nshear_modulus = 1.0e4\n",
+                ),
+                &block_of(0, ""),
+            ),
+            "material[0].max_viscosity",
+            "no bound of its own",
+        ),
+        (
+            "a shear modulus given to a solid",
+            liquids(
+                &format!("{}{}", entry("water", ""), solid(jelly).replace("poisson_ratio", "shear_modulus = 1.0e4\npoisson_ratio")),
+                &block_of(0, "water"),
+            ),
+            "material[1].shear_modulus",
+            "choose a law that takes it (\"herschel-bulkley\")",
+        ),
+        (
+            "a negative shear modulus",
+            liquids(
+                &entry("mud", "law = \"herschel-bulkley\"\nconsistency = 2.0\nyield_stress = 50.0\nshear_modulus = -5.0\n"),
+                &block_of(0, ""),
+            ),
+            "material[0].shear_modulus",
+            "must be positive",
+        ),
         // The material table (issue "Liquids beyond water", item 3).
         (
             "a material's absorption past the opaque end",

@@ -46,6 +46,7 @@ device_structs! {
         /// Carreau-Yasuda: the transition exponent a.
         transition_exponent: f32,
         /// Solids (`law >= FIRST_SOLID_LAW`): the Lame shear modulus mu = E / (2 (1 + nu)), Pa.
+        /// `LAW_HERSCHEL_BULKLEY`: the elastic regularisation's shear modulus G (0: bi-viscous).
         shear_modulus: f32,
         /// Solids: the Lame first parameter lambda = E nu / ((1 + nu) (1 - 2 nu)), Pa.
         lame_lambda: f32,

@@ -115,7 +115,7 @@ impl OnePass {
             params.material_count == 1 && first.law == LAW_NEWTONIAN && !first.viscous_at_rest_volume();
         let entries = if water {
             &self.water
-        } else if params.has_solids() {
+        } else if params.has_deformation() {
             &self.solids
         } else {
             &self.liquids

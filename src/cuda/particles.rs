@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 /// Bytes of one particle's state: x, v as float4; C as 3 float4; rho; its slot.
 pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
-/// Bytes of one particle's deformation, where the scene has solids: F_E as 3 float4 columns, the
+/// Bytes of one particle's deformation, where a material carries one: F_E as 3 float4 columns, the
 /// plastic scalar in the first column's w.
 pub const DEFORMATION_BYTES_PER_PARTICLE: usize = 4 * 12;
 /// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
@@ -33,16 +33,17 @@ pub struct DeviceParticles {
     /// Per place in memory, the slot of the particle stored there: the identity until the fused
     /// pipeline first gathers the particles into bin order.
     pub slot: CudaSlice<u32>,
-    /// Where the scene has solids (`Params::has_solids`), each particle's deformation as three
-    /// float4 arrays of `count` (F_E's columns 0, 1, 2; column 0's w the plastic scalar); `None` for a
-    /// scene of liquids, which holds nothing more than it did before the solids.
+    /// Where a material carries a deformation (`Params::has_deformation`), each particle's
+    /// deformation as three float4 arrays of `count` (F_E's columns 0, 1, 2; column 0's w the
+    /// plastic scalar); `None` otherwise: a scene of liquids holds nothing more than it did before
+    /// the solids.
     pub deformation: Option<CudaSlice<f32>>,
 }
 
 impl DeviceParticles {
     /// Zeroed buffers for `count` particles, each stored at its slot, with their deformation where
-    /// `solids`.
-    pub fn allocate(stream: &Arc<CudaStream>, count: usize, solids: bool) -> Result<DeviceParticles> {
+    /// `deformed`.
+    pub fn allocate(stream: &Arc<CudaStream>, count: usize, deformed: bool) -> Result<DeviceParticles> {
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<f32>(len)
@@ -57,7 +58,7 @@ impl DeviceParticles {
             slot: stream
                 .clone_htod(&slots_in_place(count))
                 .context("allocating the particle slots")?,
-            deformation: match solids {
+            deformation: match deformed {
                 true => Some(alloc(12 * count, "particle deformation gradients")?),
                 false => None,
             },
@@ -115,8 +116,12 @@ impl DeviceParticles {
                     .context("uploading the deformation gradients")?;
             }
             (None, true) => {}
-            (Some(_), true) => bail!("the particles carry no deformation, but the scene has solids"),
-            (None, false) => bail!("the particles carry a deformation, but the scene has no solid"),
+            (Some(_), true) => {
+                bail!("the particles carry no deformation, but a material of the scene carries one")
+            }
+            (None, false) => {
+                bail!("the particles carry a deformation, but no material of the scene carries one")
+            }
         }
         stream.synchronize().context("uploading particles")?;
         Ok(())

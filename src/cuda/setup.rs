@@ -15,7 +15,7 @@ impl CudaSolver {
     /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid),
     /// and one with solids (their deformation starts at rest on the host).
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
-        if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_solids() {
+        if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_deformation() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
         let solver = CudaSolver::allocate(scene, None, options)?;

@@ -43,9 +43,10 @@ impl DeviceState {
             scene.source
         );
         ensure!(
-            !scene.has_solids() || scene.pipeline == Pipeline::Fused,
-            "scene {}: solids run in the fused GPU pipeline only (the binned and report pipelines carry \
-             no deformation gradient); drop solver.pipeline = \"{}\" (or --pipeline), or use a CPU backend",
+            !scene.has_deformation() || scene.pipeline == Pipeline::Fused,
+            "scene {}: solids and liquids with a shear_modulus run in the fused GPU pipeline only (the \
+             binned and report pipelines carry no deformation gradient); drop solver.pipeline = \"{}\" (or \
+             --pipeline), or use a CPU backend",
             scene.source,
             scene.pipeline.name()
         );
@@ -66,9 +67,13 @@ impl DeviceState {
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
-        let solids = scene.has_solids();
-        let per_particle_state =
-            STATE_BYTES_PER_PARTICLE + if solids { DEFORMATION_BYTES_PER_PARTICLE } else { 0 };
+        let deformed = scene.has_deformation();
+        let per_particle_state = STATE_BYTES_PER_PARTICLE
+            + if deformed {
+                DEFORMATION_BYTES_PER_PARTICLE
+            } else {
+                0
+            };
         let needed = n * (BYTES_PER_PARTICLE + per_particle_state - STATE_BYTES_PER_PARTICLE)
             + nodes
                 * (BYTES_PER_NODE
@@ -105,10 +110,10 @@ impl DeviceState {
         // break's p2g ran 4 % slower with the grid allocated before the particles).
         let colliders = DeviceColliders::allocate(stream)?;
         let node_blocks = NodeBlockList::allocate(stream, if binned { bins.num_bins() } else { 0 })?;
-        let particles = DeviceParticles::allocate(stream, n, solids)?;
+        let particles = DeviceParticles::allocate(stream, n, deformed)?;
         let bin_order = if bin_order {
             Some(BinOrder {
-                spare: DeviceParticles::allocate(stream, n, solids)?,
+                spare: DeviceParticles::allocate(stream, n, deformed)?,
                 swapped: false,
             })
         } else {

@@ -51,10 +51,10 @@ pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
     if scene.flow.is_active() {
         bail!("emitters and sinks do not run on several ranks yet: run this scene on one rank");
     }
-    if scene.has_solids() {
+    if scene.has_deformation() {
         bail!(
-            "solids do not run on several ranks yet (a migrant carries no deformation gradient): run this \
-             scene on one rank or GPU"
+            "solids and liquids with a shear_modulus do not run on several ranks yet (a migrant carries \
+             no deformation gradient): run this scene on one rank or GPU"
         );
     }
     let params = scene.params();

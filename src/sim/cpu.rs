@@ -299,6 +299,12 @@ pub fn p2g_particle(
     let stress = mat.stress(pressure, c, rho);
     // (mv)_i += w [m_p v + (m_p dx C - 4 dt V / dx sigma) d]
     let affine = c * (m_p * dx) - stress * (4.0 * dt * volume / dx);
+    if let Some(d) = deformation.filter(|_| mat.is_elastoviscoplastic()) {
+        // The yield stress's elastic part, deviatoric, over the rest volume as a solid's.
+        let elastic = solid::kirchhoff_stress(mat, d.f, d.plastic);
+        let affine = affine - elastic * (4.0 * dt * (m_p / mat.rest_density) / dx);
+        return (rho, v * m_p, affine);
+    }
     (rho, v * m_p, affine)
 }
 
@@ -486,9 +492,9 @@ pub fn g2p_with_backstop(
     }
 }
 
-/// A solid particle's deformation after g2p gave it velocity gradient `c`: F_E carried over the
-/// substep, F <- (I + dt C) F, then its law's return mapping ([`solid::plastic_return`]); nothing
-/// for a liquid's or where the scene has no solid (`deformation` `None`). Returns what it advanced.
+/// A particle's deformation after g2p gave it velocity gradient `c`: F_E carried over the substep,
+/// F <- (I + dt C) F, then its law's return mapping ([`solid::plastic_return`]); nothing for a row
+/// that carries none or where no row does (`deformation` `None`). Returns what it advanced.
 #[inline(always)]
 pub fn advance_deformation<'d>(
     params: &Params,
@@ -498,7 +504,7 @@ pub fn advance_deformation<'d>(
 ) -> Option<&'d Deformation> {
     let d = deformation?;
     let mat = Material::of(params, material);
-    if mat.is_solid() {
+    if mat.carries_deformation() {
         let trial = (Mat3::IDENTITY + c * params.dt) * d.f;
         (d.f, d.plastic) = solid::plastic_return(mat, trial, d.plastic);
     }

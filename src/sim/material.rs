@@ -46,9 +46,10 @@ pub trait MaterialTable {
     /// The rows in use.
     fn rows(&self) -> &[Material];
 
-    /// Whether any row is a solid's: then the particles carry their deformation.
-    fn has_solids(&self) -> bool {
-        self.rows().iter().any(Material::is_solid)
+    /// Whether any row carries a deformation (a solid's, or an elastoviscoplastic liquid's): then
+    /// every particle has one.
+    fn has_deformation(&self) -> bool {
+        self.rows().iter().any(Material::carries_deformation)
     }
 
     /// Whether the rest densities differ (`sim::params::gathers_volume`).
@@ -113,6 +114,22 @@ impl Material {
         super::solid::is_solid(self.law)
     }
 
+    /// Whether the row is a Herschel-Bulkley liquid's with the elastic regularisation: its
+    /// particles carry the elastic part of their deformation, whose deviatoric stress bears the
+    /// yield stress (`solid::yield_return`), beside the liquid's pressure and its viscous stress
+    /// K gammadot^(n - 1).
+    #[inline(always)]
+    pub fn is_elastoviscoplastic(&self) -> bool {
+        self.law == LAW_HERSCHEL_BULKLEY && self.shear_modulus > 0.0
+    }
+
+    /// Whether the row's particles carry a deformation: a solid's or an elastoviscoplastic
+    /// liquid's.
+    #[inline(always)]
+    pub fn carries_deformation(&self) -> bool {
+        super::solid::carries_deformation(self.law, self.shear_modulus)
+    }
+
     /// Row `index` of `params`' table (row 0 in a scene of one material, whatever the index).
     #[inline(always)]
     pub fn of(params: &super::params::Params, index: u8) -> &Material {
@@ -174,7 +191,9 @@ impl Material {
     }
 
     /// The viscosity at velocity gradient `c`: the constant one of a Newtonian liquid, else the law's
-    /// at the shear rate [`shear_rate`], held within [min_viscosity, max_viscosity].
+    /// at the shear rate [`shear_rate`], held within [min_viscosity, max_viscosity]. An
+    /// elastoviscoplastic liquid's yield stress is its elastic part's, not its viscosity's: it
+    /// takes K gammadot^(n - 1) alone.
     pub fn effective_viscosity(&self, c: Mat3) -> f32 {
         if self.law == LAW_NEWTONIAN {
             return self.viscosity;
@@ -188,7 +207,19 @@ impl Material {
                 let thinning = power(1.0 + power(self.relaxation_time * rate, a), (n - 1.0) / a);
                 self.min_viscosity + (self.viscosity - self.min_viscosity) * thinning
             }
-            LAW_HERSCHEL_BULKLEY => self.viscosity * power(rate, n - 1.0) + self.yield_stress / rate,
+            LAW_HERSCHEL_BULKLEY => {
+                let viscosity = self.viscosity * power(rate, n - 1.0);
+                let yield_stress = if self.shear_modulus > 0.0 {
+                    0.0
+                } else {
+                    self.yield_stress
+                };
+                if yield_stress > 0.0 {
+                    viscosity + yield_stress / rate
+                } else {
+                    viscosity
+                }
+            }
             _ => self.viscosity,
         };
         viscosity.max(self.min_viscosity).min(self.max_viscosity)
@@ -208,22 +239,28 @@ impl Material {
     }
 
     /// Sound speed at rest, c0 = sqrt(k gamma / rho0); a solid's P-wave speed, sqrt((lambda + 2
-    /// mu) / rho0), unhardened ([`super::solid::solid_wave_speed`] gives a particle's own).
+    /// mu) / rho0), unhardened ([`super::solid::solid_wave_speed`] gives a particle's own); an
+    /// elastoviscoplastic liquid's as [`Material::sound_speed_at`] says.
     pub fn sound_speed(&self) -> f32 {
-        if self.is_solid() {
-            return ((self.lame_lambda + 2.0 * self.shear_modulus) / self.rest_density).sqrt();
-        }
-        (self.eos_stiffness * self.eos_power / self.rest_density).sqrt()
+        self.sound_speed_at(self.rest_density)
     }
 
     /// Sound speed at density `rho`: c0 (rho/rho0)^((gamma-1)/2), from dp/drho of the Tait law; a
-    /// solid's whatever its density.
+    /// solid's whatever its density. An elastoviscoplastic liquid's elastic part stiffens it:
+    /// sqrt(c^2 + 4 mu / (3 rho0)), the P-wave speed of bulk modulus rho0 c^2 and shear modulus mu
+    /// (`material_elastic_signal_speed` in kernels/material.cuh).
     pub fn sound_speed_at(&self, rho: f32) -> f32 {
         if self.is_solid() {
-            return self.sound_speed();
+            return ((self.lame_lambda + 2.0 * self.shear_modulus) / self.rest_density).sqrt();
         }
         let ratio = (rho / self.rest_density).max(0.0);
-        self.sound_speed() * power(ratio, 0.5 * (self.eos_power - 1.0))
+        let at_rest = (self.eos_stiffness * self.eos_power / self.rest_density).sqrt();
+        let sound = at_rest * power(ratio, 0.5 * (self.eos_power - 1.0));
+        if self.is_elastoviscoplastic() {
+            (sound * sound + 4.0 * self.shear_modulus / (3.0 * self.rest_density)).sqrt()
+        } else {
+            sound
+        }
     }
 
     /// The signal speed of the CFL bound, c(rho) + speed.

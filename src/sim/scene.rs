@@ -106,20 +106,22 @@ pub struct Particles {
     pub material: Vec<u8>,
     /// False for a parked slot (see `sim::flow`): no part of the fluid, kept for its index.
     pub live: Vec<bool>,
-    /// Each slot's deformation where the scene has a solid (`Params::has_solids`), else empty: a
-    /// scene of liquids carries none. The slots of liquids hold the rest state and nothing reads it.
+    /// Each slot's deformation where a material carries one (`Params::has_deformation`: a solid, or
+    /// an elastoviscoplastic liquid), else empty. The slots of other liquids hold the rest state and
+    /// nothing reads it.
     pub deformation: Vec<Deformation>,
 }
 
-/// A solid particle's deformation (docs/physics.md, "Solids"): the elastic part of its deformation
-/// gradient, and the one plastic scalar its law keeps.
+/// A solid particle's deformation (docs/physics.md, "Solids"), or an elastoviscoplastic liquid's
+/// ("Yield stress"): the elastic part of its deformation gradient, and the one plastic scalar its
+/// law keeps.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Deformation {
     /// F_E, the elastic part of the deformation gradient (all of it for an elastic solid).
     pub f: glam::Mat3,
     /// Snow: J_p, the plastic part's volume ratio (1 at rest). Sand: the log-volume the return
-    /// mapping took out in expansion (0 at rest). Elastic solids: 0, unused.
+    /// mapping took out in expansion (0 at rest). Elastic solids and liquids: 0, unused.
     pub plastic: f32,
 }
 
@@ -357,9 +359,15 @@ impl Scene {
     }
 
     /// The first row of the material table: the scene's only material where it has one.
-    /// Whether any material of the table is a solid: then the particles carry their deformation.
+    /// Whether any material of the table is a solid: the viewer draws its particles as spheres.
     pub fn has_solids(&self) -> bool {
         self.materials.iter().any(|m| m.law.is_solid())
+    }
+
+    /// Whether any material carries a deformation (a solid, or an elastoviscoplastic liquid): then
+    /// every particle has one (`Particles::deformation`).
+    pub fn has_deformation(&self) -> bool {
+        self.materials.iter().any(|m| m.law.carries_deformation())
     }
 
     pub fn material(&self) -> &Material {

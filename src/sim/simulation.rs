@@ -412,8 +412,9 @@ impl Simulation {
         let mut bound = self.params.signal_speed(extremes.max_density, extremes.max_speed);
         // A solid's wave speed follows its own state (snow hardens as it compacts), not the density
         // the liquids' bound pairs with the speed: its particles' own signal speeds bound it. (A
-        // liquid's own signal is never above the pairing, so this changes nothing for liquids.)
-        if self.params.has_solids() && extremes.max_signal_speed > bound {
+        // liquid's own signal, an elastoviscoplastic one's included, is never above the pairing, so
+        // this changes nothing for liquids.)
+        if self.params.has_deformation() && extremes.max_signal_speed > bound {
             bound = extremes.max_signal_speed;
         }
         self.advective = extremes.max_speed > bound - extremes.max_speed;

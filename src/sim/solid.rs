@@ -8,12 +8,17 @@
 //! J_p = det F_P for snow (1 at rest), the log-volume correction for sand (0 at rest), unused by the
 //! elastic laws ([`rest_plastic`]). Each substep the solver advects F (F_trial = (I + dt C) F) and
 //! calls [`plastic_return`]; the particle then scatters [`kirchhoff_stress`] of the result.
+//!
+//! A Herschel-Bulkley liquid with the elastic regularisation (a `shear_modulus`,
+//! [`carries_deformation`]) carries one too: the isochoric elastic part of its deformation, whose
+//! deviatoric stress bears the yield stress (von Mises, [`yield_return`]); its pressure and viscous
+//! stress stay the liquid's (docs/physics.md, "Yield stress").
 
 use super::params::Material;
 use super::svd::{svd3_cols, times_transpose, Cols};
 use crate::contract::{
-    FIRST_SOLID_LAW, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW, SNOW_MAX_HARDENING, SNOW_MIN_HARDENING,
-    SOLID_MIN_STRETCH as MIN_STRETCH, SOLID_MIN_VOLUME as MIN_VOLUME,
+    FIRST_SOLID_LAW, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_SAND, LAW_SNOW, SNOW_MAX_HARDENING,
+    SNOW_MIN_HARDENING, SOLID_MIN_STRETCH as MIN_STRETCH, SOLID_MIN_VOLUME as MIN_VOLUME,
 };
 use glam::Mat3;
 
@@ -21,6 +26,13 @@ use glam::Mat3;
 /// instead of a pressure.
 pub fn is_solid(law: u32) -> bool {
     law >= FIRST_SOLID_LAW
+}
+
+/// Whether a row of `law` with shear modulus `shear_modulus` carries a deformation gradient: a
+/// solid's, or a Herschel-Bulkley liquid's with the elastic regularisation (a shear modulus), whose
+/// yield stress its elastic part bears.
+pub fn carries_deformation(law: u32, shear_modulus: f32) -> bool {
+    is_solid(law) || (law == LAW_HERSCHEL_BULKLEY && shear_modulus > 0.0)
 }
 
 /// Lame's shear modulus mu and first parameter lambda, Pa, of Young's modulus `young` (Pa) and
@@ -67,12 +79,17 @@ fn hardening(law: u32, xi: f32, plastic: f32) -> f32 {
 }
 
 /// The plasticity of a substep: the elastic part F_E of the advected `f_trial`, and the plastic
-/// scalar after it. The elastic laws return both unchanged; snow and sand as [`plastic_law`] says.
+/// scalar after it. The elastic laws return both unchanged; snow and sand as [`plastic_law`] says,
+/// a yield-stress liquid as [`yield_return`] says.
 pub fn plastic_return(mat: &Material, f_trial: Mat3, plastic: f32) -> (Mat3, f32) {
+    let mut f = f_trial.to_cols_array_2d();
+    if mat.law == LAW_HERSCHEL_BULKLEY {
+        yield_return(mat.shear_modulus, mat.yield_stress, &mut f);
+        return (Mat3::from_cols_array_2d(&f), plastic);
+    }
     if mat.law != LAW_SNOW && mat.law != LAW_SAND {
         return (f_trial, plastic);
     }
-    let mut f = f_trial.to_cols_array_2d();
     let plastic = plastic_law(
         mat.law,
         mat.lame_lambda,
@@ -177,10 +194,39 @@ fn plastic_law(
     0.0
 }
 
+/// The elastic regularisation of a yield-stress liquid (`solid_yield_return` in kernels/solid.cuh):
+/// replaces `f` (F_trial = U Sigma V^T) by its isochoric elastic part, returned to the von Mises
+/// yield surface. With eps = ln |sigma| (|sigma| at least [`MIN_STRETCH`]) and eps_hat its
+/// deviatoric part, the liquid's elastic stress is s = 2 mu eps_hat ([`stress_law`]), whose
+/// equivalent shear stress sqrt(s:s / 2) = sqrt(2) mu |eps_hat| may not pass the yield stress
+/// tau_y: where |eps_hat| > tau_y / (sqrt(2) mu), eps_hat shrinks along itself onto that radius
+/// (the radial return of perfect plasticity; the liquid's viscous stress, in parallel, carries the
+/// Herschel-Bulkley K gammadot^n). F_E = U exp(eps_hat) V^T: det F_E = 1 always, for the volume is
+/// the liquid's, which its density and equation of state follow.
+pub fn yield_return(mu: f32, yield_stress: f32, f: &mut Cols) {
+    let (u, sigma, v) = svd3_cols(f);
+    let hat = deviatoric_strain(&sigma);
+    let norm = (hat[0] * hat[0] + hat[1] * hat[1] + hat[2] * hat[2]).sqrt();
+    let limit = yield_stress / (std::f32::consts::SQRT_2 * mu);
+    let shrink = if norm > limit { limit / norm } else { 1.0 };
+    let stretch = hat.map(|h| (shrink * h).exp());
+    *f = compose(&u, &stretch, &v);
+}
+
+/// The deviatoric Hencky strain of singular values `sigma`: ln |sigma| (|sigma| at least
+/// [`MIN_STRETCH`]) less a third of its trace.
+fn deviatoric_strain(sigma: &[f32; 3]) -> [f32; 3] {
+    let eps = sigma.map(|s| s.abs().max(MIN_STRETCH).ln());
+    let mean = (eps[0] + eps[1] + eps[2]) / 3.0;
+    eps.map(|e| e - mean)
+}
+
 /// The Kirchhoff stress tau = P F^T = J sigma of elastic deformation `f` with plastic scalar
-/// `plastic`, Pa: what a particle scatters, times its rest volume. Zero for a liquid's law.
+/// `plastic`, Pa: what a particle scatters, times its rest volume. A yield-stress liquid's is the
+/// deviatoric part its elastic regularisation adds to its pressure and viscous stress; zero for a
+/// row that carries no deformation.
 pub fn kirchhoff_stress(mat: &Material, f: Mat3, plastic: f32) -> Mat3 {
-    if !is_solid(mat.law) {
+    if !carries_deformation(mat.law, mat.shear_modulus) {
         return Mat3::ZERO;
     }
     Mat3::from_cols_array_2d(&stress_law(
@@ -214,6 +260,8 @@ fn determinant(f: &Cols) -> f32 {
 /// - Sand: St. Venant-Kirchhoff in Hencky strain (Klar et al. 2016): tau = U (2 mu eps +
 ///   lambda tr(eps) I) U^T, eps = ln |Sigma| (|sigma| at least [`MIN_STRETCH`], as in the return
 ///   mapping).
+/// - A yield-stress liquid's elastic part: its deviator alone, s = U (2 mu eps_hat) U^T, eps_hat
+///   the deviatoric part of eps ([`yield_return`]).
 fn stress_law(law: u32, mu: f32, lambda: f32, xi: f32, plastic: f32, f: &Cols) -> Cols {
     let mut tau = [[0.0f32; 3]; 3];
     if law == LAW_NEO_HOOKEAN {
@@ -230,10 +278,14 @@ fn stress_law(law: u32, mu: f32, lambda: f32, xi: f32, plastic: f32, f: &Cols) -
         return tau;
     }
     let (u, sigma, v) = svd3_cols(f);
-    if law == LAW_SAND {
-        let eps = sigma.map(|s| s.abs().max(MIN_STRETCH).ln());
-        let trace = eps[0] + eps[1] + eps[2];
-        let principal = eps.map(|e| 2.0 * mu * e + lambda * trace);
+    if law == LAW_SAND || law == LAW_HERSCHEL_BULKLEY {
+        let principal = if law == LAW_SAND {
+            let eps = sigma.map(|s| s.abs().max(MIN_STRETCH).ln());
+            let trace = eps[0] + eps[1] + eps[2];
+            eps.map(|e| 2.0 * mu * e + lambda * trace)
+        } else {
+            deviatoric_strain(&sigma).map(|h| 2.0 * mu * h)
+        };
         for (c, column) in tau.iter_mut().enumerate() {
             for (r, entry) in column.iter_mut().enumerate() {
                 *entry = u[0][r] * principal[0] * u[0][c]
@@ -356,6 +408,67 @@ mod tests {
             kirchhoff_stress(&solid(LAW_NEWTONIAN), Mat3::IDENTITY * 1.1, 0.0),
             Mat3::ZERO
         );
+    }
+
+    /// The elastic part of a yield-stress liquid (G = 1e5 Pa, tau_y = 800 Pa: the yield radius
+    /// |eps_hat| = tau_y / (sqrt(2) G) = 5.7e-3): its volume dropped (det F_E = 1), its deviatoric
+    /// strain kept below the yield stress and returned along itself onto the radius past it, where
+    /// the stress's equivalent shear sqrt(s:s / 2) is then tau_y.
+    #[test]
+    fn a_yield_stress_liquid_returns_to_its_yield_surface() {
+        let (mu, tau) = (1.0e5f32, 800.0f32);
+        let mat = Material {
+            rest_density: 1000.0,
+            law: LAW_HERSCHEL_BULKLEY,
+            shear_modulus: mu,
+            yield_stress: tau,
+            ..Default::default()
+        };
+        let radius = tau / (std::f32::consts::SQRT_2 * mu);
+        let mut rng = Xorshift(0x9e1d_5e55);
+        for k in 0..60 {
+            let times = [0.3f32, 0.9, 1.5, 4.0][k % 4];
+            let direction = Vec3::new(rng.next(), rng.next(), rng.next());
+            let deviator = direction - Vec3::splat(direction.element_sum() / 3.0);
+            let eps = deviator.normalize() * (times * radius) + Vec3::splat(0.01 * rng.next());
+            let f = with_strains(&mut rng, eps);
+            let (elastic, plastic) = plastic_return(&mat, f, 0.0);
+            assert_eq!(plastic, 0.0);
+            assert!(
+                (elastic.determinant() - 1.0).abs() < 1e-5,
+                "case {k}: det F_E = {}",
+                elastic.determinant()
+            );
+            let (length, trace) = deviator_and_trace(strains(elastic));
+            let expected = times.min(1.0) * radius;
+            assert!(trace.abs() < 1e-5, "case {k}: volume strain {trace}");
+            assert!(
+                (length - expected).abs() < 1e-3 * radius,
+                "case {k}: |eps_hat| = {length} where {expected} ({times} of the radius)"
+            );
+            // Along itself: the returned principal strains are the trial's deviator, scaled.
+            let trial = strains(f);
+            let trial_deviator = trial - Vec3::splat(trial.element_sum() / 3.0);
+            let returned = strains(elastic);
+            let gap = (returned - trial_deviator * (expected / trial_deviator.length()))
+                .abs()
+                .max_element();
+            assert!(
+                gap < 1e-3 * radius,
+                "case {k}: returned {returned}, trial {trial_deviator}"
+            );
+            let s = kirchhoff_stress(&mat, elastic, plastic);
+            let squares: f32 = s.to_cols_array().iter().map(|x| x * x).sum();
+            let shear = (0.5 * squares).sqrt();
+            assert!(
+                (shear - times.min(1.0) * tau).abs() < 2e-3 * tau,
+                "case {k}: equivalent shear stress {shear} Pa, {times} of tau_y = {tau}"
+            );
+            assert!(
+                (s.x_axis.x + s.y_axis.y + s.z_axis.z).abs() < 1e-3 * tau,
+                "case {k}: the elastic part's stress has a trace"
+            );
+        }
     }
 
     #[test]

@@ -1,7 +1,7 @@
-//! What the liquids' checks share: a run on any backend, and the power-law films of
-//! tests/materials.rs at any resolution, on the CPU in CI at 10 cells across (tests/materials.rs),
-//! finer on the GPU (tests/gpu_materials.rs), where the viscous limit's substeps at a fine cell cost
-//! seconds.
+//! What the liquids' checks share: a run on any backend, and the power-law films and the slump
+//! test of tests/materials.rs at any resolution, on the CPU in CI at a coarse cell
+//! (tests/materials.rs), finer on the GPU (tests/gpu_materials.rs), where the substeps of a fine
+//! cell cost seconds.
 #![allow(dead_code)]
 
 use glam::Vec3;
@@ -12,6 +12,19 @@ use super::common;
 
 /// Standard gravity, m/s^2.
 pub const G: f32 = 9.81;
+
+/// The value below which a fraction `q` of `values` lie (nearest rank).
+pub fn quantile(mut values: Vec<f32>, q: f32) -> f32 {
+    values.sort_by(f32::total_cmp);
+    let rank = ((values.len() - 1) as f32 * q).round() as usize;
+    values[rank]
+}
+
+/// The particles' volume at rest per unit width of the slab, m^2: what a 2D analysis calls the
+/// area A. Each particle of a body stands for dx^3 / ppc of liquid at rest.
+pub fn area(count: usize, dx: f32, ppc: f32, thickness: f32) -> f32 {
+    count as f32 * dx * dx * dx / ppc / thickness
+}
 
 /// `scene` on `backend`.
 pub fn simulation(scene: &Scene, backend: BackendKind) -> Simulation {
@@ -185,4 +198,144 @@ pub fn film(backend: BackendKind, cells: u32, law: FilmLaw) -> (f32, f32) {
         }
     }
     result
+}
+
+// ---------------------------------------------------------------------------------------------
+// The slump test
+// ---------------------------------------------------------------------------------------------
+
+/// What an axisymmetric slump measured at its end ([`axisymmetric_slump`]).
+pub struct Slump {
+    pub dx: f32,
+    /// The runout over Roussel and Coussot's, less 1.
+    pub runout_error: f32,
+    /// How far the front moved in the last second, m.
+    pub moved: f32,
+    /// The kinetic energy left, over its peak.
+    pub energy_left: f64,
+}
+
+impl Slump {
+    /// At rest (kinetic energy below 1e-6 of its peak, the front moving less than a cell in the
+    /// last second), its runout within 10 % of Roussel and Coussot's.
+    pub fn assert_at_rest_at_its_runout(&self) {
+        assert!(
+            self.energy_left < 1e-6,
+            "the kinetic energy is {:.2e} of its peak (1e-6 allowed)",
+            self.energy_left
+        );
+        assert!(
+            self.moved.abs() < self.dx,
+            "the front moved {} m in the last second (a cell is {} m)",
+            self.moved,
+            self.dx
+        );
+        assert!(
+            self.runout_error.abs() < 0.10,
+            "the runout is {:+.1} % from Roussel and Coussot's (10 % allowed)",
+            100.0 * self.runout_error
+        );
+    }
+}
+
+/// The slump test of rheometry: 1 L of a Bingham liquid (Herschel-Bulkley with n = 1: yield stress
+/// 50 Pa, plastic viscosity 2 Pa s, 1000 kg/m^3, the elastic regularisation with a shear modulus of
+/// 5000 Pa), a cylinder 5 cm in radius and 12.7 cm high on a no-slip floor, released; at cell `dx`
+/// (1 cm, or a whole fraction of it). It spreads and comes to rest where its yield stress holds it,
+/// and in that spread regime (the pancake far wider than high) its radius is Roussel and Coussot's
+/// (2005, "Fifty-cent rheometer for yield stress measurements"): R^5 = 225 rho g V^2 /
+/// (128 pi^2 tau_y), 0.128 m for these. The run holds a quarter of it: the cylinder's axis is the
+/// corner of the low x and z walls, whose mirror makes each a plane of symmetry. Runs 6 s and
+/// prints what it measured every second; the volume V counts the particles (each dx^3 / 8 at rest),
+/// the radius is the 99.9th percentile of the particles' distance from the axis.
+///
+/// The plastic viscosity keeps the slump slow (a Reynolds number rho U h / K near 10), as the
+/// theory, which has no inertia, assumes. Measured on an H200 (2026-11-28) after 6 s, for K = 2, 5,
+/// 10, 20 Pa s: at 1 cm -4.7, -6.1, -6.0, -5.7 %; at 5 mm +1.6, -0.9, -0.3, -0.4 %; at 2.5 mm +7.7,
+/// +4.6, +5.1, +2.4 %; at rest by 6 s (kinetic energy under 1e-6 of its peak) only at K = 2, the
+/// others still spreading by a millimetre or two a second. The height at the centre is 20 to 45 %
+/// under the shallow theory's sqrt(2 tau_y R / (rho g)) (not asserted): the mound is flatter there
+/// than the theory, which holds where the layer is thin.
+pub fn axisymmetric_slump(backend: BackendKind, dx: f32) -> Slump {
+    let (rho, tau, plastic_viscosity, shear_modulus) = (1000.0f32, 50.0f32, 2.0f32, 5000.0f32);
+    let per_coarse_cell = (0.01 / dx).round();
+    assert!(
+        (per_coarse_cell * dx - 0.01).abs() < 1e-6,
+        "the slump's cell divides 1 cm, not {dx} m"
+    );
+    let (radius, volume) = (0.05f32, 1.0e-3f32);
+    let height = volume / (std::f32::consts::PI * radius * radius);
+    let cells = |metres: f32| (metres / dx).round() as u32;
+    let side = cells(0.16) as f32 * dx + 2.0 * dx;
+    let mut toml = format!(
+        "[domain]\nsize = [{side}, {}, {side}]\nresolution = [{}, {}, {}]\n\
+         [material]\nlaw = \"herschel-bulkley\"\nrest_density = {rho}\nsound_speed = 10.0\n\
+         consistency = {plastic_viscosity}\nyield_stress = {tau}\nshear_modulus = {shear_modulus}\n\
+         [time_step]\ncfl = 0.4\n{}",
+        cells(0.2) as f32 * dx,
+        cells(side),
+        cells(0.2),
+        cells(side),
+        no_slip_floor(side, side, dx)
+    );
+    // The quarter cylinder, a column of cells at a time: each x column of cells reaches in z to the
+    // cells whose centres lie within the radius.
+    let top = dx + cells(height) as f32 * dx;
+    for i in 0..cells(radius) {
+        let x = (i as f32 + 0.5) * dx;
+        let reach = cells((radius * radius - x * x).sqrt());
+        if reach > 0 {
+            toml += &format!(
+                "[[block]]\nmin = [{}, {dx}, {dx}]\nmax = [{}, {top}, {}]\nparticles_per_cell = 8\n",
+                dx + i as f32 * dx,
+                dx + (i + 1) as f32 * dx,
+                dx + reach as f32 * dx
+            );
+        }
+    }
+    let scene = common::scene(&toml);
+    let mut sim = simulation(&scene, backend);
+    let count = particles(&mut sim).num_live();
+    let v = 4.0 * count as f32 * dx * dx * dx / 8.0;
+    let runout = (225.0 * rho * G * v * v / (128.0 * std::f32::consts::PI.powi(2) * tau)).powf(0.2);
+    println!(
+        "slump test at dx = {dx} m: V = {:.3} L, tau_y = {tau} Pa, K = {plastic_viscosity} Pa s, G = {shear_modulus} Pa, \
+         Roussel and Coussot's radius {runout:.4} m",
+        1e3 * v
+    );
+    let axis = dx;
+    let front = |p: &Particles| {
+        quantile(
+            p.x.iter()
+                .map(|x| ((x.x - axis).powi(2) + (x.z - axis).powi(2)).sqrt())
+                .collect(),
+            0.999,
+        )
+    };
+    let (seconds, frames_per_second) = (6u64, 60u64);
+    let mut peak = 0.0f64;
+    let mut fronts = Vec::new();
+    let mut energy = 0.0f64;
+    for second in 1..=seconds {
+        for _ in 0..frames_per_second {
+            let stats = sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+            energy = stats.summary.kinetic_energy;
+            peak = peak.max(energy);
+        }
+        fronts.push(front(&particles(&mut sim)));
+        println!(
+            "  t = {second} s: radius {:.4} m ({:+.1} %), kinetic energy {energy:.3e} J ({:.2e} of its peak), {} substeps a frame",
+            fronts.last().unwrap(),
+            100.0 * (fronts.last().unwrap() / runout - 1.0),
+            energy / peak,
+            sim.next_frame_steps().unwrap().0
+        );
+    }
+    let measured = fronts[fronts.len() - 1];
+    Slump {
+        dx,
+        runout_error: measured / runout - 1.0,
+        moved: measured - fronts[fronts.len() - 2],
+        energy_left: energy / peak,
+    }
 }

@@ -100,7 +100,7 @@ impl Scene {
                 particles.material.push(body.material);
             }
         }
-        if self.has_solids() {
+        if self.has_deformation() {
             let at_rest = |row: u8| Deformation::at_rest(self.materials[usize::from(row)].law.law);
             particles.deformation = particles.material.iter().map(|&row| at_rest(row)).collect();
             particles.deformation.resize(slots, at_rest(0));

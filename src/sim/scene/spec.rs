@@ -133,8 +133,10 @@ pub enum LawSpec {
     PowerLaw,
     /// mu = mu_inf + (mu_0 - mu_inf) (1 + (lambda gammadot)^a)^((n - 1) / a): blood, polymer solutions.
     CarreauYasuda,
-    /// mu = K gammadot^(n - 1) + tau_y / gammadot up to a ceiling (bi-viscous): mud, ketchup, lava;
-    /// Bingham where n = 1.
+    /// A yield stress tau_y, then K gammadot^n: mud, ketchup, lava; Bingham where n = 1.
+    /// Regularised bi-viscous (mu = K gammadot^(n - 1) + tau_y / gammadot up to `max_viscosity`)
+    /// or elastic (a `shear_modulus`: the yield stress borne by an elastic part, which lets the
+    /// liquid come to rest).
     HerschelBulkley,
     /// An elastic solid, fixed-corotated (Stomakhin et al. 2012): a jelly.
     FixedCorotated,
@@ -209,8 +211,11 @@ pub struct MaterialSpec {
     /// Herschel-Bulkley: tau_y, Pa.
     pub yield_stress: Option<f32>,
     /// The ceiling of the effective viscosity, Pa s (power law, Herschel-Bulkley, Carreau-Yasuda
-    /// where n > 1): the regularisation, and what the viscous limit on the substep follows.
+    /// where n > 1): the bi-viscous regularisation, and what the viscous limit on the substep follows.
     pub max_viscosity: Option<f32>,
+    /// Herschel-Bulkley: the shear modulus G, Pa, of the elastic regularisation in place of the
+    /// bi-viscous one: the particles carry an elastic strain whose stress bears the yield stress.
+    pub shear_modulus: Option<f32>,
     /// The floor, Pa s: the power law's at high rates; Carreau-Yasuda's mu_inf.
     pub min_viscosity: Option<f32>,
     /// Carreau-Yasuda: lambda, s.

@@ -421,12 +421,13 @@ impl Validator<'_> {
     fn law(&self, key: &str, m: &MaterialSpec, material: &mut Material) -> Result<(), SceneError> {
         let k = |field: &str| format!("{key}.{field}");
         let law_name = m.law.name();
-        let given: [(&str, Option<f32>); 15] = [
+        let given: [(&str, Option<f32>); 16] = [
             ("viscosity", m.viscosity),
             ("consistency", m.consistency),
             ("flow_index", m.flow_index),
             ("yield_stress", m.yield_stress),
             ("max_viscosity", m.max_viscosity),
+            ("shear_modulus", m.shear_modulus),
             ("min_viscosity", m.min_viscosity),
             ("relaxation_time", m.relaxation_time),
             ("transition_exponent", m.transition_exponent),
@@ -552,6 +553,7 @@ impl Validator<'_> {
         };
         material.flow_index = get("flow_index", 1.0);
         material.yield_stress = get("yield_stress", 0.0);
+        material.shear_modulus = get("shear_modulus", 0.0);
         material.min_viscosity = get("min_viscosity", 0.0);
         material.relaxation_time = get("relaxation_time", 0.0);
         material.transition_exponent = get("transition_exponent", 2.0);
@@ -566,6 +568,7 @@ impl Validator<'_> {
                     "give the largest viscosity the liquid may reach, in Pa s",
                 )
             })?,
+            LawSpec::HerschelBulkley => self.yield_regularisation(key, m, material)?,
             _ => get("max_viscosity", f32::INFINITY),
         };
         if material.min_viscosity > material.max_viscosity {
@@ -586,6 +589,39 @@ impl Validator<'_> {
             ));
         }
         Ok(())
+    }
+
+    /// A Herschel-Bulkley liquid's ceiling on its viscosity, given its regularisation: bi-viscous
+    /// (`max_viscosity`, the ceiling of K gammadot^(n - 1) + tau_y / gammadot) or elastic
+    /// (`shear_modulus`; the viscosity K gammadot^(n - 1) alone, whose ceiling is K at n = 1 and
+    /// must be given otherwise, as a power law's).
+    fn yield_regularisation(
+        &self,
+        key: &str,
+        m: &MaterialSpec,
+        material: &Material,
+    ) -> Result<f32, SceneError> {
+        let k = |field: &str| format!("{key}.{field}");
+        match (m.max_viscosity, m.shear_modulus) {
+            (Some(ceiling), _) => Ok(ceiling),
+            (None, Some(_)) if material.flow_index == 1.0 => Ok(material.viscosity),
+            (None, Some(_)) => Err(self.err(
+                k("max_viscosity"),
+                format!(
+                    "is missing: with flow_index = {} the viscosity K gammadot^(n - 1) beside the \
+                     elastic part has no bound of its own",
+                    material.flow_index
+                ),
+                "give the largest viscosity the liquid may reach, in Pa s (it sets the viscous limit on the substep)",
+            )),
+            (None, None) => Err(self.err(
+                k("max_viscosity"),
+                "is missing: law = \"herschel-bulkley\" needs a regularisation of its yield stress",
+                "give max_viscosity (Pa s: bi-viscous, a Newtonian liquid of that viscosity below the yield \
+                 stress, which creeps) or shear_modulus (Pa: elastic below the yield stress, which comes to \
+                 rest; docs/physics.md, \"Yield stress\")",
+            )),
+        }
     }
 
     /// The row of the material a body or emitter names (`key`): the only one where the scene has one
@@ -912,6 +948,18 @@ impl Validator<'_> {
                 "name a liquid, or place the solid as a [[block]] or [[sphere]] with a velocity",
             ));
         }
+        if row.law.carries_deformation() {
+            return Err(self.err(
+                key("material"),
+                format!(
+                    "names \"{}\", a liquid with shear_modulus: its particles carry an elastic strain, \
+                     which an emitter does not give them",
+                    row.name
+                ),
+                "pour it with the bi-viscous regularisation (max_viscosity in place of shear_modulus), or \
+                 place it as a [[block]] or [[sphere]]",
+            ));
+        }
         Ok(Emitter {
             nozzle,
             center,
@@ -1222,8 +1270,8 @@ fn law_parameters(law: LawSpec) -> (&'static [&'static str], &'static [&'static 
             &["min_viscosity", "max_viscosity", "transition_exponent"],
         ),
         LawSpec::HerschelBulkley => (
-            &["consistency", "yield_stress", "max_viscosity"],
-            &["flow_index", "min_viscosity"],
+            &["consistency", "yield_stress"],
+            &["flow_index", "min_viscosity", "max_viscosity", "shear_modulus"],
         ),
         LawSpec::FixedCorotated | LawSpec::NeoHookean => (&["youngs_modulus", "poisson_ratio"], &[]),
         LawSpec::Snow => (
@@ -1244,7 +1292,7 @@ fn law_parameter_unit(field: &str) -> &'static str {
         "consistency" => "Pa s^n",
         "yield_stress" => "Pa",
         "relaxation_time" => "s",
-        "youngs_modulus" => "Pa",
+        "youngs_modulus" | "shear_modulus" => "Pa",
         "friction_angle" => "degrees",
         _ => "a plain number",
     }
