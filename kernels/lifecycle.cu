@@ -64,8 +64,8 @@ extern "C" __global__ void __launch_bounds__(1024) settle_free(u32* __restrict__
 // as the reference does). A point past the stack's end counts as exhausted. Where the grid already
 // holds the next substep's mass (g2p2g or one_pass scattered it), the new particles' mass is added,
 // rounded as the tiles round, and their node blocks listed; under the fused pipeline (whose one_pass
-// scattered the momentum too) so is their momentum, m_p u: at rest density with C = 0 a particle's
-// stress impulse is zero. Otherwise the next scatter covers them.
+// scattered the momentum too) so is their momentum, m_p u: at rest density with C = 0 and its
+// deformation at rest a particle's stress impulse is zero. Otherwise the next scatter covers them.
 extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const KernelParams params, const u32 mask,
     const float4* __restrict__ points,      // xyz, w = the emitter's index as bits
@@ -77,6 +77,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const u32* __restrict__ position,       // per slot: its place in the particle arrays
     const u32* __restrict__ free_slots, FlowCounters* __restrict__ flow,
     float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
+    float4* __restrict__ deformation,  // null where no material carries one
     const u32 scatter_mass, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum,
     u32* block_marks, u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
     __shared__ u32 scan[1024];
@@ -134,6 +135,14 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             v[p] = u;
             for (int col = 0; col < 3; ++col) c[(size_t)col * n + p] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
             rho[p] = mat.rest_density;
+            if (deformation) {
+                // At rest, whatever the slot held before it was drained.
+                Deformation rest;
+                for (int col = 0; col < 3; ++col)
+                    for (int row = 0; row < 3; ++row) rest.f[col][row] = col == row ? 1.0f : 0.0f;
+                rest.plastic = solid_rest_plastic(mat.law);
+                store_deformation(deformation, n, p, rest);
+            }
             last[g] = slot;
             if (scatter_mass) {
                 const Stencil s = make_stencil(xp, params);

@@ -369,3 +369,43 @@ fn a_pipe_drives_its_liquid_at_the_nozzle_s_speed_and_holds_a_viscous_rope() {
         "without a pipe the rope falls freely: {free:?}"
     );
 }
+
+/// An emitter of a liquid that carries a deformation (a yield-stress liquid regularised elastically)
+/// gives each particle it emits the deformation at rest, whatever its slot held: a slot drained
+/// from a deformed particle must not pass that strain on.
+#[test]
+fn an_emitted_particle_starts_undeformed_whatever_its_slot_held() {
+    let scene = common::scene(common::ELASTIC_MUD_JET);
+    assert!(scene.has_deformation());
+    let mut p = scene.spawn();
+    let stale = mpm::sim::Deformation {
+        f: glam::Mat3::from_diagonal(glam::Vec3::new(1.2, 0.9, 1.0)),
+        plastic: 0.0,
+    };
+    p.deformation.iter_mut().for_each(|d| *d = stale);
+    let parked: Vec<bool> = p.live.iter().map(|&live| !live).collect();
+    let mut lifecycle =
+        mpm::sim::flow::Lifecycle::new(&scene, FlowState::start(&scene.flow, scene.num_particles));
+    lifecycle.emit(
+        mpm::sim::flow::Slots {
+            x: &mut p.x,
+            v: &mut p.v,
+            c: &mut p.c,
+            rho: &mut p.rho,
+            material: &mut p.material,
+            live: &mut p.live,
+            deformation: &mut p.deformation,
+        },
+        1,
+    );
+    let emitted: Vec<usize> = (0..p.len()).filter(|&i| parked[i] && p.live[i]).collect();
+    assert!(!emitted.is_empty(), "nothing was emitted");
+    assert_eq!(emitted.len() as u64, lifecycle.state.counts.emitted);
+    for i in emitted {
+        assert_eq!(
+            p.deformation[i],
+            mpm::sim::Deformation::at_rest(scene.materials[0].law.law),
+            "slot {i} kept the strain it held"
+        );
+    }
+}

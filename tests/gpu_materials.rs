@@ -30,6 +30,7 @@ fn main() -> std::process::ExitCode {
             the_honey_preset_s_rope_coils,
             an_elastoviscoplastic_mud_follows_the_cpu,
             an_elastoviscoplastic_mud_in_fixed_point_is_byte_identical,
+            an_emitted_mud_particle_starts_undeformed_as_on_the_cpu,
             the_slump_test_at_5_and_2_5_mm_comes_to_rest_at_its_runout,
         ],
     )
@@ -284,6 +285,46 @@ fn the_slump_test_at_5_and_2_5_mm_comes_to_rest_at_its_runout() {
         materials_checks::axisymmetric_slump(mpm::backend::BackendKind::Cuda, dx)
             .assert_at_rest_at_its_runout();
     }
+}
+
+/// An emitter of the elastoviscoplastic mud on the GPU, from a state whose every slot holds a
+/// strain (as a slot drained from a deformed particle does): the particles it emits start
+/// undeformed, the rest keep what they held, and the emission is the CPU's, slot for slot.
+fn an_emitted_mud_particle_starts_undeformed_as_on_the_cpu() {
+    use mpm::sim::flow::{FlowState, Lifecycle, Slots};
+    let scene = common::scene(common::ELASTIC_MUD_JET);
+    let mut particles = scene.spawn();
+    let stale = mpm::sim::Deformation {
+        f: glam::Mat3::from_diagonal(Vec3::new(1.2, 0.9, 1.0)),
+        plastic: 0.0,
+    };
+    particles.deformation.iter_mut().for_each(|d| *d = stale);
+    let state = FlowState::start(&scene.flow, scene.num_particles);
+    let mut gpu = CudaSolver::restore(&scene, &particles, Some(&state), CudaOptions::default()).unwrap();
+    gpu.emit(&common::cfl_params(&scene), 1).unwrap();
+    let on_gpu = gpu.read_particles().unwrap();
+    let mut lifecycle = Lifecycle::new(&scene, state);
+    let p = &mut particles;
+    lifecycle.emit(
+        Slots {
+            x: &mut p.x,
+            v: &mut p.v,
+            c: &mut p.c,
+            rho: &mut p.rho,
+            material: &mut p.material,
+            live: &mut p.live,
+            deformation: &mut p.deformation,
+        },
+        1,
+    );
+    let emitted = lifecycle.state.counts.emitted;
+    println!("{emitted} particles emitted");
+    assert!(emitted > 0, "nothing was emitted");
+    assert_eq!(on_gpu.live, particles.live, "the GPU emitted into other slots");
+    assert!(
+        on_gpu.deformation == particles.deformation,
+        "an emitted particle's deformation differs from the CPU's (at rest)"
+    );
 }
 
 fn several_liquids_in_fixed_point_are_byte_identical() {

@@ -100,22 +100,6 @@ fn cases() -> Vec<(&'static str, String, &'static str, &'static str)> {
             "emitter[0].material",
             "an emitter pours liquids",
         ),
-        (
-            "an emitter of a liquid with shear_modulus",
-            liquids(
-                &format!(
-                    "{}{}",
-                    entry("water", ""),
-                    entry("mud", "law = \"herschel-bulkley\"\nconsistency = 2.0\nyield_stress = 50.0\nshear_modulus = 1.0e4\n")
-                ),
-                &format!(
-                    "{}[particles]\ncapacity = 20000\n[[emitter]]\nmaterial = \"mud\"\nshape = \"disc\"\nparticles_per_cell = 8\ncenter = [0.1, 0.15, 0.1]\nnormal = [0.0, -1.0, 0.0]\nradius = 0.02\nspeed = 1.0\n",
-                    block_of(0, "water")
-                ),
-            ),
-            "emitter[0].material",
-            "max_viscosity in place of shear_modulus",
-        ),
         // The yield stress's regularisation (docs/physics.md, "Yield stress").
         (
             "herschel-bulkley without a regularisation",

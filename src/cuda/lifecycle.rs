@@ -55,7 +55,8 @@ impl LifecycleKernels {
         let (p, g) = (&d.particles, &d.grid);
         let scatter_mass = u32::from(scatter_mass);
         // SAFETY: arguments match emit_particles in kernels/lifecycle.cu; the point buffers hold
-        // num_points entries, the particle buffers every slot, `free` the capacity.
+        // num_points entries, the particle buffers every slot (the deformation's, or null where the
+        // scene has none), `free` the capacity.
         unsafe {
             self.emit.launch(l, ONE_BLOCK, |a| {
                 a.arg(&params.kernel)
@@ -70,6 +71,7 @@ impl LifecycleKernels {
                     .arg(&flow.free)
                     .arg(&flow.counters)
                     .particle_state(p)
+                    .deformation(p)
                     .arg(&scatter_mass)
                     .accumulators(g)
                     .node_block_list(d);

@@ -935,6 +935,7 @@ impl Solver for CpuSolver {
             rho: &mut p.rho,
             material: &mut p.material,
             live: &mut p.live,
+            deformation: &mut p.deformation,
         };
         lifecycle.emit(slots, mask);
         Ok(())

@@ -213,6 +213,9 @@ pub struct Lifecycle {
     pub spacing: f32,
     /// Per row of the material table, its rest density: an emitted particle's first density.
     pub rest_densities: Vec<f32>,
+    /// Per row, its deformation at rest, where a row carries one (`Scene::has_deformation`; empty
+    /// otherwise): an emitted particle's first, whatever its slot held before.
+    pub rest_deformations: Vec<super::scene::Deformation>,
 }
 
 impl Lifecycle {
@@ -223,6 +226,15 @@ impl Lifecycle {
             state,
             spacing: scene.lattice().spacing as f32,
             rest_densities: scene.materials.iter().map(|m| m.law.rest_density).collect(),
+            rest_deformations: if scene.has_deformation() {
+                scene
+                    .materials
+                    .iter()
+                    .map(|m| super::scene::Deformation::at_rest(m.law.law))
+                    .collect()
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -245,6 +257,7 @@ impl Lifecycle {
             mask,
             self.spacing,
             &self.rest_densities,
+            &self.rest_deformations,
         );
     }
 }
@@ -260,6 +273,8 @@ pub struct Slots<'a> {
     pub rho: &'a mut [f32],
     pub material: &'a mut [u8],
     pub live: &'a mut [bool],
+    /// Empty where no material carries a deformation.
+    pub deformation: &'a mut [super::scene::Deformation],
 }
 
 /// One emission: each point of each emitter in `mask`, in order, that is not blocked takes the top
@@ -272,6 +287,7 @@ pub fn emit(
     mask: u32,
     spacing: f32,
     rest_densities: &[f32],
+    rest_deformations: &[super::scene::Deformation],
 ) {
     state.settle();
     let clearance_sq = (CLEARANCE * spacing) * (CLEARANCE * spacing);
@@ -306,6 +322,9 @@ pub fn emit(
         slots.v[s] = velocity;
         slots.c[s] = glam::Mat3::ZERO;
         slots.rho[s] = rest_densities[usize::from(material)];
+        if let Some(deformation) = slots.deformation.get_mut(s) {
+            *deformation = rest_deformations[usize::from(material)];
+        }
         slots.material[s] = material;
         slots.live[s] = true;
         state.last[point] = slot;

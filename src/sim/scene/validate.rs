@@ -948,18 +948,6 @@ impl Validator<'_> {
                 "name a liquid, or place the solid as a [[block]] or [[sphere]] with a velocity",
             ));
         }
-        if row.law.carries_deformation() {
-            return Err(self.err(
-                key("material"),
-                format!(
-                    "names \"{}\", a liquid with shear_modulus: its particles carry an elastic strain, \
-                     which an emitter does not give them",
-                    row.name
-                ),
-                "pour it with the bi-viscous regularisation (max_viscosity in place of shear_modulus), or \
-                 place it as a [[block]] or [[sphere]]",
-            ));
-        }
         Ok(Emitter {
             nozzle,
             center,
