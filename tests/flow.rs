@@ -375,7 +375,7 @@ fn a_pipe_drives_its_liquid_at_the_nozzle_s_speed_and_holds_a_viscous_rope() {
 /// from a deformed particle must not pass that strain on.
 #[test]
 fn an_emitted_particle_starts_undeformed_whatever_its_slot_held() {
-    let scene = common::scene(common::ELASTIC_MUD_JET);
+    let scene = common::scene(&common::elastic_mud_jet());
     assert!(scene.has_deformation());
     let mut p = scene.spawn();
     let stale = mpm::sim::Deformation {
@@ -386,18 +386,7 @@ fn an_emitted_particle_starts_undeformed_whatever_its_slot_held() {
     let parked: Vec<bool> = p.live.iter().map(|&live| !live).collect();
     let mut lifecycle =
         mpm::sim::flow::Lifecycle::new(&scene, FlowState::start(&scene.flow, scene.num_particles));
-    lifecycle.emit(
-        mpm::sim::flow::Slots {
-            x: &mut p.x,
-            v: &mut p.v,
-            c: &mut p.c,
-            rho: &mut p.rho,
-            material: &mut p.material,
-            live: &mut p.live,
-            deformation: &mut p.deformation,
-        },
-        1,
-    );
+    lifecycle.emit(mpm::sim::flow::Slots::of(&mut p), 1);
     let emitted: Vec<usize> = (0..p.len()).filter(|&i| parked[i] && p.live[i]).collect();
     assert!(!emitted.is_empty(), "nothing was emitted");
     assert_eq!(emitted.len() as u64, lifecycle.state.counts.emitted);

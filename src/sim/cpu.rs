@@ -927,17 +927,7 @@ impl Solver for CpuSolver {
         let Some(lifecycle) = &mut self.lifecycle else {
             anyhow::bail!("this solver has no emitters");
         };
-        let p = &mut self.particles;
-        let slots = Slots {
-            x: &mut p.x,
-            v: &mut p.v,
-            c: &mut p.c,
-            rho: &mut p.rho,
-            material: &mut p.material,
-            live: &mut p.live,
-            deformation: &mut p.deformation,
-        };
-        lifecycle.emit(slots, mask);
+        lifecycle.emit(Slots::of(&mut self.particles), mask);
         Ok(())
     }
 

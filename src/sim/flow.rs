@@ -277,6 +277,21 @@ pub struct Slots<'a> {
     pub deformation: &'a mut [super::scene::Deformation],
 }
 
+impl<'a> Slots<'a> {
+    /// The slots of `particles`.
+    pub fn of(particles: &'a mut super::Particles) -> Slots<'a> {
+        Slots {
+            x: &mut particles.x,
+            v: &mut particles.v,
+            c: &mut particles.c,
+            rho: &mut particles.rho,
+            material: &mut particles.material,
+            live: &mut particles.live,
+            deformation: &mut particles.deformation,
+        }
+    }
+}
+
 /// One emission: each point of each emitter in `mask`, in order, that is not blocked takes the top
 /// free slot; whether a point is blocked is judged on the state before the emission. The reference of
 /// kernels/lifecycle.cu's `emit_particles`; the CPU backends call it as it is.

@@ -237,31 +237,14 @@ speed = 1.5
     )
 }
 
-/// A tank of a yield-stress liquid regularised elastically (its particles carry a deformation), a
-/// block of it on the floor and a jet of it from an emitter: the emitters' checks of a deformation.
-pub const ELASTIC_MUD_JET: &str = r#"
-[domain]
-size = [0.4, 0.3, 0.2]
-resolution = [20, 15, 10]
-[material]
-law = "herschel-bulkley"
-rest_density = 1000.0
-sound_speed = 10.0
-consistency = 1.0
-yield_stress = 20.0
-shear_modulus = 2000.0
-[particles]
-capacity = 40000
-[[block]]
-min = [0.02, 0.02, 0.02]
-max = [0.36, 0.08, 0.16]
-[[emitter]]
-shape = "disc"
-center = [0.05, 0.2, 0.1]
-normal = [1.0, 0.5, 0.0]
-radius = 0.02
-speed = 1.5
-"#;
+/// [`jet_tank`] of a yield-stress liquid regularised elastically, whose particles carry a
+/// deformation: the emitters' checks of a deformation.
+pub fn elastic_mud_jet() -> String {
+    jet_tank(40_000, "").replace(
+        "sound_speed = 10.0\n",
+        "sound_speed = 10.0\nlaw = \"herschel-bulkley\"\nconsistency = 1.0\nyield_stress = 20.0\nshear_modulus = 2000.0\n",
+    )
+}
 
 /// The nozzle speed, the nozzle's height and the pipe's length of [`piped_rope`], m/s and m.
 pub const ROPE_SPEED: f32 = 0.05;
