@@ -300,9 +300,11 @@ __device__ __forceinline__ void store_deformation(float4* deformation, u32 n, u3
 
 // g2p's update of a particle's deformation from its new velocity gradient C (c[column]): F carried over
 // the substep, F <- (I + dt C) F, then its law's return mapping (solid.cuh). `advance_deformation` in
-// src/sim/cpu.rs, with glam's order: column j of A F is ((A_0 F_0j + A_1 F_1j) + A_2 F_2j).
-__device__ __forceinline__ void advance_deformation(const KernelParams& params, const Material& mat,
-                                                    const float4 (&c)[3], Deformation& d) {
+// src/sim/cpu.rs, with glam's order: column j of A F is ((A_0 F_0j + A_1 F_1j) + A_2 F_2j). Returns
+// whether the law has a return mapping, which then wrote the Kirchhoff stress of the result into tau
+// (solid_plastic_return).
+__device__ __forceinline__ bool advance_deformation(const KernelParams& params, const Material& mat,
+                                                    const float4 (&c)[3], Deformation& d, float (&tau)[3][3]) {
     const float dt = params.dt;
     const float a[3][3] = {{1.0f + c[0].x * dt, c[0].y * dt, c[0].z * dt},
                            {c[1].x * dt, 1.0f + c[1].y * dt, c[1].z * dt},
@@ -312,18 +314,34 @@ __device__ __forceinline__ void advance_deformation(const KernelParams& params, 
     for (int col = 0; col < 3; ++col) {
         for (int row = 0; row < 3; ++row) d.f[col][row] = a[0][row] * f[col][0] + a[1][row] * f[col][1] + a[2][row] * f[col][2];
     }
-    d.plastic = solid_plastic_return(mat, d.f, d.plastic);
+    d.plastic = solid_plastic_return(mat, d.f, d.plastic, tau);
+    return solid_has_return(mat.law);
+}
+
+// The Kirchhoff stress of deformation d: `given` where the pass's return mapping wrote it from its own
+// decomposition (advance_deformation; null otherwise), else its law's of d.
+__device__ __forceinline__ void deformed_stress(const Material& mat, const Deformation& d, const float (*given)[3],
+                                                float (&tau)[3][3]) {
+    if (given) {
+#pragma unroll
+        for (int c = 0; c < 3; ++c)
+#pragma unroll
+            for (int r = 0; r < 3; ++r) tau[c][r] = given[c][r];
+    } else {
+        solid_kirchhoff_stress(mat, d.f, d.plastic, tau);
+    }
 }
 
 // What a solid particle scatters (p2g_particle in src/sim/cpu.rs): its law's Kirchhoff stress tau =
-// J sigma over its rest volume V0 = m_p / rho0, as V sigma = V0 tau, in place of the liquids'
-// pressure and viscous stress: affine = m_p dx C - (4 dt V0 / dx) tau.
+// J sigma (deformed_stress) over its rest volume V0 = m_p / rho0, as V sigma = V0 tau, in place of
+// the liquids' pressure and viscous stress: affine = m_p dx C - (4 dt V0 / dx) tau.
 __device__ __forceinline__ ParticleImpulse solid_impulse(const KernelParams& params, const Material& mat, float4 vp,
-                                                         float4 c0, float4 c1, float4 c2, const Deformation& d) {
+                                                         float4 c0, float4 c1, float4 c2, const Deformation& d,
+                                                         const float (*given)[3]) {
     const float m_p = mat.particle_mass;
     const float dx = params.dx;
     float tau[3][3];
-    solid_kirchhoff_stress(mat, d.f, d.plastic, tau);
+    deformed_stress(mat, d, given, tau);
     const float cm[3][3] = {{c0.x, c0.y, c0.z}, {c1.x, c1.y, c1.z}, {c2.x, c2.y, c2.z}};
     const float stress_factor = 4.0f * params.dt * (m_p / mat.rest_density) / dx;
     ParticleImpulse out;
@@ -339,14 +357,15 @@ __device__ __forceinline__ ParticleImpulse solid_impulse(const KernelParams& par
 
 // What a particle that carries a deformation scatters (p2g_particle in src/sim/cpu.rs): a solid's
 // (solid_impulse), or an elastoviscoplastic liquid's: the liquid's pressure and viscous stress, then
-// its elastic part's deviatoric Kirchhoff stress over its rest volume as a solid's.
+// its elastic part's deviatoric Kirchhoff stress over its rest volume as a solid's. `given`: the
+// stress the pass's return mapping wrote, or null (deformed_stress).
 __device__ __forceinline__ ParticleImpulse deformed_impulse(const KernelParams& params, const Material& mat, float rho,
                                                             float4 vp, float4 c0, float4 c1, float4 c2,
-                                                            const Deformation& d) {
-    if (solid_is_solid(mat.law)) return solid_impulse(params, mat, vp, c0, c1, c2, d);
+                                                            const Deformation& d, const float (*given)[3]) {
+    if (solid_is_solid(mat.law)) return solid_impulse(params, mat, vp, c0, c1, c2, d, given);
     ParticleImpulse out = particle_impulse<true>(params, rho, vp, c0, c1, c2);
     float elastic[3][3];
-    solid_kirchhoff_stress(mat, d.f, d.plastic, elastic);
+    deformed_stress(mat, d, given, elastic);
     const float stress_factor = 4.0f * params.dt * (mat.particle_mass / mat.rest_density) / params.dx;
     for (int col = 0; col < 3; ++col) {
         for (int row = 0; row < 3; ++row) out.affine[col][row] -= elastic[col][row] * stress_factor;

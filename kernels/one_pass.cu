@@ -200,6 +200,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             float4 vp, c0, c1, c2;
             Deformation d;          // (SOLIDS) advanced by the gather, scattered from
             bool deformed = false;  // whether the particle's material carries a deformation
+            float tau[3][3];        // the gather's return mapping's stress of d, where `returned`
+            bool returned = false;
             if (gather) {
                 GridDensity density;
                 const float tag = MATERIALS ? particle_material_tag(params, v, p) : 0.0f;
@@ -221,7 +223,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
                     deformed = material_carries_deformation(mat);
                     if (deformed) {
                         d = load_deformation(deformation, n, p);
-                        advance_deformation(params, mat, r.c, d);
+                        returned = advance_deformation(params, mat, r.c, d, tau);
                         r.signal = deformed_signal_speed(mat, rho_p, r.speed, d);
                     }
                 }
@@ -261,7 +263,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             }
             const ParticleImpulse q =
                 SOLIDS && deformed
-                    ? deformed_impulse(params, material_table[material_index(params, vp)], rho_p, vp, c0, c1, c2, d)
+                    ? deformed_impulse(params, material_table[material_index(params, vp)], rho_p, vp, c0, c1, c2, d,
+                                       returned ? tau : nullptr)
                     : particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;

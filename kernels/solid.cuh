@@ -44,10 +44,52 @@ __device__ __forceinline__ void solid_compose(const float (&u)[3][3], const floa
             out[c][r] = u[0][r] * s[0] * v[0][c] + u[1][r] * s[1] * v[1][c] + u[2][r] * s[2] * v[2][c];
 }
 
+// U diag(principal) U^T (`principal_stress`).
+__device__ __forceinline__ void solid_principal_stress(const float (&u)[3][3], const float (&principal)[3],
+                                                       float (&tau)[3][3]) {
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r)
+            tau[c][r] = u[0][r] * principal[0] * u[0][c] + u[1][r] * principal[1] * u[1][c] +
+                        u[2][r] * principal[2] * u[2][c];
+}
+
+// U (2 mu eps + lambda tr(eps) I) U^T (`hencky_stress`).
+__device__ __forceinline__ void solid_hencky_stress(float mu, float lambda, const float (&u)[3][3],
+                                                    const float (&eps)[3], float (&tau)[3][3]) {
+    const float trace = eps[0] + eps[1] + eps[2];
+    float principal[3];
+#pragma unroll
+    for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * eps[i] + lambda * trace;
+    solid_principal_stress(u, principal, tau);
+}
+
+// 2 mu (F - R) F^T + lambda (J - 1) J I of f = U diag(sigma) V^T (`corotated_stress`).
+__device__ __forceinline__ void solid_corotated_stress(float mu, float lambda, const float (&u)[3][3],
+                                                       const float (&sigma)[3], const float (&v)[3][3],
+                                                       const float (&f)[3][3], float (&tau)[3][3]) {
+    float rotation[3][3];
+    svd_times_transpose(u, v, rotation);
+    const float volume = sigma[0] * sigma[1] * sigma[2];
+    const float pressure = lambda * (volume - 1.0f) * volume;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) {
+            const float shear = (f[0][r] - rotation[0][r]) * f[0][c] + (f[1][r] - rotation[1][r]) * f[1][c] +
+                                (f[2][r] - rotation[2][r]) * f[2][c];
+            tau[c][r] = 2.0f * mu * shear;
+            if (r == c) tau[c][r] += pressure;
+        }
+}
+
 // Snow's or sand's return mapping (`plastic_law` in src/sim/solid.rs, which gives the formulas):
-// replaces f (F_trial) by F_E and returns the plastic scalar after it.
+// replaces f (F_trial) by F_E, writes the Kirchhoff stress of F_E from the same decomposition into
+// tau, and returns the plastic scalar after it.
 __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu, float theta_c, float theta_s,
-                                                float alpha, float cohesion, float plastic, float (&f)[3][3]) {
+                                                float xi, float alpha, float cohesion, float plastic,
+                                                float (&f)[3][3], float (&tau)[3][3]) {
     float u[3][3], sigma[3], v[3][3];
     svd3(f, u, sigma, v);
     if (law == LAW_SNOW) {
@@ -55,10 +97,15 @@ __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu,
         float clamped[3];
 #pragma unroll
         for (int i = 0; i < 3; ++i) clamped[i] = fminf(fmaxf(sigma[i], lowest), highest);
-        if (clamped[0] == sigma[0] && clamped[1] == sigma[1] && clamped[2] == sigma[2]) return plastic;
-        const float ratio = fabsf(sigma[0] * sigma[1] * sigma[2]) / (clamped[0] * clamped[1] * clamped[2]);
-        solid_compose(u, clamped, v, f);
-        return plastic * ratio;
+        float returned = plastic;
+        if (!(clamped[0] == sigma[0] && clamped[1] == sigma[1] && clamped[2] == sigma[2])) {
+            const float ratio = fabsf(sigma[0] * sigma[1] * sigma[2]) / (clamped[0] * clamped[1] * clamped[2]);
+            solid_compose(u, clamped, v, f);
+            returned = plastic * ratio;
+        }
+        const float scale = solid_hardening(law, xi, returned);
+        solid_corotated_stress(mu * scale, lambda * scale, u, clamped, v, f, tau);
+        return returned;
     }
     float eps[3];
 #pragma unroll
@@ -66,9 +113,12 @@ __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu,
     const float sum = eps[0] + eps[1] + eps[2];
     const float trace = sum + plastic;
     if (trace >= cohesion) {
-        const float tip = expf(cohesion / 3.0f);
+        const float third = cohesion / 3.0f;
+        const float tip = expf(third);
         const float stretch[3] = {tip, tip, tip};
         solid_compose(u, stretch, v, f);
+        const float at_tip[3] = {third, third, third};
+        solid_hencky_stress(mu, lambda, u, at_tip, tau);
         return trace - cohesion;
     }
     const float mean = sum / 3.0f;
@@ -77,13 +127,20 @@ __device__ __noinline__ float solid_plastic_law(u32 law, float lambda, float mu,
     for (int i = 0; i < 3; ++i) hat[i] = eps[i] - mean;
     const float norm = sqrtf(hat[0] * hat[0] + hat[1] * hat[1] + hat[2] * hat[2]);
     const float excess = norm + (3.0f * lambda + 2.0f * mu) / (2.0f * mu) * (trace - cohesion) * alpha;
-    if (excess <= 0.0f && plastic == 0.0f && sigma[2] >= SOLID_MIN_STRETCH) return plastic;
+    if (excess <= 0.0f && plastic == 0.0f && sigma[2] >= SOLID_MIN_STRETCH) {
+        solid_hencky_stress(mu, lambda, u, eps, tau);
+        return plastic;
+    }
     const float shrink = excess > 0.0f ? 1.0f - excess / norm : 1.0f;
     const float third = trace / 3.0f;
-    float stretch[3];
+    float returned[3], stretch[3];
 #pragma unroll
-    for (int i = 0; i < 3; ++i) stretch[i] = expf(third + shrink * hat[i]);
+    for (int i = 0; i < 3; ++i) {
+        returned[i] = third + shrink * hat[i];
+        stretch[i] = expf(returned[i]);
+    }
     solid_compose(u, stretch, v, f);
+    solid_hencky_stress(mu, lambda, u, returned, tau);
     return 0.0f;
 }
 
@@ -98,8 +155,9 @@ __device__ __forceinline__ void solid_deviatoric_strain(const float (&sigma)[3],
 }
 
 // An elastoviscoplastic liquid's return to the von Mises yield surface (`yield_return` in
-// src/sim/solid.rs, which gives the formulas): replaces f (F_trial) by its isochoric elastic part.
-__device__ __noinline__ void solid_yield_return(float mu, float yield_stress, float (&f)[3][3]) {
+// src/sim/solid.rs, which gives the formulas): replaces f (F_trial) by its isochoric elastic part
+// and writes its deviatoric stress from the same decomposition into tau.
+__device__ __noinline__ void solid_yield_return(float mu, float yield_stress, float (&f)[3][3], float (&tau)[3][3]) {
     float u[3][3], sigma[3], v[3][3];
     svd3(f, u, sigma, v);
     float hat[3];
@@ -107,22 +165,36 @@ __device__ __noinline__ void solid_yield_return(float mu, float yield_stress, fl
     const float norm = sqrtf(hat[0] * hat[0] + hat[1] * hat[1] + hat[2] * hat[2]);
     const float limit = yield_stress / (1.41421356237309504880f * mu);
     const float shrink = norm > limit ? limit / norm : 1.0f;
-    float stretch[3];
+    float stretch[3], principal[3];
 #pragma unroll
-    for (int i = 0; i < 3; ++i) stretch[i] = expf(shrink * hat[i]);
+    for (int i = 0; i < 3; ++i) {
+        const float returned = shrink * hat[i];
+        stretch[i] = expf(returned);
+        principal[i] = 2.0f * mu * returned;
+    }
     solid_compose(u, stretch, v, f);
+    solid_principal_stress(u, principal, tau);
 }
 
-// The plasticity of a substep (`plastic_return`): f is F_trial = (I + dt C) F on entry, F_E on
-// return; returns the plastic scalar. The elastic laws (and liquids) make no call.
-__device__ __forceinline__ float solid_plastic_return(const Material& mat, float (&f)[3][3], float plastic) {
+// Whether a row's law has a return mapping: snow, sand and an elastoviscoplastic liquid's elastic
+// part (the others' F_E is F_trial).
+__device__ __forceinline__ bool solid_has_return(u32 law) {
+    return law == LAW_SNOW || law == LAW_SAND || law == LAW_HERSCHEL_BULKLEY;
+}
+
+// The plasticity of a substep (`plastic_return_with_stress`): f is F_trial = (I + dt C) F on entry,
+// F_E on return; returns the plastic scalar, and where the law has a return mapping
+// (solid_has_return) writes the Kirchhoff stress of F_E into tau, from the return's decomposition,
+// for the scatter of the same pass. The elastic laws make no call and leave tau as it was.
+__device__ __forceinline__ float solid_plastic_return(const Material& mat, float (&f)[3][3], float plastic,
+                                                      float (&tau)[3][3]) {
     if (mat.law == LAW_HERSCHEL_BULKLEY) {
-        solid_yield_return(mat.shear_modulus, mat.yield_stress, f);
+        solid_yield_return(mat.shear_modulus, mat.yield_stress, f, tau);
         return plastic;
     }
     if (mat.law != LAW_SNOW && mat.law != LAW_SAND) return plastic;
     return solid_plastic_law(mat.law, mat.lame_lambda, mat.shear_modulus, mat.critical_compression,
-                             mat.critical_stretch, mat.friction_alpha, mat.cohesion, plastic, f);
+                             mat.critical_stretch, mat.hardening, mat.friction_alpha, mat.cohesion, plastic, f, tau);
 }
 
 // det F by the columns' triple product (`determinant`).
@@ -152,44 +224,23 @@ __device__ __noinline__ void solid_stress_law(u32 law, float mu, float lambda, f
     }
     float u[3][3], sigma[3], v[3][3];
     svd3(f, u, sigma, v);
-    if (law == LAW_SAND || law == LAW_HERSCHEL_BULKLEY) {
-        float principal[3];
-        if (law == LAW_SAND) {
-            float eps[3];
+    if (law == LAW_SAND) {
+        float eps[3];
 #pragma unroll
-            for (int i = 0; i < 3; ++i) eps[i] = logf(fmaxf(fabsf(sigma[i]), SOLID_MIN_STRETCH));
-            const float trace = eps[0] + eps[1] + eps[2];
+        for (int i = 0; i < 3; ++i) eps[i] = logf(fmaxf(fabsf(sigma[i]), SOLID_MIN_STRETCH));
+        solid_hencky_stress(mu, lambda, u, eps, tau);
+        return;
+    }
+    if (law == LAW_HERSCHEL_BULKLEY) {
+        float hat[3], principal[3];
+        solid_deviatoric_strain(sigma, hat);
 #pragma unroll
-            for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * eps[i] + lambda * trace;
-        } else {
-            float hat[3];
-            solid_deviatoric_strain(sigma, hat);
-#pragma unroll
-            for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * hat[i];
-        }
-#pragma unroll
-        for (int c = 0; c < 3; ++c)
-#pragma unroll
-            for (int r = 0; r < 3; ++r)
-                tau[c][r] = u[0][r] * principal[0] * u[0][c] + u[1][r] * principal[1] * u[1][c] +
-                            u[2][r] * principal[2] * u[2][c];
+        for (int i = 0; i < 3; ++i) principal[i] = 2.0f * mu * hat[i];
+        solid_principal_stress(u, principal, tau);
         return;
     }
     const float scale = solid_hardening(law, xi, plastic);
-    const float hard_mu = mu * scale, hard_lambda = lambda * scale;
-    float rotation[3][3];
-    svd_times_transpose(u, v, rotation);
-    const float volume = sigma[0] * sigma[1] * sigma[2];
-    const float pressure = hard_lambda * (volume - 1.0f) * volume;
-#pragma unroll
-    for (int c = 0; c < 3; ++c)
-#pragma unroll
-        for (int r = 0; r < 3; ++r) {
-            const float shear = (f[0][r] - rotation[0][r]) * f[0][c] + (f[1][r] - rotation[1][r]) * f[1][c] +
-                                (f[2][r] - rotation[2][r]) * f[2][c];
-            tau[c][r] = 2.0f * hard_mu * shear;
-            if (r == c) tau[c][r] += pressure;
-        }
+    solid_corotated_stress(mu * scale, lambda * scale, u, sigma, v, f, tau);
 }
 
 // tau = P F^T of elastic deformation f with plastic scalar `plastic` (`kirchhoff_stress`), Pa: an

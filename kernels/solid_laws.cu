@@ -28,9 +28,11 @@ extern "C" __global__ void solid_laws_check(u32 count, const float* __restrict__
         for (int c = 0; c < 3; ++c)
 #pragma unroll
             for (int r = 0; r < 3; ++r) elastic[c][r] = fm[c][r];
-        const float returned = solid_plastic_return(mat, elastic, plastic[i]);
+        // The stress of the returned state as the fused pass scatters it: the return mapping's own,
+        // where the law has one, else its law's of F_E.
         float returned_stress[3][3];
-        solid_kirchhoff_stress(mat, elastic, returned, returned_stress);
+        const float returned = solid_plastic_return(mat, elastic, plastic[i], returned_stress);
+        if (!solid_has_return(mat.law)) solid_kirchhoff_stress(mat, elastic, returned, returned_stress);
 
         float* o = out + (size_t)SOLID_LAWS_OUT * i;
 #pragma unroll

@@ -1,8 +1,9 @@
 //! The solids' laws on the GPU against their CPU twins: `svd3` (kernels/svd.cuh, src/sim/svd.rs)
-//! and `plastic_return`, `kirchhoff_stress` and `solid_wave_speed` of every solid law
-//! (kernels/solid.cuh, src/sim/solid.rs), run by kernels/solid_laws.cu over the hard matrices of the
-//! CPU tests. Where no CUDA device and driver are usable, the test is reported as ignored, with the
-//! reason (tests/harness).
+//! and `plastic_return_with_stress` (the return mapping and the stress it gives),
+//! `kirchhoff_stress` and `solid_wave_speed` of every solid law (kernels/solid.cuh,
+//! src/sim/solid.rs), run by kernels/solid_laws.cu over the hard matrices of the CPU tests. Where
+//! no CUDA device and driver are usable, the test is reported as ignored, with the reason
+//! (tests/harness).
 //!
 //! Tolerances: the kernels compute the CPU's expressions in the same order, but NVRTC contracts
 //! a*b+c into fused multiply-adds (tests/gpu_kernels.rs's header), so each side rounds F's products
@@ -25,7 +26,8 @@ use mpm::cuda::solid_laws::{solid_laws_on_device, SolidLawsResult};
 use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::solid::{
-    drucker_prager_alpha, kirchhoff_stress, lame_parameters, plastic_return, rest_plastic, solid_wave_speed,
+    drucker_prager_alpha, kirchhoff_stress, lame_parameters, plastic_return_with_stress, rest_plastic,
+    solid_wave_speed,
 };
 use mpm::sim::svd::svd3;
 use mpm::sim::{Scene, Solver};
@@ -289,9 +291,9 @@ fn check_laws(
         return;
     }
     let amplified = 1e-5 * condition.max(1.0);
-    let (elastic, returned) = plastic_return(mat, f, plastic);
+    let (elastic, returned, return_stress) = plastic_return_with_stress(mat, f, plastic);
     let stress = kirchhoff_stress(mat, f, plastic);
-    let returned_stress = kirchhoff_stress(mat, elastic, returned);
+    let returned_stress = return_stress.unwrap_or_else(|| kirchhoff_stress(mat, elastic, returned));
     let speed = solid_wave_speed(mat, returned);
     let stiffness = |p: f32| {
         let hardening = if mat.law == LAW_SNOW {

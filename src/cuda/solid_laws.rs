@@ -27,7 +27,9 @@ pub struct SolidLawsResult {
     pub plastic: f32,
     /// `kirchhoff_stress(material, F, plastic)`, of the input.
     pub stress: Mat3,
-    /// `kirchhoff_stress(material, elastic, plastic after the return)`.
+    /// The stress of the returned state as the fused pass scatters it: `plastic_return_with_stress`'s
+    /// for a law with a return mapping, else `kirchhoff_stress(material, elastic, plastic after the
+    /// return)`.
     pub returned_stress: Mat3,
     /// `solid_wave_speed(material, plastic after the return)`.
     pub wave_speed: f32,
