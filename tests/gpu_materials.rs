@@ -408,12 +408,14 @@ fn emitters_pour_their_own_liquid() {
 /// from 2.4 s to 4 s, every step 49 to 84 degrees the same way (docs/physics.md, "Pouring a viscous
 /// rope"). A rope that buckled now and then without coiling, or piled straight up, would not turn.
 ///
-/// Known to fail now and then: the preset runs in the float scatter, whose sums' order varies run
-/// to run, and the coiling is chaotic. On an H200 (2026-11-28) it failed 1 of 10 runs, the foot
-/// wandering both ways (1.04 turns in the 1.2 s), where the other nine turned 3.7 to 4.2 times one
-/// way or the other (BENCHMARKS.md M8). Rerun it once before suspecting a change.
+/// In the fixed-point scatter, so that it gives the same turns every run: the preset's own float
+/// scatter sums in an order that varies run to run, and the coiling is chaotic. On an H200
+/// (2026-11-28) the float scatter failed this check 1 of 10 runs, the foot wandering both ways
+/// (1.04 turns in the 1.2 s) where the other nine turned 3.7 to 4.2 times one way or the other; in
+/// fixed point two runs turned -4.12 times each, steps -102 to -38 degrees (BENCHMARKS.md M8).
 fn the_honey_preset_s_rope_coils() {
-    let scene = Scene::load("honey").unwrap();
+    let mut scene = Scene::load("honey").unwrap();
+    scene.scatter = ScatterMode::FixedPoint;
     let emitter = &scene.flow.emitters[0];
     let (axis, speed, dx) = (emitter.center.as_vec3(), emitter.speed, scene.dx);
     let solver = mpm::backend::create(mpm::backend::BackendKind::Cuda, &scene).unwrap();
