@@ -3,8 +3,11 @@
 //! oil's lower rest density switching every pipeline to the density gathered from the grid's volume.
 //! Every pipeline and scatter must follow the reference's trajectory, keep each particle's material,
 //! and run byte for byte again in fixed point (the ranks' check of two liquids is
-//! tests/ranks_checks' `two_liquids_on_ranks_give_one_gpu_s_bits`). Where no CUDA device and driver
-//! are usable, every test is reported as ignored, with the reason (tests/harness).
+//! tests/ranks_checks' `two_liquids_on_ranks_give_one_gpu_s_bits`). The mud regularised
+//! elastically (each particle carrying its deformation) does the same in the fused pipeline, pours
+//! from an emitter as on the CPU, and comes to rest in the slump test at finer cells than CI's. Where
+//! no CUDA device and driver are usable, every test is reported as ignored, with the reason
+//! (tests/harness).
 
 use glam::Vec3;
 use mpm::contract::VOLUME_UNITS_PER_WEIGHT;

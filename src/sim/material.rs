@@ -226,13 +226,16 @@ impl Material {
     }
 
     /// The largest viscosity the law can take, Pa s: what the explicit viscous limit on the substep
-    /// follows.
+    /// follows. An elastoviscoplastic Bingham liquid's (n = 1) is its constant K gammadot^0, held
+    /// within [min_viscosity, max_viscosity] as [`Material::effective_viscosity`] holds it.
     pub fn viscosity_ceiling(&self) -> f32 {
         if self.is_solid() {
             return 0.0;
         }
         if self.law == LAW_NEWTONIAN {
             self.viscosity
+        } else if self.is_elastoviscoplastic() && self.flow_index == 1.0 {
+            self.viscosity.max(self.min_viscosity).min(self.max_viscosity)
         } else {
             self.max_viscosity
         }
@@ -522,6 +525,32 @@ mod tests {
         );
         let inviscid = law(LAW_NEWTONIAN, 0.0, 1.0);
         assert_eq!([inviscid].viscous_dt(dx), f32::INFINITY);
+    }
+
+    /// An elastoviscoplastic Bingham liquid (n = 1, `shear_modulus`) needs no ceiling: the viscous
+    /// limit follows its constant viscosity K, as the viewer's control changes it, within the floor
+    /// and a ceiling where the scene gives them.
+    #[test]
+    fn an_elastic_bingham_liquid_s_ceiling_is_its_consistency() {
+        let mut mud = Material {
+            law: LAW_HERSCHEL_BULKLEY,
+            shear_modulus: 1.0e5,
+            yield_stress: 800.0,
+            ..law(LAW_HERSCHEL_BULKLEY, 50.0, 1.0)
+        };
+        assert_eq!(mud.viscosity_ceiling(), 50.0);
+        assert_eq!(mud.effective_viscosity(simple_shear(3.0)), 50.0);
+        mud.viscosity = 80.0;
+        assert_eq!(mud.viscosity_ceiling(), 80.0);
+        mud.min_viscosity = 100.0;
+        assert_eq!(mud.viscosity_ceiling(), 100.0);
+        assert_eq!(mud.effective_viscosity(simple_shear(3.0)), 100.0);
+        mud.max_viscosity = 60.0;
+        assert_eq!(mud.viscosity_ceiling(), 60.0);
+        // Its yield stress is the elastic part's: no tau_y / gammadot in its viscosity.
+        mud.min_viscosity = 0.0;
+        mud.max_viscosity = f32::INFINITY;
+        assert_eq!(mud.effective_viscosity(simple_shear(0.01)), 80.0);
     }
 
     #[test]

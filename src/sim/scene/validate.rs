@@ -593,8 +593,9 @@ impl Validator<'_> {
 
     /// A Herschel-Bulkley liquid's ceiling on its viscosity, given its regularisation: bi-viscous
     /// (`max_viscosity`, the ceiling of K gammadot^(n - 1) + tau_y / gammadot) or elastic
-    /// (`shear_modulus`; the viscosity K gammadot^(n - 1) alone, whose ceiling is K at n = 1 and
-    /// must be given otherwise, as a power law's).
+    /// (`shear_modulus`; the viscosity K gammadot^(n - 1) alone, constant at n = 1, where it needs
+    /// no ceiling (`Material::viscosity_ceiling` is then K, and follows the viewer's control of K),
+    /// and one given otherwise, as a power law's).
     fn yield_regularisation(
         &self,
         key: &str,
@@ -604,7 +605,7 @@ impl Validator<'_> {
         let k = |field: &str| format!("{key}.{field}");
         match (m.max_viscosity, m.shear_modulus) {
             (Some(ceiling), _) => Ok(ceiling),
-            (None, Some(_)) if material.flow_index == 1.0 => Ok(material.viscosity),
+            (None, Some(_)) if material.flow_index == 1.0 => Ok(f32::INFINITY),
             (None, Some(_)) => Err(self.err(
                 k("max_viscosity"),
                 format!(
