@@ -112,72 +112,6 @@ fn params_of(scene: &Scene) -> Params {
     params
 }
 
-/// `steps` substeps on the CPU reference and the GPU, held together every 100 (the bound of
-/// tests/gpu_kernels.rs: rounding differences grow along the trajectory; a wrong term moves particles
-/// by whole cells), every particle keeping its material, and a deformation where the particles
-/// carry one within 1e-3 of the CPU's (tests/gpu_solids.rs's bound).
-fn follow_cpu(scene: &Scene, steps: usize, what: &str) -> Particles {
-    let params = params_of(scene);
-    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
-    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
-    for step in 1..=steps {
-        cpu.step(&params).unwrap();
-        gpu.step(&params).unwrap();
-        if step % 100 == 0 {
-            let p = gpu.read_particles().unwrap();
-            let (max, rms) = common::position_gap(&p.x, &cpu.particles.x, scene.dx);
-            println!("{what} step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx");
-            assert!(
-                max <= 0.1 && rms <= 0.01,
-                "{what} step {step}: max {max} dx, rms {rms} dx"
-            );
-            assert_eq!(p.material, cpu.particles.material, "{what}: materials differ");
-            assert_eq!(
-                p.deformation.len(),
-                cpu.particles.deformation.len(),
-                "{what}: deformations"
-            );
-            let strain = p
-                .deformation
-                .iter()
-                .zip(&cpu.particles.deformation)
-                .map(|(a, b)| {
-                    (a.f - b.f)
-                        .abs()
-                        .to_cols_array()
-                        .into_iter()
-                        .fold(0.0f32, f32::max)
-                })
-                .fold(0.0f32, f32::max);
-            assert!(
-                strain <= 1e-3,
-                "{what} step {step}: deformation gradients {strain} apart"
-            );
-            let (worst, worst_rho) = p
-                .rho
-                .iter()
-                .zip(&cpu.particles.rho)
-                .map(|(a, b)| (a - b).abs() / b)
-                .enumerate()
-                .fold((0, 0.0f32), |w, (n, e)| if e > w.1 { (n, e) } else { w });
-            assert!(
-                worst_rho <= 1e-3,
-                "{what} step {step}: densities {worst_rho} apart, particle {worst} of row {}: GPU {} against \
-                 CPU {} kg/m^3, at {} (CPU {}) m moving at {} m/s",
-                p.material[worst],
-                p.rho[worst],
-                cpu.particles.rho[worst],
-                p.x[worst],
-                cpu.particles.x[worst],
-                cpu.particles.v[worst].length()
-            );
-        }
-    }
-    let moved = common::max_diff_vec3(&cpu.particles.x, &scene.spawn().x) / scene.dx;
-    assert!(moved > 1.0, "{what}: the liquids did not move ({moved} dx)");
-    gpu.read_particles().unwrap()
-}
-
 /// Every pipeline and scatter: four liquids, the oil's rest density making the density gathered from
 /// the grid's volume.
 ///
@@ -202,7 +136,13 @@ fn every_pipeline_follows_the_cpu_with_several_liquids() {
         for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
             let scene = tank(pipeline, scatter, None);
             assert_eq!(scene.params().volume_density, 1);
-            let p = follow_cpu(&scene, 300, &format!("{pipeline:?} {scatter:?}"));
+            let p = common::follow_cpu(
+                &scene,
+                &params_of(&scene),
+                300,
+                1.0,
+                &format!("{pipeline:?} {scatter:?}"),
+            );
             let rows: Vec<usize> = (0..4)
                 .map(|r| p.material.iter().filter(|&&m| m == r).count())
                 .collect();
@@ -222,7 +162,13 @@ fn each_law_alone_follows_the_cpu() {
                 0,
                 "{name}: one rest density in use"
             );
-            follow_cpu(&scene, 300, &format!("{name} alone, {pipeline:?}"));
+            common::follow_cpu(
+                &scene,
+                &params_of(&scene),
+                300,
+                1.0,
+                &format!("{name} alone, {pipeline:?}"),
+            );
         }
     }
 }
@@ -243,7 +189,13 @@ fn an_elastoviscoplastic_mud_follows_the_cpu() {
     for scatter in [ScatterMode::FixedPoint, ScatterMode::Float] {
         let scene = tank_of(&with_elastic_mud(), Pipeline::Fused, scatter, Some("mud"));
         assert!(scene.has_deformation());
-        let p = follow_cpu(&scene, 300, &format!("elastoviscoplastic mud, {scatter:?}"));
+        let p = common::follow_cpu(
+            &scene,
+            &params_of(&scene),
+            300,
+            1.0,
+            &format!("elastoviscoplastic mud, {scatter:?}"),
+        );
         // At yield, the elastic part's von Mises stress is sqrt(3) tau_y.
         let mud = &scene.materials[2].law;
         assert_eq!(scene.materials[2].name, "mud");

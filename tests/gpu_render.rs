@@ -12,7 +12,9 @@ use mpm::render::capture::{Image, ImageStats};
 use mpm::render::headless::HeadlessGl;
 use mpm::render::offline::RenderOptions;
 use mpm::render::ColourBy;
-use mpm::render::{Colouring, DrawMode, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport};
+use mpm::render::{
+    Colouring, DrawMode, OrbitCamera, ParticleFeed, RenderSettings, Renderer, Transfer, Viewport,
+};
 use mpm::sim::cpu::CpuSolver;
 use mpm::sim::{ParticleView, Push, Scene, Simulation, Solver};
 
@@ -245,6 +247,35 @@ fn surface_render_through_host_copy_matches_reference() {
     assert_close_to_reference(&surface_frame(Transfer::HostCopy), &surface_reference());
 }
 
+/// A preset on the CUDA solver, in a headless GL context of `size`, with the surface draw's settings
+/// and a camera framing its fluid region: what the checks that feed and draw a frame themselves
+/// start from.
+struct SurfaceStage {
+    headless: HeadlessGl,
+    settings: RenderSettings,
+    domain: (Vec3, Vec3),
+    camera: OrbitCamera,
+    sim: Simulation,
+}
+
+fn surface_stage(preset: &str, size: [u32; 2]) -> SurfaceStage {
+    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
+    let scene = Scene::load(preset).expect("preset");
+    let settings =
+        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).expect("settings");
+    let (lo, hi) = scene.fluid_region();
+    let domain = (lo.as_vec3(), hi.as_vec3());
+    let camera = settings.framing(domain.0, domain.1, Viewport::full(size));
+    let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
+    SurfaceStage {
+        headless,
+        settings,
+        domain,
+        camera,
+        sim: Simulation::new(scene, Box::new(solver)),
+    }
+}
+
 /// The surface's thickness pass two ways on the same particles: summed by CUDA from the particles the
 /// interop feed wrote, and blended by GL from the host copy's. GL blends into half floats, rounding
 /// at every splat it adds (11 bits: 0.05 % each); CUDA sums exactly and rounds once. So the two may
@@ -252,15 +283,13 @@ fn surface_render_through_host_copy_matches_reference() {
 /// water.
 fn thickness_summed_by_cuda_is_the_thickness_gl_blends() {
     let size = [960, 540];
-    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
-    let scene = Scene::load("dam-break").expect("preset");
-    let settings =
-        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).expect("settings");
-    let (lo, hi) = scene.fluid_region();
-    let domain = (lo.as_vec3(), hi.as_vec3());
-    let camera = settings.framing(domain.0, domain.1, Viewport::full(size));
-    let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
-    let mut sim = Simulation::new(scene, Box::new(solver));
+    let SurfaceStage {
+        headless,
+        settings,
+        domain,
+        camera,
+        mut sim,
+    } = surface_stage("dam-break", size);
     for _ in 0..30 {
         sim.step_frame().expect("step");
     }
@@ -335,15 +364,13 @@ fn thickness_summed_by_cuda_is_the_thickness_gl_blends() {
 /// would count the solids in), although the jelly drop's 467,200 particles are enough for CUDA's.
 fn solid_rows_arrive_through_interop_and_host_copy() {
     let size = [320, 180];
-    let headless = HeadlessGl::new(size[0], size[1]).expect("headless OpenGL");
-    let scene = Scene::load("jelly-drop").expect("preset");
-    let settings =
-        RenderSettings::for_scene(&scene, DrawMode::Surface, Colouring::Speed, None).expect("settings");
-    let (lo, hi) = scene.fluid_region();
-    let domain = (lo.as_vec3(), hi.as_vec3());
-    let camera = settings.framing(domain.0, domain.1, Viewport::full(size));
-    let solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
-    let mut sim = Simulation::new(scene, Box::new(solver));
+    let SurfaceStage {
+        headless,
+        settings,
+        domain,
+        camera,
+        mut sim,
+    } = surface_stage("jelly-drop", size);
     sim.step_frame().expect("step");
     let expected = sim.solver_mut().read_particles().expect("read back");
     let mut renderer = Renderer::new(headless.gl().clone()).expect("renderer");

@@ -506,3 +506,78 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&s
         "frame 10 resumed on 3 ranks from {split:?} differs from one rank's"
     );
 }
+
+/// `steps` substeps of `scene` at `params` on the CPU reference and the GPU (its fused pipeline
+/// unless the scene names another), held together every 100: positions within 0.1 dx, 0.01 dx rms
+/// (the bound of tests/gpu_kernels.rs: rounding differences grow along the trajectory; a wrong term
+/// moves particles by whole cells), every particle keeping its material, densities within 1e-3, and
+/// a deformation where the particles carry one within 1e-3 of the CPU's (a strain of 1e-3; a wrong
+/// term is a strain of the order of the motion's). Some particle must have moved `moved_dx` cells.
+/// Returns the GPU's particles.
+pub fn follow_cpu(scene: &Scene, params: &Params, steps: usize, moved_dx: f32, what: &str) -> Particles {
+    use mpm::cuda::{CudaOptions, CudaSolver};
+    use mpm::sim::Solver;
+    let mut cpu = CpuSolver::new(scene.spawn(), scene.grid_res);
+    let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();
+    for step in 1..=steps {
+        cpu.step(params).unwrap();
+        gpu.step(params).unwrap();
+        if step % 100 == 0 {
+            let p = gpu.read_particles().unwrap();
+            let (max, rms) = position_gap(&p.x, &cpu.particles.x, scene.dx);
+            assert!(
+                max <= 0.1 && rms <= 0.01,
+                "{what} step {step}: max {max} dx, rms {rms} dx"
+            );
+            assert_eq!(p.material, cpu.particles.material, "{what}: materials differ");
+            assert_eq!(
+                p.deformation.len(),
+                cpu.particles.deformation.len(),
+                "{what}: deformations"
+            );
+            let strain = p
+                .deformation
+                .iter()
+                .zip(&cpu.particles.deformation)
+                .map(|(a, b)| {
+                    (a.f - b.f)
+                        .abs()
+                        .to_cols_array()
+                        .into_iter()
+                        .fold(0.0f32, f32::max)
+                })
+                .fold(0.0f32, f32::max);
+            println!(
+                "{what} step {step}: position error max {max:.3e} dx, rms {rms:.3e} dx; F {strain:.2e} apart"
+            );
+            assert!(
+                strain <= 1e-3,
+                "{what} step {step}: deformation gradients {strain} apart"
+            );
+            let (worst, worst_rho) = p
+                .rho
+                .iter()
+                .zip(&cpu.particles.rho)
+                .map(|(a, b)| (a - b).abs() / b)
+                .enumerate()
+                .fold((0, 0.0f32), |w, (n, e)| if e > w.1 { (n, e) } else { w });
+            assert!(
+                worst_rho <= 1e-3,
+                "{what} step {step}: densities {worst_rho} apart, particle {worst} of row {}: GPU {} against \
+                 CPU {} kg/m^3, at {} (CPU {}) m moving at {} m/s",
+                p.material[worst],
+                p.rho[worst],
+                cpu.particles.rho[worst],
+                p.x[worst],
+                cpu.particles.x[worst],
+                cpu.particles.v[worst].length()
+            );
+        }
+    }
+    let moved = max_diff_vec3(&cpu.particles.x, &scene.spawn().x) / scene.dx;
+    assert!(
+        moved > moved_dx,
+        "{what}: nothing moved {moved_dx} dx ({moved} dx at most)"
+    );
+    gpu.read_particles().unwrap()
+}
