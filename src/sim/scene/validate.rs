@@ -945,7 +945,11 @@ impl Validator<'_> {
         if row.law.is_solid() {
             return Err(self.err(
                 key("material"),
-                format!("names \"{}\", a solid: an emitter pours liquids", row.name),
+                format!(
+                    "names \"{}\", a solid: an emitter pours liquids (solid grains raining onto a pile \
+                     would embed in it without stress)",
+                    row.name
+                ),
                 "name a liquid, or place the solid as a [[block]] or [[sphere]] with a velocity",
             ));
         }
