@@ -47,6 +47,7 @@ fn main() -> std::process::ExitCode {
             blocks_float_and_sink_at_finer_cells,
             snow_and_sand_follow_the_cpu,
             sand_stands_at_its_friction_angle_at_finer_cells,
+            sand_columns_run_out_at_finer_cells,
             a_snowball_breaks_on_a_wall_where_a_jelly_ball_bounces_whole,
         ],
     )
@@ -519,6 +520,35 @@ fn sand_stands_at_its_friction_angle_at_finer_cells() {
             (angle - 30.0).abs() <= 3.0,
             "dx = {dx} m: the bank stands at {angle:.1} degrees, not 30 +- 3"
         );
+    }
+}
+
+/// The sand columns of tests/solids.rs ([`solids_checks::sand_column`], aspect ratios 0.5 and 3)
+/// at 2.5 and 1.25 mm cells against Lube et al. (2005)'s runouts. The low column runs out within
+/// 15 % of theirs at 1.25 mm (2026-11-28, H200: 17 and 7.0 to 7.4 % short at 2.5 and 1.25 mm); the
+/// tall one does not at any cell tried (17 and 21 to 23 % short), and is printed, not asserted: issue
+/// 41 stays open on it (docs/physics.md, "Solids").
+fn sand_columns_run_out_at_finer_cells() {
+    for dx in [0.0025f32, 0.00125] {
+        for (length, height) in [(0.2f32, 0.1f32), (0.08, 0.24)] {
+            let a = height / length;
+            let scene = solids_checks::sand_column(dx, length, height);
+            let mut sim = materials_checks::simulation(&scene, mpm::backend::BackendKind::Cuda);
+            let runout = solids_checks::sand_runout(&mut sim, dx, length, 1.5);
+            let off = runout / solids_checks::lube_runout(a) - 1.0;
+            println!(
+                "dx = {dx} m, a = {a:.2}: runout {runout:.3}, Lube et al. {:.3} ({:+.1} %)",
+                solids_checks::lube_runout(a),
+                100.0 * off
+            );
+            if a < 1.0 && dx < 0.002 {
+                assert!(
+                    off.abs() < 0.15,
+                    "a = {a}: the runout strays {:.1} % from Lube et al.'s",
+                    100.0 * off
+                );
+            }
+        }
     }
 }
 

@@ -212,7 +212,7 @@ fn a_heavy_jelly_sinks_to_the_floor() {
 /// 1.9 a^(2/3) above, within 15 %.
 #[test]
 #[ignore = "issue 41 open: the runouts fall short of Lube et al.'s by 36 and 34 % at 1 cm, 29 and 21 % at \
-            5 mm, 17 and 17 % at 2.5 mm, 7 and 23 % at 1.25 mm (H200); `cargo test --release --test solids -- \
+            5 mm, 17 and 17 % at 2.5 mm, 7 and 21 to 23 % at 1.25 mm (H200); `cargo test --release --test solids -- \
             --ignored` measures them"]
 fn sand_columns_run_out_as_lube_et_al_found() {
     let dx = 0.01f32;
