@@ -191,7 +191,7 @@ pub fn lube_runout(a: f32) -> f32 {
 }
 
 /// A quasi-2D bank of [`SAND`] 10 cm long and 10 cm high against the low x wall of a tank 50 cm
-/// long, held by a gate (a slip box 2 cm thick standing on the floor, 1.5 cells clear of the bank)
+/// long, held by a gate (a slip box 2 cm thick standing on the floor, half a cell clear of the bank)
 /// that lifts at 5 cm/s from the start, on a rough floor ([`no_slip_floor`]); a slab 5 cells of `dx`
 /// thick. The sand runs out under the gate and leaves a slope standing against the wall: the
 /// lifting-gate (draining) measure of the angle of repose.
