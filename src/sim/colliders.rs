@@ -29,8 +29,10 @@ use glam::{DMat3, DQuat, DVec3, Vec3};
 use std::sync::Arc;
 
 mod geometry;
+mod mass;
 mod spec;
 
+pub use mass::{triangles_mass_properties, MassProperties};
 pub use spec::{validate, ColliderSpec, FlapSpec, MotionSpec, PistonSpec, SpecError};
 
 /// The most colliders a scene may have: the kernels walk them per node, so they stay few.
