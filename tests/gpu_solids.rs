@@ -553,11 +553,11 @@ fn sand_columns_run_out_at_finer_cells() {
 }
 
 /// The `snowball` preset, which is tests/solids.rs's snowball ([`solids_checks::ball_at_wall`]) at
-/// 2.5 mm cells, 40 across (the jelly ball is that scene's): it breaks into more than one piece of a thousandth of its particles or more, where the jelly
-/// ball of the same stiffness comes off whole; no particle is lost and the snow stays inside its
-/// clamp (2026-11-28, H200: the snow in 6 such pieces after 0.4 s, the largest 93 % of it, and
-/// 5,800 grains of spray; at 5 mm and 1 cm, and at 2.5 mm with the reference theta_s = 7.5e-3, it
-/// stays whole).
+/// 2.5 mm cells, 40 across (the jelly ball is that scene's): it breaks into more than one piece of
+/// a thousandth of its particles or more, where the jelly ball of the same stiffness comes off
+/// whole; no particle is lost and the snow stays inside its clamp (2026-11-28, H200: the snow in 7
+/// such pieces after 0.4 s, the largest 93 % of it, and 5,800 grains of spray; at 5 mm and 1 cm,
+/// and at 2.5 mm with the reference theta_s = 7.5e-3, it stays whole).
 fn a_snowball_breaks_on_a_wall_where_a_jelly_ball_bounces_whole() {
     let dx = 0.0025f32;
     let preset = common::scene(mpm::sim::presets::get("snowball").unwrap());
