@@ -96,6 +96,12 @@ pub fn triangles_mass_properties(vertices: &[DVec3], triangles: &[[u32; 3]]) -> 
     if volume < 0.0 {
         (volume, first, covariance) = (-volume, -first, -covariance);
     }
+    from_moments(volume, first, covariance)
+}
+
+/// The [`MassProperties`] of a solid from its moments about the origin: its volume, first moment
+/// (the integral of x) and covariance (the integral of x x^T).
+fn from_moments(volume: f64, first: DVec3, covariance: DMat3) -> MassProperties {
     let centroid = first / volume;
     // Moved to the centroid: C_c = C - V c c^T; the inertia is tr(C) I - C.
     let about_centroid = covariance - outer(centroid, centroid) * volume;
@@ -164,14 +170,7 @@ mod tests {
                 }
             }
         }
-        let centroid = first / volume;
-        let c = second - outer(centroid, centroid) * volume;
-        let trace = c.x_axis.x + c.y_axis.y + c.z_axis.z;
-        MassProperties {
-            volume,
-            centroid,
-            inertia: DMat3::from_diagonal(DVec3::splat(trace)) - c,
-        }
+        from_moments(volume, first, second)
     }
 
     #[test]
