@@ -6,7 +6,7 @@ use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::{Particles, Scene, Solver};
-use anyhow::{bail, Result};
+use anyhow::{bail, ensure, Result};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
@@ -146,6 +146,13 @@ fn create_with(
     }
     let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
     if scene.ranks > 1 {
+        ensure!(
+            scene.colliders.num_bodies() == 0,
+            "--ranks {}: scene {} has rigid bodies (colliders with a density or mass), which run on one rank; \
+             drop --ranks and --gpus",
+            scene.ranks,
+            scene.source
+        );
         return create_ranks(kind, scene, initial);
     }
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
@@ -165,24 +172,39 @@ fn create_with(
         Some((particles, flow)) => CudaSolver::restore(scene, particles, flow, options),
         None => CudaSolver::new(scene, options),
     };
-    match kind {
-        BackendKind::Cpu => Ok(Box::new(
-            CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()),
-        )),
-        BackendKind::CpuParallel => Ok(parallel()),
-        BackendKind::Cuda => Ok(Box::new(cuda(CudaOptions::from_env()?)?)),
+    let (bodies, features) = scene.colliders.rigid_bodies();
+    let reference = || -> Box<dyn Solver> {
+        Box::new(CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
+    };
+    let mut solver: Box<dyn Solver> = match kind {
+        BackendKind::Cpu => reference(),
+        BackendKind::CpuParallel => parallel(),
+        BackendKind::Cuda => Box::new(cuda(CudaOptions::from_env()?)?),
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
-            Ok(solver) => Ok(Box::new(solver)),
+            Ok(solver) => Box::new(solver),
+            // The rigid bodies' sums are the reference's alone among the CPU backends.
+            Err(why) if !bodies.is_empty() => {
+                eprintln!(
+                    "note: CUDA backend unavailable ({}); using the CPU reference on one thread (cpu): \
+                     the scene has rigid bodies",
+                    no_cuda_reason(&why)
+                );
+                reference()
+            }
             Err(why) => {
                 eprintln!(
                     "note: CUDA backend unavailable ({}); using the CPU on {} (cpu-parallel)",
                     no_cuda_reason(&why),
                     crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
                 );
-                Ok(parallel())
+                parallel()
             }
         },
+    };
+    if !bodies.is_empty() {
+        solver.set_bodies(&bodies, &features, scene.body_walls())?;
     }
+    Ok(solver)
 }
 
 /// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (on one device,

@@ -139,6 +139,13 @@ impl Checkpoint {
             .clock()
             .context("a frame is half done; finish it (Simulation::step_frame) before saving the state")?;
         let scene = sim.scene();
+        ensure!(
+            scene.colliders.num_bodies() == 0,
+            "scene {}: a checkpoint does not hold rigid bodies yet (colliders with a density or mass), and \
+             a run resumed from one would restart them where the scene starts them: run this scene without \
+             checkpoints",
+            scene.source
+        );
         let (scene_source, scene_toml) = (scene.source.clone(), scene.toml.clone());
         let (pipeline, scatter) = (scene.pipeline, scene.scatter);
         let backend = sim.backend().to_string();

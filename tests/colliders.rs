@@ -381,6 +381,39 @@ fn bad_colliders_are_refused_with_the_key_and_the_fix() {
             "collider[0].motion.piston.period",
             "positive",
         ),
+        // Rigid bodies (issue 42).
+        (
+            "a body given a density and a mass",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\ndensity = 500.0\nmass = 0.1",
+            "collider[0].mass",
+            "both given",
+        ),
+        (
+            "a hinge on a collider that is no body",
+            "shape = \"box\"\ncenter = [0.15, 0.1, 0.1]\nsize = [0.02, 0.1, 0.1]\n\
+             hinge = { point = [0.15, 0.1, 0.1], axis = [0.0, 0.0, 1.0] }",
+            "collider[0].hinge",
+            "only for a rigid body",
+        ),
+        (
+            "a body driven by a piston",
+            "shape = \"box\"\ncenter = [0.15, 0.1, 0.1]\nsize = [0.02, 0.1, 0.1]\ndensity = 500.0\n\
+             [collider.motion]\npiston = { direction = [1.0, 0.0, 0.0], amplitude = 0.01, period = 1.0 }",
+            "collider[0].motion",
+            "piston or flap",
+        ),
+        (
+            "a body through a wall",
+            "shape = \"sphere\"\ncenter = [0.02, 0.1, 0.1]\nradius = 0.03\ndensity = 500.0",
+            "collider[0].center",
+            "through a wall",
+        ),
+        (
+            "a body far lighter than the water its boundary holds",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\ndensity = 5.0",
+            "collider[0].density",
+            "lighter than the liquid",
+        ),
     ];
     for (what, collider, key, words) in cases {
         std::fs::write(&scene_path, water_with(collider)).unwrap();

@@ -179,7 +179,56 @@ device_structs! {
         /// Radius of a ball about the centre that holds the shape, m, with a margin for rounding: a
         /// point farther than this (plus the band) is skipped without evaluating the shape.
         reach: f32,
-        _pad: [u32; 2],
+        /// A rigid body's collider: 1 + the body's index, whose impulse accumulator the grid update
+        /// adds to what this collider's boundary took from the nodes. 0: a collider that feels nothing.
+        body: u32,
+        _pad: u32,
+    }
+
+    /// A rigid body that the liquid moves and that moves the liquid (src/sim/bodies.rs,
+    /// kernels/bodies.cu): stepped once a substep from the impulse its boundary gave the grid's nodes.
+    /// Double precision: one thread steps it, and its pose accumulates over thousands of substeps.
+    struct RigidBody {
+        /// World position of the body's frame (the collider's `center`), m.
+        center: [f64; 3],
+        /// World-from-body rotation, a unit quaternion (x, y, z, w).
+        orientation: [f64; 4],
+        /// Velocity of the centre of mass, m/s.
+        velocity: [f64; 3],
+        /// rad/s, world frame.
+        angular_velocity: [f64; 3],
+        /// The centre of mass in the body's frame, m.
+        centroid: [f64; 3],
+        /// 1 / mass, 1/kg.
+        inv_mass: f64,
+        /// Inertia about the centre of mass in the body's frame, kg m^2, row-major; and its inverse.
+        inertia: [f64; 9],
+        inv_inertia: [f64; 9],
+        /// A hinge: a point of its axis (world, m) and the unit axis; a zero axis for a free body.
+        hinge_point: [f64; 3],
+        hinge_axis: [f64; 3],
+        /// Coulomb coefficient of its contacts with the walls.
+        contact_friction: f64,
+        /// Its contact features: `[first_feature, first_feature + num_features)` of the list.
+        first_feature: u32,
+        num_features: u32,
+        /// Its collider's slot in the collider states, where each substep's pose is written.
+        slot: u32,
+        _pad: u32,
+    }
+
+    /// The planes that hold the rigid bodies in the tank: where the liquid rests against the walls
+    /// (the fluid region), m.
+    struct BodyWalls {
+        lo: [f64; 3],
+        hi: [f64; 3],
+    }
+
+    /// A point of a body that may touch a wall (body frame), swept by a ball of `radius`: a box's
+    /// corner (radius 0), a sphere's centre (its radius), a capsule's end.
+    struct ContactFeature {
+        point: [f64; 3],
+        radius: f64,
     }
 
     /// The viewer's mouse push, applied once (an impulse) between frames (src/sim/push.rs,
@@ -328,6 +377,12 @@ device_constants! {
     COLLIDER_CAPSULE: u32 = 2;
     COLLIDER_CYLINDER: u32 = 3;
     COLLIDER_MESH: u32 = 4;
+    /// The most rigid bodies a scene may have (each is one of its colliders).
+    MAX_BODIES: u32 = 8;
+    /// Fixed-point units per N s of a rigid body's impulse accumulators (and per N m s of its
+    /// angular impulse): 2^36, so a node's share down to 1e-9 N s keeps 7 digits and a body's sum
+    /// reaches 1e8 N s.
+    BODY_IMPULSE_UNITS: f32 = 68719476736.0;
     /// `ColliderState::boundary`.
     BOUNDARY_SLIP: u32 = 0;
     BOUNDARY_STICK: u32 = 1;

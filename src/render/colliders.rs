@@ -381,6 +381,7 @@ mod tests {
                     center: DVec3::ZERO,
                     rotation: glam::DQuat::IDENTITY,
                     motion: crate::sim::colliders::Motion::Static,
+                    body: None,
                 }],
                 0.01,
             );
@@ -415,6 +416,7 @@ mod tests {
             center: DVec3::new(x, 0.0, 0.0),
             rotation: glam::DQuat::IDENTITY,
             motion: crate::sim::colliders::Motion::Static,
+            body: None,
         };
         let frame = Colliders::new(vec![sphere(1.0), sphere(0.5)], 0.01).frame(0.0);
         let (index, hit) = pick(&frame, Vec3::ZERO, Vec3::X, 10.0).expect("a hit");

@@ -28,12 +28,14 @@ pub use crate::contract::{
 use glam::{DMat3, DQuat, DVec3, Vec3};
 use std::sync::Arc;
 
+pub mod bodies;
 mod geometry;
 mod mass;
 mod spec;
 
+pub use bodies::{Dynamics, Hinge};
 pub use mass::{triangles_mass_properties, MassProperties};
-pub use spec::{validate, ColliderSpec, FlapSpec, MotionSpec, PistonSpec, SpecError};
+pub use spec::{validate, ColliderSpec, FlapSpec, HingeSpec, MotionSpec, PistonSpec, SpecError};
 
 /// The most colliders a scene may have: the kernels walk them per node, so they stay few.
 pub const MAX_COLLIDERS: usize = 16;
@@ -159,7 +161,11 @@ pub struct Collider {
     /// Pose at rest (or at `Motion::Steady::since`): world = rotation * local + center.
     pub center: DVec3,
     pub rotation: DQuat,
+    /// `Motion::Static` for a rigid body: its pose at the start.
     pub motion: Motion,
+    /// A rigid body's mass and inertia: the liquid moves it (`bodies`); `None` for a collider that
+    /// moves as its motion says.
+    pub body: Option<Dynamics>,
 }
 
 /// Pose and rigid velocity at one instant.
@@ -226,9 +232,13 @@ impl Collider {
         }
     }
 
-    /// The largest speed any point of the collider reaches, m/s (for the first substep's choice).
+    /// The largest speed any point of the collider reaches, m/s (for the first substep's choice); a
+    /// rigid body's at the start.
     pub fn max_speed(&self) -> f64 {
         let r = self.shape.bounding_radius();
+        if let Some(body) = &self.body {
+            return body.velocity.length() + body.angular_velocity.length() * 2.0 * r;
+        }
         match self.motion {
             Motion::Static => 0.0,
             Motion::Steady {
@@ -367,26 +377,65 @@ impl Colliders {
         self.pipes.len()
     }
 
-    /// Whether any collider moves.
+    /// Whether any collider moves (a rigid body counts).
     pub fn any_moving(&self) -> bool {
-        self.list.iter().any(|c| c.motion != Motion::Static)
+        self.list
+            .iter()
+            .any(|c| c.motion != Motion::Static || c.body.is_some())
     }
 
-    /// Every collider at time `t`, s.
+    /// How many of the colliders are rigid bodies.
+    pub fn num_bodies(&self) -> usize {
+        self.list.iter().filter(|c| c.body.is_some()).count()
+    }
+
+    /// Every collider at time `t`, s. A rigid body's state is its pose at the start, marked with its
+    /// body (`ColliderState::body`): the solver that steps it puts its own pose in that slot.
     pub fn frame(&self, t: f64) -> ColliderFrame {
+        let mut bodies = 0;
         ColliderFrame {
             states: self
                 .list
                 .iter()
                 .zip(&self.sdf_offsets)
-                .map(|(c, &offset)| ColliderState {
-                    sdf_offset: offset,
-                    ..c.state(t, self.dx)
+                .map(|(c, &offset)| {
+                    let body = match c.body {
+                        Some(_) => {
+                            bodies += 1;
+                            bodies
+                        }
+                        None => 0,
+                    };
+                    ColliderState {
+                        sdf_offset: offset,
+                        body,
+                        ..c.state(t, self.dx)
+                    }
                 })
                 .chain(self.pipes.iter().copied())
                 .collect(),
             sdf: self.sdf.clone(),
         }
+    }
+
+    /// The rigid bodies at the start (in the order of the colliders that are bodies) and their
+    /// contact features, laid end to end.
+    pub fn rigid_bodies(&self) -> (Vec<bodies::RigidBody>, Vec<bodies::ContactFeature>) {
+        let (mut list, mut features) = (Vec::new(), Vec::new());
+        for (slot, c) in self.list.iter().enumerate() {
+            if let Some(dynamics) = &c.body {
+                let own = c.shape.contact_features();
+                list.push(dynamics.initial_state(
+                    c.center,
+                    c.rotation,
+                    slot as u32,
+                    features.len() as u32,
+                    own.len() as u32,
+                ));
+                features.extend(own);
+            }
+        }
+        (list, features)
     }
 
     /// The largest speed a collider reaches, m/s.
@@ -416,6 +465,7 @@ mod tests {
             center: DVec3::new(0.5, 0.3, 0.2),
             rotation: DQuat::from_rotation_z(0.3),
             motion,
+            body: None,
         }
     }
 
@@ -485,6 +535,7 @@ mod tests {
             center: DVec3::new(0.5, 0.0, 0.5),
             rotation: DQuat::IDENTITY,
             motion: Motion::Static,
+            body: None,
         };
         let at = Vec3::new(0.5, 0.105, 0.5); // half a cell above the top, within the band
         let into = Vec3::new(0.8, -0.5, 0.0);

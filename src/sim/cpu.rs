@@ -2,6 +2,7 @@
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 
+use super::colliders::bodies::{BodyWalls, ContactFeature, HostBodies, RigidBody};
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
@@ -409,22 +410,26 @@ pub fn density_after_g2p(
     DensityRule::advect(before, divergence, params.dt)
 }
 
-/// grid_update for node `index` with mass `m > 0` and momentum `mv`: velocity, gravity, the colliders'
-/// boundary conditions, and free slip in the walls' boundary band (last, so the walls hold whatever a
+/// grid_update for node `index` with mass `m > 0` (`own_m` of it the particles', the rest the walls'
+/// images) and momentum `mv`: velocity, gravity, the colliders' boundary conditions (adding what rigid
+/// bodies' boundaries took to `body_impulses`), and free slip in the walls' boundary band (last, so the walls hold whatever a
 /// moving collider near them does).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn node_velocity(
     params: &Params,
     shape: GridShape,
     index: usize,
     m: f32,
+    own_m: f32,
     mv: Vec3,
     colliders: &ColliderFrame,
+    body_impulses: &mut [[i64; 6]],
 ) -> Vec3 {
     let mut v = mv / m + Vec3::from(params.gravity) * params.dt;
     let node = shape.node(index);
     if !colliders.is_empty() {
-        v = colliders.project_node(node.as_vec3() * params.dx, v);
+        v = colliders.project_node_exchanging(node.as_vec3() * params.dx, v, own_m, body_impulses);
     }
     // The band removes only motion into the wall (as a collider's boundary does), so fluid leaves a
     // wall freely.
@@ -516,8 +521,11 @@ pub struct CpuSolver {
     pub grid: Grid,
     /// Emitters and sinks, where the scene has them (`sim::flow`).
     pub lifecycle: Option<Lifecycle>,
-    /// The colliders as of the next substep (`Solver::set_colliders`).
+    /// The colliders as of the next substep (`Solver::set_colliders`), the rigid bodies' slots
+    /// holding where `bodies` are.
     pub colliders: ColliderFrame,
+    /// The rigid bodies (`Solver::set_bodies`), stepped after each grid update.
+    pub bodies: HostBodies,
     extremes: StepExtremes,
     /// One record per substep, until taken.
     timings: Vec<PhaseTimings>,
@@ -533,6 +541,7 @@ impl CpuSolver {
             grid: Grid::new(grid_res),
             lifecycle: None,
             colliders: ColliderFrame::default(),
+            bodies: HostBodies::default(),
             extremes: StepExtremes::default(),
             timings: Vec::new(),
             scatter_dt: None,
@@ -717,7 +726,8 @@ impl CpuSolver {
         }
     }
 
-    /// Momentum to velocity, gravity, colliders, free-slip walls in the boundary band.
+    /// Momentum to velocity, gravity, colliders, free-slip walls in the boundary band; then the rigid
+    /// bodies take what their boundaries gave the nodes, and move.
     pub fn grid_update(&mut self, params: &Params) {
         let Grid {
             shape,
@@ -725,11 +735,23 @@ impl CpuSolver {
             momentum,
             ..
         } = &mut self.grid;
+        let bodies = &mut self.bodies;
         for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
             if m > 0.0 {
-                *mv = node_velocity(params, *shape, i, m, *mv, &self.colliders);
+                let own = bodies.own_mass.get(i).copied().unwrap_or(m);
+                *mv = node_velocity(
+                    params,
+                    *shape,
+                    i,
+                    m,
+                    own,
+                    *mv,
+                    &self.colliders,
+                    &mut bodies.impulses,
+                );
             }
         }
+        self.bodies.step(params.dt, params.gravity, &mut self.colliders);
     }
 
     /// Velocity and C from the grid, then advection, soft wall and clamp, and the density the particle
@@ -861,6 +883,9 @@ impl CpuPhases for CpuSolver {
             Phase::HaloSum | Phase::HaloFill => {} // one rank: `step_phases` skips them
             Phase::P2gInit => {
                 self.p2g_init(params);
+                if !self.bodies.states.is_empty() {
+                    self.bodies.own_mass.clone_from(&self.grid.mass);
+                }
                 self.mirror_mass(params);
             }
             Phase::P2g => self.p2g(params),
@@ -900,7 +925,23 @@ impl Solver for CpuSolver {
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> anyhow::Result<()> {
         self.colliders.clone_from(frame);
+        self.bodies.place_in(&mut self.colliders);
         Ok(())
+    }
+
+    fn set_bodies(
+        &mut self,
+        bodies: &[RigidBody],
+        features: &[ContactFeature],
+        walls: BodyWalls,
+    ) -> anyhow::Result<()> {
+        self.bodies = HostBodies::new(bodies, features, walls);
+        self.bodies.place_in(&mut self.colliders);
+        Ok(())
+    }
+
+    fn bodies(&mut self) -> anyhow::Result<Vec<RigidBody>> {
+        Ok(self.bodies.states.clone())
     }
 
     fn take_step_timings(&mut self) -> anyhow::Result<Option<Vec<PhaseTimings>>> {

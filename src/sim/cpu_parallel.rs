@@ -479,7 +479,7 @@ impl ParallelCpuSolver {
             .for_each(|(k, ((mv, m), _))| {
                 for (j, (mv, &m)) in mv.iter_mut().zip(m).enumerate() {
                     if m > 0.0 {
-                        *mv = node_velocity(params, shape, k * slab + j, m, *mv, colliders);
+                        *mv = node_velocity(params, shape, k * slab + j, m, m, *mv, colliders, &mut []);
                     }
                 }
             });

@@ -326,6 +326,15 @@ impl Scene {
         )
     }
 
+    /// The planes that hold the rigid bodies: the fluid region's faces.
+    pub fn body_walls(&self) -> crate::sim::colliders::bodies::BodyWalls {
+        let (lo, hi) = self.fluid_region();
+        crate::sim::colliders::bodies::BodyWalls {
+            lo: lo.to_array(),
+            hi: hi.to_array(),
+        }
+    }
+
     /// Particle slots a solver allocates: the flow's capacity (the live particles where the scene has
     /// no flow).
     pub fn slots(&self) -> usize {

@@ -1,6 +1,7 @@
 //! The frame driver: a [`Simulation`] owns a [`Solver`] and advances it frame by frame under the
 //! scene's time-step policy; the runner, the viewer, the tests and the benches all drive it.
 
+use super::colliders::bodies::RigidBody;
 use super::colliders::ColliderFrame;
 use super::flow::{self, FlowCounts};
 use super::material::MaterialTable;
@@ -95,6 +96,8 @@ pub struct Simulation {
     scene: Scene,
     params: Params,
     solver: Box<dyn Solver>,
+    /// The rigid bodies as of the last frame's end (the solver steps them).
+    bodies: Vec<RigidBody>,
     frame: u64,
     time: f64,
     /// c(max density) + max speed over the last stretch of substeps, m/s: an upper bound of every
@@ -227,7 +230,9 @@ impl Simulation {
         let advective = scene.fastest_start() > sound_speed;
         let viscous_dt = params.viscous_dt(params.dx);
         let emitter_phases = vec![0.0; scene.flow.emitters.len()];
+        let bodies = scene.colliders.rigid_bodies().0;
         Simulation {
+            bodies,
             scene,
             params,
             solver,
@@ -282,9 +287,20 @@ impl Simulation {
     pub fn colliders(&self) -> &super::Colliders {
         &self.scene.colliders
     }
-    /// The colliders as of the last substep's end (the current simulated time).
+    /// The colliders as of the last substep's end (the current simulated time), the rigid bodies
+    /// as of the last frame's end.
     pub fn collider_frame(&self) -> ColliderFrame {
-        self.scene.colliders.frame(self.time_stepped())
+        let mut frame = self.scene.colliders.frame(self.time_stepped());
+        for body in &self.bodies {
+            if let Some(slot) = frame.states.get_mut(body.slot as usize) {
+                *slot = super::colliders::bodies::body_collider_state(slot, body);
+            }
+        }
+        frame
+    }
+    /// The rigid bodies as of the last frame's end (as the scene starts them before the first).
+    pub fn bodies(&self) -> &[RigidBody] {
+        &self.bodies
     }
     /// Moves collider `index` kinematically from now on: its centre is at `center` now and goes on
     /// at `velocity` (the viewer's drag). Its rotation stays as it is now.
@@ -296,6 +312,10 @@ impl Simulation {
             .list
             .get_mut(index)
             .ok_or_else(|| anyhow::anyhow!("there is no collider {index}"))?;
+        ensure!(
+            collider.body.is_none(),
+            "collider {index} is a rigid body: the water moves it, not the mouse"
+        );
         ensure!(
             center.is_finite() && velocity.is_finite(),
             "a dragged collider's position and velocity must be finite"
@@ -562,6 +582,9 @@ impl Simulation {
             }
         }
         self.solver.publish_particles()?;
+        if !self.bodies.is_empty() {
+            self.bodies = self.solver.bodies()?;
+        }
         let FramePart {
             substeps,
             smallest_dt,

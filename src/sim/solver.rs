@@ -1,6 +1,7 @@
 //! The step API of a backend: a [`Solver`] (CPU reference, cpu-parallel or CUDA) takes one substep
 //! and answers what the frame driver (`simulation.rs`) and the readers of its particles ask of it.
 
+use super::colliders::bodies::{BodyWalls, ContactFeature, RigidBody};
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState};
 use super::params::Params;
@@ -121,6 +122,27 @@ pub trait Solver: Send {
             self.name()
         );
         Ok(())
+    }
+    /// Takes over the scene's rigid bodies (their states at the start, or a checkpoint's) with their
+    /// contact features and the walls that hold them: from the next substep on, the solver moves
+    /// them with the liquid. A backend that cannot refuses.
+    fn set_bodies(
+        &mut self,
+        bodies: &[RigidBody],
+        _features: &[ContactFeature],
+        _walls: BodyWalls,
+    ) -> Result<()> {
+        ensure!(
+            bodies.is_empty(),
+            "the {} backend does not move rigid bodies (colliders with a density or mass); use --backend \
+             cpu or cuda",
+            self.name()
+        );
+        Ok(())
+    }
+    /// The rigid bodies as they are after the substeps run so far (none where the scene has none).
+    fn bodies(&mut self) -> Result<Vec<RigidBody>> {
+        Ok(Vec::new())
     }
     /// Where the particles are, for a reader (the renderer) that can use them in place: as of the
     /// last frame's end ([`Self::publish_particles`]).

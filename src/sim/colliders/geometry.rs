@@ -189,7 +189,16 @@ impl ColliderFrame {
     /// loses its part into the collider (slip), all of it (stick), or that and a Coulomb share of its
     /// tangential part (friction). A relative velocity leaving the collider is left alone, so fluid
     /// can separate from it. A nozzle's pipe (band 0) gives the nodes inside it its velocity.
-    pub fn project_node(&self, x: Vec3, mut v: Vec3) -> Vec3 {
+    pub fn project_node(&self, x: Vec3, v: Vec3) -> Vec3 {
+        self.project_node_exchanging(x, v, 0.0, &mut [])
+    }
+
+    /// [`Self::project_node`] for a node where the particles put mass `m`, adding to `impulses[k]`
+    /// (fixed-point units of [`super::bodies::BODY_IMPULSE_UNITS`]: linear, then the moment about
+    /// the collider's centre) what rigid body k's boundary took from the node: `-m dv` at x. `m` leaves
+    /// out the walls' mirror images: the particles never get the image's momentum back, so counting it
+    /// would hand the body more than the liquid lost. The kernels' twin is collider_project_node.
+    pub fn project_node_exchanging(&self, x: Vec3, mut v: Vec3, m: f32, impulses: &mut [[i64; 6]]) -> Vec3 {
         for s in &self.states {
             if beyond(s, x, s.band) {
                 continue;
@@ -218,7 +227,20 @@ impl ColliderFrame {
                     };
                 }
             }
+            let before = v;
             v = vc + rel;
+            if s.body != 0 {
+                if let Some(sums) = impulses.get_mut(s.body as usize - 1) {
+                    let given = (before - v) * m;
+                    let moment = (x - Vec3::from(s.center)).cross(given);
+                    for (sum, value) in sums
+                        .iter_mut()
+                        .zip(given.to_array().into_iter().chain(moment.to_array()))
+                    {
+                        *sum += super::bodies::impulse_units(value);
+                    }
+                }
+            }
         }
         v
     }

@@ -73,6 +73,33 @@ impl Shape {
     }
 }
 
+impl Shape {
+    /// The shape's surface area, m^2.
+    pub fn surface_area(&self) -> f64 {
+        use std::f64::consts::PI;
+        match self {
+            Shape::Box { half_extents: h } => 8.0 * (h.x * h.y + h.y * h.z + h.x * h.z),
+            Shape::Sphere { radius: r } => 4.0 * PI * r * r,
+            Shape::Cylinder {
+                radius: r,
+                half_length: h,
+            } => 2.0 * PI * r * (2.0 * h + r),
+            Shape::Capsule {
+                radius: r,
+                half_length: h,
+            } => 2.0 * PI * r * (2.0 * h + 2.0 * r),
+            Shape::Mesh(mesh) => mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| mesh.vertices[i as usize].as_dvec3());
+                    0.5 * (b - a).cross(c - a).length()
+                })
+                .sum(),
+        }
+    }
+}
+
 /// The [`MassProperties`] of the solid a closed triangle mesh bounds. Its triangles may wind either
 /// way round, all the same way (the mesh loader checks closure, not winding): wound clockwise
 /// seen from outside, every tetrahedron's sign flips, and so the sums are negated back.

@@ -29,7 +29,26 @@ pub struct ColliderSpec {
     pub boundary: Option<String>,
     /// Coulomb coefficient; implies boundary = "friction".
     pub friction: Option<f64>,
+    /// For a kinematic collider, how it moves; for a rigid body, its velocity at the start.
     pub motion: Option<MotionSpec>,
+    /// kg/m^3: makes the collider a rigid body that the liquid moves (or give `mass`).
+    pub density: Option<f64>,
+    /// kg: a rigid body's mass (instead of `density`).
+    pub mass: Option<f64>,
+    /// A rigid body's fixed axis: it turns about it and nothing else.
+    pub hinge: Option<HingeSpec>,
+    /// Coulomb coefficient of a rigid body's contacts with the walls (default 0.4).
+    pub contact_friction: Option<f64>,
+}
+
+/// `[collider.hinge]`: the axis a rigid body turns about.
+#[derive(Debug, Clone, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HingeSpec {
+    /// A point of the axis, m.
+    pub point: [f64; 3],
+    /// Its direction.
+    pub axis: [f64; 3],
 }
 
 /// `[collider.motion]`: give `velocity` and/or `angular_velocity`, or `piston`, or `flap`.
@@ -241,9 +260,14 @@ pub fn validate(
             // A collider that stays put can only ever touch the tank: its field is sampled there
             // alone (the tank, plus the margin, in the mesh's own frame). A moving one may bring any
             // of itself into the tank.
-            let moving = spec.motion.as_ref().is_some_and(|m| {
-                m.velocity.is_some() || m.angular_velocity.is_some() || m.piston.is_some() || m.flap.is_some()
-            });
+            let moving = spec.density.is_some()
+                || spec.mass.is_some()
+                || spec.motion.as_ref().is_some_and(|m| {
+                    m.velocity.is_some()
+                        || m.angular_velocity.is_some()
+                        || m.piston.is_some()
+                        || m.flap.is_some()
+                });
             let clip = (!moving).then(|| {
                 let local = |p: DVec3| rotation.inverse() * (p - center);
                 let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
@@ -387,12 +411,15 @@ pub fn validate(
             }
         },
     };
+    let body = dynamics(spec, &shape, &motion)?;
+    let motion = if body.is_some() { Motion::Static } else { motion };
     let collider = Collider {
         shape,
         boundary,
         center,
         rotation,
         motion,
+        body,
     };
     // Some of the collider must be inside the domain (a paddle or a slope may well run through a
     // wall or the floor, its centre outside), or the fluid would never meet it.
@@ -410,7 +437,97 @@ pub fn validate(
             "move the collider so that at least part of it is inside the tank",
         ));
     }
+    if collider.body.is_some() {
+        let (lo, hi) = collider_bounds(&collider);
+        if lo.cmplt(DVec3::ZERO).any() || hi.cmpgt(domain).any() {
+            return Err(spec_err(
+                "center",
+                format!(
+                    "puts the rigid body (reaching [{:.3}, {:.3}, {:.3}] to [{:.3}, {:.3}, {:.3}] m) through a wall",
+                    lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+                ),
+                "a rigid body starts wholly inside the tank: move it in, or make it smaller",
+            ));
+        }
+    }
     Ok(collider)
+}
+
+/// A rigid body's dynamics where the table gives a density or a mass; `None` for a collider that
+/// moves as it is told. `motion` as validated: a body's velocities are its start.
+fn dynamics(spec: &ColliderSpec, shape: &Shape, motion: &Motion) -> Result<Option<Dynamics>, SpecError> {
+    let properties = shape.mass_properties();
+    let mass = match (spec.density, spec.mass) {
+        (None, None) => {
+            for (key, given) in [
+                ("hinge", spec.hinge.is_some()),
+                ("contact_friction", spec.contact_friction.is_some()),
+            ] {
+                if given {
+                    return Err(spec_err(
+                        key,
+                        "is only for a rigid body",
+                        "give the collider a density (kg/m^3) or a mass (kg) to make it a body the water moves",
+                    ));
+                }
+            }
+            return Ok(None);
+        }
+        (Some(_), Some(_)) => {
+            return Err(spec_err(
+                "mass",
+                "and `density` are both given",
+                "give one: density (kg/m^3) or mass (kg)",
+            ))
+        }
+        (Some(rho), None) => {
+            positive("density", Some(rho), "the body's density in kg/m^3")? * properties.volume
+        }
+        (None, Some(m)) => positive("mass", Some(m), "the body's mass in kg")?,
+    };
+    let (velocity, angular_velocity) = match *motion {
+        Motion::Static => (DVec3::ZERO, DVec3::ZERO),
+        Motion::Steady {
+            velocity,
+            angular_velocity,
+            ..
+        } => (velocity, angular_velocity),
+        Motion::Piston { .. } | Motion::Flap { .. } => {
+            return Err(spec_err(
+                "motion",
+                "gives a rigid body a piston or flap motion",
+                "a body moves by the forces on it: give only motion.velocity and motion.angular_velocity                  (its start), or drop density/mass to drive it as a collider",
+            ))
+        }
+    };
+    let hinge = match &spec.hinge {
+        None => None,
+        Some(h) => {
+            finite("hinge.point", &h.point)?;
+            Some(Hinge {
+                point: DVec3::from(h.point),
+                axis: unit("hinge.axis", h.axis)?,
+            })
+        }
+    };
+    let contact_friction = spec.contact_friction.unwrap_or(0.4);
+    if !(contact_friction.is_finite() && contact_friction >= 0.0) {
+        return Err(spec_err(
+            "contact_friction",
+            format!("= {contact_friction} must be zero or positive"),
+            "give the Coulomb coefficient of the body's contacts, e.g. contact_friction = 0.4",
+        ));
+    }
+    let density = mass / properties.volume;
+    Ok(Some(Dynamics {
+        mass,
+        centroid: properties.centroid,
+        inertia: properties.inertia * density,
+        velocity,
+        angular_velocity,
+        hinge,
+        contact_friction,
+    }))
 }
 
 /// A box that holds the collider at rest, world frame.

@@ -10,6 +10,7 @@ use crate::contract::{
     LAW_CARREAU_YASUDA, LAW_FIXED_COROTATED, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_NEWTONIAN,
     LAW_POWER_LAW, LAW_SAND, LAW_SNOW, MAX_MATERIALS,
 };
+use crate::sim::colliders::bodies::{MAX_BAND_MASS_RATIO, MAX_BODIES};
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use crate::sim::material::{default_colour, MaterialTable, NamedMaterial, MAX_ABSORPTION};
@@ -103,7 +104,7 @@ impl Validator<'_> {
             .map(|b| b.velocity.length())
             .chain(emitter_speeds)
             .fold(0.0, f32::max);
-        let colliders = self.colliders(spec, grid_res, dx)?;
+        let colliders = self.colliders(spec, grid_res, dx, &materials)?;
         let max_speed = max_body_speed.max(colliders.max_speed());
         let fastest = materials
             .iter()
@@ -965,7 +966,13 @@ impl Validator<'_> {
         })
     }
 
-    fn colliders(&self, spec: &SceneSpec, res: [u32; 3], dx: f64) -> Result<Colliders, SceneError> {
+    fn colliders(
+        &self,
+        spec: &SceneSpec,
+        res: [u32; 3],
+        dx: f64,
+        materials: &[NamedMaterial],
+    ) -> Result<Colliders, SceneError> {
         if spec.colliders.len() > MAX_COLLIDERS {
             return Err(self.err(
                 format!("collider[{MAX_COLLIDERS}]"),
@@ -1003,6 +1010,36 @@ impl Validator<'_> {
                     .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
             })
             .collect::<Result<Vec<_>, _>>()?;
+        if list.iter().filter(|c| c.body.is_some()).count() > MAX_BODIES as usize {
+            return Err(self.err(
+                "collider",
+                format!("holds more than the {MAX_BODIES} rigid bodies a scene may have"),
+                "give the others no density or mass (they stay put), or drop some",
+            ));
+        }
+        // The explicit coupling's limit (bodies.rs, Dynamics::band_mass_ratio), against the densest
+        // liquid.
+        let liquid_density = materials
+            .iter()
+            .filter(|m| !m.law.is_solid())
+            .map(|m| f64::from(m.law.rest_density))
+            .fold(0.0, f64::max);
+        for (i, c) in list.iter().enumerate() {
+            let Some(body) = &c.body else { continue };
+            let ratio = body.band_mass_ratio(&c.shape, liquid_density, dx);
+            if ratio > MAX_BAND_MASS_RATIO {
+                return Err(self.err(
+                    format!("collider[{i}].density"),
+                    format!(
+                        "gives a body of {:.4} kg, lighter than the liquid its boundary band would hold \
+                         submerged ({ratio:.2} times its mass, at most {MAX_BAND_MASS_RATIO} is stable): the \
+                         body and the liquid exchange momentum explicitly, and so light a body overshoots",
+                        body.mass
+                    ),
+                    "make the body denser or larger, or the cells finer (the band is a cell thick)",
+                ));
+            }
+        }
         Ok(Colliders::new(list, dx as f32))
     }
 
