@@ -7,10 +7,12 @@
 
 
 // What the grid update and the backstop read: the states, their count, the mesh samples.
+// `impulses`: the rigid bodies' fixed-point impulse sums (6 per body), or null where nothing adds.
 struct Colliders {
     const ColliderState* states;
     u32 count;
     const float* sdf;
+    u64* impulses;
 };
 
 struct Vec3f {
@@ -140,7 +142,11 @@ __device__ __forceinline__ Vec3f collider_velocity_at(const ColliderState& s, Ve
 // The grid update's boundary condition (ColliderFrame::project_node): for each collider in turn whose
 // surface is within the band, the velocity relative to it loses its part into the collider (slip), all
 // of it (stick), or that and a Coulomb share of its tangential part (friction).
-__device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float (&vel)[3]) {
+// A rigid body's collider (s.body != 0) also adds what it took from the node, -m dv, and its moment
+// about the collider's centre to the body's sums (ColliderFrame::project_node_exchanging). m is the
+// particles' own mass at the node: the walls' mirror images carry no momentum the particles get back,
+// and counting them would hand the body the image's share too.
+__device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float m, float (&vel)[3]) {
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
         if (collider_beyond(s, x, s.band)) continue;
@@ -168,9 +174,24 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
                 }
             }
         }
+        const Vec3f before = v3(vel[0], vel[1], vel[2]);
         vel[0] = vc.x + rel.x;
         vel[1] = vc.y + rel.y;
         vel[2] = vc.z + rel.z;
+        if (s.body != 0u && colliders.impulses) {
+            const Vec3f given = v3((before.x - vel[0]) * m, (before.y - vel[1]) * m, (before.z - vel[2]) * m);
+            const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+            const float sums[6] = {given.x, given.y, given.z, r.y * given.z - given.y * r.z,
+                                   r.z * given.x - given.z * r.x, r.x * given.y - given.x * r.y};
+            u64* to = colliders.impulses + 6 * (s.body - 1u);
+#pragma unroll
+            for (int c = 0; c < 6; ++c) {
+                const float scaled = sums[c] * BODY_IMPULSE_UNITS;
+                // Out of range (beyond 2^52 units, or NaN) adds nothing, as fixed_point_units.
+                const i64 units = fabsf(scaled) < 4503599627370496.0f ? __float2ll_rn(scaled) : 0;
+                if (units != 0) atomicAdd((unsigned long long*)&to[c], (unsigned long long)units);
+            }
+        }
     }
 }
 

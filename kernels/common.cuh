@@ -597,8 +597,11 @@ __device__ __forceinline__ Backstop collider_backstop_particle(const KernelParam
 }
 
 // A node's scattered sums as floats: its mass and momentum.
+// A node's sums: mass and momentum, and `own_m`, the particles' own mass there without the walls'
+// mirror images (the fused pipeline adds those in the grid update; elsewhere own_m = m).
 struct NodeSums {
     float m, mv[3];
+    float own_m;
 };
 
 // Fixed-point sums (mass, then momentum) as floats; a sum at or beyond FIXED_SUM_LIMIT is counted.
@@ -610,11 +613,12 @@ __device__ __forceinline__ NodeSums fixed_point_sums(const KernelParams& params,
     s.m = fixed_point_value((u64)q[0], 1.0f / params.fixed_mass_scale);
     const float inv_momentum_scale = 1.0f / params.fixed_momentum_scale;
     for (int a = 0; a < 3; ++a) s.mv[a] = fixed_point_value((u64)q[1 + a], inv_momentum_scale);
+    s.own_m = s.m;
     return s;
 }
 
 __device__ __forceinline__ NodeSums float_sums(float4 acc) {
-    return NodeSums{acc.w, {acc.x, acc.y, acc.z}};
+    return NodeSums{acc.w, {acc.x, acc.y, acc.z}, acc.w};
 }
 
 // Zeroes node i's accumulators (the grid clear, done by their one reader).
@@ -643,7 +647,7 @@ __device__ __forceinline__ void update_node_velocity(const KernelParams& params,
         for (int a = 0; a < 3; ++a) vel[a] = s.mv[a] / s.m + params.gravity[a] * params.dt;
         if (colliders.count) {
             const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);
-            collider_project_node(colliders, x, vel);
+            collider_project_node(colliders, x, s.own_m, vel);
         }
         // Only motion into the wall is removed (as a collider's boundary does): fluid leaves freely.
         for (int a = 0; a < 3; ++a) {

@@ -110,7 +110,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
                                  u32 num_sinks, u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                            Colliders{collider_states, num_colliders, collider_sdf}, sinks, num_sinks,
+                            Colliders{collider_states, num_colliders, collider_sdf, nullptr}, sinks, num_sinks,
                             free_slots, flow);
 }
 
@@ -120,5 +120,5 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) p2g
                                     u32* work_counts, StepCounters* __restrict__ counters) {
     scatter_bins_mass<false>(params, bins, order, x, v, nullptr, nullptr, nullptr, grid_acc, fixed_mass,
                              BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
-                             Colliders{nullptr, 0u, nullptr}, nullptr, 0u, nullptr, nullptr);
+                             Colliders{nullptr, 0u, nullptr, nullptr}, nullptr, 0u, nullptr, nullptr);
 }

@@ -28,7 +28,7 @@ extern "C" __global__ void grid_update(const KernelParams params,
     const u32 num_nodes = params.grid_res[0] * params.grid_res[1] * params.grid_res[2];
     FOR_EACH_INDEX(i, num_nodes) {
         // The report's pipeline applies no colliders (the host refuses scenes that have them).
-        update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, Colliders{nullptr, 0u, nullptr});
+        update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, Colliders{nullptr, 0u, nullptr, nullptr});
     }
 }
 
@@ -38,8 +38,14 @@ __device__ __forceinline__ NodeSums node_sums(const KernelParams& params, const 
 }
 
 __device__ __forceinline__ NodeSums node_sums(const KernelParams&, const float v[4], StepCounters*) {
-    return NodeSums{v[0], {v[1], v[2], v[3]}};
+    return NodeSums{v[0], {v[1], v[2], v[3]}, v[0]};
 }
+
+__device__ __forceinline__ float own_mass_value(const KernelParams& params, i64 units) {
+    return fixed_point_value((u64)units, 1.0f / params.fixed_mass_scale);
+}
+
+__device__ __forceinline__ float own_mass_value(const KernelParams&, float m) { return m; }
 
 // Slot `own` of an orbit's values, by unrolled compares (a dynamic index would put the orbit in local
 // memory).
@@ -60,12 +66,16 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 // indices held as 64-bit, 108, and the 16.8M column's substep 3.56 ms against 3.30 with mirror_walls'
 // own launch; as 32-bit, 90 (3.41 ms); recomputed for each channel, as here, 72 (3.31 ms; bench-65k
 // 0.0356 ms against 0.0348 at 90).
-template <typename V>
+// OWN_MASS: also give the node's own mass before the images join it (the rigid bodies' kernel; the
+// other one compiled the same code as before bodies existed only without it: 1.8 % slower
+// bench-655k substeps on the H200 with it).
+template <typename V, bool OWN_MASS>
 __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
                                                   const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
-                                                  const u64* fixed_momentum, V mine[4]) {
+                                                  const u64* fixed_momentum, V mine[4], V& own_mass) {
 #pragma unroll
     for (int k = 0; k < 4; ++k) mine[k] = V(0);
+    own_mass = V(0);
 #pragma unroll 1
     for (int ch = 0; ch < 4; ++ch) {
         V v[8];
@@ -76,6 +86,9 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
             u32 r[3];
             if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(m, o, T, res, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
         }
+        // The particles' own mass here, before the images join it: what a rigid body's exchange
+        // counts (compiled out where nothing reads it).
+        if (OWN_MASS && ch == 0) own_mass = orbit_slot(v, own);
         mirror_orbit_channel(m, o, ch, v);
         const V picked = orbit_slot(v, own);
 #pragma unroll
@@ -86,8 +99,9 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
 
 // A node near a wall, for the fused pipeline's mirror: its sums with the images added (the values
 // mirror_walls would have written), and whether another node block reads it too (`crossing`: it
-// must be left unzeroed). V: i64 in fixed point, float otherwise.
-template <typename V>
+// must be left unzeroed). V: i64 in fixed point, float otherwise; OWN_MASS: as mirrored_channels
+// (without it own_m is the sum's).
+template <typename V, bool OWN_MASS>
 __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, const MirrorAxis m[3], const u32 c[3],
                                                   const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, StepCounters* counters,
@@ -101,9 +115,11 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
         if (o.rep[b] != c[b]) own |= 1u << b;
         crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
     }
-    V mine[4];
-    mirrored_channels(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine);
-    return node_sums(params, mine, counters);
+    V mine[4], own_mass;
+    mirrored_channels<V, OWN_MASS>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine, own_mass);
+    NodeSums s = node_sums(params, mine, counters);
+    if (OWN_MASS) s.own_m = own_mass_value(params, own_mass);
+    return s;
 }
 
 // Whether node block b (origin `origin`) has a node within a wall's reach on any axis.
@@ -120,20 +136,17 @@ __device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], c
 // One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
 // last CUDA block to finish empties the list, so the next substep's scatters start with neither.
 // `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
-extern "C" __global__ void grid_update_blocks(const KernelParams params,
-                                              const u32 mirror,
-                                              const u32* __restrict__ block_list,
-                                              u32* __restrict__ work_counts,
-                                              u32* __restrict__ block_marks,
-                                              float4* __restrict__ grid_acc,
-                                              float4* __restrict__ grid_vel,
-                                              u64* __restrict__ fixed_mass,
-                                              u64* __restrict__ fixed_momentum,
-                                              StepCounters* __restrict__ counters,
-                                              const ColliderState* __restrict__ collider_states,
-                                              const u32 num_colliders,
-                                              const float* __restrict__ collider_sdf) {
-    const Colliders colliders{collider_states, num_colliders, collider_sdf};
+// Two kernels walk the list: grid_update_blocks, and grid_update_blocks_bodies where the scene has
+// rigid bodies, whose boundaries also add up what they took from the nodes. Without bodies the
+// exchange is compiled out (its null pointer is a constant): water alone keeps the registers, and
+// so the occupancy and the speed, it had before bodies existed.
+template <bool BODIES>
+__device__ __forceinline__ void update_listed_blocks(const KernelParams& params, const u32 mirror,
+                                                     const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+                                                     u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+                                                     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
+                                                     u64* __restrict__ fixed_momentum,
+                                                     StepCounters* __restrict__ counters, const Colliders& colliders) {
     const u32 listed = work_counts[WORK_NODE_BLOCKS];
     const NodeBlocks blocks = node_blocks(params);
     const bool mirrored_here = mirror != 0u && params.wall_mirror_lo != 0u;
@@ -152,8 +165,8 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params,
             bool crossing = false;
             if (inside) {
                 s = params.scatter_mode == SCATTER_FIXED_POINT
-                        ? mirrored_sums<i64>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
-                        : mirrored_sums<float>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
+                        ? mirrored_sums<i64, BODIES>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
+                        : mirrored_sums<float, BODIES>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
             }
             __syncthreads();  // every orbit of the block read before any of its nodes is zeroed
             if (inside) {
@@ -177,6 +190,28 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params,
             work_counts[WORK_NODE_BLOCKS_DONE] = 0;
         }
     }
+}
+
+extern "C" __global__ void grid_update_blocks(const KernelParams params, const u32 mirror,
+                                              const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+                                              u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+                                              float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
+                                              u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
+                                              const ColliderState* __restrict__ collider_states,
+                                              const u32 num_colliders, const float* __restrict__ collider_sdf) {
+    update_listed_blocks<false>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+}
+
+extern "C" __global__ void grid_update_blocks_bodies(
+    const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+    u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
+    u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
+    const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
+    u64* __restrict__ body_impulses) {
+    update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                               fixed_momentum, counters,
+                         Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other

@@ -1,7 +1,9 @@
 //! The colliders on the device (kernels/colliders.cuh): the states of the current substep, uploaded
 //! when they change (every substep for moving colliders, once for static ones), and the mesh
-//! colliders' distance samples, uploaded once.
+//! colliders' distance samples, uploaded once; and the rigid bodies (bodies.rs), whose slots in the
+//! states the device writes after the first upload.
 
+use super::bodies::DeviceBodies;
 use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
 use crate::sim::flow::MAX_EMITTERS;
 use anyhow::{ensure, Context, Result};
@@ -20,6 +22,8 @@ pub struct DeviceColliders {
     pub sdf: CudaSlice<f32>,
     /// The host buffer `sdf` was copied from.
     sdf_source: Option<Arc<[f32]>>,
+    /// The rigid bodies, where the scene has some.
+    pub bodies: Option<DeviceBodies>,
 }
 
 impl DeviceColliders {
@@ -34,6 +38,7 @@ impl DeviceColliders {
                 .alloc_zeros::<f32>(1)
                 .context("allocating the collider SDF")?,
             sdf_source: None,
+            bodies: None,
         })
     }
 
@@ -56,13 +61,20 @@ impl DeviceColliders {
             self.sdf_source = Some(frame.sdf.clone());
         }
         if self.uploaded != frame.states {
-            if !frame.states.is_empty() {
-                stream
-                    .memcpy_htod(
-                        &frame.states[..],
-                        &mut self.states.slice_mut(0..frame.states.len()),
-                    )
-                    .context("uploading the collider states")?;
+            // A rigid body's slot holds its start until step_bodies first writes it: after the
+            // first upload only the runs between bodies go.
+            let first = self.uploaded.is_empty();
+            let mut start = 0;
+            while start < frame.states.len() {
+                let end = (start..frame.states.len())
+                    .find(|&k| !first && frame.states[k].body != 0)
+                    .unwrap_or(frame.states.len());
+                if end > start {
+                    stream
+                        .memcpy_htod(&frame.states[start..end], &mut self.states.slice_mut(start..end))
+                        .context("uploading the collider states")?;
+                }
+                start = end + 1;
             }
             self.uploaded.clone_from(&frame.states);
             self.count = frame.states.len() as u32;

@@ -17,6 +17,8 @@ use cudarc::driver::PushKernelArg;
 pub struct GridUpdate {
     whole_grid: Kernel,
     listed_blocks: Kernel,
+    /// grid_update_blocks with the rigid bodies' exchange (kernels/grid_update.cu).
+    listed_blocks_with_bodies: Kernel,
     clear_crossing_orbits: Kernel,
 }
 
@@ -25,6 +27,7 @@ impl GridUpdate {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
             listed_blocks: Kernel::load(modules, "grid_update", "grid_update_blocks")?,
+            listed_blocks_with_bodies: Kernel::load(modules, "grid_update", "grid_update_blocks_bodies")?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
     }
@@ -64,9 +67,14 @@ impl GridUpdate {
             Pipeline::Fused | Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
                 let mirror = u32::from(mirror);
-                // SAFETY: the arguments match grid_update_blocks; one thread per node of a block.
+                let kernel = match &d.colliders.bodies {
+                    Some(_) => &self.listed_blocks_with_bodies,
+                    None => &self.listed_blocks,
+                };
+                // SAFETY: the arguments match grid_update_blocks, and grid_update_blocks_bodies with
+                // the bodies' sums last; one thread per node of a block.
                 unsafe {
-                    self.listed_blocks.launch(l, config, |a| {
+                    kernel.launch(l, config, |a| {
                         a.arg(&params.kernel)
                             .arg(&mirror)
                             .arg(&g.node_blocks.list)
@@ -78,6 +86,9 @@ impl GridUpdate {
                             .arg(g.fixed_momentum())
                             .arg(&d.counters.device)
                             .colliders(&d.colliders);
+                        if let Some(bodies) = &d.colliders.bodies {
+                            a.arg(&bodies.impulses);
+                        }
                     })
                 }
             }

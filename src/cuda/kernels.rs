@@ -4,6 +4,7 @@
 
 use super::bin_order::GatherIntoBinOrder;
 use super::bins::BinKernels;
+use super::bodies::StepBodies;
 use super::g2p::G2p;
 use super::g2p2g::{G2p2g, P2gMass};
 use super::gpu::{CudaOptions, Gpu};
@@ -34,6 +35,7 @@ pub struct Kernels {
     pub p2g: P2g,
     pub p2g_tiled: P2gTiled,
     pub grid_update: GridUpdate,
+    pub step_bodies: StepBodies,
     pub g2p: G2p,
     pub g2p2g: G2p2g,
     pub one_pass: OnePass,
@@ -60,6 +62,7 @@ impl Kernels {
             p2g: P2g::load(modules)?,
             p2g_tiled: P2gTiled::load(modules)?,
             grid_update: GridUpdate::load(modules)?,
+            step_bodies: StepBodies::load(modules)?,
             g2p: G2p::load(modules)?,
             g2p2g: G2p2g::load(modules)?,
             one_pass: OnePass::load(modules, options.float_scatter, multiprocessors)?,

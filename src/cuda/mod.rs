@@ -42,6 +42,7 @@ pub mod timing;
 // One host file per kernel file: kernels/X.cu is launched from X.rs alone.
 pub mod bin_order;
 pub mod bins;
+pub mod bodies;
 pub mod g2p;
 pub mod g2p2g;
 pub mod grid_update;

@@ -6,6 +6,7 @@
 //! launch: the grid update zeroes each accumulator it reads, so `grid_clear` stays 0 here.
 
 use super::bins::{sort_interval, BinSchedule};
+use super::bodies::DeviceBodies;
 use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::kernels::Kernels;
@@ -19,6 +20,7 @@ use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
 use crate::contract::{Material, MAX_MATERIALS};
+use crate::sim::colliders::bodies::{BodyWalls, ContactFeature, RigidBody};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
@@ -230,6 +232,9 @@ impl CudaSolver {
                 let mirror = launch == Launch::GridUpdateBlocksMirrored;
                 k.grid_update.launch(l, pipe, mirror, p, d)?;
                 k.grid_update.clear_crossing_orbits(l, mirror, p, &d.grid)?;
+                if let Some(bodies) = &d.colliders.bodies {
+                    k.step_bodies.launch(l, p, bodies, &d.colliders.states)?;
+                }
             }
             Launch::G2p => k.g2p.launch(l, p, d)?,
             Launch::G2p2g | Launch::OnePass => {
@@ -452,6 +457,36 @@ impl Solver for CudaSolver {
             "the report pipeline applies no colliders; use --pipeline fused (or solver.pipeline = \"fused\", the default)"
         );
         self.state.colliders.set(self.gpu.stream(), frame)
+    }
+
+    fn set_bodies(
+        &mut self,
+        bodies: &[RigidBody],
+        features: &[ContactFeature],
+        walls: BodyWalls,
+    ) -> Result<()> {
+        // The fused pipeline's grid update alone sees a node's mass without the walls' images,
+        // which the bodies' exchange counts (the binned one adds them in a launch before).
+        ensure!(
+            bodies.is_empty() || self.pipeline == Pipeline::Fused,
+            "the {} pipeline moves no rigid bodies; use --pipeline fused (the default)",
+            self.pipeline.name()
+        );
+        self.state.colliders.bodies = if bodies.is_empty() {
+            None
+        } else {
+            Some(DeviceBodies::upload(self.gpu.stream(), bodies, features, walls)?)
+        };
+        // Captured substeps launched without the bodies' step.
+        self.graphs.clear();
+        Ok(())
+    }
+
+    fn bodies(&mut self) -> Result<Vec<RigidBody>> {
+        match &self.state.colliders.bodies {
+            Some(bodies) => bodies.read(self.gpu.stream()),
+            None => Ok(Vec::new()),
+        }
     }
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {

@@ -1,0 +1,85 @@
+//! kernels/bodies.cu: the rigid bodies on the device. Their states, contact features and fixed-point
+//! impulse sums live here from the start of a run; the grid update adds each body's impulse, and
+//! step_bodies (after it, in the grid update phase) moves the bodies and writes each one's collider
+//! state into its slot, so no substep waits for the host.
+
+use super::launch::{host_kernel, Launcher};
+use crate::contract::{BodyWalls, ContactFeature, RigidBody};
+use crate::sim::Params;
+use anyhow::{Context, Result};
+use cudarc::driver::{CudaSlice, CudaStream, LaunchConfig, PushKernelArg};
+use std::sync::Arc;
+
+host_kernel!(StepBodies = "bodies" / "step_bodies");
+
+pub struct DeviceBodies {
+    pub states: CudaSlice<RigidBody>,
+    pub count: u32,
+    features: CudaSlice<ContactFeature>,
+    /// Six fixed-point sums per body (`BODY_IMPULSE_UNITS`): the grid update adds, step_bodies reads
+    /// and zeroes.
+    pub impulses: CudaSlice<u64>,
+    walls: BodyWalls,
+}
+
+impl DeviceBodies {
+    pub fn upload(
+        stream: &Arc<CudaStream>,
+        bodies: &[RigidBody],
+        features: &[ContactFeature],
+        walls: BodyWalls,
+    ) -> Result<DeviceBodies> {
+        let features = if features.is_empty() {
+            stream.alloc_zeros::<ContactFeature>(1)
+        } else {
+            stream.clone_htod(features)
+        }
+        .context("uploading the rigid bodies' contact features")?;
+        Ok(DeviceBodies {
+            states: stream.clone_htod(bodies).context("uploading the rigid bodies")?,
+            count: bodies.len() as u32,
+            features,
+            impulses: stream
+                .alloc_zeros::<u64>(6 * bodies.len())
+                .context("allocating the rigid bodies' impulse sums")?,
+            walls,
+        })
+    }
+
+    /// The bodies as they are now (waits for the stream).
+    pub fn read(&self, stream: &Arc<CudaStream>) -> Result<Vec<RigidBody>> {
+        stream
+            .clone_dtoh(&self.states)
+            .context("reading the rigid bodies back")
+    }
+}
+
+impl StepBodies {
+    /// One thread per body; `collider_states`: where each body's collider state goes.
+    pub fn launch<T>(
+        &self,
+        l: &Launcher,
+        params: &Params,
+        bodies: &DeviceBodies,
+        collider_states: &CudaSlice<T>,
+    ) -> Result<()> {
+        let config = LaunchConfig {
+            grid_dim: (1, 1, 1),
+            block_dim: (bodies.count.next_multiple_of(32), 1, 1),
+            shared_mem_bytes: 0,
+        };
+        // SAFETY: the arguments match step_bodies; each body's slot and features lie in the buffers
+        // (Colliders::rigid_bodies laid them out).
+        unsafe {
+            self.0.launch(l, config, |a| {
+                a.arg(&params.kernel)
+                    .arg(&bodies.walls)
+                    .arg(&bodies.count)
+                    .arg(&bodies.states)
+                    .arg(&bodies.features)
+                    .arg(&bodies.impulses)
+                    .arg(collider_states);
+            })
+        }
+    }
+}
