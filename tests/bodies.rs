@@ -1,0 +1,74 @@
+//! Rigid bodies against physics (docs/physics.md, "Rigid bodies"), on the CPU at 1 cm cells in CI:
+//! a body pushed into still water keeps the total momentum, and square logs float at Archimedes'
+//! draft (ignored while issue 42 is open: 1 cm cells miss it; tests/gpu_bodies.rs runs them finer).
+//! `cargo test --release --test bodies -- --nocapture` prints what each measured.
+
+mod bodies_checks;
+mod common;
+mod materials_checks;
+
+use glam::DVec3;
+use mpm::backend::BackendKind;
+
+/// Without gravity, a log of 500 kg/m^3 at 0.3 m/s runs into a still block of water
+/// ([`bodies_checks::log_into_still_water`], fixed-point scatter): over a second, through the
+/// impact, the momentum of body and water together stays within 1e-4 of the start's, while the
+/// body hands a good part of its own to the water.
+#[test]
+fn a_body_entering_still_water_keeps_the_total_momentum() {
+    let scene = bodies_checks::log_into_still_water(0.01, "fixed-point");
+    let mut sim = materials_checks::simulation(&scene, BackendKind::Cpu);
+    let start = bodies_checks::total_momentum(&mut sim);
+    let body_start = DVec3::from_array(sim.bodies()[0].velocity) / sim.bodies()[0].inv_mass;
+    let mut worst = 0.0f64;
+    for frame in 1..=60 {
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+        if frame % 6 == 0 {
+            let total = bodies_checks::total_momentum(&mut sim);
+            let drift = (total - start).length() / start.length();
+            worst = worst.max(drift);
+            let body = sim.bodies()[0];
+            println!(
+                "  t = {:.2} s: body at x = {:.4} m moving {:.4} m/s; total momentum {:.5?} kg m/s, drift {drift:.2e}",
+                frame as f64 / 60.0,
+                body.center[0],
+                body.velocity[0],
+                total
+            );
+        }
+    }
+    let body_end = DVec3::from_array(sim.bodies()[0].velocity) / sim.bodies()[0].inv_mass;
+    assert!(
+        body_end.x < 0.8 * body_start.x,
+        "the body kept {:.1} % of its momentum: it never met the water",
+        100.0 * body_end.x / body_start.x
+    );
+    assert!(
+        worst < 1e-4,
+        "the total momentum drifted by {worst:.2e} of the start's"
+    );
+}
+
+/// A square log 10 cm across (quasi-2D, 1 cm cells) of relative density 0.25, 0.5 and 0.75 settles
+/// with the submerged share of its section as a draft of 25, 50 and 75 mm, within 5 %.
+#[test]
+#[ignore = "issue 42: at 1 cm cells the logs float at 28.2, 54.7 and 91.3 mm (CPU, 4 s), 9 to 22 % deep; tests/gpu_bodies.rs runs them finer"]
+fn square_logs_float_at_archimedes_draft() {
+    let (dx, side) = (0.01f32, 0.1f32);
+    let mut failures = Vec::new();
+    for rho in [250.0f32, 500.0, 750.0] {
+        let scene = bodies_checks::log_in_water(dx, side, rho, 0.0, side * rho / 1000.0 - 0.5 * side, "");
+        let mut sim = materials_checks::simulation(&scene, BackendKind::Cpu);
+        let f = bodies_checks::settle_log(&mut sim, dx, side, 4.0);
+        let want = f64::from(side * rho / 1000.0);
+        println!(
+            "{rho} kg/m^3: draft {:.2} mm, Archimedes {:.1}",
+            1e3 * f.draft,
+            1e3 * want
+        );
+        if (f.draft / want - 1.0).abs() > 0.05 {
+            failures.push(format!("{rho} kg/m^3: {:.1} mm", 1e3 * f.draft));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("; "));
+}

@@ -1,0 +1,201 @@
+//! What the rigid bodies' checks share: their scenes and measurements, on the CPU in CI at a coarse
+//! cell (tests/bodies.rs), finer on the GPU (tests/gpu_bodies.rs).
+#![allow(dead_code)]
+
+use glam::{DQuat, DVec3, Vec3};
+use mpm::sim::colliders::bodies::RigidBody;
+use mpm::sim::{Scene, Simulation};
+
+use super::common;
+use super::materials_checks::{particles, G};
+
+/// The tank of the floating checks: 40 cm long, 30 cm high, water 15 cm deep, a quasi-2D slab 5 cells
+/// of `dx` thick (8 nodes in z: the fluid region runs from node 1 to node 6).
+pub const TANK: f32 = 0.4;
+pub const WATER_DEPTH: f32 = 0.15;
+
+/// A square log `side` m across, as long as the slab is thick (less a tenth of a cell at each end),
+/// of density `rho`, its axis along z, turned `angle` degrees about it, its centre `sink` m under the
+/// still water's surface, in the tank's middle. Its contacts are frictionless: where a tilt about x
+/// or y brings an end against the slab's walls, they straighten it without holding it. `extra` goes
+/// after the material.
+pub fn log_in_water(dx: f32, side: f32, rho: f32, angle: f32, sink: f32, extra: &str) -> Scene {
+    let cells = |metres: f32| (metres / dx).round() as u32;
+    let floor = dx;
+    let (z_lo, z_hi) = (dx, 6.0 * dx);
+    common::scene(&format!(
+        "[domain]\nsize = [{TANK}, 0.3, {}]\nresolution = [{}, {}, 8]\n\
+         [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 10.0\nviscosity = 1.0e-3\n\
+         [time_step]\ncfl = 0.4\n{extra}\
+         [[block]]\nmin = [{floor}, {floor}, {z_lo}]\nmax = [{}, {}, {z_hi}]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{side}, {side}, {}]\n\
+         rotation = [0.0, 0.0, {angle}]\ndensity = {rho}\ncontact_friction = 0.0\n",
+        8.0 * dx,
+        cells(TANK),
+        cells(0.3),
+        TANK - 2.5 * dx,
+        floor + WATER_DEPTH,
+        0.5 * TANK,
+        floor + WATER_DEPTH - sink,
+        0.5 * (z_lo + z_hi),
+        z_hi - z_lo - 0.2 * dx,
+    ))
+}
+
+/// The part of a square of side `side` centred at height `center_y`, turned `angle` radians, that
+/// lies below the height `surface`, as a fraction of its area: the polygon clipped by the plane.
+pub fn submerged_fraction(side: f64, center_y: f64, angle: f64, surface: f64) -> f64 {
+    let h = 0.5 * side;
+    let corners: Vec<(f64, f64)> = [(-h, -h), (h, -h), (h, h), (-h, h)]
+        .iter()
+        .map(|&(x, y)| {
+            let (s, c) = angle.sin_cos();
+            (c * x - s * y, center_y + s * x + c * y)
+        })
+        .collect();
+    // Sutherland-Hodgman against y <= surface, then the shoelace formula.
+    let mut clipped = Vec::new();
+    for k in 0..4 {
+        let (a, b) = (corners[k], corners[(k + 1) % 4]);
+        let (a_in, b_in) = (a.1 <= surface, b.1 <= surface);
+        if a_in {
+            clipped.push(a);
+        }
+        if a_in != b_in {
+            let t = (surface - a.1) / (b.1 - a.1);
+            clipped.push((a.0 + t * (b.0 - a.0), surface));
+        }
+    }
+    let n = clipped.len();
+    let area: f64 = (0..n)
+        .map(|k| {
+            let (p, q) = (clipped[k], clipped[(k + 1) % n]);
+            p.0 * q.1 - q.0 * p.1
+        })
+        .sum::<f64>()
+        .abs()
+        * 0.5;
+    area / (side * side)
+}
+
+/// The log's tilt about z, degrees, folded into [0, 90) (a square looks the same every quarter turn)
+/// and reported as the distance from flat, [0, 45].
+pub fn tilt_degrees(body: &RigidBody) -> f64 {
+    let (axis, angle) = DQuat::from_array(body.orientation).to_axis_angle();
+    let about_z = (axis.z.signum() * angle).to_degrees().rem_euclid(90.0);
+    about_z.min(90.0 - about_z)
+}
+
+/// What [`settle_log`] measured, averaged over the last half second.
+pub struct Floating {
+    /// The submerged part of the log's section, as a draft: the fraction times the side, m.
+    pub draft: f64,
+    /// From flat, degrees ([`tilt_degrees`]).
+    pub tilt: f64,
+    /// The largest tilt and draft over that half second less the smallest: how still it came to rest.
+    pub tilt_swing: f64,
+    pub draft_swing: f64,
+}
+
+/// Runs a [`log_in_water`] for `seconds`, gravity ramped in over the first half second (released at
+/// once, the tank rings in its acoustic mode for seconds), printing every sixth of a second.
+pub fn settle_log(sim: &mut Simulation, dx: f32, side: f32, seconds: f32) -> Floating {
+    let quarter = 0.25 * dx; // half the spacing of 2 particles a cell: the surface beyond its particles
+    let frames = (seconds * 60.0).round() as u32;
+    let (mut drafts, mut tilts) = (Vec::new(), Vec::new());
+    for frame in 1..=frames {
+        let ramp = (frame as f32 / 30.0).min(1.0);
+        sim.set_gravity(Vec3::new(0.0, -G * ramp, 0.0)).unwrap();
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+        let last_half = frame + 30 > frames;
+        if !last_half && frame % 10 != 0 {
+            continue;
+        }
+        let body = sim.bodies()[0];
+        let center = DVec3::from_array(body.center);
+        let p = particles(sim);
+        // The surface away from the log (it drifts): each column of cells at least 2 cm from the walls
+        // and 10 cm from the log's axis (its half diagonal, 7 cm, and 3 more), by its highest
+        // particle, averaged.
+        let columns = (0..(TANK / dx) as usize).filter(|&c| {
+            let x = (c as f32 + 0.5) * dx;
+            x > 0.02 && x < TANK - 0.02 && (f64::from(x) - center.x).abs() > 0.1
+        });
+        let tops: Vec<f32> = columns
+            .map(|c| {
+                let x0 = c as f32 * dx;
+                p.x.iter()
+                    .filter(|x| x.x >= x0 && x.x < x0 + dx)
+                    .map(|x| x.y)
+                    .fold(f32::NEG_INFINITY, f32::max)
+                    + quarter
+            })
+            .collect();
+        let surface = f64::from(tops.iter().sum::<f32>() / tops.len() as f32);
+        let (axis, angle) = DQuat::from_array(body.orientation).to_axis_angle();
+        let fraction = submerged_fraction(f64::from(side), center.y, axis.z.signum() * angle, surface);
+        let draft = fraction * f64::from(side);
+        let tilt = tilt_degrees(&body);
+        if last_half {
+            drafts.push(draft);
+            tilts.push(tilt);
+        }
+        if frame % 10 == 0 {
+            println!(
+                "  t = {:.2} s: surface {surface:.4} m; log at ({:.4}, {:.4}) m, tilted {tilt:.1} degrees, \
+                 draft {:.1} mm, moving {:.3} m/s",
+                frame as f32 / 60.0,
+                center.x,
+                center.y,
+                1e3 * draft,
+                DVec3::from_array(body.velocity).length(),
+            );
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let swing =
+        |v: &[f64]| v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min);
+    Floating {
+        draft: mean(&drafts),
+        tilt: mean(&tilts),
+        tilt_swing: swing(&tilts),
+        draft_swing: swing(&drafts),
+    }
+}
+
+/// Without gravity, a square log 6 cm across of density 500 kg/m^3 moving at 0.3 m/s along x into a
+/// still block of water 16 cm square, in a quasi-2D tank 60 x 45 cm (5 cells of `dx` thick): the
+/// water stays clear of every wall but the slab's for the second the check runs.
+pub fn log_into_still_water(dx: f32, scatter: &str) -> Scene {
+    let cells = |metres: f32| (metres / dx).round() as u32;
+    let (z_lo, z_hi) = (dx, 6.0 * dx);
+    common::scene(&format!(
+        "[domain]\nsize = [0.6, 0.45, {}]\nresolution = [{}, {}, 8]\n\
+         [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 10.0\nviscosity = 1.0e-3\n\
+         [solver]\ngravity = [0.0, 0.0, 0.0]\nscatter = \"{scatter}\"\n[time_step]\ncfl = 0.4\n\
+         [[block]]\nmin = [0.2, 0.145, {z_lo}]\nmax = [0.36, 0.305, {z_hi}]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.12, 0.225, {}]\nsize = [0.06, 0.06, {}]\n\
+         density = 500.0\ncontact_friction = 0.0\nmotion.velocity = [0.3, 0.0, 0.0]\n",
+        8.0 * dx,
+        cells(0.6),
+        cells(0.45),
+        0.5 * (z_lo + z_hi),
+        z_hi - z_lo - 0.2 * dx,
+    ))
+}
+
+/// The total momentum of the liquid's particles and the rigid bodies, kg m/s.
+pub fn total_momentum(sim: &mut Simulation) -> DVec3 {
+    let table = *sim.params();
+    let p = particles(sim);
+    let liquid: DVec3 = (0..p.len())
+        .filter(|&n| p.live[n])
+        .map(|n| p.v[n].as_dvec3() * f64::from(table.materials[p.material[n] as usize].particle_mass))
+        .sum();
+    let bodies: DVec3 = sim
+        .bodies()
+        .iter()
+        .map(|b| DVec3::from_array(b.velocity) / b.inv_mass)
+        .sum();
+    liquid + bodies
+}
