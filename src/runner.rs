@@ -129,6 +129,10 @@ pub fn format_frame(s: &FrameStats) -> String {
             );
         }
     }
+    for b in &s.bodies {
+        let [x, y, z] = b.center;
+        line += &format!("  collider[{}]=({x:.4}, {y:.4}, {z:.4}) m", b.collider);
+    }
     if let Some(t) = &s.timings {
         line += &format!("  step={:.3} ms", t.per_step());
     }

@@ -377,8 +377,6 @@ device_constants! {
     COLLIDER_CAPSULE: u32 = 2;
     COLLIDER_CYLINDER: u32 = 3;
     COLLIDER_MESH: u32 = 4;
-    /// The most rigid bodies a scene may have (each is one of its colliders).
-    MAX_BODIES: u32 = 8;
     /// Fixed-point units per N s of a rigid body's impulse accumulators (and per N m s of its
     /// angular impulse): 2^36, so a node's share down to 1e-9 N s keeps 7 digits and a body's sum
     /// reaches 1e8 N s.

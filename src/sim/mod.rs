@@ -24,7 +24,7 @@ pub use params::{DensityRule, Material, Params, Pipeline, ScatterMode, FRAME_DT}
 pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Deformation, Particles, Scene, SceneError};
-pub use simulation::{FrameStats, FrameSteps, RunClock, Simulation};
+pub use simulation::{BodyPose, FrameStats, FrameSteps, RunClock, Simulation};
 pub use solver::{ExtremesTicket, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS};
 pub use summary::Summary;
 pub use view::{ColourBy, DeviceParticleView, ParticleView};

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 17] = [
+pub const NAMES: [&str; 19] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -20,11 +20,13 @@ pub const NAMES: [&str; 17] = [
     "jelly-drop",
     "sand-column",
     "snowball",
+    "boats",
+    "ball-drop",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 17] = [
+const FILES: [&str; 19] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -40,6 +42,8 @@ const FILES: [&str; 17] = [
     include_str!("../../scenes/jelly-drop.toml"),
     include_str!("../../scenes/sand-column.toml"),
     include_str!("../../scenes/snowball.toml"),
+    include_str!("../../scenes/boats.toml"),
+    include_str!("../../scenes/ball-drop.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];

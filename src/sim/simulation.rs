@@ -47,7 +47,7 @@ impl StepLimit {
 }
 
 /// One line of the runner's output.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FrameStats {
     pub frame: u64,
     /// Simulated seconds at the end of the frame.
@@ -74,6 +74,37 @@ pub struct FrameStats {
     pub late_layers: u64,
     /// Per-phase milliseconds summed over the frame's substeps, where the backend measures them.
     pub timings: Option<PhaseTimings>,
+    /// The rigid bodies at the frame's end, in the order of the colliders that are bodies (a pose
+    /// table a frame in `--stats`); empty, and left out of the JSON, without bodies.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub bodies: Vec<BodyPose>,
+}
+
+/// A rigid body's pose and velocities (`FrameStats::bodies`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BodyPose {
+    /// Its index among the scene's colliders.
+    pub collider: u32,
+    /// World position of its collider's centre, m.
+    pub center: [f64; 3],
+    /// World-from-body rotation, a unit quaternion (x, y, z, w).
+    pub orientation: [f64; 4],
+    /// Of its centre of mass, m/s.
+    pub velocity: [f64; 3],
+    /// rad/s, world frame.
+    pub angular_velocity: [f64; 3],
+}
+
+impl BodyPose {
+    pub fn of(body: &RigidBody) -> BodyPose {
+        BodyPose {
+            collider: body.slot,
+            center: body.center,
+            orientation: body.orientation,
+            velocity: body.velocity,
+            angular_velocity: body.angular_velocity,
+        }
+    }
 }
 
 /// What one frame's substeps did, without the statistics pass (which copies every particle).
@@ -495,6 +526,7 @@ impl Simulation {
             flow: self.solver.flow_counts()?,
             late_layers: self.late_layers,
             timings: steps.timings,
+            bodies: self.bodies.iter().map(BodyPose::of).collect(),
         })
     }
 

@@ -17,7 +17,7 @@
 
 use super::{Shape, BAND_CELLS};
 use crate::contract::ColliderState;
-pub use crate::contract::{BodyWalls, ContactFeature, RigidBody, BODY_IMPULSE_UNITS, MAX_BODIES};
+pub use crate::contract::{BodyWalls, ContactFeature, RigidBody, BODY_IMPULSE_UNITS};
 use glam::{DMat3, DQuat, DVec3};
 
 /// What makes a collider a rigid body.

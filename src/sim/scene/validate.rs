@@ -10,7 +10,7 @@ use crate::contract::{
     LAW_CARREAU_YASUDA, LAW_FIXED_COROTATED, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_NEWTONIAN,
     LAW_POWER_LAW, LAW_SAND, LAW_SNOW, MAX_MATERIALS,
 };
-use crate::sim::colliders::bodies::{MAX_BAND_MASS_RATIO, MAX_BODIES};
+use crate::sim::colliders::bodies::MAX_BAND_MASS_RATIO;
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use crate::sim::material::{default_colour, MaterialTable, NamedMaterial, MAX_ABSORPTION};
@@ -1010,13 +1010,6 @@ impl Validator<'_> {
                     .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        if list.iter().filter(|c| c.body.is_some()).count() > MAX_BODIES as usize {
-            return Err(self.err(
-                "collider",
-                format!("holds more than the {MAX_BODIES} rigid bodies a scene may have"),
-                "give the others no density or mass (they stay put), or drop some",
-            ));
-        }
         // The explicit coupling's limit (bodies.rs, Dynamics::band_mass_ratio), against the densest
         // liquid.
         let liquid_density = materials
