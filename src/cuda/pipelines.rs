@@ -123,7 +123,9 @@ impl Launch {
             Launch::GridUpdate => "grid_update (every node)".into(),
             Launch::GridUpdateBlocks => "grid_update_blocks + clear_crossing_orbits".into(),
             Launch::GridUpdateBlocksMirrored => {
-                "grid_update_blocks (the walls' images inside) + clear_crossing_orbits".into()
+                "grid_update_blocks (the walls' images inside; with rigid bodies grid_update_blocks_bodies, then \
+                 step_bodies) + clear_crossing_orbits"
+                    .into()
             }
             Launch::G2p => "g2p".into(),
             Launch::G2p2g => "g2p2g (g2p + the next mass scatter)".into(),
