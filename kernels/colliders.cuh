@@ -142,6 +142,24 @@ __device__ __forceinline__ Vec3f collider_velocity_at(const ColliderState& s, Ve
 // The grid update's boundary condition (ColliderFrame::project_node): for each collider in turn whose
 // surface is within the band, the velocity relative to it loses its part into the collider (slip), all
 // of it (stick), or that and a Coulomb share of its tangential part (friction).
+// What collider s's boundary took from the liquid at x, `given` (N s), and its moment about the
+// collider's centre, added to the sums of the rigid body s is (give_to_body in
+// src/sim/colliders/geometry.rs); nothing for a collider that is no body, or without sums.
+__device__ __forceinline__ void collider_give_to_body(const ColliderState& s, u64* impulses, Vec3f x, Vec3f given) {
+    if (s.body == 0u || !impulses) return;
+    const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
+    const float sums[6] = {given.x, given.y, given.z, r.y * given.z - given.y * r.z, r.z * given.x - given.z * r.x,
+                           r.x * given.y - given.x * r.y};
+    u64* to = impulses + 6 * (s.body - 1u);
+#pragma unroll
+    for (int c = 0; c < 6; ++c) {
+        const float scaled = sums[c] * BODY_IMPULSE_UNITS;
+        // Out of range (beyond 2^52 units, or NaN) adds nothing, as fixed_point_units.
+        const i64 units = fabsf(scaled) < 4503599627370496.0f ? __float2ll_rn(scaled) : 0;
+        if (units != 0) atomicAdd((unsigned long long*)&to[c], (unsigned long long)units);
+    }
+}
+
 // A rigid body's collider (s.body != 0) also adds what it took from the node, -m dv, and its moment
 // about the collider's centre to the body's sums (ColliderFrame::project_node_exchanging). m is the
 // particles' own mass at the node: the walls' mirror images carry no momentum the particles get back,
@@ -178,27 +196,17 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
         vel[0] = vc.x + rel.x;
         vel[1] = vc.y + rel.y;
         vel[2] = vc.z + rel.z;
-        if (s.body != 0u && colliders.impulses) {
-            const Vec3f given = v3((before.x - vel[0]) * m, (before.y - vel[1]) * m, (before.z - vel[2]) * m);
-            const Vec3f r = v3(x.x - s.center[0], x.y - s.center[1], x.z - s.center[2]);
-            const float sums[6] = {given.x, given.y, given.z, r.y * given.z - given.y * r.z,
-                                   r.z * given.x - given.z * r.x, r.x * given.y - given.x * r.y};
-            u64* to = colliders.impulses + 6 * (s.body - 1u);
-#pragma unroll
-            for (int c = 0; c < 6; ++c) {
-                const float scaled = sums[c] * BODY_IMPULSE_UNITS;
-                // Out of range (beyond 2^52 units, or NaN) adds nothing, as fixed_point_units.
-                const i64 units = fabsf(scaled) < 4503599627370496.0f ? __float2ll_rn(scaled) : 0;
-                if (units != 0) atomicAdd((unsigned long long*)&to[c], (unsigned long long)units);
-            }
-        }
+        collider_give_to_body(s, colliders.impulses, x,
+                              v3((before.x - vel[0]) * m, (before.y - vel[1]) * m, (before.z - vel[2]) * m));
     }
 }
 
 // The particle backstop after advection (ColliderFrame::backstop): a particle that ended inside a
 // collider goes back to its surface along the normal and loses its velocity into it. True where it did.
 // A nozzle's pipe holds its liquid rather than keeping it out.
-__device__ __forceinline__ bool collider_backstop(const Colliders& colliders, float (&x)[3], float (&vel)[3]) {
+// A push out of a rigid body is taken from the body (`m`: the particle's mass), as the grid update's
+// exchange, for the body's next step (ColliderFrame::backstop_exchanging).
+__device__ __forceinline__ bool collider_backstop(const Colliders& colliders, float m, float (&x)[3], float (&vel)[3]) {
     bool pushed = false;
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
@@ -215,6 +223,7 @@ __device__ __forceinline__ bool collider_backstop(const Colliders& colliders, fl
                 vel[0] -= n.x * vn;
                 vel[1] -= n.y * vn;
                 vel[2] -= n.z * vn;
+                collider_give_to_body(s, colliders.impulses, v3(x[0], x[1], x[2]), v3(n.x * vn * m, n.y * vn * m, n.z * vn * m));
             }
             pushed = true;
         }

@@ -570,10 +570,10 @@ struct Backstop {
 };
 
 __device__ __noinline__ Backstop collider_backstop_moves(const float dx, const float3 res, const Colliders colliders,
-                                                         G2pResult r) {
+                                                         const float mass, G2pResult r) {
     float x[3] = {r.x.x, r.x.y, r.x.z};
     float vel[3] = {r.v.x, r.v.y, r.v.z};
-    if (!collider_backstop(colliders, x, vel)) return Backstop{r, false};
+    if (!collider_backstop(colliders, mass, x, vel)) return Backstop{r, false};
     const float high[3] = {res.x - 2.0f, res.y - 2.0f, res.z - 2.0f};
     float speed_sq = 0.0f;
     for (int a = 0; a < 3; ++a) {
@@ -591,7 +591,9 @@ __device__ __noinline__ Backstop collider_backstop_moves(const float dx, const f
 __device__ __forceinline__ Backstop collider_backstop_particle(const KernelParams& params, const Colliders& colliders,
                                                                float rho, const G2pResult& r) {
     const float3 res = make_float3((float)params.grid_res[0], (float)params.grid_res[1], (float)params.grid_res[2]);
-    Backstop b = collider_backstop_moves(params.dx, res, colliders, r);
+    // The particle's mass only where a rigid body may take its push (the binned pipeline has none).
+    const float mass = colliders.impulses ? material_table[material_index(params, r.v)].particle_mass : 0.0f;
+    Backstop b = collider_backstop_moves(params.dx, res, colliders, mass, r);
     if (b.pushed) b.r.signal = material_signal_speed(material_table[material_index(params, b.r.v)], rho, b.r.speed);
     return b;
 }

@@ -106,8 +106,11 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, G2P2G_MIN_BLOCKS) g2p
                                  float* __restrict__ rho, float4* grid_acc, u64* fixed_mass, u32* block_marks,
                                  u32* block_list, u32* work_counts, StepCounters* __restrict__ counters,
                                  const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-                                 const float* __restrict__ collider_sdf, const float4* __restrict__ sinks,
-                                 u32 num_sinks, u32* __restrict__ free_slots, FlowCounters* __restrict__ flow) {
+                                 const float* __restrict__ collider_sdf, u64* __restrict__ /*body_impulses*/,
+                                 const float4* __restrict__ sinks, u32 num_sinks, u32* __restrict__ free_slots,
+                                 FlowCounters* __restrict__ flow) {
+    // The binned pipeline takes no rigid bodies (their exchange needs the fused grid update's own
+    // mass): the bodies' sums, always null here, are not passed on.
     scatter_bins_mass<true>(params, bins, order, x, v, c, grid_vel, rho, grid_acc, fixed_mass,
                             BlockMarks{block_marks, block_list, work_counts}, work_counts, counters,
                             Colliders{collider_states, num_colliders, collider_sdf, nullptr}, sinks, num_sinks,

@@ -198,7 +198,8 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
                                               float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
                                               u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
                                               const ColliderState* __restrict__ collider_states,
-                                              const u32 num_colliders, const float* __restrict__ collider_sdf) {
+                                              const u32 num_colliders, const float* __restrict__ collider_sdf,
+                                              u64* __restrict__ /*body_impulses: null, no bodies*/) {
     update_listed_blocks<false>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
                                 fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }

@@ -46,13 +46,13 @@
         float4 *grid_acc, u64 *fixed_mass,                                                                        \
         u64 *fixed_momentum, u32 *block_marks, u32 *block_list, u32 *work_counts,                                \
         StepCounters *__restrict__ counters, const ColliderState *__restrict__ collider_states,                  \
-        const u32 num_colliders, const float *__restrict__ collider_sdf, const float4 *__restrict__ sinks,       \
-        u32 num_sinks, u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
+        const u32 num_colliders, const float *__restrict__ collider_sdf, u64 *__restrict__ body_impulses,        \
+        const float4 *__restrict__ sinks, u32 num_sinks, u32 *__restrict__ free_slots, FlowCounters *__restrict__ flow
 #define ONE_PASS_ARGUMENTS                                                                                      \
     params, gather, bins, order, x, v, c, rho, slot, deformation, grid_vel, grid_acc, fixed_mass, fixed_momentum,    \
         block_marks,                                                                                             \
-        block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, sinks, num_sinks,       \
-        free_slots, flow
+        block_list, work_counts, counters, collider_states, num_colliders, collider_sdf, body_impulses, sinks,   \
+        num_sinks, free_slots, flow
 
 // The scatter one_pass is compiled with (an entry point each; src/cuda/one_pass.rs chooses).
 enum class Scatter {
@@ -159,7 +159,7 @@ template <Scatter SCATTER, bool MATERIALS, bool SOLIDS>
 __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
     constexpr bool FIXED = SCATTER == Scatter::FixedTile;
     __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];
-    const Colliders colliders{collider_states, num_colliders, collider_sdf};
+    const Colliders colliders{collider_states, num_colliders, collider_sdf, body_impulses};
     const BlockMarks marks{block_marks, block_list, work_counts};
     const TileScales scales = tile_scales(params);
     const float tile_scale[SCATTER_CHANNELS] = {scales.mass, scales.momentum, scales.momentum, scales.momentum};

@@ -71,8 +71,8 @@ impl GridUpdate {
                     Some(_) => &self.listed_blocks_with_bodies,
                     None => &self.listed_blocks,
                 };
-                // SAFETY: the arguments match grid_update_blocks, and grid_update_blocks_bodies with
-                // the bodies' sums last; one thread per node of a block.
+                // SAFETY: the arguments match grid_update_blocks and grid_update_blocks_bodies (the
+                // bodies' sums last: null without bodies); one thread per node of a block.
                 unsafe {
                     kernel.launch(l, config, |a| {
                         a.arg(&params.kernel)
@@ -86,9 +86,6 @@ impl GridUpdate {
                             .arg(g.fixed_momentum())
                             .arg(&d.counters.device)
                             .colliders(&d.colliders);
-                        if let Some(bodies) = &d.colliders.bodies {
-                            a.arg(&bodies.impulses);
-                        }
                     })
                 }
             }

@@ -235,7 +235,8 @@ pub trait StateArgs<'a> {
     /// `block_marks, block_list, work_counts, counters`: the node-block list a scatter appends to
     /// (`BlockMarks` in kernels/tiles.cuh), then the step counters.
     fn node_block_list(&mut self, state: &'a DeviceState) -> &mut Self;
-    /// `collider_states, num_colliders, collider_sdf` (`Colliders` in kernels/colliders.cuh).
+    /// `collider_states, num_colliders, collider_sdf, body_impulses` (`Colliders` in kernels/colliders.cuh;
+    /// the rigid bodies' sums null without bodies).
     fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self;
     /// `sinks, num_sinks, free_slots, flow`: the sinks a gather drains into and the stack of free
     /// slots; without a flow, null pointers and no sinks (never read).
@@ -281,7 +282,11 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
     fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self {
         self.arg(&colliders.states)
             .arg(&colliders.count)
-            .arg(&colliders.sdf)
+            .arg(&colliders.sdf);
+        match &colliders.bodies {
+            Some(bodies) => self.arg(&bodies.impulses),
+            None => self.arg(&NULL_POINTER),
+        }
     }
 
     fn sinks(&mut self, flow: Option<&'a DeviceFlow>) -> &mut Self {

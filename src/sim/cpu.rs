@@ -469,8 +469,9 @@ pub fn g2p_particle(params: &Params, shape: GridShape, velocity: &[Vec3], x: Vec
     (((x + v * dt).clamp(lo, hi)), v, b * (4.0 * inv_dx))
 }
 
-/// `g2p_particle`, then the colliders' particle backstop (`ColliderFrame::backstop`) and g2p's clamp
-/// again: the particle's new x, v and C, and whether the backstop moved it. Both CPU backends' g2p.
+/// `g2p_particle`, then the colliders' particle backstop (`ColliderFrame::backstop_exchanging`, for a
+/// particle of mass `m`: a rigid body's push is taken from `body_impulses`) and g2p's clamp again:
+/// the particle's new x, v and C, and whether the backstop moved it. Both CPU backends' g2p.
 #[inline(always)]
 pub fn g2p_with_backstop(
     params: &Params,
@@ -478,12 +479,14 @@ pub fn g2p_with_backstop(
     velocity: &[Vec3],
     colliders: &ColliderFrame,
     x: Vec3,
+    m: f32,
+    body_impulses: &mut [[i64; 6]],
 ) -> (Vec3, Vec3, Mat3, bool) {
     let (x, v, c) = g2p_particle(params, shape, velocity, x);
     if colliders.is_empty() {
         return (x, v, c, false);
     }
-    match colliders.backstop(x, v) {
+    match colliders.backstop_exchanging(x, v, m, body_impulses) {
         Some((x, v)) => {
             let dx = params.dx;
             (
@@ -763,7 +766,10 @@ impl CpuSolver {
         let p = &mut self.particles;
         let mut extremes = GatherExtremes::default();
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
-            let (x, v, c, moved) = g2p_with_backstop(params, shape, velocity, &self.colliders, p.x[n]);
+            let m_p = Material::of(params, p.material[n]).particle_mass;
+            let impulses = &mut self.bodies.impulses;
+            let (x, v, c, moved) =
+                g2p_with_backstop(params, shape, velocity, &self.colliders, p.x[n], m_p, impulses);
             p.rho[n] = density_after_g2p(params, shape, source, velocity, p.x[n], p.rho[n], p.material[n]);
             (p.x[n], p.v[n], p.c[n]) = (x, v, c);
             let deformation = p.deformation.get_mut(n);

@@ -497,26 +497,26 @@ impl ParallelCpuSolver {
             false => Either::Left(p.deformation.par_iter_mut().map(Some)),
             true => Either::Right((0..p.x.len()).into_par_iter().map(|_| None)),
         };
-        let extremes = p
-            .x
-            .par_iter_mut()
-            .with_min_len(MIN_PER_TASK)
-            .zip(p.v.par_iter_mut())
-            .zip(p.c.par_iter_mut())
-            .zip(p.rho.par_iter_mut())
-            .zip(p.live.par_iter().zip(p.material.par_iter()))
-            .zip(deformations)
-            .map(|(((((x, v), c), rho), (&live, &material)), deformation)| {
-                if !live {
-                    return GatherExtremes::default();
-                }
-                let (x_new, v_new, c_new, moved) = g2p_with_backstop(params, *shape, velocity, colliders, *x);
-                *rho = density_after_g2p(params, *shape, source, velocity, *x, *rho, material);
-                (*x, *v, *c) = (x_new, v_new, c_new);
-                let deformation = advance_deformation(params, material, c_new, deformation);
-                GatherExtremes::of(params, *v, *rho, material, moved, deformation)
-            })
-            .reduce(GatherExtremes::default, GatherExtremes::max);
+        let extremes =
+            p.x.par_iter_mut()
+                .with_min_len(MIN_PER_TASK)
+                .zip(p.v.par_iter_mut())
+                .zip(p.c.par_iter_mut())
+                .zip(p.rho.par_iter_mut())
+                .zip(p.live.par_iter().zip(p.material.par_iter()))
+                .zip(deformations)
+                .map(|(((((x, v), c), rho), (&live, &material)), deformation)| {
+                    if !live {
+                        return GatherExtremes::default();
+                    }
+                    let (x_new, v_new, c_new, moved) =
+                        g2p_with_backstop(params, *shape, velocity, colliders, *x, 0.0, &mut []);
+                    *rho = density_after_g2p(params, *shape, source, velocity, *x, *rho, material);
+                    (*x, *v, *c) = (x_new, v_new, c_new);
+                    let deformation = advance_deformation(params, material, c_new, deformation);
+                    GatherExtremes::of(params, *v, *rho, material, moved, deformation)
+                })
+                .reduce(GatherExtremes::default, GatherExtremes::max);
         extremes.add_to(&mut self.extremes);
         self.inner.scatter_dt = Some(params.dt);
     }

@@ -37,24 +37,9 @@ macro_rules! tests {
 }
 pub(crate) use tests;
 
-/// A test that misses its target while its issue is open: its name, its body and why, as a
-/// `#[ignore = "..."]` says it of a test of the standard harness.
-pub type KnownMiss = (&'static str, fn(), &'static str);
-
 /// Runs `tests` where `requirement` holds; reports them as ignored, with its reason, where it does not.
 /// `kind` names what they need in the closing line ("GPU", "viewer").
 pub fn run(kind: &str, requirement: fn() -> Result<(), String>, tests: &[Test]) -> ExitCode {
-    run_with_known_misses(kind, requirement, tests, &[])
-}
-
-/// [`run`], and `misses` ignored (they run with `--ignored`, as cargo's own ignored tests do), each
-/// reason printed at the end.
-pub fn run_with_known_misses(
-    kind: &str,
-    requirement: fn() -> Result<(), String>,
-    tests: &[Test],
-    misses: &[KnownMiss],
-) -> ExitCode {
     let args = Arguments::from_args();
     let gate: Arc<OnceLock<Result<(), String>>> = Arc::new(OnceLock::new());
     let not_run = Arc::new(Mutex::new(0usize));
@@ -76,25 +61,8 @@ pub fn run_with_known_misses(
                 }
             })
         })
-        .collect::<Vec<_>>();
-    let trials = trials
-        .into_iter()
-        .chain(misses.iter().map(|&(name, body, _)| {
-            let gate = Arc::clone(&gate);
-            Trial::test(name, move || match gate.get_or_init(requirement) {
-                Ok(()) => {
-                    body();
-                    Ok(())
-                }
-                Err(why) => Err(format!("cannot run: {why}").into()),
-            })
-            .with_ignored_flag(true)
-        }))
         .collect();
     let conclusion = libtest_mimic::run(&args, trials);
-    for (name, _, why) in misses {
-        println!("ignored {name}: {why} (run it with --ignored)");
-    }
     let not_run = *not_run.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(Err(why)) = gate.get() {
         let suite = std::env::args()

@@ -4,9 +4,10 @@
 //! (its boundary condition on the nodes in its band, relative to its rigid velocity) and adds, in
 //! fixed point, what that condition took from each node: the impulse `-m_i dv_i` and its moment about
 //! the body's centre. [`step_body`] then gives the body that impulse, gravity and its contacts with
-//! the walls, and moves it; the next substep's boundary is the body where this one left it. Exchanging
-//! exactly the momentum the nodes lost keeps body and liquid together conserving momentum; the sums
-//! are integers, so they do not depend on the order the nodes are visited in.
+//! the walls, and moves it; the next substep's boundary is the body where this one left it. The
+//! particle backstop's pushes out of the body go to the same sums, for its next step. Exchanging
+//! exactly the momentum the liquid lost keeps body and liquid together conserving momentum; the sums
+//! are integers, so they do not depend on the order they are added in.
 //!
 //! The coupling is explicit: a node in the band takes the body's velocity, and the body takes the
 //! node's momentum change. A body much lighter than the liquid in its band overshoots (the

@@ -229,18 +229,7 @@ impl ColliderFrame {
             }
             let before = v;
             v = vc + rel;
-            if s.body != 0 {
-                if let Some(sums) = impulses.get_mut(s.body as usize - 1) {
-                    let given = (before - v) * m;
-                    let moment = (x - Vec3::from(s.center)).cross(given);
-                    for (sum, value) in sums
-                        .iter_mut()
-                        .zip(given.to_array().into_iter().chain(moment.to_array()))
-                    {
-                        *sum += super::bodies::impulse_units(value);
-                    }
-                }
-            }
+            give_to_body(s, impulses, x, (before - v) * m);
         }
         v
     }
@@ -249,7 +238,20 @@ impl ColliderFrame {
     /// back on its surface along the normal, and its velocity into the collider (relative to it) is
     /// removed. Returns the new position and velocity where it did; `None` where no collider holds x.
     /// A nozzle's pipe holds its liquid rather than keeping it out.
-    pub fn backstop(&self, mut x: Vec3, mut v: Vec3) -> Option<(Vec3, Vec3)> {
+    pub fn backstop(&self, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+        self.backstop_exchanging(x, v, 0.0, &mut [])
+    }
+
+    /// [`Self::backstop`] of a particle of mass `m`: what a rigid body's push gave it, `m dv`, is taken
+    /// from the body (added to `impulses` as the grid update adds, for its next step), so a push
+    /// out of a body conserves momentum too. The kernels' twin is collider_backstop.
+    pub fn backstop_exchanging(
+        &self,
+        mut x: Vec3,
+        mut v: Vec3,
+        m: f32,
+        impulses: &mut [[i64; 6]],
+    ) -> Option<(Vec3, Vec3)> {
         let mut pushed = false;
         for s in &self.states {
             if s.boundary == BOUNDARY_PIPE || beyond(s, x, 0.0) {
@@ -261,10 +263,27 @@ impl ColliderFrame {
                 let vn = (v - Self::velocity_at(s, x)).dot(n);
                 if vn < 0.0 {
                     v -= n * vn;
+                    give_to_body(s, impulses, x, n * (vn * m));
                 }
                 pushed = true;
             }
         }
         pushed.then_some((x, v))
+    }
+}
+
+/// Adds `given` (N s, what collider `s`'s boundary took from the liquid at x) and its moment about the
+/// collider's centre to the sums of the rigid body `s` is, in `impulses`; nothing for a collider that
+/// is no body, or without sums.
+fn give_to_body(s: &ColliderState, impulses: &mut [[i64; 6]], x: Vec3, given: Vec3) {
+    let Some(sums) = (s.body as usize).checked_sub(1).and_then(|k| impulses.get_mut(k)) else {
+        return;
+    };
+    let moment = (x - Vec3::from(s.center)).cross(given);
+    for (sum, value) in sums
+        .iter_mut()
+        .zip(given.to_array().into_iter().chain(moment.to_array()))
+    {
+        *sum += super::bodies::impulse_units(value);
     }
 }
