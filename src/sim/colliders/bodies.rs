@@ -48,9 +48,10 @@ pub struct Hinge {
 }
 
 /// The largest [`Dynamics::band_mass_ratio`] a scene may give a body. Measured (CPU, 1 cm cells, a
-/// quasi-2D square log 10 cm across let go 8 cm under water): at a ratio of 81 (density 20 kg/m^3)
-/// the run blew up in its first frame; at 32 (50 kg/m^3) it shot up at twice the speed a liquid's
-/// inertia allows; logs floating at the surface were calm down to 50 kg/m^3.
+/// quasi-2D square log 10 cm across let go 8 cm under water; docs/physics.md, "Light bodies"): at a
+/// ratio of 81 (density 20 kg/m^3) the run blew up in its first frame; at 32 (50 kg/m^3) the log
+/// rose ten times as far in its first 0.17 s as the liquid's added mass allows; logs floating at the
+/// surface were calm down to 50 kg/m^3.
 pub const MAX_BAND_MASS_RATIO: f64 = 20.0;
 
 /// Contacts a body resolves at once with the walls: a box on the floor has four, in a corner six.
