@@ -4,7 +4,7 @@
 //! state into its slot, so no substep waits for the host.
 
 use super::launch::{host_kernel, Launcher};
-use crate::contract::{BodyWalls, ContactFeature, RigidBody};
+use crate::contract::{BodyWalls, ColliderState, ContactFeature, RigidBody};
 use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream, LaunchConfig, PushKernelArg};
@@ -56,12 +56,12 @@ impl DeviceBodies {
 
 impl StepBodies {
     /// One thread per body; `collider_states`: where each body's collider state goes.
-    pub fn launch<T>(
+    pub fn launch(
         &self,
         l: &Launcher,
         params: &Params,
         bodies: &DeviceBodies,
-        collider_states: &CudaSlice<T>,
+        collider_states: &CudaSlice<ColliderState>,
     ) -> Result<()> {
         let config = LaunchConfig {
             grid_dim: (1, 1, 1),

@@ -766,8 +766,12 @@ impl CpuSolver {
         let p = &mut self.particles;
         let mut extremes = GatherExtremes::default();
         for n in (0..p.x.len()).filter(|&n| p.live[n]) {
-            let m_p = Material::of(params, p.material[n]).particle_mass;
+            // The particle's mass only where a body may take its backstop push.
             let impulses = &mut self.bodies.impulses;
+            let m_p = match impulses.is_empty() {
+                true => 0.0,
+                false => Material::of(params, p.material[n]).particle_mass,
+            };
             let (x, v, c, moved) =
                 g2p_with_backstop(params, shape, velocity, &self.colliders, p.x[n], m_p, impulses);
             p.rho[n] = density_after_g2p(params, shape, source, velocity, p.x[n], p.rho[n], p.material[n]);
@@ -931,7 +935,7 @@ impl Solver for CpuSolver {
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> anyhow::Result<()> {
         self.colliders.clone_from(frame);
-        self.bodies.place_in(&mut self.colliders);
+        self.colliders.place_bodies(&self.bodies.states);
         Ok(())
     }
 
@@ -942,7 +946,7 @@ impl Solver for CpuSolver {
         walls: BodyWalls,
     ) -> anyhow::Result<()> {
         self.bodies = HostBodies::new(bodies, features, walls);
-        self.bodies.place_in(&mut self.colliders);
+        self.colliders.place_bodies(&self.bodies.states);
         Ok(())
     }
 

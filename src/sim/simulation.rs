@@ -322,11 +322,7 @@ impl Simulation {
     /// as of the last frame's end.
     pub fn collider_frame(&self) -> ColliderFrame {
         let mut frame = self.scene.colliders.frame(self.time_stepped());
-        for body in &self.bodies {
-            if let Some(slot) = frame.states.get_mut(body.slot as usize) {
-                *slot = super::colliders::bodies::body_collider_state(slot, body);
-            }
-        }
+        frame.place_bodies(&self.bodies);
         frame
     }
     /// The rigid bodies as of the last frame's end (as the scene starts them before the first).

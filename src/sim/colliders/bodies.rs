@@ -380,15 +380,6 @@ impl HostBodies {
         }
     }
 
-    /// Puts each body's collider state, at its current pose, into its slot of `frame`.
-    pub fn place_in(&self, frame: &mut super::ColliderFrame) {
-        for body in &self.states {
-            if let Some(slot) = frame.states.get_mut(body.slot as usize) {
-                *slot = body_collider_state(slot, body);
-            }
-        }
-    }
-
     /// Every body's substep after the grid update ([`step_body`]), with the impulses summed in it;
     /// `frame` then holds the bodies where they ended.
     pub fn step(&mut self, dt: f32, gravity: [f32; 3], frame: &mut super::ColliderFrame) {
@@ -400,7 +391,18 @@ impl HostBodies {
             step_body(body, features, impulse, f64::from(dt), gravity, &walls);
             *impulse = [0; 6];
         }
-        self.place_in(frame);
+        frame.place_bodies(&self.states);
+    }
+}
+
+impl super::ColliderFrame {
+    /// Puts each body's collider state, at its pose in `bodies`, into its slot.
+    pub fn place_bodies(&mut self, bodies: &[RigidBody]) {
+        for body in bodies {
+            if let Some(slot) = self.states.get_mut(body.slot as usize) {
+                *slot = body_collider_state(slot, body);
+            }
+        }
     }
 }
 
