@@ -403,6 +403,12 @@ fn bad_colliders_are_refused_with_the_key_and_the_fix() {
             "piston or flap",
         ),
         (
+            "a body of negative density",
+            "shape = \"sphere\"\ncenter = [0.15, 0.1, 0.1]\nradius = 0.03\ndensity = -3.0",
+            "collider[0].density",
+            "must be a positive number",
+        ),
+        (
             "a body through a wall",
             "shape = \"sphere\"\ncenter = [0.02, 0.1, 0.1]\nradius = 0.03\ndensity = 500.0",
             "collider[0].center",

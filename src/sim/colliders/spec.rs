@@ -109,17 +109,21 @@ fn spec_err(key: impl Into<String>, problem: impl Into<String>, fix: impl Into<S
     }
 }
 
-fn positive(key: &str, value: Option<f64>, what: &str) -> Result<f64, SpecError> {
+/// A positive `value` of `key`, or what to give: `what`, and (for a bad value) `why` after it.
+fn positive(key: &str, value: Option<f64>, what: &str, why: &str) -> Result<f64, SpecError> {
     match value {
         None => Err(spec_err(key, "is missing", format!("give {what}"))),
         Some(v) if v.is_finite() && v > 0.0 => Ok(v),
         Some(v) => Err(spec_err(
             key,
             format!("= {v} must be a positive number"),
-            format!("give {what}; a collider of zero size is nothing"),
+            format!("give {what}{why}"),
         )),
     }
 }
+
+/// What `positive` adds for a size: why it cannot be zero.
+const NO_ZERO_SIZE: &str = "; a collider of zero size is nothing";
 
 fn finite(key: &str, v: &[f64]) -> Result<(), SpecError> {
     if v.iter().all(|c| c.is_finite()) {
@@ -213,18 +217,29 @@ pub fn validate(
                 )
             })?;
             for (a, s) in size.iter().enumerate() {
-                positive(&format!("size[{a}]"), Some(*s), "every edge length in metres")?;
+                positive(
+                    &format!("size[{a}]"),
+                    Some(*s),
+                    "every edge length in metres",
+                    NO_ZERO_SIZE,
+                )?;
             }
             Shape::Box {
                 half_extents: DVec3::from(size) * 0.5,
             }
         }
         "sphere" => Shape::Sphere {
-            radius: positive("radius", spec.radius, "the radius in metres")?,
+            radius: positive("radius", spec.radius, "the radius in metres", NO_ZERO_SIZE)?,
         },
         "capsule" | "cylinder" => {
-            let radius = positive("radius", spec.radius, "the radius in metres")?;
-            let half_length = 0.5 * positive("length", spec.length, "the length along its axis in metres")?;
+            let radius = positive("radius", spec.radius, "the radius in metres", NO_ZERO_SIZE)?;
+            let half_length = 0.5
+                * positive(
+                    "length",
+                    spec.length,
+                    "the length along its axis in metres",
+                    NO_ZERO_SIZE,
+                )?;
             if spec.shape == "capsule" {
                 Shape::Capsule { radius, half_length }
             } else {
@@ -241,7 +256,7 @@ pub fn validate(
             })?;
             let scale = match spec.scale {
                 None => 1.0,
-                Some(s) => positive("scale", Some(s), "a positive scale factor")?,
+                Some(s) => positive("scale", Some(s), "a positive scale factor", NO_ZERO_SIZE)?,
             };
             let fail = |problem: String| {
                 let fix = if problem.contains("cannot be opened") {
@@ -481,9 +496,9 @@ fn dynamics(spec: &ColliderSpec, shape: &Shape, motion: &Motion) -> Result<Optio
             ))
         }
         (Some(rho), None) => {
-            positive("density", Some(rho), "the body's density in kg/m^3")? * properties.volume
+            positive("density", Some(rho), "the body's density in kg/m^3", "")? * properties.volume
         }
-        (None, Some(m)) => positive("mass", Some(m), "the body's mass in kg")?,
+        (None, Some(m)) => positive("mass", Some(m), "the body's mass in kg", "")?,
     };
     let (velocity, angular_velocity) = match *motion {
         Motion::Static => (DVec3::ZERO, DVec3::ZERO),
