@@ -1,10 +1,13 @@
 // step_bodies (docs/physics.md "Rigid bodies"): each rigid body takes the impulse the grid update's
-// boundary gave its band's nodes (fixed-point sums, read and zeroed here), gravity, its hinge or its
-// contacts with the walls, and moves; its collider state for the next substep (and for this one's
-// particle backstop) is written into its slot. The CPU twin is step_body in
-// src/sim/colliders/bodies.rs, operation for operation in double precision; one thread per body, so
-// a run steps its bodies in the same order of operations every time.
+// boundary gave its band's nodes (fixed-point sums, read and zeroed here) and gravity, or their moment
+// about its hinge; the free bodies find their contacts with the walls, the other colliders and each
+// other, which sequential impulses resolve together; then each body moves, and its collider state
+// for the next substep (and for this one's particle backstop) is written into its slot. The CPU twin
+// is step_bodies in src/sim/colliders/bodies.rs, phase for phase and operation for operation in
+// double precision. One block, a thread per body; the contacts are resolved by one thread in body
+// order, so a run steps its bodies in the same order of operations every time.
 #include "common.cuh"
+#include "colliders.cuh"
 
 struct D3 {
     double x, y, z;
@@ -12,6 +15,8 @@ struct D3 {
 
 __device__ __forceinline__ D3 d3(double x, double y, double z) { return D3{x, y, z}; }
 __device__ __forceinline__ D3 d3(const double (&a)[3]) { return D3{a[0], a[1], a[2]}; }
+__device__ __forceinline__ D3 d3(Vec3f a) { return D3{(double)a.x, (double)a.y, (double)a.z}; }
+__device__ __forceinline__ Vec3f f3(D3 a) { return v3((float)a.x, (float)a.y, (float)a.z); }
 __device__ __forceinline__ D3 operator+(D3 a, D3 b) { return d3(a.x + b.x, a.y + b.y, a.z + b.z); }
 __device__ __forceinline__ D3 operator-(D3 a, D3 b) { return d3(a.x - b.x, a.y - b.y, a.z - b.z); }
 __device__ __forceinline__ D3 operator*(D3 a, double s) { return d3(a.x * s, a.y * s, a.z * s); }
@@ -40,6 +45,9 @@ __device__ __forceinline__ M3 m3(const double (&a)[9]) {
     M3 r;
     for (int k = 0; k < 9; ++k) r.m[k] = a[k];
     return r;
+}
+__device__ __forceinline__ void store(double (&out)[9], const M3& a) {
+    for (int k = 0; k < 9; ++k) out[k] = a.m[k];
 }
 __device__ __forceinline__ D3 operator*(const M3& a, D3 v) {
     return d3(a.m[0] * v.x + a.m[1] * v.y + a.m[2] * v.z, a.m[3] * v.x + a.m[4] * v.y + a.m[5] * v.z,
@@ -92,97 +100,22 @@ __device__ __forceinline__ M3 rotation_of(Q q) {
     return r;
 }
 
-#define MAX_CONTACTS 16
-#define CONTACT_SWEEPS 8
 
-struct Contact {
-    D3 arm, normal, friction_impulse;
-    double normal_impulse;
-};
-
-__device__ __forceinline__ double response(const RigidBody& b, const M3& inv_inertia, D3 arm, D3 d) {
-    return b.inv_mass + dot(d, cross(inv_inertia * cross(arm, d), arm));
+__device__ __forceinline__ bool is_hinged(const RigidBody& b) {
+    return b.hinge_axis[0] != 0.0 || b.hinge_axis[1] != 0.0 || b.hinge_axis[2] != 0.0;
 }
 
-// resolve_wall_contacts in bodies.rs: sequential impulses, inelastic, Coulomb friction.
-__device__ void resolve_wall_contacts(const RigidBody& b, const ContactFeature* features, const M3& r, D3 com,
-                                      const BodyWalls& walls, const M3& inv_inertia, D3& v, D3& w) {
-    Contact contacts[MAX_CONTACTS];
-    int n = 0;
-    const D3 center = d3(b.center);
-    for (u32 f = 0; f < b.num_features; ++f) {
-        const ContactFeature& feature = features[b.first_feature + f];
-        const D3 p = center + r * d3(feature.point);
-        for (int a = 0; a < 3; ++a) {
-            for (int s = 0; s < 2; ++s) {
-                const double side = s == 0 ? walls.lo[a] : walls.hi[a];
-                const double sign = s == 0 ? 1.0 : -1.0;
-                const double depth = sign * (side - get(p, a)) + feature.radius;
-                if (depth >= 0.0 && n < MAX_CONTACTS) {
-                    D3 normal = d3(0.0, 0.0, 0.0);
-                    set(normal, a, sign);
-                    contacts[n++] = Contact{p - normal * feature.radius - com, normal, d3(0.0, 0.0, 0.0), 0.0};
-                }
-            }
-        }
-    }
-    for (int sweep = 0; sweep < CONTACT_SWEEPS; ++sweep) {
-        for (int k = 0; k < n; ++k) {
-            Contact& c = contacts[k];
-            const D3 at = v + cross(w, c.arm);
-            const double into = dot(at, c.normal);
-            const double total = fmax(c.normal_impulse - into / response(b, inv_inertia, c.arm, c.normal), 0.0);
-            D3 change = c.normal * (total - c.normal_impulse);
-            c.normal_impulse = total;
-            const D3 slide = at - c.normal * into;
-            const double speed = length(slide);
-            if (speed > 0.0) {
-                const D3 along = slide * (1.0 / speed);
-                const D3 wanted = c.friction_impulse - along * (speed / response(b, inv_inertia, c.arm, along));
-                const double limit = b.contact_friction * c.normal_impulse;
-                const D3 friction = length(wanted) > limit ? wanted * (limit / length(wanted)) : wanted;
-                change = change + (friction - c.friction_impulse);
-                c.friction_impulse = friction;
-            }
-            v = v + change * b.inv_mass;
-            w = w + inv_inertia * cross(c.arm, change);
-        }
-    }
-}
-
-// wall_overlap in bodies.rs.
-__device__ D3 wall_overlap(const RigidBody& b, const ContactFeature* features, const M3& r, D3 center,
-                           const BodyWalls& walls) {
-    D3 push = d3(0.0, 0.0, 0.0);
-    for (u32 f = 0; f < b.num_features; ++f) {
-        const ContactFeature& feature = features[b.first_feature + f];
-        const D3 p = center + r * d3(feature.point);
-        for (int a = 0; a < 3; ++a) {
-            double s = fmax(get(push, a), walls.lo[a] - (get(p, a) - feature.radius));
-            s = fmin(s, walls.hi[a] - (get(p, a) + feature.radius));
-            set(push, a, s);
-        }
-    }
-    return push;
-}
-
-extern "C" __global__ void step_bodies(const KernelParams params, const BodyWalls walls, const u32 num_bodies,
-                                       RigidBody* __restrict__ bodies, const ContactFeature* __restrict__ features,
-                                       u64* __restrict__ impulses, ColliderState* __restrict__ states) {
-    const u32 k = threadIdx.x;
-    if (k >= num_bodies) return;
-    RigidBody& b = bodies[k];
-    const double dt = (double)params.dt;
-    const D3 gravity = d3((double)params.gravity[0], (double)params.gravity[1], (double)params.gravity[2]);
+// take_impulse in bodies.rs: the body's velocities after the grid's impulse (read and zeroed) and
+// gravity.
+__device__ BodyMotion take_impulse(const RigidBody& b, u64* impulses, double dt, D3 gravity) {
     double sums[6];
     for (int c = 0; c < 6; ++c) {
-        sums[c] = (double)(i64)impulses[6 * k + c] / (double)BODY_IMPULSE_UNITS;
-        impulses[6 * k + c] = 0ull;
+        sums[c] = (double)(i64)impulses[c] / (double)BODY_IMPULSE_UNITS;
+        impulses[c] = 0ull;
     }
     const D3 linear = d3(sums[0], sums[1], sums[2]);
     const D3 about_origin = d3(sums[3], sums[4], sums[5]);
-    const Q q0 = Q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-    const M3 r = rotation_of(q0);
+    const M3 r = rotation_of(Q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]});
     const D3 center = d3(b.center);
     const D3 com = center + r * d3(b.centroid);
     const D3 angular = about_origin + cross(center - com, linear);
@@ -190,9 +123,9 @@ extern "C" __global__ void step_bodies(const KernelParams params, const BodyWall
     const M3 inv_inertia = mul(mul(r, m3(b.inv_inertia)), transpose(r));
     D3 v = d3(b.velocity);
     D3 w = d3(b.angular_velocity);
-    const D3 axis = d3(b.hinge_axis);
-    const bool hinged = axis.x != 0.0 || axis.y != 0.0 || axis.z != 0.0;
+    const bool hinged = is_hinged(b);
     if (hinged) {
+        const D3 axis = d3(b.hinge_axis);
         const D3 arm = com - d3(b.hinge_point);
         const D3 weight = gravity * (dt / b.inv_mass);
         const double moment = dot(axis, angular + cross(arm, linear + weight));
@@ -204,30 +137,248 @@ extern "C" __global__ void step_bodies(const KernelParams params, const BodyWall
     } else {
         v = v + linear * b.inv_mass + gravity * dt;
         w = inv_inertia * (inertia * w + angular);
-        resolve_wall_contacts(b, features, r, com, walls, inv_inertia, v, w);
     }
-    // The rotation over the substep at the new rate, exactly: about the centre of mass, which moves
-    // at v; or, hinged, about the axis, which carries the centre of mass round with it.
+    BodyMotion m;
+    store(m.com, com);
+    store(m.velocity, v);
+    store(m.angular_velocity, w);
+    m.inv_mass = hinged ? 0.0 : b.inv_mass;
+    M3 none;
+    for (int k = 0; k < 9; ++k) none.m[k] = 0.0;
+    store(m.inv_inertia, hinged ? none : inv_inertia);
+    store(m.push_velocity, d3(0.0, 0.0, 0.0));
+    store(m.push_angular_velocity, d3(0.0, 0.0, 0.0));
+    return m;
+}
+
+// inset in bodies.rs.
+__device__ __forceinline__ D3 inset(D3 point) {
+    const double len = length(point);
+    return len > BODY_FEATURE_INSET ? point * (1.0 - BODY_FEATURE_INSET / len) : point;
+}
+
+__device__ __forceinline__ BodyContact make_contact(u32 body, u32 partner, D3 at, D3 com, D3 partner_com, D3 normal,
+                                                    double depth, D3 partner_velocity, double friction) {
+    BodyContact c;
+    store(c.arm, at - com);
+    store(c.partner_arm, at - partner_com);
+    store(c.normal, normal);
+    store(c.partner_velocity, partner_velocity);
+    store(c.friction_impulse, d3(0.0, 0.0, 0.0));
+    c.depth = depth;
+    c.friction = friction;
+    c.normal_impulse = 0.0;
+    c.push_impulse = 0.0;
+    c.body = body;
+    c.partner = partner;
+    return c;
+}
+
+// find_contacts in bodies.rs: body k's contacts with the walls (its corners), then with the other
+// colliders (all its features, inset), in the states' order. Returns how many.
+__device__ u32 find_contacts(u32 k, const RigidBody* bodies, const BodyMotion* motions,
+                             const ContactFeature* features, const BodyWalls& walls, const ColliderState* states,
+                             u32 num_states, const float* sdf, BodyContact* out) {
+    const RigidBody& b = bodies[k];
+    const M3 r = rotation_of(Q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]});
+    const D3 center = d3(b.center);
+    const D3 com = d3(motions[k].com);
+    const ContactFeature* own = features + b.first_feature;
+    u32 n = 0;
+    for (u32 f = 0; f < b.num_corners; ++f) {
+        const D3 p = center + r * d3(own[f].point);
+        for (int a = 0; a < 3; ++a) {
+            for (int s = 0; s < 2; ++s) {
+                const double side = s == 0 ? walls.lo[a] : walls.hi[a];
+                const double sign = s == 0 ? 1.0 : -1.0;
+                const double depth = sign * (side - get(p, a)) + own[f].radius;
+                if (depth >= -BODY_CONTACT_MARGIN && n < MAX_BODY_CONTACTS) {
+                    D3 normal = d3(0.0, 0.0, 0.0);
+                    set(normal, a, sign);
+                    out[n++] = make_contact(k, NO_BODY, p - normal * own[f].radius, com, com, normal, fmin(depth, 0.0),
+                                            d3(0.0, 0.0, 0.0), b.contact_friction);
+                }
+            }
+        }
+    }
+    if (b.slot >= num_states) return n;
+    const ColliderState& mine = states[b.slot];
+    for (u32 slot = 0; slot < num_states; ++slot) {
+        const ColliderState& s = states[slot];
+        if (slot == b.slot || s.boundary == BOUNDARY_PIPE) continue;
+        const float dx = s.center[0] - mine.center[0], dy = s.center[1] - mine.center[1];
+        const float dz = s.center[2] - mine.center[2];
+        if (sqrtf(dx * dx + dy * dy + dz * dz) > s.reach + mine.reach) continue;
+        for (u32 f = 0; f < b.num_features; ++f) {
+            const D3 p = center + r * inset(d3(own[f].point));
+            Vec3f n_world;
+            const float phi = collider_distance(s, sdf, f3(p), n_world);
+            const double depth = own[f].radius - (double)phi;
+            if (depth < -BODY_CONTACT_MARGIN || n >= MAX_BODY_CONTACTS) continue;
+            const D3 normal = d3(n_world);
+            const D3 at = p - normal * own[f].radius;
+            if (s.body == 0u) {
+                const D3 moving = d3(collider_velocity_at(s, f3(at)));
+                out[n++] = make_contact(k, NO_BODY, at, com, com, normal, depth, moving, b.contact_friction);
+            } else {
+                const u32 other = s.body - 1u;
+                const double friction = sqrt(b.contact_friction * bodies[other].contact_friction);
+                out[n++] = make_contact(k, other, at, com, d3(motions[other].com), normal, depth, d3(0.0, 0.0, 0.0),
+                                        friction);
+            }
+        }
+    }
+    return n;
+}
+
+// relative_velocity in bodies.rs: the body's velocity at the contact (the real one, or the push),
+// less its partner's.
+__device__ __forceinline__ D3 relative_velocity(const BodyMotion* motions, const BodyContact& c, bool push) {
+    const BodyMotion& a = motions[c.body];
+    D3 at = push ? d3(a.push_velocity) + cross(d3(a.push_angular_velocity), d3(c.arm))
+                 : d3(a.velocity) + cross(d3(a.angular_velocity), d3(c.arm));
+    if (c.partner == NO_BODY) return at - d3(c.partner_velocity);
+    const BodyMotion& o = motions[c.partner];
+    const D3 there = push ? d3(o.push_velocity) + cross(d3(o.push_angular_velocity), d3(c.partner_arm))
+                          : d3(o.velocity) + cross(d3(o.angular_velocity), d3(c.partner_arm));
+    return at - there;
+}
+
+__device__ __forceinline__ double response_of(const BodyMotion& m, D3 arm, D3 d) {
+    return m.inv_mass + dot(d, cross(m3(m.inv_inertia) * cross(arm, d), arm));
+}
+
+// response in bodies.rs.
+__device__ __forceinline__ double response(const BodyMotion* motions, const BodyContact& c, D3 d) {
+    const double own = response_of(motions[c.body], d3(c.arm), d);
+    return c.partner == NO_BODY ? own : own + response_of(motions[c.partner], d3(c.partner_arm), d);
+}
+
+__device__ __forceinline__ void give(BodyMotion& m, D3 arm, D3 impulse, bool push) {
+    const D3 dv = impulse * m.inv_mass;
+    const D3 dw = m3(m.inv_inertia) * cross(arm, impulse);
+    if (push) {
+        store(m.push_velocity, d3(m.push_velocity) + dv);
+        store(m.push_angular_velocity, d3(m.push_angular_velocity) + dw);
+    } else {
+        store(m.velocity, d3(m.velocity) + dv);
+        store(m.angular_velocity, d3(m.angular_velocity) + dw);
+    }
+}
+
+// apply_impulse in bodies.rs.
+__device__ __forceinline__ void apply_impulse(BodyMotion* motions, const BodyContact& c, D3 impulse, bool push) {
+    give(motions[c.body], d3(c.arm), impulse, push);
+    if (c.partner != NO_BODY) give(motions[c.partner], d3(c.partner_arm), impulse * -1.0, push);
+}
+
+// resolve_contacts in bodies.rs: sequential impulses over every body's contacts, in body order.
+__device__ void resolve_contacts(BodyMotion* motions, BodyContact* contacts, const u32* counts, u32 num_bodies,
+                                 double dt) {
+    for (u32 sweep = 0; sweep < BODY_CONTACT_SWEEPS; ++sweep) {
+        for (u32 k = 0; k < num_bodies; ++k) {
+            for (u32 i = 0; i < counts[k]; ++i) {
+                BodyContact& c = contacts[k * MAX_BODY_CONTACTS + i];
+                const D3 normal = d3(c.normal);
+                const D3 relative = relative_velocity(motions, c, false);
+                const double into = dot(relative, normal);
+                const double stiffness = response(motions, c, normal);
+                const double closing = fmax(-c.depth, 0.0) / dt;
+                const double total = fmax(c.normal_impulse - (into + closing) / stiffness, 0.0);
+                D3 change = normal * (total - c.normal_impulse);
+                c.normal_impulse = total;
+                const D3 slide = relative - normal * into;
+                const double speed = length(slide);
+                if (speed > 0.0) {
+                    const D3 along = slide * (1.0 / speed);
+                    const D3 wanted = d3(c.friction_impulse) - along * (speed / response(motions, c, along));
+                    const double limit = c.friction * c.normal_impulse;
+                    const D3 friction = length(wanted) > limit ? wanted * (limit / length(wanted)) : wanted;
+                    change = change + (friction - d3(c.friction_impulse));
+                    store(c.friction_impulse, friction);
+                }
+                apply_impulse(motions, c, change, false);
+
+                const D3 apart = relative_velocity(motions, c, true);
+                const double wanted = BODY_PUSH_RATE * fmax(c.depth, 0.0) / dt;
+                const double pushed = fmax(c.push_impulse + (wanted - dot(apart, normal)) / stiffness, 0.0);
+                const D3 push = normal * (pushed - c.push_impulse);
+                c.push_impulse = pushed;
+                apply_impulse(motions, c, push, true);
+            }
+        }
+    }
+}
+
+// wall_overlap in bodies.rs: how far a body at `center` must move to be clear of the walls (by its
+// corners).
+__device__ D3 wall_overlap(const RigidBody& b, const ContactFeature* features, const M3& r, D3 center,
+                           const BodyWalls& walls) {
+    D3 push = d3(0.0, 0.0, 0.0);
+    for (u32 f = 0; f < b.num_corners; ++f) {
+        const ContactFeature& feature = features[b.first_feature + f];
+        const D3 p = center + r * d3(feature.point);
+        for (int a = 0; a < 3; ++a) {
+            double s = fmax(get(push, a), walls.lo[a] - (get(p, a) - feature.radius));
+            s = fmin(s, walls.hi[a] - (get(p, a) + feature.radius));
+            set(push, a, s);
+        }
+    }
+    return push;
+}
+
+// move_body in bodies.rs, then body_collider_state: the pose and rigid velocity at the collider's
+// centre go into its slot; its shape stays.
+__device__ void move_body(RigidBody& b, const BodyMotion& m, const ContactFeature* features, double dt,
+                          const BodyWalls& walls, ColliderState& s) {
+    const D3 v = d3(m.velocity) + d3(m.push_velocity);
+    const D3 w = d3(m.angular_velocity) + d3(m.push_angular_velocity);
+    const Q q0 = Q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
     const Q turn = from_scaled_axis(w * dt);
     const Q orientation = qnormalize(qmul(turn, q0));
     const M3 r1 = rotation_of(orientation);
+    const bool hinged = is_hinged(b);
     const D3 hinge = d3(b.hinge_point);
+    const D3 com = d3(m.com);
     const D3 com1 = hinged ? hinge + rotation_of(turn) * (com - hinge) : com + v * dt;
     D3 center1 = com1 - r1 * d3(b.centroid);
     if (!hinged) center1 = center1 + wall_overlap(b, features, r1, center1, walls);
     store(b.center, center1);
     b.orientation[0] = orientation.x, b.orientation[1] = orientation.y;
     b.orientation[2] = orientation.z, b.orientation[3] = orientation.w;
-    store(b.velocity, v);
-    store(b.angular_velocity, w);
+    const D3 velocity = d3(m.velocity), angular_velocity = d3(m.angular_velocity);
+    store(b.velocity, velocity);
+    store(b.angular_velocity, angular_velocity);
 
-    // body_collider_state: the pose and rigid velocity at the collider's centre; its shape stays.
-    ColliderState& s = states[b.slot];
     for (int i = 0; i < 9; ++i) s.rotation[i] = (float)r1.m[i];
-    const D3 centre_velocity = v + cross(w, center1 - com1);
+    const D3 centre_velocity = velocity + cross(angular_velocity, center1 - com1);
     for (int a = 0; a < 3; ++a) {
         s.center[a] = (float)get(center1, a);
         s.velocity[a] = (float)get(centre_velocity, a);
-        s.angular_velocity[a] = (float)get(w, a);
+        s.angular_velocity[a] = (float)get(angular_velocity, a);
     }
+}
+
+// The four phases, a barrier between each: a phase reads what the one before wrote for every body.
+extern "C" __global__ void step_bodies(const KernelParams params, const BodyWalls walls, const u32 num_bodies,
+                                       RigidBody* __restrict__ bodies, const ContactFeature* __restrict__ features,
+                                       u64* __restrict__ impulses, ColliderState* __restrict__ states,
+                                       const u32 num_states, const float* __restrict__ sdf,
+                                       BodyMotion* __restrict__ motions, BodyContact* __restrict__ contacts,
+                                       u32* __restrict__ contact_counts) {
+    const u32 k = threadIdx.x;
+    const bool mine = k < num_bodies;
+    const double dt = (double)params.dt;
+    const D3 gravity = d3((double)params.gravity[0], (double)params.gravity[1], (double)params.gravity[2]);
+    if (mine) motions[k] = take_impulse(bodies[k], impulses + 6 * k, dt, gravity);
+    __syncthreads();
+    if (mine) {
+        contact_counts[k] = is_hinged(bodies[k]) ? 0u
+                                                 : find_contacts(k, bodies, motions, features, walls, states,
+                                                                 num_states, sdf, contacts + k * MAX_BODY_CONTACTS);
+    }
+    __syncthreads();
+    if (k == 0) resolve_contacts(motions, contacts, contact_counts, num_bodies, dt);
+    __syncthreads();
+    if (mine) move_body(bodies[k], motions[k], features, dt, walls, states[bodies[k].slot]);
 }

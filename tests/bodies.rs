@@ -50,6 +50,53 @@ fn a_body_entering_still_water_keeps_the_total_momentum() {
     );
 }
 
+/// Three cubes 6 cm across dropped crooked, one above the other, into shallow water
+/// ([`bodies_checks::box_pile`], 1 cm cells) come to rest stacked: each on the one below, its centre
+/// where the stack puts it within 2 mm, still, and no corner more than 1 mm inside another cube.
+#[test]
+fn boxes_dropped_in_a_pile_come_to_rest_stacked() {
+    let side = 0.06;
+    let scene = bodies_checks::box_pile(0.01, side as f32, "");
+    let mut sim = materials_checks::simulation(&scene, BackendKind::Cpu);
+    let mut worst_overlap: f64 = 0.0;
+    let mut settled = Vec::new();
+    for frame in 1..=120 {
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+        worst_overlap = worst_overlap.max(bodies_checks::deepest_cube_overlap(sim.bodies(), side));
+        if frame == 90 {
+            settled = sim.bodies().to_vec();
+        }
+        if frame % 20 == 0 {
+            let heights: Vec<String> = sim
+                .bodies()
+                .iter()
+                .map(|b| format!("{:.4}", b.center[1]))
+                .collect();
+            println!(
+                "  t = {:.2} s: centres at y = {} m",
+                frame as f64 / 60.0,
+                heights.join(", ")
+            );
+        }
+    }
+    let floor = 0.01;
+    for (k, (body, before)) in sim.bodies().iter().zip(&settled).enumerate() {
+        let want = floor + side * (k as f64 + 0.5);
+        assert!(
+            (body.center[1] - want).abs() < 2e-3,
+            "cube {k} rests at y = {:.4} m, not {want:.4}",
+            body.center[1]
+        );
+        let moved = DVec3::from_array(body.center).distance(DVec3::from_array(before.center));
+        assert!(moved < 5e-4, "cube {k} moved {moved} m in the last half second");
+    }
+    assert!(
+        worst_overlap < 1e-3,
+        "a corner went {:.2} mm into another cube",
+        1e3 * worst_overlap
+    );
+}
+
 /// A square log 10 cm across (quasi-2D, 1 cm cells) of relative density 0.25, 0.5 and 0.75 settles
 /// with the submerged share of its section as a draft of 25, 50 and 75 mm, within 5 %.
 #[test]

@@ -18,6 +18,7 @@ fn main() -> std::process::ExitCode {
         harness::tests![
             bodies_follow_the_cpu,
             bodies_in_fixed_point_are_byte_identical,
+            a_pile_of_boxes_follows_the_cpu,
             logs_float_at_their_draft_and_angle_at_finer_cells,
         ],
     )
@@ -68,6 +69,48 @@ fn bodies_follow_the_cpu() {
             "{name}: the GPU's body moves {speed_gap} m/s apart from the CPU's"
         );
     }
+}
+
+/// Three cubes dropped in a pile into shallow water (tests/bodies.rs' scene, fixed point) rest on the
+/// device where they rest on the CPU, within a fifth of a cell, after two seconds of contacts with
+/// the floor and each other; and a second device run gives the same bytes.
+fn a_pile_of_boxes_follows_the_cpu() {
+    let (dx, side) = (0.01f32, 0.06);
+    let scene = bodies_checks::box_pile(dx, side as f32, "[solver]\nscatter = \"fixed-point\"\n");
+    let run = |kind| {
+        let mut sim = materials_checks::simulation(&scene, kind);
+        for _ in 0..120 {
+            sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+        }
+        sim.bodies().to_vec()
+    };
+    let (cpu, gpu, again) = (
+        run(BackendKind::Cpu),
+        run(BackendKind::Cuda),
+        run(BackendKind::Cuda),
+    );
+    for (k, (c, g)) in cpu.iter().zip(&gpu).enumerate() {
+        let gap = (DVec3::from_array(c.center) - DVec3::from_array(g.center)).length();
+        println!(
+            "cube {k}: CPU at {:?}, GPU at {:?}: {:.3} cells apart",
+            c.center,
+            g.center,
+            gap / f64::from(dx)
+        );
+        assert!(
+            gap < 0.2 * f64::from(dx),
+            "cube {k}: the GPU's is {gap} m from the CPU's"
+        );
+    }
+    let overlap = bodies_checks::deepest_cube_overlap(&gpu, side);
+    assert!(
+        overlap < 1e-3,
+        "on the GPU a corner is {overlap} m inside another cube"
+    );
+    assert!(
+        bytemuck::cast_slice::<_, u8>(&gpu) == bytemuck::cast_slice::<_, u8>(&again),
+        "two fixed-point runs of the pile differ"
+    );
 }
 
 /// Two fixed-point runs of a floating log give the same bytes: its state and every particle.

@@ -61,6 +61,12 @@ impl CLiteral for i32 {
     }
 }
 
+impl CLiteral for f64 {
+    fn literal(&self) -> String {
+        format!("{self:?}")
+    }
+}
+
 impl CLiteral for f32 {
     fn literal(&self) -> String {
         format!("{self:?}f")

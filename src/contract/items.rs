@@ -207,14 +207,16 @@ device_structs! {
         /// A hinge: a point of its axis (world, m) and the unit axis; a zero axis for a free body.
         hinge_point: [f64; 3],
         hinge_axis: [f64; 3],
-        /// Coulomb coefficient of its contacts with the walls.
+        /// Coulomb coefficient of its contacts (with another body: the two coefficients' geometric
+        /// mean).
         contact_friction: f64,
-        /// Its contact features: `[first_feature, first_feature + num_features)` of the list.
+        /// Its contact features: `[first_feature, first_feature + num_features)` of the list; the
+        /// first `num_corners` of them meet the walls, all of them meet colliders and bodies.
         first_feature: u32,
         num_features: u32,
         /// Its collider's slot in the collider states, where each substep's pose is written.
         slot: u32,
-        _pad: u32,
+        num_corners: u32,
     }
 
     /// The planes that hold the rigid bodies in the tank: where the liquid rests against the walls
@@ -224,11 +226,45 @@ device_structs! {
         hi: [f64; 3],
     }
 
-    /// A point of a body that may touch a wall (body frame), swept by a ball of `radius`: a box's
-    /// corner (radius 0), a sphere's centre (its radius), a capsule's end.
+    /// A point of a body that may touch something (body frame), swept by a ball of `radius`: a box's
+    /// corner or a point of its edges (radius 0), a sphere's centre (its radius), a capsule's end.
     struct ContactFeature {
         point: [f64; 3],
         radius: f64,
+    }
+
+    /// A rigid body over its substep (step_bodies' scratch, one per body): its centre of mass at the
+    /// start, its new velocities, what contacts see of its mass (none for a hinged body: a moving
+    /// obstacle to the others), and the pseudo-velocities that push it out of overlaps.
+    struct BodyMotion {
+        com: [f64; 3],
+        velocity: [f64; 3],
+        angular_velocity: [f64; 3],
+        inv_mass: f64,
+        /// World frame, row-major.
+        inv_inertia: [f64; 9],
+        push_velocity: [f64; 3],
+        push_angular_velocity: [f64; 3],
+    }
+
+    /// A contact of body `body`'s feature found this substep (step_bodies' scratch,
+    /// `MAX_BODY_CONTACTS` per body): the touching point relative to the body's centre of mass and
+    /// to its partner's, the normal out of the partner, how deep the feature's ball is in it (negative:
+    /// the gap between them), the Coulomb coefficient, and the impulses given so far.
+    struct BodyContact {
+        arm: [f64; 3],
+        partner_arm: [f64; 3],
+        normal: [f64; 3],
+        /// A partner that is no body (`NO_BODY`): its velocity at the point (zero for a wall).
+        partner_velocity: [f64; 3],
+        friction_impulse: [f64; 3],
+        depth: f64,
+        friction: f64,
+        normal_impulse: f64,
+        push_impulse: f64,
+        body: u32,
+        /// The other body's index, or `NO_BODY`.
+        partner: u32,
     }
 
     /// The viewer's mouse push, applied once (an impulse) between frames (src/sim/push.rs,
@@ -381,6 +417,29 @@ device_constants! {
     /// angular impulse): 2^36, so a node's share down to 1e-9 N s keeps 7 digits and a body's sum
     /// reaches 1e8 N s.
     BODY_IMPULSE_UNITS: f32 = 68719476736.0;
+    /// The rigid bodies' contacts (src/sim/colliders/bodies.rs, kernels/bodies.cu): the most one
+    /// body resolves at once (a box on the floor has four with it, in a corner six; a box lying on
+    /// another touches it at up to sixteen points of each, its corners and the points along its
+    /// edges).
+    MAX_BODY_CONTACTS: u32 = 32;
+    /// Sequential-impulse sweeps over a substep's contacts: a stack of three boxes creeps 0.4 mm in
+    /// half a second at 8, 0.03 mm at 16.
+    BODY_CONTACT_SWEEPS: u32 = 16;
+    /// The share of an overlap with another collider or body that a substep's push undoes: all of
+    /// it at once overshoots where several contacts push the same body.
+    BODY_PUSH_RATE: f64 = 0.2;
+    /// Features this close to a wall or a collider are in contact, m: a resting body's contacts
+    /// hold from substep to substep (and its friction with them) instead of flickering as it settles
+    /// on and off the surface by rounding; the contact lets it close the gap, no more.
+    BODY_CONTACT_MARGIN: f64 = 1.0e-4;
+    /// How far inside its corner a feature meets other colliders, m: boxes of one depth side by side
+    /// (a quasi-2D tank's) have their corners exactly in each other's face planes, where the
+    /// distance reads zero whether they overlap or not; inset, a corner that overlaps is inside.
+    /// Well above the rounding of a single-precision distance a metre from the origin, well below a
+    /// cell.
+    BODY_FEATURE_INSET: f64 = 1.0e-4;
+    /// `BodyContact::partner` of a wall or a collider that is no body.
+    NO_BODY: u32 = 0xffff_ffff;
     /// `ColliderState::boundary`.
     BOUNDARY_SLIP: u32 = 0;
     BOUNDARY_STICK: u32 = 1;

@@ -3,8 +3,9 @@
 //! step_bodies (after it, in the grid update phase) moves the bodies and writes each one's collider
 //! state into its slot, so no substep waits for the host.
 
+use super::colliders::DeviceColliders;
 use super::launch::{host_kernel, Launcher};
-use crate::contract::{BodyWalls, ColliderState, ContactFeature, RigidBody};
+use crate::contract::{BodyContact, BodyMotion, BodyWalls, ContactFeature, RigidBody, MAX_BODY_CONTACTS};
 use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream, LaunchConfig, PushKernelArg};
@@ -20,6 +21,11 @@ pub struct DeviceBodies {
     /// and zeroes.
     pub impulses: CudaSlice<u64>,
     walls: BodyWalls,
+    /// step_bodies' scratch: each body's motion over the substep, its contacts
+    /// (`MAX_BODY_CONTACTS` each) and how many it found.
+    motions: CudaSlice<BodyMotion>,
+    contacts: CudaSlice<BodyContact>,
+    contact_counts: CudaSlice<u32>,
 }
 
 impl DeviceBodies {
@@ -43,6 +49,15 @@ impl DeviceBodies {
                 .alloc_zeros::<u64>(6 * bodies.len())
                 .context("allocating the rigid bodies' impulse sums")?,
             walls,
+            motions: stream
+                .alloc_zeros::<BodyMotion>(bodies.len())
+                .context("allocating the rigid bodies' motions")?,
+            contacts: stream
+                .alloc_zeros::<BodyContact>(bodies.len() * MAX_BODY_CONTACTS as usize)
+                .context("allocating the rigid bodies' contacts")?,
+            contact_counts: stream
+                .alloc_zeros::<u32>(bodies.len())
+                .context("allocating the rigid bodies' contact counts")?,
         })
     }
 
@@ -55,21 +70,19 @@ impl DeviceBodies {
 }
 
 impl StepBodies {
-    /// One thread per body; `collider_states`: where each body's collider state goes.
-    pub fn launch(
-        &self,
-        l: &Launcher,
-        params: &Params,
-        bodies: &DeviceBodies,
-        collider_states: &CudaSlice<ColliderState>,
-    ) -> Result<()> {
+    /// One block, a thread per body (a scene has at most `MAX_COLLIDERS` of them), over the
+    /// colliders' states as this substep left them; each body's state goes into its slot.
+    pub fn launch(&self, l: &Launcher, params: &Params, colliders: &DeviceColliders) -> Result<()> {
+        let Some(bodies) = &colliders.bodies else {
+            return Ok(());
+        };
         let config = LaunchConfig {
             grid_dim: (1, 1, 1),
             block_dim: (bodies.count.next_multiple_of(32), 1, 1),
             shared_mem_bytes: 0,
         };
         // SAFETY: the arguments match step_bodies; each body's slot and features lie in the buffers
-        // (Colliders::rigid_bodies laid them out).
+        // (Colliders::rigid_bodies laid them out), the scratch holds a row per body.
         unsafe {
             self.0.launch(l, config, |a| {
                 a.arg(&params.kernel)
@@ -78,7 +91,12 @@ impl StepBodies {
                     .arg(&bodies.states)
                     .arg(&bodies.features)
                     .arg(&bodies.impulses)
-                    .arg(collider_states);
+                    .arg(&colliders.states)
+                    .arg(&colliders.count)
+                    .arg(&colliders.sdf)
+                    .arg(&bodies.motions)
+                    .arg(&bodies.contacts)
+                    .arg(&bodies.contact_counts);
             })
         }
     }

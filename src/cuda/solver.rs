@@ -232,9 +232,7 @@ impl CudaSolver {
                 let mirror = launch == Launch::GridUpdateBlocksMirrored;
                 k.grid_update.launch(l, pipe, mirror, p, d)?;
                 k.grid_update.clear_crossing_orbits(l, mirror, p, &d.grid)?;
-                if let Some(bodies) = &d.colliders.bodies {
-                    k.step_bodies.launch(l, p, bodies, &d.colliders.states)?;
-                }
+                k.step_bodies.launch(l, p, &d.colliders)?;
             }
             Launch::G2p => k.g2p.launch(l, p, d)?,
             Launch::G2p2g | Launch::OnePass => {

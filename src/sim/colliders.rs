@@ -430,9 +430,9 @@ impl Colliders {
                     c.rotation,
                     slot as u32,
                     features.len() as u32,
-                    own.len() as u32,
+                    &own,
                 ));
-                features.extend(own);
+                features.extend(own.points);
             }
         }
         (list, features)

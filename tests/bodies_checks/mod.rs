@@ -42,6 +42,64 @@ pub fn log_in_water(dx: f32, side: f32, rho: f32, angle: f32, sink: f32, extra: 
     ))
 }
 
+/// Three cubes of `side` m (density 1500 kg/m^3: they sink), quasi-2D like [`log_in_water`]'s
+/// logs, dropped one above the other (each 1 cm off the one below, and turned a little) into water
+/// 4 cm deep in the same tank: they fall through it and come to rest stacked on the floor.
+/// `floor` is the tank's floor (the fluid region's bottom).
+pub fn box_pile(dx: f32, side: f32, extra: &str) -> Scene {
+    let cells = |metres: f32| (metres / dx).round() as u32;
+    let floor = dx;
+    let (z_lo, z_hi) = (dx, 6.0 * dx);
+    let cubes: String = (0..3)
+        .map(|k| {
+            let k = k as f32;
+            format!(
+                "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{side}, {side}, {}]\n\
+                 rotation = [0.0, 0.0, {}]\ndensity = 1500.0\n",
+                0.5 * TANK + 0.01 * (k - 1.0),
+                floor + 0.06 + (side + 0.03) * k,
+                0.5 * (z_lo + z_hi),
+                z_hi - z_lo - 0.2 * dx,
+                4.0 * (k - 1.0),
+            )
+        })
+        .collect();
+    common::scene(&format!(
+        "[domain]\nsize = [{TANK}, 0.3, {}]\nresolution = [{}, {}, 8]\n\
+         [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 10.0\nviscosity = 1.0e-3\n\
+         [time_step]\ncfl = 0.4\n{extra}\
+         [[block]]\nmin = [{floor}, {floor}, {z_lo}]\nmax = [{}, {}, {z_hi}]\n{cubes}",
+        8.0 * dx,
+        cells(TANK),
+        cells(0.3),
+        TANK - 2.5 * dx,
+        floor + 0.04,
+    ))
+}
+
+/// The deepest a corner of one of `bodies` (cubes of `side` m) lies inside another, m.
+pub fn deepest_cube_overlap(bodies: &[RigidBody], side: f64) -> f64 {
+    let h = 0.5 * side;
+    let mut deepest: f64 = 0.0;
+    for (a, body) in bodies.iter().enumerate() {
+        let rotation = DQuat::from_array(body.orientation);
+        for corner in 0..8 {
+            let s = |bit: u32| if corner & (1 << bit) == 0 { -h } else { h };
+            let p = DVec3::from_array(body.center) + rotation * DVec3::new(s(0), s(1), s(2));
+            for (b, other) in bodies.iter().enumerate() {
+                if a != b {
+                    // Inside the other cube: the least of its faces' depths.
+                    let local = DQuat::from_array(other.orientation).inverse()
+                        * (p - DVec3::from_array(other.center));
+                    let depth = (DVec3::splat(h) - local.abs()).min_element();
+                    deepest = deepest.max(depth);
+                }
+            }
+        }
+    }
+    deepest
+}
+
 /// The part of a square of side `side` centred at height `center_y`, turned `angle` radians, that
 /// lies below the height `surface`, as a fraction of its area: the polygon clipped by the plane.
 pub fn submerged_fraction(side: f64, center_y: f64, angle: f64, surface: f64) -> f64 {

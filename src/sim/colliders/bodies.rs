@@ -3,8 +3,8 @@
 //! A body is a collider with a mass. Every substep the grid update treats it as any moving collider
 //! (its boundary condition on the nodes in its band, relative to its rigid velocity) and adds, in
 //! fixed point, what that condition took from each node: the impulse `-m_i dv_i` and its moment about
-//! the body's centre. [`step_body`] then gives the body that impulse, gravity and its contacts with
-//! the walls, and moves it; the next substep's boundary is the body where this one left it. The
+//! the body's centre. [`step_bodies`] then gives the body that impulse, gravity and its contacts (with
+//! the walls, the other colliders and the other bodies), and moves it; the next substep's boundary is the body where this one left it. The
 //! particle backstop's pushes out of the body go to the same sums, for its next step. Exchanging
 //! exactly the momentum the liquid lost keeps body and liquid together conserving momentum; the sums
 //! are integers, so they do not depend on the order they are added in.
@@ -14,11 +14,14 @@
 //! added-mass instability), so validation refuses such bodies ([`Dynamics::band_mass_ratio`],
 //! [`MAX_BAND_MASS_RATIO`]).
 //!
-//! [`step_body`] is the CPU twin of kernels/bodies.cu, operation for operation in double precision.
+//! [`step_bodies`] is the CPU twin of kernels/bodies.cu, operation for operation in double precision.
 
-use super::{Shape, BAND_CELLS};
+use super::{Shape, BAND_CELLS, BOUNDARY_PIPE};
 use crate::contract::ColliderState;
 pub use crate::contract::{BodyWalls, ContactFeature, RigidBody, BODY_IMPULSE_UNITS};
+use crate::contract::{
+    BODY_CONTACT_MARGIN, BODY_CONTACT_SWEEPS, BODY_FEATURE_INSET, BODY_PUSH_RATE, MAX_BODY_CONTACTS,
+};
 use glam::{DMat3, DQuat, DVec3};
 
 /// What makes a collider a rigid body.
@@ -54,17 +57,51 @@ pub struct Hinge {
 /// surface were calm down to 50 kg/m^3.
 pub const MAX_BAND_MASS_RATIO: f64 = 20.0;
 
-/// Contacts a body resolves at once with the walls: a box on the floor has four, in a corner six.
-const MAX_CONTACTS: usize = 16;
-/// Sequential-impulse sweeps over a substep's contacts.
-const CONTACT_SWEEPS: usize = 8;
 /// A mesh's contact features: the vertices farthest along this many directions.
 const MESH_FEATURE_DIRECTIONS: usize = 64;
 
+/// A shape's contact features: first its corners, the points that can touch a wall (the deepest
+/// point of a convex shape against a plane is one of them), then points along its edges, which
+/// with the corners meet other colliders and bodies (a box lying turned on another touches it where
+/// their edges cross, away from any corner).
+pub struct ContactFeatures {
+    pub points: Vec<ContactFeature>,
+    pub corners: usize,
+}
+
+/// Points along each edge of a box, between its corners, where it meets other colliders.
+const EDGE_SAMPLES: usize = 3;
+
 impl Shape {
-    /// The points of the shape that can touch a wall, each swept by a ball: the deepest point of a
-    /// convex shape against a plane is one of them.
-    pub fn contact_features(&self) -> Vec<ContactFeature> {
+    /// The points of the shape that can touch something, each swept by a ball ([`ContactFeatures`]).
+    pub fn contact_features(&self) -> ContactFeatures {
+        let corners = self.corners();
+        let mut points = corners.clone();
+        if let Shape::Box { .. } = self {
+            // The twelve edges join corners that differ in one coordinate.
+            for (a, from) in corners.iter().enumerate() {
+                for axis in 0..3 {
+                    if a & (1 << axis) == 0 {
+                        let to = vec(&corners[a | (1 << axis)].point);
+                        for k in 1..=EDGE_SAMPLES {
+                            let t = k as f64 / (EDGE_SAMPLES + 1) as f64;
+                            let p = vec(&from.point).lerp(to, t);
+                            points.push(ContactFeature {
+                                point: p.to_array(),
+                                radius: 0.0,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        ContactFeatures {
+            corners: corners.len(),
+            points,
+        }
+    }
+
+    fn corners(&self) -> Vec<ContactFeature> {
         let point = |p: DVec3, radius: f64| ContactFeature {
             point: p.to_array(),
             radius,
@@ -116,14 +153,14 @@ impl Shape {
 
 impl Dynamics {
     /// The body's state at the start, its collider at `center`, `rotation`; in collider state `slot`,
-    /// its features from `first_feature` on.
+    /// its `features` from `first_feature` on.
     pub fn initial_state(
         &self,
         center: DVec3,
         rotation: DQuat,
         slot: u32,
         first_feature: u32,
-        num_features: u32,
+        features: &ContactFeatures,
     ) -> RigidBody {
         let (hinge_point, hinge_axis) = self
             .hinge
@@ -141,9 +178,9 @@ impl Dynamics {
             hinge_axis: hinge_axis.to_array(),
             contact_friction: self.contact_friction,
             first_feature,
-            num_features,
+            num_features: features.points.len() as u32,
             slot,
-            _pad: 0,
+            num_corners: features.corners as u32,
         }
     }
 
@@ -201,16 +238,58 @@ pub fn impulse_value(units: &[i64; 6]) -> (DVec3, DVec3) {
     (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))
 }
 
-/// One substep of a body (module docs): the grid's impulse and gravity, its hinge or its contacts
-/// with the walls, then the motion over `dt`.
-pub fn step_body(
-    body: &mut RigidBody,
+/// The bodies' substep (module docs), in four phases, the kernel's as well: each body takes the
+/// grid's impulse and gravity (or, hinged, their moment about its axis); each free body finds its
+/// contacts, with the walls, the other colliders and the other bodies; sequential impulses resolve
+/// all of them together, so a box resting on a box resting on the floor holds both; then each
+/// body moves. `frame` holds every collider where this substep put it (the bodies at their start).
+#[allow(clippy::too_many_arguments)]
+pub fn step_bodies(
+    bodies: &mut [RigidBody],
     features: &[ContactFeature],
-    impulse: &[i64; 6],
+    impulses: &[[i64; 6]],
     dt: f64,
     gravity: DVec3,
     walls: &BodyWalls,
+    frame: &super::ColliderFrame,
 ) {
+    let mut motions: Vec<Motion> = bodies
+        .iter()
+        .zip(impulses)
+        .map(|(body, impulse)| take_impulse(body, impulse, dt, gravity))
+        .collect();
+    let mut contacts = Vec::new();
+    for (k, body) in bodies.iter().enumerate() {
+        if !is_hinged(body) {
+            contacts.extend(find_contacts(k, bodies, &motions, features, walls, frame));
+        }
+    }
+    resolve_contacts(&mut motions, &mut contacts, dt);
+    for (body, motion) in bodies.iter_mut().zip(&motions) {
+        let corners = &features[body.first_feature as usize..][..body.num_corners as usize];
+        move_body(body, motion, corners, dt, walls);
+    }
+}
+
+/// A body over its substep: its centre of mass at the start, its new velocities, what contacts see of
+/// its mass (none for a hinged body, which contacts cannot move: it is a moving obstacle to the
+/// others) and the pseudo-velocities that push it out of overlaps.
+struct Motion {
+    com: DVec3,
+    velocity: DVec3,
+    angular_velocity: DVec3,
+    inv_mass: f64,
+    inv_inertia: DMat3,
+    push_velocity: DVec3,
+    push_angular_velocity: DVec3,
+}
+
+fn is_hinged(body: &RigidBody) -> bool {
+    vec(&body.hinge_axis) != DVec3::ZERO
+}
+
+/// The body's velocities after the grid's impulse and gravity.
+fn take_impulse(body: &RigidBody, impulse: &[i64; 6], dt: f64, gravity: DVec3) -> Motion {
     let (linear, about_origin) = impulse_value(impulse);
     let r = rotation_of(body);
     let center = vec(&body.center);
@@ -221,10 +300,11 @@ pub fn step_body(
     let inv_inertia = r * mat(&body.inv_inertia) * r.transpose();
     let mut v = vec(&body.velocity);
     let mut w = vec(&body.angular_velocity);
-    let axis = vec(&body.hinge_axis);
-    if axis != DVec3::ZERO {
+    let hinged = is_hinged(body);
+    if hinged {
         // About the fixed axis: the impulses' moment about it over the moment of inertia about it
         // (the hinge's reaction has no moment there).
+        let axis = vec(&body.hinge_axis);
         let arm = com - vec(&body.hinge_point);
         let weight = gravity * (dt / body.inv_mass);
         let moment = axis.dot(angular + arm.cross(linear + weight));
@@ -237,96 +317,208 @@ pub fn step_body(
         v += linear * body.inv_mass + gravity * dt;
         // Angular momentum about the centre of mass is what the impulse changes.
         w = inv_inertia * (inertia * w + angular);
-        resolve_wall_contacts(body, features, r, com, walls, inv_inertia, &mut v, &mut w);
     }
-    // The rotation over the substep at the new rate, exactly: about the centre of mass, which moves
-    // at v; or, hinged, about the axis, which carries the centre of mass round with it.
+    Motion {
+        com,
+        velocity: v,
+        angular_velocity: w,
+        inv_mass: if hinged { 0.0 } else { body.inv_mass },
+        inv_inertia: if hinged { DMat3::ZERO } else { inv_inertia },
+        push_velocity: DVec3::ZERO,
+        push_angular_velocity: DVec3::ZERO,
+    }
+}
+
+/// The body's motion over `dt` at its new velocities (plus its contacts' pushes): the rotation
+/// exactly, about the centre of mass, which moves at v; or, hinged, about the axis, which carries the
+/// centre of mass round with it. A free body is then put back inside the walls (by its `corners`).
+fn move_body(body: &mut RigidBody, motion: &Motion, corners: &[ContactFeature], dt: f64, walls: &BodyWalls) {
+    let v = motion.velocity + motion.push_velocity;
+    let w = motion.angular_velocity + motion.push_angular_velocity;
     let turn = DQuat::from_scaled_axis(w * dt);
     let orientation = (turn * DQuat::from_array(body.orientation)).normalize();
-    let com = if axis == DVec3::ZERO {
-        com + v * dt
-    } else {
+    let hinged = is_hinged(body);
+    let com = if hinged {
         let hinge = vec(&body.hinge_point);
-        hinge + DMat3::from_quat(turn) * (com - hinge)
+        hinge + DMat3::from_quat(turn) * (motion.com - hinge)
+    } else {
+        motion.com + v * dt
     };
     let mut center = com - DMat3::from_quat(orientation) * vec(&body.centroid);
-    if axis == DVec3::ZERO {
-        center += wall_overlap(features, DMat3::from_quat(orientation), center, walls);
+    if !hinged {
+        center += wall_overlap(corners, DMat3::from_quat(orientation), center, walls);
     }
     body.center = center.to_array();
     body.orientation = orientation.to_array();
-    body.velocity = v.to_array();
-    body.angular_velocity = w.to_array();
+    body.velocity = motion.velocity.to_array();
+    body.angular_velocity = motion.angular_velocity.to_array();
 }
 
-/// A contact of a body's feature with a wall: the touching point relative to the centre of mass, the
-/// wall's normal into the tank, and the impulses given so far this substep.
+/// What a contact touches besides its body.
+#[derive(Clone, Copy)]
+enum Partner {
+    /// A wall, or a collider that is no body, here moving at this velocity.
+    Fixed(DVec3),
+    /// Another body, by index.
+    Body(usize),
+}
+
+/// A contact of body `body`'s feature: the touching point relative to the body's centre of mass and
+/// to the partner's, the normal out of the partner, how deep the feature's ball is in it (negative:
+/// the gap between them), the
+/// Coulomb coefficient, and the impulses given so far this substep (velocity and push).
 struct Contact {
+    body: usize,
+    partner: Partner,
     arm: DVec3,
+    partner_arm: DVec3,
     normal: DVec3,
+    depth: f64,
+    friction: f64,
     normal_impulse: f64,
     friction_impulse: DVec3,
+    push_impulse: f64,
 }
 
-/// The features touching or past a wall (at most [`MAX_CONTACTS`]), as contacts.
-fn wall_contacts(
+/// Body `k`'s contacts (at most [`MAX_BODY_CONTACTS`]): its features touching or past a wall, then those
+/// touching or inside another collider (in the frame's order; a nozzle's pipe is no obstacle). The
+/// depth into a wall is undone by [`wall_overlap`]; into a collider, by the contact's push.
+fn find_contacts(
+    k: usize,
+    bodies: &[RigidBody],
+    motions: &[Motion],
     features: &[ContactFeature],
-    r: DMat3,
-    center: DVec3,
-    com: DVec3,
     walls: &BodyWalls,
+    frame: &super::ColliderFrame,
 ) -> Vec<Contact> {
+    let body = &bodies[k];
+    let (r, center, com) = (rotation_of(body), vec(&body.center), motions[k].com);
+    let own = &features[body.first_feature as usize..][..body.num_features as usize];
     let mut contacts = Vec::new();
-    for f in features {
+    let mut add = |contact: Contact| {
+        if contacts.len() < MAX_BODY_CONTACTS as usize {
+            contacts.push(contact);
+        }
+    };
+    let contact =
+        |at: DVec3, normal: DVec3, depth: f64, partner: Partner, partner_com: DVec3, friction: f64| Contact {
+            body: k,
+            partner,
+            arm: at - com,
+            partner_arm: at - partner_com,
+            normal,
+            depth,
+            friction,
+            normal_impulse: 0.0,
+            friction_impulse: DVec3::ZERO,
+            push_impulse: 0.0,
+        };
+    for f in &own[..body.num_corners as usize] {
         let p = center + r * vec(&f.point);
         for a in 0..3 {
             for (side, sign) in [(walls.lo[a], 1.0), (walls.hi[a], -1.0)] {
                 // A feature's depth past the wall, its ball's radius included.
                 let depth = sign * (side - p[a]) + f.radius;
-                if depth >= 0.0 && contacts.len() < MAX_CONTACTS {
+                if depth >= -BODY_CONTACT_MARGIN {
                     let normal = DVec3::AXES[a] * sign;
-                    contacts.push(Contact {
-                        arm: p - normal * f.radius - com,
+                    let fixed = Partner::Fixed(DVec3::ZERO);
+                    // Past the wall, [`wall_overlap`] undoes the depth: the contact keeps the gap.
+                    let gap_only = depth.min(0.0);
+                    add(contact(
+                        p - normal * f.radius,
                         normal,
-                        normal_impulse: 0.0,
-                        friction_impulse: DVec3::ZERO,
-                    });
+                        gap_only,
+                        fixed,
+                        com,
+                        body.contact_friction,
+                    ));
                 }
             }
+        }
+    }
+    let Some(own_state) = frame.states.get(body.slot as usize) else {
+        return contacts;
+    };
+    for (slot, s) in frame.states.iter().enumerate() {
+        if slot == body.slot as usize || s.boundary == BOUNDARY_PIPE || out_of_reach(s, own_state) {
+            continue;
+        }
+        for f in own {
+            let p = center + r * inset(vec(&f.point));
+            let (phi, n) = frame.distance(s, p.as_vec3());
+            let depth = f.radius - f64::from(phi);
+            if depth < -BODY_CONTACT_MARGIN {
+                continue;
+            }
+            let normal = n.as_dvec3();
+            let at = p - normal * f.radius;
+            add(if s.body == 0 {
+                let moving = super::ColliderFrame::velocity_at(s, at.as_vec3()).as_dvec3();
+                contact(
+                    at,
+                    normal,
+                    depth,
+                    Partner::Fixed(moving),
+                    com,
+                    body.contact_friction,
+                )
+            } else {
+                let other = s.body as usize - 1;
+                let friction = (body.contact_friction * bodies[other].contact_friction).sqrt();
+                contact(
+                    at,
+                    normal,
+                    depth,
+                    Partner::Body(other),
+                    motions[other].com,
+                    friction,
+                )
+            });
         }
     }
     contacts
 }
 
-/// Sequential impulses against the walls: each contact's velocity into the wall is removed (an
-/// inelastic contact), its sliding opposed by Coulomb friction up to mu times the normal impulse.
-#[allow(clippy::too_many_arguments)]
-fn resolve_wall_contacts(
-    body: &RigidBody,
-    features: &[ContactFeature],
-    r: DMat3,
-    com: DVec3,
-    walls: &BodyWalls,
-    inv_inertia: DMat3,
-    v: &mut DVec3,
-    w: &mut DVec3,
-) {
-    let mut contacts = wall_contacts(features, r, vec(&body.center), com, walls);
-    // The velocity change at the contact per unit impulse along `d`.
-    let response = |arm: DVec3, d: DVec3| body.inv_mass + d.dot((inv_inertia * arm.cross(d)).cross(arm));
-    for _ in 0..CONTACT_SWEEPS {
-        for c in &mut contacts {
-            let at = *v + w.cross(c.arm);
-            let into = at.dot(c.normal);
-            let total = (c.normal_impulse - into / response(c.arm, c.normal)).max(0.0);
+/// A feature's point a hair ([`BODY_FEATURE_INSET`]) towards the body's centre, where it meets other
+/// colliders: boxes of one depth side by side (a quasi-2D tank's) have their corners exactly in each
+/// other's face planes, where the distance is zero whether they overlap or not; inset, a corner that
+/// overlaps is inside.
+fn inset(point: DVec3) -> DVec3 {
+    let length = point.length();
+    if length > BODY_FEATURE_INSET {
+        point * (1.0 - BODY_FEATURE_INSET / length)
+    } else {
+        point
+    }
+}
+
+/// Whether two colliders' bounding balls are apart: no contact between them is possible.
+fn out_of_reach(a: &ColliderState, b: &ColliderState) -> bool {
+    let gap = glam::Vec3::from(a.center).distance(glam::Vec3::from(b.center));
+    gap > a.reach + b.reach
+}
+
+/// Sequential impulses over every contact: each removes the velocity of its body into its partner
+/// (an inelastic contact), opposes the sliding by Coulomb friction up to mu times the normal impulse,
+/// and pushes the two apart by [`BODY_PUSH_RATE`] of their overlap a substep: a pseudo-velocity that moves
+/// the bodies this substep only, so undoing an overlap adds no energy.
+fn resolve_contacts(motions: &mut [Motion], contacts: &mut [Contact], dt: f64) {
+    for _ in 0..BODY_CONTACT_SWEEPS {
+        for c in contacts.iter_mut() {
+            let relative = relative_velocity(motions, c, |m| (m.velocity, m.angular_velocity));
+            let into = relative.dot(c.normal);
+            let stiffness = response(motions, c, c.normal);
+            // Apart by a gap, the body may close it this substep, no more.
+            let closing = (-c.depth).max(0.0) / dt;
+            let total = (c.normal_impulse - (into + closing) / stiffness).max(0.0);
             let mut change = c.normal * (total - c.normal_impulse);
             c.normal_impulse = total;
-            let slide = at - c.normal * into;
+            let slide = relative - c.normal * into;
             let speed = slide.length();
             if speed > 0.0 {
                 let along = slide / speed;
-                let wanted = c.friction_impulse - along * (speed / response(c.arm, along));
-                let limit = body.contact_friction * c.normal_impulse;
+                let wanted = c.friction_impulse - along * (speed / response(motions, c, along));
+                let limit = c.friction * c.normal_impulse;
                 let friction = if wanted.length() > limit {
                     wanted * (limit / wanted.length())
                 } else {
@@ -335,9 +527,60 @@ fn resolve_wall_contacts(
                 change += friction - c.friction_impulse;
                 c.friction_impulse = friction;
             }
-            *v += change * body.inv_mass;
-            *w += inv_inertia * c.arm.cross(change);
+            apply_impulse(motions, c, change, |m| (&mut m.velocity, &mut m.angular_velocity));
+
+            let apart = relative_velocity(motions, c, |m| (m.push_velocity, m.push_angular_velocity));
+            let wanted = BODY_PUSH_RATE * c.depth.max(0.0) / dt;
+            let total = (c.push_impulse + (wanted - apart.dot(c.normal)) / stiffness).max(0.0);
+            let push = c.normal * (total - c.push_impulse);
+            c.push_impulse = total;
+            apply_impulse(motions, c, push, |m| {
+                (&mut m.push_velocity, &mut m.push_angular_velocity)
+            });
         }
+    }
+}
+
+/// The velocity (as `pick` chooses: the real one or the push) of the contact's body at the contact,
+/// less its partner's there.
+fn relative_velocity(motions: &[Motion], c: &Contact, pick: impl Fn(&Motion) -> (DVec3, DVec3)) -> DVec3 {
+    let (v, w) = pick(&motions[c.body]);
+    let at = v + w.cross(c.arm);
+    match c.partner {
+        Partner::Fixed(moving) => at - moving,
+        Partner::Body(b) => {
+            let (v, w) = pick(&motions[b]);
+            at - (v + w.cross(c.partner_arm))
+        }
+    }
+}
+
+/// The change of the relative velocity at the contact along `d` per unit impulse along `d`.
+fn response(motions: &[Motion], c: &Contact, d: DVec3) -> f64 {
+    let one = |m: &Motion, arm: DVec3| m.inv_mass + d.dot((m.inv_inertia * arm.cross(d)).cross(arm));
+    match c.partner {
+        Partner::Fixed(_) => one(&motions[c.body], c.arm),
+        Partner::Body(b) => one(&motions[c.body], c.arm) + one(&motions[b], c.partner_arm),
+    }
+}
+
+/// Gives the contact's body `impulse` at the contact, and its partner body the opposite, in the
+/// velocities `pick` chooses.
+fn apply_impulse(
+    motions: &mut [Motion],
+    c: &Contact,
+    impulse: DVec3,
+    pick: impl Fn(&mut Motion) -> (&mut DVec3, &mut DVec3),
+) {
+    let give = |m: &mut Motion, arm: DVec3, impulse: DVec3| {
+        let (inv_mass, inv_inertia) = (m.inv_mass, m.inv_inertia);
+        let (v, w) = pick(m);
+        *v += impulse * inv_mass;
+        *w += inv_inertia * arm.cross(impulse);
+    };
+    give(&mut motions[c.body], c.arm, impulse);
+    if let Partner::Body(b) = c.partner {
+        give(&mut motions[b], c.partner_arm, -impulse);
     }
 }
 
@@ -380,17 +623,21 @@ impl HostBodies {
         }
     }
 
-    /// Every body's substep after the grid update ([`step_body`]), with the impulses summed in it;
+    /// The bodies' substep after the grid update ([`step_bodies`]), with the impulses summed in it;
     /// `frame` then holds the bodies where they ended.
     pub fn step(&mut self, dt: f32, gravity: [f32; 3], frame: &mut super::ColliderFrame) {
         let Some(walls) = self.walls else { return };
         let gravity = glam::Vec3::from(gravity).as_dvec3();
-        for (body, impulse) in self.states.iter_mut().zip(&mut self.impulses) {
-            let first = body.first_feature as usize;
-            let features = &self.features[first..first + body.num_features as usize];
-            step_body(body, features, impulse, f64::from(dt), gravity, &walls);
-            *impulse = [0; 6];
-        }
+        step_bodies(
+            &mut self.states,
+            &self.features,
+            &self.impulses,
+            f64::from(dt),
+            gravity,
+            &walls,
+            frame,
+        );
+        self.impulses.fill([0; 6]);
         frame.place_bodies(&self.states);
     }
 }
@@ -432,9 +679,23 @@ mod tests {
         };
         let features = shape.contact_features();
         (
-            dynamics.initial_state(center, rotation, 0, 0, features.len() as u32),
-            features,
+            dynamics.initial_state(center, rotation, 0, 0, &features),
+            features.points,
         )
+    }
+
+    /// One substep of a body alone in the tank.
+    fn step_one(body: &mut RigidBody, features: &[ContactFeature], impulse: &[i64; 6], dt: f64, g: DVec3) {
+        let frame = super::super::ColliderFrame::default();
+        step_bodies(
+            std::slice::from_mut(body),
+            features,
+            &[*impulse],
+            dt,
+            g,
+            &WALLS,
+            &frame,
+        );
     }
 
     fn units(value: DVec3) -> [i64; 3] {
@@ -450,7 +711,7 @@ mod tests {
         let (mut body, features) = a_box(DVec3::splat(0.5), DQuat::from_rotation_x(0.3), None);
         let (dt, g) = (1e-3, DVec3::new(0.0, -9.81, 0.0));
         for _ in 0..100 {
-            step_body(&mut body, &features, &[0; 6], dt, g, &WALLS);
+            step_one(&mut body, &features, &[0; 6], dt, g);
         }
         assert!(
             (vec(&body.velocity) - g * 0.1).length() < 1e-12,
@@ -473,7 +734,7 @@ mod tests {
         let mut impulse = [0; 6];
         impulse[..3].copy_from_slice(&units(push));
         impulse[3..].copy_from_slice(&units(moment));
-        step_body(&mut body, &features, &impulse, 1e-4, DVec3::ZERO, &WALLS);
+        step_one(&mut body, &features, &impulse, 1e-4, DVec3::ZERO);
         let mass = 1.0 / body.inv_mass;
         assert!((vec(&body.velocity) * mass - push).length() < 1e-9);
         let r = DMat3::from_quat(rotation);
@@ -489,7 +750,7 @@ mod tests {
         let (mut body, features) = a_box(DVec3::new(0.5, 0.3, 0.5), DQuat::from_rotation_z(0.2), None);
         let g = DVec3::new(0.0, -9.81, 0.0);
         for _ in 0..4000 {
-            step_body(&mut body, &features, &[0; 6], 1e-3, g, &WALLS);
+            step_one(&mut body, &features, &[0; 6], 1e-3, g);
         }
         let r = rotation_of(&body);
         let lowest = features
@@ -517,7 +778,7 @@ mod tests {
         let (mut body, features) = a_box(DVec3::new(0.7, 0.8, 0.5), DQuat::IDENTITY, Some(hinge));
         let g = DVec3::new(0.0, -9.81, 0.0);
         for _ in 0..300 {
-            step_body(&mut body, &features, &[0; 6], 1e-3, g, &WALLS);
+            step_one(&mut body, &features, &[0; 6], 1e-3, g);
             let arm = vec(&body.center) - hinge.point;
             assert!((arm.length() - 0.2).abs() < 1e-9, "the arm is {} m", arm.length());
             let w = vec(&body.angular_velocity);
@@ -537,5 +798,176 @@ mod tests {
         let com = vec(&body.center) + rotation_of(&body) * vec(&body.centroid);
         let want = vec(&body.velocity) + vec(&body.angular_velocity).cross(vec(&body.center) - com);
         assert!((DVec3::from_array(state.velocity.map(f64::from)) - want).length() < 1e-6);
+    }
+
+    /// Cubes of 10 cm and 500 kg/m^3 as bodies (centre, rotation, velocity), and static boxes
+    /// (centre, half extents), in one frame.
+    fn cubes(bodies: &[(DVec3, DQuat, DVec3)], fixed: &[(DVec3, DVec3)]) -> (HostBodies, ColliderFrame) {
+        use super::super::{BOUNDARY_SLIP, COLLIDER_BOX};
+        let half = DVec3::splat(0.05);
+        let shape = Shape::Box { half_extents: half };
+        let (p, features) = (shape.mass_properties(), shape.contact_features());
+        let a_box = |center: DVec3, half: DVec3, body: u32| ColliderState {
+            kind: COLLIDER_BOX,
+            boundary: BOUNDARY_SLIP,
+            rotation: glam::Mat3::IDENTITY.to_cols_array(),
+            center: center.as_vec3().to_array(),
+            size: half.as_vec3().to_array(),
+            reach: half.length() as f32 * 1.01,
+            body,
+            ..ColliderState::default()
+        };
+        let mut states = Vec::new();
+        let mut frame = ColliderFrame::default();
+        for (k, &(center, rotation, velocity)) in bodies.iter().enumerate() {
+            let dynamics = Dynamics {
+                mass: 500.0 * p.volume,
+                centroid: p.centroid,
+                inertia: p.inertia * 500.0,
+                velocity,
+                angular_velocity: DVec3::ZERO,
+                hinge: None,
+                contact_friction: 0.5,
+            };
+            let first = (k * features.points.len()) as u32;
+            states.push(dynamics.initial_state(center, rotation, k as u32, first, &features));
+            frame.states.push(a_box(center, half, k as u32 + 1));
+        }
+        for &(center, half) in fixed {
+            frame.states.push(a_box(center, half, 0));
+        }
+        frame.place_bodies(&states);
+        let all_features = features.points.repeat(bodies.len());
+        (HostBodies::new(&states, &all_features, WALLS), frame)
+    }
+
+    /// The deepest any cube's corner lies inside another cube, m.
+    fn deepest_overlap(bodies: &HostBodies, frame: &ColliderFrame) -> f64 {
+        let mut deepest: f64 = 0.0;
+        for body in &bodies.states {
+            let r = rotation_of(body);
+            for f in &bodies.features[..body.num_features as usize] {
+                let p = vec(&body.center) + r * vec(&f.point);
+                for (slot, s) in frame.states.iter().enumerate() {
+                    if slot != body.slot as usize {
+                        deepest = deepest.max(-f64::from(frame.distance(s, p.as_vec3()).0));
+                    }
+                }
+            }
+        }
+        deepest
+    }
+
+    use super::super::ColliderFrame;
+
+    /// Three cubes dropped in a slightly crooked stack settle into a stack: each on the one below,
+    /// at rest, no corner inside another cube.
+    #[test]
+    fn a_stack_of_boxes_comes_to_rest() {
+        let tilt = DQuat::from_rotation_y(0.1);
+        let (mut bodies, mut frame) = cubes(
+            &[
+                (DVec3::new(0.5, 0.07, 0.5), DQuat::IDENTITY, DVec3::ZERO),
+                (DVec3::new(0.51, 0.19, 0.5), tilt, DVec3::ZERO),
+                (DVec3::new(0.49, 0.31, 0.51), DQuat::IDENTITY, DVec3::ZERO),
+            ],
+            &[],
+        );
+        let mut overlap: f64 = 0.0;
+        let mut settled = Vec::new();
+        for step in 0..3000 {
+            bodies.step(1e-3, [0.0, -9.81, 0.0], &mut frame);
+            overlap = overlap.max(deepest_overlap(&bodies, &frame));
+            if step == 2499 {
+                settled = bodies.states.clone();
+            }
+        }
+        for (k, (body, before)) in bodies.states.iter().zip(&settled).enumerate() {
+            let height = 0.05 + 0.1 * k as f64;
+            assert!(
+                (body.center[1] - height).abs() < 2e-3,
+                "cube {k} at {} m, not {height}",
+                body.center[1]
+            );
+            // At rest: a resting body's step is a gravity step undone by its contacts, so the
+            // velocity it carries out of a step is up to g dt; where it is is what shows rest.
+            let moved = vec(&body.center).distance(vec(&before.center));
+            assert!(moved < 2e-4, "cube {k} moved {moved} m in its last half second");
+        }
+        assert!(overlap < 3e-3, "a corner went {overlap} m into a cube");
+        assert!(deepest_overlap(&bodies, &frame) < 1e-3);
+    }
+
+    /// A cube dropped on a static box (a ledge) rests on its top.
+    #[test]
+    fn a_box_rests_on_a_static_collider() {
+        let ledge = (DVec3::new(0.5, 0.2, 0.5), DVec3::new(0.2, 0.02, 0.2));
+        let falling = (
+            DVec3::new(0.55, 0.4, 0.5),
+            DQuat::from_rotation_z(0.3),
+            DVec3::ZERO,
+        );
+        let (mut bodies, mut frame) = cubes(&[falling], &[ledge]);
+        for _ in 0..2000 {
+            bodies.step(1e-3, [0.0, -9.81, 0.0], &mut frame);
+        }
+        let body = &bodies.states[0];
+        assert!((body.center[1] - 0.27).abs() < 2e-3, "at {} m", body.center[1]);
+        assert!(vec(&body.velocity).length() < 1e-2, "{:?}", body.velocity);
+    }
+
+    /// Two cubes meeting head on, off centre, without gravity: the contact's impulses are equal and
+    /// opposite, so the momentum stays; an inelastic contact only loses energy; and neither passes
+    /// through the other.
+    #[test]
+    fn colliding_bodies_keep_their_momentum() {
+        let (mut bodies, mut frame) = cubes(
+            &[
+                (
+                    DVec3::new(0.3, 0.5, 0.5),
+                    DQuat::IDENTITY,
+                    DVec3::new(1.0, 0.0, 0.0),
+                ),
+                (
+                    DVec3::new(0.7, 0.53, 0.5),
+                    DQuat::from_rotation_z(0.2),
+                    DVec3::new(-1.0, 0.0, 0.0),
+                ),
+            ],
+            &[],
+        );
+        let momentum = |b: &HostBodies| {
+            b.states
+                .iter()
+                .map(|s| vec(&s.velocity) / s.inv_mass)
+                .sum::<DVec3>()
+        };
+        let energy = |b: &HostBodies| {
+            b.states
+                .iter()
+                .map(|s| {
+                    let r = rotation_of(s);
+                    let w = vec(&s.angular_velocity);
+                    0.5 * vec(&s.velocity).length_squared() / s.inv_mass
+                        + 0.5 * w.dot(r * mat(&s.inertia) * r.transpose() * w)
+                })
+                .sum::<f64>()
+        };
+        let (p0, e0) = (momentum(&bodies), energy(&bodies));
+        let mut touched = false;
+        for _ in 0..2500 {
+            bodies.step(1e-4, [0.0; 3], &mut frame);
+            touched |= bodies.states[0].velocity[0] < 0.9;
+            assert!(deepest_overlap(&bodies, &frame) < 2e-3);
+        }
+        assert!(touched, "they never met");
+        let p1 = momentum(&bodies);
+        assert!((p1 - p0).length() < 1e-9, "momentum {p0} became {p1}");
+        assert!(
+            energy(&bodies) < e0,
+            "the energy grew from {e0} to {}",
+            energy(&bodies)
+        );
+        assert!(bodies.states[0].center[0] < bodies.states[1].center[0]);
     }
 }

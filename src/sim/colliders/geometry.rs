@@ -180,7 +180,7 @@ impl ColliderFrame {
     }
 
     /// The collider's own velocity at world point x.
-    fn velocity_at(s: &ColliderState, x: Vec3) -> Vec3 {
+    pub(super) fn velocity_at(s: &ColliderState, x: Vec3) -> Vec3 {
         Vec3::from(s.velocity) + Vec3::from(s.angular_velocity).cross(x - Vec3::from(s.center))
     }
 
