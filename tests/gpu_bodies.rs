@@ -19,6 +19,7 @@ fn main() -> std::process::ExitCode {
             bodies_follow_the_cpu,
             bodies_in_fixed_point_are_byte_identical,
             a_pile_of_boxes_follows_the_cpu,
+            a_sphere_settles_at_stokes_velocity,
             logs_float_at_their_draft_and_angle_at_finer_cells,
         ],
     )
@@ -110,6 +111,63 @@ fn a_pile_of_boxes_follows_the_cpu() {
     assert!(
         bytemuck::cast_slice::<_, u8>(&gpu) == bytemuck::cast_slice::<_, u8>(&again),
         "two fixed-point runs of the pile differ"
+    );
+}
+
+/// Stokes' law: a sphere 2 cm across of 2000 kg/m^3 let go in a liquid of 15 Pa s and 1000 kg/m^3
+/// on the axis of a test tube five of its radii wide ([`bodies_checks::sphere_in_tube`]) settles
+/// at Stokes' terminal velocity 2 (rho_s - rho) g a^2 / (9 mu) = 14.5 mm/s (Reynolds number 0.02)
+/// over Haberman and Sayre's wall correction for lambda = 0.2 (1.677): 8.67 mm/s, within 10 %, at 8
+/// cells across the radius. Gravity comes in over the first 0.1 s (the column then settles without
+/// ringing); the speed is the sphere's fall over the last quarter of two tube-filling times
+/// (R^2 / nu) over that time, which averages out what sound is left. `MPM_STOKES_CELLS` (a
+/// comma-separated list; default 6,8) sets the resolutions run; the finest is asserted.
+fn a_sphere_settles_at_stokes_velocity() {
+    let (radius, viscosity) = (0.01, 15.0);
+    let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
+        .unwrap_or_else(|_| "6,8".into())
+        .split(',')
+        .map(|c| c.trim().parse().expect("MPM_STOKES_CELLS: cells across the radius"))
+        .collect();
+    let stokes = 2.0 * (2000.0 - 1000.0) * 9.81 * radius * radius / (9.0 * viscosity);
+    let correction = bodies_checks::haberman_sayre(0.2);
+    let want = stokes / correction;
+    let mut last = 0.0;
+    for &n in &cells {
+        let dir = tempfile::tempdir().unwrap();
+        let (scene, fill) = bodies_checks::sphere_in_tube(n, radius, viscosity, dir.path());
+        let mut sim = materials_checks::simulation(&scene, BackendKind::Cuda);
+        let frames = (2.0 * fill * 60.0).ceil() as u32;
+        let window_start = frames - frames / 4;
+        let mut start_height = 0.0;
+        for frame in 1..=frames {
+            let ramp = (frame as f32 / 6.0).min(1.0);
+            sim.set_gravity(glam::Vec3::new(0.0, -9.81 * ramp, 0.0)).unwrap();
+            sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+            if frame == window_start {
+                start_height = sim.bodies()[0].center[1];
+            }
+            if frame % 5 == 0 {
+                let v = -sim.bodies()[0].velocity[1];
+                println!("  {n} cells, t = {:.3} s: falling {:.3} mm/s", f64::from(frame) / 60.0, 1e3 * v);
+            }
+        }
+        let fallen = start_height - sim.bodies()[0].center[1];
+        let speed = fallen / (f64::from(frames - window_start) / 60.0);
+        println!(
+            "RESULT {n} cells across the radius: {:.3} mm/s, Stokes {:.3}, wall-corrected {:.3}: {:+.1} %",
+            1e3 * speed,
+            1e3 * stokes,
+            1e3 * want,
+            100.0 * (speed / want - 1.0)
+        );
+        last = speed;
+    }
+    assert!(
+        (last / want - 1.0).abs() < 0.1,
+        "the sphere settles at {:.3} mm/s, not within 10 % of {:.3}",
+        1e3 * last,
+        1e3 * want
     );
 }
 

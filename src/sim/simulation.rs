@@ -464,6 +464,12 @@ impl Simulation {
         if self.params.has_deformation() && extremes.max_signal_speed > bound {
             bound = extremes.max_signal_speed;
         }
+        // Emitters keep adding particles at rest density and their own speed: those particles'
+        // signal speed bounds the step even while the tank holds nothing as fast (a scene that starts
+        // empty ran its first emitted layers at a CFL number near 2).
+        if let Some(fastest) = self.scene.flow.emitters.iter().map(|e| e.speed).reduce(f32::max) {
+            bound = bound.max(self.params.fastest_sound_speed() + fastest);
+        }
         self.advective = extremes.max_speed > bound - extremes.max_speed;
         self.signal_rise = (bound - self.signal_speed).max(0.0);
         self.signal_speed = bound;

@@ -257,3 +257,107 @@ pub fn total_momentum(sim: &mut Simulation) -> DVec3 {
         .sum();
     liquid + bodies
 }
+
+/// A test tube as OBJ text: a closed, outward-wound surface of `segments` sides, its hollow of
+/// radius `inner` open at the top, walls and bottom `wall` thick, `height` tall, its axis along y
+/// from y = 0.
+pub fn tube_obj(inner: f64, wall: f64, height: f64, segments: usize) -> String {
+    let mut vertices: Vec<DVec3> = Vec::new();
+    let mut faces: Vec<[usize; 3]> = Vec::new();
+    let ring = |radius: f64, y: f64, vertices: &mut Vec<DVec3>| -> Vec<usize> {
+        (0..segments)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / segments as f64;
+                vertices.push(DVec3::new(radius * a.cos(), y, radius * a.sin()));
+                vertices.len() - 1
+            })
+            .collect()
+    };
+    let outer = inner + wall;
+    let outer_base = ring(outer, 0.0, &mut vertices);
+    let outer_top = ring(outer, height, &mut vertices);
+    let inner_top = ring(inner, height, &mut vertices);
+    let inner_bottom = ring(inner, wall, &mut vertices);
+    vertices.push(DVec3::ZERO);
+    let base_centre = vertices.len() - 1;
+    vertices.push(DVec3::new(0.0, wall, 0.0));
+    let hollow_centre = vertices.len() - 1;
+    // Each triangle wound so that its normal points `outward`, away from the solid.
+    let mut triangle = |a: usize, b: usize, c: usize, outward: DVec3| {
+        let n = (vertices[b] - vertices[a]).cross(vertices[c] - vertices[a]);
+        faces.push(if n.dot(outward) >= 0.0 { [a, b, c] } else { [a, c, b] });
+    };
+    for k in 0..segments {
+        let m = (k + 1) % segments;
+        let a = std::f64::consts::TAU * (k as f64 + 0.5) / segments as f64;
+        let radial = DVec3::new(a.cos(), 0.0, a.sin());
+        for (lower, upper, outward) in [
+            (&outer_base, &outer_top, radial),
+            (&inner_top, &outer_top, DVec3::Y),
+            (&inner_bottom, &inner_top, -radial),
+        ] {
+            triangle(lower[k], lower[m], upper[m], outward);
+            triangle(lower[k], upper[m], upper[k], outward);
+        }
+        triangle(hollow_centre, inner_bottom[k], inner_bottom[m], DVec3::Y);
+        triangle(base_centre, outer_base[k], outer_base[m], -DVec3::Y);
+    }
+    let mut text = String::new();
+    for v in &vertices {
+        text += &format!("v {} {} {}\n", v.x, v.y, v.z);
+    }
+    for [a, b, c] in faces {
+        text += &format!("f {} {} {}\n", a + 1, b + 1, c + 1);
+    }
+    text
+}
+
+/// Stokes' settling check: a sphere of radius `radius` (`cells` cells across its radius), density
+/// 2000 kg/m^3, `stick`, let go from rest on the axis of a `stick` test tube of 5 radii (the wall
+/// correction's lambda = d / D = 0.2) full of a liquid of 1000 kg/m^3 and viscosity `viscosity`
+/// (sound speed 40 m/s: the column's own compression under gravity, and the sound it rings with, stay
+/// far below the sphere's speed), 2 tube radii above its bottom and below the surface (where a
+/// tube's walls have screened the ends' effect). The tube's mesh goes into `dir`, beside the scene
+/// file. Returns the scene and the time over which the flow fills the tube (its radius squared over
+/// the kinematic viscosity).
+pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::Path) -> (Scene, f64) {
+    let dx = radius / f64::from(cells);
+    let tube = 5.0 * radius;
+    let wall = 3.0 * dx;
+    let floor = 2.0 * dx;
+    let water = wall + 4.0 * tube;
+    let height = water + 2.0 * dx;
+    let half = tube + wall + 2.0 * dx;
+    let res_xz = (2.0 * half / dx).ceil() as u32;
+    let res_y = ((floor + height + 3.0 * dx) / dx).ceil() as u32;
+    let centre = 0.5 * f64::from(res_xz) * dx;
+    std::fs::write(dir.join("tube.obj"), tube_obj(tube, wall, height, 96)).unwrap();
+    let text = format!(
+        "[domain]\nsize = [{x}, {y}, {x}]\nresolution = [{res_xz}, {res_y}, {res_xz}]\n\
+         [material]\nrest_density = 1000.0\nsound_speed = 40.0\nviscosity = {viscosity}\n\
+         [time_step]\ncfl = 0.4\n\
+         [[block]]\nmin = [{lo}, {bottom}, {lo}]\nmax = [{hi}, {top}, {hi}]\nparticles_per_cell = 8\n\
+         [[collider]]\nshape = \"mesh\"\nfile = \"tube.obj\"\ncenter = [{centre}, {floor}, {centre}]\nboundary = \"stick\"\n\
+         [[collider]]\nshape = \"sphere\"\nradius = {radius}\ncenter = [{centre}, {sphere}, {centre}]\n\
+         boundary = \"stick\"\ndensity = 2000.0\n",
+        x = f64::from(res_xz) * dx,
+        y = f64::from(res_y) * dx,
+        lo = centre - tube,
+        hi = centre + tube,
+        bottom = floor + wall,
+        top = floor + water,
+        sphere = floor + wall + 2.0 * tube,
+    );
+    let path = dir.join("stokes.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(path.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    (scene, tube * tube * 1000.0 / viscosity)
+}
+
+/// Haberman and Sayre's (1958) wall correction for a sphere falling on the axis of a long cylinder,
+/// lambda = its diameter over the cylinder's: the drag is Stokes' times this, so the sphere falls at
+/// Stokes' velocity over it.
+pub fn haberman_sayre(lambda: f64) -> f64 {
+    (1.0 - 0.75857 * lambda.powi(5))
+        / (1.0 - 2.1050 * lambda + 2.0865 * lambda.powi(3) - 1.7068 * lambda.powi(5) + 0.72603 * lambda.powi(6))
+}
