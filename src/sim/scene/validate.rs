@@ -767,6 +767,9 @@ impl Validator<'_> {
             emitters.push(self.emitter(i, e, spacing, (lo, hi), &region, &scene.materials)?);
         }
         let domain = DVec3::from(scene.grid_res.map(f64::from)) * f64::from(scene.dx);
+        // dx is single precision: a sink out to the domain's size as the scene wrote it (0.4 m of 80
+        // cells of 5 mm) may lie a rounding past the cells' product.
+        let domain_edge = domain * (1.0 + 1e-6);
         let mut sinks = Vec::new();
         for (i, k) in spec.sinks.iter().enumerate() {
             let (min, max) = (DVec3::from(k.min), DVec3::from(k.max));
@@ -777,7 +780,7 @@ impl Validator<'_> {
                     "give min < max on x, y and z",
                 ));
             }
-            if min.cmplt(DVec3::ZERO).any() || max.cmpgt(domain).any() {
+            if min.cmplt(DVec3::ZERO).any() || max.cmpgt(domain_edge).any() {
                 return Err(self.err(
                     format!("sink[{i}]"),
                     format!(
