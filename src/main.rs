@@ -109,8 +109,8 @@ enum Command {
         /// Print this preset's scene file, exactly as it is built in (without a name: list the presets).
         #[arg(long, value_name = "PRESET", num_args = 0..=1)]
         show: Option<Option<String>>,
-        /// Print a mesh file a preset uses (`glass.obj`, the tap's glass), to save beside a scene file
-        /// saved with --show.
+        /// Print a mesh file a preset uses (`glass.obj`, the tap's glass; `water-wheel.obj`, the
+        /// water wheel's), to save beside a scene file saved with --show.
         #[arg(long, value_name = "FILE", conflicts_with = "show")]
         mesh: Option<String>,
     },

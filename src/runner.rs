@@ -132,6 +132,11 @@ pub fn format_frame(s: &FrameStats) -> String {
     for b in &s.bodies {
         let [x, y, z] = b.center;
         line += &format!("  collider[{}]=({x:.4}, {y:.4}, {z:.4}) m", b.collider);
+        // A body turning shows how fast (a hinged wheel's centre never moves).
+        let spin = glam::DVec3::from(b.angular_velocity).length();
+        if spin >= 0.05 {
+            line += &format!(" turning {spin:.2} rad/s");
+        }
     }
     if let Some(t) = &s.timings {
         line += &format!("  step={:.3} ms", t.per_step());

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 19] = [
+pub const NAMES: [&str; 20] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -22,11 +22,12 @@ pub const NAMES: [&str; 19] = [
     "snowball",
     "boats",
     "ball-drop",
+    "water-wheel",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 19] = [
+const FILES: [&str; 20] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -44,6 +45,7 @@ const FILES: [&str; 19] = [
     include_str!("../../scenes/snowball.toml"),
     include_str!("../../scenes/boats.toml"),
     include_str!("../../scenes/ball-drop.toml"),
+    include_str!("../../scenes/water-wheel.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];
@@ -71,7 +73,10 @@ pub fn get(name: &str) -> Option<&'static str> {
 }
 
 /// The mesh files the presets name, by the name they give (`file = "glass.obj"`).
-const MESHES: [(&str, &str); 1] = [("glass.obj", include_str!("../../scenes/glass.obj"))];
+const MESHES: [(&str, &str); 2] = [
+    ("glass.obj", include_str!("../../scenes/glass.obj")),
+    ("water-wheel.obj", include_str!("../../scenes/water-wheel.obj")),
+];
 
 /// The names of the mesh files the presets use.
 pub const MESH_NAMES: [&str; MESHES.len()] = {
