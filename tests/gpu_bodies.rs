@@ -127,7 +127,11 @@ fn a_sphere_settles_at_stokes_velocity() {
     let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
         .unwrap_or_else(|_| "6,8".into())
         .split(',')
-        .map(|c| c.trim().parse().expect("MPM_STOKES_CELLS: cells across the radius"))
+        .map(|c| {
+            c.trim()
+                .parse()
+                .expect("MPM_STOKES_CELLS: cells across the radius")
+        })
         .collect();
     let stokes = 2.0 * (2000.0 - 1000.0) * 9.81 * radius * radius / (9.0 * viscosity);
     let correction = bodies_checks::haberman_sayre(0.2);
@@ -149,7 +153,11 @@ fn a_sphere_settles_at_stokes_velocity() {
             }
             if frame % 5 == 0 {
                 let v = -sim.bodies()[0].velocity[1];
-                println!("  {n} cells, t = {:.3} s: falling {:.3} mm/s", f64::from(frame) / 60.0, 1e3 * v);
+                println!(
+                    "  {n} cells, t = {:.3} s: falling {:.3} mm/s",
+                    f64::from(frame) / 60.0,
+                    1e3 * v
+                );
             }
         }
         let fallen = start_height - sim.bodies()[0].center[1];

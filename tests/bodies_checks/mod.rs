@@ -285,7 +285,11 @@ pub fn tube_obj(inner: f64, wall: f64, height: f64, segments: usize) -> String {
     // Each triangle wound so that its normal points `outward`, away from the solid.
     let mut triangle = |a: usize, b: usize, c: usize, outward: DVec3| {
         let n = (vertices[b] - vertices[a]).cross(vertices[c] - vertices[a]);
-        faces.push(if n.dot(outward) >= 0.0 { [a, b, c] } else { [a, c, b] });
+        faces.push(if n.dot(outward) >= 0.0 {
+            [a, b, c]
+        } else {
+            [a, c, b]
+        });
     };
     for k in 0..segments {
         let m = (k + 1) % segments;
@@ -359,5 +363,6 @@ pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::
 /// Stokes' velocity over it.
 pub fn haberman_sayre(lambda: f64) -> f64 {
     (1.0 - 0.75857 * lambda.powi(5))
-        / (1.0 - 2.1050 * lambda + 2.0865 * lambda.powi(3) - 1.7068 * lambda.powi(5) + 0.72603 * lambda.powi(6))
+        / (1.0 - 2.1050 * lambda + 2.0865 * lambda.powi(3) - 1.7068 * lambda.powi(5)
+            + 0.72603 * lambda.powi(6))
 }
