@@ -179,7 +179,9 @@ fn rotation_of(body: &RigidBody) -> DMat3 {
 }
 
 /// The collider state of `template` (the body's shape and boundary) at the body's pose: the rigid
-/// velocity the grid update holds its band to.
+/// velocity the grid update holds its band to. kernels/bodies.cu's place_body computes it from the
+/// same state in the same operations, none fused, so the device's slots and the host's agree bit for
+/// bit (what a resumed GPU run's first substep starts from).
 pub fn body_collider_state(template: &ColliderState, body: &RigidBody) -> ColliderState {
     let r = rotation_of(body);
     let center = vec(&body.center);
