@@ -799,12 +799,6 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
-    anyhow::ensure!(
-        args.checkpoint.is_none() || scene.colliders.num_bodies() == 0,
-        "--checkpoint: scene {} has rigid bodies (colliders with a density or mass), which checkpoints do \
-         not hold yet; drop --checkpoint",
-        scene.source
-    );
     let checkpoints = args
         .checkpoint
         .as_deref()
