@@ -235,3 +235,56 @@ impl PoseTable {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::colliders::Shape;
+
+    /// Every shape's mesh keeps the viewer's triangles corner for corner (position and normal) with
+    /// the shared corners merged, and posing it puts each vertex at centre + R vertex.
+    #[test]
+    fn shape_meshes_keep_the_drawn_triangles_and_follow_the_pose() {
+        let shapes = [
+            Shape::Box {
+                half_extents: DVec3::new(0.1, 0.2, 0.3),
+            },
+            Shape::Sphere { radius: 0.2 },
+            Shape::Capsule {
+                radius: 0.1,
+                half_length: 0.2,
+            },
+            Shape::Cylinder {
+                radius: 0.1,
+                half_length: 0.2,
+            },
+        ];
+        let rotation = DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1);
+        let body = RigidBody {
+            center: [0.4, 0.25, -0.1],
+            orientation: rotation.to_array(),
+            ..RigidBody::default()
+        };
+        for shape in shapes {
+            let corners = shape_triangles(&shape);
+            let mesh = shape_mesh(&corners);
+            let name = shape.kind_name();
+            assert_eq!(mesh.triangles.len() * 3, corners.len(), "{name}");
+            assert!(mesh.vertices.len() < corners.len(), "{name}: no corner merged");
+            for (triangle, drawn) in mesh.triangles.iter().zip(corners.chunks_exact(3)) {
+                for (&i, [p, n]) in triangle.iter().zip(drawn) {
+                    assert_eq!(mesh.vertices[i as usize], p.to_array(), "{name}");
+                    assert_eq!(mesh.normals[i as usize], n.to_array(), "{name}");
+                }
+            }
+            let placed = posed(&mesh, &body);
+            for (v, p) in placed.vertices.iter().zip(&mesh.vertices) {
+                let want = DVec3::from_array(body.center) + rotation * glam::Vec3::from(*p).as_dvec3();
+                assert!(
+                    (glam::Vec3::from(*v).as_dvec3() - want).length() < 1e-6,
+                    "{name}: {v:?} against {want}"
+                );
+            }
+        }
+    }
+}
