@@ -327,8 +327,44 @@ __device__ D3 wall_overlap(const RigidBody& b, const ContactFeature* features, c
     return push;
 }
 
-// move_body in bodies.rs, then body_collider_state: the pose and rigid velocity at the collider's
-// centre go into its slot; its shape stays.
+// body_collider_state in bodies.rs, rounding for rounding: the pose and the rigid velocity at the
+// collider's centre, from the body's state alone (its shape stays). Every operation is one that is
+// never fused into a multiply-add (__dmul_rn, __dadd_rn, __dsub_rn), in glam's order, so the host
+// places a body in its slot with the very bits the device does: a run resumed from a checkpoint
+// starts its first substep with the slots the uninterrupted run had (src/cuda/colliders.rs).
+__device__ void place_body(const RigidBody& b, ColliderState& s) {
+    const double x = b.orientation[0], y = b.orientation[1], z = b.orientation[2], w = b.orientation[3];
+    // DMat3::from_quat, row-major.
+    const double x2 = __dadd_rn(x, x), y2 = __dadd_rn(y, y), z2 = __dadd_rn(z, z);
+    const double xx = __dmul_rn(x, x2), xy = __dmul_rn(x, y2), xz = __dmul_rn(x, z2);
+    const double yy = __dmul_rn(y, y2), yz = __dmul_rn(y, z2), zz = __dmul_rn(z, z2);
+    const double wx = __dmul_rn(w, x2), wy = __dmul_rn(w, y2), wz = __dmul_rn(w, z2);
+    const double r[9] = {__dsub_rn(1.0, __dadd_rn(yy, zz)), __dsub_rn(xy, wz), __dadd_rn(xz, wy),
+                         __dadd_rn(xy, wz), __dsub_rn(1.0, __dadd_rn(xx, zz)), __dsub_rn(yz, wx),
+                         __dsub_rn(xz, wy), __dadd_rn(yz, wx), __dsub_rn(1.0, __dadd_rn(xx, yy))};
+    // The centre of mass, centre + R centroid (a matrix times a vector: column by column), and the
+    // centre's offset from it.
+    double offset[3];
+    for (int a = 0; a < 3; ++a) {
+        const double turned =
+            __dadd_rn(__dadd_rn(__dmul_rn(r[3 * a], b.centroid[0]), __dmul_rn(r[3 * a + 1], b.centroid[1])),
+                      __dmul_rn(r[3 * a + 2], b.centroid[2]));
+        offset[a] = __dsub_rn(b.center[a], __dadd_rn(b.center[a], turned));
+    }
+    // velocity + angular_velocity x offset.
+    const double* const om = b.angular_velocity;
+    const double spin[3] = {__dsub_rn(__dmul_rn(om[1], offset[2]), __dmul_rn(offset[1], om[2])),
+                            __dsub_rn(__dmul_rn(om[2], offset[0]), __dmul_rn(offset[2], om[0])),
+                            __dsub_rn(__dmul_rn(om[0], offset[1]), __dmul_rn(offset[0], om[1]))};
+    for (int i = 0; i < 9; ++i) s.rotation[i] = (float)r[i];
+    for (int a = 0; a < 3; ++a) {
+        s.center[a] = (float)b.center[a];
+        s.velocity[a] = (float)__dadd_rn(b.velocity[a], spin[a]);
+        s.angular_velocity[a] = (float)om[a];
+    }
+}
+
+// move_body in bodies.rs, then its collider state into its slot (place_body).
 __device__ void move_body(RigidBody& b, const BodyMotion& m, const ContactFeature* features, double dt,
                           const BodyWalls& walls, ColliderState& s) {
     const D3 v = d3(m.velocity) + d3(m.push_velocity);
@@ -346,17 +382,10 @@ __device__ void move_body(RigidBody& b, const BodyMotion& m, const ContactFeatur
     store(b.center, center1);
     b.orientation[0] = orientation.x, b.orientation[1] = orientation.y;
     b.orientation[2] = orientation.z, b.orientation[3] = orientation.w;
-    const D3 velocity = d3(m.velocity), angular_velocity = d3(m.angular_velocity);
-    store(b.velocity, velocity);
-    store(b.angular_velocity, angular_velocity);
+    store(b.velocity, d3(m.velocity));
+    store(b.angular_velocity, d3(m.angular_velocity));
 
-    for (int i = 0; i < 9; ++i) s.rotation[i] = (float)r1.m[i];
-    const D3 centre_velocity = velocity + cross(angular_velocity, center1 - com1);
-    for (int a = 0; a < 3; ++a) {
-        s.center[a] = (float)get(center1, a);
-        s.velocity[a] = (float)get(centre_velocity, a);
-        s.angular_velocity[a] = (float)get(angular_velocity, a);
-    }
+    place_body(b, s);
 }
 
 // The four phases, a barrier between each: a phase reads what the one before wrote for every body.

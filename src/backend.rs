@@ -2,6 +2,7 @@
 
 use crate::cuda::{CudaOptions, CudaRanks, CudaSolver};
 use crate::dist::CpuRanks;
+use crate::sim::colliders::bodies::BodiesState;
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
@@ -124,27 +125,27 @@ pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
     create_with(kind, scene, None)
 }
 
-/// [`create`] with `particles` and the emitters' and sinks' state (a checkpoint's) in place of the
-/// scene's start.
-pub fn restore(
-    kind: BackendKind,
-    scene: &Scene,
-    particles: &Particles,
-    flow: Option<&FlowState>,
-) -> Result<Box<dyn Solver>> {
-    create_with(kind, scene, Some((particles, flow)))
+/// What a solver restored from a checkpoint starts from in place of the scene's start.
+#[derive(Debug, Clone, Copy)]
+pub struct SavedState<'a> {
+    pub particles: &'a Particles,
+    /// The emitters' and sinks' state, where the scene has them.
+    pub flow: Option<&'a FlowState>,
+    /// The rigid bodies (none where the scene has none).
+    pub bodies: &'a BodiesState,
 }
 
-fn create_with(
-    kind: BackendKind,
-    scene: &Scene,
-    state: Option<(&Particles, Option<&FlowState>)>,
-) -> Result<Box<dyn Solver>> {
+/// [`create`] with a checkpoint's state in place of the scene's start.
+pub fn restore(kind: BackendKind, scene: &Scene, saved: SavedState) -> Result<Box<dyn Solver>> {
+    create_with(kind, scene, Some(saved))
+}
+
+fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
     if matches!(kind, BackendKind::Cuda | BackendKind::Auto) {
         // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
         scene.check_pipeline()?;
     }
-    let initial = || state.map_or_else(|| scene.spawn(), |(p, _)| p.clone());
+    let initial = || state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
     if scene.ranks > 1 {
         ensure!(
             scene.colliders.num_bodies() == 0,
@@ -158,9 +159,9 @@ fn create_with(
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
         scene.flow.is_active().then(|| {
-            let flow_state = match state {
-                Some((_, Some(flow_state))) => flow_state.clone(),
-                _ => FlowState::start(&scene.flow, scene.num_particles),
+            let flow_state = match state.and_then(|saved| saved.flow) {
+                Some(flow_state) => flow_state.clone(),
+                None => FlowState::start(&scene.flow, scene.num_particles),
             };
             Lifecycle::new(scene, flow_state)
         })
@@ -169,10 +170,15 @@ fn create_with(
         Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
     };
     let cuda = |options: CudaOptions| match state {
-        Some((particles, flow)) => CudaSolver::restore(scene, particles, flow, options),
+        Some(saved) => CudaSolver::restore(scene, saved.particles, saved.flow, options),
         None => CudaSolver::new(scene, options),
     };
-    let (bodies, features) = scene.colliders.rigid_bodies();
+    // The bodies' contact features are the scene's; their states the checkpoint's, or the start.
+    let (start, features) = scene.colliders.rigid_bodies();
+    let bodies = match state {
+        Some(saved) => saved.bodies.clone(),
+        None => BodiesState::at_start(start),
+    };
     let reference = || -> Box<dyn Solver> {
         Box::new(CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
     };
@@ -183,7 +189,7 @@ fn create_with(
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Box::new(solver),
             // The rigid bodies' sums are the reference's alone among the CPU backends.
-            Err(why) if !bodies.is_empty() => {
+            Err(why) if !bodies.states.is_empty() => {
                 eprintln!(
                     "note: CUDA backend unavailable ({}); using the CPU reference on one thread (cpu): \
                      the scene has rigid bodies",
@@ -201,7 +207,7 @@ fn create_with(
             }
         },
     };
-    if !bodies.is_empty() {
+    if !bodies.states.is_empty() {
         solver.set_bodies(&bodies, &features, scene.body_walls())?;
     }
     Ok(solver)

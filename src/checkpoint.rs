@@ -5,14 +5,16 @@
 //! A checkpoint holds the scene as it was loaded (its TOML text and where it came from), the solver
 //! options (backend, GPU pipeline, scatter mode), the parameters as the run had them (live changes
 //! included), the clock and the time-step policy's memory ([`RunClock`]), and every particle's x, v,
-//! C and density. Nothing else carries from one frame to the next: the CPU backends rebuild their
-//! grid every substep, and the CUDA solver's between-substep state (the particle bins, the grid mass
-//! (and under the fused pipeline momentum) of the next substep, scattered from the particles' saved
-//! state and density) is rebuilt from the particles on the first substep after a resume, which gives
-//! the same integers in the fixed-point scatter (tests/gpu_lifecycle.rs
-//! checks a resumed run byte for byte against an uninterrupted one).
+//! C and density, and the rigid bodies' states with the impulse sums their next step takes. Nothing
+//! else carries from one frame to the next: the CPU backends rebuild their grid every substep, and
+//! the CUDA solver's between-substep state (the particle bins, the grid mass (and under the fused
+//! pipeline momentum) of the next substep, scattered from the particles' saved state and density) is
+//! rebuilt from the particles on the first substep after a resume, which gives the same integers in
+//! the fixed-point scatter; its bodies' collider slots are placed from their states as its
+//! step_bodies places them (tests/gpu_lifecycle.rs checks a resumed run byte for byte against an
+//! uninterrupted one).
 //!
-//! # File format (version 3), all numbers little-endian
+//! # File format (version 4), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -25,16 +27,17 @@
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
-//! whether the particles' deformation follows); the 214 words of [`Params`] (the kernel parameters,
-//! then the material table's 8 rows of 24 words); the clock (frame u64,
+//! whether the particles' deformation follows, the rigid body count K); the 214 words of [`Params`]
+//! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, late emitter layers u64, E emitter phases f64); then
 //! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
 //! live, 0 parked) and each slot's material row (N bytes); then, where the scene has solids, each
 //! slot's deformation (F_E column by column and the plastic scalar: 10N f32); then, with emitters or sinks,
 //! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
 //! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
-//! drained, exhausted, blocked: u64 each). Floats are stored as their bits, so a resumed state is the
-//! saved one exactly.
+//! drained, exhausted, blocked: u64 each); then, for each of the K rigid bodies, its [`RigidBody`] row
+//! (its 42 f64, then its 4 u32: 352 bytes) and its 6 pending impulse sums (i64). Floats are stored as
+//! their bits, so a resumed state is the saved one exactly.
 //!
 //! Version 1, written before scenes had a material table, still loads: its parameters are 28 words
 //! (one material of 8 words: rest density, EOS stiffness, EOS power, viscosity, pressure floor,
@@ -42,14 +45,16 @@
 //! material rows follow the live flags. It reads as a table of one Newtonian row and every particle
 //! made of it ([`params_from_version_1`]). Version 2, written before the solids, had rows of 16
 //! words (the liquids' 13, then padding: 150 words in all) and no deformation; its rows
-//! read with the solids' parameters zero ([`params_from_version_2`]).
+//! read with the solids' parameters zero ([`params_from_version_2`]). Version 3, written before
+//! checkpoints held rigid bodies, is version 4 without them (no scene of bodies could be saved).
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
 
-use crate::backend::{self, BackendKind};
+use crate::backend::{self, BackendKind, SavedState};
 use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
+use crate::sim::colliders::bodies::{BodiesState, RigidBody};
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::params::{KernelParams, Material};
 use crate::sim::{Deformation, Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
@@ -64,7 +69,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -90,6 +95,14 @@ const _: () = assert!(VERSION_2_PARAMS_WORDS == 150);
 const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
 /// Bytes per particle slot: x, v, C, density as f32, the live flag and the material row.
 const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1 + 1;
+/// A [`RigidBody`] row: its f64 fields, then its u32 fields (the contract lays them out so, without
+/// padding; the assertions fail the build where a change of the struct would need a new layout).
+const BODY_F64S: usize = 42;
+const BODY_U32S: usize = 4;
+const _: () = assert!(std::mem::size_of::<RigidBody>() == 8 * BODY_F64S + 4 * BODY_U32S);
+const _: () = assert!(std::mem::offset_of!(RigidBody, first_feature) == 8 * BODY_F64S);
+/// Bytes per rigid body: its row and its six impulse sums.
+const BYTES_PER_BODY: usize = 8 * BODY_F64S + 4 * BODY_U32S + 8 * 6;
 
 /// What the body's JSON holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -110,6 +123,9 @@ struct Meta {
     /// Whether the particles' deformation follows their material rows (version 3 on).
     #[serde(default)]
     deformation: bool,
+    /// Rigid bodies after the lifecycle (version 4 on).
+    #[serde(default)]
+    bodies: u64,
 }
 
 /// A run's state between two frames.
@@ -129,6 +145,8 @@ pub struct Checkpoint {
     /// The emitters' and sinks' state (free slots, nozzle points' last particles, counts), where the
     /// scene has them.
     pub flow: Option<FlowState>,
+    /// The rigid bodies (none where the scene has none).
+    pub bodies: BodiesState,
 }
 
 impl Checkpoint {
@@ -139,21 +157,19 @@ impl Checkpoint {
             .clock()
             .context("a frame is half done; finish it (Simulation::step_frame) before saving the state")?;
         let scene = sim.scene();
-        ensure!(
-            scene.colliders.num_bodies() == 0,
-            "scene {}: a checkpoint does not hold rigid bodies yet (colliders with a density or mass), and \
-             a run resumed from one would restart them where the scene starts them: run this scene without \
-             checkpoints",
-            scene.source
-        );
         let (scene_source, scene_toml) = (scene.source.clone(), scene.toml.clone());
         let (pipeline, scatter) = (scene.pipeline, scene.scatter);
         let backend = sim.backend().to_string();
         let params = *sim.params();
         let particles = sim.solver_mut().read_particles()?;
         let flow = sim.solver_mut().flow_state()?;
+        let bodies = BodiesState {
+            states: sim.solver_mut().bodies()?,
+            impulses: sim.solver_mut().body_impulses()?,
+        };
         Ok(Checkpoint {
             flow,
+            bodies,
             scene_source,
             scene_toml,
             backend,
@@ -186,7 +202,37 @@ impl Checkpoint {
             scene.grid_res,
             scene.materials.len()
         );
+        self.check_bodies(&scene)?;
         Ok(scene)
+    }
+
+    /// Refuses a checkpoint whose rigid bodies are not `scene`'s: another count, or a body that is
+    /// another collider or has other contact features than the scene gives it (a solver would step
+    /// it with features that are not its own).
+    fn check_bodies(&self, scene: &Scene) -> Result<()> {
+        let (start, _) = scene.colliders.rigid_bodies();
+        let saved = &self.bodies.states;
+        ensure!(
+            saved.len() == start.len(),
+            "the checkpoint holds {} but its scene has {} (colliders with a density or mass): the file \
+             is inconsistent; resume from a checkpoint this scene's run wrote",
+            crate::text::count(saved.len(), "rigid body", "rigid bodies"),
+            start.len()
+        );
+        let layout = |b: &RigidBody| (b.slot, b.first_feature, b.num_features);
+        if let Some(k) = (0..saved.len()).find(|&k| layout(&saved[k]) != layout(&start[k])) {
+            let (slot, first, n) = layout(&saved[k]);
+            let (scene_slot, scene_first, scene_n) = layout(&start[k]);
+            bail!(
+                "the checkpoint's rigid body {k} is collider {slot} with contact features {first}..{}, \
+                 but its scene makes it collider {scene_slot} with {scene_first}..{}: the file is \
+                 inconsistent (or an mpm that laid bodies out otherwise wrote it); resume from a \
+                 checkpoint this mpm wrote",
+                first + n,
+                scene_first + scene_n
+            );
+        }
+        Ok(())
     }
 
     /// The backend the run had.
@@ -198,7 +244,13 @@ impl Checkpoint {
     /// A simulation that goes on from this state on `backend` (its own by default), with `scene`
     /// (from [`Self::scene`], solver options possibly overridden).
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
-        let solver = backend::restore(backend, &scene, &self.particles, self.flow.as_ref())?;
+        self.check_bodies(&scene)?;
+        let saved = SavedState {
+            particles: &self.particles,
+            flow: self.flow.as_ref(),
+            bodies: &self.bodies,
+        };
+        let solver = backend::restore(backend, &scene, saved)?;
         // The scatter's mode and scales and the density rule are the scene's (whose solver options
         // --scatter and --pipeline may override); checkpoints written before the scene authored the
         // scales hold zeros there.
@@ -208,7 +260,13 @@ impl Checkpoint {
         params.fixed_mass_scale = authored.fixed_mass_scale;
         params.fixed_momentum_scale = authored.fixed_momentum_scale;
         params.density_rule = authored.density_rule;
-        Ok(Simulation::resume(scene, solver, params, self.clock.clone()))
+        Ok(Simulation::resume(
+            scene,
+            solver,
+            params,
+            self.clock.clone(),
+            &self.bodies.states,
+        ))
     }
 
     /// Writes the checkpoint to `path`, which must not exist: to a temporary file beside it, synced
@@ -260,6 +318,7 @@ impl Checkpoint {
 
     /// Header and body, without the checksum.
     fn write_to(&self, out: &mut impl Write) -> Result<()> {
+        self.bodies.check()?;
         let meta = serde_json::to_vec(&Meta {
             written_by: format!("mpm {}", env!("CARGO_PKG_VERSION")),
             scene_source: self.scene_source.clone(),
@@ -271,6 +330,7 @@ impl Checkpoint {
             emitters: self.clock.emitter_phases.len() as u64,
             flow: self.flow.is_some(),
             deformation: !self.particles.deformation.is_empty(),
+            bodies: self.bodies.states.len() as u64,
         })?;
         let n = self.particles.len();
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
@@ -281,7 +341,8 @@ impl Checkpoint {
             + 8 * self.clock.emitter_phases.len()
             + BYTES_PER_PARTICLE * n
             + std::mem::size_of_val(self.particles.deformation.as_slice())
-            + flow.len();
+            + flow.len()
+            + BYTES_PER_BODY * self.bodies.states.len();
         out.write_all(&MAGIC)?;
         out.write_all(&FORMAT_VERSION.to_le_bytes())?;
         out.write_all(&0u32.to_le_bytes())?;
@@ -311,6 +372,12 @@ impl Checkpoint {
         out.write_all(&p.material)?;
         write_words(out, bytemuck::cast_slice(&p.deformation))?;
         out.write_all(&flow)?;
+        for (body, impulses) in self.bodies.states.iter().zip(&self.bodies.impulses) {
+            out.write_all(&body_row_bytes(body))?;
+            for sum in impulses {
+                out.write_all(&sum.to_le_bytes())?;
+            }
+        }
         Ok(())
     }
 
@@ -424,6 +491,18 @@ impl Body<'_> {
             .collect())
     }
 
+    /// A row that [`body_row_bytes`] wrote.
+    fn rigid_body(&mut self) -> Result<RigidBody> {
+        let mut native = Vec::with_capacity(std::mem::size_of::<RigidBody>());
+        for _ in 0..BODY_F64S {
+            native.extend(self.u64("the rigid bodies")?.to_ne_bytes());
+        }
+        for _ in 0..BODY_U32S {
+            native.extend(self.u32("the rigid bodies")?.to_ne_bytes());
+        }
+        Ok(bytemuck::pod_read_unaligned(&native))
+    }
+
     fn vectors<T: bytemuck::Pod>(&mut self, n: usize, what: &str) -> Result<Vec<T>> {
         let words = self.words(n * std::mem::size_of::<T>() / 4, what)?;
         Ok(bytemuck::cast_slice(&words).to_vec())
@@ -528,6 +607,15 @@ impl Body<'_> {
         } else {
             None
         };
+        let mut bodies = BodiesState::default();
+        for _ in 0..meta.bodies {
+            bodies.states.push(self.rigid_body()?);
+            let mut impulses = [0i64; 6];
+            for sum in &mut impulses {
+                *sum = self.u64("the rigid bodies' impulse sums")? as i64;
+            }
+            bodies.impulses.push(impulses);
+        }
         ensure!(
             self.bytes.is_empty(),
             "{} bytes after the state",
@@ -535,6 +623,7 @@ impl Body<'_> {
         );
         Ok(Checkpoint {
             flow,
+            bodies,
             scene_source: meta.scene_source,
             scene_toml: meta.scene_toml,
             backend: meta.backend,
@@ -612,6 +701,18 @@ pub fn params_from_version_1(words: &[u32]) -> Params {
         volume_density: 0,
     };
     Params { kernel, materials }
+}
+
+/// A rigid body's row as the body stores it: each f64 field, then each u32 field, little-endian.
+fn body_row_bytes(body: &RigidBody) -> Vec<u8> {
+    let (floats, words) = bytemuck::bytes_of(body).split_at(8 * BODY_F64S);
+    let floats = floats
+        .chunks_exact(8)
+        .flat_map(|f| u64::from_ne_bytes(f.try_into().expect("8 bytes")).to_le_bytes());
+    let words = words
+        .chunks_exact(4)
+        .flat_map(|w| u32::from_ne_bytes(w.try_into().expect("4 bytes")).to_le_bytes());
+    floats.chain(words).collect()
 }
 
 /// The lifecycle's state as the body stores it.

@@ -2,10 +2,12 @@
 //! velocities, density, material row; the volume ratio and von Mises stress where a material
 //! carries a deformation; the material table's names and colours in header comments),
 //! which ParaView, Blender, Open3D and meshio open as they are.
-//! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]). Both go
-//! through [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a
-//! user saved is replaced silently, and a failed write never leaves a truncated file behind.
+//! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]).
+//! `--export-bodies`: the rigid bodies' meshes and a pose table ([`bodies`]). All go through
+//! [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a user saved is
+//! replaced silently, and a failed write never leaves a truncated file behind.
 
+pub mod bodies;
 pub mod mesh_files;
 pub mod surface;
 
@@ -43,6 +45,9 @@ pub struct FrameKind {
     pub prefix: &'static str,
     /// Every extension a run of this kind may write: all of them count as an earlier run's files.
     pub extensions: &'static [&'static str],
+    /// Files of these names that a run of this kind writes beside its frames (the bodies' pose
+    /// table): an earlier run's count as its files too.
+    pub companions: &'static [&'static str],
     /// The noun for one file and for several, e.g. `frame`, `frames`.
     pub noun: (&'static str, &'static str),
 }
@@ -52,6 +57,7 @@ pub const PARTICLE_FRAMES: FrameKind = FrameKind {
     flag: "--export",
     prefix: "frame_",
     extensions: &["ply"],
+    companions: &[],
     noun: ("frame", "frames"),
 };
 
@@ -175,6 +181,9 @@ impl FrameDir {
 impl FrameKind {
     /// Whether a file of this name is a finished file of this kind.
     fn owns(&self, name: &str) -> bool {
+        if self.companions.contains(&name) {
+            return true;
+        }
         let Some(rest) = name.strip_prefix(self.prefix) else {
             return false;
         };

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::bench;
 use mpm::checkpoint::{Checkpoint, CheckpointSeries};
+use mpm::export::bodies::BodyExporter;
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
 use mpm::export::PlyExporter;
@@ -67,6 +68,7 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
         "--frames",
         "--export",
         "--export-surface",
+        "--export-bodies",
         "--stats",
         "--checkpoint",
         "--resume",
@@ -120,7 +122,7 @@ enum Command {
 }
 
 #[derive(clap::Args)]
-#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_bodies"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
@@ -146,7 +148,12 @@ struct RunArgs {
     surface_format: SurfaceFormat,
     #[command(flatten)]
     surface: SurfaceArgs,
-    /// Export every K-th frame (--export and --export-surface).
+    /// Write the rigid bodies of frame 0 and every K-th frame into this directory: bodies_NNNNNN.obj,
+    /// each body's mesh posed in world coordinates (an object a body, collider_K), and the pose
+    /// table bodies.csv (a row a body a frame). The scene must have rigid bodies.
+    #[arg(long, value_name = "DIR")]
+    export_bodies: Option<PathBuf>,
+    /// Export every K-th frame (--export, --export-surface and --export-bodies).
     #[arg(long, value_name = "K", default_value_t = 1, requires = "frame_export", allow_negative_numbers = true,
           value_parser = count::<1>)]
     every: u64,
@@ -770,6 +777,9 @@ fn run(args: RunArgs) -> Result<()> {
         ),
     };
     args.solver.apply(&mut scene);
+    if args.export_bodies.is_some() {
+        mpm::export::bodies::check_scene(&scene)?;
+    }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
     // it) fails before any output exists, so nothing is left behind to block the retry.
     let mut sim = match &resumed {
@@ -794,17 +804,16 @@ fn run(args: RunArgs) -> Result<()> {
             SurfaceExporter::new(dir, args.every, args.surface_format, settings, args.overwrite)
         })
         .transpose()?;
+    let bodies = args
+        .export_bodies
+        .as_deref()
+        .map(|dir| BodyExporter::new(dir, args.every, scene, args.overwrite))
+        .transpose()?;
     let stats = args
         .stats
         .as_deref()
         .map(|path| StatsFile::create(path, args.overwrite))
         .transpose()?;
-    anyhow::ensure!(
-        args.checkpoint.is_none() || scene.colliders.num_bodies() == 0,
-        "--checkpoint: scene {} has rigid bodies (colliders with a density or mass), which checkpoints do \
-         not hold yet; drop --checkpoint",
-        scene.source
-    );
     let checkpoints = args
         .checkpoint
         .as_deref()
@@ -813,6 +822,7 @@ fn run(args: RunArgs) -> Result<()> {
     let notes = [
         export.as_ref().and_then(PlyExporter::removed_note),
         surface.as_ref().and_then(SurfaceExporter::removed_note),
+        bodies.as_ref().and_then(BodyExporter::removed_note),
         checkpoints.as_ref().and_then(CheckpointSeries::removed_note),
     ];
     for note in notes.into_iter().flatten() {
@@ -868,6 +878,7 @@ fn run(args: RunArgs) -> Result<()> {
         frames: args.frames,
         export,
         surface,
+        bodies,
         stats,
         checkpoints,
         progress: std::io::stdout().is_terminal(),

@@ -1,7 +1,8 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines, exports PLY frames and surface meshes.
+//! and optionally writes them as JSON lines, exports PLY frames, surface meshes and the rigid bodies.
 
 use crate::checkpoint::CheckpointSeries;
+use crate::export::bodies::BodyExporter;
 use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
@@ -19,6 +20,8 @@ pub struct RunOptions {
     /// Reconstructs the surface of the initial state and of every K-th frame as a mesh file, on
     /// worker threads while the simulation steps on.
     pub surface: Option<SurfaceExporter>,
+    /// Writes the rigid bodies' meshes and poses of the initial state and every K-th frame.
+    pub bodies: Option<BodyExporter>,
     pub stats: Option<StatsFile>,
     /// Writes the state every K-th frame and at the last one.
     pub checkpoints: Option<CheckpointSeries>,
@@ -394,6 +397,18 @@ fn export_frame(
     Ok(ply.is_some())
 }
 
+/// The frame's body meshes and poses, where the exporter wants this frame.
+fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Result<bool> {
+    let frame = sim.frame();
+    match exporter.filter(|e| e.wants(frame)) {
+        Some(exporter) => {
+            exporter.write(frame, sim.time(), &frame_comment(sim), sim.bodies())?;
+            Ok(true)
+        }
+        None => Ok(false),
+    }
+}
+
 /// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
 /// simulation waited for them.
 pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
@@ -419,6 +434,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         frames,
         export,
         surface,
+        mut bodies,
         mut stats,
         checkpoints,
         progress,
@@ -446,6 +462,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         surface.as_mut(),
         &mut on_mesh,
     )?);
+    let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
     let say = |out: &mut dyn Write, line: &str| -> Result<()> {
@@ -477,6 +494,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             surface.as_mut(),
             &mut on_mesh,
         )?);
+        bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
         // Meshes finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
             queue.collect(&mut on_mesh, false)?;
@@ -530,6 +548,15 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     }
     if let Some(line) = surface_line {
         writeln!(out, "{line}")?;
+    }
+    if let Some(exporter) = &bodies {
+        writeln!(
+            out,
+            "exported the rigid bodies of {} into {} ({} and bodies_NNNNNN.obj)",
+            crate::text::count(bodies_exported, "frame", "frames"),
+            exporter.dir().display(),
+            crate::export::bodies::POSE_TABLE
+        )?;
     }
     if let Some(warning) = cfl_warning(&all) {
         writeln!(out, "{warning}")?;

@@ -704,6 +704,29 @@ fn a_version_2_checkpoint_of_several_liquids_loads_as_it_was() {
     assert_eq!(Checkpoint::read(&file).unwrap(), current);
 }
 
+/// A checkpoint of format version 3, written before checkpoints held rigid bodies (its JSON names no
+/// body count, and nothing follows the lifecycle), loads as the same state without bodies.
+#[test]
+fn a_version_3_checkpoint_loads_as_one_without_bodies() {
+    let mut sim = small_sim(1);
+    let current = Checkpoint::capture(&mut sim).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let now = dir.path().join("now.mpmck");
+    current.write_new(&now).unwrap();
+    let file = std::fs::read(&now).unwrap();
+    let meta_len = u64::from_le_bytes(file[24..32].try_into().unwrap()) as usize;
+    let mut meta: serde_json::Value = serde_json::from_slice(&file[32..32 + meta_len]).unwrap();
+    assert_eq!(meta["bodies"], 0);
+    meta.as_object_mut().unwrap().remove("bodies");
+    let meta = serde_json::to_vec(&meta).unwrap();
+    let mut body = (meta.len() as u64).to_le_bytes().to_vec();
+    body.extend(&meta);
+    body.extend(&file[32 + meta_len..file.len() - 4]);
+    let v3 = dir.path().join("v3.mpmck");
+    std::fs::write(&v3, checkpoint_file(3, body)).unwrap();
+    assert_eq!(Checkpoint::read(&v3).unwrap(), current);
+}
+
 /// A scene with a jelly: the checkpoint carries each particle's deformation, reads back as written,
 /// and the run resumed from it goes on as the uninterrupted one, bit for bit.
 #[test]
@@ -747,4 +770,117 @@ material = "jelly"
         "the snow has not yielded: a weak test of its plastic state"
     );
     assert_resumes_as_uninterrupted(&read, &mut sim, "snow");
+}
+
+/// A steel log thrown into a pool ([`common::log_thrown_into_a_pool`]) through the command line: 6
+/// frames straight, against 3 frames, a checkpoint and 3 more resumed from it. The checkpoint holds
+/// the body's whole state and the impulse sums its next step takes (the backstop's pushes out of it
+/// as it lands), and the resumed run's frame lines (the body's pose among them) and its last
+/// checkpoint (every particle and the body, bit for bit) are the uninterrupted run's.
+#[test]
+fn a_run_with_a_rigid_body_resumes_byte_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("log.toml");
+    std::fs::write(&scene, common::log_thrown_into_a_pool()).unwrap();
+    let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
+    let run = ["run", "--backend", "cpu", "--checkpoint-every", "3"];
+    let mut args = run.to_vec();
+    args.extend([
+        "--scene",
+        path(&scene),
+        "--frames",
+        "6",
+        "--checkpoint",
+        path(&whole),
+    ]);
+    let uninterrupted = ok(&mpm(&args));
+    assert!(
+        uninterrupted.contains("collider[0]=") && uninterrupted.contains("backstop="),
+        "{uninterrupted}"
+    );
+    let start = whole.join("checkpoint_000003.mpmck");
+    let saved = Checkpoint::read(&start).unwrap();
+    assert_eq!(saved.bodies.states.len(), 1);
+    assert!(
+        saved.bodies.impulses[0] != [0; 6],
+        "no backstop push is pending at frame 3: a weak test of the impulse sums"
+    );
+    let mut args = run.to_vec();
+    args.extend([
+        "--resume",
+        path(&start),
+        "--frames",
+        "3",
+        "--checkpoint",
+        path(&resumed),
+    ]);
+    let continued = ok(&mpm(&args));
+    assert_eq!(frame_lines(&continued), frame_lines(&uninterrupted)[3..]);
+    let name = "checkpoint_000006.mpmck";
+    let (a, b) = (
+        Checkpoint::read(&whole.join(name)).unwrap(),
+        Checkpoint::read(&resumed.join(name)).unwrap(),
+    );
+    let bytes = |c: &Checkpoint| bytemuck::cast_slice::<_, u8>(&c.bodies.states).to_vec();
+    assert!(
+        bytes(&a) == bytes(&b) && a.bodies.impulses == b.bodies.impulses,
+        "the resumed body differs: {:?}\nagainst {:?}",
+        b.bodies,
+        a.bodies
+    );
+    assert!(
+        common::same_particles(&a.particles, &b.particles),
+        "the resumed run's particles differ"
+    );
+    assert!(
+        std::fs::read(whole.join(name)).unwrap() == std::fs::read(resumed.join(name)).unwrap(),
+        "{name}: the resumed run's state is not byte-identical to the uninterrupted run's"
+    );
+}
+
+/// A checkpoint whose rigid bodies are not its scene's (another count, or a body of another
+/// collider) is refused with what is wrong, by the library and by `mpm run --resume` before it
+/// creates anything.
+#[test]
+fn a_checkpoint_whose_bodies_are_not_its_scenes_is_refused() {
+    let scene = common::scene(&common::log_thrown_into_a_pool());
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    let cp = Checkpoint::capture(&mut sim).unwrap();
+    assert_eq!(cp.bodies.states.len(), 1);
+    let dir = tempfile::tempdir().unwrap();
+
+    let mut none = cp.clone();
+    none.bodies = mpm::sim::colliders::bodies::BodiesState::default();
+    let file = dir.path().join("no-body.mpmck");
+    none.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    let text = format!("{:#}", read.scene().unwrap_err());
+    assert!(
+        text.contains("holds 0 rigid bodies but its scene has 1") && text.contains("inconsistent"),
+        "{text}"
+    );
+    let Err(e) = read.resume(scene.clone(), BackendKind::Cpu) else {
+        panic!("a checkpoint without its scene's body resumed");
+    };
+    let text = format!("{e:#}");
+    assert!(text.contains("holds 0 rigid bodies"), "{text}");
+    let out_dir = dir.path().join("out");
+    let out = mpm(&["run", "--resume", path(&file), "--checkpoint", path(&out_dir)]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("holds 0 rigid bodies"), "{stderr}");
+    assert!(
+        !out_dir.exists(),
+        "an output was created for a run that never started"
+    );
+
+    let mut elsewhere = cp.clone();
+    elsewhere.bodies.states[0].slot = 3;
+    let file = dir.path().join("elsewhere.mpmck");
+    elsewhere.write_new(&file).unwrap();
+    let text = format!("{:#}", Checkpoint::read(&file).unwrap().scene().unwrap_err());
+    assert!(
+        text.contains("rigid body 0 is collider 3") && text.contains("makes it collider 0"),
+        "{text}"
+    );
 }

@@ -101,6 +101,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
             frames: 4,
             export: Some(PlyExporter::new(&frames, 2, overwrite)?),
             surface: None,
+            bodies: None,
             stats: Some(StatsFile::create(&stats, overwrite)?),
             checkpoints: None,
             progress: false,
@@ -187,6 +188,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
             frames: count,
             export: Some(exporter),
             surface: None,
+            bodies: None,
             stats: None,
             checkpoints: None,
             progress: false,
@@ -250,6 +252,7 @@ fn a_huge_frame_count_does_not_abort() {
         frames: 99_999_999_999,
         export: None,
         surface: None,
+        bodies: None,
         stats: None,
         checkpoints: None,
         progress: false,
@@ -299,6 +302,7 @@ material = "water"
         frames: 1,
         export: Some(PlyExporter::new(&frames, 1, false).unwrap()),
         surface: None,
+        bodies: None,
         stats: None,
         checkpoints: None,
         progress: false,
@@ -327,5 +331,185 @@ material = "water"
         (count(&after, 0), count(&after, 1)),
         (count(&vertices, 0), count(&vertices, 1)),
         "a liquid changed its particle count"
+    );
+}
+
+fn ok(out: &std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "mpm failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    names
+}
+
+/// An OBJ's objects: each one's name and its vertices (world coordinates), in file order.
+fn obj_objects(path: &std::path::Path) -> Vec<(String, Vec<glam::DVec3>)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut objects: Vec<(String, Vec<glam::DVec3>)> = Vec::new();
+    let mut vertices = 0;
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("o") => objects.push((words.next().unwrap().to_string(), Vec::new())),
+            Some("v") => {
+                let p: Vec<f64> = words.map(|w| w.parse().unwrap()).collect();
+                objects
+                    .last_mut()
+                    .expect("a vertex before any object")
+                    .1
+                    .push(glam::DVec3::new(p[0], p[1], p[2]));
+                vertices += 1;
+            }
+            Some("f") => {
+                for corner in words {
+                    let index: usize = corner.split("//").next().unwrap().parse().unwrap();
+                    assert!((1..=vertices).contains(&index), "{line}: no vertex {index} yet");
+                }
+            }
+            _ => {}
+        }
+    }
+    objects
+}
+
+/// `--export-bodies` through `mpm run`: the steel log thrown into a pool
+/// ([`common::log_thrown_into_a_pool`]) for 3 frames, every 2nd. The directory holds the pose table
+/// and the meshes of frames 0 and 2; the table's rows are the simulation's poses, to the bit (frame
+/// 2's those of the same run in this process, frame 0's the scene's start); each mesh is one object a body, named by its collider, whose 24
+/// vertices (a box: 4 a face, each with its face's normal) sit at the pose's corners, centre +
+/// R (+-half extents).
+#[test]
+fn export_bodies_writes_each_body_posed_and_a_pose_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("log.toml");
+    std::fs::write(&scene, common::log_thrown_into_a_pool()).unwrap();
+    let out = dir.path().join("bodies");
+    let p = |path: &std::path::Path| path.to_str().unwrap().to_string();
+    let run = ["--export-bodies", &p(&out), "--every", "2"];
+    let stdout = ok(&common::cpu_run(&p(&scene), "3", &run));
+    assert!(
+        stdout.contains("exported the rigid bodies of 2 frames into"),
+        "{stdout}"
+    );
+    assert_eq!(
+        names_in(&out),
+        ["bodies.csv", "bodies_000000.obj", "bodies_000002.obj"]
+    );
+
+    let table = std::fs::read_to_string(out.join("bodies.csv")).unwrap();
+    let mut lines = table.lines();
+    assert_eq!(lines.next(), Some(mpm::export::bodies::POSE_TABLE_HEADER));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{table}");
+    assert!(rows.iter().all(|r| r.len() == 16), "{table}");
+    assert_eq!((rows[0][0], rows[1][0]), (0.0, 2.0), "the frames");
+    assert!(rows.iter().all(|r| r[2] == 0.0), "the collider index");
+    // Frame 0: where the scene starts the log, turned 10 degrees about z, thrown down at 4 m/s.
+    let start = glam::DQuat::from_rotation_z(10f64.to_radians());
+    assert_eq!(rows[0][1], 0.0);
+    assert_eq!(&rows[0][3..6], [0.12, 0.15, 0.035]);
+    assert!((glam::DQuat::from_slice(&rows[0][6..10]).dot(start) - 1.0).abs() < 1e-12);
+    assert_eq!(&rows[0][10..16], [0.0, -4.0, 0.0, 0.0, 0.0, 0.0]);
+    // Frame 2: the pose of the same run here, to the bit.
+    let scene = common::scene(&common::log_thrown_into_a_pool());
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    for _ in 0..2 {
+        sim.advance_frame().unwrap();
+    }
+    let b = sim.bodies()[0];
+    let pose = [b.center, b.velocity, b.angular_velocity];
+    assert_eq!(rows[1][1].to_bits(), sim.time().to_bits());
+    assert_eq!(rows[1][3..6], pose[0]);
+    assert_eq!(rows[1][6..10], b.orientation);
+    assert_eq!(rows[1][10..13], pose[1]);
+    assert_eq!(rows[1][13..16], pose[2]);
+    assert!(rows[1][4] < 0.1, "the log has not fallen: {:?}", rows[1]);
+
+    let half = glam::DVec3::new(0.03, 0.02, 0.024);
+    for (row, frame) in rows.iter().zip([0, 2]) {
+        let objects = obj_objects(&out.join(format!("bodies_{frame:06}.obj")));
+        assert_eq!(objects.len(), 1, "frame {frame}");
+        let (name, vertices) = &objects[0];
+        assert_eq!(name, "collider_0");
+        assert_eq!(vertices.len(), 24, "frame {frame}: a box's faces, 4 corners each");
+        let center = glam::DVec3::from_slice(&row[3..6]);
+        let rotation = glam::DQuat::from_slice(&row[6..10]);
+        let mut corners = std::collections::BTreeSet::new();
+        for v in vertices {
+            let local = rotation.inverse() * (*v - center);
+            let sign = (local / half).round();
+            assert!(
+                sign.abs() == glam::DVec3::ONE && (local - sign * half).length() < 1e-6,
+                "frame {frame}: vertex {v} is not a corner of the posed box (local {local})"
+            );
+            corners.insert(sign.to_array().map(|s| s as i32));
+        }
+        assert_eq!(corners.len(), 8, "frame {frame}: not every corner is there");
+    }
+}
+
+/// `--export-bodies` is refused before any work for a scene without rigid bodies, and for a
+/// directory holding an earlier run's body files or a pose table a user saved there (left as they
+/// were); `--overwrite` replaces them, saying so.
+#[test]
+fn export_bodies_refuses_a_scene_without_bodies_and_existing_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |path: &std::path::Path| path.to_str().unwrap().to_string();
+    let out = dir.path().join("bodies");
+    let refused = common::cpu_run("dam-break-coarse", "1", &["--export-bodies", &p(&out)]);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains("has no rigid bodies") && stderr.contains("drop --export-bodies"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "the directory was created for a refused run");
+
+    let scene = dir.path().join("log.toml");
+    std::fs::write(&scene, common::log_thrown_into_a_pool()).unwrap();
+    let first = common::cpu_run(&p(&scene), "0", &["--export-bodies", &p(&out)]);
+    ok(&first);
+    assert_eq!(names_in(&out), ["bodies.csv", "bodies_000000.obj"]);
+    let table = std::fs::read(out.join("bodies.csv")).unwrap();
+    let again = common::cpu_run(&p(&scene), "0", &["--export-bodies", &p(&out)]);
+    assert!(!again.status.success());
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        stderr.contains("already holds 2 exported body files") && stderr.contains("--overwrite"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(out.join("bodies.csv")).unwrap(), table);
+    let replaced = ok(&common::cpu_run(
+        &p(&scene),
+        "0",
+        &["--export-bodies", &p(&out), "--overwrite"],
+    ));
+    assert!(
+        replaced.contains("--overwrite: removed 2 body files of an earlier run"),
+        "{replaced}"
+    );
+
+    // A pose table alone (a user's, say) is an earlier run's file too.
+    let mine = dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("bodies.csv"), "my notes").unwrap();
+    let kept = common::cpu_run(&p(&scene), "0", &["--export-bodies", &p(&mine)]);
+    assert!(!kept.status.success());
+    assert_eq!(
+        std::fs::read_to_string(mine.join("bodies.csv")).unwrap(),
+        "my notes"
     );
 }

@@ -7,8 +7,9 @@
 //!
 //! What this guards: the CUDA solver keeps state between substeps that a checkpoint does not hold
 //! (the particle bins, rebuilt every few substeps or on a flag; the binned pipeline's grid mass of the
-//! next substep, scattered by g2p2g). A resumed solver rebuilds both from the particles on its first
-//! substep; the fixed-point scatter must then give the very integers the uninterrupted run had.
+//! next substep, scattered by g2p2g; a rigid body's collider slot, which step_bodies writes). A
+//! resumed solver rebuilds them from the particles and the bodies on its first substep; the
+//! fixed-point scatter must then give the very integers the uninterrupted run had.
 
 use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
@@ -25,6 +26,7 @@ fn main() -> std::process::ExitCode {
         harness::cuda_device,
         harness::tests![
             a_resumed_fixed_point_run_is_byte_identical,
+            a_resumed_run_with_a_rigid_body_is_byte_identical,
             a_gpu_checkpoint_resumes_on_the_cpu,
             gpu_emission_and_draining_follow_the_cpu,
             gpu_flow_runs_are_byte_identical_and_resume_exactly,
@@ -107,6 +109,53 @@ fn a_resumed_fixed_point_run_is_byte_identical() {
             "{pipeline:?}: the resumed fixed-point run differs from the uninterrupted one in {differing} words"
         );
     }
+}
+
+/// A steel log thrown into a pool ([`common::log_thrown_into_a_pool`], fused pipeline, fixed point):
+/// 6 frames straight against 3, a checkpoint, and 3 more resumed from it. The device's between-frame
+/// state of a body is its row and its pending impulse sums, which the checkpoint holds, and its
+/// collider slot, which the resumed solver's first upload places as step_bodies does (the same
+/// unfused operations): the particles and the body must come out bit for bit the same.
+fn a_resumed_run_with_a_rigid_body_is_byte_identical() {
+    const BEFORE: u64 = 3;
+    const AFTER: u64 = 3;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scene(&common::log_thrown_into_a_pool());
+    let mut whole = cuda_sim(&scene);
+    frames(&mut whole, BEFORE + AFTER);
+
+    let mut first = cuda_sim(&scene);
+    frames(&mut first, BEFORE);
+    let checkpoint = save_and_read(&mut first, dir.path());
+    drop(first);
+    println!(
+        "pending impulse sums at frame {BEFORE}: {:?}",
+        checkpoint.bodies.impulses
+    );
+    let mut resumed = checkpoint
+        .resume(checkpoint.scene().unwrap(), BackendKind::Cuda)
+        .unwrap();
+    frames(&mut resumed, AFTER);
+    let (a, b) = (
+        Checkpoint::capture(&mut whole).unwrap(),
+        Checkpoint::capture(&mut resumed).unwrap(),
+    );
+    let bytes = |c: &Checkpoint| bytemuck::cast_slice::<_, u8>(&c.bodies.states).to_vec();
+    assert!(
+        bytes(&a) == bytes(&b) && a.bodies.impulses == b.bodies.impulses,
+        "the resumed body differs: {:?}\nagainst {:?}",
+        b.bodies,
+        a.bodies
+    );
+    let (pa, pb) = (
+        common::particle_bits(&a.particles),
+        common::particle_bits(&b.particles),
+    );
+    let differing = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
+    assert!(
+        differing == 0,
+        "the resumed run's particles differ from the uninterrupted run's in {differing} words"
+    );
 }
 
 fn a_gpu_checkpoint_resumes_on_the_cpu() {

@@ -6,6 +6,7 @@
 use super::colliders::DeviceColliders;
 use super::launch::{host_kernel, Launcher};
 use crate::contract::{BodyContact, BodyMotion, BodyWalls, ContactFeature, RigidBody, MAX_BODY_CONTACTS};
+use crate::sim::colliders::bodies::BodiesState;
 use crate::sim::Params;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream, LaunchConfig, PushKernelArg};
@@ -17,8 +18,8 @@ pub struct DeviceBodies {
     pub states: CudaSlice<RigidBody>,
     pub count: u32,
     features: CudaSlice<ContactFeature>,
-    /// Six fixed-point sums per body (`BODY_IMPULSE_UNITS`): the grid update adds, step_bodies reads
-    /// and zeroes.
+    /// Six fixed-point sums per body (`BODY_IMPULSE_UNITS`, two's complement): the grid update and
+    /// the particle backstop add, step_bodies reads and zeroes.
     pub impulses: CudaSlice<u64>,
     walls: BodyWalls,
     /// step_bodies' scratch: each body's motion over the substep, its contacts
@@ -26,38 +27,47 @@ pub struct DeviceBodies {
     motions: CudaSlice<BodyMotion>,
     contacts: CudaSlice<BodyContact>,
     contact_counts: CudaSlice<u32>,
+    /// The states uploaded: where the first upload of the collider states puts the bodies' slots
+    /// (colliders.rs), which step_bodies writes from then on.
+    pub uploaded: Vec<RigidBody>,
 }
 
 impl DeviceBodies {
+    /// `bodies`: their states and pending impulse sums, at the start or a checkpoint's.
     pub fn upload(
         stream: &Arc<CudaStream>,
-        bodies: &[RigidBody],
+        bodies: &BodiesState,
         features: &[ContactFeature],
         walls: BodyWalls,
     ) -> Result<DeviceBodies> {
+        bodies.check()?;
         let features = if features.is_empty() {
             stream.alloc_zeros::<ContactFeature>(1)
         } else {
             stream.clone_htod(features)
         }
         .context("uploading the rigid bodies' contact features")?;
+        let impulses: &[u64] = bytemuck::cast_slice(&bodies.impulses);
         Ok(DeviceBodies {
-            states: stream.clone_htod(bodies).context("uploading the rigid bodies")?,
-            count: bodies.len() as u32,
+            states: stream
+                .clone_htod(&bodies.states)
+                .context("uploading the rigid bodies")?,
+            count: bodies.states.len() as u32,
             features,
             impulses: stream
-                .alloc_zeros::<u64>(6 * bodies.len())
-                .context("allocating the rigid bodies' impulse sums")?,
+                .clone_htod(impulses)
+                .context("uploading the rigid bodies' impulse sums")?,
             walls,
             motions: stream
-                .alloc_zeros::<BodyMotion>(bodies.len())
+                .alloc_zeros::<BodyMotion>(bodies.states.len())
                 .context("allocating the rigid bodies' motions")?,
             contacts: stream
-                .alloc_zeros::<BodyContact>(bodies.len() * MAX_BODY_CONTACTS as usize)
+                .alloc_zeros::<BodyContact>(bodies.states.len() * MAX_BODY_CONTACTS as usize)
                 .context("allocating the rigid bodies' contacts")?,
             contact_counts: stream
-                .alloc_zeros::<u32>(bodies.len())
+                .alloc_zeros::<u32>(bodies.states.len())
                 .context("allocating the rigid bodies' contact counts")?,
+            uploaded: bodies.states.clone(),
         })
     }
 
@@ -66,6 +76,17 @@ impl DeviceBodies {
         stream
             .clone_dtoh(&self.states)
             .context("reading the rigid bodies back")
+    }
+
+    /// Their impulse sums as they are now (waits for the stream).
+    pub fn read_impulses(&self, stream: &Arc<CudaStream>) -> Result<Vec<[i64; 6]>> {
+        let sums = stream
+            .clone_dtoh(&self.impulses)
+            .context("reading the rigid bodies' impulse sums back")?;
+        Ok(sums
+            .chunks_exact(6)
+            .map(|row| std::array::from_fn(|k| row[k] as i64))
+            .collect())
     }
 }
 

@@ -8,6 +8,7 @@ use crate::sim::colliders::{ColliderFrame, ColliderState, MAX_COLLIDERS};
 use crate::sim::flow::MAX_EMITTERS;
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
+use std::borrow::Cow;
 use std::sync::Arc;
 
 /// The colliders, then the emitters' pipes.
@@ -61,17 +62,26 @@ impl DeviceColliders {
             self.sdf_source = Some(frame.sdf.clone());
         }
         if self.uploaded != frame.states {
-            // A rigid body's slot holds its start until step_bodies first writes it: after the
-            // first upload only the runs between bodies go.
+            // The first upload puts each rigid body's slot where its uploaded state is (the start, or
+            // a checkpoint's), as the host places it; step_bodies writes the slots from then on, so
+            // later uploads send only the runs between bodies.
             let first = self.uploaded.is_empty();
+            let placed: Cow<[ColliderState]> = match &self.bodies {
+                Some(bodies) if first => {
+                    let mut placed = frame.clone();
+                    placed.place_bodies(&bodies.uploaded);
+                    Cow::Owned(placed.states)
+                }
+                _ => Cow::Borrowed(&frame.states),
+            };
             let mut start = 0;
-            while start < frame.states.len() {
-                let end = (start..frame.states.len())
-                    .find(|&k| !first && frame.states[k].body != 0)
-                    .unwrap_or(frame.states.len());
+            while start < placed.len() {
+                let end = (start..placed.len())
+                    .find(|&k| !first && placed[k].body != 0)
+                    .unwrap_or(placed.len());
                 if end > start {
                     stream
-                        .memcpy_htod(&frame.states[start..end], &mut self.states.slice_mut(start..end))
+                        .memcpy_htod(&placed[start..end], &mut self.states.slice_mut(start..end))
                         .context("uploading the collider states")?;
                 }
                 start = end + 1;

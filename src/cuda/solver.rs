@@ -20,7 +20,7 @@ use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
 use crate::contract::{Material, MAX_MATERIALS};
-use crate::sim::colliders::bodies::{BodyWalls, ContactFeature, RigidBody};
+use crate::sim::colliders::bodies::{BodiesState, BodyWalls, ContactFeature, RigidBody};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
@@ -459,18 +459,18 @@ impl Solver for CudaSolver {
 
     fn set_bodies(
         &mut self,
-        bodies: &[RigidBody],
+        bodies: &BodiesState,
         features: &[ContactFeature],
         walls: BodyWalls,
     ) -> Result<()> {
         // The fused pipeline's grid update alone sees a node's mass without the walls' images,
         // which the bodies' exchange counts (the binned one adds them in a launch before).
         ensure!(
-            bodies.is_empty() || self.pipeline == Pipeline::Fused,
+            bodies.states.is_empty() || self.pipeline == Pipeline::Fused,
             "the {} pipeline moves no rigid bodies; use --pipeline fused (the default)",
             self.pipeline.name()
         );
-        self.state.colliders.bodies = if bodies.is_empty() {
+        self.state.colliders.bodies = if bodies.states.is_empty() {
             None
         } else {
             Some(DeviceBodies::upload(self.gpu.stream(), bodies, features, walls)?)
@@ -483,6 +483,13 @@ impl Solver for CudaSolver {
     fn bodies(&mut self) -> Result<Vec<RigidBody>> {
         match &self.state.colliders.bodies {
             Some(bodies) => bodies.read(self.gpu.stream()),
+            None => Ok(Vec::new()),
+        }
+    }
+
+    fn body_impulses(&mut self) -> Result<Vec<[i64; 6]>> {
+        match &self.state.colliders.bodies {
+            Some(bodies) => bodies.read_impulses(self.gpu.stream()),
             None => Ok(Vec::new()),
         }
     }

@@ -10,7 +10,7 @@ use std::io::Write;
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SurfaceMesh {
     pub vertices: Vec<[f32; 3]>,
-    /// One unit normal per vertex, pointing out of the water.
+    /// One unit normal per vertex, pointing outward (out of the water, out of a body).
     pub normals: Vec<[f32; 3]>,
     pub triangles: Vec<[u32; 3]>,
 }
@@ -48,9 +48,39 @@ impl SurfaceFormat {
 }
 
 pub fn write_obj(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Result<()> {
+    write_comment(&mut out, comment)?;
+    write_obj_mesh(&mut out, mesh, 0)?;
+    out.flush()?;
+    Ok(())
+}
+
+/// One OBJ of several meshes, each an object (`o NAME`) that Blender imports as an object of its own:
+/// `objects` as (name, mesh).
+pub fn write_obj_objects(
+    mut out: impl Write,
+    comment: &str,
+    objects: &[(String, SurfaceMesh)],
+) -> Result<()> {
+    write_comment(&mut out, comment)?;
+    let mut before = 0;
+    for (name, mesh) in objects {
+        writeln!(out, "o {name}")?;
+        write_obj_mesh(&mut out, mesh, before)?;
+        before += mesh.vertices.len() as u64;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+fn write_comment(out: &mut impl Write, comment: &str) -> Result<()> {
     for line in comment.lines() {
         writeln!(out, "# {line}")?;
     }
+    Ok(())
+}
+
+/// `mesh`'s vertices, normals and faces, after `before` vertices (and normals) of the file.
+fn write_obj_mesh(out: &mut impl Write, mesh: &SurfaceMesh, before: u64) -> Result<()> {
     writeln!(
         out,
         "# {} vertices, {} triangles",
@@ -63,12 +93,12 @@ pub fn write_obj(mut out: impl Write, comment: &str, mesh: &SurfaceMesh) -> Resu
     for [x, y, z] in &mesh.normals {
         writeln!(out, "vn {x} {y} {z}")?;
     }
-    // OBJ counts from 1; each corner names its vertex and its normal (the same index).
+    // OBJ counts from 1, through the whole file; each corner names its vertex and its normal (the
+    // same index).
     for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| u64::from(i) + 1);
+        let [a, b, c] = t.map(|i| before + u64::from(i) + 1);
         writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?;
     }
-    out.flush()?;
     Ok(())
 }
 

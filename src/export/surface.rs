@@ -27,6 +27,7 @@ pub const SURFACE_FRAMES: FrameKind = FrameKind {
     flag: "--export-surface",
     prefix: "surface_",
     extensions: &["obj", "ply", "vtk"],
+    companions: &[],
     noun: ("surface mesh", "surface meshes"),
 };
 

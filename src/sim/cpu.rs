@@ -2,7 +2,7 @@
 //! (x, v, C, base, fx, w). It is the report's baseline and the oracle of every GPU test, so each
 //! phase is a public method that a test can run on its own.
 
-use super::colliders::bodies::{BodyWalls, ContactFeature, HostBodies, RigidBody};
+use super::colliders::bodies::{BodiesState, BodyWalls, ContactFeature, HostBodies, RigidBody};
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState, Lifecycle, Slots};
 use super::params::{gathers_volume, DensityRule, Material, Params, ScatterMode};
@@ -941,10 +941,11 @@ impl Solver for CpuSolver {
 
     fn set_bodies(
         &mut self,
-        bodies: &[RigidBody],
+        bodies: &BodiesState,
         features: &[ContactFeature],
         walls: BodyWalls,
     ) -> anyhow::Result<()> {
+        bodies.check()?;
         self.bodies = HostBodies::new(bodies, features, walls);
         self.colliders.place_bodies(&self.bodies.states);
         Ok(())
@@ -952,6 +953,10 @@ impl Solver for CpuSolver {
 
     fn bodies(&mut self) -> anyhow::Result<Vec<RigidBody>> {
         Ok(self.bodies.states.clone())
+    }
+
+    fn body_impulses(&mut self) -> anyhow::Result<Vec<[i64; 6]>> {
+        Ok(self.bodies.impulses.clone())
     }
 
     fn take_step_timings(&mut self) -> anyhow::Result<Option<Vec<PhaseTimings>>> {

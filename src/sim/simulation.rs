@@ -205,7 +205,7 @@ impl FramePart {
 }
 
 /// Where a run stands between frames: its clock and the time-step policy's memory. With the particles,
-/// the parameters and the scene, this is all a run carries from one frame to the next (the stretches
+/// the rigid bodies, the parameters and the scene, this is all a run carries from one frame to the next (the stretches
 /// whose extremes are read asynchronously are all accounted by the end of a frame), so a checkpoint
 /// holds it and [`Simulation::resume`] goes on from it exactly.
 #[derive(Debug, Clone, PartialEq)]
@@ -224,11 +224,19 @@ pub struct RunClock {
 }
 
 impl Simulation {
-    /// Goes on from a saved state: `solver` already holds the saved particles, `params` are the
+    /// Goes on from a saved state: `solver` already holds the saved particles and rigid bodies
+    /// (`bodies`, whose states the frame driver keeps a copy of between frames), `params` are the
     /// parameters the run had (live changes included), `clock` where it stood.
-    pub fn resume(scene: Scene, mut solver: Box<dyn Solver>, params: Params, clock: RunClock) -> Simulation {
+    pub fn resume(
+        scene: Scene,
+        mut solver: Box<dyn Solver>,
+        params: Params,
+        clock: RunClock,
+        bodies: &[RigidBody],
+    ) -> Simulation {
         solver.resume_after(&params);
         let mut sim = Simulation::new(scene, solver);
+        sim.bodies = bodies.to_vec();
         sim.params = params;
         sim.viscous_dt = sim.params.viscous_dt(sim.params.dx);
         sim.frame = clock.frame;

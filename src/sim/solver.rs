@@ -1,7 +1,7 @@
 //! The step API of a backend: a [`Solver`] (CPU reference, cpu-parallel or CUDA) takes one substep
 //! and answers what the frame driver (`simulation.rs`) and the readers of its particles ask of it.
 
-use super::colliders::bodies::{BodyWalls, ContactFeature, RigidBody};
+use super::colliders::bodies::{BodiesState, BodyWalls, ContactFeature, RigidBody};
 use super::colliders::ColliderFrame;
 use super::flow::{FlowCounts, FlowState};
 use super::params::Params;
@@ -128,12 +128,12 @@ pub trait Solver: Send {
     /// them with the liquid. A backend that cannot refuses.
     fn set_bodies(
         &mut self,
-        bodies: &[RigidBody],
+        bodies: &BodiesState,
         _features: &[ContactFeature],
         _walls: BodyWalls,
     ) -> Result<()> {
         ensure!(
-            bodies.is_empty(),
+            bodies.states.is_empty(),
             "the {} backend does not move rigid bodies (colliders with a density or mass); use --backend \
              cpu or cuda",
             self.name()
@@ -142,6 +142,11 @@ pub trait Solver: Send {
     }
     /// The rigid bodies as they are after the substeps run so far (none where the scene has none).
     fn bodies(&mut self) -> Result<Vec<RigidBody>> {
+        Ok(Vec::new())
+    }
+    /// [`BodiesState::impulses`] as they are after the substeps run so far: with [`Self::bodies`],
+    /// what a checkpoint holds of the bodies.
+    fn body_impulses(&mut self) -> Result<Vec<[i64; 6]>> {
         Ok(Vec::new())
     }
     /// Where the particles are, for a reader (the renderer) that can use them in place: as of the

@@ -216,7 +216,9 @@ fn rotation_of(body: &RigidBody) -> DMat3 {
 }
 
 /// The collider state of `template` (the body's shape and boundary) at the body's pose: the rigid
-/// velocity the grid update holds its band to.
+/// velocity the grid update holds its band to. kernels/bodies.cu's place_body computes it from the
+/// same state in the same operations, none fused, so the device's slots and the host's agree bit for
+/// bit (what a resumed GPU run's first substep starts from).
 pub fn body_collider_state(template: &ColliderState, body: &RigidBody) -> ColliderState {
     let r = rotation_of(body);
     let center = vec(&body.center);
@@ -598,6 +600,36 @@ fn wall_overlap(features: &[ContactFeature], r: DMat3, center: DVec3, walls: &Bo
     push
 }
 
+/// The rigid bodies between two substeps: all a run carries of them to the next, which a checkpoint
+/// holds. In the order of the colliders that are bodies.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BodiesState {
+    pub states: Vec<RigidBody>,
+    /// What each body's next step adds to the grid's impulse, `BODY_IMPULSE_UNITS` per N s (and per
+    /// N m s): the particle backstop's pushes out of it in the substep's g2p, after the body stepped.
+    pub impulses: Vec<[i64; 6]>,
+}
+
+impl BodiesState {
+    /// Bodies at the start of a run: nothing pushed out of them yet.
+    pub fn at_start(states: Vec<RigidBody>) -> BodiesState {
+        let impulses = vec![[0; 6]; states.len()];
+        BodiesState { states, impulses }
+    }
+
+    /// Refuses a state whose impulse rows do not match its bodies one for one (a solver would step a
+    /// body without its sums, or read past them).
+    pub fn check(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.impulses.len() == self.states.len(),
+            "{} rigid bodies with {} rows of impulse sums",
+            self.states.len(),
+            self.impulses.len()
+        );
+        Ok(())
+    }
+}
+
 /// The rigid bodies a CPU backend steps: their states, contact features and walls, and the impulse
 /// sums its grid update adds to.
 #[derive(Debug, Clone, Default)]
@@ -613,12 +645,12 @@ pub struct HostBodies {
 }
 
 impl HostBodies {
-    pub fn new(states: &[RigidBody], features: &[ContactFeature], walls: BodyWalls) -> HostBodies {
+    pub fn new(bodies: &BodiesState, features: &[ContactFeature], walls: BodyWalls) -> HostBodies {
         HostBodies {
-            states: states.to_vec(),
+            states: bodies.states.clone(),
             features: features.to_vec(),
             walls: Some(walls),
-            impulses: vec![[0; 6]; states.len()],
+            impulses: bodies.impulses.clone(),
             own_mass: Vec::new(),
         }
     }
@@ -838,7 +870,10 @@ mod tests {
         }
         frame.place_bodies(&states);
         let all_features = features.points.repeat(bodies.len());
-        (HostBodies::new(&states, &all_features, WALLS), frame)
+        (
+            HostBodies::new(&BodiesState::at_start(states), &all_features, WALLS),
+            frame,
+        )
     }
 
     /// The deepest any cube's corner lies inside another cube, m.
