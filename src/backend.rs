@@ -2,7 +2,7 @@
 
 use crate::cuda::{CudaOptions, CudaRanks, CudaSolver};
 use crate::dist::CpuRanks;
-use crate::sim::colliders::bodies::BodiesState;
+use crate::sim::colliders::bodies::{BodiesState, ContactFeature};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
@@ -207,10 +207,28 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
             }
         },
     };
-    if !bodies.states.is_empty() {
-        solver.set_bodies(&bodies, &features, scene.body_walls())?;
-    }
+    set_bodies(solver.as_mut(), scene, &bodies, &features)?;
     Ok(solver)
+}
+
+/// Gives `solver` the scene's rigid bodies (`features` its contact features) in the state `bodies`:
+/// the start, or a checkpoint's. Nothing for a scene without.
+fn set_bodies(
+    solver: &mut dyn Solver,
+    scene: &Scene,
+    bodies: &BodiesState,
+    features: &[ContactFeature],
+) -> Result<()> {
+    if bodies.states.is_empty() {
+        return Ok(());
+    }
+    solver.set_bodies(bodies, features, scene.body_walls())
+}
+
+/// Gives a solver made outside [`create`] (the benchmark's) the scene's rigid bodies at their start.
+pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()> {
+    let (start, features) = scene.colliders.rigid_bodies();
+    set_bodies(solver, scene, &BodiesState::at_start(start), &features)
 }
 
 /// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (on one device,

@@ -230,7 +230,10 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
                 let device = solver.device_name();
                 return Ok((Box::new(solver), device));
             }
-            let solver = CudaSolver::new(scene, cuda)?;
+            let mut solver = CudaSolver::new(scene, cuda)?;
+            // Its rigid bodies step and exchange as in a run (without them it timed them as static
+            // colliders).
+            backend::set_starting_bodies(&mut solver, scene)?;
             let device = solver.device_name();
             Ok((Box::new(solver), device))
         }
