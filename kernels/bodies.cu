@@ -4,8 +4,9 @@
 // other, which sequential impulses resolve together; then each body moves, and its collider state
 // for the next substep (and for this one's particle backstop) is written into its slot. The CPU twin
 // is step_bodies in src/sim/colliders/bodies.rs, phase for phase and operation for operation in
-// double precision. One block, a thread per body; the contacts are resolved by one thread in body
-// order, so a run steps its bodies in the same order of operations every time.
+// double precision. One block, a warp per body (its lanes share the search for its contacts); the
+// contacts are resolved by one thread in body order, so a run steps its bodies in the same order of
+// operations every time.
 #include "common.cuh"
 #include "colliders.cuh"
 
@@ -174,9 +175,11 @@ __device__ __forceinline__ BodyContact make_contact(u32 body, u32 partner, D3 at
     return c;
 }
 
-// find_contacts in bodies.rs: body k's contacts with the walls (its corners), then with the other
-// colliders (all its features, inset), in the states' order. Returns how many.
-__device__ u32 find_contacts(u32 k, const RigidBody* bodies, const BodyMotion* motions,
+// find_contacts in bodies.rs, by body k's warp: each lane takes every 32nd feature. The contacts go
+// out in the order the CPU finds them (wall by wall, then collider by collider, each feature by
+// feature): a ballot of the lanes that found one, and each lane's count of those before it. Returns
+// how many (the same in every lane).
+__device__ u32 find_contacts(u32 k, u32 lane, const RigidBody* bodies, const BodyMotion* motions,
                              const ContactFeature* features, const BodyWalls& walls, const ColliderState* states,
                              u32 num_states, const float* sdf, BodyContact* out) {
     const RigidBody& b = bodies[k];
@@ -184,20 +187,30 @@ __device__ u32 find_contacts(u32 k, const RigidBody* bodies, const BodyMotion* m
     const D3 center = d3(b.center);
     const D3 com = d3(motions[k].com);
     const ContactFeature* own = features + b.first_feature;
+    const u32 before = (1u << lane) - 1u;
     u32 n = 0;
-    for (u32 f = 0; f < b.num_corners; ++f) {
-        const D3 p = center + r * d3(own[f].point);
-        for (int a = 0; a < 3; ++a) {
-            for (int s = 0; s < 2; ++s) {
-                const double side = s == 0 ? walls.lo[a] : walls.hi[a];
-                const double sign = s == 0 ? 1.0 : -1.0;
-                const double depth = sign * (side - get(p, a)) + own[f].radius;
-                if (depth >= -BODY_CONTACT_MARGIN && n < MAX_BODY_CONTACTS) {
+    for (int a = 0; a < 3; ++a) {
+        for (int s = 0; s < 2; ++s) {
+            const double side = s == 0 ? walls.lo[a] : walls.hi[a];
+            const double sign = s == 0 ? 1.0 : -1.0;
+            for (u32 first = 0; first < b.num_corners; first += 32) {
+                const u32 f = first + lane;
+                D3 p = d3(0.0, 0.0, 0.0);
+                double depth = -1.0 / 0.0;
+                if (f < b.num_corners) {
+                    p = center + r * d3(own[f].point);
+                    depth = sign * (side - get(p, a)) + own[f].radius;
+                }
+                const bool hit = depth >= -BODY_CONTACT_MARGIN;
+                const u32 found = __ballot_sync(0xffffffffu, hit);
+                const u32 at = n + __popc(found & before);
+                if (hit && at < MAX_BODY_CONTACTS) {
                     D3 normal = d3(0.0, 0.0, 0.0);
                     set(normal, a, sign);
-                    out[n++] = make_contact(k, NO_BODY, p - normal * own[f].radius, com, com, normal, fmin(depth, 0.0),
-                                            d3(0.0, 0.0, 0.0), b.contact_friction);
+                    out[at] = make_contact(k, NO_BODY, p - normal * own[f].radius, com, com, normal, fmin(depth, 0.0),
+                                           d3(0.0, 0.0, 0.0), b.contact_friction);
                 }
+                n = min(n + __popc(found), MAX_BODY_CONTACTS);
             }
         }
     }
@@ -209,23 +222,33 @@ __device__ u32 find_contacts(u32 k, const RigidBody* bodies, const BodyMotion* m
         const float dx = s.center[0] - mine.center[0], dy = s.center[1] - mine.center[1];
         const float dz = s.center[2] - mine.center[2];
         if (sqrtf(dx * dx + dy * dy + dz * dz) > s.reach + mine.reach) continue;
-        for (u32 f = 0; f < b.num_features; ++f) {
-            const D3 p = center + r * inset(d3(own[f].point));
-            Vec3f n_world;
-            const float phi = collider_distance(s, sdf, f3(p), n_world);
-            const double depth = own[f].radius - (double)phi;
-            if (depth < -BODY_CONTACT_MARGIN || n >= MAX_BODY_CONTACTS) continue;
-            const D3 normal = d3(n_world);
-            const D3 at = p - normal * own[f].radius;
-            if (s.body == 0u) {
-                const D3 moving = d3(collider_velocity_at(s, f3(at)));
-                out[n++] = make_contact(k, NO_BODY, at, com, com, normal, depth, moving, b.contact_friction);
-            } else {
-                const u32 other = s.body - 1u;
-                const double friction = sqrt(b.contact_friction * bodies[other].contact_friction);
-                out[n++] = make_contact(k, other, at, com, d3(motions[other].com), normal, depth, d3(0.0, 0.0, 0.0),
-                                        friction);
+        for (u32 first = 0; first < b.num_features; first += 32) {
+            const u32 f = first + lane;
+            D3 p = d3(0.0, 0.0, 0.0), normal = d3(0.0, 1.0, 0.0);
+            double depth = -1.0 / 0.0;
+            if (f < b.num_features) {
+                p = center + r * inset(d3(own[f].point));
+                Vec3f n_world;
+                const float phi = collider_distance(s, sdf, f3(p), n_world);
+                depth = own[f].radius - (double)phi;
+                normal = d3(n_world);
             }
+            const bool hit = depth >= -BODY_CONTACT_MARGIN;
+            const u32 found = __ballot_sync(0xffffffffu, hit);
+            const u32 at_index = n + __popc(found & before);
+            if (hit && at_index < MAX_BODY_CONTACTS) {
+                const D3 at = p - normal * own[f].radius;
+                if (s.body == 0u) {
+                    const D3 moving = d3(collider_velocity_at(s, f3(at)));
+                    out[at_index] = make_contact(k, NO_BODY, at, com, com, normal, depth, moving, b.contact_friction);
+                } else {
+                    const u32 other = s.body - 1u;
+                    const double friction = sqrt(b.contact_friction * bodies[other].contact_friction);
+                    out[at_index] = make_contact(k, other, at, com, d3(motions[other].com), normal, depth,
+                                                 d3(0.0, 0.0, 0.0), friction);
+                }
+            }
+            n = min(n + __popc(found), MAX_BODY_CONTACTS);
         }
     }
     return n;
@@ -273,11 +296,15 @@ __device__ __forceinline__ void apply_impulse(BodyMotion* motions, const BodyCon
 }
 
 // resolve_contacts in bodies.rs: sequential impulses over every body's contacts, in body order.
+// The motions it changes are in shared memory (`motions`, copied in and out by the caller): one
+// thread's chain of reads after writes stays out of the L2 cache's latency.
 __device__ void resolve_contacts(BodyMotion* motions, BodyContact* contacts, const u32* counts, u32 num_bodies,
                                  double dt) {
+    u32 count[MAX_COLLIDERS];
+    for (u32 k = 0; k < num_bodies; ++k) count[k] = counts[k];
     for (u32 sweep = 0; sweep < BODY_CONTACT_SWEEPS; ++sweep) {
         for (u32 k = 0; k < num_bodies; ++k) {
-            for (u32 i = 0; i < counts[k]; ++i) {
+            for (u32 i = 0; i < count[k]; ++i) {
                 BodyContact& c = contacts[k * MAX_BODY_CONTACTS + i];
                 const D3 normal = d3(c.normal);
                 const D3 relative = relative_velocity(motions, c, false);
@@ -395,19 +422,29 @@ extern "C" __global__ void step_bodies(const KernelParams params, const BodyWall
                                        const u32 num_states, const float* __restrict__ sdf,
                                        BodyMotion* __restrict__ motions, BodyContact* __restrict__ contacts,
                                        u32* __restrict__ contact_counts) {
-    const u32 k = threadIdx.x;
+    // A warp a body: its first lane steps it, all its lanes look for its contacts.
+    const u32 k = threadIdx.x / 32u, lane = threadIdx.x % 32u;
     const bool mine = k < num_bodies;
     const double dt = (double)params.dt;
     const D3 gravity = d3((double)params.gravity[0], (double)params.gravity[1], (double)params.gravity[2]);
-    if (mine) motions[k] = take_impulse(bodies[k], impulses + 6 * k, dt, gravity);
+    if (mine && lane == 0) motions[k] = take_impulse(bodies[k], impulses + 6 * k, dt, gravity);
     __syncthreads();
     if (mine) {
-        contact_counts[k] = is_hinged(bodies[k]) ? 0u
-                                                 : find_contacts(k, bodies, motions, features, walls, states,
-                                                                 num_states, sdf, contacts + k * MAX_BODY_CONTACTS);
+        const u32 n = is_hinged(bodies[k]) ? 0u
+                                           : find_contacts(k, lane, bodies, motions, features, walls, states,
+                                                           num_states, sdf, contacts + k * MAX_BODY_CONTACTS);
+        if (lane == 0) contact_counts[k] = n;
     }
-    __syncthreads();
-    if (k == 0) resolve_contacts(motions, contacts, contact_counts, num_bodies, dt);
-    __syncthreads();
-    if (mine) move_body(bodies[k], motions[k], features, dt, walls, states[bodies[k].slot]);
+    // Most substeps of floating bodies touch nothing: then there is nothing to resolve.
+    const bool touching = __syncthreads_or(mine && lane == 0 && contact_counts[k] > 0u);
+    if (touching) {
+        __shared__ BodyMotion resolving[MAX_COLLIDERS];
+        if (threadIdx.x < num_bodies) resolving[threadIdx.x] = motions[threadIdx.x];
+        __syncthreads();
+        if (threadIdx.x == 0) resolve_contacts(resolving, contacts, contact_counts, num_bodies, dt);
+        __syncthreads();
+        if (threadIdx.x < num_bodies) motions[threadIdx.x] = resolving[threadIdx.x];
+        __syncthreads();
+    }
+    if (mine && lane == 0) move_body(bodies[k], motions[k], features, dt, walls, states[bodies[k].slot]);
 }

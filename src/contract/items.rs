@@ -417,6 +417,9 @@ device_constants! {
     /// angular impulse): 2^36, so a node's share down to 1e-9 N s keeps 7 digits and a body's sum
     /// reaches 1e8 N s.
     BODY_IMPULSE_UNITS: f32 = 68719476736.0;
+    /// The most colliders a scene may have: the kernels walk them per node, so they stay few (and
+    /// step_bodies holds that many bodies' motions in shared memory).
+    MAX_COLLIDERS: u32 = 16;
     /// The rigid bodies' contacts (src/sim/colliders/bodies.rs, kernels/bodies.cu): the most one
     /// body resolves at once (a box on the floor has four with it, in a corner six; a box lying on
     /// another touches it at up to sixteen points of each, its corners and the points along its

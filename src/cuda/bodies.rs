@@ -91,7 +91,7 @@ impl DeviceBodies {
 }
 
 impl StepBodies {
-    /// One block, a thread per body (a scene has at most `MAX_COLLIDERS` of them), over the
+    /// One block, a warp per body (a scene has at most `MAX_COLLIDERS` of them), over the
     /// colliders' states as this substep left them; each body's state goes into its slot.
     pub fn launch(&self, l: &Launcher, params: &Params, colliders: &DeviceColliders) -> Result<()> {
         let Some(bodies) = &colliders.bodies else {
@@ -99,7 +99,7 @@ impl StepBodies {
         };
         let config = LaunchConfig {
             grid_dim: (1, 1, 1),
-            block_dim: (bodies.count.next_multiple_of(32), 1, 1),
+            block_dim: (32 * bodies.count, 1, 1),
             shared_mem_bytes: 0,
         };
         // SAFETY: the arguments match step_bodies; each body's slot and features lie in the buffers

@@ -37,8 +37,8 @@ pub use bodies::{Dynamics, Hinge};
 pub use mass::{triangles_mass_properties, MassProperties};
 pub use spec::{validate, ColliderSpec, FlapSpec, HingeSpec, MotionSpec, PistonSpec, SpecError};
 
-/// The most colliders a scene may have: the kernels walk them per node, so they stay few.
-pub const MAX_COLLIDERS: usize = 16;
+/// The most colliders a scene may have (the contract's `MAX_COLLIDERS`).
+pub const MAX_COLLIDERS: usize = crate::contract::MAX_COLLIDERS as usize;
 
 /// Nodes closer to a collider's surface than this many cells (or inside it) get its boundary
 /// condition. One cell: the fluid rests within about a cell of the surface, and a particle's

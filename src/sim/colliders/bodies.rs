@@ -415,10 +415,11 @@ fn find_contacts(
             friction_impulse: DVec3::ZERO,
             push_impulse: 0.0,
         };
-    for f in &own[..body.num_corners as usize] {
-        let p = center + r * vec(&f.point);
-        for a in 0..3 {
-            for (side, sign) in [(walls.lo[a], 1.0), (walls.hi[a], -1.0)] {
+    // Wall by wall, then feature by feature (the kernel's lanes take the features).
+    for a in 0..3 {
+        for (side, sign) in [(walls.lo[a], 1.0), (walls.hi[a], -1.0)] {
+            for f in &own[..body.num_corners as usize] {
+                let p = center + r * vec(&f.point);
                 // A feature's depth past the wall, its ball's radius included.
                 let depth = sign * (side - p[a]) + f.radius;
                 if depth >= -BODY_CONTACT_MARGIN {
