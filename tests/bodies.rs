@@ -110,13 +110,14 @@ fn the_water_wheel_turns_with_the_stream() {
     let path = std::path::Path::new("water-wheel.obj");
     let (vertices, triangles) = mesh::parse_triangles(path, text.as_bytes(), 1.0).unwrap();
     mesh::check_closed(&triangles).expect("the wheel is one closed surface");
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| vertices[i as usize]);
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum();
+    // Wound outward: the volume the wheel's mass comes from is positive, and its centroid on the axle.
+    let wheel = mpm::sim::colliders::triangles_mass_properties(&vertices, &triangles);
+    let volume = wheel.volume;
+    assert!(
+        wheel.centroid.length() < 1e-9,
+        "the wheel's centroid is off its axle: {}",
+        wheel.centroid
+    );
     assert!(
         volume > 0.0,
         "the wheel is wound inward: signed volume {volume:e} m^3"
