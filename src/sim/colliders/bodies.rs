@@ -4,8 +4,9 @@
 //! (its boundary condition on the nodes in its band, relative to its rigid velocity) and adds, in
 //! fixed point, what that condition took from each node: the impulse `-m_i dv_i` and its moment about
 //! the body's centre. [`step_bodies`] then gives the body that impulse, gravity and its contacts (with
-//! the walls, the other colliders and the other bodies), and moves it; the next substep's boundary is the body where this one left it. The
-//! particle backstop's pushes out of the body go to the same sums, for its next step. Exchanging
+//! the walls, the other colliders and the other bodies), and moves it; the next substep's boundary
+//! is the body where this one left it. The particle backstop's pushes out of the body go to the same
+//! sums, for its next step. Exchanging
 //! exactly the momentum the liquid lost keeps body and liquid together conserving momentum; the sums
 //! are integers, so they do not depend on the order they are added in.
 //!
