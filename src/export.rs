@@ -9,6 +9,7 @@
 
 pub mod bodies;
 pub mod mesh_files;
+pub mod queue;
 pub mod surface;
 
 use crate::sim::material::NamedMaterial;

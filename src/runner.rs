@@ -3,7 +3,8 @@
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
-use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use crate::export::queue::{Done, Export, Progress, Queue};
+use crate::export::surface::{SurfaceExporter, SurfaceJob, SurfaceQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -373,7 +374,7 @@ fn export_frame(
     sim: &mut Simulation,
     exporter: Option<&PlyExporter>,
     surface: Option<&mut SurfaceQueue>,
-    on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
+    on_done: &mut dyn FnMut(&Done, Progress),
 ) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
@@ -392,7 +393,7 @@ fn export_frame(
             comment,
             positions: particles.x,
         };
-        queue.submit(job, on_mesh)?;
+        queue.submit(job, on_done)?;
     }
     Ok(ply.is_some())
 }
@@ -411,20 +412,41 @@ fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Resul
 
 /// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
 /// simulation waited for them.
-pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
+pub fn surface_summary(p: &Progress, files: &str, after_last_frame: Duration) -> String {
     format!(
         "surface: {} ({files}), {} triangles on average, {:.3} s per mesh (reconstruction {:.3} s, \
          writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
          {:.2} s for the last meshes",
         crate::text::count(p.done, "mesh", "meshes"),
-        p.triangles / p.done.max(1),
-        p.seconds_per_mesh(),
-        p.reconstruct.as_secs_f64() / p.done.max(1) as f64,
+        p.items / p.done.max(1),
+        p.seconds_per_file(),
+        p.build.as_secs_f64() / p.done.max(1) as f64,
         p.write.as_secs_f64() / p.done.max(1) as f64,
         p.workers,
         p.waited.as_secs_f64(),
         after_last_frame.as_secs_f64()
     )
+}
+
+/// Waits for a queue's last files (saying so where the run prints a line per file), then ends its
+/// workers: its closing line, from `summary`.
+fn finish_queue<E: Export>(
+    queue: Queue<E>,
+    files: String,
+    bar: bool,
+    on_done: &mut dyn FnMut(&Done, Progress),
+    summary: fn(&Progress, &str, Duration) -> String,
+) -> Result<String> {
+    let last_frame = Instant::now();
+    let left = queue.progress().queued();
+    if left > 0 && !bar {
+        eprintln!(
+            "simulation done; waiting for {}",
+            crate::text::count(left, E::NOUN.0, E::NOUN.1)
+        );
+    }
+    let done = queue.finish(on_done)?;
+    Ok(summary(&done, &files, last_frame.elapsed()))
 }
 
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
@@ -445,14 +467,22 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;
     // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
-    // terminal, else one line per mesh.
-    let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
-        Some(bar) => bar.set_message(progress.status()),
+    // terminal (each export's latest status), else one line per file.
+    let mut statuses: Vec<(&str, String)> = Vec::new();
+    let mut on_done = |file: &Done, progress: Progress| match &bar {
+        Some(bar) => {
+            match statuses.iter_mut().find(|(noun, _)| *noun == progress.noun.0) {
+                Some((_, status)) => *status = progress.status(),
+                None => statuses.push((progress.noun.0, progress.status())),
+            }
+            let line: Vec<&str> = statuses.iter().map(|(_, s)| s.as_str()).collect();
+            bar.set_message(line.join("; "));
+        }
         None => eprintln!(
-            "{}: {} triangles in {:.2} s ({})",
-            mesh.path.display(),
-            mesh.triangles,
-            (mesh.reconstruct + mesh.write).as_secs_f64(),
+            "{}: {} in {:.2} s ({})",
+            file.path.display(),
+            file.what,
+            (file.build + file.write).as_secs_f64(),
             progress.status()
         ),
     };
@@ -460,7 +490,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         sim,
         export.as_ref(),
         surface.as_mut(),
-        &mut on_mesh,
+        &mut on_done,
     )?);
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
@@ -492,12 +522,12 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             sim,
             export.as_ref(),
             surface.as_mut(),
-            &mut on_mesh,
+            &mut on_done,
         )?);
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
-        // Meshes finished during this frame are reported now, not at the next exported frame.
+        // Files finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
-            queue.collect(&mut on_mesh, false)?;
+            queue.collect(&mut on_done, false)?;
         }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
@@ -517,21 +547,18 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let stepping = started.elapsed();
     let surface_line = match surface {
         Some(queue) => {
-            let last_frame = Instant::now();
-            let left = queue.progress().queued();
-            if left > 0 && bar.is_none() {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, "surface mesh", "surface meshes")
-                );
-            }
             let files = format!(
                 "{} in {}",
                 queue.exporter().format().extension(),
                 queue.exporter().dir().display()
             );
-            let done = queue.finish(&mut on_mesh)?;
-            Some(surface_summary(&done, &files, last_frame.elapsed()))
+            Some(finish_queue(
+                queue,
+                files,
+                bar.is_some(),
+                &mut on_done,
+                surface_summary,
+            )?)
         }
         None => None,
     };

@@ -3,24 +3,21 @@
 //! The surface is reconstructed with `splashsurf_lib`: an SPH density field is built from the
 //! particle positions alone (a cubic spline kernel), and marching cubes extracts the level set at a
 //! fraction of the rest density. The reconstruction runs on worker threads fed by a bounded queue
-//! ([`SurfaceQueue`]), so the simulation steps on while meshes are built; it waits only when the
-//! queue is full, which keeps memory bounded on long runs.
+//! ([`SurfaceQueue`], [`super::queue`]), so the simulation steps on while meshes are built; it waits
+//! only when the queue is full, which keeps memory bounded on long runs.
 //!
 //! Defaults from the scene: the spawn lattice gives each particle a cube of fluid of edge
 //! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
 //! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
 
 use super::mesh_files::{SurfaceFormat, SurfaceMesh};
+use super::queue::{Done, Export, Progress, Queue};
 use super::{check_every, FrameDir, FrameKind};
 use crate::sim::Scene;
 use anyhow::{bail, Result};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// The surface meshes of `--export-surface`: `surface_NNNNNN.obj|ply|vtk`.
 pub const SURFACE_FRAMES: FrameKind = FrameKind {
@@ -194,18 +191,6 @@ pub struct SurfaceExporter {
     settings: SurfaceSettings,
 }
 
-/// One finished mesh.
-#[derive(Debug, Clone)]
-pub struct MeshDone {
-    pub frame: u64,
-    pub path: PathBuf,
-    pub triangles: usize,
-    /// Wall time of the reconstruction (density, marching cubes, normals).
-    pub reconstruct: Duration,
-    /// Wall time of writing the file.
-    pub write: Duration,
-}
-
 /// The particles of one exported frame, on their way to a worker.
 pub struct SurfaceJob {
     pub frame: u64,
@@ -259,7 +244,7 @@ impl SurfaceExporter {
     }
 
     /// Reconstructs and writes one frame's mesh, here and now.
-    pub fn export(&self, job: &SurfaceJob) -> Result<MeshDone> {
+    pub fn export(&self, job: &SurfaceJob) -> Result<Done> {
         let start = Instant::now();
         let mesh = reconstruct(&job.positions, &self.settings)?;
         let reconstructed = Instant::now();
@@ -267,11 +252,12 @@ impl SurfaceExporter {
         let path = self
             .frames
             .write(job.frame, |out| self.format.write(out, &comment, &mesh))?;
-        Ok(MeshDone {
+        Ok(Done {
             frame: job.frame,
             path,
-            triangles: mesh.triangles.len(),
-            reconstruct: reconstructed - start,
+            items: mesh.triangles.len() as u64,
+            what: crate::text::count(mesh.triangles.len(), "triangle", "triangles"),
+            build: reconstructed - start,
             write: reconstructed.elapsed(),
         })
     }
@@ -279,182 +265,24 @@ impl SurfaceExporter {
     /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
     /// `waiting` more jobs wait for a free worker before `submit` blocks.
     pub fn start(self, workers: usize, waiting: usize) -> Result<SurfaceQueue> {
-        let (jobs, receiver) = mpsc::sync_channel::<SurfaceJob>(waiting);
-        let (results, done) = mpsc::channel();
-        let receiver = Arc::new(Mutex::new(receiver));
-        let stop = Arc::new(AtomicBool::new(false));
-        let exporter = Arc::new(self);
-        let workers = (0..workers.max(1))
-            .map(|i| {
-                let (receiver, results, stop, exporter) =
-                    (receiver.clone(), results.clone(), stop.clone(), exporter.clone());
-                std::thread::Builder::new()
-                    .name(format!("surface-{i}"))
-                    .spawn(move || loop {
-                        // The lock is held only while taking a job (the guard is a temporary).
-                        let job = receiver.lock().map(|r| r.recv());
-                        let Ok(Ok(job)) = job else { break };
-                        if stop.load(Ordering::Relaxed) {
-                            continue;
-                        }
-                        let result = exporter.export(&job);
-                        if result.is_err() {
-                            stop.store(true, Ordering::Relaxed);
-                        }
-                        if results.send(result).is_err() {
-                            break;
-                        }
-                    })
-                    .map_err(|e| anyhow::anyhow!("cannot start a surface worker thread: {e}"))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(SurfaceQueue {
-            exporter,
-            jobs: Some(jobs),
-            done,
-            workers,
-            stop,
-            progress: SurfaceProgress::default(),
-        })
+        Queue::start(self, workers, waiting)
     }
 }
 
-/// Where the meshes stand: counts and times so far.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SurfaceProgress {
-    /// Meshes handed to the workers.
-    pub submitted: u64,
-    /// Meshes written.
-    pub done: u64,
-    pub triangles: u64,
-    /// Summed over the meshes written.
-    pub reconstruct: Duration,
-    pub write: Duration,
-    /// How long the simulation waited for room in the queue.
-    pub waited: Duration,
-    /// How many worker threads there are.
-    pub workers: usize,
-}
+impl Export for SurfaceExporter {
+    type Job = SurfaceJob;
+    const NOUN: (&'static str, &'static str) = ("surface mesh", "surface meshes");
+    const SHORT: &'static str = "mesh";
+    const THREAD: &'static str = "surface";
 
-impl SurfaceProgress {
-    /// Meshes handed over and not yet written (in a worker's hands or waiting for one).
-    pub fn queued(&self) -> u64 {
-        self.submitted - self.done
-    }
-
-    /// Mean wall time per mesh (reconstruction and writing), s.
-    pub fn seconds_per_mesh(&self) -> f64 {
-        if self.done == 0 {
-            return 0.0;
-        }
-        (self.reconstruct + self.write).as_secs_f64() / self.done as f64
-    }
-
-    /// "3/5 surface meshes written, 2 queued, 0.84 s per mesh".
-    pub fn status(&self) -> String {
-        format!(
-            "{}/{} surface meshes written, {} queued, {:.2} s per mesh",
-            self.done,
-            self.submitted,
-            self.queued(),
-            self.seconds_per_mesh()
-        )
+    fn export(&self, job: &SurfaceJob) -> Result<Done> {
+        SurfaceExporter::export(self, job)
     }
 }
 
-/// The exporter's worker threads and the bounded queue that feeds them.
-pub struct SurfaceQueue {
-    exporter: Arc<SurfaceExporter>,
-    /// `None` once closed: the workers then end when the queue is empty.
-    jobs: Option<SyncSender<SurfaceJob>>,
-    done: Receiver<Result<MeshDone>>,
-    workers: Vec<JoinHandle<()>>,
-    /// Set on the first failure, and on drop: the workers skip what is left.
-    stop: Arc<AtomicBool>,
-    progress: SurfaceProgress,
-}
-
-impl SurfaceQueue {
-    pub fn exporter(&self) -> &SurfaceExporter {
-        &self.exporter
-    }
-
-    pub fn progress(&self) -> SurfaceProgress {
-        SurfaceProgress {
-            workers: self.workers.len(),
-            ..self.progress
-        }
-    }
-
-    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
-    /// mesh (a full disk) is returned here, so the run stops at the next exported frame.
-    pub fn submit(
-        &mut self,
-        job: SurfaceJob,
-        on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress),
-    ) -> Result<()> {
-        self.collect(on_done, false)?;
-        let jobs = self.jobs.as_ref().expect("submit after finish");
-        let job = match jobs.try_send(job) {
-            Ok(()) => None,
-            Err(TrySendError::Full(job)) => Some(job),
-            Err(TrySendError::Disconnected(_)) => bail!("the surface worker threads ended early"),
-        };
-        if let Some(job) = job {
-            let start = Instant::now();
-            let sent = jobs.send(job);
-            self.progress.waited += start.elapsed();
-            if sent.is_err() {
-                // Every worker stopped, which happens only after a failure: report it.
-                self.collect(on_done, true)?;
-                bail!("the surface worker threads ended early");
-            }
-        }
-        self.progress.submitted += 1;
-        Ok(())
-    }
-
-    /// Takes the meshes finished so far, calling `on_done` for each; with `wait`, until every
-    /// submitted mesh is done. The first failure is returned.
-    pub fn collect(&mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress), wait: bool) -> Result<()> {
-        while self.progress.done < self.progress.submitted {
-            let result = if wait {
-                match self.done.recv() {
-                    Ok(result) => result,
-                    Err(_) => bail!("the surface worker threads ended early"),
-                }
-            } else {
-                match self.done.try_recv() {
-                    Ok(result) => result,
-                    Err(_) => return Ok(()),
-                }
-            };
-            let mesh = result?;
-            self.progress.done += 1;
-            self.progress.triangles += mesh.triangles as u64;
-            self.progress.reconstruct += mesh.reconstruct;
-            self.progress.write += mesh.write;
-            on_done(&mesh, self.progress());
-        }
-        Ok(())
-    }
-
-    /// Waits for every submitted mesh, then ends the workers.
-    pub fn finish(mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
-        self.jobs = None;
-        self.collect(on_done, true)?;
-        Ok(self.progress())
-    }
-}
-
-impl Drop for SurfaceQueue {
-    /// Without [`SurfaceQueue::finish`] (the run failed): the workers drop what is queued, finish
-    /// the mesh in hand, and end.
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        self.jobs = None;
-        for worker in self.workers.drain(..) {
-            let _ = worker.join();
-        }
-    }
-}
+/// The surface meshes' worker threads and the bounded queue that feeds them.
+pub type SurfaceQueue = Queue<SurfaceExporter>;
+/// Where the meshes stand ([`Progress::items`]: triangles).
+pub type SurfaceProgress = Progress;
+/// One finished mesh ([`Done::items`]: its triangles).
+pub type MeshDone = Done;
