@@ -11,6 +11,7 @@ pub mod bodies;
 pub mod mesh_files;
 pub mod queue;
 pub mod surface;
+pub mod vdb;
 
 use crate::sim::material::NamedMaterial;
 use crate::sim::solid;
