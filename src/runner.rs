@@ -1,10 +1,12 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines, exports PLY frames, surface meshes and the rigid bodies.
+//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, volumes and the rigid
+//! bodies.
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
 use crate::export::queue::{Done, Export, Progress, Queue};
 use crate::export::surface::{SurfaceExporter, SurfaceJob, SurfaceQueue};
+use crate::export::volume::{VolumeExporter, VolumeJob, VolumeQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -21,6 +23,9 @@ pub struct RunOptions {
     /// Reconstructs the surface of the initial state and of every K-th frame as a mesh file, on
     /// worker threads while the simulation steps on.
     pub surface: Option<SurfaceExporter>,
+    /// Builds the volumes (level set, density, velocity) of the initial state and of every K-th
+    /// frame as OpenVDB files, on worker threads while the simulation steps on.
+    pub volume: Option<VolumeExporter>,
     /// Writes the rigid bodies' meshes and poses of the initial state and every K-th frame.
     pub bodies: Option<BodyExporter>,
     pub stats: Option<StatsFile>,
@@ -350,6 +355,9 @@ pub const SURFACE_WORKERS: usize = 2;
 /// Frames that may wait for a free worker before the simulation waits: with the workers' frames,
 /// at most four frames' particles are held at once.
 pub const SURFACE_QUEUE: usize = 2;
+/// The volumes' worker threads and queue, as the surfaces' (each worker also uses rayon's pool).
+pub const VOLUME_WORKERS: usize = 2;
+pub const VOLUME_QUEUE: usize = 2;
 
 /// The header comment of an exported frame's files.
 fn frame_comment(sim: &Simulation) -> String {
@@ -368,24 +376,35 @@ fn frame_comment(sim: &Simulation) -> String {
     )
 }
 
-/// The frame's particle file and surface job, for the exports that want this frame: the particles
-/// are copied to the host only then.
+/// The frame's particle file and surface and volume jobs, for the exports that want this frame: the
+/// particles are copied to the host only then.
 fn export_frame(
     sim: &mut Simulation,
     exporter: Option<&PlyExporter>,
     surface: Option<&mut SurfaceQueue>,
+    volume: Option<&mut VolumeQueue>,
     on_done: &mut dyn FnMut(&Done, Progress),
 ) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
     let surface = surface.filter(|q| q.exporter().wants(frame));
-    if ply.is_none() && surface.is_none() {
+    let volume = volume.filter(|q| q.exporter().wants(frame));
+    if ply.is_none() && surface.is_none() && volume.is_none() {
         return Ok(false);
     }
     let comment = frame_comment(sim);
     let particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
         exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
+    }
+    if let Some(queue) = volume {
+        let job = VolumeJob {
+            frame,
+            comment: comment.clone(),
+            positions: particles.x.clone(),
+            velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
+        };
+        queue.submit(job, on_done)?;
     }
     if let Some(queue) = surface {
         let job = SurfaceJob {
@@ -428,6 +447,24 @@ pub fn surface_summary(p: &Progress, files: &str, after_last_frame: Duration) ->
     )
 }
 
+/// The closing line of a run with `--export-volume`: volumes, seconds per volume, and what the
+/// simulation waited for them.
+pub fn volume_summary(p: &Progress, files: &str, after_last_frame: Duration) -> String {
+    format!(
+        "volume: {} ({files}), {} active voxels on average, {:.3} s per volume (grids {:.3} s, \
+         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
+         {:.2} s for the last volumes",
+        crate::text::count(p.done, "volume", "volumes"),
+        p.items / p.done.max(1),
+        p.seconds_per_file(),
+        p.build.as_secs_f64() / p.done.max(1) as f64,
+        p.write.as_secs_f64() / p.done.max(1) as f64,
+        p.workers,
+        p.waited.as_secs_f64(),
+        after_last_frame.as_secs_f64()
+    )
+}
+
 /// Waits for a queue's last files (saying so where the run prints a line per file), then ends its
 /// workers: its closing line, from `summary`.
 fn finish_queue<E: Export>(
@@ -456,6 +493,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         frames,
         export,
         surface,
+        volume,
         mut bodies,
         mut stats,
         checkpoints,
@@ -466,8 +504,11 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let mut surface = surface
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;
-    // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
-    // terminal (each export's latest status), else one line per file.
+    let mut volume = volume
+        .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
+        .transpose()?;
+    // Surface and volume progress goes to stderr (stdout has the frame lines): into the bar's
+    // message on a terminal (each export's latest status), else one line per file.
     let mut statuses: Vec<(&str, String)> = Vec::new();
     let mut on_done = |file: &Done, progress: Progress| match &bar {
         Some(bar) => {
@@ -490,6 +531,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         sim,
         export.as_ref(),
         surface.as_mut(),
+        volume.as_mut(),
         &mut on_done,
     )?);
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
@@ -522,11 +564,15 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             sim,
             export.as_ref(),
             surface.as_mut(),
+            volume.as_mut(),
             &mut on_done,
         )?);
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
         // Files finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
+            queue.collect(&mut on_done, false)?;
+        }
+        if let Some(queue) = volume.as_mut() {
             queue.collect(&mut on_done, false)?;
         }
         if let Some(series) = &checkpoints {
@@ -562,6 +608,23 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
         None => None,
     };
+    let volume_line = match volume {
+        Some(queue) => {
+            let files = format!(
+                "{} in {}",
+                queue.exporter().format().extension(),
+                queue.exporter().dir().display()
+            );
+            Some(finish_queue(
+                queue,
+                files,
+                bar.is_some(),
+                &mut on_done,
+                volume_summary,
+            )?)
+        }
+        None => None,
+    };
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
@@ -574,6 +637,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         )?;
     }
     if let Some(line) = surface_line {
+        writeln!(out, "{line}")?;
+    }
+    if let Some(line) = volume_line {
         writeln!(out, "{line}")?;
     }
     if let Some(exporter) = &bodies {

@@ -2,7 +2,7 @@
 //! crate) hold exactly the writer's grids, leaf by leaf and voxel by voxel, inactive values and
 //! tiles included; the level set of a resting block of water is a signed distance whose zero sits
 //! within a voxel of the block's flat top, -band deep inside and +band outside; the density reads
-//! about 1 inside.
+//! about 1 inside; and every bad input is refused before the first step, naming the fix.
 //! vdb-rs reads float grids only (its root node reads a 4-byte background): the velocity grid is
 //! read back by OpenVDB itself in tests/volume_readers.rs.
 
@@ -295,4 +295,159 @@ fn an_empty_frame_writes_empty_grids() {
     let mut file = open(&done.path);
     let surface = file.read_grid::<f32>("surface").unwrap();
     assert!(surface.tree.root_nodes.is_empty());
+}
+
+// --- Through `mpm run`: files, the closing line, and every refusal before the first step. ---
+
+fn tiny_scene_file(dir: &Path) -> String {
+    let path = dir.join("tiny.toml");
+    std::fs::write(
+        &path,
+        common::water_box(
+            12,
+            "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.06, 0.06, 0.06]",
+        ),
+    )
+    .unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn run(dir: &Path, frames: &str, extra: &[&str]) -> std::process::Output {
+    let scene = tiny_scene_file(dir);
+    let mut args = vec![
+        "run",
+        "--backend",
+        "cpu",
+        "--frames",
+        frames,
+        "--scene",
+        scene.as_str(),
+    ];
+    args.extend_from_slice(extra);
+    common::mpm(&args)
+}
+
+fn names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn mpm_run_writes_every_kth_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("volumes");
+    let o = out.to_str().unwrap();
+    let result = run(
+        dir.path(),
+        "4",
+        &[
+            "--export-volume",
+            o,
+            "--every",
+            "2",
+            "--surface-threshold",
+            "0.5",
+            "--volume-band",
+            "2",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        result.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    assert_eq!(
+        names(&out),
+        ["volume_000000.vdb", "volume_000002.vdb", "volume_000004.vdb"]
+    );
+    assert!(
+        stdout.contains("a band of 2 voxels") && stdout.contains("threshold 0.5 x rest density"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("volume: 3 volumes (vdb in "), "{stdout}");
+    for name in names(&out) {
+        let mut file = open(&out.join(name));
+        let surface = file.read_grid::<f32>("surface").unwrap();
+        assert!(!surface.tree.root_nodes.is_empty());
+    }
+    // Again: refused, the earlier run's files untouched; with --overwrite, replaced.
+    let again = run(dir.path(), "0", &["--export-volume", o]);
+    assert!(!again.status.success());
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        stderr.contains("already holds 3 exported volumes") && stderr.contains("--overwrite"),
+        "{stderr}"
+    );
+    std::fs::write(out.join("volume_000006.vdb.partial"), b"half a file").unwrap();
+    let again = run(dir.path(), "0", &["--export-volume", o, "--overwrite"]);
+    let stdout = String::from_utf8_lossy(&again.stdout);
+    assert!(again.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("removed 1 file that a killed run left unfinished"),
+        "{stdout}"
+    );
+    assert_eq!(names(&out), ["volume_000000.vdb"]);
+}
+
+/// Runs with `args`, expects a refusal before the first step, and returns stderr.
+fn refused(dir: &Path, args: &[&str]) -> String {
+    let out = run(dir, "2", args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "{args:?} accepted:\n{stdout}\n{stderr}");
+    assert!(
+        !stdout.contains("frame "),
+        "{args:?}: refused only after stepping:\n{stdout}"
+    );
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    stderr
+}
+
+#[test]
+fn bad_volume_options_are_refused_before_the_first_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("volumes");
+    let o = out.to_str().unwrap();
+    for (flag, value, words) in [
+        ("--volume-band", "0", "0 is not a positive number"),
+        ("--volume-band", "-1", "-1 is not a positive number"),
+        ("--volume-band", "0.5", "give 1 or more"),
+        ("--volume-voxel-size", "0", "0 is not a positive number"),
+        ("--volume-voxel-size", "nan", "NaN is not a positive number"),
+        ("--volume-format", "nvdb", "possible values: vdb"),
+        // Thousands of times the machine's memory.
+        ("--volume-voxel-size", "1e-6", "give a larger --volume-voxel-size"),
+        // Past what a grid's coordinates hold.
+        (
+            "--volume-voxel-size",
+            "1e-12",
+            "give a larger --volume-voxel-size",
+        ),
+    ] {
+        let text = refused(dir.path(), &["--export-volume", o, flag, value]);
+        assert!(text.contains(words), "{flag} {value}: {text}");
+    }
+    assert!(!out.exists(), "a refused run made {}", out.display());
+    // The volumes' flags without the volumes.
+    for args in [
+        &["--volume-band", "3"][..],
+        &["--volume-velocity"][..],
+        &["--volume-half"][..],
+    ] {
+        let text = refused(dir.path(), args);
+        assert!(text.contains("--export-volume"), "{args:?}: {text}");
+    }
+    // A folder that cannot be made: a path through a file.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"").unwrap();
+    let through = file.join("volumes");
+    let text = refused(dir.path(), &["--export-volume", through.to_str().unwrap()]);
+    assert!(text.contains(&through.display().to_string()), "{text}");
+    let text = refused(dir.path(), &["--export-volume", file.to_str().unwrap()]);
+    assert!(text.contains("is a file, not a directory"), "{text}");
 }
