@@ -53,11 +53,13 @@ pub const SURFACE_GRID: &str = "surface";
 pub const DENSITY_GRID: &str = "density";
 pub const VELOCITY_GRID: &str = "velocity";
 
-/// Bytes a frame's export holds at its peak per voxel the liquid fills (splashsurf's map of the
-/// field while it is built, its blocks, the distances, the grids and the file's bytes), measured on
-/// the dam break's first frame (docs/export.md, "Volumes"), rounded up.
+/// Bytes a frame's export holds at its peak per voxel the liquid fills (the field's blocks, the
+/// distances, the grids and the file's bytes): about 45 measured on the dam break's first frame
+/// (164 MB over the run's own for its 3.6 million voxels of liquid; docs/export.md, "Volumes"),
+/// doubled for what a splash adds.
 const BYTES_PER_VOXEL: f64 = 100.0;
-/// The same, more, with `--volume-velocity` (the query points, the interpolated values, the grid).
+/// The same, more, with `--volume-velocity` (the three sums, the values, the grid and its bytes:
+/// about 45 more measured).
 const VELOCITY_BYTES_PER_VOXEL: f64 = 60.0;
 
 /// The file formats of `--volume-format`.
@@ -362,7 +364,7 @@ fn sample_field(positions: &[Vec3], velocities: Option<&[Vec3]>, settings: &Volu
     let mut neighbours =
         splashsurf_lib::neighborhood_search::search::<i64, f32>(global.aabb(), &points, support, true);
     // The parallel search lists neighbours in an order that varies with the threads; sorted, each
-    // density sums in one order and the same particles give the same file, to the bit.
+    // density sums in one order and the same particles give the same grids, to the bit.
     neighbours.par_iter_mut().for_each(|list| list.sort_unstable());
     let densities = splashsurf_lib::density_map::compute_particle_densities::<i64, f32>(
         &points,
