@@ -397,11 +397,12 @@ impl Simulation {
             body.shape.name(),
             self.scene.ranks
         );
-        // Before the solver's state is read: the last frame's trailing stretch may still be running.
-        self.settle()?;
         let collider = body.collider(&self.scene)?;
         let mut colliders = self.scene.colliders.clone();
         colliders.add(collider);
+        // Before the solver's state is read and replaced: the last frame's trailing stretch may
+        // still be running (`overlap_frames`).
+        self.settle()?;
         // The contact features of every body, the new one's after the others', and its state at the
         // start, as the scene's own bodies get theirs.
         let (start, features) = colliders.rigid_bodies();
@@ -426,7 +427,6 @@ impl Simulation {
     /// above the liquid under it and clear of the colliders, in the state as it is now (which this
     /// reads back, from the GPU too).
     pub fn drop_center(&mut self, shape: &DropShape, over: (f64, f64)) -> Result<DVec3> {
-        self.settle()?;
         let particles = self.solver.read_particles()?;
         let frame = self.collider_frame();
         Ok(dropped::drop_center(&self.scene, &particles, &frame, shape, over))
