@@ -43,8 +43,9 @@ impl DropShape {
 
     /// The viewer's size for `scene`: about a tenth of the tank's smallest side across, and at least
     /// four cells, so that the grid resolves it; no wider than the walls leave room for on any axis
-    /// (in a quasi-2D slab a few cells thick a box spans the slab, a tenth of a cell short of each
-    /// wall, as the logs of tests/bodies.rs do, and a ball is as wide as the slab allows).
+    /// (in a slab thinner than that, as a soft wall's or a wide boundary band's can be, a box spans
+    /// it, a tenth of a cell short of each wall, as the logs of tests/bodies.rs do, and a ball is as
+    /// wide as it allows).
     pub fn sized_for(ball: bool, scene: &Scene) -> DropShape {
         let dx = f64::from(scene.dx);
         let domain = DVec3::from(scene.grid_res.map(f64::from)) * dx;
@@ -232,4 +233,80 @@ pub fn drop_center(
         y += dx;
     }
     DVec3::new(x, inside(y, 1), z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The viewer's bodies: a tenth of the smallest side across where that is four cells or more
+    /// (a tank 50 cm deep at 1 cm cells: 5 cm), else four cells (a quasi-2D slab 5 cells thick);
+    /// each let go where [`drop_center`] puts it over the middle (inside the walls, its bottom two
+    /// cells above the water under it) is accepted, and a box dropped where the ball already is
+    /// starts above the ball.
+    #[test]
+    fn the_viewers_bodies_fit_their_tank_and_are_accepted_where_they_are_let_go() {
+        let tank = |size: [f64; 3], res: [u32; 3], water: [f64; 3]| {
+            let text = format!(
+                "[domain]\nsize = {size:?}\nresolution = {res:?}\n[material]\nrest_density = 1000.0\nsound_speed = 10.0\n\
+                 [[block]]\nmin = [0.01, 0.01, 0.01]\nmax = {water:?}\n"
+            );
+            Scene::from_toml(&text, "test tank").unwrap_or_else(|e| panic!("{e}"))
+        };
+        let cases = [
+            (
+                tank([0.8, 0.5, 0.5], [80, 50, 50], [0.78, 0.1, 0.48]),
+                [0.05; 3],
+                0.025,
+            ),
+            (
+                tank([0.4, 0.3, 0.08], [40, 30, 8], [0.38, 0.1, 0.06]),
+                [0.04; 3],
+                0.02,
+            ),
+        ];
+        for (mut scene, box_size, radius) in cases {
+            let particles = scene.spawn();
+            let walls = scene.body_walls();
+            let (lo, hi) = (DVec3::from(walls.lo), DVec3::from(walls.hi));
+            let middle = 0.5 * (lo + hi);
+            let water_top = f64::from(particles.x.iter().map(|x| x.y).fold(f32::MIN, f32::max));
+            for ball in [true, false] {
+                let shape = DropShape::sized_for(ball, &scene);
+                // To the f32 cell size's rounding.
+                match shape {
+                    DropShape::Box { size } => {
+                        assert!(
+                            (size - DVec3::from(box_size)).abs().max_element() < 1e-6,
+                            "{size}"
+                        )
+                    }
+                    DropShape::Ball { radius: r } => assert!((r - radius).abs() < 1e-6, "{r}"),
+                }
+                let frame = scene.colliders.frame(0.0);
+                let center = drop_center(&scene, &particles, &frame, &shape, (middle.x, middle.z));
+                let half = shape.half_extents();
+                assert!(
+                    center.y - half.y > water_top + 1.9 * f64::from(scene.dx),
+                    "a {} let go at {center} under the water's top {water_top}",
+                    shape.name()
+                );
+                let body = DroppedBody {
+                    shape,
+                    density: DropShape::default_density(ball, &scene),
+                    center,
+                };
+                let collider = body.collider(&scene).unwrap_or_else(|e| panic!("{e:#}"));
+                // The box, after the ball, starts above it.
+                if !ball {
+                    let ball_top = scene.colliders.list[0].center.y + radius;
+                    assert!(
+                        center.y - half.y > ball_top,
+                        "the box starts in the ball: {center}"
+                    );
+                }
+                scene.colliders.add(collider);
+            }
+        }
+    }
 }
