@@ -1009,4 +1009,37 @@ fn a_run_with_dropped_bodies_resumes_byte_identical() {
         std::fs::read(out.join("checkpoint_000005.mpmck")).unwrap() == uninterrupted,
         "the run resumed by `mpm run --resume` is not byte-identical to the uninterrupted run"
     );
+    // `--export-bodies` takes the dropped bodies as bodies (the scene file has one; the run three):
+    // a row each, colliders 0, 1 and 2, at the frame resumed from and the next.
+    let posed = dir.path().join("bodies");
+    ok(&mpm(&[
+        "run",
+        "--resume",
+        path(&file),
+        "--frames",
+        "1",
+        "--export-bodies",
+        path(&posed),
+    ]));
+    let table = std::fs::read_to_string(posed.join("bodies.csv")).unwrap();
+    let rows: Vec<(&str, &str)> = table
+        .lines()
+        .skip(1)
+        .map(|row| {
+            let mut columns = row.split(',');
+            (columns.next().unwrap(), columns.nth(1).unwrap())
+        })
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            ("3", "0"),
+            ("3", "1"),
+            ("3", "2"),
+            ("4", "0"),
+            ("4", "1"),
+            ("4", "2")
+        ],
+        "{table}"
+    );
 }
