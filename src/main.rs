@@ -8,7 +8,7 @@ use mpm::checkpoint::{Checkpoint, CheckpointSeries};
 use mpm::export::bodies::BodyExporter;
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
-use mpm::export::PlyExporter;
+use mpm::export::{check_output_file, PlyExporter};
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
 use mpm::sim::{presets, Pipeline, ScatterMode, Scene, Simulation};
@@ -402,61 +402,6 @@ fn block_size(text: &str) -> Result<u32, String> {
         ));
     }
     Ok(n as u32)
-}
-
-/// A file a command writes at its end (`bench --json`), checked before the work: a path through a
-/// file, a missing or unwritable folder, or a file in the way fails now, with the fix, not after
-/// minutes of measuring.
-fn check_output_file(path: &std::path::Path, flag: &str, overwrite: bool) -> Result<()> {
-    if path.is_dir() {
-        anyhow::bail!("{flag} {} is a directory; give a file name", path.display());
-    }
-    if path.exists() && !overwrite {
-        anyhow::bail!(
-            "{} exists; pass --overwrite to replace it, or choose another {flag} file",
-            path.display()
-        );
-    }
-    let folder = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    if let Some(file) = folder.ancestors().find(|a| a.is_file()) {
-        anyhow::bail!(
-            "{flag} {}: {} is a file, not a folder; choose a path through folders",
-            path.display(),
-            file.display()
-        );
-    }
-    if !folder.is_dir() {
-        anyhow::bail!(
-            "{flag} {}: the folder {} does not exist; create it, or choose another path",
-            path.display(),
-            folder.display()
-        );
-    }
-    // A probe file, not the file itself: a run that fails later must not leave an empty report.
-    let probe = folder.join(".mpm-write-check");
-    std::fs::File::create(&probe)
-        .and_then(|_| std::fs::remove_file(&probe))
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "{flag} {}: cannot write into {}: {}",
-                path.display(),
-                folder.display(),
-                mpm::text::io_reason(&e)
-            )
-        })?;
-    if path.exists() {
-        std::fs::OpenOptions::new().append(true).open(path).map_err(|e| {
-            anyhow::anyhow!(
-                "{flag}: cannot replace {}: {}",
-                path.display(),
-                mpm::text::io_reason(&e)
-            )
-        })?;
-    }
-    Ok(())
 }
 
 /// `render --frames`: the PNG names have five digits.
