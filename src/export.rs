@@ -9,7 +9,9 @@
 
 pub mod bodies;
 pub mod mesh_files;
+pub mod queue;
 pub mod surface;
+pub mod usd;
 
 use crate::sim::material::NamedMaterial;
 use crate::sim::solid;
