@@ -175,10 +175,18 @@ __device__ __forceinline__ BodyContact make_contact(u32 body, u32 partner, D3 at
     return c;
 }
 
+// Where this lane's contact goes (after the `n` found before, then the warp's lanes in order), or
+// MAX_BODY_CONTACTS where it found none or the body's contacts are full; `n` moves past the warp's.
+__device__ __forceinline__ u32 claim_contact(bool hit, u32 lane, u32& n) {
+    const u32 found = __ballot_sync(0xffffffffu, hit);
+    const u32 at = n + __popc(found & ((1u << lane) - 1u));
+    n = min(n + __popc(found), MAX_BODY_CONTACTS);
+    return hit && at < MAX_BODY_CONTACTS ? at : MAX_BODY_CONTACTS;
+}
+
 // find_contacts in bodies.rs, by body k's warp: each lane takes every 32nd feature. The contacts go
 // out in the order the CPU finds them (wall by wall, then collider by collider, each feature by
-// feature): a ballot of the lanes that found one, and each lane's count of those before it. Returns
-// how many (the same in every lane).
+// feature), each lane's where claim_contact puts it. Returns how many (the same in every lane).
 __device__ u32 find_contacts(u32 k, u32 lane, const RigidBody* bodies, const BodyMotion* motions,
                              const ContactFeature* features, const BodyWalls& walls, const ColliderState* states,
                              u32 num_states, const float* sdf, BodyContact* out) {
@@ -187,41 +195,45 @@ __device__ u32 find_contacts(u32 k, u32 lane, const RigidBody* bodies, const Bod
     const D3 center = d3(b.center);
     const D3 com = d3(motions[k].com);
     const ContactFeature* own = features + b.first_feature;
-    const u32 before = (1u << lane) - 1u;
     u32 n = 0;
-    for (int a = 0; a < 3; ++a) {
-        for (int s = 0; s < 2; ++s) {
-            const double side = s == 0 ? walls.lo[a] : walls.hi[a];
-            const double sign = s == 0 ? 1.0 : -1.0;
-            for (u32 first = 0; first < b.num_corners; first += 32) {
-                const u32 f = first + lane;
-                D3 p = d3(0.0, 0.0, 0.0);
-                double depth = -1.0 / 0.0;
-                if (f < b.num_corners) {
-                    p = center + r * d3(own[f].point);
-                    depth = sign * (side - get(p, a)) + own[f].radius;
-                }
-                const bool hit = depth >= -BODY_CONTACT_MARGIN;
-                const u32 found = __ballot_sync(0xffffffffu, hit);
-                const u32 at = n + __popc(found & before);
-                if (hit && at < MAX_BODY_CONTACTS) {
-                    D3 normal = d3(0.0, 0.0, 0.0);
-                    set(normal, a, sign);
-                    out[at] = make_contact(k, NO_BODY, p - normal * own[f].radius, com, com, normal, fmin(depth, 0.0),
-                                           d3(0.0, 0.0, 0.0), b.contact_friction);
-                }
-                n = min(n + __popc(found), MAX_BODY_CONTACTS);
-            }
+    // The six walls' corners in one sweep, lane by lane over (wall, corner) pairs in the CPU's order
+    // (by axis, low side then high, then corner): two ballots where a wall at a time took six.
+    const u32 pairs = 6u * b.num_corners;
+    for (u32 first = 0; first < pairs; first += 32) {
+        const u32 pair = first + lane;
+        const u32 wall = pair / max(b.num_corners, 1u), f = pair % max(b.num_corners, 1u);
+        const int a = (int)(wall / 2u);
+        const double sign = wall % 2u == 0u ? 1.0 : -1.0;
+        D3 p = d3(0.0, 0.0, 0.0);
+        double depth = -1.0 / 0.0;
+        if (pair < pairs) {
+            const double side = wall % 2u == 0u ? walls.lo[a] : walls.hi[a];
+            p = center + r * d3(own[f].point);
+            depth = sign * (side - get(p, a)) + own[f].radius;
+        }
+        const u32 at = claim_contact(depth >= -BODY_CONTACT_MARGIN, lane, n);
+        if (at < MAX_BODY_CONTACTS) {
+            D3 normal = d3(0.0, 0.0, 0.0);
+            set(normal, a, sign);
+            out[at] = make_contact(k, NO_BODY, p - normal * own[f].radius, com, com, normal, fmin(depth, 0.0),
+                                   d3(0.0, 0.0, 0.0), b.contact_friction);
         }
     }
     if (b.slot >= num_states) return n;
     const ColliderState& mine = states[b.slot];
-    for (u32 slot = 0; slot < num_states; ++slot) {
-        const ColliderState& s = states[slot];
-        if (slot == b.slot || s.boundary == BOUNDARY_PIPE) continue;
+    // The colliders whose reach meets this body's, lane j testing slot j: the warp reads every slot's
+    // centre at once, where a loop over the slots waited on each read in turn.
+    static_assert(MAX_COLLIDERS <= 32, "a lane a collider slot");
+    bool near = false;
+    if (lane < num_states && lane != b.slot && states[lane].boundary != BOUNDARY_PIPE) {
+        const ColliderState& s = states[lane];
         const float dx = s.center[0] - mine.center[0], dy = s.center[1] - mine.center[1];
         const float dz = s.center[2] - mine.center[2];
-        if (sqrtf(dx * dx + dy * dy + dz * dz) > s.reach + mine.reach) continue;
+        near = !(sqrtf(dx * dx + dy * dy + dz * dz) > s.reach + mine.reach);
+    }
+    for (u32 candidates = __ballot_sync(0xffffffffu, near); candidates != 0u; candidates &= candidates - 1u) {
+        const u32 slot = __ffs(candidates) - 1u;
+        const ColliderState& s = states[slot];
         for (u32 first = 0; first < b.num_features; first += 32) {
             const u32 f = first + lane;
             D3 p = d3(0.0, 0.0, 0.0), normal = d3(0.0, 1.0, 0.0);
@@ -233,10 +245,8 @@ __device__ u32 find_contacts(u32 k, u32 lane, const RigidBody* bodies, const Bod
                 depth = own[f].radius - (double)phi;
                 normal = d3(n_world);
             }
-            const bool hit = depth >= -BODY_CONTACT_MARGIN;
-            const u32 found = __ballot_sync(0xffffffffu, hit);
-            const u32 at_index = n + __popc(found & before);
-            if (hit && at_index < MAX_BODY_CONTACTS) {
+            const u32 at_index = claim_contact(depth >= -BODY_CONTACT_MARGIN, lane, n);
+            if (at_index < MAX_BODY_CONTACTS) {
                 const D3 at = p - normal * own[f].radius;
                 if (s.body == 0u) {
                     const D3 moving = d3(collider_velocity_at(s, f3(at)));
@@ -248,7 +258,6 @@ __device__ u32 find_contacts(u32 k, u32 lane, const RigidBody* bodies, const Bod
                                                  d3(0.0, 0.0, 0.0), friction);
                 }
             }
-            n = min(n + __popc(found), MAX_BODY_CONTACTS);
         }
     }
     return n;

@@ -204,15 +204,17 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
                                 fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
-extern "C" __global__ void grid_update_blocks_bodies(
+// Held to 12 blocks an SM (at most 80 registers): compiled freely it took 113 and 8 blocks, and its node
+// blocks' load chains had too few warps to hide behind; ten floating bodies' substep went from
+// +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %).
+extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_bodies(
     const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
     u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
     u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
     const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
     u64* __restrict__ body_impulses) {
     update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                               fixed_momentum, counters,
-                         Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+                               fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other

@@ -1,9 +1,11 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines, exports PLY frames, surface meshes and the rigid bodies.
+//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, the rigid bodies
+//! and a USD stage.
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
 use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use crate::export::usd::{UsdCache, UsdFrame, UsdQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -11,6 +13,7 @@ use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 pub struct RunOptions {
@@ -22,6 +25,9 @@ pub struct RunOptions {
     pub surface: Option<SurfaceExporter>,
     /// Writes the rigid bodies' meshes and poses of the initial state and every K-th frame.
     pub bodies: Option<BodyExporter>,
+    /// Writes the USD stage's layer of the initial state and of every K-th frame, on a thread of its
+    /// own (the surface's layers come from `surface`'s workers).
+    pub usd: Option<Arc<UsdCache>>,
     pub stats: Option<StatsFile>,
     /// Writes the state every K-th frame and at the last one.
     pub checkpoints: Option<CheckpointSeries>,
@@ -373,26 +379,43 @@ fn export_frame(
     sim: &mut Simulation,
     exporter: Option<&PlyExporter>,
     surface: Option<&mut SurfaceQueue>,
+    usd: Option<&mut UsdQueue>,
     on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
 ) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
     let surface = surface.filter(|q| q.exporter().wants(frame));
-    if ply.is_none() && surface.is_none() {
+    let usd = usd.filter(|q| q.cache().wants(frame));
+    if ply.is_none() && surface.is_none() && usd.is_none() {
         return Ok(false);
     }
     let comment = frame_comment(sim);
-    let particles = sim.solver_mut().read_particles()?.live_only();
+    let mut particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
         exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
     }
     if let Some(queue) = surface {
         let job = SurfaceJob {
             frame,
-            comment,
-            positions: particles.x,
+            comment: comment.clone(),
+            // The USD layer needs the positions too.
+            positions: match usd {
+                Some(_) => particles.x.clone(),
+                None => std::mem::take(&mut particles.x),
+            },
         };
         queue.submit(job, on_mesh)?;
+    }
+    if let Some(queue) = usd {
+        let poses = queue.cache().poses(sim);
+        // The stage has no use for the APIC matrices: a third of what a queued frame would hold.
+        particles.c = Vec::new();
+        queue.submit(UsdFrame {
+            frame,
+            comment,
+            particles,
+            poses,
+        })?;
     }
     Ok(ply.is_some())
 }
@@ -435,6 +458,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         export,
         surface,
         mut bodies,
+        usd,
         mut stats,
         checkpoints,
         progress,
@@ -444,6 +468,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let mut surface = surface
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;
+    let mut usd = usd.map(UsdQueue::start).transpose()?;
     // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
     // terminal, else one line per mesh.
     let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
@@ -460,6 +485,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         sim,
         export.as_ref(),
         surface.as_mut(),
+        usd.as_mut(),
         &mut on_mesh,
     )?);
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
@@ -492,12 +518,16 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             sim,
             export.as_ref(),
             surface.as_mut(),
+            usd.as_mut(),
             &mut on_mesh,
         )?);
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
         // Meshes finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
             queue.collect(&mut on_mesh, false)?;
+        }
+        if let Some(queue) = usd.as_mut() {
+            queue.collect()?;
         }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
@@ -525,13 +555,22 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
                     crate::text::count(left, "surface mesh", "surface meshes")
                 );
             }
-            let files = format!(
-                "{} in {}",
-                queue.exporter().format().extension(),
-                queue.exporter().dir().display()
-            );
+            let files = queue.exporter().destination();
             let done = queue.finish(&mut on_mesh)?;
             Some(surface_summary(&done, &files, last_frame.elapsed()))
+        }
+        None => None,
+    };
+    let usd_line = match usd {
+        Some(queue) => {
+            let left = queue.queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "USD layer", "USD layers")
+                );
+            }
+            Some(queue.finish()?)
         }
         None => None,
     };
@@ -547,6 +586,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         )?;
     }
     if let Some(line) = surface_line {
+        writeln!(out, "{line}")?;
+    }
+    if let Some(line) = usd_line {
         writeln!(out, "{line}")?;
     }
     if let Some(exporter) = &bodies {

@@ -132,6 +132,7 @@ fn parked_slots_are_seen_by_nothing() {
         export: Some(mpm::export::PlyExporter::new(dir.path(), 1, false).unwrap()),
         surface: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,

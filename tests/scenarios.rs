@@ -396,6 +396,7 @@ velocity = [50.0, 0.0, 0.0]
         export: None,
         surface: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,

@@ -3,23 +3,23 @@
 //! The surface is reconstructed with `splashsurf_lib`: an SPH density field is built from the
 //! particle positions alone (a cubic spline kernel), and marching cubes extracts the level set at a
 //! fraction of the rest density. The reconstruction runs on worker threads fed by a bounded queue
-//! ([`SurfaceQueue`]), so the simulation steps on while meshes are built; it waits only when the
-//! queue is full, which keeps memory bounded on long runs.
+//! ([`SurfaceQueue`], on [`Workers`]), so the simulation steps on while meshes are built; it waits
+//! only when the queue is full, which keeps memory bounded on long runs. Each mesh goes to its file
+//! (`surface_NNNNNN.obj|ply|vtk`), to the USD cache of `--export-usd` ([`UsdCache`]), or to both.
 //!
 //! Defaults from the scene: the spawn lattice gives each particle a cube of fluid of edge
 //! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
 //! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
 
 use super::mesh_files::{SurfaceFormat, SurfaceMesh};
+use super::queue::Workers;
+use super::usd::UsdCache;
 use super::{check_every, FrameDir, FrameKind};
 use crate::sim::Scene;
 use anyhow::{bail, Result};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The surface meshes of `--export-surface`: `surface_NNNNNN.obj|ply|vtk`.
@@ -186,23 +186,28 @@ fn vertex_normals(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]
         .collect()
 }
 
-/// Writes `surface_NNNNNN.<format>` meshes into one directory.
+/// Writes `surface_NNNNNN.<format>` meshes into one directory, the USD cache's surface layers, or
+/// both.
 pub struct SurfaceExporter {
-    frames: FrameDir,
+    /// `None` where the meshes go to the USD cache alone (`--usd-surface` without
+    /// `--export-surface`).
+    frames: Option<FrameDir>,
     every: u64,
     format: SurfaceFormat,
     settings: SurfaceSettings,
+    usd: Option<Arc<UsdCache>>,
 }
 
 /// One finished mesh.
 #[derive(Debug, Clone)]
 pub struct MeshDone {
     pub frame: u64,
+    /// The mesh file, or the USD cache's layer where the mesh has no file of its own.
     pub path: PathBuf,
     pub triangles: usize,
     /// Wall time of the reconstruction (density, marching cubes, normals).
     pub reconstruct: Duration,
-    /// Wall time of writing the file.
+    /// Wall time of writing the file and the USD layer.
     pub write: Duration,
 }
 
@@ -226,23 +231,69 @@ impl SurfaceExporter {
     ) -> Result<SurfaceExporter> {
         check_every(every)?;
         Ok(SurfaceExporter {
-            frames: FrameDir::open(dir, SURFACE_FRAMES, format.extension(), overwrite)?,
+            frames: Some(FrameDir::open(
+                dir,
+                SURFACE_FRAMES,
+                format.extension(),
+                overwrite,
+            )?),
             every,
             format,
             settings,
+            usd: None,
         })
+    }
+
+    /// Meshes for the USD cache alone, no files of their own: `--usd-surface` without
+    /// `--export-surface`.
+    pub fn for_usd(usd: Arc<UsdCache>, every: u64, settings: SurfaceSettings) -> Result<SurfaceExporter> {
+        check_every(every)?;
+        Ok(SurfaceExporter {
+            frames: None,
+            every,
+            format: SurfaceFormat::Obj,
+            settings,
+            usd: Some(usd),
+        })
+    }
+
+    /// Also writes each mesh into the USD cache's surface layers.
+    pub fn with_usd(self, usd: Arc<UsdCache>) -> SurfaceExporter {
+        SurfaceExporter {
+            usd: Some(usd),
+            ..self
+        }
     }
 
     pub fn wants(&self, frame: u64) -> bool {
         frame % self.every == 0
     }
 
-    pub fn path_of(&self, frame: u64) -> PathBuf {
-        self.frames.path_of(frame)
+    /// The mesh file of `frame`, where the meshes have files (`--export-surface`).
+    pub fn path_of(&self, frame: u64) -> Option<PathBuf> {
+        self.frames.as_ref().map(|f| f.path_of(frame))
     }
 
-    pub fn dir(&self) -> &Path {
-        self.frames.dir()
+    /// The mesh files' directory (`--export-surface`), if any.
+    pub fn dir(&self) -> Option<&Path> {
+        self.frames.as_ref().map(FrameDir::dir)
+    }
+
+    /// Where the meshes go, for the user: "obj in out/surface", "the USD cache out/dam.usda", or
+    /// both.
+    pub fn destination(&self) -> String {
+        let files = self
+            .frames
+            .as_ref()
+            .map(|f| format!("{} in {}", self.format.extension(), f.dir().display()));
+        let usd = self
+            .usd
+            .as_ref()
+            .map(|u| format!("the USD cache {}", u.path().display()));
+        match (files, usd) {
+            (Some(files), Some(usd)) => format!("{files} and {usd}"),
+            (files, usd) => files.or(usd).unwrap_or_default(),
+        }
     }
 
     pub fn format(&self) -> SurfaceFormat {
@@ -255,7 +306,7 @@ impl SurfaceExporter {
 
     /// One line for the user about the meshes `--overwrite` removed, or `None`.
     pub fn removed_note(&self) -> Option<String> {
-        self.frames.removed_note()
+        self.frames.as_ref().and_then(FrameDir::removed_note)
     }
 
     /// Reconstructs and writes one frame's mesh, here and now.
@@ -264,9 +315,19 @@ impl SurfaceExporter {
         let mesh = reconstruct(&job.positions, &self.settings)?;
         let reconstructed = Instant::now();
         let comment = format!("{}\nsurface: {}", job.comment, self.settings.describe());
-        let path = self
+        let file = self
             .frames
-            .write(job.frame, |out| self.format.write(out, &comment, &mesh))?;
+            .as_ref()
+            .map(|frames| frames.write(job.frame, |out| self.format.write(out, &comment, &mesh)))
+            .transpose()?;
+        let layer = self
+            .usd
+            .as_ref()
+            .map(|usd| usd.write_surface(job.frame, &comment, &mesh))
+            .transpose()?;
+        let path = file
+            .or(layer)
+            .expect("a surface exporter writes a file or a USD layer");
         Ok(MeshDone {
             frame: job.frame,
             path,
@@ -279,41 +340,13 @@ impl SurfaceExporter {
     /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
     /// `waiting` more jobs wait for a free worker before `submit` blocks.
     pub fn start(self, workers: usize, waiting: usize) -> Result<SurfaceQueue> {
-        let (jobs, receiver) = mpsc::sync_channel::<SurfaceJob>(waiting);
-        let (results, done) = mpsc::channel();
-        let receiver = Arc::new(Mutex::new(receiver));
-        let stop = Arc::new(AtomicBool::new(false));
         let exporter = Arc::new(self);
-        let workers = (0..workers.max(1))
-            .map(|i| {
-                let (receiver, results, stop, exporter) =
-                    (receiver.clone(), results.clone(), stop.clone(), exporter.clone());
-                std::thread::Builder::new()
-                    .name(format!("surface-{i}"))
-                    .spawn(move || loop {
-                        // The lock is held only while taking a job (the guard is a temporary).
-                        let job = receiver.lock().map(|r| r.recv());
-                        let Ok(Ok(job)) = job else { break };
-                        if stop.load(Ordering::Relaxed) {
-                            continue;
-                        }
-                        let result = exporter.export(&job);
-                        if result.is_err() {
-                            stop.store(true, Ordering::Relaxed);
-                        }
-                        if results.send(result).is_err() {
-                            break;
-                        }
-                    })
-                    .map_err(|e| anyhow::anyhow!("cannot start a surface worker thread: {e}"))
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let worker = exporter.clone();
         Ok(SurfaceQueue {
             exporter,
-            jobs: Some(jobs),
-            done,
-            workers,
-            stop,
+            workers: Workers::start("surface", workers, waiting, move |job: SurfaceJob| {
+                worker.export(&job)
+            })?,
             progress: SurfaceProgress::default(),
         })
     }
@@ -365,12 +398,8 @@ impl SurfaceProgress {
 /// The exporter's worker threads and the bounded queue that feeds them.
 pub struct SurfaceQueue {
     exporter: Arc<SurfaceExporter>,
-    /// `None` once closed: the workers then end when the queue is empty.
-    jobs: Option<SyncSender<SurfaceJob>>,
-    done: Receiver<Result<MeshDone>>,
-    workers: Vec<JoinHandle<()>>,
-    /// Set on the first failure, and on drop: the workers skip what is left.
-    stop: Arc<AtomicBool>,
+    workers: Workers<SurfaceJob, MeshDone>,
+    /// The meshes written so far, summed.
     progress: SurfaceProgress,
 }
 
@@ -380,10 +409,7 @@ impl SurfaceQueue {
     }
 
     pub fn progress(&self) -> SurfaceProgress {
-        SurfaceProgress {
-            workers: self.workers.len(),
-            ..self.progress
-        }
+        self.progress.synced(&self.workers)
     }
 
     /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
@@ -393,68 +419,57 @@ impl SurfaceQueue {
         job: SurfaceJob,
         on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress),
     ) -> Result<()> {
-        self.collect(on_done, false)?;
-        let jobs = self.jobs.as_ref().expect("submit after finish");
-        let job = match jobs.try_send(job) {
-            Ok(()) => None,
-            Err(TrySendError::Full(job)) => Some(job),
-            Err(TrySendError::Disconnected(_)) => bail!("the surface worker threads ended early"),
-        };
-        if let Some(job) = job {
-            let start = Instant::now();
-            let sent = jobs.send(job);
-            self.progress.waited += start.elapsed();
-            if sent.is_err() {
-                // Every worker stopped, which happens only after a failure: report it.
-                self.collect(on_done, true)?;
-                bail!("the surface worker threads ended early");
-            }
-        }
-        self.progress.submitted += 1;
-        Ok(())
+        let mut progress = self.progress();
+        let result = self.workers.submit(job, &mut |mesh| {
+            progress.add(&mesh);
+            on_done(&mesh, progress);
+        });
+        self.progress = progress;
+        result
     }
 
     /// Takes the meshes finished so far, calling `on_done` for each; with `wait`, until every
     /// submitted mesh is done. The first failure is returned.
     pub fn collect(&mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress), wait: bool) -> Result<()> {
-        while self.progress.done < self.progress.submitted {
-            let result = if wait {
-                match self.done.recv() {
-                    Ok(result) => result,
-                    Err(_) => bail!("the surface worker threads ended early"),
-                }
-            } else {
-                match self.done.try_recv() {
-                    Ok(result) => result,
-                    Err(_) => return Ok(()),
-                }
-            };
-            let mesh = result?;
-            self.progress.done += 1;
-            self.progress.triangles += mesh.triangles as u64;
-            self.progress.reconstruct += mesh.reconstruct;
-            self.progress.write += mesh.write;
-            on_done(&mesh, self.progress());
-        }
-        Ok(())
+        let mut progress = self.progress();
+        let result = self.workers.collect(
+            &mut |mesh| {
+                progress.add(&mesh);
+                on_done(&mesh, progress);
+            },
+            wait,
+        );
+        self.progress = progress;
+        result
     }
 
     /// Waits for every submitted mesh, then ends the workers.
-    pub fn finish(mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
-        self.jobs = None;
-        self.collect(on_done, true)?;
-        Ok(self.progress())
+    pub fn finish(self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
+        let mut progress = self.progress();
+        self.workers.finish(&mut |mesh| {
+            progress.add(&mesh);
+            on_done(&mesh, progress);
+        })?;
+        Ok(progress)
     }
 }
 
-impl Drop for SurfaceQueue {
-    /// Without [`SurfaceQueue::finish`] (the run failed): the workers drop what is queued, finish
-    /// the mesh in hand, and end.
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        self.jobs = None;
-        for worker in self.workers.drain(..) {
-            let _ = worker.join();
+impl SurfaceProgress {
+    /// These counts with the queue's own (meshes handed over, the simulation's wait, threads).
+    fn synced(self, workers: &Workers<SurfaceJob, MeshDone>) -> SurfaceProgress {
+        SurfaceProgress {
+            submitted: workers.submitted(),
+            waited: workers.waited(),
+            workers: workers.threads(),
+            ..self
         }
+    }
+
+    /// Counts one more mesh written.
+    fn add(&mut self, mesh: &MeshDone) {
+        self.done += 1;
+        self.triangles += mesh.triangles as u64;
+        self.reconstruct += mesh.reconstruct;
+        self.write += mesh.write;
     }
 }
