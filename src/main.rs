@@ -736,7 +736,10 @@ fn run(args: RunArgs) -> Result<()> {
         ),
     };
     args.solver.apply(&mut scene);
-    if args.export_bodies.is_some() {
+    // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
+    // (the exporter checks the run's scene, which has them, again).
+    let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());
+    if args.export_bodies.is_some() && dropped == 0 {
         mpm::export::bodies::check_scene(&scene)?;
     }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
