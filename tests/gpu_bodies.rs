@@ -175,7 +175,11 @@ fn dropped_bodies_follow_the_cpu() {
 /// cells across the radius. Gravity comes in over the first 0.1 s (the column then settles without
 /// ringing); the speed is the sphere's fall over the last quarter of two tube-filling times
 /// (R^2 / nu) over that time, which averages out what sound is left. `MPM_STOKES_CELLS` (a
-/// comma-separated list; default 6,8) sets the resolutions run; the finest is asserted.
+/// comma-separated list; default 6,8) sets the resolutions run; the finest is asserted. In fixed
+/// point, so a run gives the same number every time (`MPM_STOKES_SCATTER=float` runs the float
+/// scatter, whose 8-cell figure moved between +4.1 and +10.1 % from run to run on the H200). H200,
+/// 2026-11-29, fixed point: +7.3 % at 8 cells; at 10 cells -32.6 %, the sphere still slowing at
+/// the window's end (as it is, less, at 8): the fall is not yet steady there (issue 42).
 fn a_sphere_settles_at_stokes_velocity() {
     let (radius, viscosity) = (0.01, 15.0);
     let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
@@ -193,7 +197,9 @@ fn a_sphere_settles_at_stokes_velocity() {
     let mut last = 0.0;
     for &n in &cells {
         let dir = tempfile::tempdir().unwrap();
-        let (scene, fill) = bodies_checks::sphere_in_tube(n, radius, viscosity, dir.path());
+        let scatter = std::env::var("MPM_STOKES_SCATTER").unwrap_or_else(|_| "fixed-point".into());
+        let scatter = format!("[solver]\nscatter = \"{scatter}\"\n");
+        let (scene, fill) = bodies_checks::sphere_in_tube(n, radius, viscosity, &scatter, dir.path());
         let mut sim = materials_checks::simulation(&scene, BackendKind::Cuda);
         let frames = (2.0 * fill * 60.0).ceil() as u32;
         let window_start = frames - frames / 4;

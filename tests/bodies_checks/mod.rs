@@ -398,9 +398,15 @@ pub fn tube_obj(inner: f64, wall: f64, height: f64, segments: usize) -> String {
 /// (sound speed 40 m/s: the column's own compression under gravity, and the sound it rings with, stay
 /// far below the sphere's speed), 2 tube radii above its bottom and below the surface (where a
 /// tube's walls have screened the ends' effect). The tube's mesh goes into `dir`, beside the scene
-/// file. Returns the scene and the time over which the flow fills the tube (its radius squared over
-/// the kinematic viscosity).
-pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::Path) -> (Scene, f64) {
+/// file; `extra` is scene text added at the end (a `[solver]` table). Returns the scene and the time
+/// over which the flow fills the tube (its radius squared over the kinematic viscosity).
+pub fn sphere_in_tube(
+    cells: u32,
+    radius: f64,
+    viscosity: f64,
+    extra: &str,
+    dir: &std::path::Path,
+) -> (Scene, f64) {
     let dx = radius / f64::from(cells);
     let tube = 5.0 * radius;
     let wall = 3.0 * dx;
@@ -419,7 +425,7 @@ pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::
          [[block]]\nmin = [{lo}, {bottom}, {lo}]\nmax = [{hi}, {top}, {hi}]\nparticles_per_cell = 8\n\
          [[collider]]\nshape = \"mesh\"\nfile = \"tube.obj\"\ncenter = [{centre}, {floor}, {centre}]\nboundary = \"stick\"\n\
          [[collider]]\nshape = \"sphere\"\nradius = {radius}\ncenter = [{centre}, {sphere}, {centre}]\n\
-         boundary = \"stick\"\ndensity = 2000.0\n",
+         boundary = \"stick\"\ndensity = 2000.0\n{extra}",
         x = f64::from(res_xz) * dx,
         y = f64::from(res_y) * dx,
         lo = centre - tube,
