@@ -580,23 +580,9 @@ mod tests {
     #[test]
     fn an_added_collider_rides_where_the_list_given_at_once_puts_it() {
         let dx = 0.01f32;
-        let cube: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64) * 0.1)
-            .collect();
-        let triangles = vec![
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ];
+        // A 10 cm cube with a corner at the origin.
+        let (unit, triangles) = crate::sim::mesh::tests::cube();
+        let cube: Vec<DVec3> = unit.into_iter().map(|v| (v + 0.5) * 0.1).collect();
         let sdf = crate::sim::mesh::build_sdf("cube", cube, triangles, 0.02, 0.03, None, u64::MAX).unwrap();
         let mesh = Collider {
             shape: Shape::Mesh(Arc::new(sdf)),
