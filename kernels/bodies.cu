@@ -314,7 +314,10 @@ __device__ void resolve_contacts(BodyMotion* motions, BodyContact* contacts, con
     for (u32 sweep = 0; sweep < BODY_CONTACT_SWEEPS; ++sweep) {
         for (u32 k = 0; k < num_bodies; ++k) {
             for (u32 i = 0; i < count[k]; ++i) {
-                BodyContact& c = contacts[k * MAX_BODY_CONTACTS + i];
+                // A copy in registers, its impulses written back at the end: through the reference,
+                // every store to a motion may alias the contact, and each of its fields was read again.
+                BodyContact& stored = contacts[k * MAX_BODY_CONTACTS + i];
+                BodyContact c = stored;
                 const D3 normal = d3(c.normal);
                 const D3 relative = relative_velocity(motions, c, false);
                 const double into = dot(relative, normal);
@@ -341,6 +344,9 @@ __device__ void resolve_contacts(BodyMotion* motions, BodyContact* contacts, con
                 const D3 push = normal * (pushed - c.push_impulse);
                 c.push_impulse = pushed;
                 apply_impulse(motions, c, push, true);
+                stored.normal_impulse = c.normal_impulse;
+                stored.push_impulse = c.push_impulse;
+                store(stored.friction_impulse, d3(c.friction_impulse));
             }
         }
     }

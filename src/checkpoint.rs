@@ -5,7 +5,8 @@
 //! A checkpoint holds the scene as it was loaded (its TOML text and where it came from), the solver
 //! options (backend, GPU pipeline, scatter mode), the parameters as the run had them (live changes
 //! included), the clock and the time-step policy's memory ([`RunClock`]), and every particle's x, v,
-//! C and density, and the rigid bodies' states with the impulse sums their next step takes. Nothing
+//! C and density, the rigid bodies' states with the impulse sums their next step takes, and the
+//! bodies dropped into the run (`sim::dropped`: the scene file does not name them). Nothing
 //! else carries from one frame to the next: the CPU backends rebuild their grid every substep, and
 //! the CUDA solver's between-substep state (the particle bins, the grid mass (and under the fused
 //! pipeline momentum) of the next substep, scattered from the particles' saved state and density) is
@@ -14,7 +15,7 @@
 //! step_bodies places them (tests/gpu_lifecycle.rs checks a resumed run byte for byte against an
 //! uninterrupted one).
 //!
-//! # File format (version 4), all numbers little-endian
+//! # File format (version 5), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -27,7 +28,8 @@
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
-//! whether the particles' deformation follows, the rigid body count K); the 214 words of [`Params`]
+//! whether the particles' deformation follows, the rigid body count K, the dropped body count D); the
+//! 214 words of [`Params`]
 //! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, late emitter layers u64, E emitter phases f64); then
 //! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
@@ -36,8 +38,11 @@
 //! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
 //! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
 //! drained, exhausted, blocked: u64 each); then, for each of the K rigid bodies, its [`RigidBody`] row
-//! (its 42 f64, then its 4 u32: 352 bytes) and its 6 pending impulse sums (i64). Floats are stored as
-//! their bits, so a resumed state is the saved one exactly.
+//! (its 42 f64, then its 4 u32: 352 bytes) and its 6 pending impulse sums (i64); then, for each of
+//! the D dropped bodies (the last D of the K), its shape (u32: 0 a box, 1 a ball), its size (3 f64:
+//! a box's edges, or a ball's radius and two zeros), its density and the centre it was let go at
+//! (f64, then 3 f64): 60 bytes. Floats are stored as their bits, so a resumed state is the saved
+//! one exactly.
 //!
 //! Version 1, written before scenes had a material table, still loads: its parameters are 28 words
 //! (one material of 8 words: rest density, EOS stiffness, EOS power, viscosity, pressure floor,
@@ -46,7 +51,8 @@
 //! made of it ([`params_from_version_1`]). Version 2, written before the solids, had rows of 16
 //! words (the liquids' 13, then padding: 150 words in all) and no deformation; its rows
 //! read with the solids' parameters zero ([`params_from_version_2`]). Version 3, written before
-//! checkpoints held rigid bodies, is version 4 without them (no scene of bodies could be saved).
+//! checkpoints held rigid bodies, is version 4 without them (no scene of bodies could be saved);
+//! version 4, written before bodies could be dropped into a run, is version 5 without dropped bodies.
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
@@ -55,6 +61,7 @@ use crate::backend::{self, BackendKind, SavedState};
 use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
 use crate::sim::colliders::bodies::{BodiesState, RigidBody};
+use crate::sim::dropped::{self, DropShape, DroppedBody};
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::params::{KernelParams, Material};
 use crate::sim::{Deformation, Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
@@ -69,7 +76,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -103,6 +110,11 @@ const _: () = assert!(std::mem::size_of::<RigidBody>() == 8 * BODY_F64S + 4 * BO
 const _: () = assert!(std::mem::offset_of!(RigidBody, first_feature) == 8 * BODY_F64S);
 /// Bytes per rigid body: its row and its six impulse sums.
 const BYTES_PER_BODY: usize = 8 * BODY_F64S + 4 * BODY_U32S + 8 * 6;
+/// Bytes per dropped body: its shape's code, its size (3 f64), density and centre (3 f64).
+const BYTES_PER_DROPPED: usize = 4 + 8 * 7;
+/// The dropped bodies' shape codes.
+const DROPPED_BOX: u32 = 0;
+const DROPPED_BALL: u32 = 1;
 
 /// What the body's JSON holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -126,6 +138,9 @@ struct Meta {
     /// Rigid bodies after the lifecycle (version 4 on).
     #[serde(default)]
     bodies: u64,
+    /// Bodies dropped into the run, after the rigid bodies (version 5 on).
+    #[serde(default)]
+    dropped: u64,
 }
 
 /// A run's state between two frames.
@@ -145,8 +160,11 @@ pub struct Checkpoint {
     /// The emitters' and sinks' state (free slots, nozzle points' last particles, counts), where the
     /// scene has them.
     pub flow: Option<FlowState>,
-    /// The rigid bodies (none where the scene has none).
+    /// The rigid bodies (none where the scene has none): the scene's, then the dropped ones.
     pub bodies: BodiesState,
+    /// The bodies dropped into the run ([`Simulation::drop_body`]), in order; the scene file does
+    /// not name them, so [`Self::resume`] adds them to its scene.
+    pub dropped: Vec<DroppedBody>,
 }
 
 impl Checkpoint {
@@ -167,9 +185,11 @@ impl Checkpoint {
             states: sim.solver_mut().bodies()?,
             impulses: sim.solver_mut().body_impulses()?,
         };
+        let dropped = sim.dropped().to_vec();
         Ok(Checkpoint {
             flow,
             bodies,
+            dropped,
             scene_source,
             scene_toml,
             backend,
@@ -181,7 +201,8 @@ impl Checkpoint {
         })
     }
 
-    /// The scene the run had, with its solver options.
+    /// The scene the run had, with its solver options, as its file gives it: without the bodies
+    /// dropped into the run, which [`Self::resume`] adds (so a restart of it has none of them).
     pub fn scene(&self) -> Result<Scene> {
         let mut scene = Scene::from_toml(&self.scene_toml, &self.scene_source)
             .context("the scene saved in the checkpoint no longer loads")?;
@@ -202,20 +223,33 @@ impl Checkpoint {
             scene.grid_res,
             scene.materials.len()
         );
-        self.check_bodies(&scene)?;
+        self.check_bodies(&self.with_dropped(scene.clone())?)?;
         Ok(scene)
     }
 
-    /// Refuses a checkpoint whose rigid bodies are not `scene`'s: another count, or a body that is
-    /// another collider or has other contact features than the scene gives it (a solver would step
-    /// it with features that are not its own).
+    /// `scene` with the bodies dropped into the run added after its colliders, each checked as when
+    /// it was dropped.
+    fn with_dropped(&self, mut scene: Scene) -> Result<Scene> {
+        dropped::add_to(&mut scene, &self.dropped).context(
+            "a body dropped into the checkpoint's run does not fit its scene: the file is inconsistent",
+        )?;
+        Ok(scene)
+    }
+
+    /// Refuses a checkpoint whose rigid bodies are not `scene`'s (with the dropped ones added):
+    /// another count, or a body that is another collider or has other contact features than the
+    /// scene gives it (a solver would step it with features that are not its own).
     fn check_bodies(&self, scene: &Scene) -> Result<()> {
         let (start, _) = scene.colliders.rigid_bodies();
         let saved = &self.bodies.states;
+        let counting_dropped = match self.dropped.len() {
+            0 => String::new(),
+            n => format!(", counting the {n} dropped into the run"),
+        };
         ensure!(
             saved.len() == start.len(),
-            "the checkpoint holds {} but its scene has {} (colliders with a density or mass): the file \
-             is inconsistent; resume from a checkpoint this scene's run wrote",
+            "the checkpoint holds {} but its scene has {} (colliders with a density or mass{counting_dropped}): \
+             the file is inconsistent; resume from a checkpoint this scene's run wrote",
             crate::text::count(saved.len(), "rigid body", "rigid bodies"),
             start.len()
         );
@@ -242,8 +276,10 @@ impl Checkpoint {
     }
 
     /// A simulation that goes on from this state on `backend` (its own by default), with `scene`
-    /// (from [`Self::scene`], solver options possibly overridden).
+    /// (from [`Self::scene`], solver options possibly overridden), the bodies dropped into the run
+    /// added to it.
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
+        let scene = self.with_dropped(scene)?;
         self.check_bodies(&scene)?;
         let saved = SavedState {
             particles: &self.particles,
@@ -266,6 +302,7 @@ impl Checkpoint {
             params,
             self.clock.clone(),
             &self.bodies.states,
+            &self.dropped,
         ))
     }
 
@@ -331,6 +368,7 @@ impl Checkpoint {
             flow: self.flow.is_some(),
             deformation: !self.particles.deformation.is_empty(),
             bodies: self.bodies.states.len() as u64,
+            dropped: self.dropped.len() as u64,
         })?;
         let n = self.particles.len();
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
@@ -342,7 +380,8 @@ impl Checkpoint {
             + BYTES_PER_PARTICLE * n
             + std::mem::size_of_val(self.particles.deformation.as_slice())
             + flow.len()
-            + BYTES_PER_BODY * self.bodies.states.len();
+            + BYTES_PER_BODY * self.bodies.states.len()
+            + BYTES_PER_DROPPED * self.dropped.len();
         out.write_all(&MAGIC)?;
         out.write_all(&FORMAT_VERSION.to_le_bytes())?;
         out.write_all(&0u32.to_le_bytes())?;
@@ -377,6 +416,9 @@ impl Checkpoint {
             for sum in impulses {
                 out.write_all(&sum.to_le_bytes())?;
             }
+        }
+        for body in &self.dropped {
+            out.write_all(&dropped_row_bytes(body))?;
         }
         Ok(())
     }
@@ -503,6 +545,29 @@ impl Body<'_> {
         Ok(bytemuck::pod_read_unaligned(&native))
     }
 
+    /// A row that [`dropped_row_bytes`] wrote.
+    fn dropped_body(&mut self) -> Result<DroppedBody> {
+        let what = "the dropped bodies";
+        let code = self.u32(what)?;
+        let mut numbers = [0.0; 7];
+        for n in &mut numbers {
+            *n = f64::from_bits(self.u64(what)?);
+        }
+        let [a, b, c, density, x, y, z] = numbers;
+        let shape = match code {
+            DROPPED_BOX => DropShape::Box {
+                size: glam::DVec3::new(a, b, c),
+            },
+            DROPPED_BALL => DropShape::Ball { radius: a },
+            other => bail!("a dropped body of shape code {other} (0 is a box, 1 a ball)"),
+        };
+        Ok(DroppedBody {
+            shape,
+            density,
+            center: glam::DVec3::new(x, y, z),
+        })
+    }
+
     fn vectors<T: bytemuck::Pod>(&mut self, n: usize, what: &str) -> Result<Vec<T>> {
         let words = self.words(n * std::mem::size_of::<T>() / 4, what)?;
         Ok(bytemuck::cast_slice(&words).to_vec())
@@ -617,6 +682,15 @@ impl Body<'_> {
             bodies.impulses.push(impulses);
         }
         ensure!(
+            meta.dropped <= meta.bodies,
+            "{} dropped bodies among {} rigid bodies",
+            meta.dropped,
+            meta.bodies
+        );
+        let dropped = (0..meta.dropped)
+            .map(|_| self.dropped_body())
+            .collect::<Result<Vec<_>>>()?;
+        ensure!(
             self.bytes.is_empty(),
             "{} bytes after the state",
             self.bytes.len()
@@ -624,6 +698,7 @@ impl Body<'_> {
         Ok(Checkpoint {
             flow,
             bodies,
+            dropped,
             scene_source: meta.scene_source,
             scene_toml: meta.scene_toml,
             backend: meta.backend,
@@ -713,6 +788,22 @@ fn body_row_bytes(body: &RigidBody) -> Vec<u8> {
         .chunks_exact(4)
         .flat_map(|w| u32::from_ne_bytes(w.try_into().expect("4 bytes")).to_le_bytes());
     floats.chain(words).collect()
+}
+
+/// A dropped body's row as the body stores it: its shape's code, size, density and centre.
+fn dropped_row_bytes(body: &DroppedBody) -> Vec<u8> {
+    let (code, size) = match body.shape {
+        DropShape::Box { size } => (DROPPED_BOX, size.to_array()),
+        DropShape::Ball { radius } => (DROPPED_BALL, [radius, 0.0, 0.0]),
+    };
+    let numbers = size
+        .into_iter()
+        .chain([body.density])
+        .chain(body.center.to_array());
+    code.to_le_bytes()
+        .into_iter()
+        .chain(numbers.flat_map(|n| n.to_bits().to_le_bytes()))
+        .collect()
 }
 
 /// The lifecycle's state as the body stores it.

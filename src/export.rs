@@ -12,6 +12,7 @@ pub mod bodies;
 pub mod mesh_files;
 pub mod queue;
 pub mod surface;
+pub mod usd;
 pub mod vdb;
 pub mod volume;
 
@@ -161,25 +162,42 @@ impl FrameDir {
         write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
     ) -> Result<PathBuf> {
         let path = self.path_of(frame);
-        let tmp = path.with_extension(format!("{}{PARTIAL}", self.extension));
-        let _unfinished = Unfinished::new(&tmp);
-        let result = File::create(&tmp).map_err(anyhow::Error::from).and_then(|f| {
-            let mut out = BufWriter::new(f);
-            write(&mut out)?;
-            // Flushed here, not on drop: a drop swallows the error of a disk that filled up at the end.
-            out.flush()?;
-            Ok(())
-        });
-        if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, &path).map_err(Into::into)) {
-            let _ = std::fs::remove_file(&tmp);
-            let reason = e
-                .chain()
-                .find_map(|cause| cause.downcast_ref::<std::io::Error>())
-                .map_or_else(|| format!("{e:#}"), io_reason);
-            bail!("cannot write {}: {reason}", path.display());
-        }
+        write_atomically(&path, write)?;
         Ok(path)
     }
+}
+
+/// Writes `path` through `write` to `path.partial`, then renames it, so a failed write never leaves
+/// a truncated file under the name (an earlier file of that name stays whole until the rename
+/// replaces it), and an interrupt removes the partial file ([`remove_unfinished_on_interrupt`]). A
+/// failure names the path, the reason and the fix for that reason (a full disk, a refused
+/// permission, a read-only file system).
+pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
+    let tmp = partial_path(path);
+    let _unfinished = Unfinished::new(&tmp);
+    let result = File::create(&tmp).map_err(anyhow::Error::from).and_then(|f| {
+        let mut out = BufWriter::new(f);
+        write(&mut out)?;
+        // Flushed here, not on drop: a drop swallows the error of a disk that filled up at the end.
+        out.flush()?;
+        Ok(())
+    });
+    if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, path).map_err(Into::into)) {
+        let _ = std::fs::remove_file(&tmp);
+        let reason = e
+            .chain()
+            .find_map(|cause| cause.downcast_ref::<std::io::Error>())
+            .map_or_else(|| format!("{e:#}"), io_reason);
+        bail!("cannot write {}: {reason}", path.display());
+    }
+    Ok(())
+}
+
+/// The name a file is written under until it is complete: `NAME.partial`.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(PARTIAL);
+    PathBuf::from(name)
 }
 
 impl FrameKind {
@@ -368,6 +386,58 @@ pub fn claim_output_dir(
     Ok(existing)
 }
 
+/// A file a command writes (`bench --json`, `run --export-usd`), checked before the work: a path through a
+/// file, a missing or unwritable folder, or a file in the way fails now, with the fix, not after
+/// minutes of measuring.
+pub fn check_output_file(path: &Path, flag: &str, overwrite: bool) -> Result<()> {
+    if path.is_dir() {
+        bail!("{flag} {} is a directory; give a file name", path.display());
+    }
+    if path.exists() && !overwrite {
+        bail!(
+            "{} exists; pass --overwrite to replace it, or choose another {flag} file",
+            path.display()
+        );
+    }
+    let folder = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if let Some(file) = folder.ancestors().find(|a| a.is_file()) {
+        bail!(
+            "{flag} {}: {} is a file, not a folder; choose a path through folders",
+            path.display(),
+            file.display()
+        );
+    }
+    if !folder.is_dir() {
+        bail!(
+            "{flag} {}: the folder {} does not exist; create it, or choose another path",
+            path.display(),
+            folder.display()
+        );
+    }
+    // A probe file, not the file itself: a run that fails later must not leave an empty report.
+    let probe = folder.join(".mpm-write-check");
+    std::fs::File::create(&probe)
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{flag} {}: cannot write into {}: {}",
+                path.display(),
+                folder.display(),
+                io_reason(&e)
+            )
+        })?;
+    if path.exists() {
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(|e| anyhow::anyhow!("{flag}: cannot replace {}: {}", path.display(), io_reason(&e)))?;
+    }
+    Ok(())
+}
+
 /// Removes the files of `dir` that `unfinished` names (a killed run's half-written files), returning
 /// them; nothing where `dir` does not exist yet.
 fn remove_unfinished(dir: &Path, unfinished: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>> {
@@ -458,29 +528,36 @@ pub fn write_ply(
         }
         out.write_all(&[particles.material[i]])?;
         if deformed {
-            let law = materials.get(usize::from(particles.material[i])).map(|m| &m.law);
-            let (j, von_mises) = match law {
-                Some(law) if law.is_solid() => {
-                    let d = &particles.deformation[i];
-                    (
-                        solid::volume_ratio(law, d.f, d.plastic),
-                        solid::von_mises(law, d.f, d.plastic),
-                    )
-                }
-                Some(law) if law.is_elastoviscoplastic() => {
-                    let d = &particles.deformation[i];
-                    (
-                        law.rest_density / particles.rho[i],
-                        solid::von_mises(law, d.f, d.plastic),
-                    )
-                }
-                Some(law) => (law.rest_density / particles.rho[i], 0.0),
-                None => (1.0, 0.0),
-            };
+            let (j, von_mises) = deformation_measures(particles, i, materials);
             out.write_all(&j.to_le_bytes())?;
             out.write_all(&von_mises.to_le_bytes())?;
         }
     }
     out.flush()?;
     Ok(())
+}
+
+/// Particle `i`'s [`PLY_SOLID_PROPERTIES`], `(J, von_mises)`, where the particles carry a
+/// deformation: a solid's volume ratio and von Mises stress, an elastoviscoplastic liquid's rest
+/// density over its density and its elastic part's stress, another liquid's density ratio and 0.
+pub fn deformation_measures(particles: &Particles, i: usize, materials: &[NamedMaterial]) -> (f32, f32) {
+    let law = materials.get(usize::from(particles.material[i])).map(|m| &m.law);
+    match law {
+        Some(law) if law.is_solid() => {
+            let d = &particles.deformation[i];
+            (
+                solid::volume_ratio(law, d.f, d.plastic),
+                solid::von_mises(law, d.f, d.plastic),
+            )
+        }
+        Some(law) if law.is_elastoviscoplastic() => {
+            let d = &particles.deformation[i];
+            (
+                law.rest_density / particles.rho[i],
+                solid::von_mises(law, d.f, d.plastic),
+            )
+        }
+        Some(law) => (law.rest_density / particles.rho[i], 0.0),
+        None => (1.0, 0.0),
+    }
 }

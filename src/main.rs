@@ -8,8 +8,9 @@ use mpm::checkpoint::{Checkpoint, CheckpointSeries};
 use mpm::export::bodies::BodyExporter;
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
+use mpm::export::usd::UsdCache;
 use mpm::export::volume::{VolumeExporter, VolumeFormat, VolumeOverrides, VolumeSettings};
-use mpm::export::PlyExporter;
+use mpm::export::{check_output_file, PlyExporter};
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
 use mpm::sim::{presets, Pipeline, ScatterMode, Scene, Simulation};
@@ -71,6 +72,8 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
         "--export-surface",
         "--export-volume",
         "--export-bodies",
+        "--export-usd",
+        "--usd-surface",
         "--stats",
         "--checkpoint",
         "--resume",
@@ -124,8 +127,9 @@ enum Command {
 }
 
 #[derive(clap::Args)]
-#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_volume", "export_bodies"]).multiple(true))]
-#[command(group = clap::ArgGroup::new("surface_field").args(["export_surface", "export_volume"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_volume", "export_bodies", "export_usd"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("surface_on").args(["export_surface", "usd_surface"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("field_on").args(["export_surface", "usd_surface", "export_volume"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
@@ -168,7 +172,18 @@ struct RunArgs {
     /// table bodies.csv (a row a body a frame). The scene must have rigid bodies.
     #[arg(long, value_name = "DIR")]
     export_bodies: Option<PathBuf>,
-    /// Export every K-th frame (--export, --export-surface, --export-volume and --export-bodies).
+    /// Write the run as a USD stage: this .usda file (the root layer: stage metadata, the prims, the
+    /// colliders' meshes) and a layer a frame in FILE_clips/ (value clips): the particles as a Points
+    /// prim, the moving colliders' transforms, and with --usd-surface or --export-surface the surface
+    /// mesh; at 60 time codes a second, frame 0 and every K-th frame.
+    #[arg(long, value_name = "FILE")]
+    export_usd: Option<PathBuf>,
+    /// Reconstruct the water surface into the --export-usd stage (the --surface-* options apply),
+    /// without mesh files of its own; --export-surface puts its meshes in the stage too.
+    #[arg(long, requires = "export_usd")]
+    usd_surface: bool,
+    /// Export every K-th frame (--export, --export-surface, --export-volume, --export-bodies and
+    /// --export-usd).
     #[arg(long, value_name = "K", default_value_t = 1, requires = "frame_export", allow_negative_numbers = true,
           value_parser = count::<1>)]
     every: u64,
@@ -198,19 +213,19 @@ struct RunArgs {
 struct SurfaceArgs {
     /// Particle radius, m, of the surface meshes and volumes [default: dx / (2 n) for n^3 particles
     /// per cell: the particle's share of the spawn lattice, as a cube of edge 2 r].
-    #[arg(long, value_name = "M", requires = "surface_field", allow_negative_numbers = true,
+    #[arg(long, value_name = "M", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_particle_radius: Option<f32>,
     /// Kernel smoothing length, in particle radii (the kernel reaches twice as far) [default: 2].
-    #[arg(long, value_name = "RADII", requires = "surface_field", allow_negative_numbers = true,
+    #[arg(long, value_name = "RADII", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_smoothing_length: Option<f32>,
     /// Iso-surface threshold, a fraction of rest density [default: 0.6].
-    #[arg(long, value_name = "FRACTION", requires = "surface_field", allow_negative_numbers = true,
+    #[arg(long, value_name = "FRACTION", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_threshold: Option<f32>,
     /// Marching-cubes cell edge, in particle radii (smaller: finer and slower) [default: 1].
-    #[arg(long, value_name = "RADII", requires = "export_surface", allow_negative_numbers = true,
+    #[arg(long, value_name = "RADII", requires = "surface_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_cube_size: Option<f32>,
 }
@@ -448,61 +463,6 @@ fn block_size(text: &str) -> Result<u32, String> {
         ));
     }
     Ok(n as u32)
-}
-
-/// A file a command writes at its end (`bench --json`), checked before the work: a path through a
-/// file, a missing or unwritable folder, or a file in the way fails now, with the fix, not after
-/// minutes of measuring.
-fn check_output_file(path: &std::path::Path, flag: &str, overwrite: bool) -> Result<()> {
-    if path.is_dir() {
-        anyhow::bail!("{flag} {} is a directory; give a file name", path.display());
-    }
-    if path.exists() && !overwrite {
-        anyhow::bail!(
-            "{} exists; pass --overwrite to replace it, or choose another {flag} file",
-            path.display()
-        );
-    }
-    let folder = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    if let Some(file) = folder.ancestors().find(|a| a.is_file()) {
-        anyhow::bail!(
-            "{flag} {}: {} is a file, not a folder; choose a path through folders",
-            path.display(),
-            file.display()
-        );
-    }
-    if !folder.is_dir() {
-        anyhow::bail!(
-            "{flag} {}: the folder {} does not exist; create it, or choose another path",
-            path.display(),
-            folder.display()
-        );
-    }
-    // A probe file, not the file itself: a run that fails later must not leave an empty report.
-    let probe = folder.join(".mpm-write-check");
-    std::fs::File::create(&probe)
-        .and_then(|_| std::fs::remove_file(&probe))
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "{flag} {}: cannot write into {}: {}",
-                path.display(),
-                folder.display(),
-                mpm::text::io_reason(&e)
-            )
-        })?;
-    if path.exists() {
-        std::fs::OpenOptions::new().append(true).open(path).map_err(|e| {
-            anyhow::anyhow!(
-                "{flag}: cannot replace {}: {}",
-                path.display(),
-                mpm::text::io_reason(&e)
-            )
-        })?;
-    }
-    Ok(())
 }
 
 /// `render --frames`: the PNG names have five digits.
@@ -823,7 +783,10 @@ fn run(args: RunArgs) -> Result<()> {
         ),
     };
     args.solver.apply(&mut scene);
-    if args.export_bodies.is_some() {
+    // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
+    // (the exporter checks the run's scene, which has them, again).
+    let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());
+    if args.export_bodies.is_some() && dropped == 0 {
         mpm::export::bodies::check_scene(&scene)?;
     }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
@@ -868,6 +831,24 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|dir| BodyExporter::new(dir, args.every, scene, args.overwrite))
         .transpose()?;
+    // The stage holds the surface wherever it is reconstructed (--export-surface, --usd-surface).
+    let usd = args
+        .export_usd
+        .as_deref()
+        .map(|path| {
+            let surface = args.usd_surface || surface.is_some();
+            UsdCache::create(path, scene, args.every, surface, args.overwrite).map(std::sync::Arc::new)
+        })
+        .transpose()?;
+    let surface = match (surface, &usd) {
+        (Some(exporter), Some(usd)) => Some(exporter.with_usd(usd.clone())),
+        (None, Some(usd)) if args.usd_surface => Some(SurfaceExporter::for_usd(
+            usd.clone(),
+            args.every,
+            SurfaceSettings::for_scene(scene, args.surface.overrides())?,
+        )?),
+        (surface, _) => surface,
+    };
     let stats = args
         .stats
         .as_deref()
@@ -883,6 +864,7 @@ fn run(args: RunArgs) -> Result<()> {
         surface.as_ref().and_then(SurfaceExporter::removed_note),
         volume.as_ref().and_then(VolumeExporter::removed_note),
         bodies.as_ref().and_then(BodyExporter::removed_note),
+        usd.as_deref().and_then(UsdCache::removed_note),
         checkpoints.as_ref().and_then(CheckpointSeries::removed_note),
     ];
     for note in notes.into_iter().flatten() {
@@ -919,9 +901,8 @@ fn run(args: RunArgs) -> Result<()> {
     if let Some(surface) = &surface {
         writeln!(
             std::io::stdout(),
-            "surface meshes: {} into {}; {}",
-            surface.format().extension(),
-            surface.dir().display(),
+            "surface meshes: {}; {}",
+            surface.destination(),
             surface.settings().describe()
         )?;
     }
@@ -949,6 +930,7 @@ fn run(args: RunArgs) -> Result<()> {
         surface,
         volume,
         bodies,
+        usd,
         stats,
         checkpoints,
         progress: std::io::stdout().is_terminal(),

@@ -1,12 +1,12 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, volumes and the rigid
-//! bodies.
+//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, volumes, the rigid bodies
+//! and a USD stage.
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
-use crate::export::queue::{Done, Export, Progress, Queue};
-use crate::export::surface::{SurfaceExporter, SurfaceJob, SurfaceQueue};
-use crate::export::volume::{VolumeExporter, VolumeJob, VolumeQueue};
+use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use crate::export::usd::{UsdCache, UsdFrame, UsdQueue};
+use crate::export::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -14,6 +14,7 @@ use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 pub struct RunOptions {
@@ -28,6 +29,9 @@ pub struct RunOptions {
     pub volume: Option<VolumeExporter>,
     /// Writes the rigid bodies' meshes and poses of the initial state and every K-th frame.
     pub bodies: Option<BodyExporter>,
+    /// Writes the USD stage's layer of the initial state and of every K-th frame, on a thread of its
+    /// own (the surface's layers come from `surface`'s workers).
+    pub usd: Option<Arc<UsdCache>>,
     pub stats: Option<StatsFile>,
     /// Writes the state every K-th frame and at the last one.
     pub checkpoints: Option<CheckpointSeries>,
@@ -376,24 +380,27 @@ fn frame_comment(sim: &Simulation) -> String {
     )
 }
 
-/// The frame's particle file and surface and volume jobs, for the exports that want this frame: the
-/// particles are copied to the host only then.
+/// The frame's particle file and surface job, for the exports that want this frame: the particles
+/// are copied to the host only then.
 fn export_frame(
     sim: &mut Simulation,
     exporter: Option<&PlyExporter>,
     surface: Option<&mut SurfaceQueue>,
+    usd: Option<&mut UsdQueue>,
+    on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
     volume: Option<&mut VolumeQueue>,
-    on_done: &mut dyn FnMut(&Done, Progress),
+    on_volume: &mut dyn FnMut(&VolumeDone, VolumeProgress),
 ) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
     let surface = surface.filter(|q| q.exporter().wants(frame));
+    let usd = usd.filter(|q| q.cache().wants(frame));
     let volume = volume.filter(|q| q.exporter().wants(frame));
-    if ply.is_none() && surface.is_none() && volume.is_none() {
+    if ply.is_none() && surface.is_none() && usd.is_none() && volume.is_none() {
         return Ok(false);
     }
     let comment = frame_comment(sim);
-    let particles = sim.solver_mut().read_particles()?.live_only();
+    let mut particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
         exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
     }
@@ -404,15 +411,30 @@ fn export_frame(
             positions: particles.x.clone(),
             velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
         };
-        queue.submit(job, on_done)?;
+        queue.submit(job, on_volume)?;
     }
     if let Some(queue) = surface {
         let job = SurfaceJob {
             frame,
-            comment,
-            positions: particles.x,
+            comment: comment.clone(),
+            // The USD layer needs the positions too.
+            positions: match usd {
+                Some(_) => particles.x.clone(),
+                None => std::mem::take(&mut particles.x),
+            },
         };
-        queue.submit(job, on_done)?;
+        queue.submit(job, on_mesh)?;
+    }
+    if let Some(queue) = usd {
+        let poses = queue.cache().poses(sim);
+        // The stage has no use for the APIC matrices: a third of what a queued frame would hold.
+        particles.c = Vec::new();
+        queue.submit(UsdFrame {
+            frame,
+            comment,
+            particles,
+            poses,
+        })?;
     }
     Ok(ply.is_some())
 }
@@ -431,15 +453,15 @@ fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Resul
 
 /// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
 /// simulation waited for them.
-pub fn surface_summary(p: &Progress, files: &str, after_last_frame: Duration) -> String {
+pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
     format!(
         "surface: {} ({files}), {} triangles on average, {:.3} s per mesh (reconstruction {:.3} s, \
          writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
          {:.2} s for the last meshes",
         crate::text::count(p.done, "mesh", "meshes"),
-        p.items / p.done.max(1),
-        p.seconds_per_file(),
-        p.build.as_secs_f64() / p.done.max(1) as f64,
+        p.triangles / p.done.max(1),
+        p.seconds_per_mesh(),
+        p.reconstruct.as_secs_f64() / p.done.max(1) as f64,
         p.write.as_secs_f64() / p.done.max(1) as f64,
         p.workers,
         p.waited.as_secs_f64(),
@@ -449,41 +471,20 @@ pub fn surface_summary(p: &Progress, files: &str, after_last_frame: Duration) ->
 
 /// The closing line of a run with `--export-volume`: volumes, seconds per volume, and what the
 /// simulation waited for them.
-pub fn volume_summary(p: &Progress, files: &str, after_last_frame: Duration) -> String {
+pub fn volume_summary(p: &VolumeProgress, files: &str, after_last_frame: Duration) -> String {
     format!(
         "volume: {} ({files}), {} active voxels on average, {:.3} s per volume (grids {:.3} s, \
          writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
          {:.2} s for the last volumes",
         crate::text::count(p.done, "volume", "volumes"),
-        p.items / p.done.max(1),
-        p.seconds_per_file(),
+        p.voxels / p.done.max(1),
+        p.seconds_per_volume(),
         p.build.as_secs_f64() / p.done.max(1) as f64,
         p.write.as_secs_f64() / p.done.max(1) as f64,
         p.workers,
         p.waited.as_secs_f64(),
         after_last_frame.as_secs_f64()
     )
-}
-
-/// Waits for a queue's last files (saying so where the run prints a line per file), then ends its
-/// workers: its closing line, from `summary`.
-fn finish_queue<E: Export>(
-    queue: Queue<E>,
-    files: String,
-    bar: bool,
-    on_done: &mut dyn FnMut(&Done, Progress),
-    summary: fn(&Progress, &str, Duration) -> String,
-) -> Result<String> {
-    let last_frame = Instant::now();
-    let left = queue.progress().queued();
-    if left > 0 && !bar {
-        eprintln!(
-            "simulation done; waiting for {}",
-            crate::text::count(left, E::NOUN.0, E::NOUN.1)
-        );
-    }
-    let done = queue.finish(on_done)?;
-    Ok(summary(&done, &files, last_frame.elapsed()))
 }
 
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
@@ -495,6 +496,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         surface,
         volume,
         mut bodies,
+        usd,
         mut stats,
         checkpoints,
         progress,
@@ -504,26 +506,31 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let mut surface = surface
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;
+    let mut usd = usd.map(UsdQueue::start).transpose()?;
     let mut volume = volume
         .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
         .transpose()?;
-    // Surface and volume progress goes to stderr (stdout has the frame lines): into the bar's
-    // message on a terminal (each export's latest status), else one line per file.
-    let mut statuses: Vec<(&str, String)> = Vec::new();
-    let mut on_done = |file: &Done, progress: Progress| match &bar {
-        Some(bar) => {
-            match statuses.iter_mut().find(|(noun, _)| *noun == progress.noun.0) {
-                Some((_, status)) => *status = progress.status(),
-                None => statuses.push((progress.noun.0, progress.status())),
-            }
-            let line: Vec<&str> = statuses.iter().map(|(_, s)| s.as_str()).collect();
-            bar.set_message(line.join("; "));
-        }
+    // Volume progress as the surface's: the bar's message, or a line per volume on stderr.
+    let mut on_volume = |file: &VolumeDone, progress: VolumeProgress| match &bar {
+        Some(bar) => bar.set_message(progress.status()),
         None => eprintln!(
-            "{}: {} in {:.2} s ({})",
+            "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
             file.path.display(),
-            file.what,
+            file.band,
+            file.liquid,
             (file.build + file.write).as_secs_f64(),
+            progress.status()
+        ),
+    };
+    // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
+    // terminal, else one line per mesh.
+    let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
+        Some(bar) => bar.set_message(progress.status()),
+        None => eprintln!(
+            "{}: {} triangles in {:.2} s ({})",
+            mesh.path.display(),
+            mesh.triangles,
+            (mesh.reconstruct + mesh.write).as_secs_f64(),
             progress.status()
         ),
     };
@@ -531,8 +538,10 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         sim,
         export.as_ref(),
         surface.as_mut(),
+        usd.as_mut(),
+        &mut on_mesh,
         volume.as_mut(),
-        &mut on_done,
+        &mut on_volume,
     )?);
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
@@ -564,16 +573,21 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             sim,
             export.as_ref(),
             surface.as_mut(),
+            usd.as_mut(),
+            &mut on_mesh,
             volume.as_mut(),
-            &mut on_done,
+            &mut on_volume,
         )?);
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
-        // Files finished during this frame are reported now, not at the next exported frame.
+        // Meshes finished during this frame are reported now, not at the next exported frame.
         if let Some(queue) = surface.as_mut() {
-            queue.collect(&mut on_done, false)?;
+            queue.collect(&mut on_mesh, false)?;
+        }
+        if let Some(queue) = usd.as_mut() {
+            queue.collect()?;
         }
         if let Some(queue) = volume.as_mut() {
-            queue.collect(&mut on_done, false)?;
+            queue.collect(&mut on_volume, false)?;
         }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
@@ -593,35 +607,50 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
     let stepping = started.elapsed();
     let surface_line = match surface {
         Some(queue) => {
-            let files = format!(
-                "{} in {}",
-                queue.exporter().format().extension(),
-                queue.exporter().dir().display()
-            );
-            Some(finish_queue(
-                queue,
-                files,
-                bar.is_some(),
-                &mut on_done,
-                surface_summary,
-            )?)
+            let last_frame = Instant::now();
+            let left = queue.progress().queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "surface mesh", "surface meshes")
+                );
+            }
+            let files = queue.exporter().destination();
+            let done = queue.finish(&mut on_mesh)?;
+            Some(surface_summary(&done, &files, last_frame.elapsed()))
         }
         None => None,
     };
     let volume_line = match volume {
         Some(queue) => {
+            let last_frame = Instant::now();
+            let left = queue.progress().queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "volume", "volumes")
+                );
+            }
             let files = format!(
                 "{} in {}",
                 queue.exporter().format().extension(),
                 queue.exporter().dir().display()
             );
-            Some(finish_queue(
-                queue,
-                files,
-                bar.is_some(),
-                &mut on_done,
-                volume_summary,
-            )?)
+            let done = queue.finish(&mut on_volume)?;
+            Some(volume_summary(&done, &files, last_frame.elapsed()))
+        }
+        None => None,
+    };
+    let usd_line = match usd {
+        Some(queue) => {
+            let left = queue.queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "USD layer", "USD layers")
+                );
+            }
+            Some(queue.finish()?)
         }
         None => None,
     };
@@ -640,6 +669,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         writeln!(out, "{line}")?;
     }
     if let Some(line) = volume_line {
+        writeln!(out, "{line}")?;
+    }
+    if let Some(line) = usd_line {
         writeln!(out, "{line}")?;
     }
     if let Some(exporter) = &bodies {

@@ -704,6 +704,26 @@ fn a_version_2_checkpoint_of_several_liquids_loads_as_it_was() {
     assert_eq!(Checkpoint::read(&file).unwrap(), current);
 }
 
+/// The bytes an earlier format `version` wrote for `cp`'s state, where that format is today's
+/// without the counts `missing` in its JSON (each 0 in `cp`: nothing of theirs follows).
+fn without_counts(cp: &Checkpoint, version: u32, missing: &[&str]) -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    let now = dir.path().join("now.mpmck");
+    cp.write_new(&now).unwrap();
+    let file = std::fs::read(&now).unwrap();
+    let meta_len = u64::from_le_bytes(file[24..32].try_into().unwrap()) as usize;
+    let mut meta: serde_json::Value = serde_json::from_slice(&file[32..32 + meta_len]).unwrap();
+    for key in missing {
+        assert_eq!(meta[key], 0, "{key}");
+        meta.as_object_mut().unwrap().remove(*key);
+    }
+    let meta = serde_json::to_vec(&meta).unwrap();
+    let mut body = (meta.len() as u64).to_le_bytes().to_vec();
+    body.extend(&meta);
+    body.extend(&file[32 + meta_len..file.len() - 4]);
+    checkpoint_file(version, body)
+}
+
 /// A checkpoint of format version 3, written before checkpoints held rigid bodies (its JSON names no
 /// body count, and nothing follows the lifecycle), loads as the same state without bodies.
 #[test]
@@ -711,20 +731,27 @@ fn a_version_3_checkpoint_loads_as_one_without_bodies() {
     let mut sim = small_sim(1);
     let current = Checkpoint::capture(&mut sim).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let now = dir.path().join("now.mpmck");
-    current.write_new(&now).unwrap();
-    let file = std::fs::read(&now).unwrap();
-    let meta_len = u64::from_le_bytes(file[24..32].try_into().unwrap()) as usize;
-    let mut meta: serde_json::Value = serde_json::from_slice(&file[32..32 + meta_len]).unwrap();
-    assert_eq!(meta["bodies"], 0);
-    meta.as_object_mut().unwrap().remove("bodies");
-    let meta = serde_json::to_vec(&meta).unwrap();
-    let mut body = (meta.len() as u64).to_le_bytes().to_vec();
-    body.extend(&meta);
-    body.extend(&file[32 + meta_len..file.len() - 4]);
     let v3 = dir.path().join("v3.mpmck");
-    std::fs::write(&v3, checkpoint_file(3, body)).unwrap();
+    std::fs::write(&v3, without_counts(&current, 3, &["bodies", "dropped"])).unwrap();
     assert_eq!(Checkpoint::read(&v3).unwrap(), current);
+}
+
+/// A checkpoint of format version 4, written before bodies could be dropped into a run (its JSON
+/// names no dropped count, and nothing follows the rigid bodies), loads as the same state, its scene's
+/// bodies and all, without dropped bodies.
+#[test]
+fn a_version_4_checkpoint_loads_as_one_without_dropped_bodies() {
+    let scene = common::scene(&common::log_thrown_into_a_pool());
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    sim.advance_frame().unwrap();
+    let current = Checkpoint::capture(&mut sim).unwrap();
+    assert_eq!(current.bodies.states.len(), 1);
+    let dir = tempfile::tempdir().unwrap();
+    let v4 = dir.path().join("v4.mpmck");
+    std::fs::write(&v4, without_counts(&current, 4, &["dropped"])).unwrap();
+    let read = Checkpoint::read(&v4).unwrap();
+    assert_eq!(read, current);
+    assert!(read.dropped.is_empty());
 }
 
 /// A scene with a jelly: the checkpoint carries each particle's deformation, reads back as written,
@@ -882,5 +909,137 @@ fn a_checkpoint_whose_bodies_are_not_its_scenes_is_refused() {
     assert!(
         text.contains("rigid body 0 is collider 3") && text.contains("makes it collider 0"),
         "{text}"
+    );
+
+    // A body dropped into the run without its state, and one that fits no tank.
+    let ball = |x: f64| mpm::sim::dropped::DroppedBody {
+        shape: mpm::sim::dropped::DropShape::Ball { radius: 0.015 },
+        density: 2000.0,
+        center: glam::DVec3::new(x, 0.17, 0.035),
+    };
+    let mut stateless = cp.clone();
+    stateless.dropped = vec![ball(0.05)];
+    let file = dir.path().join("stateless.mpmck");
+    stateless.write_new(&file).unwrap();
+    let text = format!("{:#}", Checkpoint::read(&file).unwrap().scene().unwrap_err());
+    assert!(
+        text.contains("holds 1 rigid body but its scene has 2")
+            && text.contains("counting the 1 dropped into the run"),
+        "{text}"
+    );
+    let mut outside = cp.clone();
+    outside.dropped = vec![ball(0.21)];
+    let file = dir.path().join("outside.mpmck");
+    outside.write_new(&file).unwrap();
+    let text = format!("{:#}", Checkpoint::read(&file).unwrap().scene().unwrap_err());
+    assert!(
+        text.contains("does not fit its scene") && text.contains("the walls hold the bodies"),
+        "{text}"
+    );
+}
+
+/// A ball and a box dropped into the steel-log pool ([`common::log_thrown_into_a_pool`]) after its
+/// first frame, beside the log as it lands, then checkpointed two frames later: the checkpoint holds
+/// the three bodies and the two drops and reads back as written; its scene, as the file gives it,
+/// has the file's one collider and spawns its particle count (a restart has no dropped body); and
+/// the run resumed from it, by the library and by `mpm run --resume`, ends two frames later on the
+/// bytes of the uninterrupted run's checkpoint.
+#[test]
+fn a_run_with_dropped_bodies_resumes_byte_identical() {
+    use glam::DVec3;
+    use mpm::sim::dropped::{DropShape, DroppedBody};
+    let scene = common::scene(&common::log_thrown_into_a_pool());
+    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
+    sim.advance_frame().unwrap();
+    let drops = [
+        DroppedBody {
+            shape: DropShape::Ball { radius: 0.015 },
+            density: 2000.0,
+            center: DVec3::new(0.05, 0.17, 0.035),
+        },
+        DroppedBody {
+            shape: DropShape::Box {
+                size: DVec3::new(0.04, 0.04, 0.048),
+            },
+            density: 500.0,
+            center: DVec3::new(0.19, 0.17, 0.035),
+        },
+    ];
+    for body in drops {
+        sim.drop_body(body).unwrap();
+    }
+    for _ in 0..2 {
+        sim.advance_frame().unwrap();
+    }
+    let saved = Checkpoint::capture(&mut sim).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("dropped.mpmck");
+    saved.write_new(&file).unwrap();
+    let read = Checkpoint::read(&file).unwrap();
+    assert_eq!(
+        read, saved,
+        "the checkpoint read back differs from the state saved"
+    );
+    assert_eq!(read.dropped, drops);
+    assert_eq!(read.bodies.states.len(), 3);
+    let restart = read.scene().unwrap();
+    assert_eq!(restart.colliders.len(), 1, "the scene as its file gives it");
+    assert_eq!(restart.num_particles, scene.num_particles);
+
+    let mut resumed = read.resume(read.scene().unwrap(), BackendKind::Cpu).unwrap();
+    assert_eq!(resumed.dropped(), &drops);
+    assert_eq!(resumed.scene().colliders.len(), 3);
+    for _ in 0..2 {
+        resumed.advance_frame().unwrap();
+        sim.advance_frame().unwrap();
+    }
+    let bytes = |sim: &mut Simulation, name: &str| {
+        let path = dir.path().join(name);
+        Checkpoint::capture(sim).unwrap().write_new(&path).unwrap();
+        std::fs::read(path).unwrap()
+    };
+    let uninterrupted = bytes(&mut sim, "uninterrupted.mpmck");
+    assert!(
+        bytes(&mut resumed, "resumed.mpmck") == uninterrupted,
+        "the resumed run's state is not byte-identical to the uninterrupted run's"
+    );
+    let out = dir.path().join("out");
+    resume_for_two_frames(&["run"], &file, &out);
+    assert!(
+        std::fs::read(out.join("checkpoint_000005.mpmck")).unwrap() == uninterrupted,
+        "the run resumed by `mpm run --resume` is not byte-identical to the uninterrupted run"
+    );
+    // `--export-bodies` takes the dropped bodies as bodies (the scene file has one; the run three):
+    // a row each, colliders 0, 1 and 2, at the frame resumed from and the next.
+    let posed = dir.path().join("bodies");
+    ok(&mpm(&[
+        "run",
+        "--resume",
+        path(&file),
+        "--frames",
+        "1",
+        "--export-bodies",
+        path(&posed),
+    ]));
+    let table = std::fs::read_to_string(posed.join("bodies.csv")).unwrap();
+    let rows: Vec<(&str, &str)> = table
+        .lines()
+        .skip(1)
+        .map(|row| {
+            let mut columns = row.split(',');
+            (columns.next().unwrap(), columns.nth(1).unwrap())
+        })
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            ("3", "0"),
+            ("3", "1"),
+            ("3", "2"),
+            ("4", "0"),
+            ("4", "1"),
+            ("4", "2")
+        ],
+        "{table}"
     );
 }

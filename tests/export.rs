@@ -103,6 +103,7 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
             surface: None,
             volume: None,
             bodies: None,
+            usd: None,
             stats: Some(StatsFile::create(&stats, overwrite)?),
             checkpoints: None,
             progress: false,
@@ -191,6 +192,7 @@ fn overwrite_leaves_one_run_in_the_folder() {
             surface: None,
             volume: None,
             bodies: None,
+            usd: None,
             stats: None,
             checkpoints: None,
             progress: false,
@@ -256,6 +258,7 @@ fn a_huge_frame_count_does_not_abort() {
         surface: None,
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,
@@ -307,6 +310,7 @@ material = "water"
         surface: None,
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,
@@ -515,5 +519,94 @@ fn export_bodies_refuses_a_scene_without_bodies_and_existing_files() {
     assert_eq!(
         std::fs::read_to_string(mine.join("bodies.csv")).unwrap(),
         "my notes"
+    );
+}
+
+/// `--export-usd` is checked before any work: a name that is not `.usda`/`.usd`, a missing folder
+/// and an earlier run's stage (left as it was, no clip folder made) are refused with the fix;
+/// `--overwrite` replaces the stage, saying so; `--usd-surface` needs `--export-usd`. The files
+/// written: the root layer, and in `NAME_clips/` the manifest and a layer a frame (what the stage
+/// holds is checked through USD's own library in tests/usd_readers.rs).
+#[test]
+fn export_usd_refuses_bad_paths_and_earlier_stages_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |path: &std::path::Path| path.to_str().unwrap().to_string();
+    let stderr = |out: &std::process::Output| String::from_utf8_lossy(&out.stderr).into_owned();
+    let binary = common::cpu_run(
+        "dam-break-coarse",
+        "0",
+        &["--export-usd", &p(&dir.path().join("a.usdc"))],
+    );
+    assert!(!binary.status.success());
+    assert!(
+        stderr(&binary).contains("name a .usda file"),
+        "{}",
+        stderr(&binary)
+    );
+    let missing = dir.path().join("no/such/folder/a.usda");
+    let out = common::cpu_run("dam-break-coarse", "0", &["--export-usd", &p(&missing)]);
+    assert!(
+        stderr(&out).contains("does not exist; create it"),
+        "{}",
+        stderr(&out)
+    );
+    let out = common::cpu_run("dam-break-coarse", "0", &["--usd-surface"]);
+    assert!(
+        !out.status.success() && stderr(&out).contains("--export-usd"),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(
+        names_in(dir.path()),
+        Vec::<String>::new(),
+        "nothing is left behind"
+    );
+
+    let stage = dir.path().join("dam.usda");
+    let stdout = ok(&common::cpu_run(
+        "dam-break-coarse",
+        "2",
+        &["--export-usd", &p(&stage), "--every", "2"],
+    ));
+    assert!(stdout.contains("usd: 2 frames in"), "{stdout}");
+    assert_eq!(names_in(dir.path()), ["dam.usda", "dam_clips"]);
+    assert_eq!(
+        names_in(&dir.path().join("dam_clips")),
+        [
+            "particles.manifest.usda",
+            "particles_000000.usda",
+            "particles_000002.usda"
+        ]
+    );
+    let written = std::fs::read(&stage).unwrap();
+    let again = common::cpu_run("dam-break-coarse", "1", &["--export-usd", &p(&stage)]);
+    assert!(!again.status.success());
+    assert!(
+        stderr(&again).contains("exists; pass --overwrite to replace it"),
+        "{}",
+        stderr(&again)
+    );
+    assert_eq!(
+        std::fs::read(&stage).unwrap(),
+        written,
+        "the earlier stage is untouched"
+    );
+    let replaced = ok(&common::cpu_run(
+        "dam-break-coarse",
+        "1",
+        &["--export-usd", &p(&stage), "--overwrite"],
+    ));
+    assert!(
+        replaced.contains("--overwrite: removed the earlier")
+            && replaced.contains("removed 3 USD particle layers"),
+        "{replaced}"
+    );
+    assert_eq!(
+        names_in(&dir.path().join("dam_clips")),
+        [
+            "particles.manifest.usda",
+            "particles_000000.usda",
+            "particles_000001.usda"
+        ]
     );
 }

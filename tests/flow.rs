@@ -133,6 +133,7 @@ fn parked_slots_are_seen_by_nothing() {
         surface: None,
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,

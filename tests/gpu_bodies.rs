@@ -1,6 +1,6 @@
 //! Rigid bodies on the GPU (docs/physics.md, "Rigid bodies"): the device's bodies against the CPU
-//! reference's, fixed point byte-identical run to run, and the floating logs of tests/bodies.rs at
-//! finer cells. Run with `cargo test --release --test gpu_bodies`; without a GPU each case reports
+//! reference's, bodies dropped into a running scene among them, fixed point byte-identical run to
+//! run, and the floating logs of tests/bodies.rs at finer cells. Run with `cargo test --release --test gpu_bodies`; without a GPU each case reports
 //! itself as not run.
 
 use glam::DVec3;
@@ -19,6 +19,7 @@ fn main() -> std::process::ExitCode {
             bodies_follow_the_cpu,
             bodies_in_fixed_point_are_byte_identical,
             a_pile_of_boxes_follows_the_cpu,
+            dropped_bodies_follow_the_cpu,
             a_sphere_settles_at_stokes_velocity,
             logs_float_at_their_draft_and_angle_at_finer_cells,
         ],
@@ -114,6 +115,59 @@ fn a_pile_of_boxes_follows_the_cpu() {
     );
 }
 
+/// A box and a ball dropped at the tenth frame ([`bodies_checks::drop_box_and_ball`], 1 cm cells,
+/// fixed point) into the tank of still water, the run's first bodies (the drop turns the device's
+/// exchange on, and their collider slots are new), and either side of the floating log of
+/// [`bodies_checks::log_in_water`] (its state and pending sums read back and kept, its slot placed
+/// again): 20 frames later each of the device's bodies is where the CPU's is within a tenth of a
+/// cell and moves at its velocity within 2 cm/s; a second device run gives the same bytes, bodies
+/// and particles. H200, 2026-11-29: at most 0.002 cells and 0.0001 m/s apart; with the device's
+/// collider states left as they were uploaded before the drop (no slot placed for the new bodies),
+/// the log's scene missed by 1.4 cells.
+fn dropped_bodies_follow_the_cpu() {
+    let dx = 0.01f32;
+    let fixed = "[solver]\nscatter = \"fixed-point\"\n";
+    let scenes = [
+        ("into still water", bodies_checks::tank_of_water(dx, fixed)),
+        (
+            "beside a floating log",
+            bodies_checks::log_in_water(dx, 0.1, 500.0, 5.0, 0.0, fixed),
+        ),
+    ];
+    for (name, scene) in scenes {
+        let (cpu, _) = bodies_checks::drop_box_and_ball(&scene, BackendKind::Cpu);
+        let (gpu, gpu_particles) = bodies_checks::drop_box_and_ball(&scene, BackendKind::Cuda);
+        let (again, again_particles) = bodies_checks::drop_box_and_ball(&scene, BackendKind::Cuda);
+        assert_eq!(gpu.len(), cpu.len(), "{name}: the GPU has {} bodies", gpu.len());
+        for (k, (c, g)) in cpu.iter().zip(&gpu).enumerate() {
+            let gap = (DVec3::from_array(c.center) - DVec3::from_array(g.center)).length();
+            let speed_gap = (DVec3::from_array(c.velocity) - DVec3::from_array(g.velocity)).length();
+            println!(
+                "{name}, body {k}: CPU at {:?}, GPU at {:?}: {:.3} cells apart, velocities {speed_gap:.4} m/s apart",
+                c.center,
+                g.center,
+                gap / f64::from(dx)
+            );
+            assert!(
+                gap < 0.1 * f64::from(dx),
+                "{name}: the GPU's body {k} is {gap} m from the CPU's"
+            );
+            assert!(
+                speed_gap < 0.02,
+                "{name}: the GPU's body {k} moves {speed_gap} m/s apart from the CPU's"
+            );
+        }
+        assert!(
+            bytemuck::cast_slice::<_, u8>(&gpu) == bytemuck::cast_slice::<_, u8>(&again),
+            "{name}: two fixed-point runs' bodies differ"
+        );
+        assert!(
+            common::same_particles(&gpu_particles, &again_particles),
+            "{name}: two fixed-point runs' particles differ"
+        );
+    }
+}
+
 /// Stokes' law: a sphere 2 cm across of 2000 kg/m^3 let go in a liquid of 15 Pa s and 1000 kg/m^3
 /// on the axis of a test tube five of its radii wide ([`bodies_checks::sphere_in_tube`]) settles
 /// at Stokes' terminal velocity 2 (rho_s - rho) g a^2 / (9 mu) = 14.5 mm/s (Reynolds number 0.02)
@@ -121,7 +175,11 @@ fn a_pile_of_boxes_follows_the_cpu() {
 /// cells across the radius. Gravity comes in over the first 0.1 s (the column then settles without
 /// ringing); the speed is the sphere's fall over the last quarter of two tube-filling times
 /// (R^2 / nu) over that time, which averages out what sound is left. `MPM_STOKES_CELLS` (a
-/// comma-separated list; default 6,8) sets the resolutions run; the finest is asserted.
+/// comma-separated list; default 6,8) sets the resolutions run; the finest is asserted. In fixed
+/// point, so a run gives the same number every time (`MPM_STOKES_SCATTER=float` runs the float
+/// scatter, whose 8-cell figure moved between +4.1 and +10.1 % from run to run on the H200). H200,
+/// 2026-11-29, fixed point: +7.3 % at 8 cells; at 10 cells -32.6 %, the sphere still slowing at
+/// the window's end (as it is, less, at 8): the fall is not yet steady there (issue 42).
 fn a_sphere_settles_at_stokes_velocity() {
     let (radius, viscosity) = (0.01, 15.0);
     let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
@@ -139,7 +197,9 @@ fn a_sphere_settles_at_stokes_velocity() {
     let mut last = 0.0;
     for &n in &cells {
         let dir = tempfile::tempdir().unwrap();
-        let (scene, fill) = bodies_checks::sphere_in_tube(n, radius, viscosity, dir.path());
+        let scatter = std::env::var("MPM_STOKES_SCATTER").unwrap_or_else(|_| "fixed-point".into());
+        let scatter = format!("[solver]\nscatter = \"{scatter}\"\n");
+        let (scene, fill) = bodies_checks::sphere_in_tube(n, radius, viscosity, &scatter, dir.path());
         let mut sim = materials_checks::simulation(&scene, BackendKind::Cuda);
         let frames = (2.0 * fill * 60.0).ceil() as u32;
         let window_start = frames - frames / 4;

@@ -397,6 +397,7 @@ velocity = [50.0, 0.0, 0.0]
         surface: None,
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,

@@ -301,6 +301,7 @@ fn run_with_surface(
         surface: Some(SurfaceExporter::new(dir, every, format, settings, false).unwrap()),
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,
@@ -392,7 +393,7 @@ fn every_format_reads_back_to_the_same_mesh() {
             [format!("surface_000007.{}", format.extension())]
         );
         let exported = read(&done.path);
-        assert_eq!(done.items, exported.triangles.len() as u64);
+        assert_eq!(done.triangles, exported.triangles.len());
         check_closed_outward(&exported, volume, &format!("{format:?} exported"));
     }
 }
@@ -415,6 +416,7 @@ fn a_failed_write_on_a_worker_stops_the_run() {
         surface: Some(exporter),
         volume: None,
         bodies: None,
+        usd: None,
         stats: None,
         checkpoints: None,
         progress: false,

@@ -125,9 +125,10 @@ fn a_resting_block_reads_back_as_its_level_set_and_density() {
     let started = std::time::Instant::now();
     let done = exporter.export(&job).unwrap();
     println!(
-        "exported {} ({}) in {:.3} s",
+        "exported {} ({} voxels in the band, {} in the liquid) in {:.3} s",
         done.path.display(),
-        done.what,
+        done.band,
+        done.liquid,
         started.elapsed().as_secs_f64()
     );
     assert_eq!(done.path, dir.path().join("volume_000005.vdb"));

@@ -43,6 +43,17 @@ impl DeviceColliders {
         })
     }
 
+    /// Takes `bodies` (or none) as the rigid bodies from the next substep on, and makes the next
+    /// upload a first one, which places every body's slot from the states just uploaded: a body
+    /// dropped into a running scene has no slot on the device yet (step_bodies writes a slot's pose,
+    /// never its shape, boundary or body index), and the slot it takes may have held an emitter's
+    /// pipe. The bodies already there get their slots again from their states as read back, in the
+    /// device's rounding: the same bits step_bodies left in them.
+    pub fn set_bodies(&mut self, bodies: Option<DeviceBodies>) {
+        self.bodies = bodies;
+        self.uploaded.clear();
+    }
+
     /// Uploads the states where they changed, and the mesh samples once (in stream order, so the
     /// substeps already enqueued keep the states they were launched with).
     pub fn set(&mut self, stream: &Arc<CudaStream>, frame: &ColliderFrame) -> Result<()> {

@@ -470,12 +470,14 @@ impl Solver for CudaSolver {
             "the {} pipeline moves no rigid bodies; use --pipeline fused (the default)",
             self.pipeline.name()
         );
-        self.state.colliders.bodies = if bodies.states.is_empty() {
+        let uploaded = if bodies.states.is_empty() {
             None
         } else {
             Some(DeviceBodies::upload(self.gpu.stream(), bodies, features, walls)?)
         };
-        // Captured substeps launched without the bodies' step.
+        self.state.colliders.set_bodies(uploaded);
+        // Captured substeps launched the bodies' step over the bodies before (or none), from buffers
+        // that are gone now.
         self.graphs.clear();
         Ok(())
     }

@@ -3,22 +3,24 @@
 //! The surface is reconstructed with `splashsurf_lib`: an SPH density field is built from the
 //! particle positions alone (a cubic spline kernel), and marching cubes extracts the level set at a
 //! fraction of the rest density. The reconstruction runs on worker threads fed by a bounded queue
-//! ([`SurfaceQueue`], [`super::queue`]), so the simulation steps on while meshes are built; it waits
-//! only when the queue is full, which keeps memory bounded on long runs. The volumes
-//! ([`super::volume`]) sample the same field on voxels.
+//! ([`SurfaceQueue`], on [`Workers`]), so the simulation steps on while meshes are built; it waits
+//! only when the queue is full, which keeps memory bounded on long runs. Each mesh goes to its file
+//! (`surface_NNNNNN.obj|ply|vtk`), to the USD cache of `--export-usd` ([`UsdCache`]), or to both.
 //!
 //! Defaults from the scene: the spawn lattice gives each particle a cube of fluid of edge
 //! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
 //! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
 
 use super::mesh_files::{SurfaceFormat, SurfaceMesh};
-use super::queue::{Done, Export, Progress, Queue};
+use super::queue::Workers;
+use super::usd::UsdCache;
 use super::{check_every, FrameDir, FrameKind};
 use crate::sim::Scene;
 use anyhow::{bail, Result};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 /// The surface meshes of `--export-surface`: `surface_NNNNNN.obj|ply|vtk`.
 pub const SURFACE_FRAMES: FrameKind = FrameKind {
@@ -192,12 +194,29 @@ fn vertex_normals(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]
         .collect()
 }
 
-/// Writes `surface_NNNNNN.<format>` meshes into one directory.
+/// Writes `surface_NNNNNN.<format>` meshes into one directory, the USD cache's surface layers, or
+/// both.
 pub struct SurfaceExporter {
-    frames: FrameDir,
+    /// `None` where the meshes go to the USD cache alone (`--usd-surface` without
+    /// `--export-surface`).
+    frames: Option<FrameDir>,
     every: u64,
     format: SurfaceFormat,
     settings: SurfaceSettings,
+    usd: Option<Arc<UsdCache>>,
+}
+
+/// One finished mesh.
+#[derive(Debug, Clone)]
+pub struct MeshDone {
+    pub frame: u64,
+    /// The mesh file, or the USD cache's layer where the mesh has no file of its own.
+    pub path: PathBuf,
+    pub triangles: usize,
+    /// Wall time of the reconstruction (density, marching cubes, normals).
+    pub reconstruct: Duration,
+    /// Wall time of writing the file and the USD layer.
+    pub write: Duration,
 }
 
 /// The particles of one exported frame, on their way to a worker.
@@ -220,23 +239,69 @@ impl SurfaceExporter {
     ) -> Result<SurfaceExporter> {
         check_every(every)?;
         Ok(SurfaceExporter {
-            frames: FrameDir::open(dir, SURFACE_FRAMES, format.extension(), overwrite)?,
+            frames: Some(FrameDir::open(
+                dir,
+                SURFACE_FRAMES,
+                format.extension(),
+                overwrite,
+            )?),
             every,
             format,
             settings,
+            usd: None,
         })
+    }
+
+    /// Meshes for the USD cache alone, no files of their own: `--usd-surface` without
+    /// `--export-surface`.
+    pub fn for_usd(usd: Arc<UsdCache>, every: u64, settings: SurfaceSettings) -> Result<SurfaceExporter> {
+        check_every(every)?;
+        Ok(SurfaceExporter {
+            frames: None,
+            every,
+            format: SurfaceFormat::Obj,
+            settings,
+            usd: Some(usd),
+        })
+    }
+
+    /// Also writes each mesh into the USD cache's surface layers.
+    pub fn with_usd(self, usd: Arc<UsdCache>) -> SurfaceExporter {
+        SurfaceExporter {
+            usd: Some(usd),
+            ..self
+        }
     }
 
     pub fn wants(&self, frame: u64) -> bool {
         frame % self.every == 0
     }
 
-    pub fn path_of(&self, frame: u64) -> PathBuf {
-        self.frames.path_of(frame)
+    /// The mesh file of `frame`, where the meshes have files (`--export-surface`).
+    pub fn path_of(&self, frame: u64) -> Option<PathBuf> {
+        self.frames.as_ref().map(|f| f.path_of(frame))
     }
 
-    pub fn dir(&self) -> &Path {
-        self.frames.dir()
+    /// The mesh files' directory (`--export-surface`), if any.
+    pub fn dir(&self) -> Option<&Path> {
+        self.frames.as_ref().map(FrameDir::dir)
+    }
+
+    /// Where the meshes go, for the user: "obj in out/surface", "the USD cache out/dam.usda", or
+    /// both.
+    pub fn destination(&self) -> String {
+        let files = self
+            .frames
+            .as_ref()
+            .map(|f| format!("{} in {}", self.format.extension(), f.dir().display()));
+        let usd = self
+            .usd
+            .as_ref()
+            .map(|u| format!("the USD cache {}", u.path().display()));
+        match (files, usd) {
+            (Some(files), Some(usd)) => format!("{files} and {usd}"),
+            (files, usd) => files.or(usd).unwrap_or_default(),
+        }
     }
 
     pub fn format(&self) -> SurfaceFormat {
@@ -249,24 +314,33 @@ impl SurfaceExporter {
 
     /// One line for the user about the meshes `--overwrite` removed, or `None`.
     pub fn removed_note(&self) -> Option<String> {
-        self.frames.removed_note()
+        self.frames.as_ref().and_then(FrameDir::removed_note)
     }
 
     /// Reconstructs and writes one frame's mesh, here and now.
-    pub fn export(&self, job: &SurfaceJob) -> Result<Done> {
+    pub fn export(&self, job: &SurfaceJob) -> Result<MeshDone> {
         let start = Instant::now();
         let mesh = reconstruct(&job.positions, &self.settings)?;
         let reconstructed = Instant::now();
         let comment = format!("{}\nsurface: {}", job.comment, self.settings.describe());
-        let path = self
+        let file = self
             .frames
-            .write(job.frame, |out| self.format.write(out, &comment, &mesh))?;
-        Ok(Done {
+            .as_ref()
+            .map(|frames| frames.write(job.frame, |out| self.format.write(out, &comment, &mesh)))
+            .transpose()?;
+        let layer = self
+            .usd
+            .as_ref()
+            .map(|usd| usd.write_surface(job.frame, &comment, &mesh))
+            .transpose()?;
+        let path = file
+            .or(layer)
+            .expect("a surface exporter writes a file or a USD layer");
+        Ok(MeshDone {
             frame: job.frame,
             path,
-            items: mesh.triangles.len() as u64,
-            what: crate::text::count(mesh.triangles.len(), "triangle", "triangles"),
-            build: reconstructed - start,
+            triangles: mesh.triangles.len(),
+            reconstruct: reconstructed - start,
             write: reconstructed.elapsed(),
         })
     }
@@ -274,24 +348,136 @@ impl SurfaceExporter {
     /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
     /// `waiting` more jobs wait for a free worker before `submit` blocks.
     pub fn start(self, workers: usize, waiting: usize) -> Result<SurfaceQueue> {
-        Queue::start(self, workers, waiting)
+        let exporter = Arc::new(self);
+        let worker = exporter.clone();
+        Ok(SurfaceQueue {
+            exporter,
+            workers: Workers::start("surface", workers, waiting, move |job: SurfaceJob| {
+                worker.export(&job)
+            })?,
+            progress: SurfaceProgress::default(),
+        })
     }
 }
 
-impl Export for SurfaceExporter {
-    type Job = SurfaceJob;
-    const NOUN: (&'static str, &'static str) = ("surface mesh", "surface meshes");
-    const SHORT: &'static str = "mesh";
-    const THREAD: &'static str = "surface";
+/// Where the meshes stand: counts and times so far.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SurfaceProgress {
+    /// Meshes handed to the workers.
+    pub submitted: u64,
+    /// Meshes written.
+    pub done: u64,
+    pub triangles: u64,
+    /// Summed over the meshes written.
+    pub reconstruct: Duration,
+    pub write: Duration,
+    /// How long the simulation waited for room in the queue.
+    pub waited: Duration,
+    /// How many worker threads there are.
+    pub workers: usize,
+}
 
-    fn export(&self, job: &SurfaceJob) -> Result<Done> {
-        SurfaceExporter::export(self, job)
+impl SurfaceProgress {
+    /// Meshes handed over and not yet written (in a worker's hands or waiting for one).
+    pub fn queued(&self) -> u64 {
+        self.submitted - self.done
+    }
+
+    /// Mean wall time per mesh (reconstruction and writing), s.
+    pub fn seconds_per_mesh(&self) -> f64 {
+        if self.done == 0 {
+            return 0.0;
+        }
+        (self.reconstruct + self.write).as_secs_f64() / self.done as f64
+    }
+
+    /// "3/5 surface meshes written, 2 queued, 0.84 s per mesh".
+    pub fn status(&self) -> String {
+        format!(
+            "{}/{} surface meshes written, {} queued, {:.2} s per mesh",
+            self.done,
+            self.submitted,
+            self.queued(),
+            self.seconds_per_mesh()
+        )
     }
 }
 
-/// The surface meshes' worker threads and the bounded queue that feeds them.
-pub type SurfaceQueue = Queue<SurfaceExporter>;
-/// Where the meshes stand ([`Progress::items`]: triangles).
-pub type SurfaceProgress = Progress;
-/// One finished mesh ([`Done::items`]: its triangles).
-pub type MeshDone = Done;
+/// The exporter's worker threads and the bounded queue that feeds them.
+pub struct SurfaceQueue {
+    exporter: Arc<SurfaceExporter>,
+    workers: Workers<SurfaceJob, MeshDone>,
+    /// The meshes written so far, summed.
+    progress: SurfaceProgress,
+}
+
+impl SurfaceQueue {
+    pub fn exporter(&self) -> &SurfaceExporter {
+        &self.exporter
+    }
+
+    pub fn progress(&self) -> SurfaceProgress {
+        self.progress.synced(&self.workers)
+    }
+
+    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
+    /// mesh (a full disk) is returned here, so the run stops at the next exported frame.
+    pub fn submit(
+        &mut self,
+        job: SurfaceJob,
+        on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress),
+    ) -> Result<()> {
+        let mut progress = self.progress();
+        let result = self.workers.submit(job, &mut |mesh| {
+            progress.add(&mesh);
+            on_done(&mesh, progress);
+        });
+        self.progress = progress;
+        result
+    }
+
+    /// Takes the meshes finished so far, calling `on_done` for each; with `wait`, until every
+    /// submitted mesh is done. The first failure is returned.
+    pub fn collect(&mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress), wait: bool) -> Result<()> {
+        let mut progress = self.progress();
+        let result = self.workers.collect(
+            &mut |mesh| {
+                progress.add(&mesh);
+                on_done(&mesh, progress);
+            },
+            wait,
+        );
+        self.progress = progress;
+        result
+    }
+
+    /// Waits for every submitted mesh, then ends the workers.
+    pub fn finish(self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
+        let mut progress = self.progress();
+        self.workers.finish(&mut |mesh| {
+            progress.add(&mesh);
+            on_done(&mesh, progress);
+        })?;
+        Ok(progress)
+    }
+}
+
+impl SurfaceProgress {
+    /// These counts with the queue's own (meshes handed over, the simulation's wait, threads).
+    fn synced(self, workers: &Workers<SurfaceJob, MeshDone>) -> SurfaceProgress {
+        SurfaceProgress {
+            submitted: workers.submitted(),
+            waited: workers.waited(),
+            workers: workers.threads(),
+            ..self
+        }
+    }
+
+    /// Counts one more mesh written.
+    fn add(&mut self, mesh: &MeshDone) {
+        self.done += 1;
+        self.triangles += mesh.triangles as u64;
+        self.reconstruct += mesh.reconstruct;
+        self.write += mesh.write;
+    }
+}

@@ -18,10 +18,10 @@
 //!   normalisation, `sum_j V_j v_j W / sum_j V_j W` (`V_j = m / rho_j`), summed by the same loop.
 //!
 //! Voxel `(i, j, k)` sits at `voxel_size * (i, j, k)` in the simulation's coordinates (metres, y up):
-//! every frame's grids share one lattice. The grids are built on the surface meshes' worker
-//! machinery ([`super::queue`]), beside the simulation.
+//! every frame's grids share one lattice. The grids are built on the worker threads the surface
+//! meshes run on ([`Workers`]), beside the simulation.
 
-use super::queue::{Done, Export, Queue};
+use super::queue::Workers;
 use super::surface::{SurfaceOverrides, SurfaceSettings};
 use super::vdb::{self, AnyGrid, Coord, Grid, GridClass, Leaf, Meta, Tree, LEAF_LOG2, LEAF_SIZE};
 use super::{check_every, FrameDir, FrameKind};
@@ -34,7 +34,8 @@ use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 use std::hash::{BuildHasherDefault, Hasher};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 /// The volumes of `--export-volume`: `volume_NNNNNN.vdb`.
 pub const VOLUME_FRAMES: FrameKind = FrameKind {
@@ -846,7 +847,7 @@ impl VolumeExporter {
     }
 
     /// Builds and writes one frame's volume, here and now.
-    pub fn export(&self, job: &VolumeJob) -> Result<Done> {
+    pub fn export(&self, job: &VolumeJob) -> Result<VolumeDone> {
         let start = Instant::now();
         let volumes = build(&job.positions, job.velocities.as_deref(), &self.settings)?;
         let built = Instant::now();
@@ -863,13 +864,11 @@ impl VolumeExporter {
             vdb::write(out, &volumes.grids(), &metadata)?;
             Ok(())
         })?;
-        let band = volumes.surface.tree.active_voxel_count();
-        let liquid = volumes.density.tree.active_voxel_count();
-        Ok(Done {
+        Ok(VolumeDone {
             frame: job.frame,
             path,
-            items: band + liquid,
-            what: format!("{band} voxels in the band, {liquid} in the liquid"),
+            band: volumes.surface.tree.active_voxel_count(),
+            liquid: volumes.density.tree.active_voxel_count(),
             build: built - start,
             write: built.elapsed(),
         })
@@ -878,20 +877,153 @@ impl VolumeExporter {
     /// Starts `workers` threads that export the jobs [`VolumeQueue::submit`] hands them; at most
     /// `waiting` more jobs wait for a free worker before `submit` blocks.
     pub fn start(self, workers: usize, waiting: usize) -> Result<VolumeQueue> {
-        Queue::start(self, workers, waiting)
+        let exporter = Arc::new(self);
+        let worker = exporter.clone();
+        Ok(VolumeQueue {
+            exporter,
+            workers: Workers::start("volume", workers, waiting, move |job: VolumeJob| {
+                worker.export(&job)
+            })?,
+            progress: VolumeProgress::default(),
+        })
     }
 }
 
-impl Export for VolumeExporter {
-    type Job = VolumeJob;
-    const NOUN: (&'static str, &'static str) = ("volume", "volumes");
-    const SHORT: &'static str = "volume";
-    const THREAD: &'static str = "volume";
+/// One finished volume.
+#[derive(Debug, Clone)]
+pub struct VolumeDone {
+    pub frame: u64,
+    pub path: PathBuf,
+    /// Active voxels of the level set (the band) and of the density (the liquid).
+    pub band: u64,
+    pub liquid: u64,
+    /// Wall time of building the grids.
+    pub build: Duration,
+    /// Wall time of writing the file.
+    pub write: Duration,
+}
 
-    fn export(&self, job: &VolumeJob) -> Result<Done> {
-        VolumeExporter::export(self, job)
+/// Where the volumes stand: counts and times so far.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct VolumeProgress {
+    /// Volumes handed to the workers.
+    pub submitted: u64,
+    /// Volumes written.
+    pub done: u64,
+    /// Active voxels of every grid written, summed.
+    pub voxels: u64,
+    /// Summed over the volumes written.
+    pub build: Duration,
+    pub write: Duration,
+    /// How long the simulation waited for room in the queue.
+    pub waited: Duration,
+    /// How many worker threads there are.
+    pub workers: usize,
+}
+
+impl VolumeProgress {
+    /// Volumes handed over and not yet written.
+    pub fn queued(&self) -> u64 {
+        self.submitted - self.done
+    }
+
+    /// Mean wall time per volume (grids and writing), s.
+    pub fn seconds_per_volume(&self) -> f64 {
+        if self.done == 0 {
+            return 0.0;
+        }
+        (self.build + self.write).as_secs_f64() / self.done as f64
+    }
+
+    /// "3/5 volumes written, 2 queued, 4.70 s per volume".
+    pub fn status(&self) -> String {
+        format!(
+            "{}/{} volumes written, {} queued, {:.2} s per volume",
+            self.done,
+            self.submitted,
+            self.queued(),
+            self.seconds_per_volume()
+        )
+    }
+
+    /// These counts with the queue's own (volumes handed over, the simulation's wait, threads).
+    fn synced(self, workers: &Workers<VolumeJob, VolumeDone>) -> VolumeProgress {
+        VolumeProgress {
+            submitted: workers.submitted(),
+            waited: workers.waited(),
+            workers: workers.threads(),
+            ..self
+        }
+    }
+
+    /// Counts one more volume written.
+    fn add(&mut self, volume: &VolumeDone) {
+        self.done += 1;
+        self.voxels += volume.band + volume.liquid;
+        self.build += volume.build;
+        self.write += volume.write;
     }
 }
 
 /// The volumes' worker threads and the bounded queue that feeds them.
-pub type VolumeQueue = Queue<VolumeExporter>;
+pub struct VolumeQueue {
+    exporter: Arc<VolumeExporter>,
+    workers: Workers<VolumeJob, VolumeDone>,
+    /// The volumes written so far, summed.
+    progress: VolumeProgress,
+}
+
+impl VolumeQueue {
+    pub fn exporter(&self) -> &VolumeExporter {
+        &self.exporter
+    }
+
+    pub fn progress(&self) -> VolumeProgress {
+        self.progress.synced(&self.workers)
+    }
+
+    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
+    /// volume (a full disk) is returned here, so the run stops at the next exported frame.
+    pub fn submit(
+        &mut self,
+        job: VolumeJob,
+        on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress),
+    ) -> Result<()> {
+        let mut progress = self.progress();
+        let result = self.workers.submit(job, &mut |volume| {
+            progress.add(&volume);
+            on_done(&volume, progress);
+        });
+        self.progress = progress;
+        result
+    }
+
+    /// Takes the volumes finished so far, calling `on_done` for each; with `wait`, until every
+    /// submitted volume is done. The first failure is returned.
+    pub fn collect(
+        &mut self,
+        on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress),
+        wait: bool,
+    ) -> Result<()> {
+        let mut progress = self.progress();
+        let result = self.workers.collect(
+            &mut |volume| {
+                progress.add(&volume);
+                on_done(&volume, progress);
+            },
+            wait,
+        );
+        self.progress = progress;
+        result
+    }
+
+    /// Waits for every submitted volume, then ends the workers.
+    pub fn finish(self, on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress)) -> Result<VolumeProgress> {
+        let mut progress = self.progress();
+        self.workers.finish(&mut |volume| {
+            progress.add(&volume);
+            on_done(&volume, progress);
+        })?;
+        Ok(progress)
+    }
+}

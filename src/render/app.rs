@@ -21,6 +21,7 @@ use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
 use crate::checkpoint::Checkpoint;
+use crate::sim::dropped::{DropShape, DroppedBody};
 use crate::sim::{PhaseTimings, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
 use glam::{Vec2, Vec3};
@@ -350,6 +351,8 @@ impl ViewerApp {
             scene_path: String::new(),
             push_strength: 0.02,
             push_radius: 0.1,
+            box_density: DropShape::default_density(false, scene),
+            ball_density: DropShape::default_density(true, scene),
         };
         Ok((camera, controls))
     }
@@ -415,7 +418,8 @@ impl ViewerApp {
         self.scene = scene;
         self.mouse.collider_drag = None;
         if let Some(gpu) = self.gpu.as_mut() {
-            // Rebuilt for the new scene's colliders and flow outlines at the next draw.
+            // Rebuilt for the new scene's colliders and flow outlines at the next draw (a restart
+            // drops the bodies dropped into the run: `self.scene` never holds them).
             gpu.colliders_built = false;
         }
         self.clock.reset();
@@ -549,6 +553,8 @@ impl ViewerApp {
                     r.scale_range = RenderSettings::default_range(r.colouring);
                 }
                 "f" => self.act(Action::FrameCamera, event_loop),
+                "b" => self.act(Action::DropBody { ball: false }, event_loop),
+                "o" => self.act(Action::DropBody { ball: true }, event_loop),
                 "p" => self.screenshot_requested = true,
                 "v" => self.act(Action::ToggleRecording, event_loop),
                 "h" => self.show_panel = !self.show_panel,
@@ -585,6 +591,7 @@ impl ViewerApp {
             Action::SetViscosity(row, mu) => self.with_sim(|sim| sim.set_viscosity(row, mu)),
             Action::SetSoundSpeed(row, c) => self.with_sim(|sim| sim.set_sound_speed(row, c)),
             Action::SetGravity(g) => self.with_sim(|sim| sim.set_gravity(g)),
+            Action::DropBody { ball } => self.drop_body(ball),
             Action::Quit => {
                 event_loop.exit();
                 Ok(())
@@ -593,6 +600,49 @@ impl ViewerApp {
         if let Err(e) = result {
             self.message = Some(format!("{e:#}"));
         }
+    }
+
+    /// Drops a box or a ball (`ball`) into the running scene, at the panel's density, about a tenth
+    /// of the tank's smallest side across, over the camera's target (the domain's middle until the
+    /// camera is slid) above the liquid there; the renderer then builds the colliders' meshes anew.
+    /// A refusal (a full run, a backend that moves no bodies) is the panel's message.
+    fn drop_body(&mut self, ball: bool) -> Result<()> {
+        let Some(sim) = self.sim.as_mut() else {
+            return Ok(());
+        };
+        let shape = DropShape::sized_for(ball, sim.scene());
+        let density = if ball {
+            self.controls.ball_density
+        } else {
+            self.controls.box_density
+        };
+        let target = self.camera.target.as_dvec3();
+        let center = sim.drop_center(&shape, (target.x, target.z))?;
+        sim.drop_body(DroppedBody {
+            shape,
+            density,
+            center,
+        })?;
+        if let Some(gpu) = self.gpu.as_mut() {
+            gpu.colliders_built = false;
+        }
+        let size = match shape {
+            DropShape::Box { size } => format!(
+                "{:.1} x {:.1} x {:.1} cm",
+                1e2 * size.x,
+                1e2 * size.y,
+                1e2 * size.z
+            ),
+            DropShape::Ball { radius } => format!("{:.1} cm across", 2e2 * radius),
+        };
+        self.message = Some(format!(
+            "dropped a {} of {density:.0} kg/m³, {size}, at ({:.3}, {:.3}, {:.3}) m (R restarts without it)",
+            shape.name(),
+            center.x,
+            center.y,
+            center.z
+        ));
+        Ok(())
     }
 
     fn with_sim(&mut self, f: impl FnOnce(&mut Simulation) -> Result<()>) -> Result<()> {

@@ -69,6 +69,10 @@ pub struct Controls {
     /// Push: velocity change at the cursor ray per drag pixel, and radius as a fraction of the domain.
     pub push_strength: f32,
     pub push_radius: f32,
+    /// The densities a dropped box and ball are given, kg/m^3 (`DropShape::default_density` at the
+    /// scene's start: a box that floats, a ball that sinks).
+    pub box_density: f64,
+    pub ball_density: f64,
 }
 
 pub enum Action {
@@ -85,6 +89,10 @@ pub enum Action {
     SetViscosity(usize, f32),
     SetSoundSpeed(usize, f32),
     SetGravity(Vec3),
+    /// Drops a rigid body into the running scene: a ball (`true`) or a box.
+    DropBody {
+        ball: bool,
+    },
     Quit,
 }
 
@@ -95,6 +103,8 @@ pub const KEYS: &[(&str, &str)] = &[
     ("M", "draw: points / spheres / surface"),
     ("C", "colour: solid / speed / density"),
     ("F", "frame the domain"),
+    ("B", "drop a box (a rigid body) into the scene"),
+    ("O", "drop a ball (a rigid body) into the scene"),
     ("P", "screenshot (PNG)"),
     ("V", "start / stop PNG recording"),
     ("F5", "save a snapshot (checkpoint)"),
@@ -131,6 +141,8 @@ pub fn panel(ctx: &egui::Context, controls: &mut Controls, info: &HudInfo) -> Ve
                 view_controls(ui, controls, info.materials, &mut actions);
                 ui.separator();
                 physics_controls(ui, controls, info.materials, &mut actions);
+                ui.separator();
+                drop_controls(ui, controls, &mut actions);
                 ui.separator();
                 scene_controls(ui, controls, &mut actions);
                 ui.separator();
@@ -497,6 +509,31 @@ fn physics_controls(
     }
     ui.add(egui::Slider::new(&mut c.push_strength, 0.0..=0.2).text("push (m/s per pixel)"));
     ui.add(egui::Slider::new(&mut c.push_radius, 0.02..=0.3).text("push radius (domain)"));
+}
+
+/// Buttons that drop a box or a ball into the running scene, and the density each is given.
+fn drop_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {
+    ui.label("drop a rigid body (over the camera's target, above the liquid; R clears them)");
+    let density = |ui: &mut egui::Ui, value: &mut f64| {
+        ui.add(
+            egui::DragValue::new(value)
+                .speed(10.0)
+                .range(1.0..=20_000.0)
+                .suffix(" kg/m³"),
+        );
+    };
+    ui.horizontal(|ui| {
+        if ui.button("Drop box (B)").clicked() {
+            actions.push(Action::DropBody { ball: false });
+        }
+        density(ui, &mut c.box_density);
+    });
+    ui.horizontal(|ui| {
+        if ui.button("Drop ball (O)").clicked() {
+            actions.push(Action::DropBody { ball: true });
+        }
+        density(ui, &mut c.ball_density);
+    });
 }
 
 fn scene_controls(ui: &mut egui::Ui, c: &mut Controls, actions: &mut Vec<Action>) {

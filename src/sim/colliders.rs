@@ -362,6 +362,17 @@ impl Colliders {
             .collect();
     }
 
+    /// Appends `collider` after the others (before the pipes, which ride after the colliders in
+    /// every frame): a body dropped into a running scene (`sim::dropped`). Its mesh samples, if
+    /// any, go after the others' in a new buffer, so a backend that holds the old one uploads it anew.
+    pub fn add(&mut self, collider: Collider) {
+        self.sdf_offsets.push(self.sdf.len() as u32);
+        if let Shape::Mesh(mesh) = &collider.shape {
+            self.sdf = self.sdf.iter().chain(&mesh.values).copied().collect();
+        }
+        self.list.push(collider);
+    }
+
     /// Whether nothing bounds the flow but the walls: no collider and no pipe.
     pub fn is_empty(&self) -> bool {
         self.list.is_empty() && self.pipes.is_empty()
@@ -560,6 +571,64 @@ mod tests {
             "{x} {v}"
         );
         assert!(frame.backstop(at, into).is_none());
+    }
+
+    /// A collider added after the others (a body dropped into a running scene) is where the same
+    /// list given at once puts it: after the colliders before it and before the emitters' pipes,
+    /// with the next body index, a mesh's samples after the others'; and the bodies' list and
+    /// contact features are the same.
+    #[test]
+    fn an_added_collider_rides_where_the_list_given_at_once_puts_it() {
+        let dx = 0.01f32;
+        // A 10 cm cube with a corner at the origin.
+        let (unit, triangles) = crate::sim::mesh::tests::cube();
+        let cube: Vec<DVec3> = unit.into_iter().map(|v| (v + 0.5) * 0.1).collect();
+        let sdf = crate::sim::mesh::build_sdf("cube", cube, triangles, 0.02, 0.03, None, u64::MAX).unwrap();
+        let mesh = Collider {
+            shape: Shape::Mesh(Arc::new(sdf)),
+            center: DVec3::new(0.2, 0.1, 0.2),
+            ..collider(Motion::Static)
+        };
+        let shape = Shape::Box {
+            half_extents: DVec3::new(0.02, 0.03, 0.04),
+        };
+        let p = shape.mass_properties();
+        let body = Collider {
+            shape,
+            body: Some(Dynamics {
+                mass: 500.0 * p.volume,
+                centroid: p.centroid,
+                inertia: p.inertia * 500.0,
+                velocity: DVec3::ZERO,
+                angular_velocity: DVec3::ZERO,
+                hinge: None,
+                contact_friction: 0.4,
+            }),
+            ..collider(Motion::Static)
+        };
+        let center = DVec3::new(0.5, 0.6, 0.4);
+        let nozzle = Nozzle::Disc { radius: 0.02 };
+        let normal = Vec3::NEG_Y;
+        let pipe = Emitter {
+            nozzle,
+            center,
+            normal,
+            speed: 0.3,
+            rate: 1e-5,
+            points: flow::nozzle_points(nozzle, center, normal, 0.005),
+            material: 0,
+            pipe_length: 0.05,
+        };
+        let mut whole = Colliders::new(vec![body.clone(), mesh.clone(), body.clone(), mesh.clone()], dx);
+        whole.set_pipes(std::slice::from_ref(&pipe));
+        let mut added = Colliders::new(vec![body.clone(), mesh.clone()], dx);
+        added.set_pipes(&[pipe]);
+        added.add(body);
+        added.add(mesh);
+        assert_eq!(added.len(), 4);
+        assert_eq!(added.frame(0.3), whole.frame(0.3));
+        assert_eq!(added.frame(0.3).states[2].body, 2);
+        assert_eq!(added.rigid_bodies(), whole.rigid_bodies());
     }
 
     /// A pipe gives the nodes inside it (from a cell behind the nozzle to its length past it, as

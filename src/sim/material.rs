@@ -22,6 +22,16 @@ pub struct NamedMaterial {
     pub law: Material,
 }
 
+/// The rest density of the densest liquid among `materials`, kg/m^3 (0 where every one is a solid):
+/// the most a rigid body's boundary band can hold ([`crate::sim::colliders::Dynamics::check_band_mass`]).
+pub fn densest_liquid(materials: &[NamedMaterial]) -> f64 {
+    materials
+        .iter()
+        .filter(|m| !m.law.is_solid())
+        .map(|m| f64::from(m.law.rest_density))
+        .fold(0.0, f64::max)
+}
+
 /// The largest `absorption` a scene may give a material: the liquid's colour then hides 95 % of
 /// what is behind it within 1.2 cm.
 pub const MAX_ABSORPTION: f32 = 100.0;

@@ -290,10 +290,12 @@ fn triangle_solid_angle(p: DVec3, t: &[DVec3; 3]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    /// A unit cube about the origin, its triangles outward (the colliders' tests build a mesh
+    /// collider from it too).
+    pub(crate) fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
         let v: Vec<DVec3> = (0..8)
             .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64) - 0.5)
             .collect();

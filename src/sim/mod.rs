@@ -4,6 +4,7 @@
 pub mod colliders;
 pub mod cpu;
 pub mod cpu_parallel;
+pub mod dropped;
 pub mod flow;
 pub mod material;
 pub mod mesh;

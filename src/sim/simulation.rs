@@ -1,8 +1,9 @@
 //! The frame driver: a [`Simulation`] owns a [`Solver`] and advances it frame by frame under the
 //! scene's time-step policy; the runner, the viewer, the tests and the benches all drive it.
 
-use super::colliders::bodies::RigidBody;
+use super::colliders::bodies::{BodiesState, RigidBody};
 use super::colliders::ColliderFrame;
+use super::dropped::{self, DropShape, DroppedBody};
 use super::flow::{self, FlowCounts};
 use super::material::MaterialTable;
 use super::params::{Params, Pipeline, FRAME_DT};
@@ -11,8 +12,8 @@ use super::push::Push;
 use super::scene::{Scene, TimeStepPolicy, MAX_CFL};
 use super::solver::{ExtremesTicket, Solver, SummaryTicket};
 use super::summary::Summary;
-use anyhow::{bail, ensure, Result};
-use glam::Vec3;
+use anyhow::{bail, ensure, Context, Result};
+use glam::{DVec3, Vec3};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -124,11 +125,15 @@ pub struct FrameSteps {
 }
 
 pub struct Simulation {
+    /// The scene, its colliders followed by the bodies dropped into the run (`dropped`).
     scene: Scene,
     params: Params,
     solver: Box<dyn Solver>,
     /// The rigid bodies as of the last frame's end (the solver steps them).
     bodies: Vec<RigidBody>,
+    /// The bodies dropped into the run ([`Simulation::drop_body`]), in order: the last of the scene's
+    /// colliders and bodies.
+    dropped: Vec<DroppedBody>,
     frame: u64,
     time: f64,
     /// c(max density) + max speed over the last stretch of substeps, m/s: an upper bound of every
@@ -226,17 +231,20 @@ pub struct RunClock {
 impl Simulation {
     /// Goes on from a saved state: `solver` already holds the saved particles and rigid bodies
     /// (`bodies`, whose states the frame driver keeps a copy of between frames), `params` are the
-    /// parameters the run had (live changes included), `clock` where it stood.
+    /// parameters the run had (live changes included), `clock` where it stood. `scene` holds the
+    /// bodies `dropped` into the run after its own colliders ([`dropped::add_to`]).
     pub fn resume(
         scene: Scene,
         mut solver: Box<dyn Solver>,
         params: Params,
         clock: RunClock,
         bodies: &[RigidBody],
+        dropped: &[DroppedBody],
     ) -> Simulation {
         solver.resume_after(&params);
         let mut sim = Simulation::new(scene, solver);
         sim.bodies = bodies.to_vec();
+        sim.dropped = dropped.to_vec();
         sim.params = params;
         sim.viscous_dt = sim.params.viscous_dt(sim.params.dx);
         sim.frame = clock.frame;
@@ -272,6 +280,7 @@ impl Simulation {
         let bodies = scene.colliders.rigid_bodies().0;
         Simulation {
             bodies,
+            dropped: Vec::new(),
             scene,
             params,
             solver,
@@ -295,8 +304,14 @@ impl Simulation {
         }
     }
 
+    /// The scene as the run has it: its colliders are the scene file's, then the bodies dropped into
+    /// the run ([`Self::drop_body`]).
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+    /// The bodies dropped into the run, in order (none at the start).
+    pub fn dropped(&self) -> &[DroppedBody] {
+        &self.dropped
     }
     pub fn params(&self) -> &Params {
         &self.params
@@ -368,6 +383,55 @@ impl Simulation {
             .max(self.params.fastest_sound_speed() + velocity.length() as f32);
         Ok(())
     }
+    /// Drops a rigid body into the running scene, at rest (`sim::dropped`): from the next substep on
+    /// the solver moves it with the liquid and the other bodies. The bodies already there keep their
+    /// states and the impulse sums their next step takes, exactly (read back from the solver, the
+    /// new body appended, handed back). Refused, with what to do and nothing changed: a run split
+    /// into ranks, a body [`DroppedBody::collider`] refuses, and a backend that moves no rigid bodies
+    /// (cpu-parallel; the GPU's report and binned pipelines).
+    pub fn drop_body(&mut self, body: DroppedBody) -> Result<()> {
+        ensure!(
+            self.scene.ranks == 1,
+            "cannot drop a {} into a run split into {} ranks: rigid bodies run on one rank; drop --ranks \
+             and --gpus",
+            body.shape.name(),
+            self.scene.ranks
+        );
+        let collider = body.collider(&self.scene)?;
+        let mut colliders = self.scene.colliders.clone();
+        colliders.add(collider);
+        // Before the solver's state is read and replaced: the last frame's trailing stretch may
+        // still be running (`overlap_frames`).
+        self.settle()?;
+        // The contact features of every body, the new one's after the others', and its state at the
+        // start, as the scene's own bodies get theirs.
+        let (start, features) = colliders.rigid_bodies();
+        let mut bodies = BodiesState {
+            states: self.solver.bodies()?,
+            impulses: self.solver.body_impulses()?,
+        };
+        bodies
+            .states
+            .push(*start.last().expect("the collider just added is a rigid body"));
+        bodies.impulses.push([0; 6]);
+        self.solver
+            .set_bodies(&bodies, &features, self.scene.body_walls())
+            .with_context(|| format!("cannot drop a {}", body.shape.name()))?;
+        self.scene.colliders = colliders;
+        self.bodies = bodies.states;
+        self.dropped.push(body);
+        Ok(())
+    }
+
+    /// Where the viewer lets a body of `shape` go over the point (x, z) ([`dropped::drop_center`]):
+    /// above the liquid under it and clear of the colliders, in the state as it is now (which this
+    /// reads back, from the GPU too).
+    pub fn drop_center(&mut self, shape: &DropShape, over: (f64, f64)) -> Result<DVec3> {
+        let particles = self.solver.read_particles()?;
+        let frame = self.collider_frame();
+        Ok(dropped::drop_center(&self.scene, &particles, &frame, shape, over))
+    }
+
     pub fn solver(&self) -> &dyn Solver {
         self.solver.as_ref()
     }

@@ -3,11 +3,13 @@
 #![allow(dead_code)]
 
 use glam::{DQuat, DVec3, Vec3};
+use mpm::backend::BackendKind;
 use mpm::sim::colliders::bodies::RigidBody;
-use mpm::sim::{Scene, Simulation};
+use mpm::sim::dropped::{DropShape, DroppedBody};
+use mpm::sim::{Particles, Scene, Simulation};
 
 use super::common;
-use super::materials_checks::{particles, G};
+use super::materials_checks::{particles, simulation, G};
 
 /// The tank of the floating checks: 40 cm long, 30 cm high, water 15 cm deep, a quasi-2D slab 5 cells
 /// of `dx` thick (8 nodes in z: the fluid region runs from node 1 to node 6).
@@ -20,6 +22,31 @@ pub const WATER_DEPTH: f32 = 0.15;
 /// or y brings an end against the slab's walls, they straighten it without holding it. `extra` goes
 /// after the material.
 pub fn log_in_water(dx: f32, side: f32, rho: f32, angle: f32, sink: f32, extra: &str) -> Scene {
+    let floor = dx;
+    let (z_lo, z_hi) = (dx, 6.0 * dx);
+    tank_text(
+        dx,
+        extra,
+        &format!(
+            "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{side}, {side}, {}]\n\
+             rotation = [0.0, 0.0, {angle}]\ndensity = {rho}\ncontact_friction = 0.0\n",
+            0.5 * TANK,
+            floor + WATER_DEPTH - sink,
+            0.5 * (z_lo + z_hi),
+            z_hi - z_lo - 0.2 * dx,
+        ),
+    )
+}
+
+/// [`log_in_water`]'s tank of still water, `extra` after the material, without the log: what bodies
+/// are dropped into (tests/bodies.rs).
+pub fn tank_of_water(dx: f32, extra: &str) -> Scene {
+    tank_text(dx, extra, "")
+}
+
+/// The floating checks' tank, its water [`WATER_DEPTH`] deep, `extra` after the material and
+/// `colliders` after the water.
+fn tank_text(dx: f32, extra: &str, colliders: &str) -> Scene {
     let cells = |metres: f32| (metres / dx).round() as u32;
     let floor = dx;
     let (z_lo, z_hi) = (dx, 6.0 * dx);
@@ -27,19 +54,26 @@ pub fn log_in_water(dx: f32, side: f32, rho: f32, angle: f32, sink: f32, extra: 
         "[domain]\nsize = [{TANK}, 0.3, {}]\nresolution = [{}, {}, 8]\n\
          [[material]]\nname = \"water\"\nrest_density = 1000.0\nsound_speed = 10.0\nviscosity = 1.0e-3\n\
          [time_step]\ncfl = 0.4\n{extra}\
-         [[block]]\nmin = [{floor}, {floor}, {z_lo}]\nmax = [{}, {}, {z_hi}]\n\
-         [[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{side}, {side}, {}]\n\
-         rotation = [0.0, 0.0, {angle}]\ndensity = {rho}\ncontact_friction = 0.0\n",
+         [[block]]\nmin = [{floor}, {floor}, {z_lo}]\nmax = [{}, {}, {z_hi}]\n{colliders}",
         8.0 * dx,
         cells(TANK),
         cells(0.3),
         TANK - 2.5 * dx,
         floor + WATER_DEPTH,
-        0.5 * TANK,
-        floor + WATER_DEPTH - sink,
-        0.5 * (z_lo + z_hi),
-        z_hi - z_lo - 0.2 * dx,
     ))
+}
+
+/// A square log as the floating checks' (`side` m across, as long as the slab is thick less a tenth
+/// of a cell at each end), of density `rho`, to drop into [`tank_of_water`] at `center` (its
+/// contacts have the default friction: a dropped body's).
+pub fn dropped_log(dx: f32, side: f32, rho: f64, center: DVec3) -> DroppedBody {
+    DroppedBody {
+        shape: DropShape::Box {
+            size: DVec3::new(f64::from(side), f64::from(side), f64::from(5.0 * dx - 0.2 * dx)),
+        },
+        density: rho,
+        center,
+    }
 }
 
 /// Three cubes of `side` m (density 1500 kg/m^3: they sink), quasi-2D like [`log_in_water`]'s
@@ -155,10 +189,73 @@ pub struct Floating {
     pub draft_swing: f64,
 }
 
+/// The still water's surface in the floating checks' tank, m, and the draft of `body` (a square log
+/// `side` m across in it), m: the submerged share of its section times the side. The surface is
+/// taken away from the log (it drifts): each column of cells at least 2 cm from the walls and 10 cm
+/// from the log's axis (its half diagonal, 7 cm, and 3 more), by its highest particle, averaged.
+pub fn surface_and_draft(sim: &mut Simulation, body: &RigidBody, dx: f32, side: f32) -> (f64, f64) {
+    let quarter = 0.25 * dx; // half the spacing of 2 particles a cell: the surface beyond its particles
+    let center = DVec3::from_array(body.center);
+    let p = particles(sim);
+    let columns = (0..(TANK / dx) as usize).filter(|&c| {
+        let x = (c as f32 + 0.5) * dx;
+        x > 0.02 && x < TANK - 0.02 && (f64::from(x) - center.x).abs() > 0.1
+    });
+    let tops: Vec<f32> = columns
+        .map(|c| {
+            let x0 = c as f32 * dx;
+            p.x.iter()
+                .filter(|x| x.x >= x0 && x.x < x0 + dx)
+                .map(|x| x.y)
+                .fold(f32::NEG_INFINITY, f32::max)
+                + quarter
+        })
+        .collect();
+    let surface = f64::from(tops.iter().sum::<f32>() / tops.len() as f32);
+    let (axis, angle) = DQuat::from_array(body.orientation).to_axis_angle();
+    let fraction = submerged_fraction(f64::from(side), center.y, axis.z.signum() * angle, surface);
+    (surface, fraction * f64::from(side))
+}
+
+/// A box 6 cm across of 500 kg/m^3 and a ball 4 cm across of 2000 kg/m^3, dropped at its tenth
+/// frame into `scene` (a [`tank_of_water`] at 1 cm cells, or a [`log_in_water`]: either side of its
+/// log, above the water) on `backend`, gravity ramped in as [`calm`] does: the run's bodies (the
+/// scene's, then the box and the ball) and particles 20 frames later.
+pub fn drop_box_and_ball(scene: &Scene, backend: BackendKind) -> (Vec<RigidBody>, Particles) {
+    let dx = scene.dx;
+    let mut sim = simulation(scene, backend);
+    calm(&mut sim, 10);
+    let z = 3.5 * f64::from(dx);
+    sim.drop_body(dropped_log(dx, 0.06, 500.0, DVec3::new(0.08, 0.22, z)))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    sim.drop_body(DroppedBody {
+        shape: DropShape::Ball { radius: 0.02 },
+        density: 2000.0,
+        center: DVec3::new(0.32, 0.2, z),
+    })
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    for frame in 11..=30 {
+        let ramp = (frame as f32 / 30.0).min(1.0);
+        sim.set_gravity(Vec3::new(0.0, -G * ramp, 0.0)).unwrap();
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+    }
+    (sim.bodies().to_vec(), particles(&mut sim))
+}
+
+/// Brings the water of a [`tank_of_water`] to rest under gravity: ramped in over the first half
+/// second (released at once, the tank rings in its acoustic mode for seconds), then `frames` - 30
+/// more frames of it.
+pub fn calm(sim: &mut Simulation, frames: u32) {
+    for frame in 1..=frames {
+        let ramp = (frame as f32 / 30.0).min(1.0);
+        sim.set_gravity(Vec3::new(0.0, -G * ramp, 0.0)).unwrap();
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+    }
+}
+
 /// Runs a [`log_in_water`] for `seconds`, gravity ramped in over the first half second (released at
 /// once, the tank rings in its acoustic mode for seconds), printing every sixth of a second.
 pub fn settle_log(sim: &mut Simulation, dx: f32, side: f32, seconds: f32) -> Floating {
-    let quarter = 0.25 * dx; // half the spacing of 2 particles a cell: the surface beyond its particles
     let frames = (seconds * 60.0).round() as u32;
     let (mut drafts, mut tilts) = (Vec::new(), Vec::new());
     for frame in 1..=frames {
@@ -171,28 +268,7 @@ pub fn settle_log(sim: &mut Simulation, dx: f32, side: f32, seconds: f32) -> Flo
         }
         let body = sim.bodies()[0];
         let center = DVec3::from_array(body.center);
-        let p = particles(sim);
-        // The surface away from the log (it drifts): each column of cells at least 2 cm from the walls
-        // and 10 cm from the log's axis (its half diagonal, 7 cm, and 3 more), by its highest
-        // particle, averaged.
-        let columns = (0..(TANK / dx) as usize).filter(|&c| {
-            let x = (c as f32 + 0.5) * dx;
-            x > 0.02 && x < TANK - 0.02 && (f64::from(x) - center.x).abs() > 0.1
-        });
-        let tops: Vec<f32> = columns
-            .map(|c| {
-                let x0 = c as f32 * dx;
-                p.x.iter()
-                    .filter(|x| x.x >= x0 && x.x < x0 + dx)
-                    .map(|x| x.y)
-                    .fold(f32::NEG_INFINITY, f32::max)
-                    + quarter
-            })
-            .collect();
-        let surface = f64::from(tops.iter().sum::<f32>() / tops.len() as f32);
-        let (axis, angle) = DQuat::from_array(body.orientation).to_axis_angle();
-        let fraction = submerged_fraction(f64::from(side), center.y, axis.z.signum() * angle, surface);
-        let draft = fraction * f64::from(side);
+        let (surface, draft) = surface_and_draft(sim, &body, dx, side);
         let tilt = tilt_degrees(&body);
         if last_half {
             drafts.push(draft);
@@ -322,9 +398,15 @@ pub fn tube_obj(inner: f64, wall: f64, height: f64, segments: usize) -> String {
 /// (sound speed 40 m/s: the column's own compression under gravity, and the sound it rings with, stay
 /// far below the sphere's speed), 2 tube radii above its bottom and below the surface (where a
 /// tube's walls have screened the ends' effect). The tube's mesh goes into `dir`, beside the scene
-/// file. Returns the scene and the time over which the flow fills the tube (its radius squared over
-/// the kinematic viscosity).
-pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::Path) -> (Scene, f64) {
+/// file; `extra` is scene text added at the end (a `[solver]` table). Returns the scene and the time
+/// over which the flow fills the tube (its radius squared over the kinematic viscosity).
+pub fn sphere_in_tube(
+    cells: u32,
+    radius: f64,
+    viscosity: f64,
+    extra: &str,
+    dir: &std::path::Path,
+) -> (Scene, f64) {
     let dx = radius / f64::from(cells);
     let tube = 5.0 * radius;
     let wall = 3.0 * dx;
@@ -343,7 +425,7 @@ pub fn sphere_in_tube(cells: u32, radius: f64, viscosity: f64, dir: &std::path::
          [[block]]\nmin = [{lo}, {bottom}, {lo}]\nmax = [{hi}, {top}, {hi}]\nparticles_per_cell = 8\n\
          [[collider]]\nshape = \"mesh\"\nfile = \"tube.obj\"\ncenter = [{centre}, {floor}, {centre}]\nboundary = \"stick\"\n\
          [[collider]]\nshape = \"sphere\"\nradius = {radius}\ncenter = [{centre}, {sphere}, {centre}]\n\
-         boundary = \"stick\"\ndensity = 2000.0\n",
+         boundary = \"stick\"\ndensity = 2000.0\n{extra}",
         x = f64::from(res_xz) * dx,
         y = f64::from(res_y) * dx,
         lo = centre - tube,

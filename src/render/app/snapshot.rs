@@ -11,10 +11,15 @@ use std::path::{Path, PathBuf};
 impl ViewerApp {
     pub(super) fn save_snapshot(&mut self) -> Result<()> {
         let Some(sim) = &mut self.sim else { return Ok(()) };
-        // A snapshot is a state between frames: a frame split over draws is finished first.
-        if sim.clock().is_none() {
+        // A snapshot is a state between frames: a frame split over draws is finished first, and the
+        // last stretch of substeps, which the window leaves in flight at every frame's end
+        // (`Simulation::overlap_frames`), accounted. (Finishing a frame leaves its last stretch in
+        // flight again, so the state was never between frames, and F5 always failed with "a frame
+        // is half done".)
+        if sim.time_stepped() > sim.time() {
             sim.step_frame()?;
         }
+        sim.settle()?;
         let path = next_free_snapshot(&self.options.capture_dir);
         Checkpoint::capture(sim)?.write_new(&path)?;
         self.message = Some(format!("saved {} (F9 loads it)", path.display()));

@@ -195,6 +195,30 @@ impl Dynamics {
         let band = liquid_density * shape.surface_area() * (f64::from(BAND_CELLS) + 1.0) * dx;
         band / self.mass
     }
+
+    /// Refuses a body too light for the explicit coupling: one whose [`Self::band_mass_ratio`] is
+    /// above [`MAX_BAND_MASS_RATIO`]. The error is what is wrong and what to do, which a scene file's
+    /// refusal and a dropped body's each put in their own words.
+    pub fn check_band_mass(
+        &self,
+        shape: &Shape,
+        liquid_density: f64,
+        dx: f64,
+    ) -> Result<(), (String, &'static str)> {
+        let ratio = self.band_mass_ratio(shape, liquid_density, dx);
+        if ratio > MAX_BAND_MASS_RATIO {
+            return Err((
+                format!(
+                    "gives a body of {:.4} kg, lighter than the liquid its boundary band would hold \
+                     submerged ({ratio:.2} times its mass, at most {MAX_BAND_MASS_RATIO} is stable): the \
+                     body and the liquid exchange momentum explicitly, and so light a body overshoots",
+                    self.mass
+                ),
+                "make the body denser or larger, or the cells finer (the band is a cell thick)",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The fixed-point units of one node's share of a body's impulse (`BODY_IMPULSE_UNITS` per N s):

@@ -10,10 +10,9 @@ use crate::contract::{
     LAW_CARREAU_YASUDA, LAW_FIXED_COROTATED, LAW_HERSCHEL_BULKLEY, LAW_NEO_HOOKEAN, LAW_NEWTONIAN,
     LAW_POWER_LAW, LAW_SAND, LAW_SNOW, MAX_MATERIALS,
 };
-use crate::sim::colliders::bodies::MAX_BAND_MASS_RATIO;
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
-use crate::sim::material::{default_colour, MaterialTable, NamedMaterial, MAX_ABSORPTION};
+use crate::sim::material::{default_colour, densest_liquid, MaterialTable, NamedMaterial, MAX_ABSORPTION};
 use crate::sim::params::{Material, FRAME_DT};
 use crate::sim::{mesh, presets, solid};
 use glam::{DVec3, Vec3};
@@ -1013,27 +1012,13 @@ impl Validator<'_> {
                     .map_err(|e| self.err(format!("collider[{i}].{}", e.key), e.problem, e.fix))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        // The explicit coupling's limit (bodies.rs, Dynamics::band_mass_ratio), against the densest
+        // The explicit coupling's limit (bodies.rs, Dynamics::check_band_mass), against the densest
         // liquid.
-        let liquid_density = materials
-            .iter()
-            .filter(|m| !m.law.is_solid())
-            .map(|m| f64::from(m.law.rest_density))
-            .fold(0.0, f64::max);
+        let liquid_density = densest_liquid(materials);
         for (i, c) in list.iter().enumerate() {
             let Some(body) = &c.body else { continue };
-            let ratio = body.band_mass_ratio(&c.shape, liquid_density, dx);
-            if ratio > MAX_BAND_MASS_RATIO {
-                return Err(self.err(
-                    format!("collider[{i}].density"),
-                    format!(
-                        "gives a body of {:.4} kg, lighter than the liquid its boundary band would hold \
-                         submerged ({ratio:.2} times its mass, at most {MAX_BAND_MASS_RATIO} is stable): the \
-                         body and the liquid exchange momentum explicitly, and so light a body overshoots",
-                        body.mass
-                    ),
-                    "make the body denser or larger, or the cells finer (the band is a cell thick)",
-                ));
+            if let Err((problem, fix)) = body.check_band_mass(&c.shape, liquid_density, dx) {
+                return Err(self.err(format!("collider[{i}].density"), problem, fix));
             }
         }
         Ok(Colliders::new(list, dx as f32))
