@@ -3,7 +3,8 @@
 //! carries a deformation; the material table's names and colours in header comments),
 //! which ParaView, Blender, Open3D and meshio open as they are.
 //! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]).
-//! `--export-bodies`: the rigid bodies' meshes and a pose table ([`bodies`]). All go through
+//! `--export-bodies`: the rigid bodies' meshes and a pose table ([`bodies`]).
+//! `--export-volume`: the liquid as OpenVDB volumes ([`volume`], written by [`vdb`]). All go through
 //! [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a user saved is
 //! replaced silently, and a failed write never leaves a truncated file behind.
 
@@ -12,6 +13,8 @@ pub mod mesh_files;
 pub mod queue;
 pub mod surface;
 pub mod usd;
+pub mod vdb;
+pub mod volume;
 
 use crate::sim::material::NamedMaterial;
 use crate::sim::solid;

@@ -9,6 +9,7 @@ use mpm::export::bodies::BodyExporter;
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
 use mpm::export::usd::UsdCache;
+use mpm::export::volume::{VolumeExporter, VolumeFormat, VolumeOverrides, VolumeSettings};
 use mpm::export::{check_output_file, PlyExporter};
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
@@ -69,6 +70,7 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
         "--frames",
         "--export",
         "--export-surface",
+        "--export-volume",
         "--export-bodies",
         "--export-usd",
         "--usd-surface",
@@ -125,8 +127,9 @@ enum Command {
 }
 
 #[derive(clap::Args)]
-#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_bodies", "export_usd"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_volume", "export_bodies", "export_usd"]).multiple(true))]
 #[command(group = clap::ArgGroup::new("surface_on").args(["export_surface", "usd_surface"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("field_on").args(["export_surface", "usd_surface", "export_volume"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
@@ -152,6 +155,18 @@ struct RunArgs {
     surface_format: SurfaceFormat,
     #[command(flatten)]
     surface: SurfaceArgs,
+    /// Sample the liquid of frame 0 and every K-th frame on voxels and write it as an OpenVDB file,
+    /// volume_NNNNNN.vdb, into this directory (on worker threads while the run goes on): a
+    /// narrow-band level set `surface` from the surface meshes' field, a fog volume `density`, and
+    /// with --volume-velocity a vector grid `velocity`.
+    #[arg(long, value_name = "DIR")]
+    export_volume: Option<PathBuf>,
+    /// The volumes' file format.
+    #[arg(long, value_enum, value_name = "FORMAT", default_value_t = VolumeFormat::Vdb,
+          requires = "export_volume")]
+    volume_format: VolumeFormat,
+    #[command(flatten)]
+    volume: VolumeArgs,
     /// Write the rigid bodies of frame 0 and every K-th frame into this directory: bodies_NNNNNN.obj,
     /// each body's mesh posed in world coordinates (an object a body, collider_K), and the pose
     /// table bodies.csv (a row a body a frame). The scene must have rigid bodies.
@@ -167,7 +182,8 @@ struct RunArgs {
     /// without mesh files of its own; --export-surface puts its meshes in the stage too.
     #[arg(long, requires = "export_usd")]
     usd_surface: bool,
-    /// Export every K-th frame (--export, --export-surface, --export-bodies and --export-usd).
+    /// Export every K-th frame (--export, --export-surface, --export-volume, --export-bodies and
+    /// --export-usd).
     #[arg(long, value_name = "K", default_value_t = 1, requires = "frame_export", allow_negative_numbers = true,
           value_parser = count::<1>)]
     every: u64,
@@ -191,20 +207,21 @@ struct RunArgs {
     overwrite: bool,
 }
 
-/// The surface reconstruction's parameters, overriding the defaults derived from the scene.
+/// The surface reconstruction's parameters, overriding the defaults derived from the scene (the
+/// field's also the volumes').
 #[derive(clap::Args)]
 struct SurfaceArgs {
-    /// Particle radius, m [default: dx / (2 n) for n^3 particles per cell: the particle's share of
-    /// the spawn lattice, as a cube of edge 2 r].
-    #[arg(long, value_name = "M", requires = "surface_on", allow_negative_numbers = true,
+    /// Particle radius, m, of the surface meshes and volumes [default: dx / (2 n) for n^3 particles
+    /// per cell: the particle's share of the spawn lattice, as a cube of edge 2 r].
+    #[arg(long, value_name = "M", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_particle_radius: Option<f32>,
     /// Kernel smoothing length, in particle radii (the kernel reaches twice as far) [default: 2].
-    #[arg(long, value_name = "RADII", requires = "surface_on", allow_negative_numbers = true,
+    #[arg(long, value_name = "RADII", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_smoothing_length: Option<f32>,
     /// Iso-surface threshold, a fraction of rest density [default: 0.6].
-    #[arg(long, value_name = "FRACTION", requires = "surface_on", allow_negative_numbers = true,
+    #[arg(long, value_name = "FRACTION", requires = "field_on", allow_negative_numbers = true,
           value_parser = positive)]
     surface_threshold: Option<f32>,
     /// Marching-cubes cell edge, in particle radii (smaller: finer and slower) [default: 1].
@@ -220,6 +237,36 @@ impl SurfaceArgs {
             smoothing_length: self.surface_smoothing_length,
             threshold: self.surface_threshold,
             cube_size: self.surface_cube_size,
+        }
+    }
+}
+
+/// The volumes' voxels, band and grids.
+#[derive(clap::Args)]
+struct VolumeArgs {
+    /// Voxel edge, m [default: the particle radius, the surface meshes' cell: dx / (2 n)].
+    #[arg(long, value_name = "M", requires = "export_volume", allow_negative_numbers = true,
+          value_parser = positive)]
+    volume_voxel_size: Option<f32>,
+    /// The level set's narrow band on each side of the surface, in voxels, 1 or more [default: 3].
+    #[arg(long, value_name = "VOXELS", requires = "export_volume", allow_negative_numbers = true,
+          value_parser = positive)]
+    volume_band: Option<f32>,
+    /// Also write the particles' velocity (m/s) as the vector grid `velocity`.
+    #[arg(long, requires = "export_volume")]
+    volume_velocity: bool,
+    /// Store the grids' values as 16-bit halves (about half the file).
+    #[arg(long, requires = "export_volume")]
+    volume_half: bool,
+}
+
+impl VolumeArgs {
+    fn overrides(&self) -> VolumeOverrides {
+        VolumeOverrides {
+            voxel_size: self.volume_voxel_size,
+            band: self.volume_band,
+            velocity: self.volume_velocity,
+            half: self.volume_half,
         }
     }
 }
@@ -766,6 +813,19 @@ fn run(args: RunArgs) -> Result<()> {
             SurfaceExporter::new(dir, args.every, args.surface_format, settings, args.overwrite)
         })
         .transpose()?;
+    let volume = args
+        .export_volume
+        .as_deref()
+        .map(|dir| -> Result<VolumeExporter> {
+            let settings = VolumeSettings::for_scene(
+                scene,
+                args.surface.overrides(),
+                args.volume.overrides(),
+                runner::VOLUME_WORKERS,
+            )?;
+            VolumeExporter::new(dir, args.every, args.volume_format, settings, args.overwrite)
+        })
+        .transpose()?;
     let bodies = args
         .export_bodies
         .as_deref()
@@ -802,6 +862,7 @@ fn run(args: RunArgs) -> Result<()> {
     let notes = [
         export.as_ref().and_then(PlyExporter::removed_note),
         surface.as_ref().and_then(SurfaceExporter::removed_note),
+        volume.as_ref().and_then(VolumeExporter::removed_note),
         bodies.as_ref().and_then(BodyExporter::removed_note),
         usd.as_deref().and_then(UsdCache::removed_note),
         checkpoints.as_ref().and_then(CheckpointSeries::removed_note),
@@ -845,6 +906,15 @@ fn run(args: RunArgs) -> Result<()> {
             surface.settings().describe()
         )?;
     }
+    if let Some(volume) = &volume {
+        writeln!(
+            std::io::stdout(),
+            "volumes: {} into {}; {}",
+            volume.format().extension(),
+            volume.dir().display(),
+            volume.settings().describe()
+        )?;
+    }
     if let (Some(path), Some(checkpoint)) = (&resume, &resumed) {
         writeln!(
             std::io::stdout(),
@@ -858,6 +928,7 @@ fn run(args: RunArgs) -> Result<()> {
         frames: args.frames,
         export,
         surface,
+        volume,
         bodies,
         usd,
         stats,

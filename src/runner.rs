@@ -1,11 +1,12 @@
 //! The headless runner: steps a scene frame by frame, prints one line of statistics per frame,
-//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, the rigid bodies
+//! and optionally writes them as JSON lines, exports PLY frames, surface meshes, volumes, the rigid bodies
 //! and a USD stage.
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
 use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use crate::export::usd::{UsdCache, UsdFrame, UsdQueue};
+use crate::export::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -23,6 +24,9 @@ pub struct RunOptions {
     /// Reconstructs the surface of the initial state and of every K-th frame as a mesh file, on
     /// worker threads while the simulation steps on.
     pub surface: Option<SurfaceExporter>,
+    /// Builds the volumes (level set, density, velocity) of the initial state and of every K-th
+    /// frame as OpenVDB files, on worker threads while the simulation steps on.
+    pub volume: Option<VolumeExporter>,
     /// Writes the rigid bodies' meshes and poses of the initial state and every K-th frame.
     pub bodies: Option<BodyExporter>,
     /// Writes the USD stage's layer of the initial state and of every K-th frame, on a thread of its
@@ -355,6 +359,9 @@ pub const SURFACE_WORKERS: usize = 2;
 /// Frames that may wait for a free worker before the simulation waits: with the workers' frames,
 /// at most four frames' particles are held at once.
 pub const SURFACE_QUEUE: usize = 2;
+/// The volumes' worker threads and queue, as the surfaces' (each worker also uses rayon's pool).
+pub const VOLUME_WORKERS: usize = 2;
+pub const VOLUME_QUEUE: usize = 2;
 
 /// The header comment of an exported frame's files.
 fn frame_comment(sim: &Simulation) -> String {
@@ -381,18 +388,30 @@ fn export_frame(
     surface: Option<&mut SurfaceQueue>,
     usd: Option<&mut UsdQueue>,
     on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
+    volume: Option<&mut VolumeQueue>,
+    on_volume: &mut dyn FnMut(&VolumeDone, VolumeProgress),
 ) -> Result<bool> {
     let frame = sim.frame();
     let ply = exporter.filter(|e| e.wants(frame));
     let surface = surface.filter(|q| q.exporter().wants(frame));
     let usd = usd.filter(|q| q.cache().wants(frame));
-    if ply.is_none() && surface.is_none() && usd.is_none() {
+    let volume = volume.filter(|q| q.exporter().wants(frame));
+    if ply.is_none() && surface.is_none() && usd.is_none() && volume.is_none() {
         return Ok(false);
     }
     let comment = frame_comment(sim);
     let mut particles = sim.solver_mut().read_particles()?.live_only();
     if let Some(exporter) = ply {
         exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
+    }
+    if let Some(queue) = volume {
+        let job = VolumeJob {
+            frame,
+            comment: comment.clone(),
+            positions: particles.x.clone(),
+            velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
+        };
+        queue.submit(job, on_volume)?;
     }
     if let Some(queue) = surface {
         let job = SurfaceJob {
@@ -450,6 +469,24 @@ pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Durat
     )
 }
 
+/// The closing line of a run with `--export-volume`: volumes, seconds per volume, and what the
+/// simulation waited for them.
+pub fn volume_summary(p: &VolumeProgress, files: &str, after_last_frame: Duration) -> String {
+    format!(
+        "volume: {} ({files}), {} active voxels on average, {:.3} s per volume (grids {:.3} s, \
+         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
+         {:.2} s for the last volumes",
+        crate::text::count(p.done, "volume", "volumes"),
+        p.voxels / p.done.max(1),
+        p.seconds_per_volume(),
+        p.build.as_secs_f64() / p.done.max(1) as f64,
+        p.write.as_secs_f64() / p.done.max(1) as f64,
+        p.workers,
+        p.waited.as_secs_f64(),
+        after_last_frame.as_secs_f64()
+    )
+}
+
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
 /// a failed write) with that error.
 pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Result<Vec<FrameStats>> {
@@ -457,6 +494,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         frames,
         export,
         surface,
+        volume,
         mut bodies,
         usd,
         mut stats,
@@ -469,6 +507,21 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
         .transpose()?;
     let mut usd = usd.map(UsdQueue::start).transpose()?;
+    let mut volume = volume
+        .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
+        .transpose()?;
+    // Volume progress as the surface's: the bar's message, or a line per volume on stderr.
+    let mut on_volume = |file: &VolumeDone, progress: VolumeProgress| match &bar {
+        Some(bar) => bar.set_message(progress.status()),
+        None => eprintln!(
+            "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
+            file.path.display(),
+            file.band,
+            file.liquid,
+            (file.build + file.write).as_secs_f64(),
+            progress.status()
+        ),
+    };
     // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
     // terminal, else one line per mesh.
     let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
@@ -487,6 +540,8 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         surface.as_mut(),
         usd.as_mut(),
         &mut on_mesh,
+        volume.as_mut(),
+        &mut on_volume,
     )?);
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
@@ -520,6 +575,8 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             surface.as_mut(),
             usd.as_mut(),
             &mut on_mesh,
+            volume.as_mut(),
+            &mut on_volume,
         )?);
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
         // Meshes finished during this frame are reported now, not at the next exported frame.
@@ -528,6 +585,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
         if let Some(queue) = usd.as_mut() {
             queue.collect()?;
+        }
+        if let Some(queue) = volume.as_mut() {
+            queue.collect(&mut on_volume, false)?;
         }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
@@ -561,6 +621,26 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
         None => None,
     };
+    let volume_line = match volume {
+        Some(queue) => {
+            let last_frame = Instant::now();
+            let left = queue.progress().queued();
+            if left > 0 && bar.is_none() {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, "volume", "volumes")
+                );
+            }
+            let files = format!(
+                "{} in {}",
+                queue.exporter().format().extension(),
+                queue.exporter().dir().display()
+            );
+            let done = queue.finish(&mut on_volume)?;
+            Some(volume_summary(&done, &files, last_frame.elapsed()))
+        }
+        None => None,
+    };
     let usd_line = match usd {
         Some(queue) => {
             let left = queue.queued();
@@ -586,6 +666,9 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         )?;
     }
     if let Some(line) = surface_line {
+        writeln!(out, "{line}")?;
+    }
+    if let Some(line) = volume_line {
         writeln!(out, "{line}")?;
     }
     if let Some(line) = usd_line {

@@ -131,6 +131,7 @@ fn parked_slots_are_seen_by_nothing() {
         frames: 1,
         export: Some(mpm::export::PlyExporter::new(dir.path(), 1, false).unwrap()),
         surface: None,
+        volume: None,
         bodies: None,
         usd: None,
         stats: None,

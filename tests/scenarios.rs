@@ -395,6 +395,7 @@ velocity = [50.0, 0.0, 0.0]
         frames: 3,
         export: None,
         surface: None,
+        volume: None,
         bodies: None,
         usd: None,
         stats: None,

@@ -112,24 +112,30 @@ impl SurfaceSettings {
 
     /// One line for the user: what the reconstruction uses.
     pub fn describe(&self) -> String {
+        format!("{}, cells of {:.4e} m", self.describe_field(), self.cube_edge())
+    }
+
+    /// The field's part of [`Self::describe`] (the volumes sample the same field on voxels).
+    pub fn describe_field(&self) -> String {
         format!(
             "particle radius {:.4e} m, smoothing length {} radii (kernel support {:.4e} m), \
-             threshold {} x rest density, cells of {:.4e} m",
+             threshold {} x rest density",
             self.particle_radius,
             self.smoothing_length,
             self.support_radius(),
             self.threshold,
-            self.cube_edge()
         )
     }
 
-    fn support_radius(&self) -> f32 {
+    /// The kernel's reach (its compact support radius), m.
+    pub fn support_radius(&self) -> f32 {
         2.0 * self.smoothing_length * self.particle_radius
     }
 
-    fn splashsurf_parameters(&self) -> splashsurf_lib::Parameters<f32> {
-        let mut p =
-            splashsurf_lib::Parameters::new(self.particle_radius, self.support_radius(), self.cube_edge());
+    /// splashsurf's parameters of this field, sampled on cells of edge `cell` (marching cubes' cells,
+    /// or a volume's voxels: [`super::volume`]).
+    pub(crate) fn splashsurf_parameters(&self, cell: f32) -> splashsurf_lib::Parameters<f32> {
+        let mut p = splashsurf_lib::Parameters::new(self.particle_radius, self.support_radius(), cell);
         p.rest_density = self.rest_density;
         p.iso_surface_threshold = self.threshold;
         p
@@ -146,9 +152,11 @@ pub fn reconstruct(positions: &[Vec3], settings: &SurfaceSettings) -> Result<Sur
         .iter()
         .map(|p| splashsurf_lib::nalgebra::Vector3::new(p.x, p.y, p.z))
         .collect();
-    let reconstruction =
-        splashsurf_lib::reconstruct_surface::<i64, f32>(&points, &settings.splashsurf_parameters())
-            .map_err(|e| anyhow::anyhow!("the surface reconstruction failed: {:#}", anyhow::Error::new(e)))?;
+    let reconstruction = splashsurf_lib::reconstruct_surface::<i64, f32>(
+        &points,
+        &settings.splashsurf_parameters(settings.cube_edge()),
+    )
+    .map_err(|e| anyhow::anyhow!("the surface reconstruction failed: {:#}", anyhow::Error::new(e)))?;
     let mesh = reconstruction.mesh;
     if mesh.vertices.len() > i32::MAX as usize {
         bail!(
