@@ -10,7 +10,6 @@ mod harness;
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{reconstruct, SurfaceOverrides, SurfaceSettings};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn main() -> std::process::ExitCode {
     harness::run(
@@ -20,29 +19,8 @@ fn main() -> std::process::ExitCode {
     )
 }
 
-/// python3 with `.ci-cache/python` (where `.ci/run` installs meshio) ahead on its path.
-fn python() -> Command {
-    let ci_packages = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci-cache/python");
-    let mut path =
-        std::env::split_paths(&std::env::var_os("PYTHONPATH").unwrap_or_default()).collect::<Vec<_>>();
-    path.insert(0, ci_packages);
-    let mut python = Command::new("python3");
-    python.env("PYTHONPATH", std::env::join_paths(path).expect("a PYTHONPATH"));
-    python
-}
-
 fn meshio_available() -> Result<(), String> {
-    match python().args(["-c", "import meshio"]).output() {
-        Ok(out) if out.status.success() => Ok(()),
-        Ok(out) => Err(format!(
-            "python3 cannot import meshio (pip install meshio): {}",
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or_default()
-        )),
-        Err(e) => Err(format!("no python3: {e}")),
-    }
+    common::ci_python_imports("import meshio", "meshio")
 }
 
 fn meshio_reads_every_format_as_written() {
@@ -71,7 +49,7 @@ fn meshio_reads_every_format_as_written() {
         })
         .collect();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mesh_tools/meshio_check.py");
-    let out = python().arg(script).args(&paths).output().unwrap();
+    let out = common::ci_python().arg(script).args(&paths).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

@@ -26,35 +26,14 @@ fn main() -> std::process::ExitCode {
     )
 }
 
-/// python3 with `.ci-cache/python` (where `.ci/run` installs usd-core) ahead on its path.
-fn python() -> Command {
-    let ci_packages = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci-cache/python");
-    let mut path =
-        std::env::split_paths(&std::env::var_os("PYTHONPATH").unwrap_or_default()).collect::<Vec<_>>();
-    path.insert(0, ci_packages);
-    let mut python = Command::new("python3");
-    python.env("PYTHONPATH", std::env::join_paths(path).expect("a PYTHONPATH"));
-    python
-}
-
 fn pxr_available() -> Result<(), String> {
-    match python().args(["-c", "from pxr import Usd, UsdGeom"]).output() {
-        Ok(out) if out.status.success() => Ok(()),
-        Ok(out) => Err(format!(
-            "python3 cannot import pxr (pip install usd-core): {}",
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or_default()
-        )),
-        Err(e) => Err(format!("no python3: {e}")),
-    }
+    common::ci_python_imports("from pxr import Usd, UsdGeom", "usd-core")
 }
 
 /// What pxr reads from `stage` at `frames`.
 fn read_stage(stage: &Path, frames: &[u64]) -> Value {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/usd_tools/usd_check.py");
-    let out = python()
+    let out = common::ci_python()
         .arg(script)
         .arg(stage)
         .args(frames.iter().map(u64::to_string))

@@ -620,3 +620,31 @@ pub fn follow_cpu(scene: &Scene, params: &Params, steps: usize, moved_dx: f32, w
     );
     gpu.read_particles().unwrap()
 }
+
+/// python3 with `.ci-cache/python` (where `.ci/run` pip-installs meshio and usd-core) ahead on its
+/// path.
+pub fn ci_python() -> std::process::Command {
+    let ci_packages = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci-cache/python");
+    let mut path =
+        std::env::split_paths(&std::env::var_os("PYTHONPATH").unwrap_or_default()).collect::<Vec<_>>();
+    path.insert(0, ci_packages);
+    let mut python = std::process::Command::new("python3");
+    python.env("PYTHONPATH", std::env::join_paths(path).expect("a PYTHONPATH"));
+    python
+}
+
+/// Whether [`ci_python`] runs `import` (a Python import statement); if not, why, naming
+/// `pip_package` as the fix.
+pub fn ci_python_imports(import: &str, pip_package: &str) -> Result<(), String> {
+    match ci_python().args(["-c", import]).output() {
+        Ok(out) if out.status.success() => Ok(()),
+        Ok(out) => Err(format!(
+            "python3 cannot run `{import}` (pip install {pip_package}): {}",
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or_default()
+        )),
+        Err(e) => Err(format!("no python3: {e}")),
+    }
+}
