@@ -468,15 +468,7 @@ fn run_args<'a>(scene: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'a s
 fn refused(dir: &Path, args: &[&str]) -> String {
     let scene = tiny_scene_file(dir);
     let out = mpm(&run_args(&scene, "2", args));
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{args:?} accepted:\n{stdout}\n{stderr}");
-    assert!(
-        !stdout.contains("frame "),
-        "{args:?}: refused only after stepping:\n{stdout}"
-    );
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-    stderr
+    common::refused_before_stepping(out, args)
 }
 
 #[test]

@@ -398,15 +398,7 @@ fn mpm_run_writes_every_kth_frame() {
 /// Runs with `args`, expects a refusal before the first step, and returns stderr.
 fn refused(dir: &Path, args: &[&str]) -> String {
     let out = run(dir, "2", args);
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{args:?} accepted:\n{stdout}\n{stderr}");
-    assert!(
-        !stdout.contains("frame "),
-        "{args:?}: refused only after stepping:\n{stdout}"
-    );
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-    stderr
+    common::refused_before_stepping(out, args)
 }
 
 #[test]

@@ -648,3 +648,17 @@ pub fn ci_python_imports(import: &str, pip_package: &str) -> Result<(), String> 
         Err(e) => Err(format!("no python3: {e}")),
     }
 }
+
+/// The stderr of an `mpm` run with `args` that must have been refused before its first step: it
+/// failed, printed no frame line and did not panic.
+pub fn refused_before_stepping(out: std::process::Output, args: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "{args:?} accepted:\n{stdout}\n{stderr}");
+    assert!(
+        !stdout.contains("frame "),
+        "{args:?}: refused only after stepping:\n{stdout}"
+    );
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    stderr
+}
