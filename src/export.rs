@@ -9,6 +9,7 @@
 //! replaced silently, and a failed write never leaves a truncated file behind.
 
 pub mod bodies;
+pub mod frames;
 pub mod mesh_files;
 pub mod queue;
 pub mod surface;
@@ -305,6 +306,11 @@ impl PlyExporter {
     /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
     pub fn removed_note(&self) -> Option<String> {
         self.frames.removed_note()
+    }
+
+    /// `--export-every`.
+    pub fn every(&self) -> u64 {
+        self.every
     }
 
     pub fn wants(&self, frame: u64) -> bool {

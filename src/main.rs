@@ -821,7 +821,7 @@ fn run(args: RunArgs) -> Result<()> {
                 scene,
                 args.surface.overrides(),
                 args.volume.overrides(),
-                runner::VOLUME_WORKERS,
+                mpm::export::frames::VOLUME_WORKERS,
             )?;
             VolumeExporter::new(dir, args.every, args.volume_format, settings, args.overwrite)
         })

@@ -4,9 +4,10 @@
 
 use crate::checkpoint::CheckpointSeries;
 use crate::export::bodies::BodyExporter;
-use crate::export::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
-use crate::export::usd::{UsdCache, UsdFrame, UsdQueue};
-use crate::export::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
+use crate::export::frames::{frame_comment, ExportProgress, FrameExportSet, FrameExports};
+use crate::export::surface::SurfaceExporter;
+use crate::export::usd::UsdCache;
+use crate::export::volume::VolumeExporter;
 use crate::export::PlyExporter;
 use crate::sim::scene::MAX_CFL;
 use crate::sim::{FrameStats, Simulation};
@@ -353,92 +354,6 @@ pub fn progress_bar(frames: u64) -> indicatif::ProgressBar {
     bar
 }
 
-/// Worker threads that reconstruct surfaces; each also runs its reconstruction on rayon's pool.
-/// Two keep the pool busy while one of them writes its file.
-pub const SURFACE_WORKERS: usize = 2;
-/// Frames that may wait for a free worker before the simulation waits: with the workers' frames,
-/// at most four frames' particles are held at once.
-pub const SURFACE_QUEUE: usize = 2;
-/// The volumes' worker threads and queue, as the surfaces' (each worker also uses rayon's pool).
-pub const VOLUME_WORKERS: usize = 2;
-pub const VOLUME_QUEUE: usize = 2;
-
-/// The header comment of an exported frame's files.
-fn frame_comment(sim: &Simulation) -> String {
-    let scene = sim.scene();
-    format!(
-        "mpm frame {} t={:.6} s scene={} backend={}\ndx={} m grid={}x{}x{} rest_density={} kg/m^3",
-        sim.frame(),
-        sim.time(),
-        scene.name,
-        sim.backend(),
-        scene.dx,
-        scene.grid_res[0],
-        scene.grid_res[1],
-        scene.grid_res[2],
-        scene.material().rest_density
-    )
-}
-
-/// The frame's particle file and surface job, for the exports that want this frame: the particles
-/// are copied to the host only then.
-fn export_frame(
-    sim: &mut Simulation,
-    exporter: Option<&PlyExporter>,
-    surface: Option<&mut SurfaceQueue>,
-    usd: Option<&mut UsdQueue>,
-    on_mesh: &mut dyn FnMut(&MeshDone, SurfaceProgress),
-    volume: Option<&mut VolumeQueue>,
-    on_volume: &mut dyn FnMut(&VolumeDone, VolumeProgress),
-) -> Result<bool> {
-    let frame = sim.frame();
-    let ply = exporter.filter(|e| e.wants(frame));
-    let surface = surface.filter(|q| q.exporter().wants(frame));
-    let usd = usd.filter(|q| q.cache().wants(frame));
-    let volume = volume.filter(|q| q.exporter().wants(frame));
-    if ply.is_none() && surface.is_none() && usd.is_none() && volume.is_none() {
-        return Ok(false);
-    }
-    let comment = frame_comment(sim);
-    let mut particles = sim.solver_mut().read_particles()?.live_only();
-    if let Some(exporter) = ply {
-        exporter.write(frame, &comment, &particles, &sim.scene().materials)?;
-    }
-    if let Some(queue) = volume {
-        let job = VolumeJob {
-            frame,
-            comment: comment.clone(),
-            positions: particles.x.clone(),
-            velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
-        };
-        queue.submit(job, on_volume)?;
-    }
-    if let Some(queue) = surface {
-        let job = SurfaceJob {
-            frame,
-            comment: comment.clone(),
-            // The USD layer needs the positions too.
-            positions: match usd {
-                Some(_) => particles.x.clone(),
-                None => std::mem::take(&mut particles.x),
-            },
-        };
-        queue.submit(job, on_mesh)?;
-    }
-    if let Some(queue) = usd {
-        let poses = queue.cache().poses(sim);
-        // The stage has no use for the APIC matrices: a third of what a queued frame would hold.
-        particles.c = Vec::new();
-        queue.submit(UsdFrame {
-            frame,
-            comment,
-            particles,
-            poses,
-        })?;
-    }
-    Ok(ply.is_some())
-}
-
 /// The frame's body meshes and poses, where the exporter wants this frame.
 fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Result<bool> {
     let frame = sim.frame();
@@ -449,42 +364,6 @@ fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Resul
         }
         None => Ok(false),
     }
-}
-
-/// The closing line of a run with `--export-surface`: meshes, seconds per mesh, and what the
-/// simulation waited for them.
-pub fn surface_summary(p: &SurfaceProgress, files: &str, after_last_frame: Duration) -> String {
-    format!(
-        "surface: {} ({files}), {} triangles on average, {:.3} s per mesh (reconstruction {:.3} s, \
-         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
-         {:.2} s for the last meshes",
-        crate::text::count(p.done, "mesh", "meshes"),
-        p.triangles / p.done.max(1),
-        p.seconds_per_mesh(),
-        p.reconstruct.as_secs_f64() / p.done.max(1) as f64,
-        p.write.as_secs_f64() / p.done.max(1) as f64,
-        p.workers,
-        p.waited.as_secs_f64(),
-        after_last_frame.as_secs_f64()
-    )
-}
-
-/// The closing line of a run with `--export-volume`: volumes, seconds per volume, and what the
-/// simulation waited for them.
-pub fn volume_summary(p: &VolumeProgress, files: &str, after_last_frame: Duration) -> String {
-    format!(
-        "volume: {} ({files}), {} active voxels on average, {:.3} s per volume (grids {:.3} s, \
-         writing {:.3} s) on {} worker threads; the simulation waited {:.2} s for the queue, then \
-         {:.2} s for the last volumes",
-        crate::text::count(p.done, "volume", "volumes"),
-        p.voxels / p.done.max(1),
-        p.seconds_per_volume(),
-        p.build.as_secs_f64() / p.done.max(1) as f64,
-        p.write.as_secs_f64() / p.done.max(1) as f64,
-        p.workers,
-        p.waited.as_secs_f64(),
-        after_last_frame.as_secs_f64()
-    )
 }
 
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
@@ -503,46 +382,24 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         started: command_started,
     } = opts;
     let bar = progress.then(|| progress_bar(frames));
-    let mut surface = surface
-        .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
-        .transpose()?;
-    let mut usd = usd.map(UsdQueue::start).transpose()?;
-    let mut volume = volume
-        .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
-        .transpose()?;
-    // Volume progress as the surface's: the bar's message, or a line per volume on stderr.
-    let mut on_volume = |file: &VolumeDone, progress: VolumeProgress| match &bar {
-        Some(bar) => bar.set_message(progress.status()),
-        None => eprintln!(
-            "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
-            file.path.display(),
-            file.band,
-            file.liquid,
-            (file.build + file.write).as_secs_f64(),
-            progress.status()
-        ),
+    let mut exports = FrameExports::start(
+        FrameExportSet {
+            ply: export,
+            surface,
+            volume,
+            usd,
+        },
+        sim.scene().materials.clone(),
+        match &bar {
+            Some(bar) => ExportProgress::Bar(bar.clone()),
+            None => ExportProgress::Lines,
+        },
+    )?;
+    let mut export_frame = |sim: &mut Simulation| match exports.as_mut() {
+        Some(exports) => exports.submit(sim).map(|_| ()),
+        None => Ok(()),
     };
-    // Surface progress goes to stderr (stdout has the frame lines): into the bar's message on a
-    // terminal, else one line per mesh.
-    let mut on_mesh = |mesh: &MeshDone, progress: SurfaceProgress| match &bar {
-        Some(bar) => bar.set_message(progress.status()),
-        None => eprintln!(
-            "{}: {} triangles in {:.2} s ({})",
-            mesh.path.display(),
-            mesh.triangles,
-            (mesh.reconstruct + mesh.write).as_secs_f64(),
-            progress.status()
-        ),
-    };
-    let mut exported = u64::from(export_frame(
-        sim,
-        export.as_ref(),
-        surface.as_mut(),
-        usd.as_mut(),
-        &mut on_mesh,
-        volume.as_mut(),
-        &mut on_volume,
-    )?);
+    export_frame(sim)?;
     let mut bodies_exported = u64::from(export_bodies(sim, bodies.as_mut())?);
     // Grows as frames finish: reserving `frames` up front aborted the program for a huge --frames.
     let mut all = Vec::new();
@@ -569,26 +426,8 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         if let Some(file) = &mut stats {
             file.append(&frame_stats, out)?;
         }
-        exported += u64::from(export_frame(
-            sim,
-            export.as_ref(),
-            surface.as_mut(),
-            usd.as_mut(),
-            &mut on_mesh,
-            volume.as_mut(),
-            &mut on_volume,
-        )?);
+        export_frame(sim)?;
         bodies_exported += u64::from(export_bodies(sim, bodies.as_mut())?);
-        // Meshes finished during this frame are reported now, not at the next exported frame.
-        if let Some(queue) = surface.as_mut() {
-            queue.collect(&mut on_mesh, false)?;
-        }
-        if let Some(queue) = usd.as_mut() {
-            queue.collect()?;
-        }
-        if let Some(queue) = volume.as_mut() {
-            queue.collect(&mut on_volume, false)?;
-        }
         if let Some(series) = &checkpoints {
             if series.wants(sim.frame(), done == frames) {
                 let path = series.write(sim)?;
@@ -605,73 +444,11 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         }
     }
     let stepping = started.elapsed();
-    let surface_line = match surface {
-        Some(queue) => {
-            let last_frame = Instant::now();
-            let left = queue.progress().queued();
-            if left > 0 && bar.is_none() {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, "surface mesh", "surface meshes")
-                );
-            }
-            let files = queue.exporter().destination();
-            let done = queue.finish(&mut on_mesh)?;
-            Some(surface_summary(&done, &files, last_frame.elapsed()))
-        }
-        None => None,
-    };
-    let volume_line = match volume {
-        Some(queue) => {
-            let last_frame = Instant::now();
-            let left = queue.progress().queued();
-            if left > 0 && bar.is_none() {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, "volume", "volumes")
-                );
-            }
-            let files = format!(
-                "{} in {}",
-                queue.exporter().format().extension(),
-                queue.exporter().dir().display()
-            );
-            let done = queue.finish(&mut on_volume)?;
-            Some(volume_summary(&done, &files, last_frame.elapsed()))
-        }
-        None => None,
-    };
-    let usd_line = match usd {
-        Some(queue) => {
-            let left = queue.queued();
-            if left > 0 && bar.is_none() {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, "USD layer", "USD layers")
-                );
-            }
-            Some(queue.finish()?)
-        }
-        None => None,
-    };
+    let export_lines = exports.map(FrameExports::finish).transpose()?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    if let Some(exporter) = &export {
-        writeln!(
-            out,
-            "exported {} into {}",
-            crate::text::count(exported, "particle frame", "particle frames"),
-            exporter.dir().display()
-        )?;
-    }
-    if let Some(line) = surface_line {
-        writeln!(out, "{line}")?;
-    }
-    if let Some(line) = volume_line {
-        writeln!(out, "{line}")?;
-    }
-    if let Some(line) = usd_line {
+    for line in export_lines.iter().flatten() {
         writeln!(out, "{line}")?;
     }
     if let Some(exporter) = &bodies {

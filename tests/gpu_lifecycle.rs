@@ -1,7 +1,8 @@
 //! The particle state's life on the CUDA backend: a fixed-point run resumed from a checkpoint is byte
 //! for byte the uninterrupted one, in both pipelines; emitters and sinks follow the CPU reference,
 //! keep exact books, stay deterministic and resume exactly; a run whose frames are stepped on other
-//! threads (as the viewer steps on a worker while it draws) is the run stepped on one. Where no CUDA
+//! threads (as the viewer steps on a worker while it draws) is the run stepped on one; the export's
+//! asynchronous snapshots are the particles of the frame they were taken at. Where no CUDA
 //! device and driver are usable, every test is reported as ignored, with the reason (tests/harness:
 //! `harness = false`).
 //!
@@ -15,7 +16,7 @@ use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
 use mpm::cuda::{CudaOptions, CudaSolver};
 use mpm::sim::params::{Pipeline, ScatterMode};
-use mpm::sim::{Scene, Simulation};
+use mpm::sim::{ParticleSnapshot, Scene, Simulation};
 
 mod common;
 mod harness;
@@ -35,6 +36,7 @@ fn main() -> std::process::ExitCode {
             the_report_pipeline_refuses_emitters,
             a_pipe_holds_its_rope_on_the_gpu_as_on_the_cpu,
             a_run_stepped_on_other_threads_is_byte_identical,
+            export_snapshots_are_the_particles_of_their_frame,
         ],
     )
 }
@@ -406,4 +408,56 @@ fn a_run_stepped_on_other_threads_is_byte_identical() {
         differing, 0,
         "the run stepped on worker threads differs from the one-thread run in {differing} words"
     );
+}
+
+/// The export's snapshots (`Solver::snapshot_particles`: a device-to-device copy, then a copy to
+/// pinned memory on a stream of its own) are the particles `read_particles` gives at that frame, C
+/// aside, although the next frame is stepped before each is waited on, with both staging copies
+/// in flight, and the last waited on another thread: in bin order (the fused pipeline), with
+/// parked slots (a draining tank) and with a deformation (jelly-drop).
+fn export_snapshots_are_the_particles_of_their_frame() {
+    let scenes = [
+        ("the fused dam break", scene(Pipeline::Fused)),
+        (
+            "the draining jet tank",
+            flow_scene(40_000, common::JET_TANK_DRAIN),
+        ),
+        ("jelly-drop", Scene::load("jelly-drop").expect("a preset loads")),
+    ];
+    for (name, scene) in scenes {
+        let mut sim = cuda_sim(&scene);
+        frames(&mut sim, 3);
+        let mut held = Vec::new();
+        for round in 0..3 {
+            let mut expected = sim.solver_mut().read_particles().unwrap();
+            expected.c = Vec::new();
+            let snapshot = sim.solver_mut().snapshot_particles().unwrap();
+            assert!(
+                matches!(snapshot, ParticleSnapshot::Pending(_)),
+                "{name}: the CUDA backend's snapshot is not asynchronous"
+            );
+            held.push((round, expected, snapshot));
+            frames(&mut sim, 1);
+            if held.len() == 2 {
+                let (round, expected, snapshot) = held.remove(0);
+                let got = snapshot.wait().unwrap();
+                assert!(
+                    common::same_particles(&expected, &got),
+                    "{name}: snapshot {round} is not the particles of its frame"
+                );
+            }
+        }
+        let (round, expected, snapshot) = held.remove(0);
+        let got = std::thread::spawn(move || snapshot.wait().unwrap())
+            .join()
+            .unwrap();
+        assert!(
+            common::same_particles(&expected, &got),
+            "{name}: snapshot {round}, waited on another thread, is not the particles of its frame"
+        );
+        assert!(
+            scene.has_deformation() == !got.deformation.is_empty(),
+            "{name}: the snapshot's deformation does not follow the scene's materials"
+        );
+    }
 }

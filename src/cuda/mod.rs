@@ -5,7 +5,8 @@
 //! loaded kernel modules; [`library`], [`modules`] and `nvrtc_search` find the driver and NVRTC and
 //! load the PTX build.rs embedded, or compile at run time). [`state::DeviceState`] holds every
 //! buffer of a scene on it: [`particles`], [`grid`], the bins ([`bin_lists`]), the step
-//! [`counters`], the [`colliders`] and the particle lifecycle ([`flow`]). [`timing`] and [`graph`]
+//! [`counters`], the [`colliders`], the particle lifecycle ([`flow`]) and the staging buffers that
+//! take the particles to the host for export ([`snapshot`]). [`timing`] and [`graph`]
 //! time and replay a substep on it. A second GPU is a second `Gpu` with its own `DeviceState`:
 //! nothing is global. No file of this layer imports a kernel's host file.
 //!
@@ -36,6 +37,7 @@ pub mod library;
 pub mod modules;
 mod nvrtc_search;
 pub mod particles;
+pub mod snapshot;
 pub mod state;
 pub mod timing;
 

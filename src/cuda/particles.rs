@@ -129,38 +129,62 @@ impl DeviceParticles {
 
     /// A host copy of every slot, in slot order, waiting for the device.
     pub fn download(&self, gpu: &Gpu) -> Result<Particles> {
-        let n = self.count;
-        let x = gpu.download(&self.x)?;
-        let v = gpu.download(&self.v)?;
-        let c = gpu.download(&self.c)?;
-        let rho = gpu.download(&self.rho)?;
-        let place = places_of_slots(&gpu.download(&self.slot)?)?;
-        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
         let deformation = match &self.deformation {
-            Some(buffer) => {
-                let d = gpu.download(buffer)?;
-                let column = |col: usize, i: usize| vec3(&d, col * n + i);
-                place
-                    .iter()
-                    .map(|&i| Deformation {
-                        f: Mat3::from_cols(column(0, i), column(1, i), column(2, i)),
-                        plastic: d[4 * i + 3],
-                    })
-                    .collect()
-            }
-            None => Vec::new(),
+            Some(buffer) => Some(gpu.download(buffer)?),
+            None => None,
         };
+        let host = HostParticles {
+            x: &gpu.download(&self.x)?,
+            v: &gpu.download(&self.v)?,
+            c: Some(&gpu.download(&self.c)?),
+            rho: &gpu.download(&self.rho)?,
+            slot: &gpu.download(&self.slot)?,
+            deformation: deformation.as_deref(),
+        };
+        host.in_slot_order()
+    }
+}
+
+/// The device's particle buffers as copied to the host, in memory order: `download`'s, and the
+/// export snapshots' (snapshot.rs), which leave C behind.
+pub struct HostParticles<'a> {
+    pub x: &'a [f32],
+    pub v: &'a [f32],
+    /// None: the particles come back without C (`Particles::c` empty).
+    pub c: Option<&'a [f32]>,
+    pub rho: &'a [f32],
+    pub slot: &'a [u32],
+    pub deformation: Option<&'a [f32]>,
+}
+
+impl HostParticles<'_> {
+    /// The particles in slot order, each unpacked from its float4s.
+    pub fn in_slot_order(&self) -> Result<Particles> {
+        let n = self.slot.len();
+        let place = places_of_slots(self.slot)?;
+        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
+        let (x, v) = (self.x, self.v);
+        let columns = |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, n + i), vec3(a, 2 * n + i));
         Ok(Particles {
-            x: place.iter().map(|&i| vec3(&x, i)).collect(),
-            v: place.iter().map(|&i| vec3(&v, i)).collect(),
-            c: place
-                .iter()
-                .map(|&i| Mat3::from_cols(vec3(&c, i), vec3(&c, n + i), vec3(&c, 2 * n + i)))
-                .collect(),
-            rho: place.iter().map(|&i| rho[i]).collect(),
+            x: place.iter().map(|&i| vec3(x, i)).collect(),
+            v: place.iter().map(|&i| vec3(v, i)).collect(),
+            c: match self.c {
+                Some(c) => place.iter().map(|&i| columns(c, i)).collect(),
+                None => Vec::new(),
+            },
+            rho: place.iter().map(|&i| self.rho[i]).collect(),
             material: place.iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
             live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
-            deformation,
+            deformation: match self.deformation {
+                Some(d) => place
+                    .iter()
+                    .map(|&i| Deformation {
+                        f: columns(d, i),
+                        plastic: d[4 * i + 3],
+                    })
+                    .collect(),
+                None => Vec::new(),
+            },
         })
     }
 }

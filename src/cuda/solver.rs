@@ -16,6 +16,7 @@ use super::one_pass::Gather;
 use super::particles::DeviceParticles;
 use super::pipelines::{launches, Launch};
 use super::render::DeviceParticlesView;
+use super::snapshot::SnapshotRing;
 use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
@@ -25,8 +26,8 @@ use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
 use crate::sim::{
-    ExtremesTicket, Params, ParticleView, Particles, PhaseTimings, Pipeline, Push, ScatterMode, Scene,
-    Solver, StepExtremes, Summary, SummaryTicket,
+    ExtremesTicket, Params, ParticleSnapshot, ParticleView, Particles, PhaseTimings, Pipeline, Push,
+    ScatterMode, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::CudaStream;
@@ -60,6 +61,8 @@ pub struct CudaSolver {
     resumed_dt: Option<f32>,
     /// The material table in the kernels' constant memory (`use_materials`).
     device_materials: Option<[Material; MAX_MATERIALS as usize]>,
+    /// The staging buffers of export snapshots, made at the first.
+    snapshots: Option<SnapshotRing>,
 }
 
 impl CudaSolver {
@@ -92,6 +95,7 @@ impl CudaSolver {
             substeps: 0,
             resumed_dt: None,
             device_materials: None,
+            snapshots: None,
         };
         let params = solver.params;
         solver.check_params(&params)?;
@@ -511,6 +515,14 @@ impl Solver for CudaSolver {
 
     fn read_particles(&mut self) -> Result<Particles> {
         self.state.particles.download(&self.gpu)
+    }
+
+    fn snapshot_particles(&mut self) -> Result<ParticleSnapshot> {
+        let ring = match &mut self.snapshots {
+            Some(ring) => ring,
+            None => self.snapshots.insert(SnapshotRing::new(&self.gpu)?),
+        };
+        ring.request(&self.gpu, &self.state.particles)
     }
 
     /// A device reduction (kernels/stats.cu): the host reads a few KiB, never the particles.

@@ -11,6 +11,7 @@
 //! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
 //! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
 
+use super::frames::QueueSummary;
 use super::mesh_files::{SurfaceFormat, SurfaceMesh};
 use super::queue::Workers;
 use super::usd::UsdCache;
@@ -273,6 +274,11 @@ impl SurfaceExporter {
         }
     }
 
+    /// `--export-every`.
+    pub fn every(&self) -> u64 {
+        self.every
+    }
+
     pub fn wants(&self, frame: u64) -> bool {
         frame % self.every == 0
     }
@@ -371,13 +377,29 @@ pub struct SurfaceProgress {
     /// Summed over the meshes written.
     pub reconstruct: Duration,
     pub write: Duration,
-    /// How long the simulation waited for room in the queue.
+    /// How long the export thread waited for room in the queue.
     pub waited: Duration,
     /// How many worker threads there are.
     pub workers: usize,
 }
 
 impl SurfaceProgress {
+    /// The closing line of a run's meshes; `after_last_frame`: the wait for the last ones.
+    pub fn summary(&self, files: &str, after_last_frame: Duration) -> String {
+        QueueSummary {
+            what: "surface",
+            noun: ("mesh", "meshes"),
+            files,
+            done: self.done,
+            size_each: format!("{} triangles", self.triangles / self.done.max(1)),
+            stages: [("reconstruction", self.reconstruct), ("writing", self.write)],
+            workers: self.workers,
+            waited: self.waited,
+            after_last_frame,
+        }
+        .line()
+    }
+
     /// Meshes handed over and not yet written (in a worker's hands or waiting for one).
     pub fn queued(&self) -> u64 {
         self.submitted - self.done

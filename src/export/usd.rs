@@ -248,6 +248,11 @@ impl UsdCache {
         self.particles.dir()
     }
 
+    /// `--export-every`.
+    pub fn every(&self) -> u64 {
+        self.every
+    }
+
     pub fn wants(&self, frame: u64) -> bool {
         frame % self.every == 0
     }
@@ -603,7 +608,7 @@ pub struct LayerDone {
     pub write: Duration,
 }
 
-/// Frames waiting for the particle layers' thread before the simulation waits: with the one in
+/// Frames waiting for the particle layers' thread before the export thread waits: with the one in
 /// the thread's hands, at most three frames' particles are held at once.
 pub const USD_QUEUE: usize = 2;
 
@@ -670,7 +675,7 @@ impl UsdQueue {
     }
 
     /// Waits for every frame handed over; then the closing line: layers written, seconds a layer,
-    /// what the simulation waited. `after_last_frame` starts when the simulation ended.
+    /// what the export thread waited. `after_last_frame` starts when the simulation ended.
     pub fn finish(self) -> Result<String> {
         let UsdQueue {
             cache,
@@ -686,7 +691,7 @@ impl UsdQueue {
         })?;
         Ok(format!(
             "usd: {} in {} (a layer a frame in {}{}), {:.3} s a particle layer on its own thread; the \
-             simulation waited {:.2} s for the queue, then {:.2} s for the last layers",
+             export thread waited {:.2} s for the queue, then {:.2} s for the last layers",
             crate::text::count(written, "frame", "frames"),
             cache.path().display(),
             cache.clips_dir().display(),

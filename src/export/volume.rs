@@ -21,6 +21,7 @@
 //! every frame's grids share one lattice. The grids are built on the worker threads the surface
 //! meshes run on ([`Workers`]), beside the simulation.
 
+use super::frames::QueueSummary;
 use super::queue::Workers;
 use super::surface::{SurfaceOverrides, SurfaceSettings};
 use super::vdb::{self, AnyGrid, Coord, Grid, GridClass, Leaf, Meta, Tree, LEAF_LOG2, LEAF_SIZE};
@@ -821,6 +822,11 @@ impl VolumeExporter {
         })
     }
 
+    /// `--export-every`.
+    pub fn every(&self) -> u64 {
+        self.every
+    }
+
     pub fn wants(&self, frame: u64) -> bool {
         frame % self.every == 0
     }
@@ -915,13 +921,29 @@ pub struct VolumeProgress {
     /// Summed over the volumes written.
     pub build: Duration,
     pub write: Duration,
-    /// How long the simulation waited for room in the queue.
+    /// How long the export thread waited for room in the queue.
     pub waited: Duration,
     /// How many worker threads there are.
     pub workers: usize,
 }
 
 impl VolumeProgress {
+    /// The closing line of a run's volumes; `after_last_frame`: the wait for the last ones.
+    pub fn summary(&self, files: &str, after_last_frame: Duration) -> String {
+        QueueSummary {
+            what: "volume",
+            noun: ("volume", "volumes"),
+            files,
+            done: self.done,
+            size_each: format!("{} active voxels", self.voxels / self.done.max(1)),
+            stages: [("grids", self.build), ("writing", self.write)],
+            workers: self.workers,
+            waited: self.waited,
+            after_last_frame,
+        }
+        .line()
+    }
+
     /// Volumes handed over and not yet written.
     pub fn queued(&self) -> u64 {
         self.submitted - self.done

@@ -26,6 +26,9 @@ pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Deformation, Particles, Scene, SceneError};
 pub use simulation::{BodyPose, FrameStats, FrameSteps, RunClock, Simulation};
-pub use solver::{ExtremesTicket, Solver, StepExtremes, SummaryTicket, MAX_PENDING_STEP_TIMINGS};
+pub use solver::{
+    ExtremesTicket, ParticleSnapshot, PendingParticles, Solver, StepExtremes, SummaryTicket,
+    MAX_PENDING_STEP_TIMINGS, SNAPSHOTS_IN_FLIGHT,
+};
 pub use summary::Summary;
 pub use view::{ColourBy, DeviceParticleView, ParticleView};

@@ -148,7 +148,8 @@ impl Particles {
         self.live.iter().filter(|&&l| l).count()
     }
 
-    /// The live particles alone, in slot order: what export and statistics see.
+    /// The live particles alone, in slot order: what export and statistics see. Particles read for
+    /// export may come without C or a deformation (empty), and keep that.
     pub fn live_only(&self) -> Particles {
         if self.live.iter().all(|&l| l) {
             return self.clone();
@@ -159,7 +160,11 @@ impl Particles {
         Particles {
             x: pick(n).map(|i| self.x[i]).collect(),
             v: pick(n).map(|i| self.v[i]).collect(),
-            c: pick(n).map(|i| self.c[i]).collect(),
+            c: if self.c.is_empty() {
+                Vec::new()
+            } else {
+                pick(n).map(|i| self.c[i]).collect()
+            },
             rho: pick(n).map(|i| self.rho[i]).collect(),
             material: pick(n).map(|i| self.material[i]).collect(),
             live: vec![true; pick(n).count()],

@@ -49,6 +49,10 @@ pub fn push_step_timing(pending: &mut Vec<PhaseTimings>, record: PhaseTimings) {
     pending.push(record);
 }
 
+/// Export snapshots a backend holds at once ([`Solver::snapshot_particles`]): one being written
+/// while the next is copied.
+pub const SNAPSHOTS_IN_FLIGHT: usize = 2;
+
 /// A request for the extremes (see [`Solver::request_extremes`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ExtremesTicket {
@@ -63,6 +67,28 @@ pub enum SummaryTicket {
     Ready(Summary),
     /// A device reduction still on its way to the host.
     Pending,
+}
+
+/// The particles on their way to the host for export ([`Solver::snapshot_particles`]): [`Self::wait`]
+/// gives them, on any thread, so that the copy and its reordering cost the stepping thread nothing.
+pub enum ParticleSnapshot {
+    Ready(Particles),
+    Pending(Box<dyn PendingParticles>),
+}
+
+/// A backend's copy of the particles still on its way (the CUDA backend's pinned staging buffers).
+pub trait PendingParticles: Send {
+    /// Waits for the copy; the particles in slot order.
+    fn wait(self: Box<Self>) -> Result<Particles>;
+}
+
+impl ParticleSnapshot {
+    pub fn wait(self) -> Result<Particles> {
+        match self {
+            ParticleSnapshot::Ready(particles) => Ok(particles),
+            ParticleSnapshot::Pending(pending) => pending.wait(),
+        }
+    }
 }
 
 /// A backend that advances the particles by one substep.
@@ -110,6 +136,16 @@ pub trait Solver: Send {
     }
     /// A host copy of the particle state.
     fn read_particles(&mut self) -> Result<Particles>;
+    /// The particle state after the substeps enqueued so far, for export: without C (`Particles::c`
+    /// empty; no export writes it) and, where the backend can, without waiting for the device (the
+    /// CUDA backend copies into pinned staging buffers on a stream of its own). At most
+    /// [`SNAPSHOTS_IN_FLIGHT`] snapshots are held at once: a request beyond them waits until one is
+    /// waited on or dropped.
+    fn snapshot_particles(&mut self) -> Result<ParticleSnapshot> {
+        let mut particles = self.read_particles()?;
+        particles.c = Vec::new();
+        Ok(ParticleSnapshot::Ready(particles))
+    }
     /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
     fn apply_push(&mut self, push: &Push) -> Result<()>;
     /// The colliders the next substeps apply (their pose at the end of the substep): [`Simulation`](super::Simulation)

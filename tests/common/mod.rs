@@ -467,7 +467,9 @@ pub fn particle_bits(p: &Particles) -> Vec<u32> {
     for i in 0..p.len() {
         bits.extend(p.x[i].to_array().map(f32::to_bits));
         bits.extend(p.v[i].to_array().map(f32::to_bits));
-        bits.extend(p.c[i].to_cols_array().map(f32::to_bits));
+        if let Some(c) = p.c.get(i) {
+            bits.extend(c.to_cols_array().map(f32::to_bits));
+        }
         bits.push(p.rho[i].to_bits());
         bits.push(u32::from(p.material[i]));
         if let Some(d) = p.deformation.get(i) {

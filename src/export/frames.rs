@@ -1,0 +1,422 @@
+//! The exports of a run's frames, off the stepping thread: what `mpm run` and the viewer hand each
+//! exported frame to. The stepping thread only starts the particles' copy to the host
+//! (`Solver::snapshot_particles`: on the GPU an asynchronous copy into pinned memory) and hands it,
+//! with the frame's header and the moving colliders' poses, to the export thread; that thread waits
+//! for the copy, puts the particles in slot order, writes the PLY frame and feeds the surface,
+//! volume and USD queues (each with worker threads of its own). The stepping thread waits only
+//! where the export thread is a frame behind and both staging copies are taken, which bounds the
+//! frames held in memory.
+
+use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
+use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
+use super::PlyExporter;
+use crate::sim::material::NamedMaterial;
+use crate::sim::{ParticleSnapshot, Simulation};
+use anyhow::{anyhow, Result};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// The surface meshes' worker threads, and the frames waiting for one before the export thread
+/// waits: with the export thread's frame and the one in its channel, at most six frames' particles
+/// are held at once.
+pub const SURFACE_WORKERS: usize = 2;
+pub const SURFACE_QUEUE: usize = 2;
+/// The volumes' worker threads and queue, as the surfaces' (each worker also uses rayon's pool).
+pub const VOLUME_WORKERS: usize = 2;
+pub const VOLUME_QUEUE: usize = 2;
+/// How often the export thread, waiting for a frame, reports the meshes, volumes and layers
+/// finished meanwhile.
+const POLL: Duration = Duration::from_millis(100);
+
+/// What a run exports per frame (each `None` where not asked for).
+pub struct FrameExportSet {
+    pub ply: Option<PlyExporter>,
+    pub surface: Option<SurfaceExporter>,
+    pub volume: Option<VolumeExporter>,
+    pub usd: Option<Arc<UsdCache>>,
+}
+
+impl FrameExportSet {
+    pub fn is_empty(&self) -> bool {
+        self.ply.is_none() && self.surface.is_none() && self.volume.is_none() && self.usd.is_none()
+    }
+}
+
+/// Where the export thread reports meshes, volumes and layers as they finish: the progress bar's
+/// message on a terminal, else a line each on stderr.
+#[derive(Clone)]
+pub enum ExportProgress {
+    Bar(indicatif::ProgressBar),
+    Lines,
+}
+
+/// A frame on its way to the export thread.
+struct FrameToExport {
+    frame: u64,
+    comment: String,
+    particles: ParticleSnapshot,
+    /// The moving colliders' poses, where the USD stage wants this frame.
+    poses: Option<Vec<Pose>>,
+}
+
+/// The export thread, from the stepping thread's side.
+pub struct FrameExports {
+    frames: Option<SyncSender<FrameToExport>>,
+    thread: Option<JoinHandle<Result<Vec<String>>>>,
+    /// `--export-every` of each export: a frame is handed over where one of them wants it.
+    every: Vec<u64>,
+    usd: Option<Arc<UsdCache>>,
+    handed: u64,
+    /// Whether the backend's snapshots were asynchronous (on their way when handed over).
+    asynchronous: bool,
+    /// Time the stepping thread spent handing frames over (the copy's start, the poses, the
+    /// hand-over, and waits for the export thread).
+    on_stepping_thread: Duration,
+}
+
+impl FrameExports {
+    /// Starts the export thread and the queues' workers; `None` where nothing is exported.
+    pub fn start(
+        set: FrameExportSet,
+        materials: Vec<NamedMaterial>,
+        progress: ExportProgress,
+    ) -> Result<Option<FrameExports>> {
+        if set.is_empty() {
+            return Ok(None);
+        }
+        let FrameExportSet {
+            ply,
+            surface,
+            volume,
+            usd,
+        } = set;
+        let every = [
+            ply.as_ref().map(PlyExporter::every),
+            surface.as_ref().map(SurfaceExporter::every),
+            volume.as_ref().map(VolumeExporter::every),
+            usd.as_ref().map(|u| u.every()),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let writer = ExportThread {
+            ply: ply.map(|exporter| (exporter, 0)),
+            surface: surface
+                .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
+                .transpose()?,
+            volume: volume
+                .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
+                .transpose()?,
+            usd: usd.clone().map(UsdQueue::start).transpose()?,
+            materials,
+            progress,
+        };
+        // One frame waits here while the thread writes another: both hold a staging copy
+        // (`SNAPSHOTS_IN_FLIGHT`) until the thread has read them.
+        let (frames, received) = sync_channel(1);
+        let thread = std::thread::Builder::new()
+            .name("export".into())
+            .spawn(move || writer.run(received))
+            .map_err(|e| anyhow!("cannot start the export thread: {e}"))?;
+        Ok(Some(FrameExports {
+            frames: Some(frames),
+            thread: Some(thread),
+            every,
+            usd,
+            handed: 0,
+            asynchronous: false,
+            on_stepping_thread: Duration::ZERO,
+        }))
+    }
+
+    pub fn wants(&self, frame: u64) -> bool {
+        self.every.iter().any(|&every| frame % every == 0)
+    }
+
+    /// Hands the simulation's current frame to the export thread where an export wants it. An
+    /// earlier frame's failure (a full disk) is returned here, so the run stops at its next
+    /// exported frame.
+    pub fn submit(&mut self, sim: &mut Simulation) -> Result<bool> {
+        let frame = sim.frame();
+        if !self.wants(frame) {
+            return Ok(false);
+        }
+        let start = Instant::now();
+        let job = FrameToExport {
+            frame,
+            comment: frame_comment(sim),
+            poses: self.usd.as_ref().filter(|u| u.wants(frame)).map(|u| u.poses(sim)),
+            particles: sim.solver_mut().snapshot_particles()?,
+        };
+        self.asynchronous = matches!(job.particles, ParticleSnapshot::Pending(_));
+        let frames = self.frames.as_ref().expect("submit after finish");
+        if frames.send(job).is_err() {
+            // The thread ended, which it does only on a failure: that is the error.
+            return Err(self
+                .join()
+                .err()
+                .unwrap_or_else(|| anyhow!("the export thread ended early")));
+        }
+        self.handed += 1;
+        self.on_stepping_thread += start.elapsed();
+        Ok(true)
+    }
+
+    /// Waits for every frame handed over to be written; then the closing lines: what each export
+    /// wrote and what it cost the stepping thread.
+    pub fn finish(mut self) -> Result<Vec<String>> {
+        self.frames = None;
+        let handed_over = format!(
+            "export: {} handed to the export thread, {:.2} ms each on the stepping thread ({})",
+            crate::text::count(self.handed, "frame", "frames"),
+            1e3 * self.on_stepping_thread.as_secs_f64() / self.handed.max(1) as f64,
+            match self.asynchronous {
+                true => "the particles' copy to the host overlaps the next substeps",
+                false => "this backend copies the particles there",
+            }
+        );
+        Ok([vec![handed_over], self.join()?].concat())
+    }
+
+    fn join(&mut self) -> Result<Vec<String>> {
+        let thread = self
+            .thread
+            .take()
+            .ok_or_else(|| anyhow!("the export thread ended early"))?;
+        thread.join().map_err(|_| anyhow!("the export thread panicked"))?
+    }
+}
+
+impl Drop for FrameExports {
+    /// Without `finish` (the run failed): the thread drops what is queued and ends.
+    fn drop(&mut self) {
+        self.frames = None;
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// The header comment of an exported frame's files.
+pub fn frame_comment(sim: &Simulation) -> String {
+    let scene = sim.scene();
+    format!(
+        "mpm frame {} t={:.6} s scene={} backend={}\ndx={} m grid={}x{}x{} rest_density={} kg/m^3",
+        sim.frame(),
+        sim.time(),
+        scene.name,
+        sim.backend(),
+        scene.dx,
+        scene.grid_res[0],
+        scene.grid_res[1],
+        scene.grid_res[2],
+        scene.material().rest_density
+    )
+}
+
+/// The export thread's side: the writers and queues it feeds.
+struct ExportThread {
+    /// The PLY frames' exporter and the frames it wrote.
+    ply: Option<(PlyExporter, u64)>,
+    surface: Option<SurfaceQueue>,
+    volume: Option<VolumeQueue>,
+    usd: Option<UsdQueue>,
+    materials: Vec<NamedMaterial>,
+    progress: ExportProgress,
+}
+
+impl ExportThread {
+    /// Writes each frame as it comes, reporting what the queues finish meanwhile; when the stepping
+    /// side closes the channel, waits for the queues and returns the closing lines.
+    fn run(mut self, frames: Receiver<FrameToExport>) -> Result<Vec<String>> {
+        loop {
+            match frames.recv_timeout(POLL) {
+                Ok(frame) => self.write(frame)?,
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            self.collect()?;
+        }
+        self.finish()
+    }
+
+    fn write(&mut self, job: FrameToExport) -> Result<()> {
+        let FrameToExport {
+            frame,
+            comment,
+            particles,
+            poses,
+        } = job;
+        let mut particles = particles.wait()?.live_only();
+        if let Some((exporter, written)) = self.ply.as_mut().filter(|(e, _)| e.wants(frame)) {
+            exporter.write(frame, &comment, &particles, &self.materials)?;
+            *written += 1;
+        }
+        let progress = self.progress.clone();
+        if let Some(queue) = self.volume.as_mut().filter(|q| q.exporter().wants(frame)) {
+            let job = VolumeJob {
+                frame,
+                comment: comment.clone(),
+                positions: particles.x.clone(),
+                velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
+            };
+            queue.submit(job, &mut |done, p| progress.volume(done, p))?;
+        }
+        let usd = self.usd.as_mut().filter(|q| q.cache().wants(frame));
+        if let Some(queue) = self.surface.as_mut().filter(|q| q.exporter().wants(frame)) {
+            let job = SurfaceJob {
+                frame,
+                comment: comment.clone(),
+                // The USD layer needs the positions too.
+                positions: match usd {
+                    Some(_) => particles.x.clone(),
+                    None => std::mem::take(&mut particles.x),
+                },
+            };
+            queue.submit(job, &mut |done, p| progress.mesh(done, p))?;
+        }
+        if let Some(queue) = usd {
+            queue.submit(UsdFrame {
+                frame,
+                comment,
+                particles,
+                poses: poses.unwrap_or_default(),
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Reports the meshes, volumes and layers finished so far.
+    fn collect(&mut self) -> Result<()> {
+        let progress = &self.progress;
+        if let Some(queue) = self.surface.as_mut() {
+            queue.collect(&mut |done, p| progress.mesh(done, p), false)?;
+        }
+        if let Some(queue) = self.volume.as_mut() {
+            queue.collect(&mut |done, p| progress.volume(done, p), false)?;
+        }
+        if let Some(queue) = self.usd.as_mut() {
+            queue.collect()?;
+        }
+        Ok(())
+    }
+
+    /// Waits for every queue; the closing line of each export.
+    fn finish(self) -> Result<Vec<String>> {
+        let progress = self.progress;
+        let mut lines = Vec::new();
+        if let Some((exporter, written)) = &self.ply {
+            lines.push(format!(
+                "exported {} into {}",
+                crate::text::count(*written, "particle frame", "particle frames"),
+                exporter.dir().display()
+            ));
+        }
+        let waiting = |left: u64, one: &str, several: &str| {
+            if left > 0 && matches!(progress, ExportProgress::Lines) {
+                eprintln!(
+                    "simulation done; waiting for {}",
+                    crate::text::count(left, one, several)
+                );
+            }
+        };
+        if let Some(queue) = self.surface {
+            let last_frame = Instant::now();
+            waiting(queue.progress().queued(), "surface mesh", "surface meshes");
+            let files = queue.exporter().destination();
+            let done = queue.finish(&mut |done, p| progress.mesh(done, p))?;
+            lines.push(done.summary(&files, last_frame.elapsed()));
+        }
+        if let Some(queue) = self.volume {
+            let last_frame = Instant::now();
+            waiting(queue.progress().queued(), "volume", "volumes");
+            let files = format!(
+                "{} in {}",
+                queue.exporter().format().extension(),
+                queue.exporter().dir().display()
+            );
+            let done = queue.finish(&mut |done, p| progress.volume(done, p))?;
+            lines.push(done.summary(&files, last_frame.elapsed()));
+        }
+        if let Some(queue) = self.usd {
+            waiting(queue.queued(), "USD layer", "USD layers");
+            lines.push(queue.finish()?);
+        }
+        Ok(lines)
+    }
+}
+
+impl ExportProgress {
+    fn mesh(&self, mesh: &MeshDone, progress: SurfaceProgress) {
+        match self {
+            ExportProgress::Bar(bar) => bar.set_message(progress.status()),
+            ExportProgress::Lines => eprintln!(
+                "{}: {} triangles in {:.2} s ({})",
+                mesh.path.display(),
+                mesh.triangles,
+                (mesh.reconstruct + mesh.write).as_secs_f64(),
+                progress.status()
+            ),
+        }
+    }
+
+    fn volume(&self, volume: &VolumeDone, progress: VolumeProgress) {
+        match self {
+            ExportProgress::Bar(bar) => bar.set_message(progress.status()),
+            ExportProgress::Lines => eprintln!(
+                "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
+                volume.path.display(),
+                volume.band,
+                volume.liquid,
+                (volume.build + volume.write).as_secs_f64(),
+                progress.status()
+            ),
+        }
+    }
+}
+
+/// The closing line of a queue of frame files: "surface: 12 meshes (obj in out/), 51234 triangles
+/// on average, 0.84 s per mesh (reconstruction 0.80 s, writing 0.04 s) on 2 worker threads; the
+/// export thread waited 0.00 s for the queue, then 1.20 s for the last meshes".
+pub struct QueueSummary<'a> {
+    /// "surface", "volume".
+    pub what: &'a str,
+    /// The files' noun, one and several ("mesh", "meshes").
+    pub noun: (&'a str, &'a str),
+    pub files: &'a str,
+    pub done: u64,
+    /// "51234 triangles", "97336 active voxels": per file on average.
+    pub size_each: String,
+    /// The two stages of each file (its build and its write), summed over the files.
+    pub stages: [(&'a str, Duration); 2],
+    pub workers: usize,
+    /// What the export thread waited for room in the queue, and for the last files at the end.
+    pub waited: Duration,
+    pub after_last_frame: Duration,
+}
+
+impl QueueSummary<'_> {
+    pub fn line(&self) -> String {
+        let per = |d: Duration| d.as_secs_f64() / self.done.max(1) as f64;
+        let [(first, build), (second, write)] = self.stages;
+        format!(
+            "{}: {} ({}), {} on average, {:.3} s per {} ({first} {:.3} s, {second} {:.3} s) on {} worker \
+             threads; the export thread waited {:.2} s for the queue, then {:.2} s for the last {}",
+            self.what,
+            crate::text::count(self.done, self.noun.0, self.noun.1),
+            self.files,
+            self.size_each,
+            per(build + write),
+            self.noun.0,
+            per(build),
+            per(write),
+            self.workers,
+            self.waited.as_secs_f64(),
+            self.after_last_frame.as_secs_f64(),
+            self.noun.1
+        )
+    }
+}
