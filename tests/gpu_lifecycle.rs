@@ -456,7 +456,7 @@ fn export_snapshots_are_the_particles_of_their_frame() {
             "{name}: snapshot {round}, waited on another thread, is not the particles of its frame"
         );
         assert!(
-            scene.has_deformation() == !got.deformation.is_empty(),
+            scene.has_deformation() != got.deformation.is_empty(),
             "{name}: the snapshot's deformation does not follow the scene's materials"
         );
     }
