@@ -22,6 +22,7 @@ use crate::sim::solid;
 use crate::sim::Particles;
 use crate::text::{io_reason, plural};
 use anyhow::{bail, Context, Result};
+use rayon::prelude::*;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -524,20 +525,35 @@ pub fn write_ply(
         }
     }
     writeln!(out, "end_header")?;
-    let mut record = [0f32; 7];
-    for i in 0..particles.len() {
-        record[..3].copy_from_slice(&particles.x[i].to_array());
-        record[3..6].copy_from_slice(&particles.v[i].to_array());
-        record[6] = particles.rho[i];
-        for value in record {
-            out.write_all(&value.to_le_bytes())?;
-        }
-        out.write_all(&[particles.material[i]])?;
-        if deformed {
-            let (j, von_mises) = deformation_measures(particles, i, materials);
-            out.write_all(&j.to_le_bytes())?;
-            out.write_all(&von_mises.to_le_bytes())?;
-        }
+    // The vertices as bytes, a chunk of particles a task on rayon's pool, then one write: a
+    // write call per value cost the dam break's frame tens of milliseconds.
+    let record = 7 * 4 + 1 + if deformed { 2 * 4 } else { 0 };
+    const CHUNK: usize = 1 << 14;
+    let chunks: Vec<Vec<u8>> = (0..particles.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|chunk| {
+            let range = chunk * CHUNK..((chunk + 1) * CHUNK).min(particles.len());
+            let mut bytes = Vec::with_capacity(range.len() * record);
+            for i in range {
+                let values = particles.x[i]
+                    .to_array()
+                    .into_iter()
+                    .chain(particles.v[i].to_array());
+                for value in values.chain([particles.rho[i]]) {
+                    bytes.extend_from_slice(&value.to_le_bytes());
+                }
+                bytes.push(particles.material[i]);
+                if deformed {
+                    let (j, von_mises) = deformation_measures(particles, i, materials);
+                    bytes.extend_from_slice(&j.to_le_bytes());
+                    bytes.extend_from_slice(&von_mises.to_le_bytes());
+                }
+            }
+            bytes
+        })
+        .collect();
+    for bytes in chunks {
+        out.write_all(&bytes)?;
     }
     out.flush()?;
     Ok(())

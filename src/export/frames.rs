@@ -250,7 +250,7 @@ impl ExportThread {
             particles,
             poses,
         } = job;
-        let mut particles = particles.wait()?.live_only();
+        let mut particles = particles.wait()?.into_live_only();
         if let Some((exporter, written)) = self.ply.as_mut().filter(|(e, _)| e.wants(frame)) {
             exporter.write(frame, &comment, &particles, &self.materials)?;
             *written += 1;

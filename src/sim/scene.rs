@@ -154,6 +154,18 @@ impl Particles {
         if self.live.iter().all(|&l| l) {
             return self.clone();
         }
+        self.pick_live()
+    }
+
+    /// [`Self::live_only`], taking the particles: no copy where every slot is live.
+    pub fn into_live_only(self) -> Particles {
+        match self.live.iter().all(|&l| l) {
+            true => self,
+            false => self.pick_live(),
+        }
+    }
+
+    fn pick_live(&self) -> Particles {
         let keep = |i: &usize| self.live[*i];
         let pick = |n: usize| (0..n).filter(keep);
         let n = self.len();
