@@ -14,7 +14,7 @@ use super::PlyExporter;
 use crate::sim::material::NamedMaterial;
 use crate::sim::{ParticleSnapshot, Simulation};
 use anyhow::{anyhow, Result};
-use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -72,9 +72,10 @@ pub struct FrameExports {
     handed: u64,
     /// Whether the backend's snapshots were asynchronous (on their way when handed over).
     asynchronous: bool,
-    /// Time the stepping thread spent handing frames over (the copy's start, the poses, the
-    /// hand-over, and waits for the export thread).
-    on_stepping_thread: Duration,
+    /// Time the stepping thread spent starting the particles' copies (and the header, the poses).
+    starting: Duration,
+    /// Time it waited for the export thread to take a frame (the writers a frame behind).
+    waited: Duration,
 }
 
 impl FrameExports {
@@ -103,7 +104,11 @@ impl FrameExports {
         .flatten()
         .collect();
         let writer = ExportThread {
-            ply: ply.map(|exporter| (exporter, 0)),
+            ply: ply.map(|exporter| PlyFrames {
+                exporter,
+                written: 0,
+                writing: Duration::ZERO,
+            }),
             surface: surface
                 .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
                 .transpose()?,
@@ -113,6 +118,8 @@ impl FrameExports {
             usd: usd.clone().map(UsdQueue::start).transpose()?,
             materials,
             progress,
+            frames: 0,
+            particles: Duration::ZERO,
         };
         // One frame waits here while the thread writes another: both hold a staging copy
         // (`SNAPSHOTS_IN_FLIGHT`) until the thread has read them.
@@ -128,7 +135,8 @@ impl FrameExports {
             usd,
             handed: 0,
             asynchronous: false,
-            on_stepping_thread: Duration::ZERO,
+            starting: Duration::ZERO,
+            waited: Duration::ZERO,
         }))
     }
 
@@ -152,8 +160,19 @@ impl FrameExports {
             particles: sim.solver_mut().snapshot_particles()?,
         };
         self.asynchronous = matches!(job.particles, ParticleSnapshot::Pending(_));
+        self.starting += start.elapsed();
         let frames = self.frames.as_ref().expect("submit after finish");
-        if frames.send(job).is_err() {
+        let sent = match frames.try_send(job) {
+            Ok(()) => Ok(()),
+            Err(TrySendError::Full(job)) => {
+                let waiting = Instant::now();
+                let sent = frames.send(job).map_err(|_| ());
+                self.waited += waiting.elapsed();
+                sent
+            }
+            Err(TrySendError::Disconnected(_)) => Err(()),
+        };
+        if sent.is_err() {
             // The thread ended, which it does only on a failure: that is the error.
             return Err(self
                 .join()
@@ -161,7 +180,6 @@ impl FrameExports {
                 .unwrap_or_else(|| anyhow!("the export thread ended early")));
         }
         self.handed += 1;
-        self.on_stepping_thread += start.elapsed();
         Ok(true)
     }
 
@@ -169,14 +187,17 @@ impl FrameExports {
     /// wrote and what it cost the stepping thread.
     pub fn finish(mut self) -> Result<Vec<String>> {
         self.frames = None;
+        let each = |d: Duration| 1e3 * d.as_secs_f64() / self.handed.max(1) as f64;
         let handed_over = format!(
-            "export: {} handed to the export thread, {:.2} ms each on the stepping thread ({})",
+            "export: {} handed to the export thread, {:.2} ms each on the stepping thread ({}), which \
+             waited {:.2} s in all for the export thread to take them",
             crate::text::count(self.handed, "frame", "frames"),
-            1e3 * self.on_stepping_thread.as_secs_f64() / self.handed.max(1) as f64,
+            each(self.starting),
             match self.asynchronous {
                 true => "the particles' copy to the host overlaps the next substeps",
-                false => "this backend copies the particles there",
-            }
+                false => "this backend copies the particles on it",
+            },
+            self.waited.as_secs_f64()
         );
         Ok([vec![handed_over], self.join()?].concat())
     }
@@ -217,15 +238,24 @@ pub fn frame_comment(sim: &Simulation) -> String {
     )
 }
 
+/// The PLY frames' exporter, with the frames it wrote and the time it took.
+struct PlyFrames {
+    exporter: PlyExporter,
+    written: u64,
+    writing: Duration,
+}
+
 /// The export thread's side: the writers and queues it feeds.
 struct ExportThread {
-    /// The PLY frames' exporter and the frames it wrote.
-    ply: Option<(PlyExporter, u64)>,
+    ply: Option<PlyFrames>,
     surface: Option<SurfaceQueue>,
     volume: Option<VolumeQueue>,
     usd: Option<UsdQueue>,
     materials: Vec<NamedMaterial>,
     progress: ExportProgress,
+    /// Frames taken, and the time spent waiting for their particles' copy and reordering them.
+    frames: u64,
+    particles: Duration,
 }
 
 impl ExportThread {
@@ -250,10 +280,15 @@ impl ExportThread {
             particles,
             poses,
         } = job;
+        let start = Instant::now();
         let mut particles = particles.wait()?.into_live_only();
-        if let Some((exporter, written)) = self.ply.as_mut().filter(|(e, _)| e.wants(frame)) {
-            exporter.write(frame, &comment, &particles, &self.materials)?;
-            *written += 1;
+        self.frames += 1;
+        self.particles += start.elapsed();
+        if let Some(ply) = self.ply.as_mut().filter(|ply| ply.exporter.wants(frame)) {
+            let start = Instant::now();
+            ply.exporter.write(frame, &comment, &particles, &self.materials)?;
+            ply.written += 1;
+            ply.writing += start.elapsed();
         }
         let progress = self.progress.clone();
         if let Some(queue) = self.volume.as_mut().filter(|q| q.exporter().wants(frame)) {
@@ -307,12 +342,16 @@ impl ExportThread {
     /// Waits for every queue; the closing line of each export.
     fn finish(self) -> Result<Vec<String>> {
         let progress = self.progress;
-        let mut lines = Vec::new();
-        if let Some((exporter, written)) = &self.ply {
+        let mut lines = vec![format!(
+            "export thread: {:.2} ms a frame waiting for the particles and putting them in slot order",
+            1e3 * self.particles.as_secs_f64() / self.frames.max(1) as f64
+        )];
+        if let Some(ply) = &self.ply {
             lines.push(format!(
-                "exported {} into {}",
-                crate::text::count(*written, "particle frame", "particle frames"),
-                exporter.dir().display()
+                "exported {} into {} ({:.2} ms a frame on the export thread)",
+                crate::text::count(ply.written, "particle frame", "particle frames"),
+                ply.exporter.dir().display(),
+                1e3 * ply.writing.as_secs_f64() / ply.written.max(1) as f64
             ));
         }
         let waiting = |left: u64, one: &str, several: &str| {
