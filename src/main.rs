@@ -49,8 +49,17 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
     }
     // A command name counts as a misplaced command unless it is an option's value (`--scene bench`).
     let words: Vec<&str> = args[1..].iter().map(|a| a.to_str().unwrap_or("")).collect();
+    // The viewer's switches, which take no value.
+    let switches = [
+        "--no-vsync",
+        "--full-res-smoothing",
+        "--overwrite",
+        "--usd-surface",
+        "--volume-velocity",
+        "--volume-half",
+    ];
     let takes_value =
-        |option: &str| option.starts_with('-') && !option.contains('=') && option != "--no-vsync";
+        |option: &str| option.starts_with('-') && !option.contains('=') && !switches.contains(&option);
     let misplaced = (0..words.len()).find(|&i| {
         COMMANDS.contains(&words[i]) && words[i] != "help" && (i == 0 || !takes_value(words[i - 1]))
     });
@@ -66,20 +75,9 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
             options.join(" ")
         ));
     }
-    // An option of `mpm run` alone, given to the viewer: say where it goes.
-    let run_only = [
-        "--frames",
-        "--export",
-        "--export-surface",
-        "--export-volume",
-        "--export-bodies",
-        "--export-usd",
-        "--usd-surface",
-        "--stats",
-        "--checkpoint",
-        "--resume",
-        "--every",
-    ];
+    // An option of `mpm run` alone, given to the viewer: say where it goes (the exports' options are
+    // the viewer's too).
+    let run_only = ["--frames", "--stats", "--checkpoint", "--resume"];
     if let Some(option) = words
         .iter()
         .find(|w| run_only.contains(&w.split('=').next().unwrap_or(w)))
@@ -452,6 +450,16 @@ struct ViewArgs {
     /// On quitting, write the last frame to this PNG (must not exist).
     #[arg(long, value_name = "FILE")]
     final_screenshot: Option<PathBuf>,
+    // Under a heading of their own, which says what ends the viewer's export.
+    #[command(
+        flatten,
+        next_help_heading = "Export, as `mpm run` does (from the start; R, another scene, F9, E or \
+                             closing the window ends it)"
+    )]
+    exports: ExportArgs,
+    /// Replace existing exported frames instead of refusing.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 #[derive(clap::Args)]
@@ -584,7 +592,23 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 fn view(args: ViewArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     args.solver.apply(&mut scene);
-    render::app::run(ViewerOptions {
+    // The exports are made after the viewer's own paths are checked and before the window opens:
+    // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
+    let exports = |scene: &Scene| -> Result<Exports> {
+        let exports = args.exports.build(scene, args.overwrite)?;
+        for line in exports
+            .removed_notes()
+            .into_iter()
+            .chain(exports.settings_lines())
+        {
+            eprintln!("{line}");
+        }
+        if !exports.is_empty() {
+            mpm::export::remove_unfinished_on_interrupt()?;
+        }
+        Ok(exports)
+    };
+    let options = ViewerOptions {
         scene,
         backend: args.backend,
         vsync: !args.no_vsync,
@@ -598,7 +622,8 @@ fn view(args: ViewArgs) -> Result<()> {
         capture_dir: args.capture_dir,
         quit_after: args.quit_after,
         final_screenshot: args.final_screenshot,
-    })
+    };
+    render::app::run(options, exports)
 }
 
 fn render_frames(args: RenderArgs) -> Result<()> {

@@ -239,6 +239,13 @@ impl FrameExports {
         Ok(true)
     }
 
+    /// Whether the export thread has ended before [`Self::finish`], which it does only on a failure
+    /// (a full disk): the next [`Self::submit`] or [`Self::finish`] returns that failure. For a
+    /// caller that may hand nothing over for a while (the viewer, paused) and would say so at once.
+    pub fn has_failed(&self) -> bool {
+        self.thread.as_ref().is_none_or(JoinHandle::is_finished)
+    }
+
     /// Waits for every frame handed over to be written; then the closing lines: what each export
     /// wrote and what it cost the stepping thread.
     pub fn finish(mut self) -> Result<Vec<String>> {
