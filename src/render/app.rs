@@ -614,8 +614,8 @@ impl ViewerApp {
                     Ok(())
                 }
                 None => Err(anyhow!(
-                    "no export is running (`mpm view --export DIR` and the other export options \
-                     start one with the viewer)"
+                    "no export is running: an export starts with the viewer (`mpm view --export DIR` \
+                     or another export option) and ends for good at R, a new scene, F9 or E"
                 )),
             },
             Action::SaveSnapshot => self.save_snapshot(),
@@ -791,6 +791,8 @@ impl ViewerApp {
         // The particles are in the GL buffer: the next frames are stepped from here on, beside the
         // panel, the drawing and the present, on the simulation's own CUDA stream after the feed.
         let handed = Instant::now();
+        // The export's line for the panel, read before the export goes along with the simulation.
+        let export = self.export_status();
         let stepping = match self.sim.take_if(|_| frames > 0) {
             Some(sim) => {
                 self.stepper.start(sim, self.export.take(), frames);
@@ -798,7 +800,7 @@ impl ViewerApp {
             }
             None => false,
         };
-        let drawn = self.draw_frame(fed, domain, glance, record, last_frame);
+        let drawn = self.draw_frame(fed, domain, glance, export, record, last_frame);
         let stepped = stepping.then(|| self.stepper.finish());
         self.draw_costs.lap(DrawSection::StepWait);
         if let Some((sim, export, stepped)) = stepped {
@@ -830,10 +832,10 @@ impl ViewerApp {
         fed: Fed,
         domain: (Vec3, Vec3),
         glance: Option<SimGlance>,
+        export: Option<String>,
         record: bool,
         last_frame: bool,
     ) -> Result<Vec<Action>> {
-        let export = self.export_status();
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(Vec::new());
         };
