@@ -6,6 +6,7 @@ use mpm::backend::{self, BackendKind};
 use mpm::bench;
 use mpm::checkpoint::{Checkpoint, CheckpointSeries};
 use mpm::export::bodies::BodyExporter;
+use mpm::export::frames::{Exports, FrameExportSet};
 use mpm::export::mesh_files::SurfaceFormat;
 use mpm::export::surface::{SurfaceExporter, SurfaceOverrides, SurfaceSettings};
 use mpm::export::usd::UsdCache;
@@ -48,8 +49,17 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
     }
     // A command name counts as a misplaced command unless it is an option's value (`--scene bench`).
     let words: Vec<&str> = args[1..].iter().map(|a| a.to_str().unwrap_or("")).collect();
+    // The viewer's switches, which take no value.
+    let switches = [
+        "--no-vsync",
+        "--full-res-smoothing",
+        "--overwrite",
+        "--usd-surface",
+        "--volume-velocity",
+        "--volume-half",
+    ];
     let takes_value =
-        |option: &str| option.starts_with('-') && !option.contains('=') && option != "--no-vsync";
+        |option: &str| option.starts_with('-') && !option.contains('=') && !switches.contains(&option);
     let misplaced = (0..words.len()).find(|&i| {
         COMMANDS.contains(&words[i]) && words[i] != "help" && (i == 0 || !takes_value(words[i - 1]))
     });
@@ -65,20 +75,9 @@ fn arguments() -> Result<Vec<std::ffi::OsString>, String> {
             options.join(" ")
         ));
     }
-    // An option of `mpm run` alone, given to the viewer: say where it goes.
-    let run_only = [
-        "--frames",
-        "--export",
-        "--export-surface",
-        "--export-volume",
-        "--export-bodies",
-        "--export-usd",
-        "--usd-surface",
-        "--stats",
-        "--checkpoint",
-        "--resume",
-        "--every",
-    ];
+    // An option of `mpm run` alone, given to the viewer: say where it goes (the exports' options are
+    // the viewer's too).
+    let run_only = ["--frames", "--stats", "--checkpoint", "--resume"];
     if let Some(option) = words
         .iter()
         .find(|w| run_only.contains(&w.split('=').next().unwrap_or(w)))
@@ -127,9 +126,6 @@ enum Command {
 }
 
 #[derive(clap::Args)]
-#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_volume", "export_bodies", "export_usd"]).multiple(true))]
-#[command(group = clap::ArgGroup::new("surface_on").args(["export_surface", "usd_surface"]).multiple(true))]
-#[command(group = clap::ArgGroup::new("field_on").args(["export_surface", "usd_surface", "export_volume"]).multiple(true))]
 struct RunArgs {
     /// A preset name (`mpm scenes` lists them) or the path of a scene .toml file.
     #[arg(long, default_value = presets::DEFAULT, value_parser = scene_arg())]
@@ -142,6 +138,35 @@ struct RunArgs {
     backend: Option<BackendKind>,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    exports: ExportArgs,
+    /// Also write the per-frame statistics as JSON lines to this file.
+    #[arg(long, value_name = "FILE")]
+    stats: Option<PathBuf>,
+    /// Write the whole state into this directory every --checkpoint-every frames and after the
+    /// last frame (checkpoint_NNNNNN.mpmck), for `mpm run --resume FILE`.
+    #[arg(long, value_name = "DIR")]
+    checkpoint: Option<PathBuf>,
+    /// Frames between checkpoints.
+    #[arg(long, value_name = "K", default_value_t = 60, requires = "checkpoint",
+          allow_negative_numbers = true, value_parser = count::<1>)]
+    checkpoint_every: u64,
+    /// Go on from a checkpoint file: its scene, backend and solver options (--backend, --scatter and
+    /// --pipeline override them), frame numbers and time continuing from it.
+    #[arg(long, value_name = "FILE", conflicts_with = "scene")]
+    resume: Option<PathBuf>,
+    /// Replace existing exported frames, stats file or checkpoints instead of refusing.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+/// The flags of the frame exports, one definition for `mpm run` and `mpm view` (both flatten it),
+/// built into exporters by [`ExportArgs::build`].
+#[derive(clap::Args)]
+#[command(group = clap::ArgGroup::new("frame_export").args(["export", "export_surface", "export_volume", "export_bodies", "export_usd"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("surface_on").args(["export_surface", "usd_surface"]).multiple(true))]
+#[command(group = clap::ArgGroup::new("field_on").args(["export_surface", "usd_surface", "export_volume"]).multiple(true))]
+struct ExportArgs {
     /// Write one binary PLY per exported frame (frame 0 is the initial state) into this directory.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
@@ -187,24 +212,75 @@ struct RunArgs {
     #[arg(long, value_name = "K", default_value_t = 1, requires = "frame_export", allow_negative_numbers = true,
           value_parser = count::<1>)]
     every: u64,
-    /// Also write the per-frame statistics as JSON lines to this file.
-    #[arg(long, value_name = "FILE")]
-    stats: Option<PathBuf>,
-    /// Write the whole state into this directory every --checkpoint-every frames and after the
-    /// last frame (checkpoint_NNNNNN.mpmck), for `mpm run --resume FILE`.
-    #[arg(long, value_name = "DIR")]
-    checkpoint: Option<PathBuf>,
-    /// Frames between checkpoints.
-    #[arg(long, value_name = "K", default_value_t = 60, requires = "checkpoint",
-          allow_negative_numbers = true, value_parser = count::<1>)]
-    checkpoint_every: u64,
-    /// Go on from a checkpoint file: its scene, backend and solver options (--backend, --scatter and
-    /// --pipeline override them), frame numbers and time continuing from it.
-    #[arg(long, value_name = "FILE", conflicts_with = "scene")]
-    resume: Option<PathBuf>,
-    /// Replace existing exported frames, stats file or checkpoints instead of refusing.
-    #[arg(long)]
-    overwrite: bool,
+}
+
+impl ExportArgs {
+    /// The exporters these flags ask for, for a run of `scene`, every one checked before anything
+    /// starts (the same for `mpm run` and `mpm view`): unwritable folders, settings that cannot work
+    /// (a voxel too small for this machine's memory), an earlier run's files without `overwrite`
+    /// (with it they are removed: [`Exports::removed_notes`] says which), a scene without the rigid
+    /// bodies `--export-bodies` asks for.
+    fn build(&self, scene: &Scene, overwrite: bool) -> Result<Exports> {
+        let every = self.every;
+        let ply = self
+            .export
+            .as_deref()
+            .map(|dir| PlyExporter::new(dir, every, overwrite))
+            .transpose()?;
+        let surface = self
+            .export_surface
+            .as_deref()
+            .map(|dir| -> Result<SurfaceExporter> {
+                let settings = SurfaceSettings::for_scene(scene, self.surface.overrides())?;
+                SurfaceExporter::new(dir, every, self.surface_format, settings, overwrite)
+            })
+            .transpose()?;
+        let volume = self
+            .export_volume
+            .as_deref()
+            .map(|dir| -> Result<VolumeExporter> {
+                let settings = VolumeSettings::for_scene(
+                    scene,
+                    self.surface.overrides(),
+                    self.volume.overrides(),
+                    mpm::export::frames::VOLUME_WORKERS,
+                )?;
+                VolumeExporter::new(dir, every, self.volume_format, settings, overwrite)
+            })
+            .transpose()?;
+        let bodies = self
+            .export_bodies
+            .as_deref()
+            .map(|dir| BodyExporter::new(dir, every, scene, overwrite))
+            .transpose()?;
+        // The stage holds the surface wherever it is reconstructed (--export-surface, --usd-surface).
+        let usd = self
+            .export_usd
+            .as_deref()
+            .map(|path| {
+                let surface = self.usd_surface || surface.is_some();
+                UsdCache::create(path, scene, every, surface, overwrite).map(std::sync::Arc::new)
+            })
+            .transpose()?;
+        let surface = match (surface, &usd) {
+            (Some(exporter), Some(usd)) => Some(exporter.with_usd(usd.clone())),
+            (None, Some(usd)) if self.usd_surface => Some(SurfaceExporter::for_usd(
+                usd.clone(),
+                every,
+                SurfaceSettings::for_scene(scene, self.surface.overrides())?,
+            )?),
+            (surface, _) => surface,
+        };
+        Ok(Exports {
+            frames: FrameExportSet {
+                ply,
+                surface,
+                volume,
+                usd,
+            },
+            bodies,
+        })
+    }
 }
 
 /// The surface reconstruction's parameters, overriding the defaults derived from the scene (the
@@ -374,6 +450,16 @@ struct ViewArgs {
     /// On quitting, write the last frame to this PNG (must not exist).
     #[arg(long, value_name = "FILE")]
     final_screenshot: Option<PathBuf>,
+    // Under a heading of their own, which says what ends the viewer's export.
+    #[command(
+        flatten,
+        next_help_heading = "Export, as `mpm run` does (from the start; R, another scene, F9, E or \
+                             closing the window ends it)"
+    )]
+    exports: ExportArgs,
+    /// Replace existing exported frames instead of refusing.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 #[derive(clap::Args)]
@@ -506,7 +592,23 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 fn view(args: ViewArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     args.solver.apply(&mut scene);
-    render::app::run(ViewerOptions {
+    // The exports are made after the viewer's own paths are checked and before the window opens:
+    // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
+    let exports = |scene: &Scene| -> Result<Exports> {
+        let exports = args.exports.build(scene, args.overwrite)?;
+        for line in exports
+            .removed_notes()
+            .into_iter()
+            .chain(exports.settings_lines())
+        {
+            eprintln!("{line}");
+        }
+        if !exports.is_empty() {
+            mpm::export::remove_unfinished_on_interrupt()?;
+        }
+        Ok(exports)
+    };
+    let options = ViewerOptions {
         scene,
         backend: args.backend,
         vsync: !args.no_vsync,
@@ -520,7 +622,8 @@ fn view(args: ViewArgs) -> Result<()> {
         capture_dir: args.capture_dir,
         quit_after: args.quit_after,
         final_screenshot: args.final_screenshot,
-    })
+    };
+    render::app::run(options, exports)
 }
 
 fn render_frames(args: RenderArgs) -> Result<()> {
@@ -786,7 +889,7 @@ fn run(args: RunArgs) -> Result<()> {
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());
-    if args.export_bodies.is_some() && dropped == 0 {
+    if args.exports.export_bodies.is_some() && dropped == 0 {
         mpm::export::bodies::check_scene(&scene)?;
     }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
@@ -800,55 +903,7 @@ fn run(args: RunArgs) -> Result<()> {
     };
     // Then every output, before the first step, so a bad path fails at once, not after a long run.
     let scene = sim.scene();
-    let export = args
-        .export
-        .as_deref()
-        .map(|dir| PlyExporter::new(dir, args.every, args.overwrite))
-        .transpose()?;
-    let surface = args
-        .export_surface
-        .as_deref()
-        .map(|dir| -> Result<SurfaceExporter> {
-            let settings = SurfaceSettings::for_scene(scene, args.surface.overrides())?;
-            SurfaceExporter::new(dir, args.every, args.surface_format, settings, args.overwrite)
-        })
-        .transpose()?;
-    let volume = args
-        .export_volume
-        .as_deref()
-        .map(|dir| -> Result<VolumeExporter> {
-            let settings = VolumeSettings::for_scene(
-                scene,
-                args.surface.overrides(),
-                args.volume.overrides(),
-                mpm::export::frames::VOLUME_WORKERS,
-            )?;
-            VolumeExporter::new(dir, args.every, args.volume_format, settings, args.overwrite)
-        })
-        .transpose()?;
-    let bodies = args
-        .export_bodies
-        .as_deref()
-        .map(|dir| BodyExporter::new(dir, args.every, scene, args.overwrite))
-        .transpose()?;
-    // The stage holds the surface wherever it is reconstructed (--export-surface, --usd-surface).
-    let usd = args
-        .export_usd
-        .as_deref()
-        .map(|path| {
-            let surface = args.usd_surface || surface.is_some();
-            UsdCache::create(path, scene, args.every, surface, args.overwrite).map(std::sync::Arc::new)
-        })
-        .transpose()?;
-    let surface = match (surface, &usd) {
-        (Some(exporter), Some(usd)) => Some(exporter.with_usd(usd.clone())),
-        (None, Some(usd)) if args.usd_surface => Some(SurfaceExporter::for_usd(
-            usd.clone(),
-            args.every,
-            SurfaceSettings::for_scene(scene, args.surface.overrides())?,
-        )?),
-        (surface, _) => surface,
-    };
+    let exports = args.exports.build(scene, args.overwrite)?;
     let stats = args
         .stats
         .as_deref()
@@ -859,15 +914,8 @@ fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(|dir| CheckpointSeries::new(dir, args.checkpoint_every, resumed.as_ref(), args.overwrite))
         .transpose()?;
-    let notes = [
-        export.as_ref().and_then(PlyExporter::removed_note),
-        surface.as_ref().and_then(SurfaceExporter::removed_note),
-        volume.as_ref().and_then(VolumeExporter::removed_note),
-        bodies.as_ref().and_then(BodyExporter::removed_note),
-        usd.as_deref().and_then(UsdCache::removed_note),
-        checkpoints.as_ref().and_then(CheckpointSeries::removed_note),
-    ];
-    for note in notes.into_iter().flatten() {
+    let checkpoints_note = checkpoints.as_ref().and_then(CheckpointSeries::removed_note);
+    for note in exports.removed_notes().into_iter().chain(checkpoints_note) {
         writeln!(std::io::stdout(), "{note}")?;
     }
     mpm::export::remove_unfinished_on_interrupt()?;
@@ -898,22 +946,8 @@ fn run(args: RunArgs) -> Result<()> {
             String::new()
         }
     )?;
-    if let Some(surface) = &surface {
-        writeln!(
-            std::io::stdout(),
-            "surface meshes: {}; {}",
-            surface.destination(),
-            surface.settings().describe()
-        )?;
-    }
-    if let Some(volume) = &volume {
-        writeln!(
-            std::io::stdout(),
-            "volumes: {} into {}; {}",
-            volume.format().extension(),
-            volume.dir().display(),
-            volume.settings().describe()
-        )?;
+    for line in exports.settings_lines() {
+        writeln!(std::io::stdout(), "{line}")?;
     }
     if let (Some(path), Some(checkpoint)) = (&resume, &resumed) {
         writeln!(
@@ -924,9 +958,19 @@ fn run(args: RunArgs) -> Result<()> {
             checkpoint.clock.time
         )?;
     }
+    let Exports {
+        frames:
+            FrameExportSet {
+                ply,
+                surface,
+                volume,
+                usd,
+            },
+        bodies,
+    } = exports;
     let opts = RunOptions {
         frames: args.frames,
-        export,
+        export: ply,
         surface,
         volume,
         bodies,

@@ -354,8 +354,8 @@ pub fn progress_bar(frames: u64) -> indicatif::ProgressBar {
     bar
 }
 
-/// The frame's body meshes and poses, where the exporter wants this frame.
-fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Result<bool> {
+/// The frame's body meshes and poses, where the exporter wants this frame; whether it did.
+pub fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Result<bool> {
     let frame = sim.frame();
     match exporter.filter(|e| e.wants(frame)) {
         Some(exporter) => {
@@ -364,6 +364,16 @@ fn export_bodies(sim: &Simulation, exporter: Option<&mut BodyExporter>) -> Resul
         }
         None => Ok(false),
     }
+}
+
+/// The closing line of the rigid bodies' export, which wrote `frames` frames.
+pub fn bodies_closing_line(exporter: &BodyExporter, frames: u64) -> String {
+    format!(
+        "exported the rigid bodies of {} into {} ({} and bodies_NNNNNN.obj)",
+        crate::text::count(frames, "frame", "frames"),
+        exporter.dir().display(),
+        crate::export::bodies::POSE_TABLE
+    )
 }
 
 /// Runs `opts.frames` frames; every line goes to `out`. Stops at the first error (a diverged state,
@@ -452,13 +462,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
         writeln!(out, "{line}")?;
     }
     if let Some(exporter) = &bodies {
-        writeln!(
-            out,
-            "exported the rigid bodies of {} into {} ({} and bodies_NNNNNN.obj)",
-            crate::text::count(bodies_exported, "frame", "frames"),
-            exporter.dir().display(),
-            crate::export::bodies::POSE_TABLE
-        )?;
+        writeln!(out, "{}", bodies_closing_line(exporter, bodies_exported))?;
     }
     if let Some(warning) = cfl_warning(&all) {
         writeln!(out, "{warning}")?;

@@ -171,6 +171,119 @@ fn viewer_without_a_display_says_so_plainly() {
     assert!(text.contains("display") && !text.contains(".rs:"), "{text}");
 }
 
+/// The error line(s) of a command that failed.
+fn error_lines(out: &Output) -> Vec<String> {
+    assert!(!out.status.success(), "accepted: {}", stderr(out));
+    stderr(out)
+        .lines()
+        .filter(|l| l.starts_with("error"))
+        .map(String::from)
+        .collect()
+}
+
+/// `mpm view` takes `mpm run`'s export options and checks them as `mpm run` does, with the same
+/// messages, before its window opens (here there is no display: a check made only after the window
+/// would be reported as the missing display instead): a folder that is a file, an earlier run's
+/// frames or stage without --overwrite, a stage in a missing folder, a scene without the bodies
+/// --export-bodies asks for, --usd-surface without --export-usd. Accepted options get as far as the
+/// window, with --overwrite's note on stderr.
+#[test]
+fn viewer_exports_are_checked_before_the_window_as_mpm_run_checks_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |p: &str| dir.path().join(p).display().to_string();
+    let file = at("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let earlier = at("earlier");
+    std::fs::create_dir(&earlier).unwrap();
+    std::fs::write(dir.path().join("earlier/frame_000000.ply"), "ply").unwrap();
+    let stage = at("stage.usda");
+    std::fs::write(&stage, "#usda 1.0").unwrap();
+    let through_file = format!("{file}/meshes");
+    let refusals: [(&[&str], &str); 6] = [
+        (&["--export", &file], "is a file, not a directory"),
+        (
+            &["--export-surface", &through_file],
+            "cannot create the export directory",
+        ),
+        (&["--export", &earlier], "already holds 1 exported frame"),
+        (
+            &["--export-usd", &stage, "--every", "2"],
+            "exists; pass --overwrite to replace it",
+        ),
+        (
+            &["--export-usd", &at("no/such/folder/a.usda")],
+            "does not exist; create it",
+        ),
+        (&["--export-bodies", &at("bodies")], "has no rigid bodies"),
+    ];
+    for (options, words) in refusals {
+        let common = ["--backend", "cpu", "--scene", "dam-break-coarse"];
+        let view = mpm(&[&["view"][..], &common, options].concat());
+        let run = mpm(&[&["run", "--frames", "0"][..], &common, options].concat());
+        let (view_says, run_says) = (error_lines(&view), error_lines(&run));
+        assert!(
+            view_says.join("\n").contains(words),
+            "{options:?}: {}",
+            stderr(&view)
+        );
+        assert!(
+            !stderr(&view).contains("window"),
+            "{options:?}: checked after the window: {}",
+            stderr(&view)
+        );
+        assert_eq!(
+            view_says, run_says,
+            "{options:?}: the viewer and mpm run say it differently"
+        );
+    }
+    let usd_surface = mpm(&["view", "--usd-surface"]);
+    assert!(
+        !usd_surface.status.success() && stderr(&usd_surface).contains("--export-usd <FILE>"),
+        "{}",
+        stderr(&usd_surface)
+    );
+    assert_eq!(
+        std::fs::read_to_string(&stage).unwrap(),
+        "#usda 1.0",
+        "the stage is untouched"
+    );
+    assert!(
+        !dir.path().join("bodies").exists(),
+        "a refused export made its folder"
+    );
+
+    // Accepted, with or without the command name: they get as far as the window, the earlier run's
+    // files removed and said so.
+    for command in [&["view"][..], &[]] {
+        std::fs::write(&stage, "#usda 1.0").unwrap();
+        std::fs::write(dir.path().join("earlier/frame_000000.ply"), "ply").unwrap();
+        let options = [
+            "--export",
+            &earlier,
+            "--export-usd",
+            &stage,
+            "--every",
+            "3",
+            "--overwrite",
+        ];
+        let out = mpm(&[command, &options].concat());
+        let text = stderr(&out);
+        assert!(
+            !out.status.success() && text.contains("cannot open a window"),
+            "{text}"
+        );
+        assert!(
+            text.contains(&format!("--overwrite: removed the earlier {stage}"))
+                && text.contains("--overwrite: removed frame_000000.ply of an earlier run"),
+            "{command:?}: no note of what --overwrite removed: {text}"
+        );
+        assert!(
+            !std::path::Path::new(&stage).exists(),
+            "--overwrite removed the earlier stage"
+        );
+    }
+}
+
 #[test]
 fn export_onto_a_file_says_it_is_a_file() {
     let dir = tempfile::tempdir().unwrap();

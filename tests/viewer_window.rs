@@ -1,5 +1,6 @@
 //! The windowed viewer, end to end: `mpm view` on the CPU backend under an X server (Xvfb with
-//! Mesa's software OpenGL in CI) for a few frames, then its last frame must show particles.
+//! Mesa's software OpenGL in CI) for a few frames, then its last frame must show particles, and
+//! what it exports must be what `mpm run` exports.
 //! Reported as ignored, with the reason, where neither a display nor Xvfb is available
 //! (tests/harness: `harness = false`). An Xvfb it starts is stopped with SIGTERM, so that it removes
 //! its lock file and socket; the test checks that it did.
@@ -20,7 +21,8 @@ fn main() -> std::process::ExitCode {
         harness::tests![
             viewer_window_shows_particles,
             viewer_splits_slow_frames_across_draws,
-            viewer_window_draws_colliders
+            viewer_window_draws_colliders,
+            viewer_exports_the_frames_mpm_run_exports
         ],
     )
 }
@@ -279,4 +281,97 @@ fn viewer_window_draws_colliders() {
         "no colliders visible: {:.3}% of the pixels",
         100.0 * grey
     );
+}
+
+/// The names of the files in `dir` (not its folders), sorted.
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// `mpm view --export DIR --export-usd FILE` writes frame 0 and every frame it steps, until it
+/// quits, and they are the files `mpm run` writes for the same frames, byte for byte: the PLY
+/// frames, the stage's layers and its root layer. The scene is the coarse dam break with a fixed
+/// substep (`time_step.dt` for its `cfl`): under the CFL policy the viewer's run is its own (it
+/// splits a slow frame over draws, and chooses a frame's first substeps while the last frame's
+/// are still in flight), so its frames differ from `mpm run`'s in the last bits. On the single-
+/// thread CPU a frame of it takes about 60 ms, so the viewer's frames are split over draws here.
+fn viewer_exports_the_frames_mpm_run_exports() {
+    let session = session();
+    let dir = session.dir.path();
+    let preset = common::mpm(&["scenes", "--show", "dam-break-coarse"]);
+    let preset = String::from_utf8(preset.stdout).expect("the preset as text");
+    let scene = preset.replacen("\ncfl = 0.35 ", "\ndt = 8.0e-4 ", 1);
+    assert_ne!(scene, preset, "the preset's time step line moved");
+    let scene_file = dir.join("dam-break-coarse-fixed-step.toml");
+    std::fs::write(&scene_file, scene).expect("writing the scene");
+    let (view, run) = (dir.join("view"), dir.join("run"));
+    for side in [&view, &run] {
+        std::fs::create_dir(side).unwrap();
+    }
+    let path = |p: std::path::PathBuf| p.to_str().expect("a UTF-8 temp path").to_string();
+    let stderr = session.view(&[
+        "--scene",
+        &path(scene_file.clone()),
+        "--size",
+        "400x300",
+        "--draw",
+        "points",
+        "--no-vsync",
+        "--fixed-frames",
+        "1",
+        "--quit-after",
+        "40",
+        "--export",
+        &path(view.join("ply")),
+        "--export-usd",
+        &path(view.join("stage.usda")),
+    ]);
+    let frames = files_in(&view.join("ply"));
+    let count = frames.len();
+    // 40 draws of 50 ms of stepping at most; a frame takes about two here, more on a busy machine.
+    assert!(count >= 3, "only {count} frames exported: {frames:?}");
+    let expected: Vec<String> = (0..count).map(|f| format!("frame_{f:06}.ply")).collect();
+    assert_eq!(frames, expected, "frame 0 and every frame after it");
+    assert!(
+        stderr.contains(&format!(
+            "export finished as the viewer closed: {count} frames in "
+        )),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("exported {count} particle frames into")),
+        "the export's closing lines: {stderr}"
+    );
+
+    let last = (count - 1).to_string();
+    let out = common::cpu_run(
+        &path(scene_file),
+        &last,
+        &[
+            "--export",
+            &path(run.join("ply")),
+            "--export-usd",
+            &path(run.join("stage.usda")),
+        ],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for folder in ["ply", "stage_clips", "."] {
+        let (view, run) = (view.join(folder), run.join(folder));
+        let files = files_in(&view);
+        assert_eq!(files, files_in(&run), "{folder}: other files than mpm run's");
+        for name in files {
+            let read = |side: &Path| std::fs::read(side.join(&name)).unwrap();
+            assert!(
+                read(&view) == read(&run),
+                "{folder}/{name}: the viewer's file differs from mpm run's"
+            );
+        }
+    }
 }

@@ -7,6 +7,7 @@
 //! where the export thread is a frame behind and both staging copies are taken, which bounds the
 //! frames held in memory.
 
+use super::bodies::BodyExporter;
 use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
 use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
@@ -32,6 +33,7 @@ pub const VOLUME_QUEUE: usize = 2;
 const POLL: Duration = Duration::from_millis(100);
 
 /// What a run exports per frame (each `None` where not asked for).
+#[derive(Default)]
 pub struct FrameExportSet {
     pub ply: Option<PlyExporter>,
     pub surface: Option<SurfaceExporter>,
@@ -42,6 +44,78 @@ pub struct FrameExportSet {
 impl FrameExportSet {
     pub fn is_empty(&self) -> bool {
         self.ply.is_none() && self.surface.is_none() && self.volume.is_none() && self.usd.is_none()
+    }
+}
+
+/// Every export of a run's frames that a command was asked for, made and checked before the first
+/// step (`mpm run` and `mpm view` build it from the same flags): the frames' exports, which go
+/// through [`FrameExports`], and the rigid bodies', which the stepping thread writes itself (a few
+/// small files a frame).
+#[derive(Default)]
+pub struct Exports {
+    pub frames: FrameExportSet,
+    pub bodies: Option<BodyExporter>,
+}
+
+impl Exports {
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty() && self.bodies.is_none()
+    }
+
+    /// What making the exports removed, a line each: an earlier run's files (`--overwrite`) and a
+    /// killed run's unfinished ones.
+    pub fn removed_notes(&self) -> Vec<String> {
+        let f = &self.frames;
+        [
+            f.ply.as_ref().and_then(PlyExporter::removed_note),
+            f.surface.as_ref().and_then(SurfaceExporter::removed_note),
+            f.volume.as_ref().and_then(VolumeExporter::removed_note),
+            self.bodies.as_ref().and_then(BodyExporter::removed_note),
+            f.usd.as_deref().and_then(UsdCache::removed_note),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+
+    /// The surface meshes' and volumes' settings, as the user is told them before the first frame.
+    pub fn settings_lines(&self) -> Vec<String> {
+        let surface = self.frames.surface.as_ref().map(|surface| {
+            format!(
+                "surface meshes: {}; {}",
+                surface.destination(),
+                surface.settings().describe()
+            )
+        });
+        let volume = self.frames.volume.as_ref().map(|volume| {
+            format!(
+                "volumes: {} into {}; {}",
+                volume.format().extension(),
+                volume.dir().display(),
+                volume.settings().describe()
+            )
+        });
+        [surface, volume].into_iter().flatten().collect()
+    }
+
+    /// The short names of what is exported, for a status line: `ply`, `surface` (mesh files),
+    /// `volume`, `usd`, `bodies`.
+    pub fn kinds(&self) -> Vec<&'static str> {
+        let f = &self.frames;
+        [
+            f.ply.as_ref().map(|_| "ply"),
+            // Meshes reconstructed for the USD stage alone are the stage's.
+            f.surface
+                .as_ref()
+                .and_then(SurfaceExporter::dir)
+                .map(|_| "surface"),
+            f.volume.as_ref().map(|_| "volume"),
+            f.usd.as_ref().map(|_| "usd"),
+            self.bodies.as_ref().map(|_| "bodies"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
     }
 }
 
@@ -181,6 +255,13 @@ impl FrameExports {
         }
         self.handed += 1;
         Ok(true)
+    }
+
+    /// Whether the export thread has ended before [`Self::finish`], which it does only on a failure
+    /// (a full disk): the next [`Self::submit`] or [`Self::finish`] returns that failure. For a
+    /// caller that may hand nothing over for a while (the viewer, paused) and would say so at once.
+    pub fn has_failed(&self) -> bool {
+        self.thread.as_ref().is_none_or(JoinHandle::is_finished)
     }
 
     /// Waits for every frame handed over to be written; then the closing lines: what each export

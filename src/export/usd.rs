@@ -462,7 +462,7 @@ impl UsdCache {
         let last = written.particles.last().copied().unwrap_or(0);
         let fps = (1.0 / f64::from(FRAME_DT)).round();
         let mut s = format!(
-            "#usda 1.0\n(\n    doc = \"\"\"Written by mpm run --export-usd: {}; {} to {last} (every {}). \
+            "#usda 1.0\n(\n    doc = \"\"\"Written by mpm --export-usd: {}; {} to {last} (every {}). \
              The frames are value clips in ./{}/: a layer a frame.\"\"\"\n    defaultPrim = \"Sim\"\n    \
              metersPerUnit = 1\n    upAxis = \"Y\"\n    timeCodesPerSecond = {fps}\n    framesPerSecond = {fps}\n    \
              startTimeCode = {first}\n    endTimeCode = {last}\n)\n\n",

@@ -21,6 +21,8 @@ use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
 use crate::checkpoint::Checkpoint;
+use crate::export::frames::Exports;
+use crate::sim::colliders::Motion;
 use crate::sim::dropped::{DropShape, DroppedBody};
 use crate::sim::{PhaseTimings, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
@@ -43,9 +45,11 @@ use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::raw_window_handle::HasWindowHandle;
 use winit::window::{Window, WindowId};
 
+mod export;
 mod snapshot;
 mod stepping;
 
+use export::{ColliderChange, ExportEnd, ExportSession, FinishingExport};
 use stepping::{SimGlance, Stepped, Stepper};
 
 pub struct ViewerOptions {
@@ -72,11 +76,15 @@ pub struct ViewerOptions {
     pub final_screenshot: Option<PathBuf>,
 }
 
-/// Opens the window and runs until it is closed.
-pub fn run(options: ViewerOptions) -> Result<()> {
+/// Opens the window and runs until it is closed. `exports` makes the exports the run is to write
+/// (`mpm view --export DIR ...`; none: `Exports::default()`) for its scene: after the viewer's own
+/// paths are checked and before the window opens, so that every refusal comes before anything
+/// starts.
+pub fn run(options: ViewerOptions, exports: impl FnOnce(&Scene) -> Result<Exports>) -> Result<()> {
     check_paths(&options)?;
+    let exports = exports(&options.scene)?;
     let render_instead = render_command(&options.scene);
-    let mut app = ViewerApp::new(options)?;
+    let mut app = ViewerApp::new(options, exports)?;
     let event_loop = EventLoop::new().map_err(|e| {
         // winit's message starts with the path of its own source file; the user needs the rest.
         let text = e.to_string();
@@ -275,10 +283,16 @@ struct ViewerApp {
     stepped: Option<Stepped>,
     /// The thread that steps the simulation beside each draw.
     stepper: Stepper,
+    /// The exports asked for, until the first scene starts them.
+    pending_export: Option<Exports>,
+    /// The export under way (with the simulation on the stepping thread while it steps).
+    export: Option<ExportSession>,
+    /// An ended export whose last frames are being written.
+    finishing_export: Option<FinishingExport>,
 }
 
 impl ViewerApp {
-    fn new(options: ViewerOptions) -> Result<ViewerApp> {
+    fn new(options: ViewerOptions, exports: Exports) -> Result<ViewerApp> {
         let scene = options.scene.clone();
         let (camera, controls) = Self::scene_defaults(&scene, &options)?;
         let pacing = match options.fixed_frames {
@@ -323,6 +337,9 @@ impl ViewerApp {
             step_costs: StepCosts::default(),
             stepped: None,
             stepper: Stepper::new()?,
+            pending_export: Some(exports),
+            export: None,
+            finishing_export: None,
             options,
         })
     }
@@ -380,6 +397,14 @@ impl ViewerApp {
         // becomes the new scene's (by material where it has several).
         let colouring_chosen = self.options.colouring.is_none()
             && self.controls.render.colouring != Colouring::default_for(&self.scene);
+        // The running simulation goes: its export ends with it, so that no file of the new run
+        // replaces or mixes with the old run's (the frame numbers start again). What replaces it:
+        // a snapshot (F9), another scene (a preset or a file, framed anew) or the same scene (R).
+        self.end_export(match (checkpoint, reframe) {
+            (Some(_), _) => ExportEnd::Snapshot,
+            (None, true) => ExportEnd::NewScene,
+            (None, false) => ExportEnd::Restart,
+        });
         // The registration refers to the old solver's context and buffer size: release it first.
         self.feed.release();
         self.sim = None;
@@ -557,6 +582,7 @@ impl ViewerApp {
                 "o" => self.act(Action::DropBody { ball: true }, event_loop),
                 "p" => self.screenshot_requested = true,
                 "v" => self.act(Action::ToggleRecording, event_loop),
+                "e" => self.act(Action::StopExport, event_loop),
                 "h" => self.show_panel = !self.show_panel,
                 _ => {}
             },
@@ -582,6 +608,16 @@ impl ViewerApp {
                 Ok(())
             }
             Action::ToggleRecording => self.toggle_recording(),
+            Action::StopExport => match self.export {
+                Some(_) => {
+                    self.end_export(ExportEnd::Stopped);
+                    Ok(())
+                }
+                None => Err(anyhow!(
+                    "no export is running: an export starts with the viewer (`mpm view --export DIR` \
+                     or another export option) and ends for good at R, a new scene, F9 or E"
+                )),
+            },
             Action::SaveSnapshot => self.save_snapshot(),
             Action::LoadSnapshot => self.load_snapshot(),
             Action::FrameCamera => {
@@ -610,6 +646,9 @@ impl ViewerApp {
         let Some(sim) = self.sim.as_mut() else {
             return Ok(());
         };
+        if let Some(export) = &self.export {
+            export.check_collider_change(ColliderChange::Drop)?;
+        }
         let shape = DropShape::sized_for(ball, sim.scene());
         let density = if ball {
             self.controls.ball_density
@@ -698,6 +737,7 @@ impl ViewerApp {
             Some(stepped) => self.account_step(stepped, wall_dt),
             None => 0,
         };
+        self.poll_export();
         // With fixed pacing (and recording) an image is taken only when the batch is complete, so the
         // images stay exactly frames_per_draw 60 Hz frames apart.
         let batch_complete = if fixed && !self.controls.paused {
@@ -751,20 +791,23 @@ impl ViewerApp {
         // The particles are in the GL buffer: the next frames are stepped from here on, beside the
         // panel, the drawing and the present, on the simulation's own CUDA stream after the feed.
         let handed = Instant::now();
+        // The export's line for the panel, read before the export goes along with the simulation.
+        let export = self.export_status();
         let stepping = match self.sim.take_if(|_| frames > 0) {
             Some(sim) => {
-                self.stepper.start(sim, frames);
+                self.stepper.start(sim, self.export.take(), frames);
                 true
             }
             None => false,
         };
-        let drawn = self.draw_frame(fed, domain, glance, record, last_frame);
+        let drawn = self.draw_frame(fed, domain, glance, export, record, last_frame);
         let stepped = stepping.then(|| self.stepper.finish());
         self.draw_costs.lap(DrawSection::StepWait);
-        if let Some((sim, stepped)) = stepped {
+        if let Some((sim, export, stepped)) = stepped {
             let handover = (stepped.began - handed) + stepped.ended.elapsed();
             self.draw_costs.stepped(stepped.took, handover);
             self.sim = Some(sim);
+            self.export = export;
             self.stepped = Some(stepped);
         }
         // The panel's actions once the simulation is back: they may pause, step or restart it.
@@ -789,6 +832,7 @@ impl ViewerApp {
         fed: Fed,
         domain: (Vec3, Vec3),
         glance: Option<SimGlance>,
+        export: Option<String>,
         record: bool,
         last_frame: bool,
     ) -> Result<Vec<Action>> {
@@ -827,6 +871,7 @@ impl ViewerApp {
                         r.sequence.frames_written(),
                     )
                 }),
+                export: export.as_deref(),
                 message: self.message.as_deref(),
             };
             let controls = &mut self.controls;
@@ -924,7 +969,23 @@ impl ViewerApp {
         let Some(sim) = self.sim.as_mut() else { return };
         if pressed {
             if let Some((cursor, size)) = cursor {
-                self.mouse.collider_drag = ColliderDrag::grab(sim, &self.camera, cursor, size);
+                let grabbed = ColliderDrag::grab(sim, &self.camera, cursor, size);
+                // A static collider moves from the moment it is taken, which an export holding it as
+                // static cannot follow.
+                let refused = match (&grabbed, &self.export) {
+                    (Some(held), Some(export)) => {
+                        let collider = &sim.colliders().list[held.index];
+                        let moves_now = collider.body.is_none() && matches!(collider.motion, Motion::Static);
+                        moves_now
+                            .then(|| export.check_collider_change(ColliderChange::MoveStatic).err())
+                            .flatten()
+                    }
+                    _ => None,
+                };
+                match refused {
+                    Some(e) => self.message = Some(format!("{e:#}")),
+                    None => self.mouse.collider_drag = grabbed,
+                }
             }
         } else if let Some(held) = self.mouse.collider_drag.take() {
             if let Err(e) = held.release(sim) {
@@ -965,7 +1026,8 @@ impl ApplicationHandler for ViewerApp {
         }
         let started = self.create_gpu(event_loop).and_then(|gpu| {
             self.gpu = Some(gpu);
-            self.start_scene(self.scene.clone(), false)
+            self.start_scene(self.scene.clone(), false)?;
+            self.start_export()
         });
         if let Err(e) = started {
             self.fatal = Some(e);
@@ -1095,6 +1157,10 @@ impl ApplicationHandler for ViewerApp {
                 );
             }
         }
+        // The export's queued frames are written before the simulation (whose GPU copies they may
+        // still wait for) goes.
+        self.end_export(ExportEnd::Closed);
+        self.join_finishing_export();
         // Release in dependency order: the CUDA registration, the solver, then GL objects.
         self.feed.release();
         self.sim = None;

@@ -46,6 +46,8 @@ pub struct HudInfo<'a> {
     /// Whether CUDA summed the surface's thickness (else GL blended it).
     pub thickness_by_cuda: bool,
     pub recording: Option<(String, u64)>,
+    /// While the run is exported (`mpm view --export ...`): what so far, "42 frames (ply, usd)".
+    pub export: Option<&'a str>,
     pub message: Option<&'a str>,
 }
 
@@ -82,6 +84,8 @@ pub enum Action {
     LoadFile(String),
     Screenshot,
     ToggleRecording,
+    /// Ends the export of the run (`mpm view --export ...`) before the window closes.
+    StopExport,
     SaveSnapshot,
     LoadSnapshot,
     FrameCamera,
@@ -107,6 +111,7 @@ pub const KEYS: &[(&str, &str)] = &[
     ("O", "drop a ball (a rigid body) into the scene"),
     ("P", "screenshot (PNG)"),
     ("V", "start / stop PNG recording"),
+    ("E", "stop the export (mpm view --export ...)"),
     ("F5", "save a snapshot (checkpoint)"),
     ("F9", "load the newest snapshot"),
     ("H", "hide / show this panel"),
@@ -216,6 +221,9 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
                 format!("{} -> {dir}", crate::text::count(*frames, "frame", "frames")),
             );
         }
+        if let Some(export) = info.export {
+            row("exporting", export.to_string());
+        }
     });
 }
 
@@ -269,6 +277,9 @@ fn run_controls(ui: &mut egui::Ui, c: &mut Controls, info: &HudInfo, actions: &m
         };
         if ui.button(record).clicked() {
             actions.push(Action::ToggleRecording);
+        }
+        if info.export.is_some() && ui.button("Stop export (E)").clicked() {
+            actions.push(Action::StopExport);
         }
     });
     snapshot_buttons(ui, actions);

@@ -18,6 +18,10 @@ impl ViewerApp {
         // is half done".)
         if sim.time_stepped() > sim.time() {
             sim.step_frame()?;
+            // A frame completed here, on the main thread, is exported as the stepping thread's are.
+            if let Some(export) = self.export.as_mut() {
+                export.export_frame(sim);
+            }
         }
         sim.settle()?;
         let path = next_free_snapshot(&self.options.capture_dir);

@@ -1,8 +1,10 @@
 //! The viewer's stepping: each draw hands the simulation to a worker thread that steps the next
 //! draw's frames while the main thread builds the panel, draws and presents (the module above says
 //! why); the next draw takes in what it did. What the drawing needs of the simulation meanwhile is
-//! read before the worker has it.
+//! read before the worker has it. The export, where one runs, goes along: the worker hands it each
+//! frame it completes.
 
+use super::export::ExportSession;
 use super::ViewerApp;
 use crate::render::clock::Pacing;
 use crate::sim::{PhaseTimings, Push, Simulation};
@@ -16,21 +18,30 @@ use std::time::{Duration, Instant};
 /// step ([`Stepper::start`]) and takes both back before its end ([`Stepper::finish`]). One thread
 /// rather than one a draw, so that no draw waits for a thread to start and end around its stepping.
 pub(super) struct Stepper {
-    jobs: Option<Sender<(Simulation, u32)>>,
-    done: Receiver<(Simulation, Stepped)>,
+    jobs: Option<Sender<Job>>,
+    done: Receiver<Job>,
     thread: Option<JoinHandle<()>>,
+}
+
+/// What the stepping thread is handed and hands back: the simulation, the export it feeds, the
+/// frames to step; back, what was stepped.
+struct Job {
+    sim: Simulation,
+    export: Option<ExportSession>,
+    frames: u32,
+    stepped: Option<Stepped>,
 }
 
 impl Stepper {
     pub(super) fn new() -> Result<Stepper> {
-        let (jobs, inbox) = channel::<(Simulation, u32)>();
+        let (jobs, inbox) = channel::<Job>();
         let (outbox, done) = channel();
         let thread = std::thread::Builder::new()
             .name("mpm-stepping".into())
             .spawn(move || {
-                for (mut sim, frames) in inbox {
-                    let stepped = step_frames(&mut sim, frames);
-                    if outbox.send((sim, stepped)).is_err() {
+                for mut job in inbox {
+                    job.stepped = Some(step_frames(&mut job.sim, &mut job.export, job.frames));
+                    if outbox.send(job).is_err() {
                         break;
                     }
                 }
@@ -43,10 +54,17 @@ impl Stepper {
         })
     }
 
-    /// Hands `sim` to the thread to step `frames` 60 Hz frames ([`step_frames`]).
-    pub(super) fn start(&mut self, sim: Simulation, frames: u32) {
+    /// Hands `sim` to the thread to step `frames` 60 Hz frames ([`step_frames`]), and `export`
+    /// to hand them to.
+    pub(super) fn start(&mut self, sim: Simulation, export: Option<ExportSession>, frames: u32) {
+        let job = Job {
+            sim,
+            export,
+            frames,
+            stepped: None,
+        };
         let handed = match &self.jobs {
-            Some(jobs) => jobs.send((sim, frames)).is_ok(),
+            Some(jobs) => jobs.send(job).is_ok(),
             None => false,
         };
         if !handed {
@@ -54,11 +72,17 @@ impl Stepper {
         }
     }
 
-    /// Takes the simulation back once the frames handed over are stepped, with what was stepped.
-    pub(super) fn finish(&mut self) -> (Simulation, Stepped) {
+    /// Takes the simulation and the export back once the frames handed over are stepped, with
+    /// what was stepped.
+    pub(super) fn finish(&mut self) -> (Simulation, Option<ExportSession>, Stepped) {
         match self.done.recv() {
-            Ok(stepped) => stepped,
-            Err(_) => self.resume_panic(),
+            Ok(Job {
+                sim,
+                export,
+                stepped: Some(stepped),
+                ..
+            }) => (sim, export, stepped),
+            _ => self.resume_panic(),
         }
     }
 
@@ -220,9 +244,11 @@ impl ViewerApp {
 }
 
 /// Completes up to `frames` 60 Hz frames of `sim` on the calling thread (the viewer's stepping
-/// thread). It stops at STEP_DEADLINE, where a frame in progress keeps its place for the next draw,
-/// and at the first error.
-pub(super) fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
+/// thread), handing each to `export` as it completes: at the frame's boundary, before the next
+/// frame's substeps are enqueued (on the GPU the particles' copy to the host goes on the stream
+/// between the two). It stops at STEP_DEADLINE, where a frame in progress keeps its place for the
+/// next draw, and at the first error.
+pub(super) fn step_frames(sim: &mut Simulation, export: &mut Option<ExportSession>, frames: u32) -> Stepped {
     let started = Instant::now();
     let deadline = started + STEP_DEADLINE;
     let time_before = sim.time_stepped();
@@ -241,6 +267,9 @@ pub(super) fn step_frames(sim: &mut Simulation, frames: u32) -> Stepped {
     while stepped.error.is_none() && stepped.completed < frames {
         match sim.step_frame_until(Some(deadline)) {
             Ok(Some(steps)) => {
+                if let Some(export) = export {
+                    export.export_frame(sim);
+                }
                 stepped.completed += 1;
                 stepped.last_steps = Some((steps.substeps, steps.dt, steps.max_cfl));
                 stepped.over_cfl += u64::from(steps.substeps_over_cfl);
