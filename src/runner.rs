@@ -399,7 +399,7 @@ pub fn run(sim: &mut Simulation, opts: RunOptions, out: &mut dyn Write) -> Resul
             volume,
             usd,
         },
-        sim.scene().materials.clone(),
+        sim.scene(),
         match &bar {
             Some(bar) => ExportProgress::Bar(bar.clone()),
             None => ExportProgress::Lines,

@@ -9,7 +9,6 @@ use crate::sim::{Deformation, Particles};
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
 use glam::{Mat3, Vec3};
-use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Bytes of one particle's state: x, v as float4; C as 3 float4; rho; its slot.
@@ -159,28 +158,28 @@ pub struct HostParticles<'a> {
 }
 
 impl HostParticles<'_> {
-    /// The particles in slot order, each unpacked from its float4s (each array gathered on rayon's
-    /// pool: the export thread does this for every exported frame).
+    /// The particles in slot order, each unpacked from its float4s. On the calling thread, not on
+    /// rayon's pool: the export thread does this for every exported frame, while the surface and
+    /// volume workers may hold the pool for seconds.
     pub fn in_slot_order(&self) -> Result<Particles> {
         let n = self.slot.len();
         let place = places_of_slots(self.slot)?;
         let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
         let (x, v) = (self.x, self.v);
         let columns = |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, n + i), vec3(a, 2 * n + i));
-        let gather = |of: &(dyn Fn(usize) -> Vec3 + Sync)| place.par_iter().map(|&i| of(i)).collect();
         Ok(Particles {
-            x: gather(&|i| vec3(x, i)),
-            v: gather(&|i| vec3(v, i)),
+            x: place.iter().map(|&i| vec3(x, i)).collect(),
+            v: place.iter().map(|&i| vec3(v, i)).collect(),
             c: match self.c {
-                Some(c) => place.par_iter().map(|&i| columns(c, i)).collect(),
+                Some(c) => place.iter().map(|&i| columns(c, i)).collect(),
                 None => Vec::new(),
             },
-            rho: place.par_iter().map(|&i| self.rho[i]).collect(),
-            material: place.par_iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
-            live: place.par_iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
+            rho: place.iter().map(|&i| self.rho[i]).collect(),
+            material: place.iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
+            live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
             deformation: match self.deformation {
                 Some(d) => place
-                    .par_iter()
+                    .iter()
                     .map(|&i| Deformation {
                         f: columns(d, i),
                         plastic: d[4 * i + 3],

@@ -69,6 +69,7 @@ impl SnapshotRing {
     /// Starts copying `particles` to the host behind the work enqueued on `gpu`'s stream; returns at
     /// once unless every staging set is still held, then waits for one to come back.
     pub fn request(&mut self, gpu: &Gpu, particles: &DeviceParticles) -> Result<ParticleSnapshot> {
+        let asked = std::time::Instant::now();
         let mut set = match self.free.try_recv() {
             Ok(set) => set,
             Err(_) if self.made < SNAPSHOTS_IN_FLIGHT => {
@@ -87,6 +88,7 @@ impl SnapshotRing {
                 .recv()
                 .context("waiting for an export snapshot's buffers")?,
         };
+        let waited = asked.elapsed();
         let stream = gpu.stream();
         // The set's last copy to the host may still be running where its snapshot was dropped
         // unwaited: the device copy into it waits for that.
@@ -120,6 +122,7 @@ impl SnapshotRing {
         Ok(ParticleSnapshot::Pending(Box::new(PendingSnapshot {
             set: Some(set),
             give_back: self.give_back.clone(),
+            waited,
         })))
     }
 }
@@ -195,6 +198,8 @@ fn pinned<T: DeviceRepr + cudarc::driver::ValidAsZeroBits>(
 struct PendingSnapshot {
     set: Option<StagingSet>,
     give_back: Sender<StagingSet>,
+    /// How long the request waited for this set to come back.
+    waited: std::time::Duration,
 }
 
 impl PendingParticles for PendingSnapshot {
@@ -204,6 +209,10 @@ impl PendingParticles for PendingSnapshot {
             "waiting for the particles' copy for export (a kernel may have failed; MPM_CUDA_SYNC=1 names it)",
         )?;
         set.particles()
+    }
+
+    fn waited_for_buffers(&self) -> std::time::Duration {
+        self.waited
     }
 }
 

@@ -2,32 +2,38 @@
 //! exported frame to. The stepping thread only starts the particles' copy to the host
 //! (`Solver::snapshot_particles`: on the GPU an asynchronous copy into pinned memory) and hands it,
 //! with the frame's header and the moving colliders' poses, to the export thread; that thread waits
-//! for the copy, puts the particles in slot order, writes the PLY frame and feeds the surface,
-//! volume and USD queues (each with worker threads of its own). The stepping thread waits only
-//! where the export thread is a frame behind and both staging copies are taken, which bounds the
-//! frames held in memory.
+//! for the copy, puts the particles in slot order and feeds the PLY, surface, volume and USD queues,
+//! each with writer threads of its own. The queues hold up to [`QUEUE_BUDGET`] of frames, so a slow
+//! writer (a volume takes seconds) costs the simulation nothing until they fill; then the
+//! simulation waits for room, which bounds the memory held, and the closing lines say how long.
 
 use super::bodies::BodyExporter;
+use super::queue::Workers;
 use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
 use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
 use super::PlyExporter;
 use crate::sim::material::NamedMaterial;
-use crate::sim::{ParticleSnapshot, Simulation};
+use crate::sim::{ParticleSnapshot, Particles, Scene, Simulation};
 use anyhow::{anyhow, Result};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-/// The surface meshes' worker threads, and the frames waiting for one before the export thread
-/// waits: with the export thread's frame and the one in its channel, at most six frames' particles
-/// are held at once.
+/// The surface meshes' worker threads (each also runs its reconstruction on rayon's pool: two keep
+/// the pool busy while one of them writes its file).
 pub const SURFACE_WORKERS: usize = 2;
-pub const SURFACE_QUEUE: usize = 2;
-/// The volumes' worker threads and queue, as the surfaces' (each worker also uses rayon's pool).
+/// The volumes' worker threads, as the surfaces'.
 pub const VOLUME_WORKERS: usize = 2;
-pub const VOLUME_QUEUE: usize = 2;
+/// The PLY frames' writer threads (each formats its vertices on rayon's pool).
+pub const PLY_WORKERS: usize = 2;
+/// Host memory the frames waiting in the exports' queues may hold, each export's queue its share:
+/// the simulation steps on while a slow writer (a volume takes seconds) works through them, and
+/// waits only when they are full. A quarter of the available memory where that is less.
+pub const QUEUE_BUDGET: u64 = 2 << 30;
+/// The queues' bounds: at least two frames wait, whatever their size; at most this many.
+const QUEUE_FRAMES: std::ops::RangeInclusive<usize> = 2..=240;
 /// How often the export thread, waiting for a frame, reports the meshes, volumes and layers
 /// finished meanwhile.
 const POLL: Duration = Duration::from_millis(100);
@@ -153,10 +159,12 @@ pub struct FrameExports {
 }
 
 impl FrameExports {
-    /// Starts the export thread and the queues' workers; `None` where nothing is exported.
+    /// Starts the export thread and the queues' workers for a run of `scene` (its material table
+    /// heads the PLY files; its particle slots size the queues' frames); `None` where nothing is
+    /// exported.
     pub fn start(
         set: FrameExportSet,
-        materials: Vec<NamedMaterial>,
+        scene: &Scene,
         progress: ExportProgress,
     ) -> Result<Option<FrameExports>> {
         if set.is_empty() {
@@ -177,20 +185,30 @@ impl FrameExports {
         .into_iter()
         .flatten()
         .collect();
+        let queues = [ply.is_some(), surface.is_some(), volume.is_some(), usd.is_some()];
+        let share = queue_budget() / queues.iter().filter(|&&q| q).count().max(1) as u64;
+        // A frame's bytes in each queue: the live particles without C (PLY, USD), the positions
+        // (surface), and the velocities where asked (volume).
+        let frame = |bytes_per_particle: usize| queue_frames(share, scene.slots() * bytes_per_particle);
+        let whole = 12 + 12 + 4 + 2 + if scene.has_deformation() { 40 } else { 0 };
+        let materials = Arc::new(scene.materials.clone());
         let writer = ExportThread {
-            ply: ply.map(|exporter| PlyFrames {
-                exporter,
-                written: 0,
-                writing: Duration::ZERO,
-            }),
+            ply: ply
+                .map(|exporter| PlyQueue::start(exporter, materials.clone(), frame(whole)))
+                .transpose()?,
             surface: surface
-                .map(|exporter| exporter.start(SURFACE_WORKERS, SURFACE_QUEUE))
+                .map(|exporter| exporter.start(SURFACE_WORKERS, frame(12)))
                 .transpose()?,
             volume: volume
-                .map(|exporter| exporter.start(VOLUME_WORKERS, VOLUME_QUEUE))
+                .map(|exporter| {
+                    let bytes = if exporter.settings().velocity { 24 } else { 12 };
+                    exporter.start(VOLUME_WORKERS, frame(bytes))
+                })
                 .transpose()?,
-            usd: usd.clone().map(UsdQueue::start).transpose()?,
-            materials,
+            usd: usd
+                .clone()
+                .map(|cache| UsdQueue::start(cache, frame(whole)))
+                .transpose()?,
             progress,
             frames: 0,
             particles: Duration::ZERO,
@@ -233,8 +251,14 @@ impl FrameExports {
             poses: self.usd.as_ref().filter(|u| u.wants(frame)).map(|u| u.poses(sim)),
             particles: sim.solver_mut().snapshot_particles()?,
         };
+        // A snapshot that waited for a staging copy to come back waited for the export thread.
+        let buffers = match &job.particles {
+            ParticleSnapshot::Pending(pending) => pending.waited_for_buffers(),
+            ParticleSnapshot::Ready(_) => Duration::ZERO,
+        };
         self.asynchronous = matches!(job.particles, ParticleSnapshot::Pending(_));
-        self.starting += start.elapsed();
+        self.starting += start.elapsed() - buffers;
+        self.waited += buffers;
         let frames = self.frames.as_ref().expect("submit after finish");
         let sent = match frames.try_send(job) {
             Ok(()) => Ok(()),
@@ -319,20 +343,99 @@ pub fn frame_comment(sim: &Simulation) -> String {
     )
 }
 
-/// The PLY frames' exporter, with the frames it wrote and the time it took.
-struct PlyFrames {
-    exporter: PlyExporter,
+/// The PLY frames' writer threads and their queue.
+struct PlyQueue {
+    exporter: Arc<PlyExporter>,
+    workers: Workers<PlyJob, Duration>,
+    /// Frames written, and their summed wall time.
     written: u64,
     writing: Duration,
 }
 
+struct PlyJob {
+    frame: u64,
+    comment: String,
+    particles: Arc<Particles>,
+}
+
+impl PlyQueue {
+    fn start(exporter: PlyExporter, materials: Arc<Vec<NamedMaterial>>, waiting: usize) -> Result<PlyQueue> {
+        let exporter = Arc::new(exporter);
+        let writer = exporter.clone();
+        let workers = Workers::start("ply", PLY_WORKERS, waiting, move |job: PlyJob| {
+            let start = Instant::now();
+            writer.write(job.frame, &job.comment, &job.particles, &materials)?;
+            Ok(start.elapsed())
+        })?;
+        Ok(PlyQueue {
+            exporter,
+            workers,
+            written: 0,
+            writing: Duration::ZERO,
+        })
+    }
+
+    fn submit(&mut self, job: PlyJob) -> Result<()> {
+        let (written, writing) = (&mut self.written, &mut self.writing);
+        self.workers.submit(job, &mut |took| {
+            *written += 1;
+            *writing += took;
+        })
+    }
+
+    fn collect(&mut self) -> Result<()> {
+        let (written, writing) = (&mut self.written, &mut self.writing);
+        self.workers.collect(
+            &mut |took| {
+                *written += 1;
+                *writing += took;
+            },
+            false,
+        )
+    }
+
+    /// Waits for every frame handed over; the closing line.
+    fn finish(self) -> Result<String> {
+        let PlyQueue {
+            exporter,
+            workers,
+            mut written,
+            mut writing,
+        } = self;
+        let (threads, waited) = (workers.threads(), workers.waited());
+        workers.finish(&mut |took| {
+            written += 1;
+            writing += took;
+        })?;
+        Ok(format!(
+            "exported {} into {} ({:.2} ms a frame on {threads} writer threads; the export thread \
+             waited {:.2} s for the queue)",
+            crate::text::count(written, "particle frame", "particle frames"),
+            exporter.dir().display(),
+            1e3 * writing.as_secs_f64() / written.max(1) as f64,
+            waited.as_secs_f64()
+        ))
+    }
+}
+
+/// [`QUEUE_BUDGET`], or a quarter of the memory available where that is less.
+fn queue_budget() -> u64 {
+    let available = super::volume::available_memory().unwrap_or(u64::MAX);
+    QUEUE_BUDGET.min(available / 4)
+}
+
+/// Frames of `bytes` each that `budget` holds, within [`QUEUE_FRAMES`].
+fn queue_frames(budget: u64, bytes: usize) -> usize {
+    let frames = budget / bytes.max(1) as u64;
+    (frames.min(*QUEUE_FRAMES.end() as u64) as usize).max(*QUEUE_FRAMES.start())
+}
+
 /// The export thread's side: the writers and queues it feeds.
 struct ExportThread {
-    ply: Option<PlyFrames>,
+    ply: Option<PlyQueue>,
     surface: Option<SurfaceQueue>,
     volume: Option<VolumeQueue>,
     usd: Option<UsdQueue>,
-    materials: Vec<NamedMaterial>,
     progress: ExportProgress,
     /// Frames taken, and the time spent waiting for their particles' copy and reordering them.
     frames: u64,
@@ -362,15 +465,9 @@ impl ExportThread {
             poses,
         } = job;
         let start = Instant::now();
-        let mut particles = particles.wait()?.into_live_only();
+        let particles = particles.wait()?.into_live_only();
         self.frames += 1;
         self.particles += start.elapsed();
-        if let Some(ply) = self.ply.as_mut().filter(|ply| ply.exporter.wants(frame)) {
-            let start = Instant::now();
-            ply.exporter.write(frame, &comment, &particles, &self.materials)?;
-            ply.written += 1;
-            ply.writing += start.elapsed();
-        }
         let progress = self.progress.clone();
         if let Some(queue) = self.volume.as_mut().filter(|q| q.exporter().wants(frame)) {
             let job = VolumeJob {
@@ -381,20 +478,24 @@ impl ExportThread {
             };
             queue.submit(job, &mut |done, p| progress.volume(done, p))?;
         }
-        let usd = self.usd.as_mut().filter(|q| q.cache().wants(frame));
         if let Some(queue) = self.surface.as_mut().filter(|q| q.exporter().wants(frame)) {
             let job = SurfaceJob {
                 frame,
                 comment: comment.clone(),
-                // The USD layer needs the positions too.
-                positions: match usd {
-                    Some(_) => particles.x.clone(),
-                    None => std::mem::take(&mut particles.x),
-                },
+                positions: particles.x.clone(),
             };
             queue.submit(job, &mut |done, p| progress.mesh(done, p))?;
         }
-        if let Some(queue) = usd {
+        // The PLY frame and the USD layer share the particles.
+        let particles = Arc::new(particles);
+        if let Some(queue) = self.ply.as_mut().filter(|q| q.exporter.wants(frame)) {
+            queue.submit(PlyJob {
+                frame,
+                comment: comment.clone(),
+                particles: particles.clone(),
+            })?;
+        }
+        if let Some(queue) = self.usd.as_mut().filter(|q| q.cache().wants(frame)) {
             queue.submit(UsdFrame {
                 frame,
                 comment,
@@ -417,6 +518,9 @@ impl ExportThread {
         if let Some(queue) = self.usd.as_mut() {
             queue.collect()?;
         }
+        if let Some(queue) = self.ply.as_mut() {
+            queue.collect()?;
+        }
         Ok(())
     }
 
@@ -427,13 +531,8 @@ impl ExportThread {
             "export thread: {:.2} ms a frame waiting for the particles and putting them in slot order",
             1e3 * self.particles.as_secs_f64() / self.frames.max(1) as f64
         )];
-        if let Some(ply) = &self.ply {
-            lines.push(format!(
-                "exported {} into {} ({:.2} ms a frame on the export thread)",
-                crate::text::count(ply.written, "particle frame", "particle frames"),
-                ply.exporter.dir().display(),
-                1e3 * ply.writing.as_secs_f64() / ply.written.max(1) as f64
-            ));
+        if let Some(ply) = self.ply {
+            lines.push(ply.finish()?);
         }
         let waiting = |left: u64, one: &str, several: &str| {
             if left > 0 && matches!(progress, ExportProgress::Lines) {

@@ -592,8 +592,8 @@ pub struct UsdFrame {
     pub frame: u64,
     /// The layer's doc string (frame, time, scene).
     pub comment: String,
-    /// The live particles.
-    pub particles: Particles,
+    /// The live particles (shared with the frame's PLY file).
+    pub particles: Arc<Particles>,
     /// The moving colliders' poses ([`UsdCache::poses`]).
     pub poses: Vec<Pose>,
 }
@@ -608,10 +608,6 @@ pub struct LayerDone {
     pub write: Duration,
 }
 
-/// Frames waiting for the particle layers' thread before the export thread waits: with the one in
-/// the thread's hands, at most three frames' particles are held at once.
-pub const USD_QUEUE: usize = 2;
-
 /// The particle layers' thread and the bounded queue that feeds it.
 pub struct UsdQueue {
     cache: Arc<UsdCache>,
@@ -623,9 +619,10 @@ pub struct UsdQueue {
 
 impl UsdQueue {
     /// Starts the thread that writes the particle layers (each formats its arrays on rayon's pool).
-    pub fn start(cache: Arc<UsdCache>) -> Result<UsdQueue> {
+    /// At most `waiting` frames wait for it.
+    pub fn start(cache: Arc<UsdCache>, waiting: usize) -> Result<UsdQueue> {
         let writer = cache.clone();
-        let workers = Workers::start("usd", 1, USD_QUEUE, move |job: UsdFrame| {
+        let workers = Workers::start("usd", 1, waiting, move |job: UsdFrame| {
             let start = Instant::now();
             let path = writer.write_particles(&job)?;
             Ok(LayerDone {

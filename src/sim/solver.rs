@@ -80,6 +80,10 @@ pub enum ParticleSnapshot {
 pub trait PendingParticles: Send {
     /// Waits for the copy; the particles in slot order.
     fn wait(self: Box<Self>) -> Result<Particles>;
+    /// How long the request waited for a staging copy held by an earlier snapshot.
+    fn waited_for_buffers(&self) -> std::time::Duration {
+        std::time::Duration::ZERO
+    }
 }
 
 impl ParticleSnapshot {

@@ -9,8 +9,7 @@
 use super::ViewerApp;
 use crate::export::bodies::BodyExporter;
 use crate::export::frames::{ExportProgress, Exports, FrameExports};
-use crate::sim::material::NamedMaterial;
-use crate::sim::Simulation;
+use crate::sim::{Scene, Simulation};
 use anyhow::{bail, Error, Result};
 use std::thread::JoinHandle;
 use std::time::Instant;
@@ -75,9 +74,8 @@ pub(super) enum ColliderChange {
 }
 
 impl ExportSession {
-    /// Starts the export thread for `exports` (none where nothing is exported). `materials` are the
-    /// scene's, for the files' headers.
-    pub(super) fn start(exports: Exports, materials: Vec<NamedMaterial>) -> Result<Option<ExportSession>> {
+    /// Starts the export thread for `exports` (none where nothing is exported) of a run of `scene`.
+    pub(super) fn start(exports: Exports, scene: &Scene) -> Result<Option<ExportSession>> {
         if exports.is_empty() {
             return Ok(None);
         }
@@ -85,7 +83,7 @@ impl ExportSession {
         let usd = exports.frames.usd.is_some();
         let Exports { frames, bodies } = exports;
         // A line per file on stderr: the window is the viewer's progress display.
-        let frames = FrameExports::start(frames, materials, ExportProgress::Lines)?;
+        let frames = FrameExports::start(frames, scene, ExportProgress::Lines)?;
         Ok(Some(ExportSession {
             frames,
             bodies,
@@ -211,7 +209,7 @@ impl ViewerApp {
         let Some(sim) = self.sim.as_mut() else {
             return Ok(());
         };
-        self.export = ExportSession::start(exports, sim.scene().materials.clone())?;
+        self.export = ExportSession::start(exports, sim.scene())?;
         if let Some(export) = self.export.as_mut() {
             export.export_frame(sim);
         }
