@@ -37,6 +37,7 @@ fn main() -> std::process::ExitCode {
             a_pipe_holds_its_rope_on_the_gpu_as_on_the_cpu,
             a_run_stepped_on_other_threads_is_byte_identical,
             export_snapshots_are_the_particles_of_their_frame,
+            snapshots_between_overlapped_frames_are_those_frames,
         ],
     )
 }
@@ -458,6 +459,56 @@ fn export_snapshots_are_the_particles_of_their_frame() {
         assert!(
             scene.has_deformation() != got.deformation.is_empty(),
             "{name}: the snapshot's deformation does not follow the scene's materials"
+        );
+    }
+}
+
+/// The viewer's hand-over on the GPU (src/render/app/stepping.rs): frames stepped as the viewer
+/// steps them (overlapped, `step_frame_until`, on a thread of their own) and snapshotted at each
+/// frame's boundary, before the next frame's substeps are enqueued, are the frames of a run
+/// stepped and read back frame by frame. On a fixed substep, so that both runs take the same
+/// substeps (the viewer's overlap chooses a CFL step from older extremes).
+fn snapshots_between_overlapped_frames_are_those_frames() {
+    const FRAMES: u64 = 5;
+    let mut scene = scene(Pipeline::Fused);
+    scene.time_step = mpm::sim::scene::TimeStepPolicy::Fixed { dt: 8.0e-4 };
+    let mut plain = cuda_sim(&scene);
+    let mut expected = Vec::new();
+    for _ in 0..FRAMES {
+        plain.advance_frame().unwrap();
+        let mut particles = plain.solver_mut().read_particles().unwrap();
+        particles.c = Vec::new();
+        expected.push(particles);
+    }
+    let mut viewer = cuda_sim(&scene);
+    viewer.overlap_frames(true).unwrap();
+    let snapshots = std::thread::scope(|scope| {
+        let sim = &mut viewer;
+        scope
+            .spawn(move || {
+                sim.bind_to_thread().unwrap();
+                // Each snapshot waited on only after the next frame is enqueued, as the export
+                // thread would.
+                let mut got = Vec::new();
+                let mut pending: Option<ParticleSnapshot> = None;
+                for _ in 0..FRAMES {
+                    sim.step_frame_until(None).unwrap().expect("a whole frame");
+                    let snapshot = sim.solver_mut().snapshot_particles().unwrap();
+                    if let Some(earlier) = pending.replace(snapshot) {
+                        got.push(earlier.wait().unwrap());
+                    }
+                }
+                got.push(pending.expect("a snapshot").wait().unwrap());
+                got
+            })
+            .join()
+            .unwrap()
+    });
+    for (frame, (want, got)) in expected.iter().zip(&snapshots).enumerate() {
+        assert!(
+            common::same_particles(want, got),
+            "frame {}: the snapshot taken between overlapped frames is not that frame",
+            frame + 1
         );
     }
 }
