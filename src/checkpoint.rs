@@ -52,9 +52,7 @@
 //! words (the liquids' 13, then padding: 150 words in all) and no deformation; its rows
 //! read with the solids' parameters zero ([`params_from_version_2`]). Version 3, written before
 //! checkpoints held rigid bodies, is version 4 without them (no scene of bodies could be saved);
-//! version 4, written before bodies could be dropped into a run, is version 5 without dropped bodies;
-//! version 5 held the bodies' impulse sums in units of 2^-36 N s, where version 6 has 2^-48
-//! ([`crate::contract::BODY_IMPULSE_UNITS`]): they read multiplied by 2^12.
+//! version 4, written before bodies could be dropped into a run, is version 5 without dropped bodies.
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
@@ -78,7 +76,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 5;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -679,13 +677,7 @@ impl Body<'_> {
             bodies.states.push(self.rigid_body()?);
             let mut impulses = [0i64; 6];
             for sum in &mut impulses {
-                let stored = self.u64("the rigid bodies' impulse sums")? as i64;
-                *sum = match self.version {
-                    ..=5 => stored.checked_mul(1 << 12).with_context(|| {
-                        format!("a rigid body's impulse sum of {stored} units of 2^-36 N s is beyond 2^-48's range")
-                    })?,
-                    _ => stored,
-                };
+                *sum = self.u64("the rigid bodies' impulse sums")? as i64;
             }
             bodies.impulses.push(impulses);
         }

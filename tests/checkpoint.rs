@@ -750,38 +750,8 @@ fn a_version_4_checkpoint_loads_as_one_without_dropped_bodies() {
     let v4 = dir.path().join("v4.mpmck");
     std::fs::write(&v4, without_counts(&current, 4, &["dropped"])).unwrap();
     let read = Checkpoint::read(&v4).unwrap();
-    assert_eq!(read, in_units_of_2_to_the_48(&current));
+    assert_eq!(read, current);
     assert!(read.dropped.is_empty());
-}
-
-/// A checkpoint of format version 5 held the bodies' pending impulse sums in units of 2^-36 N s;
-/// they load as the same sums in version 6's 2^-48, and the rest as it was.
-#[test]
-fn a_version_5_checkpoint_loads_its_impulse_sums_in_the_finer_units() {
-    let scene = common::scene(&common::log_thrown_into_a_pool());
-    let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
-    sim.advance_frame().unwrap();
-    let mut current = Checkpoint::capture(&mut sim).unwrap();
-    // Sums of both signs, whatever the backstop left pending.
-    current.bodies.impulses[0] = [1, -2, 3, -40_000, 5_000_000, -6];
-    let dir = tempfile::tempdir().unwrap();
-    let v5 = dir.path().join("v5.mpmck");
-    std::fs::write(&v5, without_counts(&current, 5, &[])).unwrap();
-    let read = Checkpoint::read(&v5).unwrap();
-    assert_eq!(
-        read.bodies.impulses[0],
-        [4096, -8192, 12288, -163_840_000, 20_480_000_000, -24576]
-    );
-    assert_eq!(read, in_units_of_2_to_the_48(&current));
-}
-
-/// `cp` as a file of format 5 or earlier reads: its impulse sums (2^-36 N s) times 2^12.
-fn in_units_of_2_to_the_48(cp: &Checkpoint) -> Checkpoint {
-    let mut read = cp.clone();
-    for sum in read.bodies.impulses.iter_mut().flatten() {
-        *sum *= 1 << 12;
-    }
-    read
 }
 
 /// A scene with a jelly: the checkpoint carries each particle's deformation, reads back as written,

