@@ -179,8 +179,10 @@ fn dropped_bodies_follow_the_cpu() {
 /// `MPM_STOKES_FILLS` the tube-filling times run (default 2). In fixed
 /// point, so a run gives the same number every time (`MPM_STOKES_SCATTER=float` runs the float
 /// scatter, whose 8-cell figure moved between +4.1 and +10.1 % from run to run on the H200). H200,
-/// 2026-11-29, fixed point: +7.3 % at 8 cells; at 10 cells -32.6 %, the sphere still slowing at
-/// the window's end (as it is, less, at 8): the fall is not yet steady there (issue 42).
+/// 2026-11-29 (BENCHMARKS.md M12), fixed point: +7.3 % at 8 cells, +10.8 % over the last quarter
+/// of six fills (the fall 9.3 to 11.3 mm/s from 0.17 s on); at 10 cells -32.6 %, and -40.3 % over
+/// three fills (steady near 5.4 mm/s), where the float scatter reads -14.3 %: not converged in
+/// the resolution (issue 42).
 fn a_sphere_settles_at_stokes_velocity() {
     let (radius, viscosity) = (0.01, 15.0);
     let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
