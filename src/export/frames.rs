@@ -317,7 +317,8 @@ impl FrameExports {
 }
 
 impl Drop for FrameExports {
-    /// Without `finish` (the run failed): the thread drops what is queued and ends.
+    /// Without `finish` (the run failed): the frames handed over are still written, each file whole,
+    /// and the thread ends; its closing lines go unsaid.
     fn drop(&mut self) {
         self.frames = None;
         if let Some(thread) = self.thread.take() {
