@@ -1,28 +1,35 @@
 //! Frame export. `--export`: one binary little-endian PLY of the particles per frame (positions,
 //! velocities, density, material row; the volume ratio and von Mises stress where a material
-//! carries a deformation; the material table's names and colours in header comments),
-//! which ParaView, Blender, Open3D and meshio open as they are.
+//! carries a deformation; the material table's names and colours in header comments), which
+//! ParaView, Blender, Open3D and meshio open as they are ([`ply`]).
 //! `--export-surface`: the water surface of each frame as a triangle mesh ([`surface`]).
 //! `--export-bodies`: the rigid bodies' meshes and a pose table ([`bodies`]).
-//! `--export-volume`: the liquid as OpenVDB volumes ([`volume`], written by [`vdb`]). All go through
-//! [`FrameDir`], which owns the rules for a directory of numbered frame files: nothing a user saved is
-//! replaced silently, and a failed write never leaves a truncated file behind.
+//! `--export-volume`: the liquid as OpenVDB volumes ([`volume`], written by [`vdb`]).
+//! `--export-usd`: the whole run as one USD stage ([`usd`]). The frames reach them through the
+//! export thread ([`frames`]), off the stepping thread, and each runs on writer threads of its own
+//! ([`queue`]). All go through [`FrameDir`], which owns the rules for a directory of numbered frame
+//! files: nothing a user saved is replaced silently, and a failed write never leaves a truncated
+//! file behind.
 
 pub mod bodies;
 pub mod frames;
 pub mod mesh_files;
+pub mod ply;
 pub mod queue;
 pub mod surface;
 pub mod usd;
 pub mod vdb;
 pub mod volume;
 
+pub use ply::{
+    write_ply, PlyExporter, PARTICLE_FRAMES, PLY_MATERIAL_PROPERTY, PLY_PROPERTIES, PLY_SOLID_PROPERTIES,
+};
+
 use crate::sim::material::NamedMaterial;
 use crate::sim::solid;
 use crate::sim::Particles;
 use crate::text::{io_reason, plural};
 use anyhow::{bail, Context, Result};
-use rayon::prelude::*;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -58,15 +65,6 @@ pub struct FrameKind {
     /// The noun for one file and for several, e.g. `frame`, `frames`.
     pub noun: (&'static str, &'static str),
 }
-
-/// The particle frames of `--export`.
-pub const PARTICLE_FRAMES: FrameKind = FrameKind {
-    flag: "--export",
-    prefix: "frame_",
-    extensions: &["ply"],
-    companions: &[],
-    noun: ("frame", "frames"),
-};
 
 impl FrameDir {
     /// Creates `dir` if needed and checks, before the first step, that a file can be written there.
@@ -176,15 +174,20 @@ impl FrameDir {
 /// permission, a read-only file system).
 pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
     let tmp = partial_path(path);
-    let _unfinished = Unfinished::new(&tmp);
-    let result = File::create(&tmp).map_err(anyhow::Error::from).and_then(|f| {
-        let mut out = BufWriter::new(f);
-        write(&mut out)?;
-        // Flushed here, not on drop: a drop swallows the error of a disk that filled up at the end.
-        out.flush()?;
-        Ok(())
-    });
-    if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, path).map_err(Into::into)) {
+    let written = Unfinished::create(&tmp)
+        .map_err(anyhow::Error::from)
+        .and_then(|(unfinished, f)| {
+            let mut out = BufWriter::new(f);
+            write(&mut out)?;
+            // Flushed here, not on drop: a drop swallows the error of a disk that filled up at the end.
+            out.flush()?;
+            drop(out);
+            std::fs::rename(&tmp, path)?;
+            // Listed until renamed: an interrupt before then removes the whole but unnamed file.
+            drop(unfinished);
+            Ok(())
+        });
+    if let Err(e) = written {
         let _ = std::fs::remove_file(&tmp);
         let reason = e
             .chain()
@@ -234,11 +237,15 @@ static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 struct Unfinished(PathBuf);
 
 impl Unfinished {
-    fn new(path: &Path) -> Unfinished {
-        if let Ok(mut list) = UNFINISHED.lock() {
-            list.push(path.to_path_buf());
-        }
-        Unfinished(path.to_path_buf())
+    /// Creates the file and lists it, both under the list's lock: the Ctrl-C handler holds that
+    /// lock from its removals to the program's exit, so a file is either listed and on the disk
+    /// when it removes the listed ones, or never created (a writer thread that created the file
+    /// after the removals left it behind).
+    fn create(path: &Path) -> std::io::Result<(Unfinished, File)> {
+        let mut list = UNFINISHED.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let file = File::create(path)?;
+        list.push(path.to_path_buf());
+        Ok((Unfinished(path.to_path_buf()), file))
     }
 }
 
@@ -255,15 +262,9 @@ impl Drop for Unfinished {
 /// from several threads.
 pub fn remove_unfinished_on_interrupt() -> Result<()> {
     ctrlc::set_handler(|| {
-        let removed: Vec<PathBuf> = UNFINISHED
-            .lock()
-            .map(|list| {
-                list.iter()
-                    .filter(|p| std::fs::remove_file(p).is_ok())
-                    .cloned()
-                    .collect()
-            })
-            .unwrap_or_default();
+        // Held until the exit below: no writer thread creates a file after the removals.
+        let list = UNFINISHED.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let removed: Vec<&PathBuf> = list.iter().filter(|p| std::fs::remove_file(p).is_ok()).collect();
         eprintln!(
             "error: interrupted{}",
             match removed.len() {
@@ -279,65 +280,6 @@ pub fn remove_unfinished_on_interrupt() -> Result<()> {
     .context("installing the Ctrl-C handler")
 }
 
-/// Writes `frame_NNNNNN.ply` files of the particles into one directory.
-pub struct PlyExporter {
-    frames: FrameDir,
-    every: u64,
-}
-
-impl PlyExporter {
-    /// Opens the directory as [`FrameDir::open`] says; `every` is `--every` (at least 1).
-    pub fn new(dir: &Path, every: u64, overwrite: bool) -> Result<PlyExporter> {
-        check_every(every)?;
-        Ok(PlyExporter {
-            frames: FrameDir::open(dir, PARTICLE_FRAMES, "ply", overwrite)?,
-            every,
-        })
-    }
-
-    /// The frames of an earlier run that `--overwrite` removed, in name order.
-    pub fn removed(&self) -> &[PathBuf] {
-        self.frames.removed()
-    }
-
-    pub fn dir(&self) -> &Path {
-        self.frames.dir()
-    }
-
-    /// One line for the user about [`Self::removed`], or `None` when nothing was removed.
-    pub fn removed_note(&self) -> Option<String> {
-        self.frames.removed_note()
-    }
-
-    /// `--export-every`.
-    pub fn every(&self) -> u64 {
-        self.every
-    }
-
-    pub fn wants(&self, frame: u64) -> bool {
-        frame % self.every == 0
-    }
-
-    pub fn path_of(&self, frame: u64) -> PathBuf {
-        self.frames.path_of(frame)
-    }
-
-    /// Writes the frame to a temporary name and renames it, so a failed write never leaves a
-    /// truncated file under a frame's name. `materials` is the scene's table, which the particles'
-    /// rows index.
-    pub fn write(
-        &self,
-        frame: u64,
-        comment: &str,
-        particles: &Particles,
-        materials: &[NamedMaterial],
-    ) -> Result<PathBuf> {
-        self.frames
-            .write(frame, |out| write_ply(out, comment, particles, materials))
-    }
-}
-
-/// `--every K`: export every K-th frame, K at least 1.
 /// Claims `dir` for a run's output files, before the first step: creates it if needed, checks that a
 /// file can be written there, and refuses it when it holds files the run would clash with (`clashes`
 /// of a file name), unless `overwrite`, which removes them (returned, for the run's note) so that the
@@ -469,6 +411,7 @@ fn remove_unfinished(dir: &Path, unfinished: impl Fn(&str) -> bool) -> Result<Ve
     Ok(removed)
 }
 
+/// `--every K`: export every K-th frame, K at least 1.
 pub fn check_every(every: u64) -> Result<()> {
     if every == 0 {
         bail!("--every must be at least 1 (export every K-th frame)");
@@ -476,87 +419,11 @@ pub fn check_every(every: u64) -> Result<()> {
     Ok(())
 }
 
-/// The float vertex properties, in file order; [`PLY_MATERIAL_PROPERTY`] follows them.
-pub const PLY_PROPERTIES: [&str; 7] = ["x", "y", "z", "vx", "vy", "vz", "density"];
-/// The last vertex property, a `uchar`: the particle's row of the material table, which the
-/// header's `comment material ROW NAME R G B` lines name and colour.
-pub const PLY_MATERIAL_PROPERTY: &str = "material";
-
 /// The header comment naming row `row` of the material table: `material ROW NAME R G B`, the colour
 /// linear RGB from 0 to 1 (the name may hold spaces: the colour is the last three words).
 pub fn material_comment(row: usize, material: &NamedMaterial) -> String {
     let [r, g, b] = material.colour;
     format!("material {row} {} {r:.3} {g:.3} {b:.3}", material.name)
-}
-
-/// The float vertex properties that follow [`PLY_MATERIAL_PROPERTY`] where the particles carry a
-/// deformation (a solid, or a liquid with the elastic regularisation of its yield stress): `J`, a
-/// solid's volume ratio det F (the elastic part's times snow's plastic J_p; a liquid's rest density
-/// over its density), and `von_mises`, the von Mises stress sqrt(3/2 s:s) in Pa of a solid, s the
-/// deviatoric part of its Cauchy stress tau / J_E, or of an elastoviscoplastic liquid's elastic
-/// part (sqrt(3) tau_y where it yields); 0 for other liquids.
-pub const PLY_SOLID_PROPERTIES: [&str; 2] = ["J", "von_mises"];
-
-/// A binary little-endian PLY of `particles`: `comment` (each line a `comment`), a `comment
-/// material` line for each of `materials`, then per vertex the float [`PLY_PROPERTIES`], the
-/// `uchar` material row and, where the particles carry a deformation, [`PLY_SOLID_PROPERTIES`].
-pub fn write_ply(
-    mut out: impl Write,
-    comment: &str,
-    particles: &Particles,
-    materials: &[NamedMaterial],
-) -> Result<()> {
-    writeln!(out, "ply\nformat binary_little_endian 1.0")?;
-    for line in comment.lines() {
-        writeln!(out, "comment {line}")?;
-    }
-    for (row, material) in materials.iter().enumerate() {
-        writeln!(out, "comment {}", material_comment(row, material))?;
-    }
-    writeln!(out, "element vertex {}", particles.len())?;
-    for p in PLY_PROPERTIES {
-        writeln!(out, "property float {p}")?;
-    }
-    writeln!(out, "property uchar {PLY_MATERIAL_PROPERTY}")?;
-    let deformed = !particles.deformation.is_empty();
-    if deformed {
-        for p in PLY_SOLID_PROPERTIES {
-            writeln!(out, "property float {p}")?;
-        }
-    }
-    writeln!(out, "end_header")?;
-    // The vertices as bytes, a chunk of particles a task on rayon's pool, then one write: a
-    // write call per value cost the dam break's frame tens of milliseconds.
-    let record = 7 * 4 + 1 + if deformed { 2 * 4 } else { 0 };
-    const CHUNK: usize = 1 << 14;
-    let chunks: Vec<Vec<u8>> = (0..particles.len().div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|chunk| {
-            let range = chunk * CHUNK..((chunk + 1) * CHUNK).min(particles.len());
-            let mut bytes = Vec::with_capacity(range.len() * record);
-            for i in range {
-                let values = particles.x[i]
-                    .to_array()
-                    .into_iter()
-                    .chain(particles.v[i].to_array());
-                for value in values.chain([particles.rho[i]]) {
-                    bytes.extend_from_slice(&value.to_le_bytes());
-                }
-                bytes.push(particles.material[i]);
-                if deformed {
-                    let (j, von_mises) = deformation_measures(particles, i, materials);
-                    bytes.extend_from_slice(&j.to_le_bytes());
-                    bytes.extend_from_slice(&von_mises.to_le_bytes());
-                }
-            }
-            bytes
-        })
-        .collect();
-    for bytes in chunks {
-        out.write_all(&bytes)?;
-    }
-    out.flush()?;
-    Ok(())
 }
 
 /// Particle `i`'s [`PLY_SOLID_PROPERTIES`], `(J, von_mises)`, where the particles carry a

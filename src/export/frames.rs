@@ -8,13 +8,11 @@
 //! simulation waits for room, which bounds the memory held, and the closing lines say how long.
 
 use super::bodies::BodyExporter;
-use super::queue::Workers;
+use super::ply::{PlyExporter, PlyJob, PlyQueue};
 use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
 use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
-use super::PlyExporter;
-use crate::sim::material::NamedMaterial;
-use crate::sim::{ParticleSnapshot, Particles, Scene, Simulation};
+use crate::sim::{ParticleSnapshot, Scene, Simulation};
 use anyhow::{anyhow, Result};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
@@ -26,8 +24,6 @@ use std::time::{Duration, Instant};
 pub const SURFACE_WORKERS: usize = 2;
 /// The volumes' worker threads, as the surfaces'.
 pub const VOLUME_WORKERS: usize = 2;
-/// The PLY frames' writer threads (each formats its vertices on rayon's pool).
-pub const PLY_WORKERS: usize = 2;
 /// Host memory the frames waiting in the exports' queues may hold, each export's queue its share:
 /// the simulation steps on while a slow writer (a volume takes seconds) works through them, and
 /// waits only when they are full. A quarter of the available memory where that is less.
@@ -146,7 +142,7 @@ struct FrameToExport {
 pub struct FrameExports {
     frames: Option<SyncSender<FrameToExport>>,
     thread: Option<JoinHandle<Result<Vec<String>>>>,
-    /// `--export-every` of each export: a frame is handed over where one of them wants it.
+    /// `--every` of each export: a frame is handed over where one of them wants it.
     every: Vec<u64>,
     usd: Option<Arc<UsdCache>>,
     handed: u64,
@@ -342,81 +338,6 @@ pub fn frame_comment(sim: &Simulation) -> String {
         scene.grid_res[2],
         scene.material().rest_density
     )
-}
-
-/// The PLY frames' writer threads and their queue.
-struct PlyQueue {
-    exporter: Arc<PlyExporter>,
-    workers: Workers<PlyJob, Duration>,
-    /// Frames written, and their summed wall time.
-    written: u64,
-    writing: Duration,
-}
-
-struct PlyJob {
-    frame: u64,
-    comment: String,
-    particles: Arc<Particles>,
-}
-
-impl PlyQueue {
-    fn start(exporter: PlyExporter, materials: Arc<Vec<NamedMaterial>>, waiting: usize) -> Result<PlyQueue> {
-        let exporter = Arc::new(exporter);
-        let writer = exporter.clone();
-        let workers = Workers::start("ply", PLY_WORKERS, waiting, move |job: PlyJob| {
-            let start = Instant::now();
-            writer.write(job.frame, &job.comment, &job.particles, &materials)?;
-            Ok(start.elapsed())
-        })?;
-        Ok(PlyQueue {
-            exporter,
-            workers,
-            written: 0,
-            writing: Duration::ZERO,
-        })
-    }
-
-    fn submit(&mut self, job: PlyJob) -> Result<()> {
-        let (written, writing) = (&mut self.written, &mut self.writing);
-        self.workers.submit(job, &mut |took| {
-            *written += 1;
-            *writing += took;
-        })
-    }
-
-    fn collect(&mut self) -> Result<()> {
-        let (written, writing) = (&mut self.written, &mut self.writing);
-        self.workers.collect(
-            &mut |took| {
-                *written += 1;
-                *writing += took;
-            },
-            false,
-        )
-    }
-
-    /// Waits for every frame handed over; the closing line.
-    fn finish(self) -> Result<String> {
-        let PlyQueue {
-            exporter,
-            workers,
-            mut written,
-            mut writing,
-        } = self;
-        let (threads, waited) = (workers.threads(), workers.waited());
-        workers.finish(&mut |took| {
-            written += 1;
-            writing += took;
-        })?;
-        Ok(format!(
-            "exported {} into {} ({:.2} ms a frame on {threads} writer threads; the export thread \
-             waited {:.2} s for the queue)",
-            crate::text::count(written, "particle frame", "particle frames"),
-            exporter.dir().display(),
-            1e3 * writing.as_secs_f64() / written.max(1) as f64,
-            waited.as_secs_f64()
-        ))
-    }
 }
 
 /// [`QUEUE_BUDGET`], or a quarter of the memory available where that is less.

@@ -274,7 +274,7 @@ impl SurfaceExporter {
         }
     }
 
-    /// `--export-every`.
+    /// `--every`.
     pub fn every(&self) -> u64 {
         self.every
     }

@@ -248,7 +248,7 @@ impl UsdCache {
         self.particles.dir()
     }
 
-    /// `--export-every`.
+    /// `--every`.
     pub fn every(&self) -> u64 {
         self.every
     }

@@ -822,7 +822,7 @@ impl VolumeExporter {
         })
     }
 
-    /// `--export-every`.
+    /// `--every`.
     pub fn every(&self) -> u64 {
         self.every
     }
