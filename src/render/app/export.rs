@@ -423,11 +423,20 @@ max = [0.11, 0.13, 0.11]
         });
         step_to(&mut app, 1);
         std::fs::remove_dir_all(&frames).unwrap();
-        // Frame 2 fails on the export thread; frame 4's hand-over, or the next draw, finds it.
+        // Frame 2 fails on a PLY writer thread; the export thread learns it at its next look at
+        // the queue (within its poll of a tenth of a second) and ends, which a later hand-over or
+        // draw finds.
         step_to(&mut app, 4);
-        app.poll_export();
+        let waited = std::time::Instant::now();
+        while app.export.is_some() && waited.elapsed() < std::time::Duration::from_secs(10) {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            app.poll_export();
+        }
         app.join_finishing_export();
-        assert!(app.export.is_none(), "the failure ended the export");
+        assert!(
+            app.export.is_none(),
+            "the failure did not end the export within 10 s"
+        );
         let message = app.message.clone().unwrap_or_default();
         assert!(
             message.starts_with("export stopped by an error after ") && message.contains("cannot write"),
