@@ -163,8 +163,11 @@ __device__ __forceinline__ void collider_give_to_body(const ColliderState& s, u6
 // A rigid body's collider (s.body != 0) also adds what it took from the node, -m dv, and its moment
 // about the collider's centre to the body's sums (ColliderFrame::project_node_exchanging). m is the
 // particles' own mass at the node: the walls' mirror images carry no momentum the particles get back,
-// and counting them would hand the body the image's share too.
-__device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float m, float (&vel)[3]) {
+// and counting them would hand the body the image's share too. `image_push`: the velocity the walls'
+// images gave the node (NodeSums::push); a Coulomb collider counts its push off the surface as normal
+// velocity removed, so that its friction grips under the walls' mirror as where the mirror is off.
+__device__ __forceinline__ void collider_project_node(const Colliders& colliders, Vec3f x, float m,
+                                                      const float (&image_push)[3], float (&vel)[3]) {
     for (u32 k = 0; k < colliders.count; ++k) {
         const ColliderState& s = colliders.states[k];
         if (collider_beyond(s, x, s.band)) continue;
@@ -177,19 +180,23 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
             rel = v3(0.0f, 0.0f, 0.0f);
         } else {
             const float vn = rel.x * n.x + rel.y * n.y + rel.z * n.z;
-            if (vn < 0.0f) {
+            // The velocity into the surface before the walls' images pushed the node off it.
+            const float into = vn - fmaxf(image_push[0] * n.x + image_push[1] * n.y + image_push[2] * n.z, 0.0f);
+            const bool friction = s.boundary == BOUNDARY_FRICTION;
+            if (vn < 0.0f || (friction && into < 0.0f)) {
                 const Vec3f t = v3(rel.x - n.x * vn, rel.y - n.y * vn, rel.z - n.z * vn);
-                if (s.boundary == BOUNDARY_FRICTION) {
+                Vec3f kept = t;
+                if (friction) {
                     const float vt = collider_norm(t);
-                    if (vt <= -s.friction * vn) {
-                        rel = v3(0.0f, 0.0f, 0.0f);
+                    if (vt <= -s.friction * into) {
+                        kept = v3(0.0f, 0.0f, 0.0f);
                     } else {
-                        const float keep = 1.0f + s.friction * vn / vt;
-                        rel = v3(t.x * keep, t.y * keep, t.z * keep);
+                        const float keep = 1.0f + s.friction * into / vt;
+                        kept = v3(t.x * keep, t.y * keep, t.z * keep);
                     }
-                } else {
-                    rel = t;
                 }
+                // Motion off the surface is left alone, so fluid can separate from it.
+                rel = vn < 0.0f ? kept : v3(kept.x + n.x * vn, kept.y + n.y * vn, kept.z + n.z * vn);
             }
         }
         const Vec3f before = v3(vel[0], vel[1], vel[2]);

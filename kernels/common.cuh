@@ -598,29 +598,37 @@ __device__ __forceinline__ Backstop collider_backstop_particle(const KernelParam
     return b;
 }
 
-// A node's scattered sums as floats: its mass and momentum.
-// A node's sums: mass and momentum, and `own_m`, the particles' own mass there without the walls'
-// mirror images (the fused pipeline adds those in the grid update; elsewhere own_m = m).
+// A node's sums: mass and momentum; `own_m`, the particles' own mass there without the walls'
+// mirror images (the fused pipeline adds those in the grid update; elsewhere own_m = m); and `push`,
+// the velocity the images gave the node (image_push in src/sim/cpu.rs; zero where nothing reads it),
+// which a Coulomb collider under the mirror counts as normal velocity removed.
 struct NodeSums {
     float m, mv[3];
     float own_m;
+    float push[3];
 };
 
-// Fixed-point sums (mass, then momentum) as floats; a sum at or beyond FIXED_SUM_LIMIT is counted.
-__device__ __forceinline__ NodeSums fixed_point_sums(const KernelParams& params, const i64 q[4], StepCounters* counters) {
-    bool out_of_range = false;
-    for (int ch = 0; ch < 4; ++ch) out_of_range |= q[ch] >= FIXED_SUM_LIMIT || q[ch] <= -FIXED_SUM_LIMIT;
-    if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
+// Fixed-point sums (mass, then momentum) as floats.
+__device__ __forceinline__ NodeSums fixed_point_floats(const KernelParams& params, const i64 q[4]) {
     NodeSums s;
     s.m = fixed_point_value((u64)q[0], 1.0f / params.fixed_mass_scale);
     const float inv_momentum_scale = 1.0f / params.fixed_momentum_scale;
     for (int a = 0; a < 3; ++a) s.mv[a] = fixed_point_value((u64)q[1 + a], inv_momentum_scale);
     s.own_m = s.m;
+    s.push[0] = s.push[1] = s.push[2] = 0.0f;
     return s;
 }
 
+// fixed_point_floats of a node's sums; a sum at or beyond FIXED_SUM_LIMIT is counted.
+__device__ __forceinline__ NodeSums fixed_point_sums(const KernelParams& params, const i64 q[4], StepCounters* counters) {
+    bool out_of_range = false;
+    for (int ch = 0; ch < 4; ++ch) out_of_range |= q[ch] >= FIXED_SUM_LIMIT || q[ch] <= -FIXED_SUM_LIMIT;
+    if (out_of_range) atomicAdd(&counters->fixed_overflows, 1u);
+    return fixed_point_floats(params, q);
+}
+
 __device__ __forceinline__ NodeSums float_sums(float4 acc) {
-    return NodeSums{acc.w, {acc.x, acc.y, acc.z}, acc.w};
+    return NodeSums{acc.w, {acc.x, acc.y, acc.z}, acc.w, {0.0f, 0.0f, 0.0f}};
 }
 
 // Zeroes node i's accumulators (the grid clear, done by their one reader).
@@ -649,7 +657,7 @@ __device__ __forceinline__ void update_node_velocity(const KernelParams& params,
         for (int a = 0; a < 3; ++a) vel[a] = s.mv[a] / s.m + params.gravity[a] * params.dt;
         if (colliders.count) {
             const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);
-            collider_project_node(colliders, x, s.own_m, vel);
+            collider_project_node(colliders, x, s.own_m, s.push, vel);
         }
         // Only motion into the wall is removed (as a collider's boundary does): fluid leaves freely.
         for (int a = 0; a < 3; ++a) {

@@ -41,11 +41,15 @@ __device__ __forceinline__ NodeSums node_sums(const KernelParams&, const float v
     return NodeSums{v[0], {v[1], v[2], v[3]}, v[0]};
 }
 
-__device__ __forceinline__ float own_mass_value(const KernelParams& params, i64 units) {
-    return fixed_point_value((u64)units, 1.0f / params.fixed_mass_scale);
+// A node's own sums (before the images) as floats; uncounted, as the sums with the images are what
+// its velocity is made from.
+__device__ __forceinline__ NodeSums own_node_sums(const KernelParams& params, const i64 v[4]) {
+    return fixed_point_floats(params, v);
 }
 
-__device__ __forceinline__ float own_mass_value(const KernelParams&, float m) { return m; }
+__device__ __forceinline__ NodeSums own_node_sums(const KernelParams&, const float v[4]) {
+    return NodeSums{v[0], {v[1], v[2], v[3]}, v[0], {0.0f, 0.0f, 0.0f}};
+}
 
 // Slot `own` of an orbit's values, by unrolled compares (a dynamic index would put the orbit in local
 // memory).
@@ -66,16 +70,15 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 // indices held as 64-bit, 108, and the 16.8M column's substep 3.56 ms against 3.30 with mirror_walls'
 // own launch; as 32-bit, 90 (3.41 ms); recomputed for each channel, as here, 72 (3.31 ms; bench-65k
 // 0.0356 ms against 0.0348 at 90).
-// OWN_MASS: also give the node's own mass before the images join it (the rigid bodies' kernel; the
-// other one compiled the same code as before bodies existed only without it: 1.8 % slower
-// bench-655k substeps on the H200 with it).
-template <typename V, bool OWN_MASS>
+// OWN_SUMS: also give the node's own sums before the images join them (the kernel for rigid bodies
+// and Coulomb colliders under the mirror; the other one compiled the same code as before bodies
+// existed only without it: 1.8 % slower bench-655k substeps on the H200 with the own mass).
+template <typename V, bool OWN_SUMS>
 __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
                                                   const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
-                                                  const u64* fixed_momentum, V mine[4], V& own_mass) {
+                                                  const u64* fixed_momentum, V mine[4], V own_sums[4]) {
 #pragma unroll
-    for (int k = 0; k < 4; ++k) mine[k] = V(0);
-    own_mass = V(0);
+    for (int k = 0; k < 4; ++k) mine[k] = own_sums[k] = V(0);
 #pragma unroll 1
     for (int ch = 0; ch < 4; ++ch) {
         V v[8];
@@ -86,22 +89,25 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
             u32 r[3];
             if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(m, o, T, res, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
         }
-        // The particles' own mass here, before the images join it: what a rigid body's exchange
-        // counts (compiled out where nothing reads it).
-        if (OWN_MASS && ch == 0) own_mass = orbit_slot(v, own);
+        // The particles' own sums here, before the images join them: what a rigid body's exchange
+        // and a Coulomb collider's image push read (compiled out where nothing reads them).
+        const V own_value = OWN_SUMS ? orbit_slot(v, own) : V(0);
         mirror_orbit_channel(m, o, ch, v);
         const V picked = orbit_slot(v, own);
 #pragma unroll
         for (int k = 0; k < 4; ++k)  // mine[ch] with a loop-carried ch would be local memory too
-            if (k == ch) mine[k] = picked;
+            if (k == ch) {
+                mine[k] = picked;
+                if (OWN_SUMS) own_sums[k] = own_value;
+            }
     }
 }
 
 // A node near a wall, for the fused pipeline's mirror: its sums with the images added (the values
 // mirror_walls would have written), and whether another node block reads it too (`crossing`: it
-// must be left unzeroed). V: i64 in fixed point, float otherwise; OWN_MASS: as mirrored_channels
-// (without it own_m is the sum's).
-template <typename V, bool OWN_MASS>
+// must be left unzeroed). V: i64 in fixed point, float otherwise; OWN_SUMS: as mirrored_channels
+// (without it own_m is the sum's and the push zero).
+template <typename V, bool OWN_SUMS>
 __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, const MirrorAxis m[3], const u32 c[3],
                                                   const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, StepCounters* counters,
@@ -115,10 +121,16 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
         if (o.rep[b] != c[b]) own |= 1u << b;
         crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
     }
-    V mine[4], own_mass;
-    mirrored_channels<V, OWN_MASS>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine, own_mass);
+    V mine[4], own_sums[4];
+    mirrored_channels<V, OWN_SUMS>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine, own_sums);
     NodeSums s = node_sums(params, mine, counters);
-    if (OWN_MASS) s.own_m = own_mass_value(params, own_mass);
+    if (OWN_SUMS) {
+        // image_push in src/sim/cpu.rs: the node's velocity less its particles' own.
+        const NodeSums own_s = own_node_sums(params, own_sums);
+        s.own_m = own_s.m;
+        for (int a = 0; a < 3; ++a)
+            s.push[a] = s.mv[a] / s.m - (own_s.m > 0.0f ? own_s.mv[a] / own_s.m : 0.0f);
+    }
     return s;
 }
 
@@ -136,11 +148,13 @@ __device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], c
 // One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
 // last CUDA block to finish empties the list, so the next substep's scatters start with neither.
 // `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
-// Two kernels walk the list: grid_update_blocks, and grid_update_blocks_bodies where the scene has
-// rigid bodies, whose boundaries also add up what they took from the nodes. Without bodies the
-// exchange is compiled out (its null pointer is a constant): water alone keeps the registers, and
-// so the occupancy and the speed, it had before bodies existed.
-template <bool BODIES>
+// Two kernels walk the list: grid_update_blocks, and grid_update_blocks_own_sums where the scene has
+// rigid bodies, whose boundaries also add up what they took from the nodes, or a Coulomb collider
+// under the walls' mirror: both read the nodes' own sums beside the images (mirrored_sums). In the
+// first the exchange and the own sums are compiled out (the bodies' null pointer and the push are
+// constants): water alone keeps the registers, and so the occupancy and the speed, it had before
+// bodies existed.
+template <bool OWN_SUMS>
 __device__ __forceinline__ void update_listed_blocks(const KernelParams& params, const u32 mirror,
                                                      const u32* __restrict__ block_list, u32* __restrict__ work_counts,
                                                      u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
@@ -165,8 +179,8 @@ __device__ __forceinline__ void update_listed_blocks(const KernelParams& params,
             bool crossing = false;
             if (inside) {
                 s = params.scatter_mode == SCATTER_FIXED_POINT
-                        ? mirrored_sums<i64, BODIES>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
-                        : mirrored_sums<float, BODIES>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
+                        ? mirrored_sums<i64, OWN_SUMS>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
+                        : mirrored_sums<float, OWN_SUMS>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
             }
             __syncthreads();  // every orbit of the block read before any of its nodes is zeroed
             if (inside) {
@@ -207,7 +221,7 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
 // Held to 12 blocks an SM (at most 80 registers): compiled freely it took 113 and 8 blocks, and its node
 // blocks' load chains had too few warps to hide behind; ten floating bodies' substep went from
 // +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %).
-extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_bodies(
+extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_own_sums(
     const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
     u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
     u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,

@@ -25,6 +25,9 @@ pub struct DeviceColliders {
     sdf_source: Option<Arc<[f32]>>,
     /// The rigid bodies, where the scene has some.
     pub bodies: Option<DeviceBodies>,
+    /// Whether a collider has Coulomb friction: under the walls' mirror the grid update then reads
+    /// the nodes' own sums (`ColliderFrame::has_friction`).
+    pub friction: bool,
 }
 
 impl DeviceColliders {
@@ -40,6 +43,7 @@ impl DeviceColliders {
                 .context("allocating the collider SDF")?,
             sdf_source: None,
             bodies: None,
+            friction: false,
         })
     }
 
@@ -99,6 +103,7 @@ impl DeviceColliders {
             }
             self.uploaded.clone_from(&frame.states);
             self.count = frame.states.len() as u32;
+            self.friction = frame.has_friction();
         }
         Ok(())
     }

@@ -17,8 +17,9 @@ use cudarc::driver::PushKernelArg;
 pub struct GridUpdate {
     whole_grid: Kernel,
     listed_blocks: Kernel,
-    /// grid_update_blocks with the rigid bodies' exchange (kernels/grid_update.cu).
-    listed_blocks_with_bodies: Kernel,
+    /// grid_update_blocks with the nodes' own sums beside the walls' images: the rigid bodies'
+    /// exchange and Coulomb colliders under the mirror read them (kernels/grid_update.cu).
+    listed_blocks_own_sums: Kernel,
     clear_crossing_orbits: Kernel,
 }
 
@@ -27,7 +28,7 @@ impl GridUpdate {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
             listed_blocks: Kernel::load(modules, "grid_update", "grid_update_blocks")?,
-            listed_blocks_with_bodies: Kernel::load(modules, "grid_update", "grid_update_blocks_bodies")?,
+            listed_blocks_own_sums: Kernel::load(modules, "grid_update", "grid_update_blocks_own_sums")?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
     }
@@ -66,12 +67,15 @@ impl GridUpdate {
             },
             Pipeline::Fused | Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
-                let mirror = u32::from(mirror);
-                let kernel = match &d.colliders.bodies {
-                    Some(_) => &self.listed_blocks_with_bodies,
-                    None => &self.listed_blocks,
+                // The images join the sums here only where this launch mirrors.
+                let friction_under_mirror = mirror && params.wall_mirror_lo != 0 && d.colliders.friction;
+                let kernel = if d.colliders.bodies.is_some() || friction_under_mirror {
+                    &self.listed_blocks_own_sums
+                } else {
+                    &self.listed_blocks
                 };
-                // SAFETY: the arguments match grid_update_blocks and grid_update_blocks_bodies (the
+                let mirror = u32::from(mirror);
+                // SAFETY: the arguments match grid_update_blocks and grid_update_blocks_own_sums (the
                 // bodies' sums last: null without bodies); one thread per node of a block.
                 unsafe {
                     kernel.launch(l, config, |a| {

@@ -388,6 +388,13 @@ impl Colliders {
         self.pipes.len()
     }
 
+    /// Whether any collider has Coulomb friction.
+    pub fn has_friction(&self) -> bool {
+        self.list
+            .iter()
+            .any(|c| matches!(c.boundary, Boundary::Friction(_)))
+    }
+
     /// Whether any collider moves (a rigid body counts).
     pub fn any_moving(&self) -> bool {
         self.list

@@ -210,6 +210,40 @@ pub fn momentum_image(own: Vec3, mut partner: Vec3, axis: usize, side: WallSide)
 /// rounding of any backend's sums and far below any flow.
 pub const OFF_THE_WALL: f32 = 1e-6;
 
+/// The velocity the walls' mirror images gave a node of mass `m` and momentum `mv` (images
+/// included) whose particles' own sums were `own_m` and `own_mv`: its velocity less its particles'
+/// own (none where they put no mass there). A Coulomb collider counts its push off the collider's
+/// surface as normal velocity removed (`ColliderFrame::project_node_exchanging`); the GPU's twin is
+/// mirrored_sums' in kernels/grid_update.cu.
+#[inline(always)]
+pub fn image_push(m: f32, mv: Vec3, own_m: f32, own_mv: Vec3) -> Vec3 {
+    let own_v = if own_m > 0.0 { own_mv / own_m } else { Vec3::ZERO };
+    mv / m - own_v
+}
+
+/// The particles' own sums at each node before the walls' mirror images join them, kept only where
+/// something reads them: the mass where the scene has rigid bodies (their exchange counts no image
+/// mass) or a Coulomb collider under the mirror, the momentum for the latter ([`image_push`]).
+/// Empty otherwise: the nodes' own sums are then their sums.
+#[derive(Debug, Clone, Default)]
+pub struct OwnSums {
+    pub mass: Vec<f32>,
+    pub momentum: Vec<Vec3>,
+}
+
+impl OwnSums {
+    /// Node `i`'s own mass and the images' push, given its sums with the images (`m`, `mv`).
+    #[inline(always)]
+    pub fn at(&self, i: usize, m: f32, mv: Vec3) -> (f32, Vec3) {
+        let own_m = self.mass.get(i).copied().unwrap_or(m);
+        let push = self
+            .momentum
+            .get(i)
+            .map_or(Vec3::ZERO, |&own_mv| image_push(m, mv, own_m, own_mv));
+        (own_m, push)
+    }
+}
+
 /// Adds the mirror image of the fluid beyond every wall to a grid quantity, in place.
 ///
 /// A fluid resting against the wall plane at node W has an image beyond it: what the particles put on
@@ -411,7 +445,7 @@ pub fn density_after_g2p(
 }
 
 /// grid_update for node `index` with mass `m > 0` (`own_m` of it the particles', the rest the walls'
-/// images) and momentum `mv`: velocity, gravity, the colliders' boundary conditions (adding what rigid
+/// images; `image_push` the velocity the images gave it, [`image_push`]) and momentum `mv`: velocity, gravity, the colliders' boundary conditions (adding what rigid
 /// bodies' boundaries took to `body_impulses`), and free slip in the walls' boundary band (last, so the walls hold whatever a
 /// moving collider near them does).
 #[inline(always)]
@@ -422,6 +456,7 @@ pub fn node_velocity(
     index: usize,
     m: f32,
     own_m: f32,
+    image_push: Vec3,
     mv: Vec3,
     colliders: &ColliderFrame,
     body_impulses: &mut [[i64; 6]],
@@ -429,7 +464,13 @@ pub fn node_velocity(
     let mut v = mv / m + Vec3::from(params.gravity) * params.dt;
     let node = shape.node(index);
     if !colliders.is_empty() {
-        v = colliders.project_node_exchanging(node.as_vec3() * params.dx, v, own_m, body_impulses);
+        v = colliders.project_node_exchanging(
+            node.as_vec3() * params.dx,
+            v,
+            own_m,
+            image_push,
+            body_impulses,
+        );
     }
     // The band removes only motion into the wall (as a collider's boundary does), so fluid leaves a
     // wall freely.
@@ -529,6 +570,8 @@ pub struct CpuSolver {
     pub colliders: ColliderFrame,
     /// The rigid bodies (`Solver::set_bodies`), stepped after each grid update.
     pub bodies: HostBodies,
+    /// The nodes' sums before the walls' images, where something reads them.
+    pub own: OwnSums,
     extremes: StepExtremes,
     /// One record per substep, until taken.
     timings: Vec<PhaseTimings>,
@@ -545,6 +588,7 @@ impl CpuSolver {
             lifecycle: None,
             colliders: ColliderFrame::default(),
             bodies: HostBodies::default(),
+            own: OwnSums::default(),
             extremes: StepExtremes::default(),
             timings: Vec::new(),
             scatter_dt: None,
@@ -660,6 +704,7 @@ impl CpuSolver {
 
     /// The walls' image mass (see [`mirror_walls`]), between p2g_init and p2g; and the image volume.
     pub fn mirror_mass(&mut self, params: &Params) {
+        self.keep_own_mass(params);
         mirror_walls(self.grid.shape, params, &mut self.grid.mass, |_, m, _, _| m);
         if gathers_volume(params) {
             mirror_walls(self.grid.shape, params, &mut self.grid.volume, |_, v, _, _| v);
@@ -668,7 +713,33 @@ impl CpuSolver {
 
     /// The walls' image momentum ([`momentum_image`]), between p2g and grid_update.
     pub fn mirror_momentum(&mut self, params: &Params) {
+        self.keep_own_momentum(params);
         mirror_walls(self.grid.shape, params, &mut self.grid.momentum, momentum_image);
+    }
+
+    /// Whether a Coulomb collider meets the walls' mirror: then its friction reads the images' push.
+    fn friction_under_mirror(&self, params: &Params) -> bool {
+        params.wall_mirror_lo != 0 && self.colliders.has_friction()
+    }
+
+    /// The grid's mass as the particles left it, before the walls' images join it, where the
+    /// rigid bodies' exchange or a Coulomb collider under the mirror reads it ([`OwnSums`]).
+    pub fn keep_own_mass(&mut self, params: &Params) {
+        if !self.bodies.states.is_empty() || self.friction_under_mirror(params) {
+            self.own.mass.clone_from(&self.grid.mass);
+        } else {
+            self.own.mass.clear();
+        }
+    }
+
+    /// The grid's momentum before the walls' images join it, where a Coulomb collider under the
+    /// mirror reads it ([`OwnSums`]).
+    pub fn keep_own_momentum(&mut self, params: &Params) {
+        if self.friction_under_mirror(params) {
+            self.own.momentum.clone_from(&self.grid.momentum);
+        } else {
+            self.own.momentum.clear();
+        }
     }
 
     /// Density (from grid mass, or the particle's advected one), Tait pressure, viscous stress; then
@@ -741,13 +812,14 @@ impl CpuSolver {
         let bodies = &mut self.bodies;
         for (i, (&m, mv)) in mass.iter().zip(momentum.iter_mut()).enumerate() {
             if m > 0.0 {
-                let own = bodies.own_mass.get(i).copied().unwrap_or(m);
+                let (own_m, push) = self.own.at(i, m, *mv);
                 *mv = node_velocity(
                     params,
                     *shape,
                     i,
                     m,
-                    own,
+                    own_m,
+                    push,
                     *mv,
                     &self.colliders,
                     &mut bodies.impulses,
@@ -893,9 +965,6 @@ impl CpuPhases for CpuSolver {
             Phase::HaloSum | Phase::HaloFill => {} // one rank: `step_phases` skips them
             Phase::P2gInit => {
                 self.p2g_init(params);
-                if !self.bodies.states.is_empty() {
-                    self.bodies.own_mass.clone_from(&self.grid.mass);
-                }
                 self.mirror_mass(params);
             }
             Phase::P2g => self.p2g(params),

@@ -361,6 +361,7 @@ impl ParallelCpuSolver {
             &self.block_mass,
             &mut self.inner.grid.mass,
         );
+        self.inner.keep_own_mass(params);
         mirror_walls(
             self.inner.grid.shape,
             params,
@@ -454,6 +455,7 @@ impl ParallelCpuSolver {
 
     /// The walls' mirror momentum, then momentum to velocity per node (`node_velocity`).
     pub fn grid_update(&mut self, params: &Params) {
+        self.inner.keep_own_momentum(params);
         mirror_walls(
             self.inner.grid.shape,
             params,
@@ -462,7 +464,7 @@ impl ParallelCpuSolver {
         );
         let slab = self.slab_nodes();
         let dirty = &self.bins.dirty;
-        let colliders = &self.inner.colliders;
+        let (colliders, own) = (&self.inner.colliders, &self.inner.own);
         let Grid {
             shape,
             mass,
@@ -479,7 +481,9 @@ impl ParallelCpuSolver {
             .for_each(|(k, ((mv, m), _))| {
                 for (j, (mv, &m)) in mv.iter_mut().zip(m).enumerate() {
                     if m > 0.0 {
-                        *mv = node_velocity(params, shape, k * slab + j, m, m, *mv, colliders, &mut []);
+                        let i = k * slab + j;
+                        let (own_m, push) = own.at(i, m, *mv);
+                        *mv = node_velocity(params, shape, i, m, own_m, push, *mv, colliders, &mut []);
                     }
                 }
             });

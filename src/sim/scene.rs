@@ -359,7 +359,7 @@ impl Scene {
     }
 
     /// Refuses colliders and emitters' pipes on the report pipeline (whose kernels do not apply
-    /// them), naming the fix.
+    /// them), and Coulomb colliders under the walls' mirror on the binned one, naming the fix.
     pub fn check_pipeline(&self) -> Result<(), SceneError> {
         if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
             return Err(SceneError {
@@ -371,6 +371,22 @@ impl Scene {
                     self.colliders.num_pipes()
                 ),
                 fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default)".into(),
+            });
+        }
+        // The binned pipeline adds the walls' images in a launch of their own, before its grid
+        // update, which then cannot tell what they pushed: its Coulomb colliders would not grip
+        // under the mirror (docs/physics.md, "Colliders").
+        if self.colliders.has_friction() && self.mirror_wall_mass && self.pipeline == Pipeline::Binned {
+            return Err(SceneError {
+                source: self.source.clone(),
+                key: "solver.pipeline".into(),
+                problem:
+                    "= \"binned\" cannot grip with this scene's Coulomb (friction) collider(s) at the walls' \
+                          mirror: only the fused pipeline's grid update sees what the mirror pushed"
+                        .into(),
+                fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default), or \
+                      solver.mirror_wall_mass = false"
+                    .into(),
             });
         }
         Ok(())

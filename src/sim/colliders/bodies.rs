@@ -665,9 +665,6 @@ pub struct HostBodies {
     pub walls: Option<BodyWalls>,
     /// `BODY_IMPULSE_UNITS` per N s; one row per body, zeroed by each step.
     pub impulses: Vec<[i64; 6]>,
-    /// The grid's mass before the walls' mirror images joined it: what the exchange counts
-    /// ([`super::ColliderFrame::project_node_exchanging`]).
-    pub own_mass: Vec<f32>,
 }
 
 impl HostBodies {
@@ -677,7 +674,6 @@ impl HostBodies {
             features: features.to_vec(),
             walls: Some(walls),
             impulses: bodies.impulses.clone(),
-            own_mass: Vec::new(),
         }
     }
 

@@ -190,7 +190,7 @@ impl ColliderFrame {
     /// tangential part (friction). A relative velocity leaving the collider is left alone, so fluid
     /// can separate from it. A nozzle's pipe (band 0) gives the nodes inside it its velocity.
     pub fn project_node(&self, x: Vec3, v: Vec3) -> Vec3 {
-        self.project_node_exchanging(x, v, 0.0, &mut [])
+        self.project_node_exchanging(x, v, 0.0, Vec3::ZERO, &mut [])
     }
 
     /// [`Self::project_node`] for a node where the particles put mass `m`, adding to `impulses[k]`
@@ -198,7 +198,20 @@ impl ColliderFrame {
     /// the collider's centre) what rigid body k's boundary took from the node: `-m dv` at x. `m` leaves
     /// out the walls' mirror images: the particles never get the image's momentum back, so counting it
     /// would hand the body more than the liquid lost. The kernels' twin is collider_project_node.
-    pub fn project_node_exchanging(&self, x: Vec3, mut v: Vec3, m: f32, impulses: &mut [[i64; 6]]) -> Vec3 {
+    ///
+    /// `image_push`: the velocity the walls' mirror images gave the node ([`crate::sim::cpu::image_push`];
+    /// zero away from the walls or where nothing keeps the node's own sums). Where a Coulomb
+    /// collider's surface meets a wall's mirror, the image has already taken the node's motion into
+    /// the wall before the collider projects: its push off the surface counts as normal velocity
+    /// the boundary removed, so the friction grips as it does where the mirror is off.
+    pub fn project_node_exchanging(
+        &self,
+        x: Vec3,
+        mut v: Vec3,
+        m: f32,
+        image_push: Vec3,
+        impulses: &mut [[i64; 6]],
+    ) -> Vec3 {
         for s in &self.states {
             if beyond(s, x, s.band) {
                 continue;
@@ -213,18 +226,23 @@ impl ColliderFrame {
                 rel = Vec3::ZERO;
             } else {
                 let vn = rel.dot(n);
-                if vn < 0.0 {
+                // The velocity into the surface before the walls' images pushed the node off it.
+                let into = vn - image_push.dot(n).max(0.0);
+                let friction = s.boundary == BOUNDARY_FRICTION;
+                if vn < 0.0 || (friction && into < 0.0) {
                     let tangential = rel - n * vn;
-                    rel = if s.boundary == BOUNDARY_FRICTION {
+                    let kept = if friction {
                         let vt = norm(tangential);
-                        if vt <= -s.friction * vn {
+                        if vt <= -s.friction * into {
                             Vec3::ZERO
                         } else {
-                            tangential * (1.0 + s.friction * vn / vt)
+                            tangential * (1.0 + s.friction * into / vt)
                         }
                     } else {
                         tangential
                     };
+                    // Motion off the surface is left alone, so fluid can separate from it.
+                    rel = if vn < 0.0 { kept } else { kept + n * vn };
                 }
             }
             let before = v;
@@ -232,6 +250,12 @@ impl ColliderFrame {
             give_to_body(s, impulses, x, (before - v) * m);
         }
         v
+    }
+
+    /// Whether a collider has Coulomb friction: then the CPU backends keep the nodes' own sums
+    /// beside the walls' images, for `project_node_exchanging`'s image push.
+    pub fn has_friction(&self) -> bool {
+        self.states.iter().any(|s| s.boundary == BOUNDARY_FRICTION)
     }
 
     /// The particle backstop, after advection: a particle at x that ended inside a collider is put
