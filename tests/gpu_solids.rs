@@ -523,11 +523,9 @@ fn sand_stands_at_its_friction_angle_at_finer_cells() {
     }
 }
 
-/// The sand columns of tests/solids.rs ([`solids_checks::sand_column`], aspect ratios 0.5 and 3)
-/// at 2.5 and 1.25 mm cells against Lube et al. (2005)'s runouts. The low column runs out within
-/// 15 % of theirs at 1.25 mm (2026-11-28, H200: 17 and 7.0 to 7.4 % short at 2.5 and 1.25 mm); the
-/// tall one does not at any cell tried (17 and 21 to 23 % short), and is printed, not asserted: issue
-/// 41 stays open on it (docs/physics.md, "Solids").
+/// The sand columns of tests/solids.rs ([`solids_checks::sand_column`], aspect ratios 0.5 and 3, on
+/// a floor of the sand's own friction) at 2.5 and 1.25 mm cells run out within 15 % of Lube et al.
+/// (2005)'s runouts (docs/physics.md, "Solids", gives the numbers).
 fn sand_columns_run_out_at_finer_cells() {
     for dx in [0.0025f32, 0.00125] {
         for (length, height) in [(0.2f32, 0.1f32), (0.08, 0.24)] {
@@ -541,13 +539,11 @@ fn sand_columns_run_out_at_finer_cells() {
                 solids_checks::lube_runout(a),
                 100.0 * off
             );
-            if a < 1.0 && dx < 0.002 {
-                assert!(
-                    off.abs() < 0.15,
-                    "a = {a}: the runout strays {:.1} % from Lube et al.'s",
-                    100.0 * off
-                );
-            }
+            assert!(
+                off.abs() < 0.15,
+                "dx = {dx} m, a = {a}: the runout strays {:.1} % from Lube et al.'s",
+                100.0 * off
+            );
         }
     }
 }

@@ -43,8 +43,20 @@ pub fn particles(sim: &mut Simulation) -> Particles {
 /// surface has no mirror (docs/physics.md, "Colliders"), and fluid on it packs into the half cell
 /// above it, which takes the lowest layer out of the flow.
 pub fn no_slip_floor(length: f32, depth: f32, dx: f32) -> String {
+    floor_collider(length, depth, dx, "boundary = \"stick\"")
+}
+
+/// [`no_slip_floor`]'s collider with Coulomb friction `mu` instead: nodes 0 and 1 keep their motion
+/// along the floor less `mu` times the motion into it that the collider and the wall's mirror took.
+pub fn coulomb_floor(length: f32, depth: f32, dx: f32, mu: f32) -> String {
+    floor_collider(length, depth, dx, &format!("friction = {mu}"))
+}
+
+/// A box under the floor of a tank `length` x `depth` m, its top half a cell below the floor wall's
+/// mirror plane, with `boundary` (a TOML line).
+fn floor_collider(length: f32, depth: f32, dx: f32, boundary: &str) -> String {
     format!(
-        "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{}, 0.2, {}]\nboundary = \"stick\"\n",
+        "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nsize = [{}, 0.2, {}]\n{boundary}\n",
         0.5 * length,
         0.5 * dx - 0.1,
         0.5 * depth,

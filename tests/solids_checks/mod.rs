@@ -6,7 +6,7 @@ use glam::Vec3;
 use mpm::sim::{Scene, Simulation};
 
 use super::common;
-use super::materials_checks::{no_slip_floor, particles, G};
+use super::materials_checks::{coulomb_floor, no_slip_floor, particles, G};
 
 /// A `[[material]]` row: a fixed-corotated jelly of Young's modulus `e` (Pa) and Poisson's ratio `nu`.
 pub fn jelly(name: &str, rho: f32, e: f32, nu: f32) -> String {
@@ -126,14 +126,17 @@ pub fn settle_block(sim: &mut Simulation, dx: f32) -> Settled {
     }
 }
 
+/// The Coulomb friction of [`SAND`] on itself, tan 30 degrees: its columns' floor.
+pub const SAND_FRICTION: f32 = 0.577;
+
 /// A `[[material]]` row of dry sand: 1600 kg/m^3, E = 350 kPa, nu = 0.3 (Klar et al. 2016's), a
 /// friction angle of 30 degrees.
 pub const SAND: &str = "[[material]]\nname = \"sand\"\nlaw = \"sand\"\nrest_density = 1600.0\n\
                         youngs_modulus = 3.5e5\npoisson_ratio = 0.3\nfriction_angle = 30.0\n";
 
 /// A quasi-2D column of [`SAND`] `length` m long and `height` m high against the low x wall of a
-/// tank 80 cm long on a rough floor (a stick collider just under the floor's plane, as the channels
-/// of Lube et al. (2005) had: [`no_slip_floor`]), a slab 5 cells of `dx` thick.
+/// tank 80 cm long on a floor with the sand's own friction (a Coulomb collider of `tan 30` = 0.577
+/// just under the floor's plane: [`coulomb_floor`]), a slab 5 cells of `dx` thick.
 pub fn sand_column(dx: f32, length: f32, height: f32) -> Scene {
     common::scene(&sand_column_toml(dx, length, height))
 }
@@ -150,7 +153,7 @@ pub fn sand_column_toml(dx: f32, length: f32, height: f32) -> String {
         8.0 * dx,
         cells(tank),
         cells((height + 0.05).max(0.1)),
-        no_slip_floor(tank, 8.0 * dx, dx),
+        coulomb_floor(tank, 8.0 * dx, dx, SAND_FRICTION),
         floor + length,
         floor + height,
         6.0 * dx,
