@@ -9,7 +9,8 @@
 
 use super::bodies::BodyExporter;
 use super::ply::{PlyExporter, PlyJob, PlyQueue};
-use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use super::queue::{FileProgress, FileQueue};
+use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
 use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
 use crate::sim::{ParticleSnapshot, Scene, Simulation};
@@ -193,7 +194,9 @@ impl FrameExports {
                 .map(|exporter| PlyQueue::start(exporter, materials.clone(), frame(whole)))
                 .transpose()?,
             surface: surface
-                .map(|exporter| exporter.start(SURFACE_WORKERS, frame(12)))
+                .map(|exporter| {
+                    FileQueue::start(exporter, SURFACE_WORKERS, frame(12), SurfaceExporter::export)
+                })
                 .transpose()?,
             volume: volume
                 .map(|exporter| {
@@ -491,7 +494,7 @@ impl ExportThread {
 }
 
 impl ExportProgress {
-    fn mesh(&self, mesh: &MeshDone, progress: SurfaceProgress) {
+    fn mesh(&self, mesh: &MeshDone, progress: FileProgress) {
         match self {
             ExportProgress::Bar(bar) => bar.set_message(progress.status()),
             ExportProgress::Lines => eprintln!(
