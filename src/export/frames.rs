@@ -12,7 +12,7 @@ use super::ply::{PlyExporter, PlyJob, PlyQueue};
 use super::queue::{FileProgress, FileQueue};
 use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
-use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
+use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeQueue};
 use crate::sim::{ParticleSnapshot, Scene, Simulation};
 use anyhow::{anyhow, Result};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -201,7 +201,7 @@ impl FrameExports {
             volume: volume
                 .map(|exporter| {
                     let bytes = if exporter.settings().velocity { 24 } else { 12 };
-                    exporter.start(VOLUME_WORKERS, frame(bytes))
+                    FileQueue::start(exporter, VOLUME_WORKERS, frame(bytes), VolumeExporter::export)
                 })
                 .transpose()?,
             usd: usd
@@ -507,7 +507,7 @@ impl ExportProgress {
         }
     }
 
-    fn volume(&self, volume: &VolumeDone, progress: VolumeProgress) {
+    fn volume(&self, volume: &VolumeDone, progress: FileProgress) {
         match self {
             ExportProgress::Bar(bar) => bar.set_message(progress.status()),
             ExportProgress::Lines => eprintln!(
@@ -519,48 +519,5 @@ impl ExportProgress {
                 progress.status()
             ),
         }
-    }
-}
-
-/// The closing line of a queue of frame files: "surface: 12 meshes (obj in out/), 51234 triangles
-/// on average, 0.84 s per mesh (reconstruction 0.80 s, writing 0.04 s) on 2 worker threads; the
-/// export thread waited 0.00 s for the queue, then 1.20 s for the last meshes".
-pub struct QueueSummary<'a> {
-    /// "surface", "volume".
-    pub what: &'a str,
-    /// The files' noun, one and several ("mesh", "meshes").
-    pub noun: (&'a str, &'a str),
-    pub files: &'a str,
-    pub done: u64,
-    /// "51234 triangles", "97336 active voxels": per file on average.
-    pub size_each: String,
-    /// The two stages of each file (its build and its write), summed over the files.
-    pub stages: [(&'a str, Duration); 2],
-    pub workers: usize,
-    /// What the export thread waited for room in the queue, and for the last files at the end.
-    pub waited: Duration,
-    pub after_last_frame: Duration,
-}
-
-impl QueueSummary<'_> {
-    pub fn line(&self) -> String {
-        let per = |d: Duration| d.as_secs_f64() / self.done.max(1) as f64;
-        let [(first, build), (second, write)] = self.stages;
-        format!(
-            "{}: {} ({}), {} on average, {:.3} s per {} ({first} {:.3} s, {second} {:.3} s) on {} worker \
-             threads; the export thread waited {:.2} s for the queue, then {:.2} s for the last {}",
-            self.what,
-            crate::text::count(self.done, self.noun.0, self.noun.1),
-            self.files,
-            self.size_each,
-            per(build + write),
-            self.noun.0,
-            per(build),
-            per(write),
-            self.workers,
-            self.waited.as_secs_f64(),
-            self.after_last_frame.as_secs_f64(),
-            self.noun.1
-        )
     }
 }
