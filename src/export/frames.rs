@@ -9,10 +9,10 @@
 
 use super::bodies::BodyExporter;
 use super::ply::{PlyExporter, PlyJob, PlyQueue};
-use super::queue::{FileProgress, FileQueue};
-use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceQueue};
+use super::queue::{FileProgress, FileQueue, FinishedFile};
+use super::surface::{SurfaceExporter, SurfaceJob, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
-use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeQueue};
+use super::volume::{VolumeExporter, VolumeJob, VolumeQueue};
 use crate::sim::{ParticleSnapshot, Scene, Simulation};
 use anyhow::{anyhow, Result};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -401,7 +401,7 @@ impl ExportThread {
                 positions: particles.x.clone(),
                 velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
             };
-            queue.submit(job, &mut |done, p| progress.volume(done, p))?;
+            queue.submit(job, &mut |done, p| progress.file(done, p))?;
         }
         if let Some(queue) = self.surface.as_mut().filter(|q| q.exporter().wants(frame)) {
             let job = SurfaceJob {
@@ -409,7 +409,7 @@ impl ExportThread {
                 comment: comment.clone(),
                 positions: particles.x.clone(),
             };
-            queue.submit(job, &mut |done, p| progress.mesh(done, p))?;
+            queue.submit(job, &mut |done, p| progress.file(done, p))?;
         }
         // The PLY frame and the USD layer share the particles.
         let particles = Arc::new(particles);
@@ -435,10 +435,10 @@ impl ExportThread {
     fn collect(&mut self) -> Result<()> {
         let progress = &self.progress;
         if let Some(queue) = self.surface.as_mut() {
-            queue.collect(&mut |done, p| progress.mesh(done, p), false)?;
+            queue.collect(&mut |done, p| progress.file(done, p), false)?;
         }
         if let Some(queue) = self.volume.as_mut() {
-            queue.collect(&mut |done, p| progress.volume(done, p), false)?;
+            queue.collect(&mut |done, p| progress.file(done, p), false)?;
         }
         if let Some(queue) = self.usd.as_mut() {
             queue.collect()?;
@@ -459,34 +459,16 @@ impl ExportThread {
         if let Some(ply) = self.ply {
             lines.push(ply.finish()?);
         }
-        let waiting = |left: u64, one: &str, several: &str| {
-            if left > 0 && matches!(progress, ExportProgress::Lines) {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, one, several)
-                );
-            }
-        };
         if let Some(queue) = self.surface {
-            let last_frame = Instant::now();
-            waiting(queue.progress().queued(), "surface mesh", "surface meshes");
             let files = queue.exporter().destination();
-            let done = queue.finish(&mut |done, p| progress.mesh(done, p))?;
-            lines.push(done.summary(&files, last_frame.elapsed()));
+            lines.push(progress.finish_files(queue, &files)?);
         }
         if let Some(queue) = self.volume {
-            let last_frame = Instant::now();
-            waiting(queue.progress().queued(), "volume", "volumes");
-            let files = format!(
-                "{} in {}",
-                queue.exporter().format().extension(),
-                queue.exporter().dir().display()
-            );
-            let done = queue.finish(&mut |done, p| progress.volume(done, p))?;
-            lines.push(done.summary(&files, last_frame.elapsed()));
+            let files = queue.exporter().destination();
+            lines.push(progress.finish_files(queue, &files)?);
         }
         if let Some(queue) = self.usd {
-            waiting(queue.queued(), "USD layer", "USD layers");
+            progress.waiting(queue.queued(), ("USD layer", "USD layers"));
             lines.push(queue.finish()?);
         }
         Ok(lines)
@@ -494,30 +476,45 @@ impl ExportThread {
 }
 
 impl ExportProgress {
-    fn mesh(&self, mesh: &MeshDone, progress: FileProgress) {
+    /// Reports a file as it finishes.
+    fn file(&self, file: &impl FinishedFile, progress: FileProgress) {
         match self {
             ExportProgress::Bar(bar) => bar.set_message(progress.status()),
-            ExportProgress::Lines => eprintln!(
-                "{}: {} triangles in {:.2} s ({})",
-                mesh.path.display(),
-                mesh.triangles,
-                (mesh.reconstruct + mesh.write).as_secs_f64(),
-                progress.status()
-            ),
+            ExportProgress::Lines => {
+                let [build, write] = file.stages();
+                eprintln!(
+                    "{}: {} in {:.2} s ({})",
+                    file.path().display(),
+                    file.contents(),
+                    (build + write).as_secs_f64(),
+                    progress.status()
+                );
+            }
         }
     }
 
-    fn volume(&self, volume: &VolumeDone, progress: FileProgress) {
-        match self {
-            ExportProgress::Bar(bar) => bar.set_message(progress.status()),
-            ExportProgress::Lines => eprintln!(
-                "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
-                volume.path.display(),
-                volume.band,
-                volume.liquid,
-                (volume.build + volume.write).as_secs_f64(),
-                progress.status()
-            ),
+    /// Says that `left` files are still to come after the last frame, where each file gets a line
+    /// (a progress bar shows it anyway).
+    fn waiting(&self, left: u64, (one, several): (&str, &str)) {
+        if left > 0 && matches!(self, ExportProgress::Lines) {
+            eprintln!(
+                "simulation done; waiting for {}",
+                crate::text::count(left, one, several)
+            );
         }
+    }
+
+    /// Waits for the files left in `queue`, reporting each; then its closing line, `files` saying
+    /// where they went.
+    fn finish_files<E, J, D>(&self, queue: FileQueue<E, J, D>, files: &str) -> Result<String>
+    where
+        E: Send + Sync + 'static,
+        J: Send + 'static,
+        D: FinishedFile + Send + 'static,
+    {
+        let last_frame = Instant::now();
+        self.waiting(queue.progress().queued(), D::WORDS.files);
+        let done = queue.finish(&mut |file, p| self.file(file, p))?;
+        Ok(done.summary(files, last_frame.elapsed()))
     }
 }

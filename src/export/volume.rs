@@ -837,6 +837,11 @@ impl VolumeExporter {
         self.frames.dir()
     }
 
+    /// Where the volumes go, for the user: "vdb in out/volumes".
+    pub fn destination(&self) -> String {
+        format!("{} in {}", self.format.extension(), self.dir().display())
+    }
+
     pub fn format(&self) -> VolumeFormat {
         self.format
     }
