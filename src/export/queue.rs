@@ -368,3 +368,71 @@ impl FileProgress {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::export::surface::MeshDone;
+    use crate::export::volume::VolumeDone;
+
+    /// The progress of a queue of 3 files on 2 threads, which waited 10 ms for room, once `files`
+    /// are written.
+    fn counted<D: FinishedFile>(files: impl IntoIterator<Item = D>) -> FileProgress {
+        let mut progress = FileProgress {
+            submitted: 3,
+            waited: Duration::from_millis(10),
+            workers: 2,
+            ..FileProgress::new(D::WORDS)
+        };
+        let mut report = |_: &D, _| {};
+        files.into_iter().for_each(progress.counting(&mut report));
+        progress
+    }
+
+    /// Each kind's words and measures stand where the lines of its own queue had them (the tests
+    /// of `mpm run` check only the closing lines' starts).
+    #[test]
+    fn meshes_and_volumes_are_reported_in_their_own_words() {
+        let ms = Duration::from_millis;
+        let mesh = |triangles| MeshDone {
+            frame: 0,
+            path: "out/surface_000000.obj".into(),
+            triangles,
+            reconstruct: ms(300),
+            write: ms(100),
+        };
+        assert_eq!(mesh(3944).contents(), "3944 triangles");
+        let meshes = counted([mesh(100), mesh(300)]);
+        assert_eq!(
+            meshes.status(),
+            "2/3 surface meshes written, 1 queued, 0.40 s per mesh"
+        );
+        assert_eq!(
+            meshes.summary("obj in out", ms(1200)),
+            "surface: 2 meshes (obj in out), 200 triangles on average, 0.400 s per mesh \
+             (reconstruction 0.300 s, writing 0.100 s) on 2 worker threads; the export thread waited \
+             0.01 s for the queue, then 1.20 s for the last meshes"
+        );
+
+        let volume = VolumeDone {
+            frame: 0,
+            path: "out/volume_000000.vdb".into(),
+            band: 8432,
+            liquid: 9193,
+            build: ms(4500),
+            write: ms(140),
+        };
+        assert_eq!(volume.contents(), "8432 voxels in the band, 9193 in the liquid");
+        let volumes = counted([volume]);
+        assert_eq!(
+            volumes.status(),
+            "1/3 volumes written, 2 queued, 4.64 s per volume"
+        );
+        assert_eq!(
+            volumes.summary("vdb in out", ms(2720)),
+            "volume: 1 volume (vdb in out), 17625 active voxels on average, 4.640 s per volume \
+             (grids 4.500 s, writing 0.140 s) on 2 worker threads; the export thread waited 0.01 s \
+             for the queue, then 2.72 s for the last volumes"
+        );
+    }
+}
