@@ -9,9 +9,10 @@
 
 use super::bodies::BodyExporter;
 use super::ply::{PlyExporter, PlyJob, PlyQueue};
-use super::surface::{MeshDone, SurfaceExporter, SurfaceJob, SurfaceProgress, SurfaceQueue};
+use super::queue::{FileProgress, FileQueue, FinishedFile};
+use super::surface::{SurfaceExporter, SurfaceJob, SurfaceQueue};
 use super::usd::{Pose, UsdCache, UsdFrame, UsdQueue};
-use super::volume::{VolumeDone, VolumeExporter, VolumeJob, VolumeProgress, VolumeQueue};
+use super::volume::{VolumeExporter, VolumeJob, VolumeQueue};
 use crate::sim::{ParticleSnapshot, Scene, Simulation};
 use anyhow::{anyhow, Result};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -193,12 +194,14 @@ impl FrameExports {
                 .map(|exporter| PlyQueue::start(exporter, materials.clone(), frame(whole)))
                 .transpose()?,
             surface: surface
-                .map(|exporter| exporter.start(SURFACE_WORKERS, frame(12)))
+                .map(|exporter| {
+                    FileQueue::start(exporter, SURFACE_WORKERS, frame(12), SurfaceExporter::export)
+                })
                 .transpose()?,
             volume: volume
                 .map(|exporter| {
                     let bytes = if exporter.settings().velocity { 24 } else { 12 };
-                    exporter.start(VOLUME_WORKERS, frame(bytes))
+                    FileQueue::start(exporter, VOLUME_WORKERS, frame(bytes), VolumeExporter::export)
                 })
                 .transpose()?,
             usd: usd
@@ -398,7 +401,7 @@ impl ExportThread {
                 positions: particles.x.clone(),
                 velocities: queue.exporter().settings().velocity.then(|| particles.v.clone()),
             };
-            queue.submit(job, &mut |done, p| progress.volume(done, p))?;
+            queue.submit(job, &mut |done, p| progress.file(done, p))?;
         }
         if let Some(queue) = self.surface.as_mut().filter(|q| q.exporter().wants(frame)) {
             let job = SurfaceJob {
@@ -406,7 +409,7 @@ impl ExportThread {
                 comment: comment.clone(),
                 positions: particles.x.clone(),
             };
-            queue.submit(job, &mut |done, p| progress.mesh(done, p))?;
+            queue.submit(job, &mut |done, p| progress.file(done, p))?;
         }
         // The PLY frame and the USD layer share the particles.
         let particles = Arc::new(particles);
@@ -432,10 +435,10 @@ impl ExportThread {
     fn collect(&mut self) -> Result<()> {
         let progress = &self.progress;
         if let Some(queue) = self.surface.as_mut() {
-            queue.collect(&mut |done, p| progress.mesh(done, p), false)?;
+            queue.collect(&mut |done, p| progress.file(done, p), false)?;
         }
         if let Some(queue) = self.volume.as_mut() {
-            queue.collect(&mut |done, p| progress.volume(done, p), false)?;
+            queue.collect(&mut |done, p| progress.file(done, p), false)?;
         }
         if let Some(queue) = self.usd.as_mut() {
             queue.collect()?;
@@ -456,34 +459,16 @@ impl ExportThread {
         if let Some(ply) = self.ply {
             lines.push(ply.finish()?);
         }
-        let waiting = |left: u64, one: &str, several: &str| {
-            if left > 0 && matches!(progress, ExportProgress::Lines) {
-                eprintln!(
-                    "simulation done; waiting for {}",
-                    crate::text::count(left, one, several)
-                );
-            }
-        };
         if let Some(queue) = self.surface {
-            let last_frame = Instant::now();
-            waiting(queue.progress().queued(), "surface mesh", "surface meshes");
             let files = queue.exporter().destination();
-            let done = queue.finish(&mut |done, p| progress.mesh(done, p))?;
-            lines.push(done.summary(&files, last_frame.elapsed()));
+            lines.push(progress.finish_files(queue, &files)?);
         }
         if let Some(queue) = self.volume {
-            let last_frame = Instant::now();
-            waiting(queue.progress().queued(), "volume", "volumes");
-            let files = format!(
-                "{} in {}",
-                queue.exporter().format().extension(),
-                queue.exporter().dir().display()
-            );
-            let done = queue.finish(&mut |done, p| progress.volume(done, p))?;
-            lines.push(done.summary(&files, last_frame.elapsed()));
+            let files = queue.exporter().destination();
+            lines.push(progress.finish_files(queue, &files)?);
         }
         if let Some(queue) = self.usd {
-            waiting(queue.queued(), "USD layer", "USD layers");
+            progress.waiting(queue.queued(), ("USD layer", "USD layers"));
             lines.push(queue.finish()?);
         }
         Ok(lines)
@@ -491,73 +476,45 @@ impl ExportThread {
 }
 
 impl ExportProgress {
-    fn mesh(&self, mesh: &MeshDone, progress: SurfaceProgress) {
+    /// Reports a file as it finishes.
+    fn file(&self, file: &impl FinishedFile, progress: FileProgress) {
         match self {
             ExportProgress::Bar(bar) => bar.set_message(progress.status()),
-            ExportProgress::Lines => eprintln!(
-                "{}: {} triangles in {:.2} s ({})",
-                mesh.path.display(),
-                mesh.triangles,
-                (mesh.reconstruct + mesh.write).as_secs_f64(),
-                progress.status()
-            ),
+            ExportProgress::Lines => {
+                let [build, write] = file.stages();
+                eprintln!(
+                    "{}: {} in {:.2} s ({})",
+                    file.path().display(),
+                    file.contents(),
+                    (build + write).as_secs_f64(),
+                    progress.status()
+                );
+            }
         }
     }
 
-    fn volume(&self, volume: &VolumeDone, progress: VolumeProgress) {
-        match self {
-            ExportProgress::Bar(bar) => bar.set_message(progress.status()),
-            ExportProgress::Lines => eprintln!(
-                "{}: {} voxels in the band, {} in the liquid in {:.2} s ({})",
-                volume.path.display(),
-                volume.band,
-                volume.liquid,
-                (volume.build + volume.write).as_secs_f64(),
-                progress.status()
-            ),
+    /// Says that `left` files are still to come after the last frame, where each file gets a line
+    /// (a progress bar shows it anyway).
+    fn waiting(&self, left: u64, (one, several): (&str, &str)) {
+        if left > 0 && matches!(self, ExportProgress::Lines) {
+            eprintln!(
+                "simulation done; waiting for {}",
+                crate::text::count(left, one, several)
+            );
         }
     }
-}
 
-/// The closing line of a queue of frame files: "surface: 12 meshes (obj in out/), 51234 triangles
-/// on average, 0.84 s per mesh (reconstruction 0.80 s, writing 0.04 s) on 2 worker threads; the
-/// export thread waited 0.00 s for the queue, then 1.20 s for the last meshes".
-pub struct QueueSummary<'a> {
-    /// "surface", "volume".
-    pub what: &'a str,
-    /// The files' noun, one and several ("mesh", "meshes").
-    pub noun: (&'a str, &'a str),
-    pub files: &'a str,
-    pub done: u64,
-    /// "51234 triangles", "97336 active voxels": per file on average.
-    pub size_each: String,
-    /// The two stages of each file (its build and its write), summed over the files.
-    pub stages: [(&'a str, Duration); 2],
-    pub workers: usize,
-    /// What the export thread waited for room in the queue, and for the last files at the end.
-    pub waited: Duration,
-    pub after_last_frame: Duration,
-}
-
-impl QueueSummary<'_> {
-    pub fn line(&self) -> String {
-        let per = |d: Duration| d.as_secs_f64() / self.done.max(1) as f64;
-        let [(first, build), (second, write)] = self.stages;
-        format!(
-            "{}: {} ({}), {} on average, {:.3} s per {} ({first} {:.3} s, {second} {:.3} s) on {} worker \
-             threads; the export thread waited {:.2} s for the queue, then {:.2} s for the last {}",
-            self.what,
-            crate::text::count(self.done, self.noun.0, self.noun.1),
-            self.files,
-            self.size_each,
-            per(build + write),
-            self.noun.0,
-            per(build),
-            per(write),
-            self.workers,
-            self.waited.as_secs_f64(),
-            self.after_last_frame.as_secs_f64(),
-            self.noun.1
-        )
+    /// Waits for the files left in `queue`, reporting each; then its closing line, `files` saying
+    /// where they went.
+    fn finish_files<E, J, D>(&self, queue: FileQueue<E, J, D>, files: &str) -> Result<String>
+    where
+        E: Send + Sync + 'static,
+        J: Send + 'static,
+        D: FinishedFile + Send + 'static,
+    {
+        let last_frame = Instant::now();
+        self.waiting(queue.progress().queued(), D::WORDS.files);
+        let done = queue.finish(&mut |file, p| self.file(file, p))?;
+        Ok(done.summary(files, last_frame.elapsed()))
     }
 }

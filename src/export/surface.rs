@@ -3,7 +3,7 @@
 //! The surface is reconstructed with `splashsurf_lib`: an SPH density field is built from the
 //! particle positions alone (a cubic spline kernel), and marching cubes extracts the level set at a
 //! fraction of the rest density. The reconstruction runs on worker threads fed by a bounded queue
-//! ([`SurfaceQueue`], on [`Workers`]), so the simulation steps on while meshes are built; it waits
+//! ([`SurfaceQueue`], a [`FileQueue`]), so the simulation steps on while meshes are built; it waits
 //! only when the queue is full, which keeps memory bounded on long runs. Each mesh goes to its file
 //! (`surface_NNNNNN.obj|ply|vtk`), to the USD cache of `--export-usd` ([`UsdCache`]), or to both.
 //!
@@ -11,9 +11,8 @@
 //! `dx / n` (`n^3` particles per cell), and splashsurf's particle volume is `(2 r)^3`, so the
 //! particle radius is `r = dx / (2 n)`: the kernel then reads rest density inside the water.
 
-use super::frames::QueueSummary;
 use super::mesh_files::{SurfaceFormat, SurfaceMesh};
-use super::queue::Workers;
+use super::queue::{FileQueue, FileWords, FinishedFile};
 use super::usd::UsdCache;
 use super::{check_every, FrameDir, FrameKind};
 use crate::sim::Scene;
@@ -220,6 +219,36 @@ pub struct MeshDone {
     pub write: Duration,
 }
 
+impl FinishedFile for MeshDone {
+    const WORDS: FileWords = FileWords {
+        what: "surface",
+        files: SURFACE_FRAMES.noun,
+        short: ("mesh", "meshes"),
+        size: "triangles",
+        stages: ["reconstruction", "writing"],
+    };
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn size(&self) -> u64 {
+        self.triangles as u64
+    }
+
+    fn stages(&self) -> [Duration; 2] {
+        [self.reconstruct, self.write]
+    }
+
+    fn contents(&self) -> String {
+        format!("{} triangles", self.triangles)
+    }
+}
+
+/// The meshes' worker threads ([`SurfaceExporter::export`] on each job) and the bounded queue that
+/// feeds them.
+pub type SurfaceQueue = FileQueue<SurfaceExporter, SurfaceJob, MeshDone>;
+
 /// The particles of one exported frame, on their way to a worker.
 pub struct SurfaceJob {
     pub frame: u64,
@@ -349,157 +378,5 @@ impl SurfaceExporter {
             reconstruct: reconstructed - start,
             write: reconstructed.elapsed(),
         })
-    }
-
-    /// Starts `workers` threads that export the jobs [`SurfaceQueue::submit`] hands them; at most
-    /// `waiting` more jobs wait for a free worker before `submit` blocks.
-    pub fn start(self, workers: usize, waiting: usize) -> Result<SurfaceQueue> {
-        let exporter = Arc::new(self);
-        let worker = exporter.clone();
-        Ok(SurfaceQueue {
-            exporter,
-            workers: Workers::start("surface", workers, waiting, move |job: SurfaceJob| {
-                worker.export(&job)
-            })?,
-            progress: SurfaceProgress::default(),
-        })
-    }
-}
-
-/// Where the meshes stand: counts and times so far.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SurfaceProgress {
-    /// Meshes handed to the workers.
-    pub submitted: u64,
-    /// Meshes written.
-    pub done: u64,
-    pub triangles: u64,
-    /// Summed over the meshes written.
-    pub reconstruct: Duration,
-    pub write: Duration,
-    /// How long the export thread waited for room in the queue.
-    pub waited: Duration,
-    /// How many worker threads there are.
-    pub workers: usize,
-}
-
-impl SurfaceProgress {
-    /// The closing line of a run's meshes; `after_last_frame`: the wait for the last ones.
-    pub fn summary(&self, files: &str, after_last_frame: Duration) -> String {
-        QueueSummary {
-            what: "surface",
-            noun: ("mesh", "meshes"),
-            files,
-            done: self.done,
-            size_each: format!("{} triangles", self.triangles / self.done.max(1)),
-            stages: [("reconstruction", self.reconstruct), ("writing", self.write)],
-            workers: self.workers,
-            waited: self.waited,
-            after_last_frame,
-        }
-        .line()
-    }
-
-    /// Meshes handed over and not yet written (in a worker's hands or waiting for one).
-    pub fn queued(&self) -> u64 {
-        self.submitted - self.done
-    }
-
-    /// Mean wall time per mesh (reconstruction and writing), s.
-    pub fn seconds_per_mesh(&self) -> f64 {
-        if self.done == 0 {
-            return 0.0;
-        }
-        (self.reconstruct + self.write).as_secs_f64() / self.done as f64
-    }
-
-    /// "3/5 surface meshes written, 2 queued, 0.84 s per mesh".
-    pub fn status(&self) -> String {
-        format!(
-            "{}/{} surface meshes written, {} queued, {:.2} s per mesh",
-            self.done,
-            self.submitted,
-            self.queued(),
-            self.seconds_per_mesh()
-        )
-    }
-}
-
-/// The exporter's worker threads and the bounded queue that feeds them.
-pub struct SurfaceQueue {
-    exporter: Arc<SurfaceExporter>,
-    workers: Workers<SurfaceJob, MeshDone>,
-    /// The meshes written so far, summed.
-    progress: SurfaceProgress,
-}
-
-impl SurfaceQueue {
-    pub fn exporter(&self) -> &SurfaceExporter {
-        &self.exporter
-    }
-
-    pub fn progress(&self) -> SurfaceProgress {
-        self.progress.synced(&self.workers)
-    }
-
-    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
-    /// mesh (a full disk) is returned here, so the run stops at the next exported frame.
-    pub fn submit(
-        &mut self,
-        job: SurfaceJob,
-        on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress),
-    ) -> Result<()> {
-        let mut progress = self.progress();
-        let result = self.workers.submit(job, &mut |mesh| {
-            progress.add(&mesh);
-            on_done(&mesh, progress);
-        });
-        self.progress = progress;
-        result
-    }
-
-    /// Takes the meshes finished so far, calling `on_done` for each; with `wait`, until every
-    /// submitted mesh is done. The first failure is returned.
-    pub fn collect(&mut self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress), wait: bool) -> Result<()> {
-        let mut progress = self.progress();
-        let result = self.workers.collect(
-            &mut |mesh| {
-                progress.add(&mesh);
-                on_done(&mesh, progress);
-            },
-            wait,
-        );
-        self.progress = progress;
-        result
-    }
-
-    /// Waits for every submitted mesh, then ends the workers.
-    pub fn finish(self, on_done: &mut dyn FnMut(&MeshDone, SurfaceProgress)) -> Result<SurfaceProgress> {
-        let mut progress = self.progress();
-        self.workers.finish(&mut |mesh| {
-            progress.add(&mesh);
-            on_done(&mesh, progress);
-        })?;
-        Ok(progress)
-    }
-}
-
-impl SurfaceProgress {
-    /// These counts with the queue's own (meshes handed over, the simulation's wait, threads).
-    fn synced(self, workers: &Workers<SurfaceJob, MeshDone>) -> SurfaceProgress {
-        SurfaceProgress {
-            submitted: workers.submitted(),
-            waited: workers.waited(),
-            workers: workers.threads(),
-            ..self
-        }
-    }
-
-    /// Counts one more mesh written.
-    fn add(&mut self, mesh: &MeshDone) {
-        self.done += 1;
-        self.triangles += mesh.triangles as u64;
-        self.reconstruct += mesh.reconstruct;
-        self.write += mesh.write;
     }
 }

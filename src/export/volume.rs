@@ -18,11 +18,10 @@
 //!   normalisation, `sum_j V_j v_j W / sum_j V_j W` (`V_j = m / rho_j`), summed by the same loop.
 //!
 //! Voxel `(i, j, k)` sits at `voxel_size * (i, j, k)` in the simulation's coordinates (metres, y up):
-//! every frame's grids share one lattice. The grids are built on the worker threads the surface
-//! meshes run on ([`Workers`]), beside the simulation.
+//! every frame's grids share one lattice. The grids are built on worker threads beside the
+//! simulation ([`VolumeQueue`], a [`FileQueue`] as the surface meshes have).
 
-use super::frames::QueueSummary;
-use super::queue::Workers;
+use super::queue::{FileQueue, FileWords, FinishedFile};
 use super::surface::{SurfaceOverrides, SurfaceSettings};
 use super::vdb::{self, AnyGrid, Coord, Grid, GridClass, Leaf, Meta, Tree, LEAF_LOG2, LEAF_SIZE};
 use super::{check_every, FrameDir, FrameKind};
@@ -35,7 +34,6 @@ use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 use std::hash::{BuildHasherDefault, Hasher};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The volumes of `--export-volume`: `volume_NNNNNN.vdb`.
@@ -839,6 +837,11 @@ impl VolumeExporter {
         self.frames.dir()
     }
 
+    /// Where the volumes go, for the user: "vdb in out/volumes".
+    pub fn destination(&self) -> String {
+        format!("{} in {}", self.format.extension(), self.dir().display())
+    }
+
     pub fn format(&self) -> VolumeFormat {
         self.format
     }
@@ -879,20 +882,6 @@ impl VolumeExporter {
             write: built.elapsed(),
         })
     }
-
-    /// Starts `workers` threads that export the jobs [`VolumeQueue::submit`] hands them; at most
-    /// `waiting` more jobs wait for a free worker before `submit` blocks.
-    pub fn start(self, workers: usize, waiting: usize) -> Result<VolumeQueue> {
-        let exporter = Arc::new(self);
-        let worker = exporter.clone();
-        Ok(VolumeQueue {
-            exporter,
-            workers: Workers::start("volume", workers, waiting, move |job: VolumeJob| {
-                worker.export(&job)
-            })?,
-            progress: VolumeProgress::default(),
-        })
-    }
 }
 
 /// One finished volume.
@@ -909,143 +898,33 @@ pub struct VolumeDone {
     pub write: Duration,
 }
 
-/// Where the volumes stand: counts and times so far.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct VolumeProgress {
-    /// Volumes handed to the workers.
-    pub submitted: u64,
-    /// Volumes written.
-    pub done: u64,
+impl FinishedFile for VolumeDone {
+    const WORDS: FileWords = FileWords {
+        what: "volume",
+        files: VOLUME_FRAMES.noun,
+        short: VOLUME_FRAMES.noun,
+        size: "active voxels",
+        stages: ["grids", "writing"],
+    };
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Active voxels of every grid written, summed.
-    pub voxels: u64,
-    /// Summed over the volumes written.
-    pub build: Duration,
-    pub write: Duration,
-    /// How long the export thread waited for room in the queue.
-    pub waited: Duration,
-    /// How many worker threads there are.
-    pub workers: usize,
-}
-
-impl VolumeProgress {
-    /// The closing line of a run's volumes; `after_last_frame`: the wait for the last ones.
-    pub fn summary(&self, files: &str, after_last_frame: Duration) -> String {
-        QueueSummary {
-            what: "volume",
-            noun: ("volume", "volumes"),
-            files,
-            done: self.done,
-            size_each: format!("{} active voxels", self.voxels / self.done.max(1)),
-            stages: [("grids", self.build), ("writing", self.write)],
-            workers: self.workers,
-            waited: self.waited,
-            after_last_frame,
-        }
-        .line()
+    fn size(&self) -> u64 {
+        self.band + self.liquid
     }
 
-    /// Volumes handed over and not yet written.
-    pub fn queued(&self) -> u64 {
-        self.submitted - self.done
+    fn stages(&self) -> [Duration; 2] {
+        [self.build, self.write]
     }
 
-    /// Mean wall time per volume (grids and writing), s.
-    pub fn seconds_per_volume(&self) -> f64 {
-        if self.done == 0 {
-            return 0.0;
-        }
-        (self.build + self.write).as_secs_f64() / self.done as f64
-    }
-
-    /// "3/5 volumes written, 2 queued, 4.70 s per volume".
-    pub fn status(&self) -> String {
-        format!(
-            "{}/{} volumes written, {} queued, {:.2} s per volume",
-            self.done,
-            self.submitted,
-            self.queued(),
-            self.seconds_per_volume()
-        )
-    }
-
-    /// These counts with the queue's own (volumes handed over, the simulation's wait, threads).
-    fn synced(self, workers: &Workers<VolumeJob, VolumeDone>) -> VolumeProgress {
-        VolumeProgress {
-            submitted: workers.submitted(),
-            waited: workers.waited(),
-            workers: workers.threads(),
-            ..self
-        }
-    }
-
-    /// Counts one more volume written.
-    fn add(&mut self, volume: &VolumeDone) {
-        self.done += 1;
-        self.voxels += volume.band + volume.liquid;
-        self.build += volume.build;
-        self.write += volume.write;
+    fn contents(&self) -> String {
+        format!("{} voxels in the band, {} in the liquid", self.band, self.liquid)
     }
 }
 
-/// The volumes' worker threads and the bounded queue that feeds them.
-pub struct VolumeQueue {
-    exporter: Arc<VolumeExporter>,
-    workers: Workers<VolumeJob, VolumeDone>,
-    /// The volumes written so far, summed.
-    progress: VolumeProgress,
-}
-
-impl VolumeQueue {
-    pub fn exporter(&self) -> &VolumeExporter {
-        &self.exporter
-    }
-
-    pub fn progress(&self) -> VolumeProgress {
-        self.progress.synced(&self.workers)
-    }
-
-    /// Hands a frame to the workers. Waits only while the queue is full. A failure of an earlier
-    /// volume (a full disk) is returned here, so the run stops at the next exported frame.
-    pub fn submit(
-        &mut self,
-        job: VolumeJob,
-        on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress),
-    ) -> Result<()> {
-        let mut progress = self.progress();
-        let result = self.workers.submit(job, &mut |volume| {
-            progress.add(&volume);
-            on_done(&volume, progress);
-        });
-        self.progress = progress;
-        result
-    }
-
-    /// Takes the volumes finished so far, calling `on_done` for each; with `wait`, until every
-    /// submitted volume is done. The first failure is returned.
-    pub fn collect(
-        &mut self,
-        on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress),
-        wait: bool,
-    ) -> Result<()> {
-        let mut progress = self.progress();
-        let result = self.workers.collect(
-            &mut |volume| {
-                progress.add(&volume);
-                on_done(&volume, progress);
-            },
-            wait,
-        );
-        self.progress = progress;
-        result
-    }
-
-    /// Waits for every submitted volume, then ends the workers.
-    pub fn finish(self, on_done: &mut dyn FnMut(&VolumeDone, VolumeProgress)) -> Result<VolumeProgress> {
-        let mut progress = self.progress();
-        self.workers.finish(&mut |volume| {
-            progress.add(&volume);
-            on_done(&volume, progress);
-        })?;
-        Ok(progress)
-    }
-}
+/// The volumes' worker threads ([`VolumeExporter::export`] on each job) and the bounded queue that
+/// feeds them.
+pub type VolumeQueue = FileQueue<VolumeExporter, VolumeJob, VolumeDone>;
