@@ -70,15 +70,12 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 // indices held as 64-bit, 108, and the 16.8M column's substep 3.56 ms against 3.30 with mirror_walls'
 // own launch; as 32-bit, 90 (3.41 ms); recomputed for each channel, as here, 72 (3.31 ms; bench-65k
 // 0.0356 ms against 0.0348 at 90).
-// OWN_SUMS: also give the node's own sums before the images join them (the kernel for rigid bodies
-// and Coulomb colliders under the mirror; the other one compiled the same code as before bodies
-// existed only without it: 1.8 % slower bench-655k substeps on the H200 with the own mass).
-template <typename V, bool OWN_SUMS>
+template <typename V>
 __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
                                                   const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
-                                                  const u64* fixed_momentum, V mine[4], V own_sums[4]) {
+                                                  const u64* fixed_momentum, V mine[4]) {
 #pragma unroll
-    for (int k = 0; k < 4; ++k) mine[k] = own_sums[k] = V(0);
+    for (int k = 0; k < 4; ++k) mine[k] = V(0);
 #pragma unroll 1
     for (int ch = 0; ch < 4; ++ch) {
         V v[8];
@@ -89,24 +86,23 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
             u32 r[3];
             if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(m, o, T, res, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
         }
-        // The particles' own sums here, before the images join them: what a rigid body's exchange
-        // and a Coulomb collider's image push read (compiled out where nothing reads them).
-        const V own_value = OWN_SUMS ? orbit_slot(v, own) : V(0);
         mirror_orbit_channel(m, o, ch, v);
         const V picked = orbit_slot(v, own);
 #pragma unroll
         for (int k = 0; k < 4; ++k)  // mine[ch] with a loop-carried ch would be local memory too
-            if (k == ch) {
-                mine[k] = picked;
-                if (OWN_SUMS) own_sums[k] = own_value;
-            }
+            if (k == ch) mine[k] = picked;
     }
 }
 
 // A node near a wall, for the fused pipeline's mirror: its sums with the images added (the values
 // mirror_walls would have written), and whether another node block reads it too (`crossing`: it
-// must be left unzeroed). V: i64 in fixed point, float otherwise; OWN_SUMS: as mirrored_channels
-// (without it own_m is the sum's and the push zero).
+// must be left unzeroed). V: i64 in fixed point, float otherwise. OWN_SUMS: also its particles' own
+// sums, read again from the grid after the orbit (nothing zeroes them before the block's barrier):
+// own_m, which a rigid body's exchange counts, and the images' push (image_push in src/sim/cpu.rs),
+// which a Coulomb collider's friction counts. Read there rather than taken from the orbit inside the
+// channel loop, they hold no registers across it (taken inside, the wave tank's substep was 3.2 %
+// slower than before them, against 2.6 % with bounds of its own; BENCHMARKS.md M13). Without it
+// own_m is the sum's and the push zero.
 template <typename V, bool OWN_SUMS>
 __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, const MirrorAxis m[3], const u32 c[3],
                                                   const float4* grid_acc, const u64* fixed_mass,
@@ -121,11 +117,14 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
         if (o.rep[b] != c[b]) own |= 1u << b;
         crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
     }
-    V mine[4], own_sums[4];
-    mirrored_channels<V, OWN_SUMS>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine, own_sums);
+    V mine[4];
+    mirrored_channels<V>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine);
     NodeSums s = node_sums(params, mine, counters);
     if (OWN_SUMS) {
-        // image_push in src/sim/cpu.rs: the node's velocity less its particles' own.
+        const size_t i = c[0] + (size_t)params.grid_res[0] * (c[1] + (size_t)params.grid_res[1] * c[2]);
+        V own_sums[4];
+#pragma unroll
+        for (int ch = 0; ch < 4; ++ch) mirror_load(i, ch, grid_acc, fixed_mass, fixed_momentum, own_sums[ch]);
         const NodeSums own_s = own_node_sums(params, own_sums);
         s.own_m = own_s.m;
         for (int a = 0; a < 3; ++a)
@@ -148,12 +147,12 @@ __device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], c
 // One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
 // last CUDA block to finish empties the list, so the next substep's scatters start with neither.
 // `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
-// Two kernels walk the list: grid_update_blocks, and grid_update_blocks_own_sums where the scene has
-// rigid bodies, whose boundaries also add up what they took from the nodes, or a Coulomb collider
-// under the walls' mirror: both read the nodes' own sums beside the images (mirrored_sums). In the
-// first the exchange and the own sums are compiled out (the bodies' null pointer and the push are
-// constants): water alone keeps the registers, and so the occupancy and the speed, it had before
-// bodies existed.
+// Three kernels walk the list: grid_update_blocks; grid_update_blocks_bodies where the scene has
+// rigid bodies, whose boundaries also add up what they took from the nodes; and
+// grid_update_blocks_friction where a Coulomb collider meets the walls' mirror. The last two read
+// the nodes' own sums beside the images (mirrored_sums). Elsewhere the exchange (its null pointer a
+// constant) and the own sums are compiled out: water alone keeps the registers, and so the
+// occupancy and the speed, it had before bodies existed.
 template <bool OWN_SUMS>
 __device__ __forceinline__ void update_listed_blocks(const KernelParams& params, const u32 mirror,
                                                      const u32* __restrict__ block_list, u32* __restrict__ work_counts,
@@ -221,7 +220,7 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
 // Held to 12 blocks an SM (at most 80 registers): compiled freely it took 113 and 8 blocks, and its node
 // blocks' load chains had too few warps to hide behind; ten floating bodies' substep went from
 // +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %).
-extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_own_sums(
+extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_bodies(
     const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
     u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
     u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
@@ -229,6 +228,18 @@ extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_own_sums
     u64* __restrict__ body_impulses) {
     update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
                                fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+}
+
+// The image push without the bodies' exchange (its null pointer a constant), held to the plain
+// kernel's 14 blocks an SM (at most 72 registers).
+extern "C" __global__ void __launch_bounds__(64, 14) grid_update_blocks_friction(
+    const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+    u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
+    u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
+    const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
+    u64* __restrict__ /*body_impulses: null, no bodies*/) {
+    update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                               fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other

@@ -17,9 +17,10 @@ use cudarc::driver::PushKernelArg;
 pub struct GridUpdate {
     whole_grid: Kernel,
     listed_blocks: Kernel,
-    /// grid_update_blocks with the nodes' own sums beside the walls' images: the rigid bodies'
-    /// exchange and Coulomb colliders under the mirror read them (kernels/grid_update.cu).
-    listed_blocks_own_sums: Kernel,
+    /// grid_update_blocks with the rigid bodies' exchange (kernels/grid_update.cu).
+    listed_blocks_with_bodies: Kernel,
+    /// grid_update_blocks with the walls' image push, which Coulomb colliders under the mirror read.
+    listed_blocks_with_friction: Kernel,
     clear_crossing_orbits: Kernel,
 }
 
@@ -28,7 +29,8 @@ impl GridUpdate {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
             listed_blocks: Kernel::load(modules, "grid_update", "grid_update_blocks")?,
-            listed_blocks_own_sums: Kernel::load(modules, "grid_update", "grid_update_blocks_own_sums")?,
+            listed_blocks_with_bodies: Kernel::load(modules, "grid_update", "grid_update_blocks_bodies")?,
+            listed_blocks_with_friction: Kernel::load(modules, "grid_update", "grid_update_blocks_friction")?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
     }
@@ -67,16 +69,18 @@ impl GridUpdate {
             },
             Pipeline::Fused | Pipeline::Binned => {
                 let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
-                // The images join the sums here only where this launch mirrors.
+                // The images join the sums here only where this launch mirrors. The bodies' kernel
+                // has the image push too.
                 let friction_under_mirror = mirror && params.wall_mirror_lo != 0 && d.colliders.friction;
-                let kernel = if d.colliders.bodies.is_some() || friction_under_mirror {
-                    &self.listed_blocks_own_sums
-                } else {
-                    &self.listed_blocks
+                let kernel = match (&d.colliders.bodies, friction_under_mirror) {
+                    (Some(_), _) => &self.listed_blocks_with_bodies,
+                    (None, true) => &self.listed_blocks_with_friction,
+                    (None, false) => &self.listed_blocks,
                 };
                 let mirror = u32::from(mirror);
-                // SAFETY: the arguments match grid_update_blocks and grid_update_blocks_own_sums (the
-                // bodies' sums last: null without bodies); one thread per node of a block.
+                // SAFETY: the arguments match grid_update_blocks, grid_update_blocks_bodies and
+                // grid_update_blocks_friction (the bodies' sums last: null without bodies); one thread
+                // per node of a block.
                 unsafe {
                     kernel.launch(l, config, |a| {
                         a.arg(&params.kernel)

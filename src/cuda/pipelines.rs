@@ -123,8 +123,9 @@ impl Launch {
             Launch::GridUpdate => "grid_update (every node)".into(),
             Launch::GridUpdateBlocks => "grid_update_blocks + clear_crossing_orbits".into(),
             Launch::GridUpdateBlocksMirrored => {
-                "grid_update_blocks (the walls' images inside; with rigid bodies or Coulomb colliders \
-                 grid_update_blocks_own_sums, then step_bodies) + clear_crossing_orbits"
+                "grid_update_blocks (the walls' images inside; with rigid bodies grid_update_blocks_bodies, then \
+                 step_bodies; with Coulomb colliders at the walls grid_update_blocks_friction) + \
+                 clear_crossing_orbits"
                     .into()
             }
             Launch::G2p => "g2p".into(),
