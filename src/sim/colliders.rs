@@ -388,11 +388,19 @@ impl Colliders {
         self.pipes.len()
     }
 
-    /// Whether any collider has Coulomb friction.
-    pub fn has_friction(&self) -> bool {
+    /// Whether a Coulomb collider's band may meet the slabs within `reach` of the box [lo, hi]'s
+    /// faces (the walls' mirror planes): a moving one anywhere, a still one where its bounding ball,
+    /// grown by its band and `reach`, reaches a face.
+    pub fn friction_near_faces(&self, lo: DVec3, hi: DVec3, dx: f32, reach: f64) -> bool {
         self.list
             .iter()
-            .any(|c| matches!(c.boundary, Boundary::Friction(_)))
+            .filter(|c| matches!(c.boundary, Boundary::Friction(_)))
+            .any(|c| {
+                let r = c.shape.bounding_radius() + f64::from(BAND_CELLS * dx) + reach;
+                c.motion != Motion::Static
+                    || c.body.is_some()
+                    || (0..3).any(|a| c.center[a] - r <= lo[a] || c.center[a] + r >= hi[a])
+            })
     }
 
     /// Whether any collider moves (a rigid body counts).

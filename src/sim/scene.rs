@@ -376,13 +376,19 @@ impl Scene {
         // The binned pipeline adds the walls' images in a launch of their own, before its grid
         // update, which then cannot tell what they pushed: its Coulomb colliders would not grip
         // under the mirror (docs/physics.md, "Colliders").
-        if self.colliders.has_friction() && self.mirror_wall_mass && self.pipeline == Pipeline::Binned {
+        let (lo, hi) = self.fluid_region();
+        let reach = f64::from(self.params().kernel.wall_mirror_lo) * f64::from(self.dx);
+        if self.mirror_wall_mass
+            && self.pipeline == Pipeline::Binned
+            && self.colliders.friction_near_faces(lo, hi, self.dx, reach)
+        {
             return Err(SceneError {
                 source: self.source.clone(),
                 key: "solver.pipeline".into(),
                 problem:
-                    "= \"binned\" cannot grip with this scene's Coulomb (friction) collider(s) at the walls' \
-                          mirror: only the fused pipeline's grid update sees what the mirror pushed"
+                    "= \"binned\" cannot grip with a Coulomb (friction) collider that may reach the walls' \
+                          mirror (a moving one, or one within its band of a wall): only the fused pipeline's \
+                          grid update sees what the mirror pushed"
                         .into(),
                 fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default), or \
                       solver.mirror_wall_mass = false"
