@@ -126,6 +126,48 @@ pub fn settle_block(sim: &mut Simulation, dx: f32) -> Settled {
     }
 }
 
+/// A quasi-2D jelly block (10 x 4 cm, E = 100 kPa, 1000 kg/m^3) launched at 1.5 m/s along a Coulomb
+/// floor (`friction = mu`, [`coulomb_floor`]) in a tank 80 cm long, 1 cm cells, where the walls'
+/// mirror also acts unless `mirror` is false.
+pub fn sliding_block_toml(mu: f32, mirror: bool) -> String {
+    let (tank, dx, depth) = (0.8f32, 0.01f32, 0.08f32);
+    format!(
+        "[domain]\nsize = [{tank}, 0.15, {depth}]\nresolution = [80, 15, 8]\n{}\
+         [time_step]\ncfl = 0.4\n[solver]\nmirror_wall_mass = {mirror}\n{}\
+         [[block]]\nmin = [0.05, {dx}, {dx}]\nmax = [0.15, 0.05, {}]\nvelocity = [1.5, 0.0, 0.0]\n",
+        jelly("jelly", 1000.0, 1.0e5, 0.3),
+        coulomb_floor(tank, depth, dx, mu),
+        depth - 2.0 * dx,
+    )
+}
+
+/// The deceleration of a [`sliding_block_toml`] run while it slides: the slope of its particles'
+/// mean x velocity, frame by frame, fitted from 1.3 down to 0.3 m/s. Prints it against mu g.
+pub fn sliding_deceleration(sim: &mut Simulation, mu: f32, what: &str) -> f32 {
+    let mut samples = Vec::new();
+    for frame in 1..=36u32 {
+        sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}"));
+        let v = particles(sim).v;
+        let vx = v.iter().map(|v| f64::from(v.x)).sum::<f64>() / v.len() as f64;
+        if vx < 1.3 && vx > 0.3 {
+            samples.push((f64::from(frame) / 60.0, vx));
+        }
+    }
+    assert!(samples.len() >= 10, "{what}: too few sliding frames: {samples:?}");
+    let n = samples.len() as f64;
+    let (st, sv) = samples.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
+    let (stt, stv) = samples
+        .iter()
+        .fold((0.0, 0.0), |a, s| (a.0 + s.0 * s.0, a.1 + s.0 * s.1));
+    let deceleration = (-(n * stv - st * sv) / (n * stt - st * st)) as f32;
+    let expected = mu * G;
+    println!(
+        "{what}: the block slows at {deceleration:.3} m/s^2, mu g = {expected:.3} ({:+.1} %)",
+        100.0 * (deceleration / expected - 1.0)
+    );
+    deceleration
+}
+
 /// The Coulomb friction of [`SAND`] on itself, tan 30 degrees: its columns' floor.
 pub const SAND_FRICTION: f32 = 0.577;
 
@@ -136,7 +178,9 @@ pub const SAND: &str = "[[material]]\nname = \"sand\"\nlaw = \"sand\"\nrest_dens
 
 /// A quasi-2D column of [`SAND`] `length` m long and `height` m high against the low x wall of a
 /// tank 80 cm long on a floor with the sand's own friction (a Coulomb collider of `tan 30` = 0.577
-/// just under the floor's plane: [`coulomb_floor`]), a slab 5 cells of `dx` thick.
+/// just under the floor's plane: [`coulomb_floor`]), a slab 5 cells of `dx` thick; without the
+/// walls' mirror, which is there for a liquid's density at a wall (dry sand has none) and shortens
+/// the columns' runouts (docs/physics.md, "Solids").
 pub fn sand_column(dx: f32, length: f32, height: f32) -> Scene {
     common::scene(&sand_column_toml(dx, length, height))
 }
@@ -147,7 +191,7 @@ pub fn sand_column_toml(dx: f32, length: f32, height: f32) -> String {
     let cells = |metres: f32| (metres / dx).round() as u32;
     format!(
         "[domain]\nsize = [{tank}, {}, {}]\nresolution = [{}, {}, 8]\n{SAND}\
-         [time_step]\ncfl = 0.4\n{}\
+         [time_step]\ncfl = 0.4\n[solver]\nmirror_wall_mass = false\n{}\
          [[block]]\nmin = [{floor}, {floor}, {dx}]\nmax = [{}, {}, {}]\n",
         (height + 0.05).max(0.1),
         8.0 * dx,
