@@ -160,10 +160,10 @@ fn colliding_jelly_cubes_keep_their_total_momentum() {
 // ---------------------------------------------------------------------------------------------
 
 /// A light jelly block ([`block_in_water`], 500 kg/m^3) at a cell of 1 cm floats: averaged over the
-/// last half second of 2 it has between a quarter and three quarters of its height under the
+/// last 1.5 s of 3 it has between a quarter and three quarters of its height under the
 /// surface (it neither sinks nor rides on top). Archimedes' half its height within 5 % is the GPU's
-/// check, at 2.5 mm (tests/gpu_solids.rs): at 1 cm the block floats 15 % high (42.6 % under; 46.6 %
-/// at 5 mm, 48.6 % at 2.5 mm on the H200), because the water's pressure reaches it through the nodes
+/// check, at 2.5 mm (tests/gpu_solids.rs): at 1 cm the block floats 15 % high (42.2 % under; 45.9 %
+/// at 5 mm, 47.6 to 50.6 % at 2.5 mm on the H200), because the water's pressure reaches it through the nodes
 /// both share, about half a cell below its lowest particles, an error of the order of dx over its
 /// depth under water; the 5 mm run takes CI's two cores over four minutes.
 #[test]
@@ -172,7 +172,7 @@ fn a_light_jelly_floats() {
     let mut sim = simulation(&block_in_water(dx, 500.0, ""), BackendKind::CpuParallel);
     let settled = settle_block(&mut sim, dx);
     println!(
-        "buoyancy at 1 cm: the light block {:.2} % under over the last half second (Archimedes 50 %)",
+        "buoyancy at 1 cm: the light block {:.2} % under over the last 1.5 s (Archimedes 50 %)",
         100.0 * settled.fraction
     );
     assert!(
