@@ -29,28 +29,9 @@ fn floors() {
             };
             for (length, height) in cols {
                 let mut toml = solids_checks::sand_column_toml(dx, length, height);
-                let stick = materials_checks::no_slip_floor(0.8, 8.0 * dx, dx);
-                match which.as_str() {
-                    "stick" => {}
-                    "coulomb" => {
-                        toml =
-                            toml.replace(&stick, &stick.replace("boundary = \"stick\"", "friction = 0.577"));
-                        toml.push_str("[solver]\nmirror_wall_mass = false\n");
-                    }
-                    "coulomb-mirror" => {
-                        toml =
-                            toml.replace(&stick, &stick.replace("boundary = \"stick\"", "friction = 0.577"));
-                    }
-                    "slip-nomirror" => {
-                        toml = toml.replace(&stick, "");
-                        toml.push_str("[solver]\nmirror_wall_mass = false\n");
-                    }
-                    "stick-nomirror" => {
-                        toml.push_str("[solver]\nmirror_wall_mass = false\n");
-                    }
-                    _ => panic!(),
-                }
-                let scene = common::scene(&toml);
+        if which.contains("stick") { toml = toml.replace("friction = 0.577", "boundary = \"stick\""); }
+        if !which.contains("nomirror") { toml = toml.replace("mirror_wall_mass = false", "mirror_wall_mass = true"); }
+        let scene = common::scene(&toml);
                 let mut sim = materials_checks::simulation(&scene, backend);
                 let runout = solids_checks::sand_runout(&mut sim, dx, length, 1.5);
                 let a = height / length;
