@@ -30,7 +30,7 @@ fn floors() {
             for (length, height) in cols {
                 let mut toml = solids_checks::sand_column_toml(dx, length, height);
         if which.contains("stick") { toml = toml.replace("friction = 0.577", "boundary = \"stick\""); }
-        if !which.contains("nomirror") { toml = toml.replace("mirror_wall_mass = false", "mirror_wall_mass = true"); }
+        if which == "stick" || which.ends_with("-mirror") { toml = toml.replace("mirror_wall_mass = false", "mirror_wall_mass = true"); }
         let scene = common::scene(&toml);
                 let mut sim = materials_checks::simulation(&scene, backend);
                 let runout = solids_checks::sand_runout(&mut sim, dx, length, 1.5);
