@@ -445,9 +445,10 @@ pub fn density_after_g2p(
 }
 
 /// grid_update for node `index` with mass `m > 0` (`own_m` of it the particles', the rest the walls'
-/// images; `image_push` the velocity the images gave it, [`image_push`]) and momentum `mv`: velocity, gravity, the colliders' boundary conditions (adding what rigid
-/// bodies' boundaries took to `body_impulses`), and free slip in the walls' boundary band (last, so the walls hold whatever a
-/// moving collider near them does).
+/// images; `image_push` the velocity the images gave it, [`image_push`]) and momentum `mv`:
+/// velocity, gravity, the colliders' boundary conditions (adding what rigid bodies' boundaries took
+/// to `body_impulses`), and free slip in the walls' boundary band (last, so the walls hold whatever
+/// a moving collider near them does).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn node_velocity(
