@@ -664,3 +664,13 @@ pub fn refused_before_stepping(out: std::process::Output, args: &[&str]) -> Stri
     assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     stderr
 }
+
+/// The slope of the least-squares line through `points` (x, y).
+pub fn fitted_slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (sx, sy) = points.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
+    let (sxx, sxy) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), p| (a + p.0 * p.0, b + p.0 * p.1));
+    (n * sxy - sx * sy) / (n * sxx - sx * sx)
+}

@@ -156,7 +156,7 @@ pub fn sliding_deceleration(sim: &mut Simulation, mu: f32, what: &str) -> f32 {
         }
     }
     assert!(samples.len() >= 10, "{what}: too few sliding frames: {samples:?}");
-    let deceleration = -fitted_slope(&samples) as f32;
+    let deceleration = -common::fitted_slope(&samples) as f32;
     let expected = mu * G;
     println!(
         "{what}: the block slows at {deceleration:.3} m/s^2, mu g = {expected:.3} ({:+.1} %)",
@@ -262,16 +262,6 @@ pub fn sand_behind_gate(dx: f32) -> Scene {
     ))
 }
 
-/// The slope of the least-squares line through `points` (x, y).
-fn fitted_slope(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    let (sx, sy) = points.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
-    let (sxx, sxy) = points
-        .iter()
-        .fold((0.0, 0.0), |(a, b), p| (a + p.0 * p.0, b + p.0 * p.1));
-    (n * sxy - sx * sy) / (n * sxx - sx * sx)
-}
-
 /// The slope, in degrees, that a [`sand_behind_gate`] run leaves standing after `seconds` (the gate
 /// is clear of the sand after 2 s, and it stops within another 1.5): the surface (each column of
 /// cells' highest particle) from the wall out to where it first falls below a tenth of its highest,
@@ -297,7 +287,7 @@ pub fn repose_angle(sim: &mut Simulation, dx: f32, seconds: f32) -> f32 {
             .filter(|&c| top[c] > 0.2 * peak && top[c] < 0.8 * peak)
             .map(|c| ((c as f64 + 0.5) * f64::from(dx), f64::from(top[c])))
             .collect();
-        let slope = fitted_slope(&points);
+        let slope = common::fitted_slope(&points);
         angle = (-slope).atan().to_degrees() as f32;
         let speed = p.v.iter().map(|v| v.length()).fold(0.0f32, f32::max);
         println!(
