@@ -35,6 +35,8 @@ fn main() -> std::process::ExitCode {
             an_elastoviscoplastic_mud_in_fixed_point_is_byte_identical,
             an_emitted_mud_particle_starts_undeformed_as_on_the_cpu,
             the_slump_test_at_5_and_2_5_mm_comes_to_rest_at_its_runout,
+            a_box_vortex_decays_at_its_viscous_rate,
+            a_box_vortex_decays_at_its_viscous_rate_in_fixed_point,
         ],
     )
 }
@@ -445,4 +447,51 @@ fn power_law_films_forty_cells_across_have_the_power_law_profile() {
             law.n
         );
     }
+}
+
+/// tests/materials.rs's box vortex on the GPU at 32 and 64 cells across: 4 and 11 Pa s decay at the
+/// Stokes rate 4 nu k^2 (the kinetic energy) within 3 %, the bulk viscous stress that the Stokes
+/// sphere (tests/gpu_bodies.rs) moves through. H200, 2026-11-29 (BENCHMARKS.md M14): the float
+/// scatter +1.2, -0.1, -0.1, -0.1 % (the CPU's figures at 32 cells, digit for digit).
+fn a_box_vortex_decays_at_its_viscous_rate() {
+    box_vortex_decays("float");
+}
+
+/// The same in the fixed-point scatter, which fails today: +5.4 and +6.7 % at 32 cells, +9.1 and
+/// +28.6 % at 64 (H200, 2026-11-29). The suspect: its rounding step, a cell's mass at the
+/// scale's reference speed (the sound speed, 10 m/s here) over 2^27, is coarse beside this
+/// vortex's 1 cm/s and the viscosity's change of it in a substep (about 1e-8 m/s at 64 cells); the
+/// vortex loses energy the faster the finer the grid. The Stokes sphere's fixed-point figures are
+/// likely off for the same reason. Issue 42 stays open on it.
+fn a_box_vortex_decays_at_its_viscous_rate_in_fixed_point() {
+    box_vortex_decays("fixed-point");
+}
+
+fn box_vortex_decays(scatter: &str) {
+    let mut failures = Vec::new();
+    for cells in [32, 64] {
+        for viscosity in [4.0, 11.0] {
+            let d =
+                materials_checks::box_vortex(mpm::backend::BackendKind::Cuda, cells, viscosity, scatter, 6);
+            let error = d.rate / d.expected - 1.0;
+            println!(
+                "RESULT box vortex, {cells} cells, {scatter}, {viscosity} Pa s: {:.3} per second against {:.3}: \
+                 {:+.1} % (nu dt / dx^2 = {:.3})",
+                d.rate,
+                d.expected,
+                100.0 * error,
+                d.viscous_number
+            );
+            if error.abs() >= 0.03 {
+                failures.push(format!(
+                    "{cells} cells, {viscosity} Pa s: {:+.1} %",
+                    100.0 * error
+                ));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "the vortex in the {scatter} scatter decays off its rate: {failures:?}"
+    );
 }

@@ -404,6 +404,7 @@ pub fn sphere_in_tube(
     cells: u32,
     radius: f64,
     viscosity: f64,
+    cfl: f64,
     extra: &str,
     dir: &std::path::Path,
 ) -> (Scene, f64) {
@@ -421,7 +422,7 @@ pub fn sphere_in_tube(
     let text = format!(
         "[domain]\nsize = [{x}, {y}, {x}]\nresolution = [{res_xz}, {res_y}, {res_xz}]\n\
          [material]\nrest_density = 1000.0\nsound_speed = 40.0\nviscosity = {viscosity}\n\
-         [time_step]\ncfl = 0.4\n\
+         [time_step]\ncfl = {cfl}\nmax_substeps = 10000\n\
          [[block]]\nmin = [{lo}, {bottom}, {lo}]\nmax = [{hi}, {top}, {hi}]\nparticles_per_cell = 8\n\
          [[collider]]\nshape = \"mesh\"\nfile = \"tube.obj\"\ncenter = [{centre}, {floor}, {centre}]\nboundary = \"stick\"\n\
          [[collider]]\nshape = \"sphere\"\nradius = {radius}\ncenter = [{centre}, {sphere}, {centre}]\n\

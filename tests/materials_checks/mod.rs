@@ -351,3 +351,85 @@ pub fn axisymmetric_slump(backend: BackendKind, dx: f32) -> Slump {
         energy_left: energy / peak,
     }
 }
+
+/// What [`box_vortex`] measured: the kinetic energy's decay rate, 1/s, and the substep it ran at.
+pub struct VortexDecay {
+    pub rate: f64,
+    pub expected: f64,
+    pub dt: f32,
+    /// nu dt / dx^2: how near the substep is to the explicit viscous limit (1/6).
+    pub viscous_number: f64,
+}
+
+/// A box vortex in a liquid of `viscosity` Pa s (1000 kg/m^3): v = A (sin kx cos ky, -cos kx sin ky,
+/// 0), k = pi / L, filling a box L = 10 cm square (`cells` across) and 4 cells thick between the
+/// walls, gravity off. The walls are free slip (the mirror's planes bound the liquid: nodes 1 and
+/// res - 2), which this mode meets exactly: no flow through them and no shear on them. It is an
+/// eigenmode of the Stokes operator, so the amplitude decays as exp(-2 nu k^2 t) and the kinetic
+/// energy at 4 nu k^2; the rate is the least-squares slope of ln E over the second half of `frames`
+/// frames. The particles start with the mode's velocity and its gradient as their affine C.
+/// `scatter`: the [solver] table's scatter, "float" or "fixed-point".
+pub fn box_vortex(
+    backend: BackendKind,
+    cells: u32,
+    viscosity: f64,
+    scatter: &str,
+    frames: u32,
+) -> VortexDecay {
+    let side = 0.1f64;
+    let dx = side / f64::from(cells);
+    let res = cells + 3;
+    let scene = common::scene(&format!(
+        "[domain]\nsize = [{s}, {s}, {z}]\nresolution = [{res}, {res}, 8]\n\
+         [material]\nrest_density = 1000.0\nsound_speed = 10.0\nviscosity = {viscosity}\n\
+         [solver]\ngravity = [0.0, 0.0, 0.0]\nscatter = \"{scatter}\"\n[time_step]\ncfl = 0.4\n\
+         [[block]]\nmin = [{dx}, {dx}, {dx}]\nmax = [{hi}, {hi}, {zhi}]\nparticles_per_cell = 8\n",
+        s = f64::from(res) * dx,
+        z = 8.0 * dx,
+        hi = f64::from(res - 2) * dx,
+        zhi = 6.0 * dx,
+    ));
+    let mut start = scene.spawn();
+    let (k, amplitude) = ((std::f64::consts::PI / side) as f32, 0.01f32);
+    for (x, (v, c)) in start.x.iter().zip(start.v.iter_mut().zip(start.c.iter_mut())) {
+        let (sx, cx) = (k * (x.x - dx as f32)).sin_cos();
+        let (sy, cy) = (k * (x.y - dx as f32)).sin_cos();
+        *v = amplitude * Vec3::new(sx * cy, -cx * sy, 0.0);
+        // C = grad v: column j is dv/dx_j.
+        *c = glam::Mat3::from_cols(
+            amplitude * k * Vec3::new(cx * cy, sx * sy, 0.0),
+            -amplitude * k * Vec3::new(sx * sy, cx * cy, 0.0),
+            Vec3::ZERO,
+        );
+    }
+    let bodies = mpm::sim::colliders::bodies::BodiesState::default();
+    let saved = backend::SavedState {
+        particles: &start,
+        flow: None,
+        bodies: &bodies,
+    };
+    let solver = backend::restore(backend, &scene, saved).expect("a backend");
+    let mut sim = Simulation::new(scene.clone(), solver);
+    let energy = |sim: &mut Simulation| -> f64 {
+        particles(sim)
+            .v
+            .iter()
+            .map(|v| f64::from(v.length_squared()))
+            .sum()
+    };
+    let first = energy(&mut sim);
+    let (mut points, mut dt) = (Vec::new(), 0.0);
+    for frame in 1..=frames {
+        dt = sim.advance_frame().unwrap_or_else(|e| panic!("{e:#}")).dt;
+        if 2 * frame > frames {
+            points.push((f64::from(frame) / 60.0, (energy(&mut sim) / first).ln()));
+        }
+    }
+    let nu = viscosity / 1000.0;
+    VortexDecay {
+        rate: -common::fitted_slope(&points),
+        expected: 4.0 * nu * f64::from(k * k),
+        dt,
+        viscous_number: nu * f64::from(dt) / (dx * dx),
+    }
+}
