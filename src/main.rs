@@ -14,7 +14,7 @@ use mpm::export::volume::{VolumeExporter, VolumeFormat, VolumeOverrides, VolumeS
 use mpm::export::{check_output_file, PlyExporter};
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
-use mpm::sim::{presets, Pipeline, ScatterMode, Scene, Simulation};
+use mpm::sim::{presets, Method, Pipeline, ScatterMode, Scene, Simulation};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -366,10 +366,47 @@ struct SolverArgs {
     /// exchanges over NCCL (backend cuda; docs/several-gpus.md).
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
     gpus: Option<u64>,
+    /// The scheme, overriding the scene's `solver.method`: explicit (MLS-MPM under the CFL policy)
+    /// or pbmpm (position-based MPM, CPU only for now). A CFL scene made pbmpm runs
+    /// time_step.substeps' default, 2 a frame; a pbmpm scene made explicit, the CFL policy's default.
+    #[arg(long, value_enum)]
+    method: Option<Method>,
+    /// pbmpm's constraint iterations a substep (1 to 64), overriding the scene's `solver.iterations`.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    iterations: Option<u32>,
 }
 
 impl SolverArgs {
-    fn apply(&self, scene: &mut Scene) {
+    /// Whether `--method` or `--iterations` changes the scheme the scene file names: a checkpoint
+    /// keeps the scene file's, so such a run is not checkpointed.
+    fn changes_method(&self) -> bool {
+        self.method.is_some() || self.iterations.is_some()
+    }
+
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(method) = self.method {
+            if method != scene.method {
+                scene.time_step = match method {
+                    Method::Pbmpm => mpm::sim::scene::TimeStepPolicy::Fixed {
+                        dt: mpm::sim::FRAME_DT / mpm::sim::pbmpm::DEFAULT_SUBSTEPS as f32,
+                    },
+                    Method::Explicit => mpm::sim::scene::TimeStepPolicy::Cfl {
+                        cfl: 0.4,
+                        max_substeps: mpm::sim::scene::DEFAULT_MAX_SUBSTEPS,
+                    },
+                };
+                scene.method = method;
+            }
+        }
+        if let Some(iterations) = self.iterations {
+            anyhow::ensure!(
+                scene.method == Method::Pbmpm,
+                "--iterations sets the position-based solver's constraint iterations, and scene {} runs \
+                 the explicit one: add --method pbmpm, or drop --iterations",
+                scene.source
+            );
+            scene.pbmpm.iterations = iterations;
+        }
         if let Some(scatter) = self.scatter {
             scene.scatter = scatter;
         }
@@ -382,6 +419,8 @@ impl SolverArgs {
         if let Some(gpus) = self.gpus() {
             scene.gpus = gpus;
         }
+        scene.check_method()?;
+        Ok(())
     }
 
     /// `--ranks`, or `--gpus` (a rank per GPU), where given (a count past the address space reads as
@@ -591,7 +630,7 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 
 fn view(args: ViewArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
     // The exports are made after the viewer's own paths are checked and before the window opens:
     // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
     let exports = |scene: &Scene| -> Result<Exports> {
@@ -628,7 +667,7 @@ fn view(args: ViewArgs) -> Result<()> {
 
 fn render_frames(args: RenderArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
     if let Some(path) = &args.timings {
         anyhow::ensure!(
             !path.exists(),
@@ -885,7 +924,12 @@ fn run(args: RunArgs) -> Result<()> {
             args.backend.unwrap_or(BackendKind::Auto),
         ),
     };
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
+    anyhow::ensure!(
+        args.checkpoint.is_none() || !args.solver.changes_method(),
+        "--checkpoint keeps the scene file's solver.method and solver.iterations, which --method and \
+         --iterations override here: set them in the scene file to checkpoint this run"
+    );
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());
