@@ -762,6 +762,11 @@ struct BenchArgs {
 
 fn bench(args: BenchArgs) -> Result<()> {
     anyhow::ensure!(
+        !args.solver.changes_method(),
+        "mpm bench times each scene under its own solver.method: --method and --iterations are \
+         options of run, view and render; set solver.method in the scene file instead"
+    );
+    anyhow::ensure!(
         !(args.sweep && args.solver.ranks().is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
     );
