@@ -139,6 +139,8 @@ struct RunArgs {
     #[command(flatten)]
     solver: SolverArgs,
     #[command(flatten)]
+    method: MethodArgs,
+    #[command(flatten)]
     exports: ExportArgs,
     /// Also write the per-frame statistics as JSON lines to this file.
     #[arg(long, value_name = "FILE")]
@@ -347,25 +349,10 @@ impl VolumeArgs {
     }
 }
 
-/// How the GPU steps: overrides of the scene's `solver.scatter` and `solver.pipeline`.
+/// Which scheme runs the scene: overrides of its `solver.method` and `solver.iterations` (`mpm
+/// run`, `view` and `render`; `mpm bench` times each scene under its own).
 #[derive(clap::Args)]
-struct SolverArgs {
-    /// GPU scatter mode, overriding the scene's `solver.scatter`.
-    #[arg(long, value_enum)]
-    scatter: Option<ScatterMode>,
-    /// Kernel sequence and density rule, overriding the scene's `solver.pipeline`: fused (default: one
-    /// particle pass, the density advected), binned (two passes, the report's density) or report.
-    #[arg(long, value_enum)]
-    pipeline: Option<Pipeline>,
-    /// Split the run into N ranks, each over a slab of the grid with ghost exchanges between them
-    /// (backends cuda and cpu; docs/several-gpus.md). Every CUDA rank runs on the one device
-    /// MPM_CUDA_DEVICE names: a check of the decomposition, slower than one rank.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>)]
-    ranks: Option<u64>,
-    /// Run on the first N GPUs of this host, one rank each over a slab of the grid, the ghost
-    /// exchanges over NCCL (backend cuda; docs/several-gpus.md).
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
-    gpus: Option<u64>,
+struct MethodArgs {
     /// The scheme, overriding the scene's `solver.method`: explicit (MLS-MPM under the CFL policy)
     /// or pbmpm (position-based MPM, CPU only for now). A CFL scene made pbmpm runs
     /// time_step.substeps' default, 2 a frame; a pbmpm scene made explicit, the CFL policy's default.
@@ -376,13 +363,15 @@ struct SolverArgs {
     iterations: Option<u32>,
 }
 
-impl SolverArgs {
+impl MethodArgs {
     /// Whether `--method` or `--iterations` changes the scheme the scene file names: a checkpoint
     /// keeps the scene file's, so such a run is not checkpointed.
     fn changes_method(&self) -> bool {
         self.method.is_some() || self.iterations.is_some()
     }
 
+    /// The overrides, after the solver options' ([`SolverArgs::apply`]: `--ranks` is checked
+    /// against the method here), and what pbmpm does not run refused ([`Scene::check_method`]).
     fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(method) = self.method {
             if method != scene.method {
@@ -407,6 +396,34 @@ impl SolverArgs {
             );
             scene.pbmpm.iterations = iterations;
         }
+        scene.check_method()?;
+        Ok(())
+    }
+}
+
+/// How the GPU steps: overrides of the scene's `solver.scatter` and `solver.pipeline`.
+#[derive(clap::Args)]
+struct SolverArgs {
+    /// GPU scatter mode, overriding the scene's `solver.scatter`.
+    #[arg(long, value_enum)]
+    scatter: Option<ScatterMode>,
+    /// Kernel sequence and density rule, overriding the scene's `solver.pipeline`: fused (default: one
+    /// particle pass, the density advected), binned (two passes, the report's density) or report.
+    #[arg(long, value_enum)]
+    pipeline: Option<Pipeline>,
+    /// Split the run into N ranks, each over a slab of the grid with ghost exchanges between them
+    /// (backends cuda and cpu; docs/several-gpus.md). Every CUDA rank runs on the one device
+    /// MPM_CUDA_DEVICE names: a check of the decomposition, slower than one rank.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>)]
+    ranks: Option<u64>,
+    /// Run on the first N GPUs of this host, one rank each over a slab of the grid, the ghost
+    /// exchanges over NCCL (backend cuda; docs/several-gpus.md).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
+    gpus: Option<u64>,
+}
+
+impl SolverArgs {
+    fn apply(&self, scene: &mut Scene) {
         if let Some(scatter) = self.scatter {
             scene.scatter = scatter;
         }
@@ -419,8 +436,6 @@ impl SolverArgs {
         if let Some(gpus) = self.gpus() {
             scene.gpus = gpus;
         }
-        scene.check_method()?;
-        Ok(())
     }
 
     /// `--ranks`, or `--gpus` (a rank per GPU), where given (a count past the address space reads as
@@ -468,6 +483,8 @@ struct ViewArgs {
     backend: BackendKind,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    method: MethodArgs,
     /// Turn vsync off (draw as fast as possible).
     #[arg(long)]
     no_vsync: bool,
@@ -523,6 +540,8 @@ struct RenderArgs {
     backend: BackendKind,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    method: MethodArgs,
     #[command(flatten)]
     look: LookArgs,
     /// Also encode the frames into this MP4 (needs ffmpeg on PATH).
@@ -630,7 +649,8 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 
 fn view(args: ViewArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
     // The exports are made after the viewer's own paths are checked and before the window opens:
     // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
     let exports = |scene: &Scene| -> Result<Exports> {
@@ -667,7 +687,8 @@ fn view(args: ViewArgs) -> Result<()> {
 
 fn render_frames(args: RenderArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
     if let Some(path) = &args.timings {
         anyhow::ensure!(
             !path.exists(),
@@ -761,11 +782,6 @@ struct BenchArgs {
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
-    anyhow::ensure!(
-        !args.solver.changes_method(),
-        "mpm bench times each scene under its own solver.method: --method and --iterations are \
-         options of run, view and render; set solver.method in the scene file instead"
-    );
     anyhow::ensure!(
         !(args.sweep && args.solver.ranks().is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
@@ -929,9 +945,10 @@ fn run(args: RunArgs) -> Result<()> {
             args.backend.unwrap_or(BackendKind::Auto),
         ),
     };
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
     anyhow::ensure!(
-        args.checkpoint.is_none() || !args.solver.changes_method(),
+        args.checkpoint.is_none() || !args.method.changes_method(),
         "--checkpoint keeps the scene file's solver.method and solver.iterations, which --method and \
          --iterations override here: set them in the scene file to checkpoint this run"
     );
