@@ -450,9 +450,9 @@ fn only_the_cpu_backend_runs_pbmpm() {
 
 /// Every law of the material table under pbmpm: a 10 cm column of each (sand, snow, Neo-Hookean
 /// jelly, an elastic Bingham mud, a shear-thinning power-law liquid, honey) collapses for half a
-/// second at two substeps a frame, staying finite, inside and whole. How far each runs out is
-/// printed, not checked: at four iterations the frictional and yield-stress laws run out far
-/// further than they should (docs/physics.md, "Position-based MPM").
+/// second at two substeps a frame on the tank's free-slip floor, staying finite, inside and whole.
+/// How far each runs out is printed, not checked (docs/physics.md, "Position-based MPM", says what
+/// the numbers show).
 #[test]
 fn every_law_collapses_soundly() {
     let laws = [

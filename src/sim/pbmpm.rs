@@ -6,9 +6,9 @@
 //! it had over the last substep plus gravity's, d = v dt + g dt^2, and the affine part of it,
 //! D = C dt (the warm start). Then `iterations` times: every particle projects its material's
 //! constraint onto D ([`project`]), the particles scatter mass-weighted displacement to the grid
-//! (APIC: w m (d + D (x_i - x_p))), the grid turns it into node displacements and applies the
-//! tank's walls to where each node would move this substep ([`wall_displacement`]), and the
-//! particles gather d and D back. Last, each particle integrates once ([`integrate`]): x += d, its
+//! (APIC: w m (d + D (x_i - x_p))), the grid turns it into node displacements, applies the tank's
+//! walls to where each node would move this substep ([`wall_displacement`]) and the liquids'
+//! viscosity as a diffusion of the displacements, and the particles gather d and D back. Last, each particle integrates once ([`integrate`]): x += d, its
 //! deformation F <- (I + D) F with its law's return mapping, a liquid's volume ratio J <- J (1 +
 //! tr D); and v = d / dt, C = D / dt carry the state to the next substep, so that a checkpoint,
 //! the export and the statistics see the particles as they see the explicit solver's.
@@ -91,6 +91,11 @@ pub struct PbmpmSolver {
     mass: Vec<f32>,
     /// Per node: the mass-weighted displacement scattered, then (in place) the node's displacement.
     displacement: Vec<Vec3>,
+    /// Per node: the liquids' kinematic viscosity mu / rho0, mass-weighted (scattered with the
+    /// mass), then the node's; empty where no particle has any ([`Self::diffuse`]).
+    viscosity: Vec<f32>,
+    /// The displacement before a diffusion sweep.
+    previous: Vec<Vec3>,
     /// Per particle, within a substep: its stencil, displacement d and affine displacement D, and
     /// F^-1 of a particle that carries a deformation (identity otherwise).
     stencils: Vec<Stencil>,
@@ -115,6 +120,8 @@ impl PbmpmSolver {
             shape,
             mass: vec![0.0; n],
             displacement: vec![Vec3::ZERO; n],
+            viscosity: Vec::new(),
+            previous: Vec::new(),
             stencils: Vec::new(),
             d: Vec::new(),
             affine: Vec::new(),
@@ -142,10 +149,30 @@ impl PbmpmSolver {
             _ => Mat3::IDENTITY,
         }));
         self.mass.fill(0.0);
+        self.viscosity.clear();
         let (shape, mass) = (self.shape, &mut self.mass);
         for i in (0..n).filter(|&i| p.live[i]) {
-            let m_p = Material::of(params, p.material[i]).particle_mass;
+            let mat = Material::of(params, p.material[i]);
+            let m_p = mat.particle_mass;
             self.stencils[i].for_each_node(shape, |node, w, _| mass[node] += w * m_p);
+            // A liquid's viscosity at its strain rate over the last substep, C.
+            let nu = if mat.is_solid() {
+                0.0
+            } else {
+                mat.effective_viscosity(p.c[i]) / mat.rest_density
+            };
+            if nu > 0.0 {
+                if self.viscosity.is_empty() {
+                    self.viscosity = vec![0.0; shape.num_nodes()];
+                }
+                let viscosity = &mut self.viscosity;
+                self.stencils[i].for_each_node(shape, |node, w, _| viscosity[node] += w * m_p * nu);
+            }
+        }
+        for (nu, &m) in self.viscosity.iter_mut().zip(&self.mass) {
+            if m > 0.0 {
+                *nu /= m;
+            }
         }
     }
 
@@ -156,7 +183,6 @@ impl PbmpmSolver {
             let deformation = p.deformation.get(i).map(|d| (d.f, d.plastic));
             self.affine[i] = project(
                 params,
-                self.settings.iterations,
                 Material::of(params, p.material[i]),
                 self.affine[i],
                 p.rho[i],
@@ -191,6 +217,46 @@ impl PbmpmSolver {
             } else {
                 Vec3::ZERO
             };
+        }
+        if !self.viscosity.is_empty() {
+            self.diffuse(params, lo, hi);
+        }
+    }
+
+    /// The liquids' viscosity on the grid: one Jacobi sweep of the implicit diffusion of the node
+    /// displacements, d_i <- (d_i + a sum_j d_j) / (1 + a n), over the n face neighbours j that hold
+    /// mass, a = nu_i dt / (dx^2 iterations): a substep's iterations together take about one
+    /// implicit step of nu dt / dx^2, and each sweep is a weighted average, stable at any viscosity.
+    /// Then the walls again, which the average may have crossed.
+    fn diffuse(&mut self, params: &Params, lo: Vec3, hi: Vec3) {
+        let scale = params.dt * params.inv_dx * params.inv_dx / self.settings.iterations as f32;
+        let res = self.shape.res;
+        let stride = [1usize, res.x as usize, (res.x * res.y) as usize];
+        self.previous.clone_from(&self.displacement);
+        for i in 0..self.mass.len() {
+            let a = self.viscosity[i] * scale;
+            if self.mass[i] <= 0.0 || a <= 0.0 {
+                continue;
+            }
+            let node = self.shape.node(i);
+            let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+            for axis in 0..3 {
+                for j in [
+                    (node[axis] > 0).then(|| i - stride[axis]),
+                    (node[axis] + 1 < res[axis]).then(|| i + stride[axis]),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    if self.mass[j] > 0.0 {
+                        sum += self.previous[j];
+                        n += 1.0;
+                    }
+                }
+            }
+            let d = (self.previous[i] + sum * a) / (1.0 + a * n);
+            let x = node.as_vec3() * params.dx;
+            self.displacement[i] = wall_displacement(d, x, lo, hi, self.settings.wall_friction);
         }
     }
 
@@ -320,17 +386,6 @@ pub fn stiffness_weight(params: &Params, speed: f32) -> f32 {
     k / (1.0 + k)
 }
 
-/// The fraction of a liquid's deviatoric strain its viscosity `mu` removes in one of `iterations`
-/// iterations of a substep: over the substep, 1 - exp(-dt / t_v) with t_v = rho0 dx^2 / (6 mu) the
-/// time momentum diffuses across a cell (the explicit viscous limit, `material::VISCOUS_LIMIT`).
-pub fn viscous_fraction(params: &Params, rest_density: f32, mu: f32, iterations: u32) -> f32 {
-    if mu <= 0.0 {
-        return 0.0;
-    }
-    let diffusion_time = super::material::VISCOUS_LIMIT * rest_density * params.dx * params.dx / mu;
-    1.0 - (-(params.dt / diffusion_time) / iterations as f32).exp()
-}
-
 /// The rotation of F's polar decomposition F = R S by Newton's iteration R <- (R + R^-T) / 2, which
 /// converges quadratically from F where det F > 0; an inverted or near-singular F (det F at most
 /// 1e-6 of |F|^3) takes the SVD's rotation (`svd::polar`), which is a rotation even there.
@@ -354,13 +409,6 @@ pub fn polar_rotation(f: Mat3) -> Mat3 {
     r
 }
 
-/// The deviatoric part of a matrix's symmetric part.
-fn deviatoric_strain(a: Mat3) -> Mat3 {
-    let sym = (a + a.transpose()) * 0.5;
-    let third = (sym.x_axis.x + sym.y_axis.y + sym.z_axis.z) / 3.0;
-    sym - Mat3::from_diagonal(Vec3::splat(third))
-}
-
 fn trace(a: Mat3) -> f32 {
     a.x_axis.x + a.y_axis.y + a.z_axis.z
 }
@@ -370,45 +418,35 @@ fn deviator(a: Mat3) -> Mat3 {
     a - Mat3::from_diagonal(Vec3::splat(trace(a) / 3.0))
 }
 
-/// One particle's constraint on its affine displacement `affine` (D), in one of `iterations`
-/// iterations: the particle of material `mat`, density `rho` (a liquid's volume ratio is rho0 /
-/// rho), deformation `deformation` (F and the plastic scalar, where it carries one) with F^-1
-/// `f_inverse`. Returns the projected D.
+/// One particle's constraint on its affine displacement `affine` (D), in one iteration: the
+/// particle of material `mat`, density `rho` (a liquid's volume ratio is rho0 / rho), deformation
+/// `deformation` (F and the plastic scalar, where it carries one) with F^-1 `f_inverse`. Returns
+/// the projected D. (A liquid's viscosity acts on the grid: [`PbmpmSolver`]'s `diffuse`.)
 ///
-/// - A liquid: its viscosity relaxes the deviatoric strain ([`viscous_fraction`], at the law's
-///   viscosity of the strain rate D / dt); then its volume: D += w a I with a = (1 / J - 1 - tr D)
-///   / 3, which makes J (1 + tr D) = 1, the volume it integrates to, 1 (w = [`LIQUID_RELAXATION`]).
-///   The target holds both ways, as Lewin's: an expanded particle is pulled back as a compressed
-///   one is pushed out (a unilateral target, with J held at 1 at most, let the integrated J drift
-///   from the particles' real spacing: a pool lost 19 % of its height in 5 s against 9 % both
-///   ways). Its `pressure_floor` is not read.
+/// - A liquid's volume: D += w a I with a = (1 / J - 1 - tr D) / 3, which makes J (1 + tr D) = 1,
+///   the volume it integrates to, 1 (w = [`LIQUID_RELAXATION`]). The target holds both ways, as
+///   Lewin's: an expanded particle is pulled back as a compressed one is pushed out (a unilateral
+///   target, with J held at 1 at most, let the integrated J drift from the particles' real spacing:
+///   a pool lost 19 % of its height in 5 s against 9 % both ways). Its `pressure_floor` is not read.
 /// - An elastic solid (fixed-corotated, Neo-Hookean, snow): its shape target T = r R + (1 - r) Q,
 ///   R the rotation of F_trial = (I + D) F ([`polar_rotation`]), Q = F_trial / |det F_trial|^(1/3)
 ///   its shape at rest volume, r the elasticity ratio ([`elasticity_ratio`]); D moves towards
 ///   T F^-1 - I by the relaxation times the stiffness weight ([`stiffness_weight`]).
 /// - Sand: the same, except that Q restores only a lost volume (|det F_trial| held at 1 at most);
-///   then its deviatoric strain is damped as a liquid's with the row's viscosity. Drucker-Prager
-///   comes at integration, and forgets what the cone does not hold. (Lewin's target, U Sigma' V^T
+///   Drucker-Prager comes at integration, and forgets what the cone does not hold. (Lewin's target, U Sigma' V^T
 ///   with F_trial's singular values held at 1 or more, resists compression alone: here a 10 cm
 ///   column of it ran to the far wall at 4, 16 and 64 iterations alike.)
-/// - An elastoviscoplastic liquid (Herschel-Bulkley with a shear modulus): the liquid's constraints,
+/// - An elastoviscoplastic liquid (Herschel-Bulkley with a shear modulus): the liquid's volume,
 ///   then the deviatoric part of the move towards R F^-1 - I (its elastic part is isochoric).
 pub fn project(
     params: &Params,
-    iterations: u32,
     mat: &Material,
     mut affine: Mat3,
     rho: f32,
     deformation: Option<(Mat3, f32)>,
     f_inverse: Mat3,
 ) -> Mat3 {
-    let dt = params.dt;
     if !mat.is_solid() {
-        let mu = mat.effective_viscosity(affine * (1.0 / dt));
-        let fraction = viscous_fraction(params, mat.rest_density, mu, iterations);
-        if fraction > 0.0 {
-            affine -= deviatoric_strain(affine) * fraction;
-        }
         let j = (mat.rest_density / rho).max(MIN_LIQUID_VOLUME);
         let a = (1.0 / j - 1.0 - trace(affine)) / 3.0;
         affine += Mat3::from_diagonal(Vec3::splat(LIQUID_RELAXATION * a));
@@ -440,13 +478,6 @@ pub fn project(
     let speed = solid::solid_wave_speed(mat, plastic);
     let weight = SOLID_RELAXATION * stiffness_weight(params, speed);
     affine += (target - affine) * weight;
-    if sand {
-        let mu = mat.viscosity;
-        let fraction = viscous_fraction(params, mat.rest_density, mu, iterations);
-        if fraction > 0.0 {
-            affine -= deviatoric_strain(affine) * fraction;
-        }
-    }
     affine
 }
 
