@@ -427,7 +427,8 @@ fn deviator(a: Mat3) -> Mat3 {
 ///   the volume it integrates to, 1 (w = [`LIQUID_RELAXATION`]). The target holds both ways, as
 ///   Lewin's: an expanded particle is pulled back as a compressed one is pushed out (a unilateral
 ///   target, with J held at 1 at most, let the integrated J drift from the particles' real spacing:
-///   a pool lost 19 % of its height in 5 s against 9 % both ways). Its `pressure_floor` is not read.
+///   a pool lost about 19 % of its height within 5 s against about 9 % both ways). Its
+///   `pressure_floor` is not read.
 /// - An elastic solid (fixed-corotated, Neo-Hookean, snow): its shape target T = r R + (1 - r) Q,
 ///   R the rotation of F_trial = (I + D) F ([`polar_rotation`]), Q = F_trial / |det F_trial|^(1/3)
 ///   its shape at rest volume, r the elasticity ratio ([`elasticity_ratio`]); D moves towards
