@@ -6,7 +6,8 @@ use crate::sim::colliders::bodies::{BodiesState, ContactFeature};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
 use crate::sim::flow::{FlowState, Lifecycle};
-use crate::sim::{Particles, Scene, Solver};
+use crate::sim::pbmpm::{self, PbmpmSolver};
+use crate::sim::{Method, Particles, Scene, Solver};
 use anyhow::{bail, ensure, Result};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -141,6 +142,9 @@ pub fn restore(kind: BackendKind, scene: &Scene, saved: SavedState) -> Result<Bo
 }
 
 fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
+    if scene.method == Method::Pbmpm {
+        return create_pbmpm(kind, scene, state);
+    }
     if matches!(kind, BackendKind::Cuda | BackendKind::Auto) {
         // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
         scene.check_pipeline()?;
@@ -209,6 +213,26 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
     };
     set_bodies(solver.as_mut(), scene, &bodies, &features)?;
     Ok(solver)
+}
+
+/// A solver for a scene of `solver.method = "pbmpm"`: the position-based CPU reference
+/// (`sim::pbmpm`), on `--backend cpu` or `auto` (which says so); the CUDA and cpu-parallel
+/// backends refuse it before any work starts, as does a scene the solver does not run yet
+/// (`Scene::check_method`).
+fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
+    match kind {
+        BackendKind::Cuda => bail!("{}", pbmpm::CPU_ONLY),
+        BackendKind::CpuParallel => bail!(
+            "solver.method = \"pbmpm\" runs on the single-thread CPU reference only for now: use --backend cpu"
+        ),
+        BackendKind::Auto => eprintln!(
+            "note: solver.method = \"pbmpm\" runs on the CPU reference on one thread (cpu) for now"
+        ),
+        BackendKind::Cpu => {}
+    }
+    scene.check_method()?;
+    let particles = state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
+    Ok(Box::new(PbmpmSolver::new(particles, scene.grid_res, scene.pbmpm)))
 }
 
 /// Gives `solver` the scene's rigid bodies (`features` its contact features) in the state `bodies`:

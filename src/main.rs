@@ -14,7 +14,7 @@ use mpm::export::volume::{VolumeExporter, VolumeFormat, VolumeOverrides, VolumeS
 use mpm::export::{check_output_file, PlyExporter};
 use mpm::render::{self, app::ViewerOptions, offline::RenderOptions, Colouring, DrawMode, Transfer};
 use mpm::runner::{self, RunOptions, StatsFile};
-use mpm::sim::{presets, Pipeline, ScatterMode, Scene, Simulation};
+use mpm::sim::{presets, Method, Pipeline, ScatterMode, Scene, Simulation};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -138,6 +138,8 @@ struct RunArgs {
     backend: Option<BackendKind>,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    method: MethodArgs,
     #[command(flatten)]
     exports: ExportArgs,
     /// Also write the per-frame statistics as JSON lines to this file.
@@ -347,6 +349,58 @@ impl VolumeArgs {
     }
 }
 
+/// Which scheme runs the scene: overrides of its `solver.method` and `solver.iterations` (`mpm
+/// run`, `view` and `render`; `mpm bench` times each scene under its own).
+#[derive(clap::Args)]
+struct MethodArgs {
+    /// The scheme, overriding the scene's `solver.method`: explicit (MLS-MPM under the CFL policy)
+    /// or pbmpm (position-based MPM, CPU only for now). A CFL scene made pbmpm runs
+    /// time_step.substeps' default, 2 a frame; a pbmpm scene made explicit, the CFL policy's default.
+    #[arg(long, value_enum)]
+    method: Option<Method>,
+    /// pbmpm's constraint iterations a substep (1 to 64), overriding the scene's `solver.iterations`.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    iterations: Option<u32>,
+}
+
+impl MethodArgs {
+    /// Whether `--method` or `--iterations` changes the scheme the scene file names: a checkpoint
+    /// keeps the scene file's, so such a run is not checkpointed.
+    fn changes_method(&self) -> bool {
+        self.method.is_some() || self.iterations.is_some()
+    }
+
+    /// The overrides, after the solver options' ([`SolverArgs::apply`]: `--ranks` is checked
+    /// against the method here), and what pbmpm does not run refused ([`Scene::check_method`]).
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(method) = self.method {
+            if method != scene.method {
+                scene.time_step = match method {
+                    Method::Pbmpm => mpm::sim::scene::TimeStepPolicy::Fixed {
+                        dt: mpm::sim::FRAME_DT / mpm::sim::pbmpm::DEFAULT_SUBSTEPS as f32,
+                    },
+                    Method::Explicit => mpm::sim::scene::TimeStepPolicy::Cfl {
+                        cfl: 0.4,
+                        max_substeps: mpm::sim::scene::DEFAULT_MAX_SUBSTEPS,
+                    },
+                };
+                scene.method = method;
+            }
+        }
+        if let Some(iterations) = self.iterations {
+            anyhow::ensure!(
+                scene.method == Method::Pbmpm,
+                "--iterations sets the position-based solver's constraint iterations, and scene {} runs \
+                 the explicit one: add --method pbmpm, or drop --iterations",
+                scene.source
+            );
+            scene.pbmpm.iterations = iterations;
+        }
+        scene.check_method()?;
+        Ok(())
+    }
+}
+
 /// How the GPU steps: overrides of the scene's `solver.scatter` and `solver.pipeline`.
 #[derive(clap::Args)]
 struct SolverArgs {
@@ -429,6 +483,8 @@ struct ViewArgs {
     backend: BackendKind,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    method: MethodArgs,
     /// Turn vsync off (draw as fast as possible).
     #[arg(long)]
     no_vsync: bool,
@@ -484,6 +540,8 @@ struct RenderArgs {
     backend: BackendKind,
     #[command(flatten)]
     solver: SolverArgs,
+    #[command(flatten)]
+    method: MethodArgs,
     #[command(flatten)]
     look: LookArgs,
     /// Also encode the frames into this MP4 (needs ffmpeg on PATH).
@@ -592,6 +650,7 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 fn view(args: ViewArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
     // The exports are made after the viewer's own paths are checked and before the window opens:
     // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
     let exports = |scene: &Scene| -> Result<Exports> {
@@ -629,6 +688,7 @@ fn view(args: ViewArgs) -> Result<()> {
 fn render_frames(args: RenderArgs) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
     if let Some(path) = &args.timings {
         anyhow::ensure!(
             !path.exists(),
@@ -886,6 +946,12 @@ fn run(args: RunArgs) -> Result<()> {
         ),
     };
     args.solver.apply(&mut scene);
+    args.method.apply(&mut scene)?;
+    anyhow::ensure!(
+        args.checkpoint.is_none() || !args.method.changes_method(),
+        "--checkpoint keeps the scene file's solver.method and solver.iterations, which --method and \
+         --iterations override here: set them in the scene file to checkpoint this run"
+    );
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());

@@ -15,6 +15,7 @@ impl CudaSolver {
     /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid),
     /// and one with solids (their deformation starts at rest on the host).
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
+        crate::sim::pbmpm::refuse_on_cuda(scene)?;
         if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_deformation() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
@@ -37,6 +38,7 @@ impl CudaSolver {
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
+        crate::sim::pbmpm::refuse_on_cuda(scene)?;
         let mut scene = scene.clone();
         if scene.flow.is_active() {
             ensure!(

@@ -9,6 +9,7 @@ pub mod flow;
 pub mod material;
 pub mod mesh;
 pub mod params;
+pub mod pbmpm;
 pub mod phase;
 pub mod presets;
 pub mod push;
@@ -21,7 +22,7 @@ pub mod svd;
 pub mod view;
 
 pub use colliders::{ColliderFrame, Colliders};
-pub use params::{DensityRule, Material, Params, Pipeline, ScatterMode, FRAME_DT};
+pub use params::{DensityRule, Material, Method, Params, Pipeline, ScatterMode, FRAME_DT};
 pub use phase::{Phase, PhaseClock, PhaseTimings, Traffic};
 pub use push::Push;
 pub use scene::{Deformation, Particles, Scene, SceneError};

@@ -121,6 +121,31 @@ impl Pipeline {
     }
 }
 
+/// Which scheme advances a scene (`solver.method`): the explicit MLS-MPM of every backend, or
+/// Position-Based MPM (Lewin 2024), a CPU reference for now (`sim::pbmpm`, docs/physics.md,
+/// "Position-based MPM").
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Explicit MLS-MPM under the CFL time-step policy (the default; every backend).
+    #[default]
+    Explicit,
+    /// Position-based MPM: constraint iterations on each particle's affine displacement, a fixed
+    /// number of substeps a frame, stable at any substep (the CPU reference, `--backend cpu`).
+    Pbmpm,
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Explicit => "explicit",
+            Method::Pbmpm => "pbmpm",
+        }
+    }
+}
+
 /// How a particle's density rho_p, which sets its pressure, is estimated each substep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DensityRule {

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 20] = [
+pub const NAMES: [&str; 21] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -23,11 +23,12 @@ pub const NAMES: [&str; 20] = [
     "boats",
     "ball-drop",
     "water-wheel",
+    "pbmpm-dam-break",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 20] = [
+const FILES: [&str; 21] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -46,6 +47,7 @@ const FILES: [&str; 20] = [
     include_str!("../../scenes/boats.toml"),
     include_str!("../../scenes/ball-drop.toml"),
     include_str!("../../scenes/water-wheel.toml"),
+    include_str!("../../scenes/pbmpm-dam-break.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];

@@ -18,7 +18,7 @@ use validate::Validator;
 use super::colliders::Colliders;
 use super::flow::Flow;
 use super::material::{MaterialTable, NamedMaterial};
-use super::params::{KernelParams, Material, Params, Pipeline, ScatterMode, FRAME_DT};
+use super::params::{KernelParams, Material, Method, Params, Pipeline, ScatterMode, FRAME_DT};
 use super::presets;
 use crate::contract::MAX_MATERIALS;
 use glam::{DVec3, Vec3};
@@ -72,6 +72,11 @@ pub struct Scene {
     pub scatter: ScatterMode,
     /// The GPU's kernel sequence (the CPU reference ignores it).
     pub pipeline: Pipeline,
+    /// The scheme (`solver.method`): explicit MLS-MPM, or position-based MPM (CPU only for now).
+    pub method: Method,
+    /// The position-based solver's settings (`solver.iterations`, `solver.wall_friction`); the
+    /// defaults under the explicit method, which reads none of them.
+    pub pbmpm: super::pbmpm::Settings,
     /// Ranks the run is split into (`--ranks`, `--gpus`, `crate::dist`); 1: not split. A run
     /// option, not a scene file setting.
     pub ranks: usize,
@@ -398,6 +403,61 @@ impl Scene {
         Ok(())
     }
 
+    /// Refuses what the position-based solver does not run yet, naming the fix: colliders and rigid
+    /// bodies, emitters and sinks, the soft wall, and runs split into ranks. Nothing under the
+    /// explicit method. Checked when the scene loads and again when a backend is made (the command
+    /// line's `--method` may have changed it since).
+    pub fn check_method(&self) -> Result<(), SceneError> {
+        if self.method != Method::Pbmpm {
+            return Ok(());
+        }
+        let refuse = |key: &str, problem: String, fix: &str| SceneError {
+            source: self.source.clone(),
+            key: key.into(),
+            problem,
+            fix: fix.into(),
+        };
+        let explicit_fix = "drop it, or run the scene with solver.method = \"explicit\" (the default)";
+        if !self.colliders.is_empty() {
+            return Err(refuse(
+                "collider",
+                format!(
+                    "lists {} collider(s), which solver.method = \"pbmpm\" does not apply yet (it has the \
+                     tank's walls only)",
+                    self.colliders.len()
+                ),
+                explicit_fix,
+            ));
+        }
+        if !self.flow.emitters.is_empty() || !self.flow.sinks.is_empty() {
+            return Err(refuse(
+                "emitter",
+                format!(
+                    "and sinks ({} emitter(s), {} sink(s)) do not run under solver.method = \"pbmpm\" yet",
+                    self.flow.emitters.len(),
+                    self.flow.sinks.len()
+                ),
+                explicit_fix,
+            ));
+        }
+        if self.soft_wall {
+            return Err(refuse(
+                "solver.soft_wall",
+                "= true: solver.method = \"pbmpm\" holds the particles with its own displacement walls"
+                    .into(),
+                "drop solver.soft_wall",
+            ));
+        }
+        if self.ranks > 1 {
+            return Err(refuse(
+                "solver.method",
+                format!("= \"pbmpm\" runs on one rank, not the {} asked for", self.ranks),
+                "drop --ranks and --gpus",
+            ));
+        }
+        Ok(())
+    }
+
     /// The fastest speed at the start, m/s: of the bodies, of what the emitters emit and of the
     /// moving colliders.
     pub fn fastest_start(&self) -> f32 {
@@ -429,7 +489,7 @@ impl Scene {
 /// pushes particles back from (band + 1) dx and (R - band - 2) dx instead. Bodies spawned inside start
 /// against the walls rather than slumping into a gap or being squeezed, and these are the planes the
 /// wall mass is mirrored about.
-fn fluid_region_nodes(res: [u32; 3], band: u32, soft_wall: bool) -> (u32, [u32; 3]) {
+pub fn fluid_region_nodes(res: [u32; 3], band: u32, soft_wall: bool) -> (u32, [u32; 3]) {
     let (lo, hi_margin) = if soft_wall {
         (band + 1, band + 2)
     } else {

@@ -2,7 +2,7 @@
 //! `validate.rs` turns it into a [`Scene`](super::Scene), checking every value.
 
 use crate::sim::colliders::ColliderSpec;
-use crate::sim::params::{Pipeline, ScatterMode};
+use crate::sim::params::{Method, Pipeline, ScatterMode};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -264,6 +264,17 @@ pub struct SolverSpec {
     /// The GPU's kernel sequence and density rule: "fused" (default), "binned" or "report".
     #[serde(default)]
     pub pipeline: Pipeline,
+    /// The scheme: "explicit" (default: explicit MLS-MPM under the CFL policy) or "pbmpm"
+    /// (position-based MPM, the CPU reference; docs/physics.md, "Position-based MPM").
+    #[serde(default)]
+    pub method: Method,
+    /// pbmpm: constraint iterations a substep (default 4, 1 to 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u32>,
+    /// pbmpm: the tank walls' Coulomb friction coefficient (default 0: free slip, as the explicit
+    /// method's walls).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_friction: Option<f32>,
 }
 
 fn default_true() -> bool {
@@ -286,6 +297,9 @@ impl Default for SolverSpec {
             mirror_wall_mass: true,
             scatter: ScatterMode::default(),
             pipeline: Pipeline::default(),
+            method: Method::default(),
+            iterations: None,
+            wall_friction: None,
         }
     }
 }
@@ -303,6 +317,9 @@ pub struct TimeStepSpec {
     pub dt: Option<f32>,
     /// The CFL policy gives up (the fluid is blowing up) past this many substeps per frame.
     pub max_substeps: Option<u32>,
+    /// pbmpm: substeps a 60 Hz frame (default 2), each of 1 / (60 substeps) s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub substeps: Option<u32>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]

@@ -13,7 +13,8 @@ use crate::contract::{
 use crate::sim::colliders::{self, Colliders, MAX_COLLIDERS};
 use crate::sim::flow::{self, Emitter, Flow, Nozzle, Sink, MAX_EMITTERS};
 use crate::sim::material::{default_colour, densest_liquid, MaterialTable, NamedMaterial, MAX_ABSORPTION};
-use crate::sim::params::{Material, FRAME_DT};
+use crate::sim::params::{Material, Method, FRAME_DT};
+use crate::sim::pbmpm::{self, PBMPM_NOMINAL_SOUND_SPEED};
 use crate::sim::{mesh, presets, solid};
 use glam::{DVec3, Vec3};
 use std::fmt;
@@ -91,7 +92,8 @@ impl Validator<'_> {
             ));
         }
         let particles_per_axis = self.particles_per_axis(spec)?;
-        let materials = self.materials(&spec.material, dx, particles_per_axis)?;
+        let method = spec.solver.method;
+        let materials = self.materials(&spec.material, dx, particles_per_axis, method)?;
         let gravity = self.finite3("solver.gravity", spec.solver.gravity)?;
         let bodies = self.bodies(spec, &materials, grid_res, dx, band, spec.solver.soft_wall)?;
         let emitter_speeds = spec
@@ -110,8 +112,17 @@ impl Validator<'_> {
             .map(|m| &m.law)
             .max_by(|a, b| a.sound_speed().total_cmp(&b.sound_speed()))
             .expect("a scene has at least one material");
-        let time_step = self.time_step(&spec.time_step, fastest, &materials, dx, max_speed)?;
-        for ((key, m), material) in spec.material.entries().into_iter().zip(&materials) {
+        let pbmpm = self.pbmpm_settings(spec)?;
+        let time_step = match method {
+            Method::Explicit => self.time_step(&spec.time_step, fastest, &materials, dx, max_speed)?,
+            Method::Pbmpm => self.pbmpm_time_step(&spec.time_step)?,
+        };
+        // pbmpm has no equation of state whose sound speed the flow must stay under.
+        let explicit_entries = match method {
+            Method::Explicit => spec.material.entries(),
+            Method::Pbmpm => Vec::new(),
+        };
+        for ((key, m), material) in explicit_entries.into_iter().zip(&materials) {
             self.plausible_speeds(
                 &key,
                 m,
@@ -137,6 +148,8 @@ impl Validator<'_> {
             mirror_wall_mass: spec.solver.mirror_wall_mass,
             scatter: spec.solver.scatter,
             pipeline: spec.solver.pipeline,
+            method,
+            pbmpm,
             ranks: 1,
             gpus: 1,
             time_step,
@@ -154,6 +167,7 @@ impl Validator<'_> {
         scene.flow = self.flow(spec, &scene)?;
         scene.colliders.set_pipes(&scene.flow.emitters);
         self.fits_in_memory(&scene, scene.slots())?;
+        scene.check_method()?;
         Ok(scene)
     }
 
@@ -239,7 +253,13 @@ impl Validator<'_> {
     }
 
     /// The material table: `[material]` as its one row, or each `[[material]]` in order.
-    fn materials(&self, spec: &MaterialsSpec, dx: f64, n: u32) -> Result<Vec<NamedMaterial>, SceneError> {
+    fn materials(
+        &self,
+        spec: &MaterialsSpec,
+        dx: f64,
+        n: u32,
+        method: Method,
+    ) -> Result<Vec<NamedMaterial>, SceneError> {
         let entries = spec.entries();
         if entries.is_empty() {
             return Err(self.err(
@@ -323,13 +343,20 @@ impl Validator<'_> {
                 name,
                 colour,
                 absorption,
-                law: self.material(&key, m, dx, n)?,
+                law: self.material(&key, m, dx, n, method)?,
             });
         }
         Ok(rows)
     }
 
-    fn material(&self, key: &str, m: &MaterialSpec, dx: f64, n: u32) -> Result<Material, SceneError> {
+    fn material(
+        &self,
+        key: &str,
+        m: &MaterialSpec,
+        dx: f64,
+        n: u32,
+        method: Method,
+    ) -> Result<Material, SceneError> {
         let k = |field: &str| format!("{key}.{field}");
         let rho0 = self.positive(
             &k("rest_density"),
@@ -356,6 +383,11 @@ impl Validator<'_> {
                     format!("and `{}` are both given", k("eos_stiffness")),
                     "give one: the sound speed fixes the stiffness (k = rho0 c0^2 / gamma) and back",
                 ))
+            }
+            // pbmpm's liquids hold their volume by a constraint, not an equation of state: the
+            // sound speed only sets the signal speed the frame statistics report.
+            (None, None) if method == Method::Pbmpm => {
+                rho0 * PBMPM_NOMINAL_SOUND_SPEED * PBMPM_NOMINAL_SOUND_SPEED / gamma
             }
             (None, None) => {
                 return Err(self.err(
@@ -1024,6 +1056,89 @@ impl Validator<'_> {
         Ok(Colliders::new(list, dx as f32))
     }
 
+    /// pbmpm's settings: `solver.iterations` and `solver.wall_friction`, refused under the explicit
+    /// method, which has neither.
+    fn pbmpm_settings(&self, spec: &SceneSpec) -> Result<pbmpm::Settings, SceneError> {
+        let s = &spec.solver;
+        if s.method == Method::Explicit {
+            for (key, given) in [
+                ("solver.iterations", s.iterations.is_some()),
+                ("solver.wall_friction", s.wall_friction.is_some()),
+            ] {
+                if given {
+                    return Err(self.err(
+                        key,
+                        "is a setting of the position-based solver, and this scene runs the explicit one",
+                        "drop it, or set solver.method = \"pbmpm\"",
+                    ));
+                }
+            }
+            return Ok(pbmpm::Settings::default());
+        }
+        let iterations = s.iterations.unwrap_or(pbmpm::DEFAULT_ITERATIONS);
+        if !(1..=pbmpm::MAX_ITERATIONS).contains(&iterations) {
+            return Err(self.err(
+                "solver.iterations",
+                format!("= {iterations} is outside 1 to {}", pbmpm::MAX_ITERATIONS),
+                format!(
+                    "give the constraint iterations a substep from 1 to {} ({} by default)",
+                    pbmpm::MAX_ITERATIONS,
+                    pbmpm::DEFAULT_ITERATIONS
+                ),
+            ));
+        }
+        let wall_friction = s.wall_friction.unwrap_or(0.0);
+        if !(wall_friction.is_finite() && wall_friction >= 0.0) {
+            return Err(self.err(
+                "solver.wall_friction",
+                format!("= {wall_friction} is not a friction coefficient"),
+                "give a Coulomb coefficient >= 0 (0, the default, is free slip; 0.5 grips like wet wood)",
+            ));
+        }
+        Ok(pbmpm::Settings {
+            iterations,
+            wall_friction,
+        })
+    }
+
+    /// pbmpm's time step: `time_step.substeps` a 60 Hz frame, each 1 / (60 substeps) s, with no
+    /// stability limit. The explicit method's keys (`cfl`, `dt`, `max_substeps`) are refused: the
+    /// CFL policy does not apply to a scheme that is stable at any substep.
+    fn pbmpm_time_step(&self, t: &TimeStepSpec) -> Result<TimeStepPolicy, SceneError> {
+        for (key, given) in [
+            ("time_step.cfl", t.cfl.is_some()),
+            ("time_step.dt", t.dt.is_some()),
+            ("time_step.max_substeps", t.max_substeps.is_some()),
+        ] {
+            if given {
+                return Err(self.err(
+                    key,
+                    "belongs to the explicit method's CFL policy; solver.method = \"pbmpm\" is stable at any \
+                     substep and runs a fixed number a frame",
+                    format!(
+                        "drop it and give time_step.substeps (substeps a 60 Hz frame, {} by default)",
+                        pbmpm::DEFAULT_SUBSTEPS
+                    ),
+                ));
+            }
+        }
+        let substeps = t.substeps.unwrap_or(pbmpm::DEFAULT_SUBSTEPS);
+        if !(1..=pbmpm::MAX_SUBSTEPS).contains(&substeps) {
+            return Err(self.err(
+                "time_step.substeps",
+                format!("= {substeps} is outside 1 to {}", pbmpm::MAX_SUBSTEPS),
+                format!(
+                    "give the substeps a 60 Hz frame from 1 to {} ({} by default)",
+                    pbmpm::MAX_SUBSTEPS,
+                    pbmpm::DEFAULT_SUBSTEPS
+                ),
+            ));
+        }
+        Ok(TimeStepPolicy::Fixed {
+            dt: FRAME_DT / substeps as f32,
+        })
+    }
+
     fn time_step(
         &self,
         t: &TimeStepSpec,
@@ -1036,6 +1151,14 @@ impl Validator<'_> {
         let rows: Vec<Material> = materials.iter().map(|m| m.law).collect();
         let viscous_dt = rows.as_slice().viscous_dt(dx as f32);
         let dt_limit = (MAX_CFL * dx as f32 / signal).min(viscous_dt);
+        if t.substeps.is_some() {
+            return Err(self.err(
+                "time_step.substeps",
+                "is the position-based solver's fixed substep count; the explicit method chooses its \
+                 substeps from cfl or a fixed dt",
+                "drop it (and give cfl or dt), or set solver.method = \"pbmpm\"",
+            ));
+        }
         match (t.cfl, t.dt) {
             (Some(_), Some(_)) => Err(self.err(
                 "time_step.dt",
