@@ -221,10 +221,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
 /// (`Scene::check_method`).
 fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
     match kind {
-        BackendKind::Cuda => bail!("{}", pbmpm::CPU_ONLY),
-        BackendKind::CpuParallel => bail!(
-            "solver.method = \"pbmpm\" runs on the single-thread CPU reference only for now: use --backend cpu"
-        ),
+        BackendKind::Cuda | BackendKind::CpuParallel => bail!("{}", pbmpm::CPU_ONLY),
         BackendKind::Auto => eprintln!(
             "note: solver.method = \"pbmpm\" runs on the CPU reference on one thread (cpu) for now"
         ),

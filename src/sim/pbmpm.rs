@@ -55,9 +55,10 @@ pub const SOLID_STRETCH_RANGE: (f32, f32) = (0.1, 1.0e4);
 
 /// Why the CUDA backend refuses a scene of `solver.method = "pbmpm"` (before any work starts).
 pub const CPU_ONLY: &str =
-    "solver.method = \"pbmpm\" runs on the CPU backends only for now: use --backend cpu";
+    "solver.method = \"pbmpm\" runs on the single-thread CPU reference only for now: use --backend cpu";
 
-/// Refuses a position-based scene on the CUDA backend, naming the fix ([`CPU_ONLY`]).
+/// Refuses a position-based scene on a backend other than the CPU reference, naming the fix
+/// ([`CPU_ONLY`]).
 pub fn refuse_on_cuda(scene: &super::Scene) -> anyhow::Result<()> {
     anyhow::ensure!(scene.method != super::Method::Pbmpm, "{CPU_ONLY}");
     Ok(())
