@@ -1042,10 +1042,7 @@ impl Solver for CpuSolver {
     }
 
     fn apply_push(&mut self, push: &Push) -> anyhow::Result<()> {
-        let p = &mut self.particles;
-        for (x, v) in p.x.iter().zip(p.v.iter_mut()) {
-            *v += push.velocity_change(*x);
-        }
+        push.apply_to(&mut self.particles);
         Ok(())
     }
 

@@ -32,6 +32,13 @@ impl Push {
         Vec3::from(self.delta_v) * (falloff * falloff)
     }
 
+    /// Gives every particle of a host copy its velocity change (the CPU solvers' push).
+    pub fn apply_to(&self, particles: &mut super::scene::Particles) {
+        for (x, v) in particles.x.iter().zip(particles.v.iter_mut()) {
+            *v += self.velocity_change(*x);
+        }
+    }
+
     /// The largest speed the push can add, m/s (it raises the next step's signal speed).
     pub fn max_speed_gain(&self) -> f32 {
         Vec3::from(self.delta_v).length()
