@@ -222,9 +222,9 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
 fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
     match kind {
         BackendKind::Cuda | BackendKind::CpuParallel => bail!("{}", pbmpm::CPU_ONLY),
-        BackendKind::Auto => eprintln!(
-            "note: solver.method = \"pbmpm\" runs on the CPU reference on one thread (cpu) for now"
-        ),
+        BackendKind::Auto => {
+            eprintln!("note: solver.method = \"pbmpm\" runs on the CPU reference on one thread (cpu) for now")
+        }
         BackendKind::Cpu => {}
     }
     scene.check_method()?;
