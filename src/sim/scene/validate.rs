@@ -61,6 +61,20 @@ impl Validator<'_> {
         }
     }
 
+    /// Refuses the first of `keys` the scene gives (each with whether it is given), as `err` would
+    /// name it: keys that do not belong where they stand.
+    fn refuse_given<K: Into<String>>(
+        &self,
+        keys: impl IntoIterator<Item = (K, bool)>,
+        problem: impl Into<String>,
+        fix: impl Into<String>,
+    ) -> Result<(), SceneError> {
+        match keys.into_iter().find(|(_, given)| *given) {
+            Some((key, _)) => Err(self.err(key, problem, fix)),
+            None => Ok(()),
+        }
+    }
+
     fn positive(&self, key: &str, value: f32, fix: &str) -> Result<f32, SceneError> {
         if value.is_finite() && value > 0.0 {
             Ok(value)
@@ -424,19 +438,17 @@ impl Validator<'_> {
     fn solid(&self, key: &str, m: &MaterialSpec, rho0: f32, dx: f64, n: u32) -> Result<Material, SceneError> {
         let k = |field: &str| format!("{key}.{field}");
         let law_name = m.law.name();
-        for (field, given) in [
-            ("sound_speed", m.sound_speed.is_some()),
-            ("eos_stiffness", m.eos_stiffness.is_some()),
-            ("pressure_floor", m.pressure_floor != 0.0),
-        ] {
-            if given {
-                return Err(self.err(
-                    k(field),
-                    format!("is not a parameter of law = \"{law_name}\": a solid's stress comes from its deformation"),
-                    "remove it; a solid's stiffness is youngs_modulus (Pa) and poisson_ratio",
-                ));
-            }
-        }
+        self.refuse_given(
+            [
+                (k("sound_speed"), m.sound_speed.is_some()),
+                (k("eos_stiffness"), m.eos_stiffness.is_some()),
+                (k("pressure_floor"), m.pressure_floor != 0.0),
+            ],
+            format!(
+                "is not a parameter of law = \"{law_name}\": a solid's stress comes from its deformation"
+            ),
+            "remove it; a solid's stiffness is youngs_modulus (Pa) and poisson_ratio",
+        )?;
         let ppc = f64::from(n * n * n);
         let mut material = Material {
             rest_density: rho0,
@@ -1061,18 +1073,14 @@ impl Validator<'_> {
     fn pbmpm_settings(&self, spec: &SceneSpec) -> Result<pbmpm::Settings, SceneError> {
         let s = &spec.solver;
         if s.method == Method::Explicit {
-            for (key, given) in [
-                ("solver.iterations", s.iterations.is_some()),
-                ("solver.wall_friction", s.wall_friction.is_some()),
-            ] {
-                if given {
-                    return Err(self.err(
-                        key,
-                        "is a setting of the position-based solver, and this scene runs the explicit one",
-                        "drop it, or set solver.method = \"pbmpm\"",
-                    ));
-                }
-            }
+            self.refuse_given(
+                [
+                    ("solver.iterations", s.iterations.is_some()),
+                    ("solver.wall_friction", s.wall_friction.is_some()),
+                ],
+                "is a setting of the position-based solver, and this scene runs the explicit one",
+                "drop it, or set solver.method = \"pbmpm\"",
+            )?;
             return Ok(pbmpm::Settings::default());
         }
         let iterations = s.iterations.unwrap_or(pbmpm::DEFAULT_ITERATIONS);
@@ -1105,23 +1113,19 @@ impl Validator<'_> {
     /// stability limit. The explicit method's keys (`cfl`, `dt`, `max_substeps`) are refused: the
     /// CFL policy does not apply to a scheme that is stable at any substep.
     fn pbmpm_time_step(&self, t: &TimeStepSpec) -> Result<TimeStepPolicy, SceneError> {
-        for (key, given) in [
-            ("time_step.cfl", t.cfl.is_some()),
-            ("time_step.dt", t.dt.is_some()),
-            ("time_step.max_substeps", t.max_substeps.is_some()),
-        ] {
-            if given {
-                return Err(self.err(
-                    key,
-                    "belongs to the explicit method's CFL policy; solver.method = \"pbmpm\" is stable at any \
-                     substep and runs a fixed number a frame",
-                    format!(
-                        "drop it and give time_step.substeps (substeps a 60 Hz frame, {} by default)",
-                        pbmpm::DEFAULT_SUBSTEPS
-                    ),
-                ));
-            }
-        }
+        self.refuse_given(
+            [
+                ("time_step.cfl", t.cfl.is_some()),
+                ("time_step.dt", t.dt.is_some()),
+                ("time_step.max_substeps", t.max_substeps.is_some()),
+            ],
+            "belongs to the explicit method's CFL policy; solver.method = \"pbmpm\" is stable at any \
+             substep and runs a fixed number a frame",
+            format!(
+                "drop it and give time_step.substeps (substeps a 60 Hz frame, {} by default)",
+                pbmpm::DEFAULT_SUBSTEPS
+            ),
+        )?;
         let substeps = t.substeps.unwrap_or(pbmpm::DEFAULT_SUBSTEPS);
         if !(1..=pbmpm::MAX_SUBSTEPS).contains(&substeps) {
             return Err(self.err(
