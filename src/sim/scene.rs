@@ -363,20 +363,30 @@ impl Scene {
         self.flow.capacity
     }
 
+    /// A refusal of this scene's `key`, naming the problem and the fix (the checks made after it
+    /// loaded, as the loader's own errors read).
+    fn refusal(&self, key: &str, problem: impl Into<String>, fix: impl Into<String>) -> SceneError {
+        SceneError {
+            source: self.source.clone(),
+            key: key.into(),
+            problem: problem.into(),
+            fix: fix.into(),
+        }
+    }
+
     /// Refuses colliders and emitters' pipes on the report pipeline (whose kernels do not apply
     /// them), and Coulomb colliders under the walls' mirror on the binned one, naming the fix.
     pub fn check_pipeline(&self) -> Result<(), SceneError> {
         if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
-            return Err(SceneError {
-                source: self.source.clone(),
-                key: "solver.pipeline".into(),
-                problem: format!(
+            return Err(self.refusal(
+                "solver.pipeline",
+                format!(
                     "= \"report\" cannot run this scene's {} collider(s) and {} emitter pipe(s): only the fused and binned pipelines apply them",
                     self.colliders.len(),
                     self.colliders.num_pipes()
                 ),
-                fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default)".into(),
-            });
+                "use --pipeline fused (or solver.pipeline = \"fused\", the default)",
+            ));
         }
         // The binned pipeline adds the walls' images in a launch of their own, before its grid
         // update, which then cannot tell what they pushed: its Coulomb colliders would not grip
@@ -387,18 +397,14 @@ impl Scene {
             && self.pipeline == Pipeline::Binned
             && self.colliders.friction_near_faces(lo, hi, self.dx, reach)
         {
-            return Err(SceneError {
-                source: self.source.clone(),
-                key: "solver.pipeline".into(),
-                problem:
-                    "= \"binned\" cannot grip with a Coulomb (friction) collider that may reach the walls' \
-                          mirror (a moving one, or one within its band of a wall): only the fused pipeline's \
-                          grid update sees what the mirror pushed"
-                        .into(),
-                fix: "use --pipeline fused (or solver.pipeline = \"fused\", the default), or \
-                      solver.mirror_wall_mass = false"
-                    .into(),
-            });
+            return Err(self.refusal(
+                "solver.pipeline",
+                "= \"binned\" cannot grip with a Coulomb (friction) collider that may reach the walls' \
+                 mirror (a moving one, or one within its band of a wall): only the fused pipeline's \
+                 grid update sees what the mirror pushed",
+                "use --pipeline fused (or solver.pipeline = \"fused\", the default), or \
+                 solver.mirror_wall_mass = false",
+            ));
         }
         Ok(())
     }
@@ -411,15 +417,9 @@ impl Scene {
         if self.method != Method::Pbmpm {
             return Ok(());
         }
-        let refuse = |key: &str, problem: String, fix: &str| SceneError {
-            source: self.source.clone(),
-            key: key.into(),
-            problem,
-            fix: fix.into(),
-        };
         let explicit_fix = "drop it, or run the scene with solver.method = \"explicit\" (the default)";
         if !self.colliders.is_empty() {
-            return Err(refuse(
+            return Err(self.refusal(
                 "collider",
                 format!(
                     "lists {} collider(s), which solver.method = \"pbmpm\" does not apply yet (it has the \
@@ -430,7 +430,7 @@ impl Scene {
             ));
         }
         if !self.flow.emitters.is_empty() || !self.flow.sinks.is_empty() {
-            return Err(refuse(
+            return Err(self.refusal(
                 "emitter",
                 format!(
                     "and sinks ({} emitter(s), {} sink(s)) do not run under solver.method = \"pbmpm\" yet",
@@ -441,15 +441,14 @@ impl Scene {
             ));
         }
         if self.soft_wall {
-            return Err(refuse(
+            return Err(self.refusal(
                 "solver.soft_wall",
-                "= true: solver.method = \"pbmpm\" holds the particles with its own displacement walls"
-                    .into(),
+                "= true: solver.method = \"pbmpm\" holds the particles with its own displacement walls",
                 "drop solver.soft_wall",
             ));
         }
         if self.ranks > 1 {
-            return Err(refuse(
+            return Err(self.refusal(
                 "solver.method",
                 format!("= \"pbmpm\" runs on one rank, not the {} asked for", self.ranks),
                 "drop --ranks and --gpus",
