@@ -375,15 +375,7 @@ impl MethodArgs {
     fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(method) = self.method {
             if method != scene.method {
-                scene.time_step = match method {
-                    Method::Pbmpm => mpm::sim::scene::TimeStepPolicy::Fixed {
-                        dt: mpm::sim::FRAME_DT / mpm::sim::pbmpm::DEFAULT_SUBSTEPS as f32,
-                    },
-                    Method::Explicit => mpm::sim::scene::TimeStepPolicy::Cfl {
-                        cfl: 0.4,
-                        max_substeps: mpm::sim::scene::DEFAULT_MAX_SUBSTEPS,
-                    },
-                };
+                scene.time_step = mpm::sim::scene::TimeStepPolicy::default_for(method);
                 scene.method = method;
             }
         }

@@ -38,6 +38,27 @@ pub enum TimeStepPolicy {
     Fixed { dt: f32 },
 }
 
+impl TimeStepPolicy {
+    /// The policy a scene of `method` gets where its file gives no time step: the CFL policy at
+    /// its defaults, or pbmpm's default substeps a frame.
+    pub fn default_for(method: Method) -> TimeStepPolicy {
+        match method {
+            Method::Explicit => TimeStepPolicy::Cfl {
+                cfl: DEFAULT_CFL,
+                max_substeps: DEFAULT_MAX_SUBSTEPS,
+            },
+            Method::Pbmpm => TimeStepPolicy::pbmpm(super::pbmpm::DEFAULT_SUBSTEPS),
+        }
+    }
+
+    /// pbmpm's fixed substep: `substeps` a 60 Hz frame.
+    pub fn pbmpm(substeps: u32) -> TimeStepPolicy {
+        TimeStepPolicy::Fixed {
+            dt: FRAME_DT / substeps as f32,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
     /// Lattice points with `min <= x < max`.

@@ -308,6 +308,9 @@ impl Default for SolverSpec {
 /// policy calls the fluid diverged.
 pub const DEFAULT_MAX_SUBSTEPS: u32 = 2000;
 
+/// `time_step.cfl` when a scene gives neither it nor a fixed `dt`.
+pub const DEFAULT_CFL: f32 = 0.4;
+
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeStepSpec {

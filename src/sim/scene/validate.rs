@@ -1138,9 +1138,7 @@ impl Validator<'_> {
                 ),
             ));
         }
-        Ok(TimeStepPolicy::Fixed {
-            dt: FRAME_DT / substeps as f32,
-        })
+        Ok(TimeStepPolicy::pbmpm(substeps))
     }
 
     fn time_step(
@@ -1188,7 +1186,7 @@ impl Validator<'_> {
                 Ok(TimeStepPolicy::Fixed { dt })
             }
             (cfl, None) => {
-                let cfl = cfl.unwrap_or(0.4);
+                let cfl = cfl.unwrap_or(DEFAULT_CFL);
                 if !(cfl.is_finite() && cfl > 0.0 && cfl <= MAX_CFL) {
                     return Err(self.err(
                         "time_step.cfl",
