@@ -8,6 +8,7 @@
 //! replays them. The timing events are external event-record nodes, pointed at a fresh set of events
 //! before each launch, so every substep keeps its per-phase CUDA-event timings.
 
+use super::solver::Scattered;
 use super::timing::Recorded;
 use crate::sim::Params;
 use anyhow::{bail, Context, Result};
@@ -24,7 +25,7 @@ const CACHED_GRAPHS: usize = 8;
 pub struct SubstepKey {
     pub params: Params,
     pub sort: bool,
-    pub mass_scattered: Option<u32>,
+    pub mass_scattered: Option<Scattered>,
     /// Colliders the kernels loop over (their states are read from device memory, updated between
     /// launches; the count is a kernel argument).
     pub colliders: u32,

@@ -46,9 +46,9 @@ pub struct CudaSolver {
     pub(super) params: Params,
     schedule: BinSchedule,
     /// Binned and fused pipelines: the grid already holds the next substep's scatter at the
-    /// particles' current positions, with this scatter mode: the mass (g2p2g, p2g_mass), or under the
-    /// fused pipeline mass and momentum (one_pass).
-    mass_scattered: Option<u32>,
+    /// particles' current positions: the mass (g2p2g, p2g_mass), or under the fused pipeline mass
+    /// and momentum (one_pass).
+    mass_scattered: Option<Scattered>,
     /// Particles scattered outside their tile since the solver was made (binned pipeline).
     tile_misses: u64,
     timing: PhaseEvents,
@@ -56,13 +56,36 @@ pub struct CudaSolver {
     graphs: SubstepGraphs,
     /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
     substeps: u64,
-    /// Fused pipeline: the step of the substep before a restored state (`Solver::resume_after`),
-    /// which its first scatter takes, as the uninterrupted run's last one_pass did.
-    resumed_dt: Option<f32>,
+    /// Fused pipeline: the step and momentum units of the substep before a restored state
+    /// (`Solver::resume_after`) or a dropped scatter (`discard_scatter`), which its first scatter
+    /// takes, as the uninterrupted run's last one_pass did.
+    resumed: Option<Params>,
     /// The material table in the kernels' constant memory (`use_materials`).
     device_materials: Option<[Material; MAX_MATERIALS as usize]>,
     /// The staging buffers of export snapshots, made at the first.
     snapshots: Option<SnapshotRing>,
+}
+
+/// What the grid holds of a scatter made ahead of its substep: its scatter mode and the fixed-point
+/// momentum units it was made in (the bits of `Params::fixed_momentum_scale`), which the grid update
+/// must read it in. Part of a captured substep's key (graph.rs).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Scattered {
+    pub mode: u32,
+    momentum_scale_bits: u32,
+}
+
+impl Scattered {
+    fn by(params: &Params) -> Scattered {
+        Scattered {
+            mode: params.scatter_mode,
+            momentum_scale_bits: params.fixed_momentum_scale.to_bits(),
+        }
+    }
+
+    fn momentum_scale(self) -> f32 {
+        f32::from_bits(self.momentum_scale_bits)
+    }
 }
 
 impl CudaSolver {
@@ -93,7 +116,7 @@ impl CudaSolver {
             tile_misses: 0,
             graphs: SubstepGraphs::default(),
             substeps: 0,
-            resumed_dt: None,
+            resumed: None,
             device_materials: None,
             snapshots: None,
         };
@@ -128,7 +151,7 @@ impl CudaSolver {
     fn check_params(&mut self, params: &Params) -> Result<()> {
         let stream = self.gpu.stream();
         self.state
-            .check_params(stream, params, self.pipeline, self.mass_scattered)
+            .check_params(stream, params, self.pipeline, self.mass_scattered.map(|s| s.mode))
     }
 
     /// The device's name, e.g. "NVIDIA H200".
@@ -198,6 +221,7 @@ impl CudaSolver {
             let (k, l) = (&self.kernels, &self.gpu.launcher);
             return k.volume.scatter(l, self.pipeline, &self.params, &mut self.state);
         }
+        let read = self.grid_params();
         let (k, l, p, d) = (&self.kernels, &self.gpu.launcher, &self.params, &self.state);
         let pipe = self.pipeline;
         match launch {
@@ -231,10 +255,10 @@ impl CudaSolver {
                     k.p2g.launch(l, p, d)?;
                 }
             }
-            Launch::GridUpdate => k.grid_update.launch(l, pipe, false, p, d)?,
+            Launch::GridUpdate => k.grid_update.launch(l, pipe, false, &read, d)?,
             Launch::GridUpdateBlocks | Launch::GridUpdateBlocksMirrored => {
                 let mirror = launch == Launch::GridUpdateBlocksMirrored;
-                k.grid_update.launch(l, pipe, mirror, p, d)?;
+                k.grid_update.launch(l, pipe, mirror, &read, d)?;
                 k.grid_update.clear_crossing_orbits(l, mirror, p, &d.grid)?;
                 k.step_bodies.launch(l, p, &d.colliders)?;
             }
@@ -248,10 +272,21 @@ impl CudaSolver {
                 if let Some(flow) = d.flow.as_ref().filter(|f| f.num_sinks > 0) {
                     k.lifecycle.settle(l, flow)?;
                 }
-                self.mass_scattered = Some(self.params.scatter_mode);
+                self.mass_scattered = Some(Scattered::by(&self.params));
             }
         }
         Ok(true)
+    }
+
+    /// The parameters the grid update reads the node sums with: the fused pipeline's momentum was
+    /// scattered by the substep before (one_pass), in that substep's fixed-point units, which a new
+    /// stretch of substeps may have changed (`Simulation::momentum_scale`).
+    fn grid_params(&self) -> Params {
+        let mut params = self.params;
+        if let Some(scattered) = self.mass_scattered.filter(|_| self.pipeline == Pipeline::Fused) {
+            params.fixed_momentum_scale = scattered.momentum_scale();
+        }
+        params
     }
 
     /// Whether the binned pipeline scatters the momentum through a tile (p2g_tiled.cu) rather than
@@ -279,9 +314,11 @@ impl CudaSolver {
     /// with `last_dt`, the step of the substep that made it (ranks.rs: after the slabs moved, a
     /// rank's partial sums may lie beyond its new ghost planes). Fixed point scatters the same units.
     pub(super) fn discard_scatter(&mut self, last_dt: f32) -> Result<()> {
-        if self.mass_scattered.take().is_some() {
+        if let Some(scattered) = self.mass_scattered.take() {
             self.state.grid.clear(self.gpu.stream())?;
-            self.resumed_dt = Some(last_dt);
+            let mut last = self.params.with_dt(last_dt);
+            last.fixed_momentum_scale = scattered.momentum_scale();
+            self.resumed = Some(last);
         }
         Ok(())
     }
@@ -311,14 +348,17 @@ impl CudaSolver {
             "the binned mass scatter walks the bins, which were never built: sort first"
         );
         let (k, l) = (&self.kernels, &self.gpu.launcher);
+        let mut params = self.params;
         if launch == Launch::OnePassScatter {
-            let dt = self.resumed_dt.take().unwrap_or(self.params.dt);
-            let params = self.params.with_dt(dt);
+            if let Some(last) = self.resumed.take() {
+                params.dt = last.dt;
+                params.fixed_momentum_scale = last.fixed_momentum_scale;
+            }
             k.one_pass.launch(l, Gather::None, &params, &self.state)?;
         } else {
-            k.p2g_mass.launch(l, &self.params, &self.state)?;
+            k.p2g_mass.launch(l, &params, &self.state)?;
         }
-        self.mass_scattered = Some(self.params.scatter_mode);
+        self.mass_scattered = Some(Scattered::by(&params));
         Ok(())
     }
 
@@ -388,7 +428,7 @@ impl Solver for CudaSolver {
     }
 
     fn resume_after(&mut self, last: &Params) {
-        self.resumed_dt = Some(last.dt);
+        self.resumed = Some(*last);
     }
 
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
