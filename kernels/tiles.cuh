@@ -229,8 +229,8 @@ __device__ __forceinline__ u64 tile_global_units(i64 units) {
 // substep 9 % longer at bench-655k and dam-break-1m, BENCHMARKS.md 0v). Whether a sum may have wrapped
 // is settled after the adds instead, from the node's mass, and counted as a fixed-point overflow:
 // - the tile takes a particle only where none of its momentum contributions can pass its mass
-//   contribution's units (tile_takes: at most the fixed-point scale's reference speed, which is at
-//   least the sound speed); a faster one goes to the grid, where its integers are the same. So a
+//   contribution's units (tile_takes: at most the momentum units' reference speed, 4 to 8 times the
+//   fastest particle's, Simulation::momentum_scale); a faster one goes to the grid, where its integers are the same. So a
 //   node's momentum sums over a chunk of n particles are at most M + n/2 + n/2 in magnitude, M its
 //   mass sum in tile units, and a node with M past 2^31 (1 - 2^-8) - n is counted (tile_mass_limit):
 //   about 16 cells' mass, within 0.4 % of where the signed sums' check counted a node before;

@@ -15,7 +15,7 @@
 //! step_bodies places them (tests/gpu_lifecycle.rs checks a resumed run byte for byte against an
 //! uninterrupted one).
 //!
-//! # File format (version 5), all numbers little-endian
+//! # File format (version 6), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -31,7 +31,8 @@
 //! whether the particles' deformation follows, the rigid body count K, the dropped body count D); the
 //! 214 words of [`Params`]
 //! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
-//! time f64, signal speed f32, signal rise f32, late emitter layers u64, E emitter phases f64); then
+//! time f64, signal speed f32, signal rise f32, the last two stretches' flow speeds f32, late
+//! emitter layers u64, E emitter phases f64); then
 //! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
 //! live, 0 parked) and each slot's material row (N bytes); then, where the scene has solids, each
 //! slot's deformation (F_E column by column and the plastic scalar: 10N f32); then, with emitters or sinks,
@@ -53,6 +54,10 @@
 //! read with the solids' parameters zero ([`params_from_version_2`]). Version 3, written before
 //! checkpoints held rigid bodies, is version 4 without them (no scene of bodies could be saved);
 //! version 4, written before bodies could be dropped into a run, is version 5 without dropped bodies.
+//! Version 5, written before the fixed-point momentum units followed the flow's speed, is version 6
+//! without the clock's flow speeds: they read as the signal speed, so the first stretches after the
+//! resume take units made for that (coarser than the flow's; the run is as exact, its bytes those
+//! of another run).
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
@@ -76,7 +81,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -98,8 +103,9 @@ const LIQUID_MATERIAL_WORDS: usize = 13;
 const KERNEL_WORDS: usize = std::mem::size_of::<KernelParams>() / 4;
 const _: () = assert!(std::mem::offset_of!(Material, shear_modulus) == 4 * LIQUID_MATERIAL_WORDS);
 const _: () = assert!(VERSION_2_PARAMS_WORDS == 150);
-/// Frame, time, signal speed and rise, late layers (the emitters' phases follow, 8 bytes each).
-const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 8;
+/// Frame, time, signal speed and rise, two flow speeds, late layers (the emitters' phases follow, 8 bytes
+/// each).
+const CLOCK_BYTES: usize = 8 + 8 + 4 + 4 + 2 * 4 + 8;
 /// Bytes per particle slot: x, v, C, density as f32, the live flag and the material row.
 const BYTES_PER_PARTICLE: usize = 4 * (3 + 3 + 9 + 1) + 1 + 1;
 /// A [`RigidBody`] row: its f64 fields, then its u32 fields (the contract lays them out so, without
@@ -289,12 +295,16 @@ impl Checkpoint {
         let solver = backend::restore(backend, &scene, saved)?;
         // The scatter's mode and scales and the density rule are the scene's (whose solver options
         // --scatter and --pipeline may override); checkpoints written before the scene authored the
-        // scales hold zeros there.
+        // scales hold zeros there. The momentum's units are the last stretch's where the file has
+        // them: the fused pipeline's first scatter after the resume takes them, as the
+        // uninterrupted run's last one did (`Solver::resume_after`).
         let authored = scene.params();
         let mut params = self.params;
         params.scatter_mode = authored.scatter_mode;
         params.fixed_mass_scale = authored.fixed_mass_scale;
-        params.fixed_momentum_scale = authored.fixed_momentum_scale;
+        if !(params.fixed_momentum_scale > 0.0 && params.fixed_momentum_scale.is_finite()) {
+            params.fixed_momentum_scale = authored.fixed_momentum_scale;
+        }
         params.density_rule = authored.density_rule;
         Ok(Simulation::resume(
             scene,
@@ -397,6 +407,9 @@ impl Checkpoint {
         out.write_all(&clock.time.to_bits().to_le_bytes())?;
         out.write_all(&clock.signal_speed.to_bits().to_le_bytes())?;
         out.write_all(&clock.signal_rise.to_bits().to_le_bytes())?;
+        for speed in clock.flow_speeds {
+            out.write_all(&speed.to_bits().to_le_bytes())?;
+        }
         out.write_all(&clock.late_layers.to_le_bytes())?;
         for phase in &clock.emitter_phases {
             out.write_all(&phase.to_bits().to_le_bytes())?;
@@ -588,11 +601,24 @@ impl Body<'_> {
             "a table of {} materials (1 to {MAX_MATERIALS} exist)",
             params.material_count
         );
+        let frame = self.u64("the clock")?;
+        let time = f64::from_bits(self.u64("the clock")?);
+        let signal_speed = f32::from_bits(self.u32("the clock")?);
+        let signal_rise = f32::from_bits(self.u32("the clock")?);
+        let flow_speeds = if self.version >= 6 {
+            [
+                f32::from_bits(self.u32("the clock")?),
+                f32::from_bits(self.u32("the clock")?),
+            ]
+        } else {
+            [signal_speed; 2]
+        };
         let mut clock = RunClock {
-            frame: self.u64("the clock")?,
-            time: f64::from_bits(self.u64("the clock")?),
-            signal_speed: f32::from_bits(self.u32("the clock")?),
-            signal_rise: f32::from_bits(self.u32("the clock")?),
+            frame,
+            time,
+            signal_speed,
+            signal_rise,
+            flow_speeds,
             late_layers: self.u64("the clock")?,
             emitter_phases: Vec::new(),
         };

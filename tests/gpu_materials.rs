@@ -457,13 +457,11 @@ fn a_box_vortex_decays_at_its_viscous_rate() {
     box_vortex_decays("float");
 }
 
-/// The same in the fixed-point scatter, which fails today: +5.4 and +6.7 % at 32 cells, +9.1 and
-/// +28.6 % at 64 (H200, 2026-11-29). The cause: its rounding step, a cell's mass at the scale's
-/// reference speed (the sound speed, 10 m/s here) over 2^27, is coarse beside this vortex's 1 cm/s
-/// and the viscosity's change of it in a substep (about 1e-8 m/s at 64 cells); the CPU reference,
-/// made to round in the same units, decays the 32-cell 11 Pa s vortex +6.68 % fast (BENCHMARKS.md
-/// M14). The Stokes sphere's fixed-point figures are off for the same reason. Issue 42 stays open
-/// on it.
+/// The same in the fixed-point scatter: +1.2, -0.1, -0.1, -0.1 %, the float scatter's digits (H200,
+/// 2026-11-29, BENCHMARKS.md M15). Its momentum units used to be made for the sound speed (10 m/s
+/// here), and the tiles' rounding step, a cell's mass at that speed over 2^27, is coarse beside this
+/// vortex's 1 cm/s: it decayed +5.4 and +6.7 % fast at 32 cells, +9.1 and +28.6 % at 64 (M14). The
+/// units now follow the flow's own speed (docs/physics.md, "Determinism on the GPU").
 fn a_box_vortex_decays_at_its_viscous_rate_in_fixed_point() {
     box_vortex_decays("fixed-point");
 }

@@ -89,7 +89,7 @@ device_structs! {
         scatter_mode: u32,
         /// Fixed-point units per kg of grid mass (the fixed-point scatter and the binned tiles).
         fixed_mass_scale: f32,
-        /// Fixed-point units per kg m/s of grid momentum (likewise).
+        /// Fixed-point units per kg m/s of grid momentum (likewise; Simulation::momentum_scale).
         fixed_momentum_scale: f32,
         /// Mirror planes of the walls, in nodes: where fluid rests against the low walls (the same on
         /// every axis) and the high walls. The grid gains the mass and momentum of a mirror-image fluid

@@ -27,6 +27,11 @@ use std::path::Path;
 /// The largest CFL number the solver is stable at (docs/physics.md, "The time step").
 pub const MAX_CFL: f32 = 0.5;
 
+/// How many times finer (as a power of two) than the scene's coarsest the fixed-point momentum units
+/// may be made for a slow flow (`Scene::fixed_momentum_scale_for`): 2^12 leaves a contribution 8
+/// times the coarsest reference speed (at least the sound speed) before its 2^52 limit.
+pub const MAX_MOMENTUM_REFINEMENT: u32 = 12;
+
 // ---------------------------------------------------------------------------------------------
 // The validated scene.
 
@@ -333,12 +338,13 @@ impl Scene {
     }
 
     /// Fixed-point scales (units per kg, units per kg m/s): a grid node at rest holds one cell's mass,
-    /// rho0 dx^3, so that maps to 2^40 units; momentum maps one cell's mass at the reference speed to
-    /// 2^40 units. The speed is the largest of the sound speed, the free-fall speed over the domain
-    /// height and the bodies' speeds: a bound the fluid does not pass while the CFL policy holds.
-    /// Contributions then sit near 2^37, far under the 2^52 per-contribution limit, and the rounding
-    /// step (2^-40 of a cell's mass) is far finer than f32 resolves. The GPU's fixed-point scatter and
-    /// the binned pipeline's tiles (in either scatter mode) use them; the CPU ignores them.
+    /// rho0 dx^3, so that maps to 2^40 units; momentum maps one cell's mass at the reference speed
+    /// ([`Self::fixed_point_reference_speed`]) to 2^40 units. Contributions then sit near 2^37, far
+    /// under the 2^52 per-contribution limit, and the mass's rounding step (2^-40 of a cell's mass)
+    /// is far finer than f32 resolves. These are the coarsest units a run uses: each stretch of
+    /// substeps refines the momentum's to the flow's own speed ([`Self::fixed_momentum_scale_for`]).
+    /// The fixed-point scatter (GPU and CPU) and the binned pipeline's tiles (in either scatter mode)
+    /// use them.
     pub fn fixed_point_scales(&self) -> (f32, f32) {
         let dx = f64::from(self.dx);
         let densest = self
@@ -347,16 +353,50 @@ impl Scene {
             .map(|m| m.law.rest_density)
             .fold(0.0, f32::max);
         let cell_mass = f64::from(densest) * dx * dx * dx;
-        let height = f64::from(self.grid_res.iter().copied().max().unwrap_or(1)) * dx;
-        let free_fall = (2.0 * f64::from(self.gravity.length()) * height).sqrt();
-        let body_speed = f64::from(self.fastest_start());
-        let rows: Vec<Material> = self.materials.iter().map(|m| m.law).collect();
-        let speed = f64::from(rows.as_slice().fastest_sound_speed())
-            .max(free_fall)
-            .max(body_speed)
-            .max(1e-3);
+        let speed = self.fixed_point_reference_speed();
         let units = (1u64 << 40) as f64;
         ((units / cell_mass) as f32, (units / (cell_mass * speed)) as f32)
+    }
+
+    /// The speed the coarsest momentum units are made for, m/s: the largest of the sound speed, the
+    /// free-fall speed over the domain height and the bodies' speeds, a bound the fluid does not
+    /// pass while the CFL policy holds.
+    pub fn fixed_point_reference_speed(&self) -> f64 {
+        let height = f64::from(self.grid_res.iter().copied().max().unwrap_or(1)) * f64::from(self.dx);
+        let free_fall = (2.0 * f64::from(self.gravity.length()) * height).sqrt();
+        let rows: Vec<Material> = self.materials.iter().map(|m| m.law).collect();
+        f64::from(rows.as_slice().fastest_sound_speed())
+            .max(free_fall)
+            .max(f64::from(self.fastest_start()))
+            .max(1e-3)
+    }
+
+    /// The fixed-point momentum scale for a stretch of substeps whose particles' momentum
+    /// contributions reach at most `reach` m/s per unit of mass and weight: the coarsest scale
+    /// ([`Self::fixed_point_scales`]) refined by the largest power of two, up to
+    /// 2^[`MAX_MOMENTUM_REFINEMENT`], that keeps `reach` within the refined reference speed.
+    ///
+    /// Why: the binned pipeline's tiles round every momentum contribution in units 2^13 coarser than
+    /// the grid's (`TILE_UNIT_SHIFT`, kernels/tiles.cuh). At the sound speed's units a creeping flow
+    /// (a viscous liquid, a sphere sinking at Stokes' velocity) moves a few units a contribution, and
+    /// the rounding decayed a viscous vortex 7 to 29 % fast on the GPU (BENCHMARKS.md M14). The
+    /// flow's own speed sets units as fine as a fast flow's. A particle that outruns the refined speed
+    /// anyway scatters through the grid's 64-bit atomics instead of its tile (`tile_takes`), where it
+    /// has 2^15 times the reference speed of headroom before a contribution is out of range; powers of
+    /// two keep the scale (so the substep's CUDA graph) the same from stretch to stretch while the
+    /// flow's speed stays within a factor of two.
+    pub fn fixed_momentum_scale_for(&self, reach: f32) -> f32 {
+        let coarsest = self.fixed_point_scales().1;
+        let ratio = self.fixed_point_reference_speed() / f64::from(reach);
+        let refinement = if ratio.is_finite() {
+            ratio
+                .log2()
+                .floor()
+                .clamp(0.0, f64::from(MAX_MOMENTUM_REFINEMENT))
+        } else {
+            f64::from(MAX_MOMENTUM_REFINEMENT)
+        };
+        coarsest * (refinement as f32).exp2()
     }
 
     /// The lowest and highest coordinate a fluid body may reach on each axis: inside the boundary band.

@@ -17,6 +17,12 @@ use glam::{DVec3, Vec3};
 use serde::Serialize;
 use std::time::Instant;
 
+/// How far past the fastest particle's speed the fixed-point momentum units reach
+/// ([`Simulation::momentum_scale`]): a contribution carries the affine part too (up to 1.5 dx |C| a
+/// row beside |v|), and the speed may rise over the stretch whose extremes are still on their way.
+/// Then the power of two above the product; a particle past it scatters through the grid's atomics.
+const MOMENTUM_REACH_MARGIN: f32 = 4.0;
+
 /// A NaN or infinity in the state: what to tell the user.
 fn diverged(frame: u64) -> anyhow::Error {
     anyhow::anyhow!(
@@ -141,6 +147,10 @@ pub struct Simulation {
     signal_speed: f32,
     /// How much it rose over that stretch (0 if it fell): a rising trend is extrapolated one stretch on.
     signal_rise: f32,
+    /// The largest particle speed of each of the last two stretches of substeps whose extremes are in,
+    /// the earlier first, m/s: what the fixed-point momentum units are made for
+    /// ([`Simulation::momentum_scale`]).
+    flow_speeds: [f32; 2],
     /// Whether the fastest particle outran the sound speed in `signal_speed` (the advective part of
     /// the CFL bound is the larger).
     advective: bool,
@@ -222,6 +232,7 @@ pub struct RunClock {
     /// See [`Simulation`]'s fields of the same names.
     pub signal_speed: f32,
     pub signal_rise: f32,
+    pub flow_speeds: [f32; 2],
     /// Each emitter's layers owed (`flow::schedule`).
     pub emitter_phases: Vec<f64>,
     /// See [`FrameStats::late_layers`].
@@ -251,6 +262,7 @@ impl Simulation {
         sim.time = clock.time;
         sim.signal_speed = clock.signal_speed;
         sim.signal_rise = clock.signal_rise;
+        sim.flow_speeds = clock.flow_speeds;
         sim.emitter_phases = clock.emitter_phases;
         sim.late_layers = clock.late_layers;
         sim
@@ -265,6 +277,7 @@ impl Simulation {
             time: self.time,
             signal_speed: self.signal_speed,
             signal_rise: self.signal_rise,
+            flow_speeds: self.flow_speeds,
             emitter_phases: self.emitter_phases.clone(),
             late_layers: self.late_layers,
         })
@@ -275,6 +288,7 @@ impl Simulation {
         let sound_speed = params.fastest_sound_speed();
         let signal_speed = sound_speed + scene.fastest_start();
         let advective = scene.fastest_start() > sound_speed;
+        let flow_speeds = [scene.fastest_start(); 2];
         let viscous_dt = params.viscous_dt(params.dx);
         let emitter_phases = vec![0.0; scene.flow.emitters.len()];
         let bodies = scene.colliders.rigid_bodies().0;
@@ -288,6 +302,7 @@ impl Simulation {
             time: 0.0,
             signal_speed,
             signal_rise: 0.0,
+            flow_speeds,
             advective,
             viscous_dt,
             last_step_timings: Vec::new(),
@@ -381,6 +396,7 @@ impl Simulation {
         self.signal_speed = self
             .signal_speed
             .max(self.params.fastest_sound_speed() + velocity.length() as f32);
+        self.flow_speeds = self.flow_speeds.map(|s| s.max(velocity.length() as f32));
         Ok(())
     }
     /// Drops a rigid body into the running scene, at rest (`sim::dropped`): from the next substep on
@@ -472,6 +488,21 @@ impl Simulation {
         self.solver.as_mut()
     }
 
+    /// The fixed-point momentum scale for a stretch of substeps lasting `span` seconds
+    /// ([`Scene::fixed_momentum_scale_for`]), `previous_pending` where the stretch before it is still
+    /// on its way: made for the fastest particle of the stretch two before (or the scene's fastest
+    /// start, an emitter's or a collider's speed) plus what gravity can add over that stretch's
+    /// successor and this one (taken as long as this one), times [`MOMENTUM_REACH_MARGIN`]. Never from
+    /// the stretch just before, whose extremes are in or not depending on whether frames overlap
+    /// ([`Self::overlap_frames`]): the units, so the bytes, do not. A particle faster than the units
+    /// are made for still scatters exactly, through the grid's atomics; the margin keeps those few.
+    fn momentum_scale(&self, span: f32, previous_pending: bool) -> f32 {
+        let two_before = self.flow_speeds[usize::from(previous_pending)];
+        let gravity_gain = Vec3::from(self.params.gravity).length() * 2.0 * span;
+        let speed = two_before.max(self.scene.fastest_start()) + gravity_gain;
+        self.scene.fixed_momentum_scale_for(MOMENTUM_REACH_MARGIN * speed)
+    }
+
     /// Substeps and substep to cover the next `span` seconds. The signal speed can grow meanwhile: by up
     /// to |g| span from gravity, and, where it was rising (an impact compressing the fluid), by as much
     /// again as it rose over the last substeps. Both are added, so the step stays safe. `unknown` is
@@ -545,6 +576,7 @@ impl Simulation {
         self.advective = extremes.max_speed > bound - extremes.max_speed;
         self.signal_rise = (bound - self.signal_speed).max(0.0);
         self.signal_speed = bound;
+        self.flow_speeds = [self.flow_speeds[1], extremes.max_speed];
         let stretch_cfl = extremes.max_signal_speed * dt / self.params.dx;
         part.max_cfl = part.max_cfl.max(stretch_cfl);
         if stretch_cfl > MAX_CFL {
@@ -638,6 +670,7 @@ impl Simulation {
             let (to_frame_end, dt, limit) = self.steps_for(left as f32, unknown)?;
             let planned = per_choice.map_or(to_frame_end, |k| to_frame_end.min(k));
             self.params.dt = dt;
+            self.params.fixed_momentum_scale = self.momentum_scale(planned as f32 * dt, in_flight.is_some());
             let mut n = 0;
             while n < planned {
                 self.emit_due(dt)?;
@@ -726,6 +759,7 @@ impl Simulation {
         self.settle()?;
         self.solver.apply_push(push)?;
         self.signal_speed += push.max_speed_gain();
+        self.flow_speeds = self.flow_speeds.map(|s| s + push.max_speed_gain());
         Ok(())
     }
 
