@@ -179,13 +179,13 @@ fn dropped_bodies_follow_the_cpu() {
 /// `MPM_STOKES_FILLS` the tube-filling times run (default 2); `MPM_STOKES_CFL` the CFL number
 /// (default 0.2); `MPM_STOKES_SCATTER` the scatter (default float).
 ///
-/// Why float at CFL 0.2 (H200, 2026-11-29, BENCHMARKS.md M12 and M14): the fixed-point scatter
-/// damps a slow viscous flow too much (the box vortex of tests/gpu_materials.rs decays 5 to 29 %
-/// fast in fixed point, to 0.1 % in float), and read +7.3 % at 8 cells and CFL 0.4 but -14.3 % at
-/// 0.2, -32.6 % at 10 cells and 0.4, -18.3 % at 0.2. The float scatter reads -14.3 % at 10 cells at
-/// CFL 0.4 and -13.9 % at 0.2 (converged in the substep there), and at 8 cells +4.1 to +10.1 %
-/// from run to run at 0.4, -3.7 % at 0.2 (one run). So 8 cells pass and 10 cells do not: not yet
-/// converged in the resolution (issue 42).
+/// H200, 2026-11-29 (BENCHMARKS.md M12, M14, M15), CFL 0.2: the float scatter -3.7 % at 8 cells
+/// (one run; +4.1 to +10.1 % from run to run at CFL 0.4, not converged in the substep there) and
+/// -13.9 % at 10. So 8 cells pass and 10 cells do not: not yet converged in the resolution (issue
+/// 42). The fixed-point scatter keeps the scene's coarsest momentum units where the scene has rigid
+/// bodies (`Simulation::momentum_scale`), which damp this slow flow: -14.3 % at 8 cells, -18.3 % at
+/// 10. With units following the flow's speed (a build that refined them with bodies too, M15) it
+/// read -4.9 % and -12.3 %.
 fn a_sphere_settles_at_stokes_velocity() {
     let (radius, viscosity) = (0.01, 15.0);
     let cells: Vec<u32> = std::env::var("MPM_STOKES_CELLS")
