@@ -68,7 +68,7 @@ __device__ __forceinline__ void scatter_bins_mass(const KernelParams& params, co
             const Stencil s = make_stencil(xp, params);
             const float m_p = particle_mass_of(params, v, p);
             u32 first;
-            const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            const bool in_tile = tile_place(params, t, s, first, far, tile_marks, marks, blocks, misses);
             const u32 added = tile_scatter<1>(
                 s, params, first, in_tile && tile_takes(s, 0.0f, m_p * tile_scale[0]), tile, tile_scale,
                 [&](float w, float, float, float, float (&mass)[1]) { mass[0] = __fmul_rn(w, m_p); },

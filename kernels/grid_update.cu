@@ -5,10 +5,12 @@
 //
 // Two walks over the grid:
 // - grid_update (the report's pipeline): every node, so g2p never reads a stale velocity.
-// - grid_update_blocks (the binned pipeline): only the 4x4x4-node blocks that this substep's scatters
-//   and mirror passes touched (tiles.cuh marks them and lists each once). A block that no particle's
-//   stencil covers is read by no particle, so its stale velocities are never used; its accumulators
-//   are zero, since every write marks its block.
+// - The binned pipeline's: only the 4x4x4-node blocks that this substep's scatters and mirror passes
+//   touched (tiles.cuh marks them and lists each once). A block that no particle's stencil covers is
+//   read by no particle, so its stale velocities are never used; its accumulators are zero, since
+//   every write marks its block. The list comes in two parts, the blocks that a wall's mirror reaches
+//   and the others (list_node_block), and two kernels walk them: grid_update_blocks the interior,
+//   with no mirror code and so few registers, grid_update_wall_blocks the blocks at the walls.
 //
 // The fused pipeline adds the walls' mirror image here (mirror.cuh) instead of in a launch of its own
 // before: each node near a wall reads its orbit's sums as the scatter left them, takes its own slot of
@@ -17,7 +19,7 @@
 // reflection lies in another node block is read by two CUDA blocks in no fixed order, so neither
 // zeroes it: clear_crossing_orbits does, after the launch. Images never reach the global grid, so no
 // block is listed for them: a block no scatter touched is read by no particle.
-#include "mirror.cuh"
+#include "tiles.cuh"
 
 extern "C" __global__ void grid_update(const KernelParams params,
                                        float4* __restrict__ grid_acc,     // in: momentum, mass; zeroed
@@ -64,19 +66,21 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 
 // Slot `own` of an orbit's four channels with the images added, channel by channel from the grid (a
 // channel's images read that channel alone), so that only one channel of the orbit is held at a time.
-// This path sets the register count of the whole launch, interior blocks included, and the grid
-// update of a large scene is latency-bound on its occupancy. Measured on the H100 (BENCHMARKS.md 0k,
-// 0l): the whole orbit at once, 160 registers; the float orbit's float4s at once, 130; the orbit's
+// While this path shared its launch with the interior blocks it set their register count too, and the
+// grid update of a large scene is latency-bound on its occupancy. Measured on the H100 (BENCHMARKS.md
+// 0k, 0l): the whole orbit at once, 160 registers; the float orbit's float4s at once, 130; the orbit's
 // indices held as 64-bit, 108, and the 16.8M column's substep 3.56 ms against 3.30 with mirror_walls'
 // own launch; as 32-bit, 90 (3.41 ms); recomputed for each channel, as here, 72 (3.31 ms; bench-65k
-// 0.0356 ms against 0.0348 at 90).
-template <typename V>
+// 0.0356 ms against 0.0348 at 90). UNROLL: channels a step of the loop (1 or 4). The wall blocks'
+// kernel unrolls it, its registers weighing on the wall blocks alone now (BENCHMARKS.md M14, w5:
+// unrolled in the shared launch, 1 to 3 % off the small scenes, whose blocks nearly all meet a wall).
+template <typename V, int UNROLL>
 __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
                                                   const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, V mine[4]) {
 #pragma unroll
     for (int k = 0; k < 4; ++k) mine[k] = V(0);
-#pragma unroll 1
+#pragma unroll UNROLL
     for (int ch = 0; ch < 4; ++ch) {
         V v[8];
         // The orbit's grid indices again for each channel: held across the loop they cost every
@@ -102,8 +106,8 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
 // which a Coulomb collider's friction counts. Read there rather than taken from the orbit inside the
 // channel loop, they hold no registers across it (taken inside, the wave tank's substep was 3.2 %
 // slower than before them, against 2.6 % with bounds of its own; BENCHMARKS.md M13). Without it
-// own_m is the sum's and the push zero.
-template <typename V, bool OWN_SUMS>
+// own_m is the sum's and the push zero. UNROLL as in mirrored_channels.
+template <typename V, bool OWN_SUMS, int UNROLL>
 __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, const MirrorAxis m[3], const u32 c[3],
                                                   const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, StepCounters* counters,
@@ -118,7 +122,7 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
         crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
     }
     V mine[4];
-    mirrored_channels<V>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine);
+    mirrored_channels<V, UNROLL>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine);
     NodeSums s = node_sums(params, mine, counters);
     if (OWN_SUMS) {
         const size_t i = c[0] + (size_t)params.grid_res[0] * (c[1] + (size_t)params.grid_res[1] * c[2]);
@@ -133,79 +137,165 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
     return s;
 }
 
-// Whether node block b (origin `origin`) has a node within a wall's reach on any axis.
-__device__ __forceinline__ bool node_block_meets_a_wall(const MirrorAxis m[3], const u32 origin[3]) {
-    bool meets = false;
-    for (int a = 0; a < 3; ++a) {
-        const u32 first = origin[a], last = origin[a] + NODE_BLOCK_EDGE - 1;
-        meets |= first <= m[a].lo + m[a].lo_reach && last + m[a].lo_reach >= m[a].lo;
-        meets |= first <= m[a].hi + m[a].hi_reach && last + m[a].hi_reach >= m[a].hi;
-    }
-    return meets;
+// ---- The binned pipeline's walk over the node-block list ----
+// The scatters list the blocks a wall's reach meets from the back of the list and the rest from the
+// front (list_node_block in tiles.cuh), with each part's length on the device. A kernel walks each
+// part, launched over the most blocks that part can hold (grid_update.rs) so that no launch waits on
+// the host to learn a length; CUDA blocks past the length walk nothing.
+// - grid_update_blocks, the interior, with no mirror compiled in. When one kernel walked both, the
+//   interior blocks paid the mirror's registers (72, against 56 with the mirror compiled out;
+//   BENCHMARKS.md M14, w3): at the 16.8M column, where few blocks meet a wall, the update is
+//   latency-bound on each listed block's two dependent loads (its entry, then its nodes' sums), DRAM
+//   4 % busy, and more registers are fewer warps to wait on them.
+// - grid_update_wall_blocks: the blocks a wall's reach meets, adding the walls' images where the
+//   launch mirrors (the fused pipeline), its channel loop unrolled (mirrored_channels).
+// Each clears its blocks' marks and empties its part of the list when done (empty_list_part).
+
+// One CUDA block of NODE_BLOCK_NODES (64) threads to a listed node block: thread t's node of block b,
+// its grid index, and whether it lies inside the grid (the last blocks of an axis may stick out).
+struct BlockNode {
+    u32 c[3];
+    u32 i;
+    bool inside;
+};
+
+__device__ __forceinline__ BlockNode block_node(const KernelParams& params, const NodeBlocks& blocks, u32 b) {
+    BlockNode n;
+    n.c[0] = NODE_BLOCK_EDGE * (b % blocks.count[0]) + (threadIdx.x & 3u);
+    n.c[1] = NODE_BLOCK_EDGE * ((b / blocks.count[0]) % blocks.count[1]) + ((threadIdx.x >> 2) & 3u);
+    n.c[2] = NODE_BLOCK_EDGE * (b / (blocks.count[0] * blocks.count[1])) + (threadIdx.x >> 4);
+    n.inside = n.c[0] < params.grid_res[0] && n.c[1] < params.grid_res[1] && n.c[2] < params.grid_res[2];
+    n.i = n.c[0] + params.grid_res[0] * (n.c[1] + params.grid_res[1] * n.c[2]);
+    return n;
 }
 
-// One CUDA block of NODE_BLOCK_NODES (64) threads per listed block; clears the block's mark, and the
-// last CUDA block to finish empties the list, so the next substep's scatters start with neither.
-// `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before).
-// Three kernels walk the list: grid_update_blocks; grid_update_blocks_bodies where the scene has
-// rigid bodies, whose boundaries also add up what they took from the nodes; and
-// grid_update_blocks_friction where a Coulomb collider meets the walls' mirror. The last two read
-// the nodes' own sums beside the images (mirrored_sums). Elsewhere the exchange (its null pointer a
-// constant) and the own sums are compiled out: water alone keeps the registers, and so the
-// occupancy and the speed, it had before bodies existed.
-template <bool OWN_SUMS>
-__device__ __forceinline__ void update_listed_blocks(const KernelParams& params, const u32 mirror,
-                                                     const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-                                                     u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-                                                     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
-                                                     u64* __restrict__ fixed_momentum,
-                                                     StepCounters* __restrict__ counters, const Colliders& colliders) {
+// After a kernel's walk over its part of the list (`listed` entries, `per_step` of them a CUDA block's
+// step): the last CUDA block to finish empties the part, so the next substep's scatters start with it
+// empty. Emptying it here saves a memset launch after this one, a graph node of its own on every
+// substep's critical path (BENCHMARKS.md 0p). Only the CUDA blocks that walk entries count: each read
+// the length before the last of them zeroes it; an idle one walks nothing, whether it reads the length
+// or 0. Every thread calls it.
+__device__ __forceinline__ void empty_list_part(u32 listed, u32 per_step, u32* work_counts, int length_slot,
+                                                int done_slot) {
+    const u32 walkers = min((listed + per_step - 1) / per_step, gridDim.x);
+    if (blockIdx.x < walkers) {
+        __syncthreads();  // every warp of the block is past its reads of the length and the list
+        if (threadIdx.x == 0 && atomicAdd(&work_counts[done_slot], 1u) == walkers - 1) {
+            work_counts[length_slot] = 0;
+            work_counts[done_slot] = 0;
+        }
+    }
+}
+
+// A node's sums as the scatter left them (0 the mass, 1 + k momentum k, as mirror_load reads them):
+// fixed-point units, or floats.
+__device__ __forceinline__ void load_node_sums(size_t i, const float4* grid_acc, const u64*, const u64*, float v[4]) {
+    const float4 acc = grid_acc[i];
+    v[0] = acc.w;
+    v[1] = acc.x;
+    v[2] = acc.y;
+    v[3] = acc.z;
+}
+
+__device__ __forceinline__ void load_node_sums(size_t i, const float4*, const u64* fixed_mass,
+                                               const u64* fixed_momentum, i64 v[4]) {
+    v[0] = (i64)fixed_mass[i];
+    for (int a = 0; a < 3; ++a) v[1 + a] = (i64)fixed_momentum[3 * i + a];
+}
+
+// The interior part, V the scatter's sums (i64 in fixed point, float otherwise), one entry a CUDA
+// block at a time. Per node the same as update_node (and so the same bytes): the sums read, zeroed,
+// converted by node_sums (fixed_point_sums, or the floats as they are), the velocity made from them.
+template <typename V>
+__device__ __forceinline__ void update_interior_blocks(const KernelParams& params, const u32* __restrict__ block_list,
+                                                       u32* __restrict__ work_counts, u32* __restrict__ block_marks,
+                                                       float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
+                                                       u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
+                                                       StepCounters* __restrict__ counters,
+                                                       const Colliders& colliders) {
     const u32 listed = work_counts[WORK_NODE_BLOCKS];
     const NodeBlocks blocks = node_blocks(params);
-    const bool mirrored_here = mirror != 0u && params.wall_mirror_lo != 0u;
-    const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
     for (u32 k = blockIdx.x; k < listed; k += gridDim.x) {
         const u32 b = block_list[k];
-        const u32 origin[3] = {NODE_BLOCK_EDGE * (b % blocks.count[0]),
-                               NODE_BLOCK_EDGE * ((b / blocks.count[0]) % blocks.count[1]),
-                               NODE_BLOCK_EDGE * (b / (blocks.count[0] * blocks.count[1]))};
-        const u32 node[3] = {origin[0] + (threadIdx.x & 3u), origin[1] + ((threadIdx.x >> 2) & 3u),
-                             origin[2] + (threadIdx.x >> 4)};
-        const bool inside = node[0] < params.grid_res[0] && node[1] < params.grid_res[1] && node[2] < params.grid_res[2];
-        const u32 i = node[0] + params.grid_res[0] * (node[1] + params.grid_res[1] * node[2]);
-        if (mirrored_here && node_block_meets_a_wall(m, origin)) {  // the same for the whole CUDA block
-            NodeSums s{};
-            bool crossing = false;
-            if (inside) {
-                s = params.scatter_mode == SCATTER_FIXED_POINT
-                        ? mirrored_sums<i64, OWN_SUMS>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing)
-                        : mirrored_sums<float, OWN_SUMS>(params, m, node, grid_acc, fixed_mass, fixed_momentum, counters, crossing);
-            }
-            __syncthreads();  // every orbit of the block read before any of its nodes is zeroed
-            if (inside) {
-                if (!crossing) zero_node_sums(params, i, grid_acc, fixed_mass, fixed_momentum);
-                update_node_velocity(params, i, s, grid_vel, colliders);
-            }
-        } else if (inside) {
-            update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, colliders);
+        const BlockNode n = block_node(params, blocks, b);
+        if (n.inside) {
+            V v[4];
+            load_node_sums(n.i, grid_acc, fixed_mass, fixed_momentum, v);
+            zero_node_sums(params, n.i, grid_acc, fixed_mass, fixed_momentum);
+            update_node_velocity(params, n.i, node_sums(params, v, counters), grid_vel, colliders);
         }
         if (threadIdx.x == 0) block_marks[b] = 0;
     }
-    // Emptying the list here saves the memset launch after this one, a graph node of its own on
-    // every substep's critical path (BENCHMARKS.md 0p). Only the CUDA blocks that walk list entries
-    // count: each read the length before the last of them zeroes it; an idle one walks nothing,
-    // whether it reads the length or 0.
-    const u32 walkers = min(listed, gridDim.x);
-    if (blockIdx.x < walkers) {
-        __syncthreads();  // every warp of the block is past its reads of the length and the list
-        if (threadIdx.x == 0 && atomicAdd(&work_counts[WORK_NODE_BLOCKS_DONE], 1u) == walkers - 1) {
-            work_counts[WORK_NODE_BLOCKS] = 0;
-            work_counts[WORK_NODE_BLOCKS_DONE] = 0;
-        }
+    empty_list_part(listed, 1, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
+}
+
+// The interior part, the scatter's mode chosen once for the whole walk.
+__device__ __forceinline__ void update_interior(const KernelParams& params, const u32* __restrict__ block_list,
+                                                u32* __restrict__ work_counts, u32* __restrict__ block_marks,
+                                                float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
+                                                u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
+                                                StepCounters* __restrict__ counters, const Colliders& colliders) {
+    if (params.scatter_mode == SCATTER_FIXED_POINT) {
+        update_interior_blocks<i64>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                    fixed_momentum, counters, colliders);
+    } else {
+        update_interior_blocks<float>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                      fixed_momentum, counters, colliders);
     }
 }
 
-extern "C" __global__ void grid_update_blocks(const KernelParams params, const u32 mirror,
+// The wall blocks' part, walked back from the list's last slot, one entry a CUDA block at a time.
+// `mirror`: add the walls' images here (the fused pipeline; 0 where mirror_walls ran before, and then
+// these blocks are updated as the interior's are). Every block of this part meets a wall's reach, so
+// where the launch mirrors, the whole CUDA block takes the mirror's path. OWN_SUMS, UNROLL as in
+// mirrored_sums.
+template <bool OWN_SUMS, int UNROLL>
+__device__ __forceinline__ void update_wall_blocks(const KernelParams& params, const u32 mirror,
+                                                   const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+                                                   u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+                                                   float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
+                                                   u64* __restrict__ fixed_momentum,
+                                                   StepCounters* __restrict__ counters, const Colliders& colliders) {
+    const u32 listed = work_counts[WORK_WALL_NODE_BLOCKS];
+    const NodeBlocks blocks = node_blocks(params);
+    const u32 last_slot = node_block_total(blocks) - 1u;
+    const bool mirrored_here = mirror != 0u && params.wall_mirror_lo != 0u;
+    const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
+    for (u32 k = blockIdx.x; k < listed; k += gridDim.x) {
+        const u32 b = block_list[last_slot - k];
+        const BlockNode n = block_node(params, blocks, b);
+        if (mirrored_here) {  // the same for the whole CUDA block
+            NodeSums s{};
+            bool crossing = false;
+            if (n.inside) {
+                s = params.scatter_mode == SCATTER_FIXED_POINT
+                        ? mirrored_sums<i64, OWN_SUMS, UNROLL>(params, m, n.c, grid_acc, fixed_mass, fixed_momentum,
+                                                              counters, crossing)
+                        : mirrored_sums<float, OWN_SUMS, UNROLL>(params, m, n.c, grid_acc, fixed_mass,
+                                                                fixed_momentum, counters, crossing);
+            }
+            __syncthreads();  // every orbit of the block read before any of its nodes is zeroed
+            if (n.inside) {
+                if (!crossing) zero_node_sums(params, n.i, grid_acc, fixed_mass, fixed_momentum);
+                update_node_velocity(params, n.i, s, grid_vel, colliders);
+            }
+        } else if (n.inside) {
+            update_node(params, n.i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, colliders);
+        }
+        if (threadIdx.x == 0) block_marks[b] = 0;
+    }
+    empty_list_part(listed, 1, work_counts, WORK_WALL_NODE_BLOCKS, WORK_WALL_NODE_BLOCKS_DONE);
+}
+
+// The kernels over the list, in pairs that grid_update.rs launches one after the other, all with the
+// same arguments (`mirror` unread by the interior's): grid_update_blocks and grid_update_wall_blocks;
+// where the scene has rigid bodies, whose boundaries also add up what they took from the nodes,
+// grid_update_blocks_bodies and grid_update_wall_blocks_bodies; where a Coulomb collider meets the
+// walls' mirror, grid_update_blocks and grid_update_wall_blocks_friction. The last two wall kernels
+// read the nodes' own sums beside the images (mirrored_sums). Elsewhere the exchange (its null
+// pointer a constant) and the own sums are compiled out: water alone keeps the registers, and so the
+// occupancy and the speed, it had before bodies existed.
+extern "C" __global__ void grid_update_blocks(const KernelParams params, const u32 /*mirror: none here*/,
                                               const u32* __restrict__ block_list, u32* __restrict__ work_counts,
                                               u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
                                               float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
@@ -213,33 +303,58 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
                                               const ColliderState* __restrict__ collider_states,
                                               const u32 num_colliders, const float* __restrict__ collider_sdf,
                                               u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_listed_blocks<false>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+    update_interior(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+                    counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+}
+
+extern "C" __global__ void grid_update_blocks_bodies(
+    const KernelParams params, const u32 /*mirror: none here*/, const u32* __restrict__ block_list,
+    u32* __restrict__ work_counts, u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+    float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
+    StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+    const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
+    update_interior(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+                    counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+}
+
+extern "C" __global__ void grid_update_wall_blocks(const KernelParams params, const u32 mirror,
+                                                   const u32* __restrict__ block_list, u32* __restrict__ work_counts,
+                                                   u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+                                                   float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
+                                                   u64* __restrict__ fixed_momentum,
+                                                   StepCounters* __restrict__ counters,
+                                                   const ColliderState* __restrict__ collider_states,
+                                                   const u32 num_colliders, const float* __restrict__ collider_sdf,
+                                                   u64* __restrict__ /*body_impulses: null, no bodies*/) {
+    update_wall_blocks<false, 4>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                 fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 // Held to 12 blocks an SM (at most 80 registers): compiled freely it took 113 and 8 blocks, and its node
 // blocks' load chains had too few warps to hide behind; ten floating bodies' substep went from
-// +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %).
-extern "C" __global__ void __launch_bounds__(64, 12) grid_update_blocks_bodies(
+// +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %). Its channel loop
+// is not unrolled, which would spill under that bound.
+extern "C" __global__ void __launch_bounds__(64, 12) grid_update_wall_blocks_bodies(
     const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
     u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
     u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
     const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
     u64* __restrict__ body_impulses) {
-    update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                               fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+    update_wall_blocks<true, 1>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                fixed_momentum, counters,
+                                Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 // The image push without the bodies' exchange (its null pointer a constant), held to the plain
-// kernel's 14 blocks an SM (at most 72 registers).
-extern "C" __global__ void __launch_bounds__(64, 14) grid_update_blocks_friction(
+// kernel's 14 blocks an SM (at most 72 registers), its channel loop not unrolled.
+extern "C" __global__ void __launch_bounds__(64, 14) grid_update_wall_blocks_friction(
     const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
     u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
     u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
     const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
     u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_listed_blocks<true>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                               fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+    update_wall_blocks<true, 1>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other

@@ -27,10 +27,14 @@ __device__ __forceinline__ u32 halo_node(const KernelParams& params, u32 axis, u
     return c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
 }
 
-__device__ __forceinline__ u32 halo_node_block(const KernelParams& params, const NodeBlocks& blocks, u32 i) {
+// The node block of node i, per axis.
+struct HaloBlock {
+    u32 x, y, z;
+};
+
+__device__ __forceinline__ HaloBlock halo_node_block(const KernelParams& params, u32 i) {
     const u32 rx = params.grid_res[0], ry = params.grid_res[1];
-    return node_block_index(blocks, (i % rx) / NODE_BLOCK_EDGE, ((i / rx) % ry) / NODE_BLOCK_EDGE,
-                            (i / (rx * ry)) / NODE_BLOCK_EDGE);
+    return HaloBlock{(i % rx) / NODE_BLOCK_EDGE, ((i / rx) % ry) / NODE_BLOCK_EDGE, (i / (rx * ry)) / NODE_BLOCK_EDGE};
 }
 
 // Packs and zeroes the scatter's sums on `num_nodes` nodes of the ghost planes from `first`.
@@ -57,7 +61,8 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
             o[2] = __float_as_uint(acc.y);
             o[3] = __float_as_uint(acc.z);
         }
-        o[4] = block_marks[halo_node_block(params, blocks, i)];
+        const HaloBlock b = halo_node_block(params, i);
+        o[4] = block_marks[node_block_index(blocks, b.x, b.y, b.z)];
         if (params.volume_density) {
             out[(size_t)HALO_SUM_WORDS * num_nodes + j] = volume[i];
             volume[i] = 0;
@@ -87,7 +92,10 @@ extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 ax
             acc.z += __uint_as_float((u32)w[3]);
             grid_acc[i] = acc;
         }
-        if (w[4]) mark_node_block(marks, halo_node_block(params, blocks, i));
+        if (w[4]) {
+            const HaloBlock b = halo_node_block(params, i);
+            mark_node_block(params, marks, blocks, b.x, b.y, b.z);
+        }
         if (params.volume_density) volume[i] += in[(size_t)HALO_SUM_WORDS * num_nodes + j];
     }
 }

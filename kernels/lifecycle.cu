@@ -146,7 +146,7 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             last[g] = slot;
             if (scatter_mass) {
                 const Stencil s = make_stencil(xp, params);
-                mark_stencil_blocks(marks, blocks, s);
+                mark_stencil_blocks(params, marks, blocks, s);
                 FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
                     const float mass = w * m_p;
                     grid_add(&grid_acc[node].w, &fixed_mass[node], fixed, mass * scales.mass, mass, counters);

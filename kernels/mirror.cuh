@@ -8,9 +8,11 @@
 // axes on which n lies within a wall's reach) onto itself, so each of the CPU's passes changes an
 // orbit's values from the orbit's values alone. `mirror_orbit_channel` does the three passes on one
 // channel of an orbit's values in the CPU's order: the same integers in fixed point, the same floats
-// added in the same order. Two kernels use it: mirror_walls (one thread per orbit, in place) and, in the fused
-// pipeline, grid_update_blocks (each node of an orbit takes its own slot, inside the grid update).
-#include "tiles.cuh"
+// added in the same order. Two kernels use it: mirror_walls (one thread per orbit, in place) and, in
+// the fused pipeline, grid_update_wall_blocks (each node of an orbit takes its own slot, inside the
+// grid update). The scatters list the node blocks that a wall's reach meets apart from the others
+// (node_block_on_a_wall), so that only that kernel carries the mirror's code.
+#include "common.cuh"
 
 // One axis's two walls: node planes and reaches (the pairs W +- d stay inside the grid).
 struct MirrorAxis {
@@ -118,9 +120,29 @@ __device__ __forceinline__ void mirror_orbit_channel(const MirrorAxis m[3], cons
     }
 }
 
+// Whether the grid update's mirror reads or writes a node of node block (bx, by, bz): whether the
+// mirror is on and, along some axis, the block lies at or below the last block of the low wall's
+// reach (nodes up to lo + lo_reach) or at or above the first of the high wall's (from hi - hi_reach).
+// With the walls' reaches apart, as the host checks, each runs to the grid's edge (lo_reach = lo,
+// hi_reach = res - 1 - hi), so these are exactly the blocks a reach meets. The scatters list such
+// blocks apart (list_node_block in tiles.cuh) for grid_update_wall_blocks; grid_update_blocks, over
+// the others, has no mirror. Written as a prefix and a suffix since the scatters run it: testing each
+// reach's two ends spilled one_pass_float_planes (held to 128 registers). Counted on the host by
+// `node_blocks_on_walls` (src/cuda/mirror_walls.rs), which sizes the wall kernel's launch.
+__device__ __forceinline__ bool node_block_on_a_wall(const KernelParams& params, u32 bx, u32 by, u32 bz) {
+    if (params.wall_mirror_lo == 0u) return false;
+    const u32 block[3] = {bx, by, bz};
+    bool on = false;
+    for (int a = 0; a < 3; ++a) {
+        const MirrorAxis m = mirror_axis(params, a);
+        on |= block[a] <= (m.lo + m.lo_reach) / NODE_BLOCK_EDGE || block[a] >= (m.hi - m.hi_reach) / NODE_BLOCK_EDGE;
+    }
+    return on;
+}
+
 // Whether node coordinate c, within a wall's reach (`zone` non-zero), has its reflection in another
-// node block: then two CUDA blocks of grid_update_blocks read it, and neither may zero it (the fused
-// pipeline's grid update leaves it to `clear_crossing_orbits`).
+// node block: then two CUDA blocks of grid_update_wall_blocks read it, and neither may zero it (the
+// fused pipeline's grid update leaves it to `clear_crossing_orbits`).
 __device__ __forceinline__ bool mirror_crosses_blocks(const MirrorAxis& m, int zone, u32 c) {
     return mirror_reflect(m, zone, c) / NODE_BLOCK_EDGE != c / NODE_BLOCK_EDGE;
 }

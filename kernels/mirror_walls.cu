@@ -11,9 +11,9 @@
 // slabs (an edge or corner) is taken by the slab of its lowest such axis.
 //
 // In the binned pipeline (marks given), an orbit whose node blocks no scatter touched holds zeros and
-// is skipped, and one written marks its blocks, so grid_update_blocks consumes what the images add;
+// is skipped, and one written marks its blocks, so the grid update consumes what the images add;
 // the report's pipeline passes null marks and visits every orbit.
-#include "mirror.cuh"
+#include "tiles.cuh"
 
 
 // Fluid-side coordinates of an axis's two walls: lo..lo + lo_reach, then hi - hi_reach..hi.
@@ -114,9 +114,11 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
 #pragma unroll
         for (u32 T = 0; T < 8; ++T) {
             if (T & ~axes) continue;
-            // An image written into an unmarked block: list it (mark_node_block, less its plain read).
+            // An image written into an unmarked block: list it (mark_node_block, less its plain read),
+            // with the wall blocks: every node of an orbit lies within the reach of the walls of the
+            // orbit's axes, so its block meets a wall (node_block_on_a_wall), and the mirror is on.
             if (block_marks && marked[T] == 0u && atomicExch(&block_marks[block[T]], 1u) == 0u) {
-                block_list[atomicAdd(&work_counts[WORK_NODE_BLOCKS], 1u)] = block[T];
+                list_node_block(blocks, BlockMarks{block_marks, block_list, work_counts}, block[T], true);
             }
         }
     }

@@ -269,8 +269,8 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;
             bool in_tile = false;
-            if (live && FIXED) in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
-            if (live && !FIXED) in_tile = tile_place_bits(t, s, first, far, covered, marks, blocks, misses);
+            if (live && FIXED) in_tile = tile_place(params, t, s, first, far, tile_marks, marks, blocks, misses);
+            if (live && !FIXED) in_tile = tile_place_bits(params, t, s, first, far, covered, marks, blocks, misses);
             if (FIXED) {
                 if (!live) continue;  // no warp-wide operations below
                 const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), q.mass * scales.mass);
@@ -301,7 +301,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
         // Lists the node blocks this chunk's particles covered: the float scatter warp by warp, without
         // a barrier; the fixed-point one after flushing its tile.
         if (!FIXED) {
-            warp_list_marked_blocks(t, blocks, marks, covered);
+            warp_list_marked_blocks(params, t, blocks, marks, covered);
             continue;
         }
         // A taken particle's stencil lies inside the grid (positions are clamped to [1, R - 2] dx), so

@@ -51,7 +51,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, P2G_TILED_MIN_BLOCKS)
             const ParticleImpulse q = particle_impulse(params, rho, vp, c[p], c[n + p], c[2 * (size_t)n + p]);
             u32 first;
             bool far = false;
-            const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            const bool in_tile = tile_place(params, t, s, first, far, tile_marks, marks, blocks, misses);
             const bool taken = in_tile && tile_takes(s, tile_reach(q, scales.momentum), q.mass * scales.mass);
             tile_scatter<3>(
                 s, params, first, taken, tile, tile_scale,

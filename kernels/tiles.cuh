@@ -27,8 +27,10 @@
 //   faster than the tile's 32-bit sums are checked for (tile_takes, below) goes the same way,
 //   uncounted. Nothing is dropped.
 // - Every node block that a scatter covers is marked and listed once per substep (`mark_node_block`),
-//   so grid_update_blocks visits only those: empty space costs nothing.
+//   so the grid update visits only those: empty space costs nothing. The blocks that a wall's mirror
+//   reaches are listed apart from the others (`list_node_block`), for a kernel of their own.
 #include "common.cuh"
+#include "mirror.cuh"
 
 #define TILE_HALO 2
 #define TILE_EDGE 10  // NODE_BLOCK_EDGE + 2 (the stencil's reach) + 2 TILE_HALO
@@ -79,28 +81,49 @@ __device__ __forceinline__ u32 node_block_index(const NodeBlocks& blocks, u32 bx
     return bx + blocks.count[0] * (by + blocks.count[1] * bz);
 }
 
-// The work lists that the scatters fill and grid_update_blocks walks.
+__device__ __forceinline__ u32 node_block_total(const NodeBlocks& blocks) {
+    return blocks.count[0] * blocks.count[1] * blocks.count[2];
+}
+
+// The work lists that the scatters fill and the grid update walks.
 struct BlockMarks {
-    u32* marks;        // one per node block: 1 once listed this substep (grid_update_blocks clears it)
-    u32* list;         // the listed node blocks
-    u32* work_counts;  // [WORK_NODE_BLOCKS]: the list's length
+    u32* marks;        // one per node block: 1 once listed this substep (the grid update clears it)
+    u32* list;         // a slot per node block of the grid, in two parts (list_node_block)
+    u32* work_counts;  // [WORK_NODE_BLOCKS], [WORK_WALL_NODE_BLOCKS]: the two parts' lengths
 };
 
-// Lists node block b once per substep. The plain read first skips the atomic for blocks already
-// listed, which are most of them.
-__device__ __forceinline__ void mark_node_block(const BlockMarks& m, u32 b) {
-    if (m.marks[b] == 0u && atomicExch(&m.marks[b], 1u) == 0u) {
+// Appends node block b, marked just now, to its part of the list. The list has a slot for every node
+// block of the grid and is filled from both ends: the blocks that some wall's mirror reaches
+// (`on_a_wall`, node_block_on_a_wall) from the back, every other block from the front. The grid
+// update walks the two parts in two kernels (kernels/grid_update.cu), the front in one compiled
+// without the mirror, whose registers would otherwise slow every block (issue 47), the back in one
+// with it. A block is listed at most once a substep, so the parts never meet.
+__device__ __forceinline__ void list_node_block(const NodeBlocks& blocks, const BlockMarks& m, u32 b, bool on_a_wall) {
+    if (on_a_wall) {
+        m.list[node_block_total(blocks) - 1u - atomicAdd(&m.work_counts[WORK_WALL_NODE_BLOCKS], 1u)] = b;
+    } else {
         m.list[atomicAdd(&m.work_counts[WORK_NODE_BLOCKS], 1u)] = b;
+    }
+}
+
+// Lists node block (bx, by, bz) once per substep. The plain read first skips the atomic for blocks
+// already listed, which are most of them; only the block that lists it asks which part it goes in.
+__device__ __forceinline__ void mark_node_block(const KernelParams& params, const BlockMarks& m,
+                                                const NodeBlocks& blocks, u32 bx, u32 by, u32 bz) {
+    const u32 b = node_block_index(blocks, bx, by, bz);
+    if (m.marks[b] == 0u && atomicExch(&m.marks[b], 1u) == 0u) {
+        list_node_block(blocks, m, b, node_block_on_a_wall(params, bx, by, bz));
     }
 }
 
 // Marks the node blocks that a stencil's 27 nodes fall in (at most 2 per axis), from global memory:
 // for particles scattered outside their tile.
-__device__ __forceinline__ void mark_stencil_blocks(const BlockMarks& m, const NodeBlocks& blocks, const Stencil& s) {
+__device__ __forceinline__ void mark_stencil_blocks(const KernelParams& params, const BlockMarks& m,
+                                                    const NodeBlocks& blocks, const Stencil& s) {
     for (u32 bz = s.base[2] / NODE_BLOCK_EDGE; bz <= (s.base[2] + 2) / NODE_BLOCK_EDGE; ++bz)
         for (u32 by = s.base[1] / NODE_BLOCK_EDGE; by <= (s.base[1] + 2) / NODE_BLOCK_EDGE; ++by)
             for (u32 bx = s.base[0] / NODE_BLOCK_EDGE; bx <= (s.base[0] + 2) / NODE_BLOCK_EDGE; ++bx)
-                mark_node_block(m, node_block_index(blocks, bx, by, bz));
+                mark_node_block(params, m, blocks, bx, by, bz);
 }
 
 // A bin's tile: shared accumulators for CHANNELS values per node, floats or fixed-point integers,
@@ -158,34 +181,36 @@ __device__ __forceinline__ u32 tile_stencil_block_bits(u32 first) {
 
 // A particle whose stencil does not fit its bin's tile: scattered to the grid instead, its node blocks
 // marked there, the miss counted.
-__device__ __forceinline__ void tile_miss(const Stencil& s, const BlockMarks& marks, const NodeBlocks& blocks,
-                                          u32& misses) {
+__device__ __forceinline__ void tile_miss(const KernelParams& params, const Stencil& s, const BlockMarks& marks,
+                                          const NodeBlocks& blocks, u32& misses) {
     ++misses;
-    mark_stencil_blocks(marks, blocks, s);
+    mark_stencil_blocks(params, marks, blocks, s);
 }
 
 // Where a particle's contributions go: true where its stencil fits its bin's tile (`first` is the
 // tile node of its base, its node blocks marked in the tile's marks); false where it is scattered to
 // the grid instead (tile_miss). `far` as in tile_stencil.
-__device__ __forceinline__ bool tile_place(const Tile& t, const Stencil& s, u32& first, bool& far, u32* tile_marks,
-                                           const BlockMarks& marks, const NodeBlocks& blocks, u32& misses) {
+__device__ __forceinline__ bool tile_place(const KernelParams& params, const Tile& t, const Stencil& s, u32& first,
+                                           bool& far, u32* tile_marks, const BlockMarks& marks,
+                                           const NodeBlocks& blocks, u32& misses) {
     if (tile_stencil(t, s, first, far)) {
         tile_mark_stencil(tile_marks, first);
         return true;
     }
-    tile_miss(s, marks, blocks, misses);
+    tile_miss(params, s, marks, blocks, misses);
     return false;
 }
 
 // tile_place for a pass that merges a warp's marks in registers: the stencil's node blocks go into the
 // lane's `covered` bits (tile_stencil_block_bits) instead of the tile's marks.
-__device__ __forceinline__ bool tile_place_bits(const Tile& t, const Stencil& s, u32& first, bool& far, u32& covered,
-                                                const BlockMarks& marks, const NodeBlocks& blocks, u32& misses) {
+__device__ __forceinline__ bool tile_place_bits(const KernelParams& params, const Tile& t, const Stencil& s, u32& first,
+                                                bool& far, u32& covered, const BlockMarks& marks,
+                                                const NodeBlocks& blocks, u32& misses) {
     if (tile_stencil(t, s, first, far)) {
         covered |= tile_stencil_block_bits(first);
         return true;
     }
-    tile_miss(s, marks, blocks, misses);
+    tile_miss(params, s, marks, blocks, misses);
     return false;
 }
 
@@ -397,18 +422,21 @@ __device__ __forceinline__ u32 tile_scatter(const Stencil& s, const KernelParams
     return added;
 }
 
-// The grid's node block of the tile's node block k (0..26, as the tile's marks).
-__device__ __forceinline__ u32 tile_node_block(const Tile& t, const NodeBlocks& blocks, u32 k) {
-    return node_block_index(blocks, t.bin[0] + k % TILE_SPAN - 1, t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
-                            t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1);
+// Lists the grid's node block of the tile's node block k (0..26, as the tile's marks), once per
+// substep.
+__device__ __forceinline__ void mark_tile_node_block(const KernelParams& params, const Tile& t, const NodeBlocks& blocks,
+                                                     const BlockMarks& marks, u32 k) {
+    mark_node_block(params, marks, blocks, t.bin[0] + k % TILE_SPAN - 1, t.bin[1] + (k / TILE_SPAN) % TILE_SPAN - 1,
+                    t.bin[2] + k / (TILE_SPAN * TILE_SPAN) - 1);
 }
 
 // Lists, once per substep, the node blocks marked in the tile's marks (global atomics), clearing the
 // marks for the next chunk. Every thread of the block calls it after a barrier; it ends with one.
-__device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const NodeBlocks& blocks, const BlockMarks& marks,
+__device__ __forceinline__ void tile_list_marked_blocks(const KernelParams& params, const Tile& t,
+                                                        const NodeBlocks& blocks, const BlockMarks& marks,
                                                         u32* tile_marks) {
     for (u32 k = threadIdx.x; k < TILE_SPAN_BLOCKS; k += blockDim.x) {
-        if (tile_marks[k]) mark_node_block(marks, tile_node_block(t, blocks, k));
+        if (tile_marks[k]) mark_tile_node_block(params, t, blocks, marks, k);
         tile_marks[k] = 0u;
     }
     __syncthreads();
@@ -417,15 +445,16 @@ __device__ __forceinline__ void tile_list_marked_blocks(const Tile& t, const Nod
 // Lists, once per substep, the node blocks that any lane of the warp covered (`covered`: each lane's
 // tile_stencil_block_bits merged), a lane per block, with no barrier: the warp goes on to its next
 // chunk while the others of its CUDA block are still in this one. Every lane of the warp calls it.
-__device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const NodeBlocks& blocks,
-                                                        const BlockMarks& marks, u32 covered) {
+__device__ __forceinline__ void warp_list_marked_blocks(const KernelParams& params, const Tile& t,
+                                                        const NodeBlocks& blocks, const BlockMarks& marks,
+                                                        u32 covered) {
 #if __CUDA_ARCH__ >= 800
     covered = __reduce_or_sync(0xffffffffu, covered);
 #else
     for (u32 offset = 16; offset > 0; offset >>= 1) covered |= __shfl_xor_sync(0xffffffffu, covered, offset);
 #endif
     const u32 k = threadIdx.x & 31u;
-    if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) mark_node_block(marks, tile_node_block(t, blocks, k));
+    if (k < TILE_SPAN_BLOCKS && (covered >> k & 1u)) mark_tile_node_block(params, t, blocks, marks, k);
 }
 
 // Calls body(k, node, sums) for each tile node k inside the grid, `node` its grid index and `sums` its
@@ -450,5 +479,5 @@ __device__ __forceinline__ void warp_list_marked_blocks(const Tile& t, const Nod
             const u32 node = (u32)_g[0] + (params).grid_res[0] * ((u32)_g[1] + (params).grid_res[1] * (u32)_g[2]); \
             __VA_ARGS__                                                                                          \
         }                                                                                                        \
-        tile_list_marked_blocks((t), (blocks), (block_marks), tile_marks);                                       \
+        tile_list_marked_blocks((params), (t), (blocks), (block_marks), tile_marks);                             \
     }

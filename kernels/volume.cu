@@ -67,7 +67,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS)
             if (is_parked(xp)) continue;
             const Stencil s = make_stencil(xp, params);
             u32 first;
-            const bool in_tile = tile_place(t, s, first, far, tile_marks, marks, blocks, misses);
+            const bool in_tile = tile_place(params, t, s, first, far, tile_marks, marks, blocks, misses);
             tile_scatter<1>(
                 s, params, first, in_tile && fits, tile, tile_scale,
                 [&](float w, float, float, float, float (&weight)[1]) { weight[0] = w; },

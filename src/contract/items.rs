@@ -483,10 +483,15 @@ device_constants! {
     /// Slots of the work-count buffer: list lengths the passes read on the device, so no launch waits
     /// for the host to learn them.
     WORK_BINS: i32 = 0;
+    /// The node-block list's two parts (kernels/tiles.cuh, `list_node_block`): the blocks no wall's
+    /// mirror reaches, listed from the front, and those some wall's reach meets, from the back.
     WORK_NODE_BLOCKS: i32 = 1;
     /// CUDA blocks of grid_update_blocks done with their part of the node block list: the last one
-    /// empties the list and sets this back to 0.
+    /// empties the part and sets this back to 0.
     WORK_NODE_BLOCKS_DONE: i32 = 2;
+    WORK_WALL_NODE_BLOCKS: i32 = 3;
+    /// The same for grid_update_wall_blocks and the wall blocks' part.
+    WORK_WALL_NODE_BLOCKS_DONE: i32 = 4;
 
     /// Fixed-point units per metre of the thickness splats' sums (kernels/thickness.cu): 2^22, a
     /// splat's few centimetres are 10^5 units (rounding at 10^-5 of each), and a 32-bit sum holds

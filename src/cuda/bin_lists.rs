@@ -10,19 +10,28 @@ use cudarc::driver::{CudaSlice, LaunchConfig};
 
 use crate::contract::{
     BinEntry, PARKED_KEYS, SCAN_ITEMS_PER_THREAD, TILE_NODES, TILE_THREADS, WORK_BINS, WORK_NODE_BLOCKS,
-    WORK_NODE_BLOCKS_DONE,
+    WORK_NODE_BLOCKS_DONE, WORK_WALL_NODE_BLOCKS, WORK_WALL_NODE_BLOCKS_DONE,
 };
 pub use crate::contract::{NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
-/// Slots of the work-count buffer, `WORK_BINS`, `WORK_NODE_BLOCKS` and `WORK_NODE_BLOCKS_DONE`.
-pub const WORK_COUNTS: usize = 3;
+/// Slots of the work-count buffer: `WORK_BINS`, then the node-block list's, `WORK_NODE_BLOCKS`,
+/// `WORK_NODE_BLOCKS_DONE`, `WORK_WALL_NODE_BLOCKS` and `WORK_WALL_NODE_BLOCKS_DONE`.
+pub const WORK_COUNTS: usize = 5;
 /// The work-count slots as indices.
 pub const BIN_COUNT_SLOT: usize = WORK_BINS as usize;
-pub const NODE_BLOCK_COUNT_SLOT: usize = WORK_NODE_BLOCKS as usize;
-const _: () = assert!(
-    BIN_COUNT_SLOT < WORK_COUNTS
-        && NODE_BLOCK_COUNT_SLOT < WORK_COUNTS
-        && (WORK_NODE_BLOCKS_DONE as usize) < WORK_COUNTS
-);
+/// Every slot of the node-block list (its two parts' lengths and their walks' counts), which
+/// emptying the list zeroes.
+pub const NODE_BLOCK_SLOTS: std::ops::Range<usize> = WORK_NODE_BLOCKS as usize..WORK_COUNTS;
+const _: () = {
+    const fn node_block_slot(slot: i32) -> bool {
+        NODE_BLOCK_SLOTS.start <= slot as usize && (slot as usize) < NODE_BLOCK_SLOTS.end
+    }
+    assert!(
+        BIN_COUNT_SLOT < NODE_BLOCK_SLOTS.start
+            && node_block_slot(WORK_NODE_BLOCKS_DONE)
+            && node_block_slot(WORK_WALL_NODE_BLOCKS)
+            && node_block_slot(WORK_WALL_NODE_BLOCKS_DONE)
+    );
+};
 /// The smallest chunk a bin is listed in: one particle per thread of a tiled pass (TILE_THREADS).
 pub const MIN_BIN_CHUNK: usize = 128;
 /// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.

@@ -2,7 +2,7 @@
 //! the node velocities the grid update writes for the gather, and the binned pipeline's list of the
 //! node blocks a substep touched.
 
-use super::bin_lists::{NODE_BLOCK_COUNT_SLOT, WORK_COUNTS};
+use super::bin_lists::{NODE_BLOCK_SLOTS, WORK_COUNTS};
 use super::gpu::Gpu;
 use crate::sim::{Params, ScatterMode};
 use anyhow::{Context, Result};
@@ -26,7 +26,9 @@ struct FixedGrid {
 }
 
 /// The binned pipeline's list of touched node blocks (kernels/tiles.cuh): a mark per block and the
-/// list the scatters append to; its length is `work_counts[WORK_NODE_BLOCKS]`.
+/// list the scatters append to, a slot per node block of the grid, in two parts: the blocks no
+/// wall's mirror reaches from the front (`work_counts[WORK_NODE_BLOCKS]` of them), those some
+/// wall's reach meets from the back (`work_counts[WORK_WALL_NODE_BLOCKS]`).
 pub struct NodeBlockList {
     pub marks: CudaSlice<u32>,
     pub list: CudaSlice<u32>,
@@ -45,7 +47,8 @@ pub struct DeviceGrid {
     /// Passed for the fixed-point pointers when the float scatter runs (never dereferenced).
     unused_fixed: CudaSlice<u64>,
     pub node_blocks: NodeBlockList,
-    /// Device-side list lengths (WORK_BINS, WORK_NODE_BLOCKS in kernels/tiles.cuh).
+    /// Device-side list lengths (WORK_BINS, WORK_NODE_BLOCKS, WORK_WALL_NODE_BLOCKS in
+    /// kernels/tiles.cuh).
     pub work_counts: CudaSlice<u32>,
 }
 
@@ -173,14 +176,11 @@ impl DeviceGrid {
         self.clear_node_block_list(stream)
     }
 
-    /// Empties the list of touched node blocks (the grid update empties it after each walk).
+    /// Empties the list of touched node blocks, both parts (the grid update empties them after each
+    /// walk).
     fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
         stream
-            .memset_zeros(
-                &mut self
-                    .work_counts
-                    .slice_mut(NODE_BLOCK_COUNT_SLOT..NODE_BLOCK_COUNT_SLOT + 1),
-            )
+            .memset_zeros(&mut self.work_counts.slice_mut(NODE_BLOCK_SLOTS))
             .context("clearing the node block list")
     }
 

@@ -1,8 +1,9 @@
 //! kernels/grid_update.cu: momentum to velocity, gravity, the boundary band and the colliders; each
 //! accumulator read is zeroed (consume-and-zero, so no grid-clear launch). The report pipeline walks
-//! the whole grid; the binned one the node blocks this substep's scatters listed. The fused pipeline's
-//! update also adds the walls' mirror image (kernels/mirror.cuh), which the others add with
-//! mirror_walls before it.
+//! the whole grid; the binned one the node blocks this substep's scatters listed, in two launches:
+//! the blocks no wall's mirror reaches, then those a wall's reach meets, which the scatters list
+//! apart. The fused pipeline's update also adds the walls' mirror image (kernels/mirror.cuh), which
+//! the others add with mirror_walls before it.
 
 use super::bin_lists::NODE_BLOCK_NODES;
 use super::grid::DeviceGrid;
@@ -16,29 +17,55 @@ use cudarc::driver::PushKernelArg;
 
 pub struct GridUpdate {
     whole_grid: Kernel,
-    listed_blocks: Kernel,
-    /// grid_update_blocks with the rigid bodies' exchange (kernels/grid_update.cu).
-    listed_blocks_with_bodies: Kernel,
-    /// grid_update_blocks with the walls' image push, which Coulomb colliders under the mirror read.
-    listed_blocks_with_friction: Kernel,
+    /// The kernels over the node-block list, a pair for each kind of scene: water and static
+    /// colliders; rigid bodies, whose boundaries add up what they took from the nodes; Coulomb
+    /// colliders under the walls' mirror, which read the images' push.
+    listed: ListKernels,
+    listed_with_bodies: ListKernels,
+    listed_with_friction: ListKernels,
     clear_crossing_orbits: Kernel,
+}
+
+/// The two kernels over the node-block list's two parts (kernels/tiles.cuh, `list_node_block`):
+/// the interior's, which has no mirror code and so few registers, and the wall blocks'.
+struct ListKernels {
+    interior: Kernel,
+    walls: Kernel,
+}
+
+impl ListKernels {
+    fn load(modules: &LoadedModules, interior: &'static str, walls: &'static str) -> Result<ListKernels> {
+        Ok(ListKernels {
+            interior: Kernel::load(modules, "grid_update", interior)?,
+            walls: Kernel::load(modules, "grid_update", walls)?,
+        })
+    }
 }
 
 impl GridUpdate {
     pub fn load(modules: &LoadedModules) -> Result<GridUpdate> {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
-            listed_blocks: Kernel::load(modules, "grid_update", "grid_update_blocks")?,
-            listed_blocks_with_bodies: Kernel::load(modules, "grid_update", "grid_update_blocks_bodies")?,
-            listed_blocks_with_friction: Kernel::load(modules, "grid_update", "grid_update_blocks_friction")?,
+            listed: ListKernels::load(modules, "grid_update_blocks", "grid_update_wall_blocks")?,
+            listed_with_bodies: ListKernels::load(
+                modules,
+                "grid_update_blocks_bodies",
+                "grid_update_wall_blocks_bodies",
+            )?,
+            // Away from the walls there is no push: the interior's kernel is water's.
+            listed_with_friction: ListKernels::load(
+                modules,
+                "grid_update_blocks",
+                "grid_update_wall_blocks_friction",
+            )?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
     }
 
-    /// The binned and fused pipelines' launch leaves every listed block unmarked and the list empty;
-    /// where it mirrored, the caller then clears the orbits it left (`clear_crossing_orbits`).
-    /// `mirror`: add the walls' images in this launch (the fused pipeline) instead of mirror_walls
-    /// before it.
+    /// The binned and fused pipelines' launches leave every listed block unmarked and both parts of
+    /// the list empty; where they mirrored, the caller then clears the orbits they left
+    /// (`clear_crossing_orbits`). `mirror`: add the walls' images in the wall blocks' launch (the
+    /// fused pipeline) instead of mirror_walls before it.
     pub fn launch(
         &self,
         l: &Launcher,
@@ -68,34 +95,47 @@ impl GridUpdate {
                 })
             },
             Pipeline::Fused | Pipeline::Binned => {
-                let config = l.over_list(d.bins.num_bins(), NODE_BLOCK_NODES, 0);
                 // The images join the sums here only where this launch mirrors. The bodies' kernel
                 // has the image push too.
                 let friction_under_mirror = mirror && params.wall_mirror_lo != 0 && d.colliders.friction;
-                let kernel = match (&d.colliders.bodies, friction_under_mirror) {
-                    (Some(_), _) => &self.listed_blocks_with_bodies,
-                    (None, true) => &self.listed_blocks_with_friction,
-                    (None, false) => &self.listed_blocks,
+                let kernels = match (&d.colliders.bodies, friction_under_mirror) {
+                    (Some(_), _) => &self.listed_with_bodies,
+                    (None, true) => &self.listed_with_friction,
+                    (None, false) => &self.listed,
                 };
+                // Each launch covers the most blocks its part of the list can hold, known from the
+                // walls alone: the lengths stay on the device, and CUDA blocks past them idle.
+                let slots = d.bins.num_bins();
+                ensure!(
+                    g.node_blocks.list.len() == slots,
+                    "the node-block list holds {} slots for the grid's {slots} node blocks",
+                    g.node_blocks.list.len()
+                );
+                let at_walls = mirror_walls::node_blocks_on_walls(params);
+                // No wall part where the mirror is off (kernels/mirror.cuh, node_block_on_a_wall).
+                let walls = (params.wall_mirror_lo != 0).then_some((&kernels.walls, at_walls));
                 let mirror = u32::from(mirror);
-                // SAFETY: the arguments match grid_update_blocks, grid_update_blocks_bodies and
-                // grid_update_blocks_friction (the bodies' sums last: null without bodies); one thread
-                // per node of a block.
-                unsafe {
-                    kernel.launch(l, config, |a| {
-                        a.arg(&params.kernel)
-                            .arg(&mirror)
-                            .arg(&g.node_blocks.list)
-                            .arg(&g.work_counts)
-                            .arg(&g.node_blocks.marks)
-                            .arg(&g.acc)
-                            .arg(&g.vel)
-                            .arg(g.fixed_mass())
-                            .arg(g.fixed_momentum())
-                            .arg(&d.counters.device)
-                            .colliders(&d.colliders);
-                    })
+                for (kernel, capacity) in [(&kernels.interior, slots - at_walls)].into_iter().chain(walls) {
+                    // SAFETY: the arguments match every kernel over the list in grid_update.cu (the
+                    // bodies' sums last: null without bodies); one thread per node of a block; the
+                    // list has a slot per node block, as the kernels take it to.
+                    unsafe {
+                        kernel.launch(l, l.over_list(capacity, NODE_BLOCK_NODES, 0), |a| {
+                            a.arg(&params.kernel)
+                                .arg(&mirror)
+                                .arg(&g.node_blocks.list)
+                                .arg(&g.work_counts)
+                                .arg(&g.node_blocks.marks)
+                                .arg(&g.acc)
+                                .arg(&g.vel)
+                                .arg(g.fixed_mass())
+                                .arg(g.fixed_momentum())
+                                .arg(&d.counters.device)
+                                .colliders(&d.colliders);
+                        })?;
+                    }
                 }
+                Ok(())
             }
         }
     }

@@ -106,6 +106,17 @@ impl WallReach {
             .collect()
     }
 
+    /// Whether the `b`th node block along this wall's axis lies between the grid's edge on this
+    /// wall's side and the farthest block its reach meets (`node_block_on_a_wall` in
+    /// kernels/mirror.cuh): with the reaches apart (`check_reach`), the blocks it meets.
+    fn takes_node_block(&self, b: u32) -> bool {
+        if self.high {
+            b >= (self.plane - self.reach) / NODE_BLOCK_EDGE
+        } else {
+            b <= (self.plane + self.reach) / NODE_BLOCK_EDGE
+        }
+    }
+
     /// This wall's bit in clear_crossing_orbits' `walls`: 2 axis, plus 1 for the high wall.
     pub fn bit(&self) -> u32 {
         2 * self.axis as u32 + u32::from(self.high)
@@ -117,6 +128,27 @@ impl WallReach {
             params.grid_res[(self.axis + 1) % 3] as usize * params.grid_res[(self.axis + 2) % 3] as usize;
         (2 * self.reach as usize + 1) * across
     }
+}
+
+/// The node blocks that the scatters list with the walls (`node_block_on_a_wall` in
+/// kernels/mirror.cuh): the most that the node-block list's wall part can hold; none where the
+/// mirror is off.
+pub fn node_blocks_on_walls(params: &Params) -> usize {
+    if params.wall_mirror_lo == 0 {
+        return 0;
+    }
+    let (mut all, mut away) = (1usize, 1usize);
+    for axis in 0..3 {
+        let walls = WallReach::of_axis(params, axis);
+        let blocks = params.grid_res[axis].div_ceil(NODE_BLOCK_EDGE);
+        let taken = (0..blocks)
+            .filter(|&b| walls.iter().any(|w| w.takes_node_block(b)))
+            .count();
+        all *= blocks as usize;
+        away *= blocks as usize - taken;
+    }
+    // A block is the walls' where some axis's walls take it.
+    all - away
 }
 
 /// Checks that the two walls' reaches of every axis are apart (the kernels tell them apart); nothing
@@ -170,6 +202,41 @@ mod tests {
         assert_eq!(bits, vec![3, 5]);
         assert!(WallReach::crossing_blocks(&preset_params("bench-655k", true)).is_empty());
         assert!(WallReach::crossing_blocks(&preset_params("dam-break", false)).is_empty());
+    }
+
+    #[test]
+    fn the_walls_blocks_are_those_a_reach_meets() {
+        // Block by block: a block is the walls' where one of its nodes lies within a wall's reach
+        // (`mirror_zone` in kernels/mirror.cuh) along some axis.
+        for name in ["dam-break", "bench-65k", "bench-655k", "dam-break-1m"] {
+            let params = preset_params(name, true);
+            check_reach(&params).unwrap();
+            let blocks = params.grid_res.map(|r| r.div_ceil(NODE_BLOCK_EDGE));
+            let walls = [0, 1, 2].map(|a| WallReach::of_axis(&params, a));
+            let within_reach = |a: usize, c: u32| {
+                walls[a]
+                    .iter()
+                    .any(|w| c + w.reach >= w.plane && c <= w.plane + w.reach)
+            };
+            let meets = |a: usize, b: u32| {
+                (NODE_BLOCK_EDGE * b..NODE_BLOCK_EDGE * (b + 1)).any(|c| within_reach(a, c))
+            };
+            let mut met = 0;
+            for bz in 0..blocks[2] {
+                for by in 0..blocks[1] {
+                    for bx in 0..blocks[0] {
+                        met += usize::from(meets(0, bx) || meets(1, by) || meets(2, bz));
+                    }
+                }
+            }
+            assert_eq!(node_blocks_on_walls(&params), met, "{name}");
+            assert!(met > 0, "{name}");
+            assert_eq!(node_blocks_on_walls(&preset_params(name, false)), 0, "{name}");
+        }
+        // The dam break's 100 x 50 x 50 nodes, walls at node 1 and at 98 (x) or 48 (y, z), each
+        // reaching a node: blocks 0 and 24 of 25 along x; 0, 11 and 12 of 13 along y and z.
+        let dam = preset_params("dam-break", true);
+        assert_eq!(node_blocks_on_walls(&dam), 25 * 13 * 13 - 23 * 10 * 10);
     }
 
     #[test]
