@@ -17,10 +17,11 @@ use cudarc::driver::PushKernelArg;
 
 pub struct GridUpdate {
     whole_grid: Kernel,
-    /// The kernels over the node-block list, a pair for each kind of scene: water and static
-    /// colliders; rigid bodies, whose boundaries add up what they took from the nodes; Coulomb
-    /// colliders under the walls' mirror, which read the images' push.
-    listed: ListKernels,
+    /// The kernels over the node-block list, a pair for each kind of scene: water alone, with no
+    /// collider code; static colliders; rigid bodies, whose boundaries add up what they took from
+    /// the nodes; Coulomb colliders under the walls' mirror, which read the images' push.
+    listed_water: ListKernels,
+    listed_with_colliders: ListKernels,
     listed_with_bodies: ListKernels,
     listed_with_friction: ListKernels,
     clear_crossing_orbits: Kernel,
@@ -46,16 +47,21 @@ impl GridUpdate {
     pub fn load(modules: &LoadedModules) -> Result<GridUpdate> {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
-            listed: ListKernels::load(modules, "grid_update_blocks", "grid_update_wall_blocks")?,
+            listed_water: ListKernels::load(modules, "grid_update_blocks", "grid_update_wall_blocks")?,
+            listed_with_colliders: ListKernels::load(
+                modules,
+                "grid_update_blocks_colliders",
+                "grid_update_wall_blocks_colliders",
+            )?,
             listed_with_bodies: ListKernels::load(
                 modules,
                 "grid_update_blocks_bodies",
                 "grid_update_wall_blocks_bodies",
             )?,
-            // Away from the walls there is no push: the interior's kernel is water's.
+            // Away from the walls there is no push: the interior's kernel is the static colliders'.
             listed_with_friction: ListKernels::load(
                 modules,
-                "grid_update_blocks",
+                "grid_update_blocks_colliders",
                 "grid_update_wall_blocks_friction",
             )?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
@@ -98,10 +104,12 @@ impl GridUpdate {
                 // The images join the sums here only where this launch mirrors. The bodies' kernel
                 // has the image push too.
                 let friction_under_mirror = mirror && params.wall_mirror_lo != 0 && d.colliders.friction;
-                let kernels = match (&d.colliders.bodies, friction_under_mirror) {
-                    (Some(_), _) => &self.listed_with_bodies,
-                    (None, true) => &self.listed_with_friction,
-                    (None, false) => &self.listed,
+                // The collider count is a kernel argument, part of a captured substep's key.
+                let kernels = match (&d.colliders.bodies, friction_under_mirror, d.colliders.count) {
+                    (Some(_), _, _) => &self.listed_with_bodies,
+                    (None, true, _) => &self.listed_with_friction,
+                    (None, false, 0) => &self.listed_water,
+                    (None, false, _) => &self.listed_with_colliders,
                 };
                 // Each launch covers the most blocks its part of the list can hold, known from the
                 // walls alone: the lengths stay on the device, and CUDA blocks past them idle.

@@ -123,12 +123,14 @@ impl Launch {
             Launch::MirrorMomentum => "mirror_walls (momentum)".into(),
             Launch::GridUpdate => "grid_update (every node)".into(),
             Launch::GridUpdateBlocks => {
-                "grid_update_blocks + grid_update_wall_blocks (the walls' mirror on) + clear_crossing_orbits".into()
+                "grid_update_blocks + grid_update_wall_blocks (the walls' mirror on; with colliders both \
+                 _colliders) + clear_crossing_orbits"
+                    .into()
             }
             Launch::GridUpdateBlocksMirrored => {
                 "grid_update_blocks (away from the walls) + grid_update_wall_blocks (the walls' images inside; \
-                 with rigid bodies both _bodies, then step_bodies; with Coulomb colliders at the walls \
-                 grid_update_wall_blocks_friction) + clear_crossing_orbits"
+                 with colliders both _colliders, rigid bodies both _bodies, then step_bodies; Coulomb colliders \
+                 at the walls grid_update_wall_blocks_friction) + clear_crossing_orbits"
                     .into()
             }
             Launch::G2p => "g2p".into(),
