@@ -229,13 +229,65 @@ __device__ __forceinline__ void update_interior_blocks(const KernelParams& param
     empty_list_part(listed, 1, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
 }
 
-// The interior part, the scatter's mode chosen once for the whole walk.
+// The same, two entries a CUDA block at a time: both entries, then both nodes' sums, loaded before
+// either is used, so that a warp waits on two chains of loads at once. Per node the same again.
+template <typename V>
+__device__ __forceinline__ void update_interior_block_pairs(const KernelParams& params,
+                                                            const u32* __restrict__ block_list,
+                                                            u32* __restrict__ work_counts,
+                                                            u32* __restrict__ block_marks,
+                                                            float4* __restrict__ grid_acc,
+                                                            float4* __restrict__ grid_vel,
+                                                            u64* __restrict__ fixed_mass,
+                                                            u64* __restrict__ fixed_momentum,
+                                                            StepCounters* __restrict__ counters,
+                                                            const Colliders& colliders) {
+    const u32 listed = work_counts[WORK_NODE_BLOCKS];
+    const NodeBlocks blocks = node_blocks(params);
+    for (u32 first = 2 * blockIdx.x; first < listed; first += 2 * gridDim.x) {
+        // A second entry past the length reads the first again, and nothing is done with it.
+        const bool second = first + 1 < listed;
+        const u32 b[2] = {block_list[first], block_list[second ? first + 1 : first]};
+        u32 i[2];
+        bool live[2];
+        V v[2][4];
+#pragma unroll
+        for (int j = 0; j < 2; ++j) {
+            const BlockNode n = block_node(params, blocks, b[j]);
+            i[j] = n.i;
+            live[j] = n.inside && (j == 0 || second);
+            if (live[j]) load_node_sums(i[j], grid_acc, fixed_mass, fixed_momentum, v[j]);
+        }
+#pragma unroll
+        for (int j = 0; j < 2; ++j) {
+            if (live[j]) {
+                zero_node_sums(params, i[j], grid_acc, fixed_mass, fixed_momentum);
+                update_node_velocity(params, i[j], node_sums(params, v[j], counters), grid_vel, colliders);
+            }
+        }
+        if (threadIdx.x == 0) {
+            block_marks[b[0]] = 0;
+            if (second) block_marks[b[1]] = 0;
+        }
+    }
+    empty_list_part(listed, 2, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
+}
+
+// The interior part, the scatter's mode chosen once for the whole walk; PAIRS: two entries a step.
+template <bool PAIRS>
 __device__ __forceinline__ void update_interior(const KernelParams& params, const u32* __restrict__ block_list,
                                                 u32* __restrict__ work_counts, u32* __restrict__ block_marks,
                                                 float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
                                                 u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
                                                 StepCounters* __restrict__ counters, const Colliders& colliders) {
-    if (params.scatter_mode == SCATTER_FIXED_POINT) {
+    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
+    if (PAIRS && fixed) {
+        update_interior_block_pairs<i64>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                         fixed_momentum, counters, colliders);
+    } else if (PAIRS) {
+        update_interior_block_pairs<float>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
+                                           fixed_mass, fixed_momentum, counters, colliders);
+    } else if (fixed) {
         update_interior_blocks<i64>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
                                     fixed_momentum, counters, colliders);
     } else {
@@ -291,7 +343,9 @@ __device__ __forceinline__ void update_wall_blocks(const KernelParams& params, c
 // same arguments (`mirror` unread by the interior's), a pair for each kind of scene:
 // - water alone: grid_update_blocks and grid_update_wall_blocks, with no collider code (the count a
 //   constant 0). The colliders' boundary condition, compiled in and never run, took the interior
-//   kernel from 36 registers to 56, the wall kernel from 72 to 88.
+//   kernel from 36 registers to 56 (one entry a step), the wall kernel from 72 to 88. With those
+//   registers back, the interior kernel takes two entries a step (update_interior_block_pairs, 56
+//   registers); the other interior kernels take one, as two took them from 56 and 64 to 80.
 // - static colliders: grid_update_blocks_colliders and grid_update_wall_blocks_colliders.
 // - rigid bodies, whose boundaries also add up what they took from the nodes:
 //   grid_update_blocks_bodies and grid_update_wall_blocks_bodies.
@@ -308,8 +362,8 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
                                               const ColliderState* __restrict__ /*collider_states: none*/,
                                               const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
                                               u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                    counters, Colliders{nullptr, 0u, nullptr, nullptr});
+    update_interior<true>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+                          counters, Colliders{nullptr, 0u, nullptr, nullptr});
 }
 
 extern "C" __global__ void grid_update_blocks_colliders(
@@ -318,8 +372,8 @@ extern "C" __global__ void grid_update_blocks_colliders(
     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                    counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+    update_interior<false>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+                           counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 extern "C" __global__ void grid_update_blocks_bodies(
@@ -328,8 +382,8 @@ extern "C" __global__ void grid_update_blocks_bodies(
     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
-    update_interior(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                    counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+    update_interior<false>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+                           counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 extern "C" __global__ void grid_update_wall_blocks(const KernelParams params, const u32 mirror,
