@@ -5,7 +5,7 @@
 //! apart. The fused pipeline's update also adds the walls' mirror image (kernels/mirror.cuh), which
 //! the others add with mirror_walls before it.
 
-use super::bin_lists::NODE_BLOCK_NODES;
+use super::bin_lists::{bins_per_axis, NODE_BLOCK_EDGE, NODE_BLOCK_NODES};
 use super::grid::DeviceGrid;
 use super::launch::{Kernel, Launcher};
 use super::mirror_walls::{self, WallReach};
@@ -112,8 +112,12 @@ impl GridUpdate {
                     (None, false, _) => &self.listed_with_colliders,
                 };
                 // Each launch covers the most blocks its part of the list can hold, known from the
-                // walls alone: the lengths stay on the device, and CUDA blocks past them idle.
-                let slots = d.bins.num_bins();
+                // walls alone: the lengths stay on the device, and CUDA blocks past them idle. The
+                // kernels take the list to hold a slot per node block of `params`' grid.
+                let slots: usize = bins_per_axis(params.grid_res, NODE_BLOCK_EDGE)
+                    .iter()
+                    .map(|&b| b as usize)
+                    .product();
                 ensure!(
                     g.node_blocks.list.len() == slots,
                     "the node-block list holds {} slots for the grid's {slots} node blocks",
