@@ -21,6 +21,16 @@
 // block is listed for them: a block no scatter touched is read by no particle.
 #include "tiles.cuh"
 
+// Listed blocks a step of water's interior kernels (update_interior_blocks), a kernel for each
+// scatter, each with the registers of its own sums: four of float sums (53 registers), two of
+// fixed-point sums, a node's four sums 64-bit (49). Measured on the H200 (BENCHMARKS.md M17): one
+// kernel for both at four entries, 72 registers, took the 16.8M column's walk to 0.145 ms from 0.227
+// at two (56), but cost the fixed-point dam break 2.5 %; float alone at four, 0.065 ms; at eight (80
+// registers) 0.092 ms, and the walk 25 to 35 % slower at the dam break and bench-65k, whose short
+// lists then spread over fewer CUDA blocks.
+constexpr int WATER_FLOAT_GROUP = 4;
+constexpr int WATER_FIXED_GROUP = 2;
+
 extern "C" __global__ void grid_update(const KernelParams params,
                                        float4* __restrict__ grid_acc,     // in: momentum, mass; zeroed
                                        float4* __restrict__ grid_vel,     // out: .xyz velocity, .w mass
@@ -203,10 +213,12 @@ __device__ __forceinline__ void load_node_sums(size_t i, const float4*, const u6
     for (int a = 0; a < 3; ++a) v[1 + a] = (i64)fixed_momentum[3 * i + a];
 }
 
-// The interior part, V the scatter's sums (i64 in fixed point, float otherwise), one entry a CUDA
-// block at a time. Per node the same as update_node (and so the same bytes): the sums read, zeroed,
-// converted by node_sums (fixed_point_sums, or the floats as they are), the velocity made from them.
-template <typename V>
+// The interior part, V the scatter's sums (i64 in fixed point, float otherwise), GROUP entries a CUDA
+// block at a time: the entries, then their nodes' sums, loaded before any is used, so that a warp
+// waits on GROUP chains of loads at once (the walk is latency-bound: each entry's sums wait on the
+// entry). Per node the same as update_node (and so the same bytes): the sums read, zeroed, converted
+// by node_sums (fixed_point_sums, or the floats as they are), the velocity made from them.
+template <typename V, int GROUP>
 __device__ __forceinline__ void update_interior_blocks(const KernelParams& params, const u32* __restrict__ block_list,
                                                        u32* __restrict__ work_counts, u32* __restrict__ block_marks,
                                                        float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
@@ -215,84 +227,49 @@ __device__ __forceinline__ void update_interior_blocks(const KernelParams& param
                                                        const Colliders& colliders) {
     const u32 listed = work_counts[WORK_NODE_BLOCKS];
     const NodeBlocks blocks = node_blocks(params);
-    for (u32 k = blockIdx.x; k < listed; k += gridDim.x) {
-        const u32 b = block_list[k];
-        const BlockNode n = block_node(params, blocks, b);
-        if (n.inside) {
-            V v[4];
-            load_node_sums(n.i, grid_acc, fixed_mass, fixed_momentum, v);
-            zero_node_sums(params, n.i, grid_acc, fixed_mass, fixed_momentum);
-            update_node_velocity(params, n.i, node_sums(params, v, counters), grid_vel, colliders);
-        }
-        if (threadIdx.x == 0) block_marks[b] = 0;
-    }
-    empty_list_part(listed, 1, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
-}
-
-// The same, two entries a CUDA block at a time: both entries, then both nodes' sums, loaded before
-// either is used, so that a warp waits on two chains of loads at once. Per node the same again.
-template <typename V>
-__device__ __forceinline__ void update_interior_block_pairs(const KernelParams& params,
-                                                            const u32* __restrict__ block_list,
-                                                            u32* __restrict__ work_counts,
-                                                            u32* __restrict__ block_marks,
-                                                            float4* __restrict__ grid_acc,
-                                                            float4* __restrict__ grid_vel,
-                                                            u64* __restrict__ fixed_mass,
-                                                            u64* __restrict__ fixed_momentum,
-                                                            StepCounters* __restrict__ counters,
-                                                            const Colliders& colliders) {
-    const u32 listed = work_counts[WORK_NODE_BLOCKS];
-    const NodeBlocks blocks = node_blocks(params);
-    for (u32 first = 2 * blockIdx.x; first < listed; first += 2 * gridDim.x) {
-        // A second entry past the length reads the first again, and nothing is done with it.
-        const bool second = first + 1 < listed;
-        const u32 b[2] = {block_list[first], block_list[second ? first + 1 : first]};
-        u32 i[2];
-        bool live[2];
-        V v[2][4];
+    for (u32 first = GROUP * blockIdx.x; first < listed; first += GROUP * gridDim.x) {
+        // An entry past the length reads the first again, and nothing is done with it.
+        u32 b[GROUP], i[GROUP];
+        bool live[GROUP];
+        V v[GROUP][4];
 #pragma unroll
-        for (int j = 0; j < 2; ++j) {
+        for (int j = 0; j < GROUP; ++j) b[j] = block_list[first + j < listed ? first + j : first];
+#pragma unroll
+        for (int j = 0; j < GROUP; ++j) {
             const BlockNode n = block_node(params, blocks, b[j]);
             i[j] = n.i;
-            live[j] = n.inside && (j == 0 || second);
+            live[j] = n.inside && first + j < listed;
             if (live[j]) load_node_sums(i[j], grid_acc, fixed_mass, fixed_momentum, v[j]);
         }
 #pragma unroll
-        for (int j = 0; j < 2; ++j) {
+        for (int j = 0; j < GROUP; ++j) {
             if (live[j]) {
                 zero_node_sums(params, i[j], grid_acc, fixed_mass, fixed_momentum);
                 update_node_velocity(params, i[j], node_sums(params, v[j], counters), grid_vel, colliders);
             }
         }
         if (threadIdx.x == 0) {
-            block_marks[b[0]] = 0;
-            if (second) block_marks[b[1]] = 0;
+#pragma unroll
+            for (int j = 0; j < GROUP; ++j)
+                if (first + j < listed) block_marks[b[j]] = 0;
         }
     }
-    empty_list_part(listed, 2, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
+    empty_list_part(listed, GROUP, work_counts, WORK_NODE_BLOCKS, WORK_NODE_BLOCKS_DONE);
 }
 
-// The interior part, the scatter's mode chosen once for the whole walk; PAIRS: two entries a step.
-template <bool PAIRS>
+// The interior part, the scatter's mode chosen once for the whole walk.
+template <int GROUP>
 __device__ __forceinline__ void update_interior(const KernelParams& params, const u32* __restrict__ block_list,
                                                 u32* __restrict__ work_counts, u32* __restrict__ block_marks,
                                                 float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
                                                 u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
                                                 StepCounters* __restrict__ counters, const Colliders& colliders) {
-    const bool fixed = params.scatter_mode == SCATTER_FIXED_POINT;
-    if (PAIRS && fixed) {
-        update_interior_block_pairs<i64>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                         fixed_momentum, counters, colliders);
-    } else if (PAIRS) {
-        update_interior_block_pairs<float>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
-                                           fixed_mass, fixed_momentum, counters, colliders);
-    } else if (fixed) {
-        update_interior_blocks<i64>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                    fixed_momentum, counters, colliders);
+    if (params.scatter_mode == SCATTER_FIXED_POINT) {
+        update_interior_blocks<i64, GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
+                                           fixed_momentum, counters, colliders);
     } else {
-        update_interior_blocks<float>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                      fixed_momentum, counters, colliders);
+        update_interior_blocks<float, GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
+                                             fixed_mass, fixed_momentum, counters, colliders);
     }
 }
 
@@ -339,13 +316,15 @@ __device__ __forceinline__ void update_wall_blocks(const KernelParams& params, c
     empty_list_part(listed, 1, work_counts, WORK_WALL_NODE_BLOCKS, WORK_WALL_NODE_BLOCKS_DONE);
 }
 
-// The kernels over the list, in pairs that grid_update.rs launches one after the other, all with the
-// same arguments (`mirror` unread by the interior's), a pair for each kind of scene:
-// - water alone: grid_update_blocks and grid_update_wall_blocks, with no collider code (the count a
-//   constant 0). The colliders' boundary condition, compiled in and never run, took the interior
-//   kernel from 36 registers to 56 (one entry a step), the wall kernel from 72 to 88. With those
-//   registers back, the interior kernel takes two entries a step (update_interior_block_pairs, 56
-//   registers); the other interior kernels take one, as two took them from 56 and 64 to 80.
+// The kernels over the list, in pairs that grid_update.rs launches side by side (the two parts hold
+// different blocks), all with the same arguments (`mirror` unread by the interior's), a pair for each
+// kind of scene:
+// - water alone: grid_update_blocks (float sums) or grid_update_blocks_fixed, and
+//   grid_update_wall_blocks, with no collider code (the count a constant 0). The colliders' boundary
+//   condition, compiled in and never run, took the interior kernel from 36 registers to 56 (one
+//   entry a step), the wall kernel from 72 to 88. With those registers back, the interior kernels
+//   take several entries a step (WATER_FLOAT_GROUP, WATER_FIXED_GROUP); the other interior kernels
+//   take one, as two took them from 56 and 64 to 80.
 // - static colliders: grid_update_blocks_colliders and grid_update_wall_blocks_colliders.
 // - rigid bodies, whose boundaries also add up what they took from the nodes:
 //   grid_update_blocks_bodies and grid_update_wall_blocks_bodies.
@@ -362,8 +341,21 @@ extern "C" __global__ void grid_update_blocks(const KernelParams params, const u
                                               const ColliderState* __restrict__ /*collider_states: none*/,
                                               const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
                                               u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior<true>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                          counters, Colliders{nullptr, 0u, nullptr, nullptr});
+    update_interior_blocks<float, WATER_FLOAT_GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
+                                                     fixed_mass, fixed_momentum, counters,
+                                                     Colliders{nullptr, 0u, nullptr, nullptr});
+}
+
+extern "C" __global__ void grid_update_blocks_fixed(
+    const KernelParams params, const u32 /*mirror: none here*/, const u32* __restrict__ block_list,
+    u32* __restrict__ work_counts, u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
+    float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
+    StepCounters* __restrict__ counters, const ColliderState* __restrict__ /*collider_states: none*/,
+    const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
+    u64* __restrict__ /*body_impulses: null, no bodies*/) {
+    update_interior_blocks<i64, WATER_FIXED_GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
+                                                   fixed_mass, fixed_momentum, counters,
+                                                   Colliders{nullptr, 0u, nullptr, nullptr});
 }
 
 extern "C" __global__ void grid_update_blocks_colliders(
@@ -372,7 +364,7 @@ extern "C" __global__ void grid_update_blocks_colliders(
     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior<false>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+    update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
                            counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
@@ -382,7 +374,7 @@ extern "C" __global__ void grid_update_blocks_bodies(
     float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
-    update_interior<false>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
+    update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
                            counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 

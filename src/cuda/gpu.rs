@@ -148,7 +148,8 @@ impl Gpu {
                 options.device
             )
         })?;
-        // One stream, so cudarc's cross-stream event tracking only costs time.
+        // The streams are ordered by the code itself (Launcher::beside joins its side stream back
+        // before anything else is enqueued), so cudarc's cross-stream event tracking only costs time.
         // SAFETY: called before any allocation in this context.
         unsafe { ctx.disable_event_tracking() };
         let stream = ctx.new_stream().context("creating a CUDA stream")?;
@@ -170,12 +171,7 @@ impl Gpu {
             .context("reading the multiprocessor count")?;
         let multiprocessors = multiprocessors.max(1) as u32;
         Ok(Gpu {
-            launcher: Launcher {
-                stream,
-                block_size: options.block_size,
-                multiprocessors,
-                sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
-            },
+            launcher: Launcher::new(stream, options.block_size, multiprocessors)?,
             modules,
             ordinal: options.device,
             ctx,

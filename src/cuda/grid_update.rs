@@ -11,7 +11,7 @@ use super::launch::{Kernel, Launcher};
 use super::mirror_walls::{self, WallReach};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
-use crate::sim::{Params, Pipeline};
+use crate::sim::{Params, Pipeline, ScatterMode};
 use anyhow::{ensure, Result};
 use cudarc::driver::PushKernelArg;
 
@@ -27,19 +27,35 @@ pub struct GridUpdate {
     clear_crossing_orbits: Kernel,
 }
 
-/// The two kernels over the node-block list's two parts (kernels/tiles.cuh, `list_node_block`):
-/// the interior's, which has no mirror code and so few registers, and the wall blocks'.
+/// The kernels over the node-block list's two parts (kernels/tiles.cuh, `list_node_block`): the
+/// interior's, which has no mirror code and so few registers, for float sums and for fixed-point
+/// sums (water's are two kernels, each with the registers of its own sums; the others one), and the
+/// wall blocks'.
 struct ListKernels {
     interior: Kernel,
+    interior_fixed: Kernel,
     walls: Kernel,
 }
 
 impl ListKernels {
-    fn load(modules: &LoadedModules, interior: &'static str, walls: &'static str) -> Result<ListKernels> {
+    fn load(
+        modules: &LoadedModules,
+        [interior, interior_fixed, walls]: [&'static str; 3],
+    ) -> Result<ListKernels> {
         Ok(ListKernels {
             interior: Kernel::load(modules, "grid_update", interior)?,
+            interior_fixed: Kernel::load(modules, "grid_update", interior_fixed)?,
             walls: Kernel::load(modules, "grid_update", walls)?,
         })
+    }
+
+    /// The interior's kernel for `params`' scatter.
+    fn interior(&self, params: &Params) -> &Kernel {
+        if params.scatter_mode == ScatterMode::FixedPoint.code() {
+            &self.interior_fixed
+        } else {
+            &self.interior
+        }
     }
 }
 
@@ -47,22 +63,38 @@ impl GridUpdate {
     pub fn load(modules: &LoadedModules) -> Result<GridUpdate> {
         Ok(GridUpdate {
             whole_grid: Kernel::load(modules, "grid_update", "grid_update")?,
-            listed_water: ListKernels::load(modules, "grid_update_blocks", "grid_update_wall_blocks")?,
+            listed_water: ListKernels::load(
+                modules,
+                [
+                    "grid_update_blocks",
+                    "grid_update_blocks_fixed",
+                    "grid_update_wall_blocks",
+                ],
+            )?,
             listed_with_colliders: ListKernels::load(
                 modules,
-                "grid_update_blocks_colliders",
-                "grid_update_wall_blocks_colliders",
+                [
+                    "grid_update_blocks_colliders",
+                    "grid_update_blocks_colliders",
+                    "grid_update_wall_blocks_colliders",
+                ],
             )?,
             listed_with_bodies: ListKernels::load(
                 modules,
-                "grid_update_blocks_bodies",
-                "grid_update_wall_blocks_bodies",
+                [
+                    "grid_update_blocks_bodies",
+                    "grid_update_blocks_bodies",
+                    "grid_update_wall_blocks_bodies",
+                ],
             )?,
             // Away from the walls there is no push: the interior's kernel is the static colliders'.
             listed_with_friction: ListKernels::load(
                 modules,
-                "grid_update_blocks_colliders",
-                "grid_update_wall_blocks_friction",
+                [
+                    "grid_update_blocks_colliders",
+                    "grid_update_blocks_colliders",
+                    "grid_update_wall_blocks_friction",
+                ],
             )?,
             clear_crossing_orbits: Kernel::load(modules, "grid_update", "clear_crossing_orbits")?,
         })
@@ -123,11 +155,8 @@ impl GridUpdate {
                     "the node-block list holds {} slots for the grid's {slots} node blocks",
                     g.node_blocks.list.len()
                 );
-                let at_walls = mirror_walls::node_blocks_on_walls(params);
-                // No wall part where the mirror is off (kernels/mirror.cuh, node_block_on_a_wall).
-                let walls = (params.wall_mirror_lo != 0).then_some((&kernels.walls, at_walls));
                 let mirror = u32::from(mirror);
-                for (kernel, capacity) in [(&kernels.interior, slots - at_walls)].into_iter().chain(walls) {
+                let walk = |l: &Launcher, kernel: &Kernel, capacity: usize| {
                     // SAFETY: the arguments match every kernel over the list in grid_update.cu (the
                     // bodies' sums last: null without bodies); one thread per node of a block; the
                     // list has a slot per node block, as the kernels take it to.
@@ -144,10 +173,20 @@ impl GridUpdate {
                                 .arg(g.fixed_momentum())
                                 .arg(&d.counters.device)
                                 .colliders(&d.colliders);
-                        })?;
+                        })
                     }
+                };
+                let at_walls = mirror_walls::node_blocks_on_walls(params);
+                let interior = |l: &Launcher| walk(l, kernels.interior(params), slots - at_walls);
+                // No wall part where the mirror is off (kernels/mirror.cuh, node_block_on_a_wall).
+                if params.wall_mirror_lo == 0 {
+                    return interior(l);
                 }
-                Ok(())
+                // The two parts hold different blocks, so the launches run side by side: one after the
+                // other, each launch's latency and tail lay on every substep's path, in a small scene
+                // whose blocks nearly all meet a wall too (bench-65k +8.7 % against one launch,
+                // +1.4 % side by side; BENCHMARKS.md M17).
+                l.beside(|side| walk(side, &kernels.walls, at_walls), interior)
             }
         }
     }

@@ -4,7 +4,7 @@
 
 use super::modules::LoadedModules;
 use anyhow::{Context, Result};
-use cudarc::driver::{CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
+use cudarc::driver::{CudaContext, CudaEvent, CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
 use std::sync::Arc;
 
 /// A null device pointer, for a pointer argument its kernel reads only where it is set (arguments
@@ -101,9 +101,66 @@ pub struct Launcher {
     pub multiprocessors: u32,
     /// `MPM_CUDA_SYNC=1`: wait after every launch.
     pub sync_each_launch: bool,
+    /// A second stream for launches that run beside the main stream's (`beside`).
+    side: Arc<SideStream>,
+}
+
+/// The side stream and the two events that fork it from the main stream and join it back, made once:
+/// `beside` runs every substep where the substep is not a captured graph.
+struct SideStream {
+    stream: Arc<CudaStream>,
+    fork: CudaEvent,
+    join: CudaEvent,
 }
 
 impl Launcher {
+    /// Launches on `stream`, with a side stream of the same context for `beside`.
+    pub fn new(stream: Arc<CudaStream>, block_size: u32, multiprocessors: u32) -> Result<Launcher> {
+        let ctx: &Arc<CudaContext> = stream.context();
+        let event = || {
+            ctx.new_event(Some(cudarc::driver::sys::CUevent_flags::CU_EVENT_DISABLE_TIMING))
+                .context("creating a CUDA event to join two streams")
+        };
+        let side = SideStream {
+            stream: ctx.new_stream().context("creating a second CUDA stream")?,
+            fork: event()?,
+            join: event()?,
+        };
+        Ok(Launcher {
+            stream,
+            block_size,
+            multiprocessors,
+            sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
+            side: Arc::new(side),
+        })
+    }
+
+    /// Enqueues `branch` on the side stream and `main` on this one, side by side: both start after
+    /// what this stream holds so far, and what this stream is given next waits for both. For two
+    /// launches with no order between them, where one alone cannot fill the device: in a captured
+    /// substep they become parallel branches of the graph, so neither waits for the other's tail.
+    pub fn beside(
+        &self,
+        branch: impl FnOnce(&Launcher) -> Result<()>,
+        main: impl FnOnce(&Launcher) -> Result<()>,
+    ) -> Result<()> {
+        let side = &self.side;
+        side.fork
+            .record(&self.stream)
+            .context("forking the side stream")?;
+        side.stream.wait(&side.fork).context("forking the side stream")?;
+        let on_side = Launcher {
+            stream: side.stream.clone(),
+            ..self.clone()
+        };
+        branch(&on_side)?;
+        main(self)?;
+        side.join
+            .record(&side.stream)
+            .context("joining the side stream")?;
+        self.stream.wait(&side.join).context("joining the side stream")
+    }
+
     /// 1D launch covering `count` items (the kernels loop grid-stride, so any count fits).
     pub fn cover(&self, count: usize) -> LaunchConfig {
         let blocks = count.div_ceil(self.block_size as usize).clamp(1, 1 << 20) as u32;

@@ -45,8 +45,8 @@ pub enum Launch {
     MirrorMomentum,
     /// grid_update.cu over every node.
     GridUpdate,
-    /// grid_update_blocks over the node blocks the scatters touched away from the walls,
-    /// grid_update_wall_blocks over those at the walls, then clear_crossing_orbits.
+    /// grid_update_blocks (or _fixed) over the node blocks the scatters touched away from the walls,
+    /// grid_update_wall_blocks over those at the walls beside it, then clear_crossing_orbits.
     GridUpdateBlocks,
     /// The same, each node near a wall adding its images itself (no mirror launch).
     GridUpdateBlocksMirrored,
@@ -123,12 +123,13 @@ impl Launch {
             Launch::MirrorMomentum => "mirror_walls (momentum)".into(),
             Launch::GridUpdate => "grid_update (every node)".into(),
             Launch::GridUpdateBlocks => {
-                "grid_update_blocks + grid_update_wall_blocks (the walls' mirror on; with colliders both \
-                 _colliders) + clear_crossing_orbits"
+                "grid_update_blocks (_fixed for fixed-point sums) + grid_update_wall_blocks (the walls' mirror \
+                 on; with colliders both _colliders) + clear_crossing_orbits"
                     .into()
             }
             Launch::GridUpdateBlocksMirrored => {
-                "grid_update_blocks (away from the walls) + grid_update_wall_blocks (the walls' images inside; \
+                "grid_update_blocks (away from the walls; _fixed for fixed-point sums) + grid_update_wall_blocks \
+                 (the walls' images inside; \
                  with colliders both _colliders, rigid bodies both _bodies, then step_bodies; Coulomb colliders \
                  at the walls grid_update_wall_blocks_friction) + clear_crossing_orbits"
                     .into()

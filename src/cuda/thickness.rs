@@ -49,14 +49,12 @@ impl CudaThickness {
             .context("reading the multiprocessor count")?;
         Ok(CudaThickness {
             ctx: ctx.clone(),
-            launcher: Launcher {
-                stream: ctx
-                    .new_stream()
+            launcher: Launcher::new(
+                ctx.new_stream()
                     .context("creating the thickness splats' stream")?,
-                block_size: 256,
-                multiprocessors: multiprocessors.max(1) as u32,
-                sync_each_launch: std::env::var("MPM_CUDA_SYNC").is_ok_and(|v| v == "1"),
-            },
+                256,
+                multiprocessors.max(1) as u32,
+            )?,
             splat: SplatThickness::load(&modules)?,
             resolve: ResolveThickness::load(&modules)?,
             particles: None,
