@@ -562,7 +562,10 @@ fn assert_on_track(what: &str, (max, rms): (f32, f64)) {
 
 /// `steps` substeps of `scene` on a solver made with `options`, the substep varying as the CFL
 /// policy's does (the scene's own in the first half of every `period` substeps, 0.75 of it in the
-/// second) and the extremes taken every `choose_every` substeps, as `mpm run` chooses; after each
+/// second), the fixed-point momentum units alternating substep by substep between the scene's own
+/// and twice as fine (`mpm run` changes them between stretches, `Simulation::momentum_scale`: here
+/// every substep changes them, and the fused pipeline's grid update reads sums made in the other
+/// units), and the extremes taken every `choose_every` substeps, as `mpm run` chooses; after each
 /// substep, `after(solver, step, params)`.
 fn varying_run(
     scene: &Scene,
@@ -574,7 +577,9 @@ fn varying_run(
     let mut params = common::cfl_params(scene);
     let mut gpu = CudaSolver::new(scene, options).unwrap();
     for step in 1..=steps {
-        params.dt = common::cfl_params(scene).dt * if step % period < period / 2 { 1.0 } else { 0.75 };
+        let own = common::cfl_params(scene);
+        params.dt = own.dt * if step % period < period / 2 { 1.0 } else { 0.75 };
+        params.fixed_momentum_scale = own.fixed_momentum_scale * if step % 2 == 0 { 1.0 } else { 2.0 };
         gpu.step(&params).unwrap();
         if step % choose_every == 0 {
             gpu.take_extremes().unwrap();
@@ -1019,7 +1024,10 @@ fn binned_fixed_point_is_byte_identical_across_rebins() {
 
 /// Substeps replayed as CUDA graphs (the default) do exactly what substeps launched kernel by kernel
 /// do: fixed-point runs byte-identical in both pipelines, through stretches of changing dt (new
-/// captures), sorts and replays, with the same binnings and a timing record for every substep.
+/// captures), momentum units changing every substep (replays of substeps whose grid update reads
+/// sums made in the units before: a replay must leave the host's note of those units as the
+/// captured run did), sorts and replays, with the same binnings and a timing record for every
+/// substep.
 fn graphed_substeps_match_launched_ones() {
     const STEPS: usize = 300;
     for pipeline in Pipeline::ALL {

@@ -52,6 +52,10 @@ pub struct SubstepGraph {
     /// work in the captured substep (timing.rs).
     timing_nodes: Vec<Option<sys::CUgraphNode>>,
     recorded: Recorded,
+    /// What the grid holds of a scatter once the substep has run (`CudaSolver`'s host-side note,
+    /// which the next substep's key and grid update read): set by the captured run, restored by each
+    /// replay. Not a replay's own to work out again: the key that found the graph fixes it.
+    scattered: Option<Scattered>,
 }
 
 // SAFETY: a graph and its nodes are driver handles, which the driver lets any thread use while the
@@ -63,11 +67,11 @@ unsafe impl Send for SubstepGraph {}
 impl SubstepGraph {
     /// Captures what `enqueue` puts on `stream` into a graph. `timing_events` are the events that
     /// `enqueue` may record as external event-record nodes (`timing::record_external`), in slot order; it
-    /// returns which it recorded.
+    /// returns which it recorded, and what the grid holds of a scatter after the substep.
     pub fn capture(
         stream: &Arc<CudaStream>,
         timing_events: &[sys::CUevent],
-        enqueue: impl FnOnce() -> Result<Recorded>,
+        enqueue: impl FnOnce() -> Result<(Recorded, Option<Scattered>)>,
     ) -> Result<SubstepGraph> {
         stream
             .begin_capture(sys::CUstreamCaptureMode::CU_STREAM_CAPTURE_MODE_THREAD_LOCAL)
@@ -75,7 +79,7 @@ impl SubstepGraph {
         // The capture must end whatever `enqueue` did, or the stream stays in capture mode.
         let enqueued = enqueue();
         let ended = stream.end_capture(sys::CUgraphInstantiate_flags(0));
-        let recorded = enqueued.context("enqueueing the substep into a CUDA graph capture")?;
+        let (recorded, scattered) = enqueued.context("enqueueing the substep into a CUDA graph capture")?;
         let graph = ended
             .context("capturing the substep as a CUDA graph (MPM_CUDA_GRAPHS=0 runs without graphs)")?
             .context("the substep's CUDA graph capture recorded nothing")?;
@@ -93,7 +97,13 @@ impl SubstepGraph {
             graph,
             timing_nodes,
             recorded,
+            scattered,
         })
+    }
+
+    /// What the grid holds of a scatter after this substep, as its captured run left it.
+    pub fn scattered(&self) -> Option<Scattered> {
+        self.scattered
     }
 
     /// Which timing slots the graph records.

@@ -369,7 +369,7 @@ impl CudaSolver {
         let placeholders = self.timing.begin_capture()?;
         let graph = SubstepGraph::capture(&stream, &placeholders, || {
             self.enqueue_substep(sort)?;
-            Ok(self.timing.captured())
+            Ok((self.timing.captured(), self.mass_scattered))
         });
         self.timing.end_capture();
         graph
@@ -393,7 +393,12 @@ impl Solver for CudaSolver {
     fn step(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
         let sort = self.sort_due();
-        let graphs = self.options.graphs && !self.gpu.launcher.sync_each_launch && self.substeps > 0;
+        // Not the first substep (it allocates on first use), nor one that scatters as a restored or
+        // discarded state's first (`resumed`, which no key holds).
+        let graphs = self.options.graphs
+            && !self.gpu.launcher.sync_each_launch
+            && self.substeps > 0
+            && self.resumed.is_none();
         self.substeps += 1;
         if !graphs {
             let _range = NvtxRange::new("substep");
@@ -415,6 +420,7 @@ impl Solver for CudaSolver {
                     self.state.swap_particle_buffers();
                 }
                 self.schedule.note_substep();
+                self.mass_scattered = graph.scattered();
                 graph
             }
             None => self.capture_substep(sort)?,
