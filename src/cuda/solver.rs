@@ -440,8 +440,10 @@ impl Solver for CudaSolver {
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
         self.accept(params)?;
         let (k, l) = (&self.kernels, &self.gpu.launcher);
+        // New particles join the sums the grid holds: in their momentum units (`grid_params`).
+        let into = self.grid_params();
         k.lifecycle
-            .emit(l, &self.params, mask, self.mass_scattered.is_some(), &self.state)?;
+            .emit(l, &into, mask, self.mass_scattered.is_some(), &self.state)?;
         // The new particles are in no bin yet.
         self.schedule.invalidate();
         Ok(())

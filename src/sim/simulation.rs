@@ -496,17 +496,7 @@ impl Simulation {
     /// the stretch just before, whose extremes are in or not depending on whether frames overlap
     /// ([`Self::overlap_frames`]): the units, so the bytes, do not. A particle faster than the units
     /// are made for still scatters exactly, through the grid's atomics; the margin keeps those few.
-    ///
-    /// Not with rigid bodies: with refined units the GPU's fixed-point run of a log settling into
-    /// water drifted 0.12 cells from the CPU's in 30 frames, where the scene's own units keep them
-    /// 0.001 cells apart (tests/gpu_bodies.rs `bodies_follow_the_cpu`, H200, 2026-11-29; the cause is
-    /// not found yet, BENCHMARKS.md M15), so a scene with bodies keeps the coarsest units. Nor with
-    /// emitters: the GPU's emission scatters into the fused pipeline's grid with the stretch's units
-    /// (kernels/lifecycle.cu), where the sums already there may be in the stretch before's.
     fn momentum_scale(&self, span: f32, previous_pending: bool) -> f32 {
-        if !self.bodies.is_empty() || !self.scene.flow.emitters.is_empty() {
-            return self.scene.fixed_point_scales().1;
-        }
         let two_before = self.flow_speeds[usize::from(previous_pending)];
         let gravity_gain = Vec3::from(self.params.gravity).length() * 2.0 * span;
         let speed = two_before.max(self.scene.fastest_start()) + gravity_gain;
