@@ -365,7 +365,7 @@ extern "C" __global__ void grid_update_blocks_colliders(
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ /*body_impulses: null, no bodies*/) {
     update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                           counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+                       counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 extern "C" __global__ void grid_update_blocks_bodies(
@@ -375,7 +375,7 @@ extern "C" __global__ void grid_update_blocks_bodies(
     StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
     const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
     update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                           counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+                       counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 extern "C" __global__ void grid_update_wall_blocks(const KernelParams params, const u32 mirror,
