@@ -105,8 +105,8 @@ pub struct Launcher {
     side: Arc<SideStream>,
 }
 
-/// The side stream and the two events that fork it from the main stream and join it back, made once:
-/// `beside` runs every substep where the substep is not a captured graph.
+/// The side stream and the two events that fork it from the main stream and join it back, made once,
+/// so that a substep launched outside a graph forks and joins without allocating.
 struct SideStream {
     stream: Arc<CudaStream>,
     fork: CudaEvent,
@@ -153,12 +153,15 @@ impl Launcher {
             stream: side.stream.clone(),
             ..self.clone()
         };
-        branch(&on_side)?;
-        main(self)?;
-        side.join
+        // Joined whatever the branches did, so that nothing later on this stream runs beside them
+        // (and a capture does not end with a stream left out of it).
+        let enqueued = branch(&on_side).and_then(|()| main(self));
+        let joined = side
+            .join
             .record(&side.stream)
-            .context("joining the side stream")?;
-        self.stream.wait(&side.join).context("joining the side stream")
+            .and_then(|()| self.stream.wait(&side.join))
+            .context("joining the side stream");
+        enqueued.and(joined)
     }
 
     /// 1D launch covering `count` items (the kernels loop grid-stride, so any count fits).
