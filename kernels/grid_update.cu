@@ -333,100 +333,59 @@ __device__ __forceinline__ void update_wall_blocks(const KernelParams& params, c
 // The last two wall kernels read the nodes' own sums beside the images (mirrored_sums). Elsewhere the
 // exchange (its null pointer a constant) and the own sums are compiled out: the other scenes keep the
 // registers, and so the occupancy and the speed, they had before bodies existed.
-extern "C" __global__ void grid_update_blocks(const KernelParams params, const u32 /*mirror: none here*/,
-                                              const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-                                              u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-                                              float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
-                                              u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
-                                              const ColliderState* __restrict__ /*collider_states: none*/,
-                                              const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
-                                              u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior_blocks<float, WATER_FLOAT_GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
-                                                     fixed_mass, fixed_momentum, counters,
-                                                     Colliders{nullptr, 0u, nullptr, nullptr});
+// The list kernels' parameters: the same for each (grid_update.rs passes them alike); `mirror` is
+// unread by the interior's, the colliders' by water's. LIST_WALK: what a walk takes of them after
+// `params` (and `mirror` for the wall blocks'), before its colliders.
+#define LIST_PARAMETERS                                                                                   \
+    const KernelParams params, const u32 mirror, const u32 *__restrict__ block_list,                     \
+        u32 *__restrict__ work_counts, u32 *__restrict__ block_marks, float4 *__restrict__ grid_acc,     \
+        float4 *__restrict__ grid_vel, u64 *__restrict__ fixed_mass, u64 *__restrict__ fixed_momentum,    \
+        StepCounters *__restrict__ counters, const ColliderState *__restrict__ collider_states,           \
+        const u32 num_colliders, const float *__restrict__ collider_sdf, u64 *__restrict__ body_impulses
+#define LIST_WALK block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters
+// No colliders: the count a constant 0, so their code is compiled out.
+#define NO_COLLIDERS Colliders{nullptr, 0u, nullptr, nullptr}
+
+extern "C" __global__ void grid_update_blocks(LIST_PARAMETERS) {
+    update_interior_blocks<float, WATER_FLOAT_GROUP>(params, LIST_WALK, NO_COLLIDERS);
 }
 
-extern "C" __global__ void grid_update_blocks_fixed(
-    const KernelParams params, const u32 /*mirror: none here*/, const u32* __restrict__ block_list,
-    u32* __restrict__ work_counts, u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-    float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
-    StepCounters* __restrict__ counters, const ColliderState* __restrict__ /*collider_states: none*/,
-    const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
-    u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior_blocks<i64, WATER_FIXED_GROUP>(params, block_list, work_counts, block_marks, grid_acc, grid_vel,
-                                                   fixed_mass, fixed_momentum, counters,
-                                                   Colliders{nullptr, 0u, nullptr, nullptr});
+extern "C" __global__ void grid_update_blocks_fixed(LIST_PARAMETERS) {
+    update_interior_blocks<i64, WATER_FIXED_GROUP>(params, LIST_WALK, NO_COLLIDERS);
 }
 
-extern "C" __global__ void grid_update_blocks_colliders(
-    const KernelParams params, const u32 /*mirror: none here*/, const u32* __restrict__ block_list,
-    u32* __restrict__ work_counts, u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-    float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
-    StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-    const float* __restrict__ collider_sdf, u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                       counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+extern "C" __global__ void grid_update_blocks_colliders(LIST_PARAMETERS) {
+    update_interior<1>(params, LIST_WALK, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
-extern "C" __global__ void grid_update_blocks_bodies(
-    const KernelParams params, const u32 /*mirror: none here*/, const u32* __restrict__ block_list,
-    u32* __restrict__ work_counts, u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-    float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
-    StepCounters* __restrict__ counters, const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-    const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
-    update_interior<1>(params, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass, fixed_momentum,
-                       counters, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
+extern "C" __global__ void grid_update_blocks_bodies(LIST_PARAMETERS) {
+    update_interior<1>(params, LIST_WALK, Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
-extern "C" __global__ void grid_update_wall_blocks(const KernelParams params, const u32 mirror,
-                                                   const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-                                                   u32* __restrict__ block_marks, float4* __restrict__ grid_acc,
-                                                   float4* __restrict__ grid_vel, u64* __restrict__ fixed_mass,
-                                                   u64* __restrict__ fixed_momentum,
-                                                   StepCounters* __restrict__ counters,
-                                                   const ColliderState* __restrict__ /*collider_states: none*/,
-                                                   const u32 /*num_colliders: 0*/, const float* __restrict__ /*sdf*/,
-                                                   u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_wall_blocks<false, 4>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                 fixed_momentum, counters, Colliders{nullptr, 0u, nullptr, nullptr});
+extern "C" __global__ void grid_update_wall_blocks(LIST_PARAMETERS) {
+    update_wall_blocks<false, 4>(params, mirror, LIST_WALK, NO_COLLIDERS);
 }
 
-extern "C" __global__ void grid_update_wall_blocks_colliders(
-    const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-    u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
-    u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
-    const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
-    u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_wall_blocks<false, 4>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                 fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+extern "C" __global__ void grid_update_wall_blocks_colliders(LIST_PARAMETERS) {
+    update_wall_blocks<false, 4>(params, mirror, LIST_WALK,
+                                 Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 // Held to 12 blocks an SM (at most 80 registers): compiled freely it took 113 and 8 blocks, and its node
 // blocks' load chains had too few warps to hide behind; ten floating bodies' substep went from
 // +5.6 % to +4.2 % over ten static colliders (BENCHMARKS.md M11; 10 blocks: +5.0 %). Its channel loop
 // is not unrolled, which would spill under that bound.
-extern "C" __global__ void __launch_bounds__(64, 12) grid_update_wall_blocks_bodies(
-    const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-    u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
-    u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
-    const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
-    u64* __restrict__ body_impulses) {
-    update_wall_blocks<true, 1>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                fixed_momentum, counters,
+extern "C" __global__ void __launch_bounds__(64, 12) grid_update_wall_blocks_bodies(LIST_PARAMETERS) {
+    update_wall_blocks<true, 1>(params, mirror, LIST_WALK,
                                 Colliders{collider_states, num_colliders, collider_sdf, body_impulses});
 }
 
 // The image push without the bodies' exchange (its null pointer a constant), held to 14 blocks an SM
 // (at most 72 registers, what the one kernel over the whole list took), its channel loop not
 // unrolled.
-extern "C" __global__ void __launch_bounds__(64, 14) grid_update_wall_blocks_friction(
-    const KernelParams params, const u32 mirror, const u32* __restrict__ block_list, u32* __restrict__ work_counts,
-    u32* __restrict__ block_marks, float4* __restrict__ grid_acc, float4* __restrict__ grid_vel,
-    u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum, StepCounters* __restrict__ counters,
-    const ColliderState* __restrict__ collider_states, const u32 num_colliders, const float* __restrict__ collider_sdf,
-    u64* __restrict__ /*body_impulses: null, no bodies*/) {
-    update_wall_blocks<true, 1>(params, mirror, block_list, work_counts, block_marks, grid_acc, grid_vel, fixed_mass,
-                                fixed_momentum, counters, Colliders{collider_states, num_colliders, collider_sdf, nullptr});
+extern "C" __global__ void __launch_bounds__(64, 14) grid_update_wall_blocks_friction(LIST_PARAMETERS) {
+    update_wall_blocks<true, 1>(params, mirror, LIST_WALK,
+                                Colliders{collider_states, num_colliders, collider_sdf, nullptr});
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other
@@ -441,8 +400,8 @@ __device__ __forceinline__ u32 wall_reach_nodes(const KernelParams& params, u32 
 
 // After a grid update that mirrored (the fused pipeline) on a grid where some orbit crosses node
 // blocks: zeroes the reach of every wall in `walls` (bit 2a: axis a's low wall, 2a + 1 its high
-// wall; the host sets those whose reach spans two node blocks), where grid_update_blocks left the
-// crossing nodes' sums.
+// wall; the host sets those whose reach spans two node blocks), where grid_update_wall_blocks left
+// the crossing nodes' sums.
 extern "C" __global__ void clear_crossing_orbits(const KernelParams params, const u32 walls,
                                                  float4* __restrict__ grid_acc,
                                                  u64* __restrict__ fixed_mass,
