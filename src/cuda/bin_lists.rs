@@ -3,7 +3,7 @@
 //! and fused pipelines, the list of bin chunks their tiled passes walk.
 
 use super::gpu::Gpu;
-use super::launch::Launcher;
+use super::launch::{Kernel, Launcher};
 use super::particles::slots_in_place;
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchConfig};
@@ -34,6 +34,12 @@ const _: () = {
 };
 /// The smallest chunk a bin is listed in: one particle per thread of a tiled pass (TILE_THREADS).
 pub const MIN_BIN_CHUNK: usize = 128;
+/// Particles a block of a tiled pass takes, for the blocks its list would fill (`Launcher::over_list`
+/// launches whole waves of them where these are under three waves): four of the smallest chunks.
+/// Measured on the H200 against 32 blocks a multiprocessor (BENCHMARKS.md M18): one_pass in whole
+/// waves 5 to 11 % faster from 65k to 655k particles; at 1M particles one to four waves within
+/// -0.2 to +2 %, at 16.8M 0.7 to 4.7 % slower.
+const PARTICLES_PER_TILED_BLOCK: usize = 4 * MIN_BIN_CHUNK;
 /// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.
 pub const CHUNKS_PER_MULTIPROCESSOR: usize = 48;
 
@@ -138,11 +144,14 @@ impl Bins {
             .context("only the binned pipeline lists its bins")
     }
 
-    /// A tiled pass over the listed bins: a block per bin chunk, a thread per particle, and `channels`
-    /// 32-bit accumulators per tile node (kernels/tiles.cuh).
-    pub fn tiled_pass(&self, launcher: &Launcher, channels: u32) -> LaunchConfig {
+    /// A tiled pass of `kernel` over the listed bins: a block per bin chunk at a time, a thread per
+    /// particle, and `channels` 32-bit accumulators per tile node (kernels/tiles.cuh); a block for
+    /// each `PARTICLES_PER_TILED_BLOCK` particles, within `Launcher::over_list`'s bounds.
+    pub fn tiled_pass(&self, launcher: &Launcher, kernel: &Kernel, channels: u32) -> Result<LaunchConfig> {
         launcher.over_list(
+            kernel,
             self.list_capacity(),
+            self.num_particles / PARTICLES_PER_TILED_BLOCK,
             TILE_THREADS as u32,
             channels * TILE_NODES as u32 * 4,
         )

@@ -18,7 +18,7 @@ impl G2p2g {
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
-        let config = d.bins.tiled_pass(l, MASS_CHANNELS);
+        let config = d.bins.tiled_pass(l, &self.0, MASS_CHANNELS)?;
         // SAFETY: the arguments match g2p2g in kernels/g2p2g.cu; the bin list, order and node-block
         // list are sized for this grid and these particles. Without a flow the sink and free-slot
         // pointers are null and never read (no sinks).
@@ -48,7 +48,7 @@ impl P2gMass {
     pub fn launch(&self, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let g = &d.grid;
         let list = d.bins.list()?;
-        let config = d.bins.tiled_pass(l, MASS_CHANNELS);
+        let config = d.bins.tiled_pass(l, &self.0, MASS_CHANNELS)?;
         // SAFETY: the arguments match p2g_mass in kernels/g2p2g.cu; sized as for g2p2g.
         unsafe {
             self.0.launch(l, config, |a| {

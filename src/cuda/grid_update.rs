@@ -161,7 +161,7 @@ impl GridUpdate {
                     // bodies' sums last: null without bodies); one thread per node of a block; the
                     // list has a slot per node block, as the kernels take it to.
                     unsafe {
-                        kernel.launch(l, l.over_list(capacity, NODE_BLOCK_NODES, 0), |a| {
+                        kernel.launch(l, l.over_list(kernel, capacity, 0, NODE_BLOCK_NODES, 0)?, |a| {
                             a.arg(&params.kernel)
                                 .arg(&mirror)
                                 .arg(&g.node_blocks.list)

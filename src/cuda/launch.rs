@@ -7,6 +7,11 @@ use anyhow::{Context, Result};
 use cudarc::driver::{CudaContext, CudaEvent, CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
 use std::sync::Arc;
 
+/// The most blocks a pass over a list launches per multiprocessor (`Launcher::over_list`).
+const MOST_BLOCKS_PER_SM: usize = 32;
+/// Waves of resident blocks under which a pass over a list launches whole waves (`Launcher::over_list`).
+const WHOLE_WAVES_UNDER: usize = 3;
+
 /// A null device pointer, for a pointer argument its kernel reads only where it is set (arguments
 /// go by reference, so a null one needs a place to live).
 pub static NULL_POINTER: u64 = 0;
@@ -174,16 +179,46 @@ impl Launcher {
         }
     }
 
-    /// A launch for a pass over a device-side list of at most `capacity` entries, one block per entry
-    /// at a time: enough blocks to fill the device several times over, never more than entries.
-    pub fn over_list(&self, capacity: usize, block_size: u32, shared_mem_bytes: u32) -> LaunchConfig {
-        let blocks = capacity.clamp(1, 32 * self.multiprocessors.max(1) as usize) as u32;
-        LaunchConfig {
-            grid_dim: (blocks, 1, 1),
+    /// A launch for a pass of `kernel` over a device-side list of at most `capacity` entries, whose
+    /// blocks loop over the list (its length is on the device), so their count is a choice. `wanted`:
+    /// the blocks the list's work would fill (0 where it is not known). Under three waves of the
+    /// kernel's resident blocks, whole waves, one at least: the blocks of a short list past its end
+    /// still start and leave, each block's start costs what its entries must amortise (a tiled pass
+    /// zeroes and flushes a tile), and a wave and a part would leave the part's fixed strides of the
+    /// list to run after the rest. Otherwise `MOST_BLOCKS_PER_SM` a multiprocessor (all of them,
+    /// where the capacity is smaller), which the device hands out as others finish: a long list's
+    /// entries are uneven, and many blocks share them more evenly than a few waves' strides.
+    /// Measured on the H200 (BENCHMARKS.md M18).
+    pub fn over_list(
+        &self,
+        kernel: &Kernel,
+        capacity: usize,
+        wanted: usize,
+        block_size: u32,
+        shared_mem_bytes: u32,
+    ) -> Result<LaunchConfig> {
+        let multiprocessors = self.multiprocessors.max(1) as usize;
+        let wave = kernel.resident_blocks(block_size, shared_mem_bytes)? as usize * multiprocessors;
+        let blocks = list_blocks(wanted, wave, MOST_BLOCKS_PER_SM * multiprocessors, capacity);
+        Ok(LaunchConfig {
+            grid_dim: (blocks as u32, 1, 1),
             block_dim: (block_size, 1, 1),
             shared_mem_bytes,
-        }
+        })
     }
+}
+
+/// `Launcher::over_list`'s count of blocks: `wanted` in whole waves of `wave` blocks under
+/// `WHOLE_WAVES_UNDER` waves, `most` (or a wave, where that is more) from there on, never more than
+/// the list's `capacity` nor fewer than one.
+fn list_blocks(wanted: usize, wave: usize, most: usize, capacity: usize) -> usize {
+    let wave = wave.max(1);
+    let blocks = if wanted < WHOLE_WAVES_UNDER * wave {
+        (wanted / wave).max(1) * wave
+    } else {
+        most.max(wave)
+    };
+    blocks.min(capacity).max(1)
 }
 
 /// An NVTX range for the lifetime of the value: shows as a named span in Nsight Systems, and costs
@@ -200,5 +235,40 @@ impl NvtxRange {
 impl Drop for NvtxRange {
     fn drop(&mut self) {
         nvtx::range_pop!();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::list_blocks;
+
+    #[test]
+    fn a_short_list_takes_whole_waves_and_a_long_one_the_most() {
+        let (wave, most) = (660, 4224);
+        assert_eq!(
+            list_blocks(0, wave, most, 15_625),
+            wave,
+            "nothing known: one wave"
+        );
+        assert_eq!(list_blocks(128, wave, most, 15_625), wave);
+        assert_eq!(
+            list_blocks(2 * wave - 1, wave, most, 15_625),
+            wave,
+            "never a wave and a part"
+        );
+        assert_eq!(list_blocks(2 * wave + 300, wave, most, 15_625), 2 * wave);
+        assert_eq!(
+            list_blocks(3 * wave, wave, most, 100_000),
+            most,
+            "from three waves on, the most"
+        );
+        assert_eq!(list_blocks(32_768, wave, most, 100_000), most);
+        assert_eq!(list_blocks(32_768, 5000, most, 100_000), 5000, "at least a wave");
+        assert_eq!(
+            list_blocks(0, wave, most, 200),
+            200,
+            "never past the list's capacity"
+        );
+        assert_eq!(list_blocks(0, 0, most, 0), 1, "one block at least");
     }
 }

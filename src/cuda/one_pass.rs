@@ -139,7 +139,7 @@ impl OnePass {
         } else {
             0
         };
-        let config = d.bins.tiled_pass(l, tile_channels);
+        let config = d.bins.tiled_pass(l, kernel, tile_channels)?;
         let gather = u32::from(gather == Gather::Substep);
         // SAFETY: the arguments match every one_pass entry in kernels/one_pass.cu (one parameter
         // list); the bin list, order and node-block list are

@@ -14,7 +14,7 @@ impl P2gTiled {
         let (p, g) = (&d.particles, &d.grid);
         let list = d.bins.list()?;
         // Three channels: momentum xyz (the mass is already on the grid).
-        let config = d.bins.tiled_pass(l, 3);
+        let config = d.bins.tiled_pass(l, &self.0, 3)?;
         // SAFETY: the arguments match p2g_tiled in kernels/p2g_tiled.cu; the bin list, order and
         // node-block list are sized for this grid and these particles.
         unsafe {

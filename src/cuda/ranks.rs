@@ -71,7 +71,13 @@ impl RanksKernels {
         // most of its time zeroing and flushing its histogram between two barriers. Measured on the
         // H100 (BENCHMARKS.md 0y), 16.8M slots on two ranks of one GPU: 221 to 236 us a launch
         // before, 91 to 95 after.
-        let config = l.over_list(params.num_particles as usize, l.block_size, 4 * layers);
+        let config = l.over_list(
+            &self.count_layers,
+            params.num_particles as usize,
+            params.num_particles as usize,
+            l.block_size,
+            4 * layers,
+        )?;
         // SAFETY: the arguments match count_layers; x holds num_particles float4, counts `layers`
         // u32, and the shared histogram is sized for them.
         unsafe {

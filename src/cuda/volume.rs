@@ -51,7 +51,7 @@ impl VolumeKernels {
             return Ok(true);
         }
         let list = d.bins.list()?;
-        let config = d.bins.tiled_pass(l, 1);
+        let config = d.bins.tiled_pass(l, &self.scatter_tiled, 1)?;
         // SAFETY: the arguments match scatter_volume_tiled in kernels/volume.cu; the bin list, order
         // and node-block list are sized for this grid and these particles; a null order where the
         // particles are stored in bin order (the kernel reads places).
