@@ -37,8 +37,8 @@ pub const MIN_BIN_CHUNK: usize = 128;
 /// Particles a block of a tiled pass takes, for the blocks its list would fill (`Launcher::over_list`
 /// launches whole waves of them where these are under three waves): four of the smallest chunks.
 /// Measured on the H200 against 32 blocks a multiprocessor (BENCHMARKS.md M18): one_pass in whole
-/// waves 5 to 11 % faster from 65k to 655k particles; at 1M particles one to four waves within
-/// -0.2 to +2 %, at 16.8M 0.7 to 4.7 % slower.
+/// waves 5 to 12 % faster from 65k to 655k particles; at 1M particles one to four waves within
+/// -0.2 to +2 %, at 16.8M one to four waves 0.7 to 4.7 % slower.
 const PARTICLES_PER_TILED_BLOCK: usize = 4 * MIN_BIN_CHUNK;
 /// Chunks a tiled pass should have at least to keep every multiprocessor busy several times over.
 pub const CHUNKS_PER_MULTIPROCESSOR: usize = 48;
