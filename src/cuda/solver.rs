@@ -364,13 +364,15 @@ impl CudaSolver {
 
     /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
     /// made once here, as for a substep enqueued directly.
-    fn capture_substep(&mut self, sort: bool) -> Result<SubstepGraph> {
+    /// `alike`: a cached graph to update to the capture ([`SubstepGraphs::take_alike`]).
+    fn capture_substep(&mut self, sort: bool, alike: Option<SubstepGraph>) -> Result<SubstepGraph> {
         let stream = self.gpu.stream().clone();
         let placeholders = self.timing.begin_capture()?;
-        let graph = SubstepGraph::capture(&stream, &placeholders, || {
+        let enqueue = || {
             self.enqueue_substep(sort)?;
             Ok((self.timing.captured(), self.mass_scattered))
-        });
+        };
+        let graph = SubstepGraph::capture(&stream, &placeholders, enqueue, alike);
         self.timing.end_capture();
         graph
     }
@@ -423,7 +425,10 @@ impl Solver for CudaSolver {
                 self.mass_scattered = graph.scattered();
                 graph
             }
-            None => self.capture_substep(sort)?,
+            None => {
+                let alike = self.graphs.take_alike(&key);
+                self.capture_substep(sort, alike)?
+            }
         };
         let launched = self
             .timing
