@@ -10,6 +10,9 @@
 //! next draw shows what was stepped, so the picture is one draw behind the stepping, never torn: the
 //! feed has read the particles before the worker starts, and the worker joins before the next feed.
 //! The panel's actions (pause, reset, sliders) apply once it has joined, to the next draw's steps.
+//! Where the simulation runs on CUDA, the draw closes a gate over its GL work (`GpuGate`): the
+//! worker enqueues no new stretch of substeps until that work is done, so the GPU, which runs the
+//! two contexts' work in turns, runs the draw as one block between stretches (BENCHMARKS.md M19).
 
 use super::camera::OrbitCamera;
 use super::capture::{next_free_screenshot, FrameSequence, Image};
@@ -24,6 +27,7 @@ use crate::checkpoint::Checkpoint;
 use crate::export::frames::Exports;
 use crate::sim::colliders::Motion;
 use crate::sim::dropped::{DropShape, DroppedBody};
+use crate::sim::gpu_gate::GpuGate;
 use crate::sim::{PhaseTimings, Scene, Simulation};
 use anyhow::{anyhow, Context, Result};
 use glam::{Vec2, Vec3};
@@ -283,6 +287,8 @@ struct ViewerApp {
     stepped: Option<Stepped>,
     /// The thread that steps the simulation beside each draw.
     stepper: Stepper,
+    /// Closed over each draw where the simulation steps on the GPU that draws (`GpuGate`).
+    gpu_gate: Arc<GpuGate>,
     /// The exports asked for, until the first scene starts them.
     pending_export: Option<Exports>,
     /// The export under way (with the simulation on the stepping thread while it steps).
@@ -337,6 +343,7 @@ impl ViewerApp {
             step_costs: StepCosts::default(),
             stepped: None,
             stepper: Stepper::new()?,
+            gpu_gate: Arc::default(),
             pending_export: Some(exports),
             export: None,
             finishing_export: None,
@@ -414,6 +421,8 @@ impl ViewerApp {
         };
         // The window draws a frame while the GPU finishes simulating it (Simulation::overlap_frames).
         sim.overlap_frames(true)?;
+        // A CUDA simulation shares the GPU with the drawing; a CPU one steps through the draw.
+        sim.share_gpu((sim.backend() == "cuda").then(|| self.gpu_gate.clone()));
         if let Some((camera, mut controls)) = defaults {
             // The look carries over; the radius follows the new scene's particle spacing.
             controls.render.surface = SurfaceSettings {
@@ -902,6 +911,9 @@ impl ViewerApp {
                 .render
                 .framing(domain.0, domain.1, self.scene_viewport);
         }
+        // The stepping enqueues no more substeps until the GPU has done this draw's work (GpuGate).
+        let gpu_gate = self.gpu_gate.clone();
+        let gate = gpu_gate.close();
         if let Err(e) = gpu.renderer.draw(
             self.scene_viewport,
             &self.camera,
@@ -943,6 +955,9 @@ impl ViewerApp {
         if self.show_panel {
             gpu.egui.paint(&gpu.window);
         }
+        // SAFETY: the window's context is current on this thread.
+        unsafe { gpu.gl.finish() };
+        drop(gate);
         self.draw_costs.lap(DrawSection::Paint);
         gpu.surface
             .swap_buffers(&gpu.context)

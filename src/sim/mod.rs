@@ -6,6 +6,7 @@ pub mod cpu;
 pub mod cpu_parallel;
 pub mod dropped;
 pub mod flow;
+pub mod gpu_gate;
 pub mod material;
 pub mod mesh;
 pub mod params;

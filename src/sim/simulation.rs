@@ -5,6 +5,7 @@ use super::colliders::bodies::{BodiesState, RigidBody};
 use super::colliders::ColliderFrame;
 use super::dropped::{self, DropShape, DroppedBody};
 use super::flow::{self, FlowCounts};
+use super::gpu_gate::GpuGate;
 use super::material::MaterialTable;
 use super::params::{Params, Pipeline, FRAME_DT};
 use super::phase::PhaseTimings;
@@ -15,6 +16,7 @@ use super::summary::Summary;
 use anyhow::{bail, ensure, Context, Result};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// How far past the fastest particle's speed the fixed-point momentum units reach
@@ -166,6 +168,8 @@ pub struct Simulation {
     summary_ticket: Option<SummaryTicket>,
     /// See [`Simulation::overlap_frames`].
     overlap_frames: bool,
+    /// See [`Simulation::share_gpu`].
+    gpu_gate: Option<Arc<GpuGate>>,
     /// The last frame's last stretch of substeps (ticket, substeps, dt), left in flight by
     /// [`Simulation::overlap_frames`]: accounted in the next frame, or by `settle`.
     trailing: Option<(ExtremesTicket, u32, f32)>,
@@ -310,6 +314,7 @@ impl Simulation {
             summary_wanted: false,
             summary_ticket: None,
             overlap_frames: false,
+            gpu_gate: None,
             trailing: None,
             settled: None,
             emitter_phases,
@@ -471,6 +476,12 @@ impl Simulation {
         }
         self.overlap_frames = on;
         Ok(())
+    }
+
+    /// Each stretch of substeps is enqueued only while `gate` is open: the viewer closes it while it
+    /// draws on the same GPU ([`GpuGate`]). `None`: nothing to wait for.
+    pub fn share_gpu(&mut self, gate: Option<Arc<GpuGate>>) {
+        self.gpu_gate = gate;
     }
 
     /// Accounts the last frame's trailing stretch now ([`Self::overlap_frames`]): before anything that
@@ -665,6 +676,9 @@ impl Simulation {
         // the stretches, never by timing, so runs stay reproducible.
         let mut in_flight: Option<(ExtremesTicket, u32, f32)> = self.trailing.take();
         loop {
+            if let Some(gate) = &self.gpu_gate {
+                gate.pass();
+            }
             let left = f64::from(FRAME_DT) - part.simulated;
             let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
             let (to_frame_end, dt, limit) = self.steps_for(left as f32, unknown)?;
