@@ -6,8 +6,9 @@
 //! it had over the last substep plus gravity's, d = v dt + g dt^2, and the affine part of it,
 //! D = C dt (the warm start). Then `iterations` times: every particle projects its material's
 //! constraint onto D ([`project`]), the particles scatter mass-weighted displacement to the grid
-//! (APIC: w m (d + D (x_i - x_p))), the grid turns it into node displacements, applies the tank's
-//! walls to where each node would move this substep ([`wall_displacement`]) and the liquids'
+//! (APIC: w m (d + D (x_i - x_p))) and the walls' mirror images join it as the explicit solver's
+//! momentum, the grid turns it into node displacements, applies the tank's walls to where each node
+//! would move this substep ([`wall_displacement`]) and the liquids'
 //! viscosity as a diffusion of the displacements, and the particles gather d and D back. Last, each particle integrates once ([`integrate`]): x += d, its
 //! deformation F <- (I + D) F with its law's return mapping, a liquid's volume ratio J <- J (1 +
 //! tr D); and v = d / dt, C = D / dt carry the state to the next substep, so that a checkpoint,
@@ -18,7 +19,7 @@
 //! soft it looks. The quadratic B-spline stencil is the explicit solver's ([`Stencil`]), the solids'
 //! return mappings and the SVD are src/sim/solid.rs's and src/sim/svd.rs's.
 
-use super::cpu::{GridShape, Stencil};
+use super::cpu::{self, GridShape, Stencil};
 use super::params::{Material, Params};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
 use super::push::Push;
@@ -92,6 +93,11 @@ pub struct PbmpmSolver {
     mass: Vec<f32>,
     /// Per node: the mass-weighted displacement scattered, then (in place) the node's displacement.
     displacement: Vec<Vec3>,
+    /// Per node, where the walls' mirror joins the scatter and the walls hold with friction: the
+    /// particles' own mass and mass-weighted displacement before the images joined them (the
+    /// friction reads what the walls take from these); empty otherwise.
+    own_mass: Vec<f32>,
+    own_displacement: Vec<Vec3>,
     /// Per node: the liquids' kinematic viscosity mu / rho0, mass-weighted (scattered with the
     /// mass), then the node's; empty where no particle has any ([`Self::diffuse`]).
     viscosity: Vec<f32>,
@@ -121,6 +127,8 @@ impl PbmpmSolver {
             shape,
             mass: vec![0.0; n],
             displacement: vec![Vec3::ZERO; n],
+            own_mass: Vec::new(),
+            own_displacement: Vec::new(),
             viscosity: Vec::new(),
             previous: Vec::new(),
             stencils: Vec::new(),
@@ -175,6 +183,13 @@ impl PbmpmSolver {
                 *nu /= m;
             }
         }
+        self.own_mass.clear();
+        if mirrors(params) {
+            if self.settings.wall_friction > 0.0 {
+                self.own_mass.clone_from(&self.mass);
+            }
+            cpu::mirror_walls(shape, params, &mut self.mass, |_, m, _, _| m);
+        }
     }
 
     /// Every particle's constraint on D ([`project`]).
@@ -193,7 +208,8 @@ impl PbmpmSolver {
         }
     }
 
-    /// w m_p (d + D (x_i - x_p)) to every stencil node.
+    /// w m_p (d + D (x_i - x_p)) to every stencil node, then the walls' mirror images (as the
+    /// explicit solver's momentum: [`cpu::mirror_walls`], [`cpu::momentum_image`]).
     fn scatter(&mut self, params: &Params) {
         self.displacement.fill(Vec3::ZERO);
         let (shape, dx, grid) = (self.shape, params.dx, &mut self.displacement);
@@ -205,16 +221,31 @@ impl PbmpmSolver {
                 grid[node] += (w * m_p) * (d + affine * offset)
             });
         }
+        if mirrors(params) {
+            if !self.own_mass.is_empty() {
+                self.own_displacement.clone_from(grid);
+            }
+            cpu::mirror_walls(shape, params, grid, cpu::momentum_image);
+        }
     }
 
-    /// Node displacements, held by the walls ([`wall_displacement`]).
+    /// Node displacements, held by the walls ([`wall_displacement`]; where the mirror joined the
+    /// scatter and the walls grip, [`wall_displacement_with_images`]).
     fn grid_update(&mut self, params: &Params) {
         let (lo, hi) = fluid_region(params, self.shape);
         let friction = self.settings.wall_friction;
         for (i, (&m, d)) in self.mass.iter().zip(self.displacement.iter_mut()).enumerate() {
             *d = if m > 0.0 {
                 let x = self.shape.node(i).as_vec3() * params.dx;
-                wall_displacement(*d / m, x, lo, hi, friction)
+                match self.own_mass.get(i) {
+                    Some(&own) if own > 0.0 => {
+                        let own = self.own_displacement[i] / own;
+                        wall_displacement_with_images(*d / m, own, x, lo, hi, friction)
+                    }
+                    // A node that only images reach has no fluid of its own to grip.
+                    Some(_) => wall_displacement(*d / m, x, lo, hi, 0.0),
+                    None => wall_displacement(*d / m, x, lo, hi, friction),
+                }
             } else {
                 Vec3::ZERO
             };
@@ -328,6 +359,12 @@ impl PbmpmSolver {
     }
 }
 
+/// Whether the walls' mirror joins the scatter: the scene's `solver.mirror_wall_mass` (on by
+/// default), as in the explicit solver (docs/physics.md, "Walls: the mirror boundary").
+fn mirrors(params: &Params) -> bool {
+    params.wall_mirror_lo != 0
+}
+
 /// The nodes' fluid region in metres, `[lo, hi]` per axis: where the explicit solver's walls hold
 /// the fluid (`scene::fluid_region_nodes`, without the soft wall, which pbmpm refuses).
 pub fn fluid_region(params: &Params, shape: GridShape) -> (Vec3, Vec3) {
@@ -350,19 +387,48 @@ pub fn wall_displacement(mut d: Vec3, x: Vec3, lo: Vec3, hi: Vec3, friction: f32
         let held = d[a].clamp(least, most);
         let taken = (held - d[a]).abs();
         d[a] = held;
-        if taken > 0.0 && friction > 0.0 {
-            let mut tangent = d;
-            tangent[a] = 0.0;
-            let length = tangent.length();
-            if length > 0.0 {
-                let kept = (length - friction * taken).max(0.0) / length;
-                for b in (0..3).filter(|&b| b != a) {
-                    d[b] *= kept;
-                }
-            }
-        }
+        grip(&mut d, a, friction * taken);
     }
     d
+}
+
+/// [`wall_displacement`] of a node whose displacement `d` the walls' mirror images joined, `own` the
+/// displacement of its particles alone: the images cancel what the fluid presses into a wall before
+/// the walls see it, so the friction reads the normal displacement the walls take from `own`, the
+/// push the images gave in their place.
+#[inline]
+pub fn wall_displacement_with_images(
+    mut d: Vec3,
+    own: Vec3,
+    x: Vec3,
+    lo: Vec3,
+    hi: Vec3,
+    friction: f32,
+) -> Vec3 {
+    for a in 0..3 {
+        let (least, most) = ((lo[a] - x[a]).min(0.0), (hi[a] - x[a]).max(0.0));
+        d[a] = d[a].clamp(least, most);
+        grip(&mut d, a, friction * (own[a].clamp(least, most) - own[a]).abs());
+    }
+    d
+}
+
+/// Shortens the part of `d` tangential to an `axis` wall by `cut` (to zero at most): Coulomb
+/// friction.
+#[inline]
+fn grip(d: &mut Vec3, axis: usize, cut: f32) {
+    if cut <= 0.0 {
+        return;
+    }
+    let mut tangent = *d;
+    tangent[axis] = 0.0;
+    let length = tangent.length();
+    if length > 0.0 {
+        let kept = (length - cut).max(0.0) / length;
+        for b in (0..3).filter(|&b| b != axis) {
+            d[b] *= kept;
+        }
+    }
 }
 
 /// The elasticity ratio of a solid's shape target: the weight of the rotation (its shear) against
@@ -611,5 +677,19 @@ mod tests {
             wall_displacement(Vec3::new(0.0, -0.02, 0.0), beyond, lo, hi, 0.0).y,
             0.0
         );
+    }
+
+    #[test]
+    fn under_the_mirror_the_friction_reads_what_the_wall_takes_from_the_fluids_own_displacement() {
+        let (lo, hi) = (Vec3::splat(0.1), Vec3::splat(0.9));
+        let on_floor = Vec3::new(0.5, 0.1, 0.5);
+        // The fluid's own displacement presses 0.05 m into the floor; the images cancelled it.
+        let own = Vec3::new(0.05, -0.05, 0.0);
+        let d = wall_displacement_with_images(Vec3::new(0.05, 0.0, 0.0), own, on_floor, lo, hi, 0.2);
+        assert!((d.x - 0.04).abs() < 1e-6 && d.y == 0.0, "{d:?}");
+        // Leaving the floor, it grips nothing.
+        let own = Vec3::new(0.05, 0.01, 0.0);
+        let d = wall_displacement_with_images(Vec3::new(0.05, 0.01, 0.0), own, on_floor, lo, hi, 0.2);
+        assert_eq!(d, own);
     }
 }
