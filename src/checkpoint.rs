@@ -15,7 +15,7 @@
 //! step_bodies places them (tests/gpu_lifecycle.rs checks a resumed run byte for byte against an
 //! uninterrupted one).
 //!
-//! # File format (version 6), all numbers little-endian
+//! # File format (version 7), all numbers little-endian
 //!
 //! | bytes | content |
 //! |---|---|
@@ -28,14 +28,16 @@
 //!
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
-//! whether the particles' deformation follows, the rigid body count K, the dropped body count D); the
+//! whether the particles' deformation follows, whether their volume bias follows, the rigid body
+//! count K, the dropped body count D); the
 //! 214 words of [`Params`]
 //! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, the last two stretches' flow speeds f32, late
 //! emitter layers u64, E emitter phases f64); then
 //! x (3N f32), v (3N), C (9N, column by column per slot), density (N), the live flags (N bytes, 1
 //! live, 0 parked) and each slot's material row (N bytes); then, where the scene has solids, each
-//! slot's deformation (F_E column by column and the plastic scalar: 10N f32); then, with emitters or sinks,
+//! slot's deformation (F_E column by column and the plastic scalar: 10N f32); then, where a
+//! position-based run wrote it, each slot's volume bias (N f32); then, with emitters or sinks,
 //! the lifecycle ([`FlowState`]): the free-slot stack (u64 length, u32 slots), its sorted length
 //! (u64), the nozzle points' last particles (u64 length, u32 slots) and the counts (live, emitted,
 //! drained, exhausted, blocked: u64 each); then, for each of the K rigid bodies, its [`RigidBody`] row
@@ -58,6 +60,8 @@
 //! without the clock's flow speeds: they read as the signal speed, so the first stretches after the
 //! resume take units made for that (coarser than the flow's; the run is as exact, its bytes those
 //! of another run).
+//! Version 6, written before the position-based solver kept a volume bias, is version 7 without it
+//! (a pbmpm run resumed from one starts its liquids' pressure memory from zero).
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
@@ -81,7 +85,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
 /// The format this build writes; it reads this one and every earlier one.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// The oldest format this build reads: version 1, before the material table.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 /// The file name extension of checkpoints.
@@ -147,6 +151,10 @@ struct Meta {
     /// Bodies dropped into the run, after the rigid bodies (version 5 on).
     #[serde(default)]
     dropped: u64,
+    /// Whether the particles' volume bias (the position-based solver's) follows their deformation
+    /// (version 7 on).
+    #[serde(default)]
+    volume_bias: bool,
 }
 
 /// A run's state between two frames.
@@ -379,6 +387,7 @@ impl Checkpoint {
             deformation: !self.particles.deformation.is_empty(),
             bodies: self.bodies.states.len() as u64,
             dropped: self.dropped.len() as u64,
+            volume_bias: !self.particles.volume_bias.is_empty(),
         })?;
         let n = self.particles.len();
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
@@ -389,6 +398,7 @@ impl Checkpoint {
             + 8 * self.clock.emitter_phases.len()
             + BYTES_PER_PARTICLE * n
             + std::mem::size_of_val(self.particles.deformation.as_slice())
+            + std::mem::size_of_val(self.particles.volume_bias.as_slice())
             + flow.len()
             + BYTES_PER_BODY * self.bodies.states.len()
             + BYTES_PER_DROPPED * self.dropped.len();
@@ -423,6 +433,7 @@ impl Checkpoint {
         out.write_all(&live)?;
         out.write_all(&p.material)?;
         write_words(out, bytemuck::cast_slice(&p.deformation))?;
+        write_words(out, bytemuck::cast_slice(&p.volume_bias))?;
         out.write_all(&flow)?;
         for (body, impulses) in self.bodies.states.iter().zip(&self.bodies.impulses) {
             out.write_all(&body_row_bytes(body))?;
@@ -652,6 +663,11 @@ impl Body<'_> {
             },
             deformation: if meta.deformation {
                 self.vectors::<Deformation>(n, "deformations")?
+            } else {
+                Vec::new()
+            },
+            volume_bias: if meta.volume_bias {
+                self.vectors::<f32>(n, "volume biases")?
             } else {
                 Vec::new()
             },

@@ -187,6 +187,8 @@ impl HostParticles<'_> {
                     .collect(),
                 None => Vec::new(),
             },
+            // The position-based solver's alone, which runs on the CPU.
+            volume_bias: Vec::new(),
         })
     }
 }

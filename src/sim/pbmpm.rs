@@ -115,8 +115,17 @@ pub struct PbmpmSolver {
 
 impl PbmpmSolver {
     /// A solver of `particles` on a grid of `grid_res` nodes. A liquid particle's density is its
-    /// volume ratio's, rho0 / J: one spawned at rest density starts at J = 1.
-    pub fn new(particles: Particles, grid_res: [u32; 3], settings: Settings) -> PbmpmSolver {
+    /// volume ratio's, rho0 / J: one spawned at rest density starts at J = 1. Particles without a
+    /// volume bias (a fresh spawn, a checkpoint written before there was one) start with none.
+    pub fn new(mut particles: Particles, grid_res: [u32; 3], settings: Settings) -> PbmpmSolver {
+        if particles.volume_bias.is_empty() {
+            particles.volume_bias = vec![0.0; particles.len()];
+        }
+        assert_eq!(
+            particles.volume_bias.len(),
+            particles.len(),
+            "a volume bias per slot"
+        );
         let shape = GridShape {
             res: UVec3::from(grid_res),
         };

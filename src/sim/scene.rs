@@ -141,6 +141,10 @@ pub struct Particles {
     /// an elastoviscoplastic liquid), else empty. The slots of other liquids hold the rest state and
     /// nothing reads it.
     pub deformation: Vec<Deformation>,
+    /// Under `solver.method = "pbmpm"`, each slot's volume bias: a liquid particle's pressure memory,
+    /// how far past its rest volume its volume constraint aims (dimensionless; docs/physics.md,
+    /// "Position-based MPM"), 0 for the other slots. Empty where no pbmpm solver ran.
+    pub volume_bias: Vec<f32>,
 }
 
 /// A solid particle's deformation (docs/physics.md, "Solids"), or an elastoviscoplastic liquid's
@@ -215,6 +219,11 @@ impl Particles {
                 Vec::new()
             } else {
                 pick(n).map(|i| self.deformation[i]).collect()
+            },
+            volume_bias: if self.volume_bias.is_empty() {
+                Vec::new()
+            } else {
+                pick(n).map(|i| self.volume_bias[i]).collect()
             },
         }
     }

@@ -88,6 +88,7 @@ impl Scene {
             material: Vec::with_capacity(slots),
             live: vec![true; self.num_particles],
             deformation: Vec::new(),
+            volume_bias: Vec::new(),
         };
         let colliders = self.colliders_at_start();
         for (k, body) in self.bodies.iter().enumerate() {
