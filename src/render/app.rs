@@ -287,8 +287,9 @@ struct ViewerApp {
     stepped: Option<Stepped>,
     /// The thread that steps the simulation beside each draw.
     stepper: Stepper,
-    /// Closed over each draw where the simulation steps on the GPU that draws (`GpuGate`).
-    gpu_gate: Arc<GpuGate>,
+    /// Closed over each draw while the simulation steps on the GPU that draws (`GpuGate`); `None`
+    /// for a CPU simulation, which the draw does not wait for.
+    gpu_gate: Option<Arc<GpuGate>>,
     /// The exports asked for, until the first scene starts them.
     pending_export: Option<Exports>,
     /// The export under way (with the simulation on the stepping thread while it steps).
@@ -343,7 +344,7 @@ impl ViewerApp {
             step_costs: StepCosts::default(),
             stepped: None,
             stepper: Stepper::new()?,
-            gpu_gate: Arc::default(),
+            gpu_gate: None,
             pending_export: Some(exports),
             export: None,
             finishing_export: None,
@@ -422,7 +423,8 @@ impl ViewerApp {
         // The window draws a frame while the GPU finishes simulating it (Simulation::overlap_frames).
         sim.overlap_frames(true)?;
         // A CUDA simulation shares the GPU with the drawing; a CPU one steps through the draw.
-        sim.share_gpu((sim.backend() == "cuda").then(|| self.gpu_gate.clone()));
+        self.gpu_gate = (sim.backend() == "cuda").then(Arc::default);
+        sim.share_gpu(self.gpu_gate.clone());
         if let Some((camera, mut controls)) = defaults {
             // The look carries over; the radius follows the new scene's particle spacing.
             controls.render.surface = SurfaceSettings {
@@ -913,7 +915,7 @@ impl ViewerApp {
         }
         // The stepping enqueues no more substeps until the GPU has done this draw's work (GpuGate).
         let gpu_gate = self.gpu_gate.clone();
-        let gate = gpu_gate.close();
+        let gate = gpu_gate.as_deref().map(GpuGate::close);
         if let Err(e) = gpu.renderer.draw(
             self.scene_viewport,
             &self.camera,
@@ -955,9 +957,11 @@ impl ViewerApp {
         if self.show_panel {
             gpu.egui.paint(&gpu.window);
         }
-        // SAFETY: the window's context is current on this thread.
-        unsafe { gpu.gl.finish() };
-        drop(gate);
+        if let Some(gate) = gate {
+            // SAFETY: the window's context is current on this thread.
+            unsafe { gpu.gl.finish() };
+            drop(gate);
+        }
         self.draw_costs.lap(DrawSection::Paint);
         gpu.surface
             .swap_buffers(&gpu.context)
