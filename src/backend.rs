@@ -215,21 +215,35 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
     Ok(solver)
 }
 
-/// A solver for a scene of `solver.method = "pbmpm"`: the position-based CPU reference
-/// (`sim::pbmpm`), on `--backend cpu` or `auto` (which says so); the CUDA and cpu-parallel
-/// backends refuse it before any work starts, as does a scene the solver does not run yet
-/// (`Scene::check_method`).
+/// A solver for a scene of `solver.method = "pbmpm"`: the position-based substep on CUDA
+/// (src/cuda/pbmpm_substep.rs), or its single-thread CPU reference (`sim::pbmpm`) on `--backend cpu`
+/// and on `auto` where CUDA is unavailable (which says so). The cpu-parallel backend refuses it
+/// before any work starts, as does a scene the solver does not run yet (`Scene::check_method`).
 fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
-    match kind {
-        BackendKind::Cuda | BackendKind::CpuParallel => bail!("{}", pbmpm::CPU_ONLY),
-        BackendKind::Auto => {
-            eprintln!("note: solver.method = \"pbmpm\" runs on the CPU reference on one thread (cpu) for now")
-        }
-        BackendKind::Cpu => {}
-    }
     scene.check_method()?;
-    let particles = state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
-    Ok(Box::new(PbmpmSolver::new(particles, scene.grid_res, scene.pbmpm)))
+    let particles = || state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
+    let reference =
+        || -> Box<dyn Solver> { Box::new(PbmpmSolver::new(particles(), scene.grid_res, scene.pbmpm)) };
+    let cuda = |options: CudaOptions| match state {
+        Some(saved) => CudaSolver::restore(scene, saved.particles, None, options),
+        None => CudaSolver::new(scene, options),
+    };
+    Ok(match kind {
+        BackendKind::CpuParallel => bail!("{}", pbmpm::NOT_CPU_PARALLEL),
+        BackendKind::Cpu => reference(),
+        BackendKind::Cuda => Box::new(cuda(CudaOptions::from_env()?)?),
+        BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
+            Ok(solver) => Box::new(solver),
+            Err(why) => {
+                eprintln!(
+                    "note: CUDA backend unavailable ({}); solver.method = \"pbmpm\" runs on the CPU reference \
+                     on one thread (cpu)",
+                    no_cuda_reason(&why)
+                );
+                reference()
+            }
+        },
+    })
 }
 
 /// Gives `solver` the scene's rigid bodies (`features` its contact features) in the state `bodies`:

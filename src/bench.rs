@@ -336,6 +336,9 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             crate::dist::MIGRATION_INTERVAL
         ),
         (true, true, Phase::G2p) => "one_pass + count strays (every rank)".into(),
+        (true, _, _) if scene.method == crate::sim::Method::Pbmpm => {
+            cuda::pbmpm::phase_label(phase, scene.pbmpm.iterations)
+        }
         (true, _, _) => {
             let label = cuda::pipelines::phase_label(scene.pipeline, phase, Some(fixed_point), sort_interval);
             match sim.solver().phase_kernel(phase) {

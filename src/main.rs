@@ -354,7 +354,7 @@ impl VolumeArgs {
 #[derive(clap::Args)]
 struct MethodArgs {
     /// The scheme, overriding the scene's `solver.method`: explicit (MLS-MPM under the CFL policy)
-    /// or pbmpm (position-based MPM, CPU only for now). A CFL scene made pbmpm runs
+    /// or pbmpm (position-based MPM, on CUDA or --backend cpu). A CFL scene made pbmpm runs
     /// time_step.substeps' default, 2 a frame; a pbmpm scene made explicit, the CFL policy's default.
     #[arg(long, value_enum)]
     method: Option<Method>,

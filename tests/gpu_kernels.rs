@@ -815,13 +815,7 @@ velocity = [0.0, -2.0, 0.0]
 "#
     );
     let mut scenes = vec![Scene::from_toml(OVERLAPS, "overlaps").unwrap()];
-    // The position-based presets run on the CPU only (the CUDA backend refuses them).
-    for name in presets::NAMES {
-        let scene = Scene::load(name).unwrap();
-        if scene.method == mpm::sim::Method::Explicit {
-            scenes.push(scene);
-        }
-    }
+    scenes.extend(presets::NAMES.iter().map(|name| Scene::load(name).unwrap()));
     for scene in &scenes {
         let host = scene.spawn();
         let mut gpu = CudaSolver::new(scene, CudaOptions::default()).unwrap();

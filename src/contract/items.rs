@@ -451,6 +451,63 @@ device_constants! {
     /// pass through it (no backstop).
     BOUNDARY_PIPE: u32 = 3;
 
+    // Position-based MPM (src/sim/pbmpm.rs, kernels/pbmpm.cu).
+    /// How far past its target an iteration moves a liquid's volume (over-relaxation, as Lewin's
+    /// reference implementation's default): the grid's averaging takes part of each correction back.
+    LIQUID_RELAXATION: f32 = 1.5;
+    /// The same for a solid's shape target, before its stiffness weight (`stiffness_weight`).
+    SOLID_RELAXATION: f32 = 1.5;
+    /// How much of its smoothed volume error a liquid particle's volume bias (its pressure memory) gains
+    /// a substep: the integral gain of its volume target (`PbmpmSolver`'s `liquid_volumes`). The bias
+    /// must grow more slowly than the liquid's slowest compression wave settles: at 4 iterations a pool
+    /// 10 cells deep settles at 0.02 and rings at 0.04, one 5 cells deep rings at 0.08.
+    VOLUME_MEMORY_GAIN: f32 = 0.02;
+    /// The weight of a liquid particle's smoothed volume error in its volume target, beside its own J,
+    /// where the liquid is compressed (the target's proportional gain): a stiffer target, under which
+    /// the memory also settles where it would ring without (a pool 10 cells deep at a memory gain of
+    /// 0.02). Not in tension, where the particle's own J pulls it back already: a pull as strong drove
+    /// the targets of the water splashing off the far wall of the pbmpm-dam-break preset towards no
+    /// volume at all, and the run blew up within 0.6 s.
+    VOLUME_ERROR_GAIN: f32 = 2.0;
+    /// The volume bias is held within 0 and this: it remembers compression only (a liquid holds no
+    /// tension), and no more than the liquid's own volume.
+    MAX_VOLUME_BIAS: f32 = 1.0;
+    /// How far a liquid particle's J moves a substep towards the volume the grid measures about it,
+    /// where that measure holds (every stencil node full, `FULL_NODE_FILL`): the drift correction
+    /// that keeps J its particles' real spacing.
+    GRID_VOLUME_RATE: f32 = 0.1;
+    /// A node counts as full where the rest volume of the particles about it (the walls' images
+    /// included) is at least this much of its cell's: not at a free surface.
+    FULL_NODE_FILL: f32 = 0.9;
+    /// The drift correction's weight ramps from none where the particle's least full stencil node
+    /// is `FULL_NODE_FILL_RAMP` / 2 below `FULL_NODE_FILL` to whole where it is as far above, and a
+    /// node enters that least by its weight, fully from `FULL_NODE_WEIGHT` up, not at all at 0: a
+    /// continuous rule, so that neither a node entering the stencil nor rounding (the GPU's
+    /// fixed-point sums against the CPU's floats) switches the correction on for one run and off
+    /// for another.
+    FULL_NODE_FILL_RAMP: f32 = 0.1;
+    FULL_NODE_WEIGHT: f32 = 1.0e-4;
+    /// The liquids' viscosity sweep counts a neighbour node of mass m by m / (m + this times a
+    /// cell's mass of the densest material): a node that particles barely reach, whose mass and
+    /// displacement are a rounding's, fades out of it instead of entering with a whole vote.
+    FADING_NODE_MASS: f32 = 1.0e-4;
+    /// What a position-based particle pass does (kernels/pbmpm.cu, `PassKind`): gather the node
+    /// displacements of the iteration before, project and scatter, integrate.
+    PBMPM_PASS_GATHER: u32 = 1;
+    PBMPM_PASS_SCATTER: u32 = 2;
+    PBMPM_PASS_INTEGRATE: u32 = 4;
+    /// The smallest volume ratio J a liquid particle is given (a safety floor, reached only in a crush
+    /// that the iterations could not resolve).
+    MIN_LIQUID_VOLUME: f32 = 0.05;
+    /// The singular values of a solid's F are held within these after each position-based
+    /// integration: a safety clamp that keeps F invertible (its inverse maps the constraint's target
+    /// back to a displacement).
+    PBMPM_MIN_STRETCH: f32 = 0.1;
+    PBMPM_MAX_STRETCH: f32 = 1.0e4;
+    /// The fixed-point units of one cell's volume in the position-based grid's fill (2^40, as a
+    /// cell's mass in the mass scatter's units: `Scene::fixed_point_scales`).
+    PBMPM_CELL_VOLUME_UNITS: f32 = 1099511627776.0;
+
     /// x.w of a parked particle slot (0 for a live particle).
     PARKED_W: f32 = 1.0;
     /// No particle: a nozzle point that has not emitted yet.

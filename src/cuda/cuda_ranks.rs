@@ -115,7 +115,10 @@ enum Carrier {
 impl CudaRanks {
     /// `ranks` ranks of `particles` (every slot of `scene`'s run), the slabs balanced for them.
     pub fn new(scene: &Scene, particles: Particles, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
-        crate::sim::pbmpm::refuse_on_cuda(scene)?;
+        ensure!(
+            scene.method != crate::sim::Method::Pbmpm,
+            "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
+        );
         let slabs = starting_slabs(scene, &particles, ranks)?;
         CudaRanks::with_slabs(scene, particles, slabs, options)
     }

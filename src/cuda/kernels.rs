@@ -16,6 +16,7 @@ use super::one_pass::OnePass;
 use super::p2g::P2g;
 use super::p2g_init::P2gInit;
 use super::p2g_tiled::P2gTiled;
+use super::pbmpm::PbmpmKernels;
 use super::push::PushParticles;
 use super::ranks::RanksKernels;
 use super::render::RenderAttributes;
@@ -39,6 +40,7 @@ pub struct Kernels {
     pub g2p: G2p,
     pub g2p2g: G2p2g,
     pub one_pass: OnePass,
+    pub pbmpm: PbmpmKernels,
     pub lifecycle: LifecycleKernels,
     pub spawn: SpawnKernels,
     pub stats: StatsKernel,
@@ -66,6 +68,7 @@ impl Kernels {
             g2p: G2p::load(modules)?,
             g2p2g: G2p2g::load(modules)?,
             one_pass: OnePass::load(modules, options.float_scatter, multiprocessors)?,
+            pbmpm: PbmpmKernels::load(modules)?,
             lifecycle: LifecycleKernels::load(modules)?,
             spawn: SpawnKernels::load(modules)?,
             stats: StatsKernel::load(modules)?,

@@ -9,7 +9,7 @@ use crate::contract::{MIRROR_MASS, MIRROR_MOMENTUM, MIRROR_VOLUME, NODE_BLOCK_ED
 use crate::sim::params::gathers_volume;
 use crate::sim::{Params, Pipeline};
 use anyhow::{ensure, Result};
-use cudarc::driver::PushKernelArg;
+use cudarc::driver::{CudaSlice, PushKernelArg};
 
 /// What is mirrored.
 #[derive(Clone, Copy)]
@@ -66,6 +66,35 @@ impl MirrorWalls {
                 } else {
                     a.arg(&null).arg(&null).arg(&null);
                 }
+            })?;
+        }
+        Ok(true)
+    }
+}
+
+impl MirrorWalls {
+    /// The walls' images of one scalar field of fixed-point sums (`sums`, a u64 per node; the
+    /// position-based solver's fill, liquid mass and volume error), added as the mass's are.
+    /// Nothing where the mirror is off. Whether it launched.
+    pub fn launch_sums(&self, l: &Launcher, params: &Params, sums: &CudaSlice<u64>) -> Result<bool> {
+        if params.wall_mirror_lo == 0 {
+            return Ok(false);
+        }
+        let threads = orbits(params)?;
+        let null: u64 = 0;
+        // SAFETY: the arguments match mirror_walls; `sums` holds a u64 per node and goes in the
+        // fixed-point mass's place (channel 0, MIRROR_VOLUME: fixed point, the mass's image), the
+        // float accumulators and momentum are not read for it, and the marks are null.
+        unsafe {
+            self.0.launch(l, l.cover(threads), |a| {
+                a.arg(&params.kernel)
+                    .arg(&MIRROR_VOLUME)
+                    .arg(sums)
+                    .arg(sums)
+                    .arg(sums)
+                    .arg(&null)
+                    .arg(&null)
+                    .arg(&null);
             })?;
         }
         Ok(true)

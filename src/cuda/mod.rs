@@ -13,7 +13,7 @@
 //! **One host file per kernel file.** `kernels/X.cu` is launched only from `X.rs`, which owns its
 //! argument list, and through [`launch::Kernel`] its NVTX name and its error text: [`bins`],
 //! [`bin_order`], [`p2g_init`], [`volume`], [`mirror_walls`], [`p2g`], [`p2g_tiled`], [`grid_update`], [`g2p`],
-//! [`g2p2g`], [`one_pass`], [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`],
+//! [`g2p2g`], [`one_pass`], [`pbmpm`], [`lifecycle`], [`spawn`], [`stats`], [`render`], [`push`], [`halo`],
 //! [`ranks`], [`thickness`], and [`solid_laws`], which only the tests launch.
 //!
 //! **On top: the substep.** [`kernels::Kernels`] is every kernel loaded on one GPU;
@@ -55,6 +55,7 @@ pub mod one_pass;
 pub mod p2g;
 pub mod p2g_init;
 pub mod p2g_tiled;
+pub mod pbmpm;
 pub mod push;
 pub mod ranks;
 pub mod render;
@@ -69,6 +70,7 @@ pub mod volume;
 pub mod cuda_ranks;
 mod inspect;
 pub mod kernels;
+mod pbmpm_substep;
 pub mod pipelines;
 mod setup;
 pub mod solver;

@@ -15,7 +15,6 @@ impl CudaSolver {
     /// with colliders (the device lattice knows nothing of colliders, whose insides get no fluid),
     /// and one with solids (their deformation starts at rest on the host).
     pub fn new(scene: &Scene, options: CudaOptions) -> Result<CudaSolver> {
-        crate::sim::pbmpm::refuse_on_cuda(scene)?;
         if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_deformation() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
@@ -38,7 +37,6 @@ impl CudaSolver {
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
-        crate::sim::pbmpm::refuse_on_cuda(scene)?;
         let mut scene = scene.clone();
         if scene.flow.is_active() {
             ensure!(
@@ -53,6 +51,9 @@ impl CudaSolver {
         }
         let mut solver = CudaSolver::allocate(&scene, flow, options)?;
         solver.state.particles.upload(solver.gpu.stream(), particles)?;
+        if let Some(pbmpm) = &mut solver.pbmpm {
+            pbmpm.upload_bias(solver.gpu.stream(), particles)?;
+        }
         Ok(solver)
     }
 }

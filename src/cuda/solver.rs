@@ -14,6 +14,7 @@ use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
 use super::one_pass::Gather;
 use super::particles::DeviceParticles;
+use super::pbmpm::PbmpmBuffers;
 use super::pipelines::{launches, Launch};
 use super::render::DeviceParticlesView;
 use super::snapshot::SnapshotRing;
@@ -26,7 +27,7 @@ use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::Phase;
 use crate::sim::{
-    ExtremesTicket, Params, ParticleSnapshot, ParticleView, Particles, PhaseTimings, Pipeline, Push,
+    ExtremesTicket, Method, Params, ParticleSnapshot, ParticleView, Particles, PhaseTimings, Pipeline, Push,
     ScatterMode, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
@@ -44,14 +45,14 @@ pub struct CudaSolver {
     /// The parameters the kernels get, as the scene wrote them (`Scene::params`) with the current dt;
     /// checked when they change (`accept`).
     pub(super) params: Params,
-    schedule: BinSchedule,
+    pub(super) schedule: BinSchedule,
     /// Binned and fused pipelines: the grid already holds the next substep's scatter at the
     /// particles' current positions: the mass (g2p2g, p2g_mass), or under the fused pipeline mass
     /// and momentum (one_pass).
     mass_scattered: Option<Scattered>,
     /// Particles scattered outside their tile since the solver was made (binned pipeline).
     tile_misses: u64,
-    timing: PhaseEvents,
+    pub(super) timing: PhaseEvents,
     /// Captured substeps (graph.rs); empty where graphs are off.
     graphs: SubstepGraphs,
     /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
@@ -64,6 +65,9 @@ pub struct CudaSolver {
     device_materials: Option<[Material; MAX_MATERIALS as usize]>,
     /// The staging buffers of export snapshots, made at the first.
     snapshots: Option<SnapshotRing>,
+    /// `solver.method = "pbmpm"`: the position-based substep's buffers (pbmpm_substep.rs steps it
+    /// in place of the explicit one).
+    pub(super) pbmpm: Option<PbmpmBuffers>,
 }
 
 /// What the grid holds of a scatter made ahead of its substep: its scatter mode and the fixed-point
@@ -95,10 +99,26 @@ impl CudaSolver {
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
+        // The position-based substep keeps its particles in place, walked in cell order (the report
+        // pipeline's binning), and sums its grid in fixed point whatever the scene's scatter.
+        let position_based;
+        let scene = if scene.method == Method::Pbmpm {
+            let mut adjusted = scene.clone();
+            adjusted.pipeline = Pipeline::Report;
+            adjusted.scatter = ScatterMode::FixedPoint;
+            position_based = adjusted;
+            &position_based
+        } else {
+            scene
+        };
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
         let kernels = Kernels::load(&gpu, &options)?;
         let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene.pipeline))?;
+        let pbmpm = match scene.method {
+            Method::Pbmpm => Some(PbmpmBuffers::allocate(&gpu, scene)?),
+            Method::Explicit => None,
+        };
         let stats = ParticleStats::allocate(gpu.stream())?;
         // Binnings cost more where they also gather the particles (not where memory was short).
         let sort_interval = sort_interval(state.bin_order.is_some());
@@ -119,6 +139,7 @@ impl CudaSolver {
             resumed: None,
             device_materials: None,
             snapshots: None,
+            pbmpm,
         };
         let params = solver.params;
         solver.check_params(&params)?;
@@ -395,6 +416,10 @@ impl Solver for CudaSolver {
     fn step(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
         let sort = self.sort_due();
+        if self.pbmpm.is_some() {
+            let _range = NvtxRange::new("substep (pbmpm)");
+            return self.enqueue_pbmpm_substep(sort);
+        }
         // Not the first substep (it allocates on first use), nor one that scatters as a restored or
         // discarded state's first (`resumed`, which no key holds).
         let graphs = self.options.graphs
@@ -567,7 +592,11 @@ impl Solver for CudaSolver {
     }
 
     fn read_particles(&mut self) -> Result<Particles> {
-        self.state.particles.download(&self.gpu)
+        let mut particles = self.state.particles.download(&self.gpu)?;
+        if let Some(pbmpm) = &self.pbmpm {
+            particles.volume_bias = pbmpm.download_bias(&self.gpu, particles.len())?;
+        }
+        Ok(particles)
     }
 
     fn snapshot_particles(&mut self) -> Result<ParticleSnapshot> {

@@ -13,7 +13,7 @@ use super::particles::{
     DeviceParticles, BYTES_PER_PARTICLE, DEFORMATION_BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE,
 };
 use crate::sim::flow::FlowState;
-use crate::sim::{Params, Pipeline, ScatterMode, Scene};
+use crate::sim::{Method, Params, Pipeline, ScatterMode, Scene};
 use anyhow::{ensure, Result};
 use cudarc::driver::{CudaStream, LaunchArgs, PushKernelArg};
 use std::sync::Arc;
@@ -43,7 +43,7 @@ impl DeviceState {
             scene.source
         );
         ensure!(
-            !scene.has_deformation() || scene.pipeline == Pipeline::Fused,
+            !scene.has_deformation() || scene.pipeline == Pipeline::Fused || scene.method == Method::Pbmpm,
             "scene {}: solids and liquids with a shear_modulus run in the fused GPU pipeline only (the \
              binned and report pipelines carry no deformation gradient); drop solver.pipeline = \"{}\" (or \
              --pipeline), or use a CPU backend",

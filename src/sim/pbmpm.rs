@@ -42,50 +42,22 @@ pub const MAX_SUBSTEPS: u32 = 1000;
 /// The sound speed a pbmpm liquid is given where its scene names none, m/s: it only sets the
 /// signal speed the statistics report (no equation of state runs under pbmpm).
 pub const PBMPM_NOMINAL_SOUND_SPEED: f32 = 10.0;
-/// How far past its target an iteration moves a liquid's volume (over-relaxation, as Lewin's
-/// reference implementation's default): the grid's averaging takes part of each correction back.
-pub const LIQUID_RELAXATION: f32 = 1.5;
-/// The same for a solid's shape target, before its stiffness weight ([`stiffness_weight`]).
-pub const SOLID_RELAXATION: f32 = 1.5;
-/// How much of its smoothed volume error a liquid particle's volume bias (its pressure memory) gains
-/// a substep: the integral gain of its volume target ([`PbmpmSolver`]'s `liquid_volumes`). The bias
-/// must grow more slowly than the liquid's slowest compression wave settles: at 4 iterations a pool
-/// 10 cells deep settles at 0.02 and rings at 0.04, one 5 cells deep rings at 0.08.
-pub const VOLUME_MEMORY_GAIN: f32 = 0.02;
-/// The weight of a liquid particle's smoothed volume error in its volume target, beside its own J,
-/// where the liquid is compressed (the target's proportional gain): a stiffer target, under which
-/// the memory also settles where it would ring without (a pool 10 cells deep at a memory gain of
-/// 0.02). Not in tension, where the particle's own J pulls it back already: a pull as strong drove
-/// the targets of the water splashing off the far wall of the pbmpm-dam-break preset towards no
-/// volume at all, and the run blew up within 0.6 s.
-pub const VOLUME_ERROR_GAIN: f32 = 2.0;
-/// The volume bias is held within 0 and this: it remembers compression only (a liquid holds no
-/// tension), and no more than the liquid's own volume.
-pub const MAX_VOLUME_BIAS: f32 = 1.0;
-/// How far a liquid particle's J moves a substep towards the volume the grid measures about it,
-/// where that measure holds (every stencil node at least [`FULL_NODE_FILL`] full): the drift
-/// correction that keeps J its particles' real spacing.
-pub const GRID_VOLUME_RATE: f32 = 0.1;
-/// A node counts as full where the rest volume of the particles about it (the walls' images
-/// included) is at least this much of its cell's: not at a free surface.
-pub const FULL_NODE_FILL: f32 = 0.9;
-/// The smallest volume ratio J a liquid particle is given (a safety floor, reached only in a crush
-/// that the iterations could not resolve).
-pub const MIN_LIQUID_VOLUME: f32 = 0.05;
-/// The singular values of a solid's F are held within these after each integration: a safety clamp
-/// that keeps F invertible (its inverse maps the constraint's target back to a displacement).
-pub const SOLID_STRETCH_RANGE: (f32, f32) = (0.1, 1.0e4);
+pub use crate::contract::{
+    FADING_NODE_MASS, FULL_NODE_FILL, FULL_NODE_FILL_RAMP, FULL_NODE_WEIGHT, GRID_VOLUME_RATE,
+    LIQUID_RELAXATION, MAX_VOLUME_BIAS, MIN_LIQUID_VOLUME, SOLID_RELAXATION, VOLUME_ERROR_GAIN,
+    VOLUME_MEMORY_GAIN,
+};
+/// The singular values of a solid's F are held within these after each integration (the
+/// contract's `PBMPM_MIN_STRETCH`, `PBMPM_MAX_STRETCH`).
+pub const SOLID_STRETCH_RANGE: (f32, f32) = (
+    crate::contract::PBMPM_MIN_STRETCH,
+    crate::contract::PBMPM_MAX_STRETCH,
+);
 
-/// Why the CUDA backend refuses a scene of `solver.method = "pbmpm"` (before any work starts).
-pub const CPU_ONLY: &str =
-    "solver.method = \"pbmpm\" runs on the single-thread CPU reference only for now: use --backend cpu";
-
-/// Refuses a position-based scene on a backend other than the CPU reference, naming the fix
-/// ([`CPU_ONLY`]).
-pub fn refuse_on_cuda(scene: &super::Scene) -> anyhow::Result<()> {
-    anyhow::ensure!(scene.method != super::Method::Pbmpm, "{CPU_ONLY}");
-    Ok(())
-}
+/// Why the cpu-parallel backend refuses a scene of `solver.method = "pbmpm"` (before any work
+/// starts).
+pub const NOT_CPU_PARALLEL: &str = "solver.method = \"pbmpm\" runs on CUDA (--backend cuda) and on the \
+     single-thread CPU reference (--backend cpu), not on cpu-parallel";
 
 /// The position-based solver's settings (`solver.iterations`, `solver.wall_friction`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -243,9 +215,10 @@ impl PbmpmSolver {
     /// volume, m / rho) and every liquid particle its mass and mass-weighted volume error m (1 - J),
     /// the walls' mirror images joining them. Then each liquid particle gathers:
     /// - the fill phi = sum w V_i / dx^3, whose inverse is the volume ratio the grid measures about
-    ///   it. Where every stencil node is at least [`FULL_NODE_FILL`] full (not at a free surface,
-    ///   which reads as expansion) its J moves [`GRID_VOLUME_RATE`] of the way there: J integrated
-    ///   from tr D drifts from the particles' real spacing as they rearrange;
+    ///   it. Where every stencil node is full ([`FULL_NODE_FILL`]; not at a free surface, which reads
+    ///   as expansion) its J moves [`GRID_VOLUME_RATE`] of the way there, less where its least full
+    ///   node is within the ramp ([`FULL_NODE_FILL_RAMP`], [`FULL_NODE_WEIGHT`]): J integrated from
+    ///   tr D drifts from the particles' real spacing as they rearrange;
     /// - its smoothed volume error e = sum w (m (1 - J))_i / m_i (the error gathered from the grid is
     ///   the same for neighbours, so no particle-to-particle pattern can grow in the memory): its
     ///   volume bias b gains [`VOLUME_MEMORY_GAIN`] e, held within 0 and [`MAX_VOLUME_BIAS`], and its
@@ -311,13 +284,12 @@ impl PbmpmSolver {
             self.stencils[i].for_each_node(shape, |node, w, _| {
                 phi += w * fill[node];
                 e += w * volume_error[node];
-                if w > 0.0 {
-                    least = least.min(fill[node]);
-                }
+                least = least.min(fill[node] + (1.0 - w / FULL_NODE_WEIGHT).max(0.0));
             });
-            if least >= FULL_NODE_FILL {
+            let full = ((least - FULL_NODE_FILL) / FULL_NODE_FILL_RAMP + 0.5).clamp(0.0, 1.0);
+            if full > 0.0 {
                 let j = mat.rest_density / p.rho[i];
-                let j = j + GRID_VOLUME_RATE * (1.0 / phi - j);
+                let j = j + GRID_VOLUME_RATE * full * (1.0 / phi - j);
                 p.rho[i] = mat.rest_density / j.max(MIN_LIQUID_VOLUME);
             }
             let bias = &mut p.volume_bias[i];
@@ -391,14 +363,17 @@ impl PbmpmSolver {
     }
 
     /// The liquids' viscosity on the grid: one Jacobi sweep of the implicit diffusion of the node
-    /// displacements, d_i <- (d_i + a sum_j d_j) / (1 + a n), over the n face neighbours j that hold
-    /// mass, a = nu_i dt / (dx^2 iterations): a substep's iterations together take about one
-    /// implicit step of nu dt / dx^2, and each sweep is a weighted average, stable at any viscosity.
-    /// Then the walls again, which the average may have crossed.
+    /// displacements, d_i <- (d_i + a sum_j t_j d_j) / (1 + a sum_j t_j), over the face neighbours j,
+    /// each counted by its mass m_j as t_j = m_j / (m_j + [`FADING_NODE_MASS`] of a cell's), a =
+    /// nu_i dt / (dx^2 iterations): a substep's iterations together take about one implicit step of
+    /// nu dt / dx^2, and each sweep is a weighted average, stable at any viscosity. Then the walls
+    /// again, which the average may have crossed.
     fn diffuse(&mut self, params: &Params, lo: Vec3, hi: Vec3) {
         let scale = params.dt * params.inv_dx * params.inv_dx / self.settings.iterations as f32;
         let res = self.shape.res;
         let stride = [1usize, res.x as usize, (res.x * res.y) as usize];
+        // A cell's mass of the densest material is 2^40 units of the fixed-point mass scale.
+        let fading = FADING_NODE_MASS * (1u64 << 40) as f32 / params.fixed_mass_scale;
         self.previous.clone_from(&self.displacement);
         for i in 0..self.mass.len() {
             let a = self.viscosity[i] * scale;
@@ -415,10 +390,9 @@ impl PbmpmSolver {
                 .into_iter()
                 .flatten()
                 {
-                    if self.mass[j] > 0.0 {
-                        sum += self.previous[j];
-                        n += 1.0;
-                    }
+                    let t = self.mass[j] / (self.mass[j] + fading);
+                    sum += self.previous[j] * t;
+                    n += t;
                 }
             }
             let d = (self.previous[i] + sum * a) / (1.0 + a * n);

@@ -4,7 +4,7 @@
 //! to find them in); a scene saved from one finds them beside itself, as any scene does.
 
 /// Preset names, the default first.
-pub const NAMES: [&str; 21] = [
+pub const NAMES: [&str; 23] = [
     "dam-break",
     "dam-break-1m",
     "dam-break-coarse",
@@ -24,11 +24,13 @@ pub const NAMES: [&str; 21] = [
     "ball-drop",
     "water-wheel",
     "pbmpm-dam-break",
+    "pbmpm-jelly-drop",
+    "pbmpm-1m",
     "bench-65k",
     "bench-655k",
 ];
 
-const FILES: [&str; 21] = [
+const FILES: [&str; 23] = [
     include_str!("../../scenes/dam-break.toml"),
     include_str!("../../scenes/dam-break-1m.toml"),
     include_str!("../../scenes/dam-break-coarse.toml"),
@@ -48,6 +50,8 @@ const FILES: [&str; 21] = [
     include_str!("../../scenes/ball-drop.toml"),
     include_str!("../../scenes/water-wheel.toml"),
     include_str!("../../scenes/pbmpm-dam-break.toml"),
+    include_str!("../../scenes/pbmpm-jelly-drop.toml"),
+    include_str!("../../scenes/pbmpm-1m.toml"),
     include_str!("../../scenes/bench-65k.toml"),
     include_str!("../../scenes/bench-655k.toml"),
 ];

@@ -98,7 +98,7 @@ pub struct Scene {
     pub scatter: ScatterMode,
     /// The GPU's kernel sequence (the CPU reference ignores it).
     pub pipeline: Pipeline,
-    /// The scheme (`solver.method`): explicit MLS-MPM, or position-based MPM (CPU only for now).
+    /// The scheme (`solver.method`): explicit MLS-MPM, or position-based MPM.
     pub method: Method,
     /// The position-based solver's settings (`solver.iterations`, `solver.wall_friction`); the
     /// defaults under the explicit method, which reads none of them.

@@ -1,0 +1,598 @@
+// Position-based MPM (docs/physics.md, "Position-based MPM"): the substep of `solver.method =
+// "pbmpm"` on the GPU, the CPU reference src/sim/pbmpm.rs operation for operation where it can. A
+// substep: pbmpm_begin (the warm start, the mass, viscosity and volume scatters), the walls' mirror
+// of those sums (mirror_walls.cu), pbmpm_volume_targets (each liquid particle's volume target); then
+// `iterations` times a particle pass (the gather of the last iteration's node displacements, the
+// constraints, the scatter of the displacements) and pbmpm_grid (the node displacements held by the
+// walls; pbmpm_diffuse for the liquids' viscosity); the last particle pass gathers and integrates.
+//
+// Every grid sum is fixed point (64-bit integer atomics of rounded contributions, which commute): a
+// run writes the same bytes whatever order threads arrive in. The particles are walked in cell order
+// (kernels/bins.cu) and stay in slot order in memory; the sums of a warp's run of particles in one
+// cell are added before the atomics (warp_run_sum), as p2g_init.cu does.
+#include "common.cuh"
+
+// Matrices as m[column][row], as the deformation and C are stored (common.cuh).
+struct Mat {
+    float m[3][3];
+};
+
+__device__ __forceinline__ Mat pb_identity() {
+    Mat a;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) a.m[c][r] = c == r ? 1.0f : 0.0f;
+    return a;
+}
+
+__device__ __forceinline__ Mat pb_mul(const Mat& a, const Mat& b) {
+    Mat p;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) p.m[c][r] = a.m[0][r] * b.m[c][0] + a.m[1][r] * b.m[c][1] + a.m[2][r] * b.m[c][2];
+    return p;
+}
+
+__device__ __forceinline__ Mat pb_lerp_add(const Mat& a, const Mat& b, float s) {  // a + b s
+    Mat p;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) p.m[c][r] = a.m[c][r] + b.m[c][r] * s;
+    return p;
+}
+
+__device__ __forceinline__ float pb_trace(const Mat& a) { return a.m[0][0] + a.m[1][1] + a.m[2][2]; }
+
+__device__ __forceinline__ float pb_det(const Mat& a) {
+    const float(&m)[3][3] = a.m;
+    return m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2]) - m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2]) +
+           m[2][0] * (m[0][1] * m[1][2] - m[1][1] * m[0][2]);
+}
+
+// A^-T = cof(A) / det A.
+__device__ __forceinline__ Mat pb_inverse_transpose(const Mat& a, float det) {
+    const float(&m)[3][3] = a.m;
+    const float inv = 1.0f / det;
+    Mat t;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) {
+            const int c1 = (c + 1) % 3, c2 = (c + 2) % 3, r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+            t.m[c][r] = (m[c1][r1] * m[c2][r2] - m[c2][r1] * m[c1][r2]) * inv;
+        }
+    return t;
+}
+
+__device__ __forceinline__ Mat pb_inverse(const Mat& a) {
+    const Mat t = pb_inverse_transpose(a, pb_det(a));
+    Mat i;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) i.m[c][r] = t.m[r][c];
+    return i;
+}
+
+__device__ __forceinline__ float pb_largest(const Mat& a) {
+    float largest = 0.0f;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) largest = fmaxf(largest, fabsf(a.m[c][r]));
+    return largest;
+}
+
+// The rotation of F = R S by Newton's iteration R <- (R + R^-T) / 2 (`polar_rotation`); the SVD's
+// where det F is not safely positive. Out of line: only solids and elastoviscoplastic liquids call it.
+__device__ __noinline__ Mat pb_polar_rotation(const Mat f) {
+    const float scale = pb_largest(f);
+    const float det = pb_det(f);
+    const bool nan = f.m[0][0] != f.m[0][0] || scale != scale;
+    if (nan || scale <= 0.0f || det <= 1e-6f * scale * scale * scale) {
+        Mat r;
+        svd_polar(f.m, r.m);
+        return r;
+    }
+    Mat r = f;
+    for (int k = 0; k < 20; ++k) {
+        const Mat t = pb_inverse_transpose(r, pb_det(r));
+        float change = 0.0f;
+#pragma unroll
+        for (int c = 0; c < 3; ++c)
+#pragma unroll
+            for (int q = 0; q < 3; ++q) {
+                const float next = (r.m[c][q] + t.m[c][q]) * 0.5f;
+                change = fmaxf(change, fabsf(next - r.m[c][q]));
+                r.m[c][q] = next;
+            }
+        if (change <= 1e-6f) break;
+    }
+    return r;
+}
+
+// k / (1 + k), k = (c dt / dx)^2 (`stiffness_weight`).
+__device__ __forceinline__ float pb_stiffness_weight(const KernelParams& params, float speed) {
+    const float k = speed * params.dt * params.inv_dx;
+    return (k * k) / (1.0f + k * k);
+}
+
+// 2 mu / (2 mu + lambda) (`elasticity_ratio`).
+__device__ __forceinline__ float pb_elasticity_ratio(const Material& mat) {
+    const float mu = mat.shear_modulus, lambda = fmaxf(mat.lame_lambda, 0.0f);
+    if (mu + lambda <= 0.0f) return 1.0f;
+    return 2.0f * mu / (2.0f * mu + lambda);
+}
+
+// One particle's constraint on its affine displacement D (`project` in src/sim/pbmpm.rs, which says
+// what each material's target is). `f`, `f_inverse`: its deformation and F^-1, where it carries one.
+__device__ __noinline__ Mat pb_project(const KernelParams params, u32 row, Mat affine, float rho, bool deformed,
+                                       const Mat f, float plastic, const Mat f_inverse, float target) {
+    const Material& mat = material_table[row];
+    if (!solid_is_solid(mat.law)) {
+        const float j = fmaxf(mat.rest_density / rho, MIN_LIQUID_VOLUME);
+        const float a = ((1.0f + target) / j - 1.0f - pb_trace(affine)) / 3.0f;
+#pragma unroll
+        for (int c = 0; c < 3; ++c) affine.m[c][c] += LIQUID_RELAXATION * a;
+        if (deformed && mat.law == LAW_HERSCHEL_BULKLEY && mat.shear_modulus > 0.0f) {
+            const Mat f_trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
+            Mat goal = pb_mul(pb_polar_rotation(f_trial), f_inverse);
+#pragma unroll
+            for (int c = 0; c < 3; ++c) goal.m[c][c] -= 1.0f;
+            const float speed = sqrtf(mat.shear_modulus / mat.rest_density);
+            const float weight = SOLID_RELAXATION * pb_stiffness_weight(params, speed);
+            Mat change = pb_lerp_add(goal, affine, -1.0f);
+            const float third = pb_trace(change) / 3.0f;
+#pragma unroll
+            for (int c = 0; c < 3; ++c) change.m[c][c] -= third;
+            affine = pb_lerp_add(affine, change, weight);
+        }
+        return affine;
+    }
+    if (!deformed) return affine;
+    const Mat f_trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
+    const float ratio = pb_elasticity_ratio(mat);
+    const float det = pb_det(f_trial);
+    // Sand restores a lost volume only; an elastic solid its volume either way.
+    const float volume = fminf(fmaxf(fabsf(det), 0.1f), mat.law == LAW_SAND ? 1.0f : 1000.0f);
+    const float sign = det < 0.0f ? -1.0f : 1.0f;
+    const float shape = sign / cbrtf(volume);
+    const Mat rotation = pb_polar_rotation(f_trial);
+    Mat blend;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) blend.m[c][r] = rotation.m[c][r] * ratio + f_trial.m[c][r] * shape * (1.0f - ratio);
+    Mat goal = pb_mul(blend, f_inverse);
+#pragma unroll
+    for (int c = 0; c < 3; ++c) goal.m[c][c] -= 1.0f;
+    const float weight = SOLID_RELAXATION * pb_stiffness_weight(params, solid_wave_speed(mat, plastic));
+    return pb_lerp_add(affine, pb_lerp_add(goal, affine, -1.0f), weight);
+}
+
+// F with its singular values held within [PBMPM_MIN_STRETCH, PBMPM_MAX_STRETCH] (`clamp_stretch`).
+__device__ __noinline__ void pb_clamp_stretch(float (&f)[3][3]) {
+    float u[3][3], sigma[3], v[3][3];
+    svd3(f, u, sigma, v);
+    float held[3];
+    bool same = true;
+#pragma unroll
+    for (int k = 0; k < 3; ++k) {
+        held[k] = fminf(fmaxf(fabsf(sigma[k]), PBMPM_MIN_STRETCH), PBMPM_MAX_STRETCH);
+        same &= held[k] == sigma[k];
+    }
+    if (same) return;
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) f[c][r] = u[0][r] * held[0] * v[0][c] + u[1][r] * held[1] * v[1][c] + u[2][r] * held[2] * v[2][c];
+}
+
+// The pass's state of a particle between iterations: d (xyz) and its liquid volume target (w); D as
+// three float4 columns of n; F^-1 likewise where the scene carries deformations.
+__device__ __forceinline__ Mat pb_load_mat(const float4* columns, u32 n, u32 p) {
+    Mat a;
+#pragma unroll
+    for (int c = 0; c < 3; ++c) {
+        const float4 col = columns[(size_t)c * n + p];
+        a.m[c][0] = col.x, a.m[c][1] = col.y, a.m[c][2] = col.z;
+    }
+    return a;
+}
+
+__device__ __forceinline__ void pb_store_mat(float4* columns, u32 n, u32 p, const Mat& a) {
+#pragma unroll
+    for (int c = 0; c < 3; ++c) columns[(size_t)c * n + p] = make_float4(a.m[c][0], a.m[c][1], a.m[c][2], 0.0f);
+}
+
+__device__ __forceinline__ i64 pb_units(float value, float scale, StepCounters* counters) {
+    return fixed_point_units(value * scale, counters);
+}
+
+// Adds N channels of a warp run's contributions to `sums[channel * stride + node]`-style targets: the
+// run's head adds the run's sums (every lane must call it).
+template <int N>
+__device__ __forceinline__ void pb_run_add(WarpRun run, bool live, i64 (&units)[N], u64* const (&targets)[N]) {
+    warp_run_sum(run, units);
+    if (run.head && live) {
+#pragma unroll
+        for (int k = 0; k < N; ++k)
+            if (units[k] != 0) atomicAdd(targets[k], (u64)units[k]);
+    }
+}
+
+// The warm start and the substep's scalar scatters (`begin_substep`, the scatter half of
+// `liquid_volumes`): d = v dt + g dt^2 and D = C dt into the pass state, F^-1; the mass, the liquids'
+// mass-weighted kinematic viscosity (where `viscous`), and where `volumes` the rest volume (solids'
+// m / rho), the liquids' mass and their mass-weighted volume error m (1 - J).
+extern "C" __global__ void pbmpm_begin(const KernelParams params, const float volume_scale, const u32 viscous,
+                                       const u32 volumes, const float4* __restrict__ x, const float4* __restrict__ v,
+                                       const float4* __restrict__ c, const float* __restrict__ rho,
+                                       const float4* __restrict__ deformation, const u32* __restrict__ order,
+                                       u64* __restrict__ mass, u64* __restrict__ viscosity, u64* __restrict__ fill,
+                                       u64* __restrict__ liquid_mass, u64* __restrict__ volume_error,
+                                       float4* __restrict__ pass_d, float4* __restrict__ pass_affine,
+                                       float4* __restrict__ f_inverse, StepCounters* __restrict__ counters) {
+    const u32 n = params.num_particles;
+    const float dt = params.dt;
+    FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
+        const u32 p = order[live ? i : first];
+        const float4 xp = x[p], vp = v[p];
+        const u32 row = material_index(params, vp);
+        const Material& mat = material_table[row];
+        const Stencil s = make_stencil(xp, params);
+        const bool solid = solid_is_solid(mat.law);
+        if (live) {
+            pass_d[p] = make_float4(vp.x * dt + params.gravity[0] * (dt * dt), vp.y * dt + params.gravity[1] * (dt * dt),
+                                    vp.z * dt + params.gravity[2] * (dt * dt), 0.0f);
+            Mat affine;
+#pragma unroll
+            for (int col = 0; col < 3; ++col) {
+                const float4 cc = c[(size_t)col * n + p];
+                affine.m[col][0] = cc.x * dt, affine.m[col][1] = cc.y * dt, affine.m[col][2] = cc.z * dt;
+            }
+            pb_store_mat(pass_affine, n, p, affine);
+            if (f_inverse) {
+                Mat f = pb_identity();
+                if (material_carries_deformation(mat)) {
+                    const Deformation d = load_deformation(deformation, n, p);
+#pragma unroll
+                    for (int col = 0; col < 3; ++col)
+#pragma unroll
+                        for (int r = 0; r < 3; ++r) f.m[col][r] = d.f[col][r];
+                    f = pb_inverse(f);
+                }
+                pb_store_mat(f_inverse, n, p, f);
+            }
+        }
+        // A liquid's viscosity at its strain rate over the last substep, C.
+        float nu = 0.0f;
+        if (viscous && live && !solid) {
+            float cm[3][3];
+#pragma unroll
+            for (int col = 0; col < 3; ++col) {
+                const float4 cc = c[(size_t)col * n + p];
+                cm[col][0] = cc.x, cm[col][1] = cc.y, cm[col][2] = cc.z;
+            }
+            const float mu = mat.law == LAW_NEWTONIAN
+                                 ? mat.viscosity
+                                 : material_law_viscosity(mat.law, mat.viscosity, mat.flow_index,
+                                                          mat.shear_modulus > 0.0f ? 0.0f : mat.yield_stress,
+                                                          mat.min_viscosity, mat.max_viscosity, mat.relaxation_time,
+                                                          mat.transition_exponent, material_shear_rate(cm));
+            nu = mu / mat.rest_density;
+        }
+        const float m_p = mat.particle_mass;
+        const float volume = solid ? m_p / rho[p] : m_p / mat.rest_density;
+        const float error = solid ? 0.0f : m_p * (1.0f - mat.rest_density / rho[p]);
+        const WarpRun run = warp_run(s.base_index);
+        FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+            i64 units[1] = {live ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0};
+            u64* const at[1] = {&mass[node]};
+            pb_run_add(run, live, units, at);
+            if (viscous) {
+                i64 nu_units[1] = {live ? pb_units(w * m_p * nu, params.fixed_mass_scale, counters) : 0};
+                u64* const nu_at[1] = {&viscosity[node]};
+                pb_run_add(run, live, nu_units, nu_at);
+            }
+            if (volumes) {
+                i64 v_units[3] = {live ? pb_units(w * volume, volume_scale, counters) : 0,
+                                  live && !solid ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0,
+                                  live && !solid ? pb_units(w * error, params.fixed_mass_scale, counters) : 0};
+                u64* const v_at[3] = {&fill[node], &liquid_mass[node], &volume_error[node]};
+                pb_run_add(run, live, v_units, v_at);
+            }
+        })
+    }
+}
+
+// Each liquid particle's volume target for the substep, with its memory and drift correction (the
+// gather half of `liquid_volumes`): the fill about it moves its J towards the grid's measure where
+// every stencil node is full, its volume bias gains its smoothed volume error, and the target (the
+// pass state's w) is the bias plus the error's proportional part.
+extern "C" __global__ void pbmpm_volume_targets(const KernelParams params, const float4* __restrict__ x, const float4* __restrict__ v,
+                                                float* __restrict__ rho, const u64* __restrict__ fill,
+                                                const u64* __restrict__ liquid_mass,
+                                                const u64* __restrict__ volume_error, float* __restrict__ volume_bias,
+                                                float4* __restrict__ pass_d) {
+    // A node's fill as the fraction of its cell: pbmpm_begin's volume_scale maps one cell's volume
+    // to PBMPM_CELL_VOLUME_UNITS.
+    const float inv_cell_units = 1.0f / PBMPM_CELL_VOLUME_UNITS;
+    const float inv_mass_scale = 1.0f / params.fixed_mass_scale;
+    FOR_EACH_INDEX(p, params.num_particles) {
+        const float4 vp = v[p];
+        const Material& mat = material_table[material_index(params, vp)];
+        if (solid_is_solid(mat.law)) continue;
+        const Stencil s = make_stencil(x[p], params);
+        float phi = 0.0f, least = 3.4e38f, e = 0.0f;
+        FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+            const float node_fill = fixed_point_value(fill[node], inv_cell_units);
+            const float m = fixed_point_value(liquid_mass[node], inv_mass_scale);
+            float error = fixed_point_value(volume_error[node], inv_mass_scale);
+            if (m > 0.0f) error /= m;
+            phi += w * node_fill;
+            e += w * error;
+            least = fminf(least, node_fill + fmaxf(1.0f - w / FULL_NODE_WEIGHT, 0.0f));
+        })
+        const float full = fminf(fmaxf((least - FULL_NODE_FILL) / FULL_NODE_FILL_RAMP + 0.5f, 0.0f), 1.0f);
+        if (full > 0.0f) {
+            float j = mat.rest_density / rho[p];
+            j = j + GRID_VOLUME_RATE * full * (1.0f / phi - j);
+            rho[p] = mat.rest_density / fmaxf(j, MIN_LIQUID_VOLUME);
+        }
+        const float bias = fminf(fmaxf(volume_bias[p] + VOLUME_MEMORY_GAIN * e, 0.0f), MAX_VOLUME_BIAS);
+        volume_bias[p] = bias;
+        pass_d[p].w = bias + VOLUME_ERROR_GAIN * fmaxf(e, 0.0f);
+    }
+}
+
+// One particle pass of the iteration loop (`gather`, `project_all` and `scatter`; `integrate_all`
+// in the last): `mode` says which (PBMPM_PASS_*: the first pass does not gather, the last integrates
+// in place of the scatter). The displacement is scattered as w m_p (d + D dx (x_i - x_p) / dx) in units of
+// `displacement_scale` per kg m; `node_d` holds the node displacements the grid pass wrote.
+extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode, const float displacement_scale,
+                                      const float lo, const float hi0, const float hi1, const float hi2,
+                                      float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c,
+                                      float* __restrict__ rho, float4* __restrict__ deformation,
+                                      const u32* __restrict__ order, const float4* __restrict__ node_d,
+                                      u64* __restrict__ displacement, float4* __restrict__ pass_d,
+                                      float4* __restrict__ pass_affine, const float4* __restrict__ f_inverse,
+                                      StepCounters* __restrict__ counters) {
+    const u32 n = params.num_particles;
+    float max_speed = 0.0f, max_density = 0.0f;
+    FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
+        const u32 p = order[live ? i : first];
+        const float4 xp = x[p], vp = v[p];
+        const u32 row = material_index(params, vp);
+        const Material& mat = material_table[row];
+        const Stencil s = make_stencil(xp, params);
+        float4 dp = pass_d[p];
+        Mat affine;
+        if (mode & PBMPM_PASS_GATHER) {
+            float3 d = make_float3(0.0f, 0.0f, 0.0f);
+            Mat b;
+#pragma unroll
+            for (int col = 0; col < 3; ++col)
+#pragma unroll
+                for (int r = 0; r < 3; ++r) b.m[col][r] = 0.0f;
+            FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+                const float4 g = node_d[node];
+                const float wx = w * g.x, wy = w * g.y, wz = w * g.z;
+                d.x += wx, d.y += wy, d.z += wz;
+                b.m[0][0] += wx * d0, b.m[0][1] += wy * d0, b.m[0][2] += wz * d0;
+                b.m[1][0] += wx * d1, b.m[1][1] += wy * d1, b.m[1][2] += wz * d1;
+                b.m[2][0] += wx * d2, b.m[2][1] += wy * d2, b.m[2][2] += wz * d2;
+            })
+            dp.x = d.x, dp.y = d.y, dp.z = d.z;
+#pragma unroll
+            for (int col = 0; col < 3; ++col)
+#pragma unroll
+                for (int r = 0; r < 3; ++r) affine.m[col][r] = b.m[col][r] * (4.0f * params.inv_dx);
+        } else {
+            affine = pb_load_mat(pass_affine, n, p);
+        }
+        const bool deformed = deformation != nullptr && material_carries_deformation(mat);
+        Deformation def;
+        if (deformed && live) def = load_deformation(deformation, n, p);
+        if (mode & PBMPM_PASS_SCATTER) {
+            if (live) {
+                Mat f = pb_identity(), fi = f;
+                if (deformed) {
+#pragma unroll
+                    for (int col = 0; col < 3; ++col)
+#pragma unroll
+                        for (int r = 0; r < 3; ++r) f.m[col][r] = def.f[col][r];
+                    fi = pb_load_mat(f_inverse, n, p);
+                }
+                if (deformed || !solid_is_solid(mat.law))
+                    affine = pb_project(params, row, affine, rho[p], deformed, f, deformed ? def.plastic : 0.0f, fi, dp.w);
+                pass_d[p] = dp;
+                pb_store_mat(pass_affine, n, p, affine);
+            }
+            const float scale = mat.particle_mass * displacement_scale;
+            const WarpRun run = warp_run(s.base_index);
+            FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+                const float ws = w * scale;
+                // D dx (x_i - x_p): the offsets are in cells.
+                const float ox = (affine.m[0][0] * d0 + affine.m[1][0] * d1 + affine.m[2][0] * d2) * params.dx;
+                const float oy = (affine.m[0][1] * d0 + affine.m[1][1] * d1 + affine.m[2][1] * d2) * params.dx;
+                const float oz = (affine.m[0][2] * d0 + affine.m[1][2] * d1 + affine.m[2][2] * d2) * params.dx;
+                i64 units[3] = {live ? fixed_point_units(ws * (dp.x + ox), counters) : 0,
+                                live ? fixed_point_units(ws * (dp.y + oy), counters) : 0,
+                                live ? fixed_point_units(ws * (dp.z + oz), counters) : 0};
+                u64* const at[3] = {&displacement[3 * (size_t)node], &displacement[3 * (size_t)node + 1],
+                                    &displacement[3 * (size_t)node + 2]};
+                pb_run_add(run, live, units, at);
+            })
+        } else if ((mode & PBMPM_PASS_INTEGRATE) && live) {
+            // `integrate`: x += d within the fluid region; F and a liquid's J; v = d / dt, C = D / dt.
+            const float4 xn = make_float4(fminf(fmaxf(xp.x + dp.x, lo), hi0), fminf(fmaxf(xp.y + dp.y, lo), hi1),
+                                          fminf(fmaxf(xp.z + dp.z, lo), hi2), xp.w);
+            float r = rho[p];
+            if (deformed) {
+                const Mat f = {{{def.f[0][0], def.f[0][1], def.f[0][2]},
+                                {def.f[1][0], def.f[1][1], def.f[1][2]},
+                                {def.f[2][0], def.f[2][1], def.f[2][2]}}};
+                const Mat trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
+#pragma unroll
+                for (int col = 0; col < 3; ++col)
+#pragma unroll
+                    for (int q = 0; q < 3; ++q) def.f[col][q] = trial.m[col][q];
+                float tau[3][3];
+                def.plastic = solid_plastic_return(mat, def.f, def.plastic, tau);
+                if (!(mat.law == LAW_HERSCHEL_BULKLEY && !solid_is_solid(mat.law))) pb_clamp_stretch(def.f);
+                store_deformation(deformation, n, p, def);
+                if (solid_is_solid(mat.law)) r = mat.rest_density / fmaxf(fabsf(solid_determinant(def.f)), 1e-6f);
+            }
+            if (!solid_is_solid(mat.law)) {
+                const float j = mat.rest_density / r * (1.0f + pb_trace(affine));
+                r = mat.rest_density / fmaxf(j, MIN_LIQUID_VOLUME);
+            }
+            const float inv_dt = 1.0f / params.dt;
+            x[p] = xn;
+            const float4 vn = make_float4(dp.x * inv_dt, dp.y * inv_dt, dp.z * inv_dt, vp.w);
+            v[p] = vn;
+#pragma unroll
+            for (int col = 0; col < 3; ++col)
+                c[(size_t)col * n + p] = make_float4(affine.m[col][0] * inv_dt, affine.m[col][1] * inv_dt,
+                                                     affine.m[col][2] * inv_dt, 0.0f);
+            rho[p] = r;
+            max_speed = fmaxf(max_speed, sqrtf(vn.x * vn.x + vn.y * vn.y + vn.z * vn.z));
+            max_density = fmaxf(max_density, reported_density(params, vn, r));
+        }
+    }
+    if (mode & PBMPM_PASS_INTEGRATE) {
+        atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
+        atomic_max_nonnegative(&counters->max_density_bits, max_density);
+    }
+}
+
+// `wall_displacement`'s Coulomb friction: shortens the part of d tangential to an `axis` wall by `cut`.
+__device__ __forceinline__ void pb_grip(float (&d)[3], int axis, float cut) {
+    if (cut <= 0.0f) return;
+    float t[3] = {d[0], d[1], d[2]};
+    t[axis] = 0.0f;
+    const float length = sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    if (length > 0.0f) {
+        const float kept = fmaxf(length - cut, 0.0f) / length;
+#pragma unroll
+        for (int b = 0; b < 3; ++b)
+            if (b != axis) d[b] *= kept;
+    }
+}
+
+// A node's displacement after the tank's walls (`wall_displacement`; with `own` the particles' own
+// displacement where the mirror's images joined d, `wall_displacement_with_images`).
+__device__ __forceinline__ void pb_walls(float (&d)[3], const float (&x)[3], const float (&lo)[3], const float (&hi)[3],
+                                         float friction, const float* own) {
+#pragma unroll
+    for (int a = 0; a < 3; ++a) {
+        const float least = fminf(lo[a] - x[a], 0.0f), most = fmaxf(hi[a] - x[a], 0.0f);
+        const float held = fminf(fmaxf(d[a], least), most);
+        const float taken = own ? fabsf(fminf(fmaxf(own[a], least), most) - own[a]) : fabsf(held - d[a]);
+        d[a] = held;
+        pb_grip(d, a, friction * taken);
+    }
+}
+
+// The node displacements (`grid_update`): the displacement sum over the mass, held by the walls;
+// the sums are zeroed for the next pass's scatter. `node_d`: d xyz, and in w the node's vote in the
+// viscosity's sweep, m / (m + FADING_NODE_MASS of a cell's mass), 0 where it holds no mass.
+// `own_mass`, `own_displacement`: the sums before the walls' images joined them, where the walls grip
+// (friction) under the mirror (`own_mass` also where a liquid is viscous); null otherwise.
+extern "C" __global__ void pbmpm_grid(const KernelParams params, const float displacement_scale, const float friction,
+                                      const float lo, const float hi0, const float hi1, const float hi2,
+                                      const u64* __restrict__ mass, const u64* __restrict__ own_mass,
+                                      u64* __restrict__ displacement, const u64* __restrict__ own_displacement,
+                                      float4* __restrict__ node_d) {
+    const u32 rx = params.grid_res[0], ry = params.grid_res[1];
+    const u32 nodes = rx * ry * params.grid_res[2];
+    const float inv_mass_scale = 1.0f / params.fixed_mass_scale, inv_scale = 1.0f / displacement_scale;
+    // A cell's mass of the densest material is PBMPM_CELL_VOLUME_UNITS (2^40) units of the mass scale.
+    const float fading_units = FADING_NODE_MASS * PBMPM_CELL_VOLUME_UNITS;
+    const float low[3] = {lo, lo, lo}, high[3] = {hi0, hi1, hi2};
+    FOR_EACH_INDEX(i, nodes) {
+        const u64 q = mass[i];
+        u64 sums[3];
+#pragma unroll
+        for (int a = 0; a < 3; ++a) {
+            sums[a] = displacement[3 * (size_t)i + a];
+            displacement[3 * (size_t)i + a] = 0;
+        }
+        if (q == 0) {
+            node_d[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+            continue;
+        }
+        const float m = fixed_point_value(q, inv_mass_scale);
+        float d[3];
+#pragma unroll
+        for (int a = 0; a < 3; ++a) d[a] = fixed_point_value(sums[a], inv_scale) / m;
+        const float xn[3] = {(float)(i % rx) * params.dx, (float)((i / rx) % ry) * params.dx,
+                             (float)(i / (rx * ry)) * params.dx};
+        if (own_displacement) {
+            const u64 own_q = own_mass[i];
+            if (own_q != 0) {
+                const float own_m = fixed_point_value(own_q, inv_mass_scale);
+                const float own[3] = {fixed_point_value(own_displacement[3 * (size_t)i], inv_scale) / own_m,
+                                      fixed_point_value(own_displacement[3 * (size_t)i + 1], inv_scale) / own_m,
+                                      fixed_point_value(own_displacement[3 * (size_t)i + 2], inv_scale) / own_m};
+                pb_walls(d, xn, low, high, friction, own);
+            } else {
+                // A node that only images reach has no fluid of its own to grip.
+                pb_walls(d, xn, low, high, 0.0f, nullptr);
+            }
+        } else {
+            pb_walls(d, xn, low, high, friction, nullptr);
+        }
+        const float units = (float)(i64)q;
+        node_d[i] = make_float4(d[0], d[1], d[2], units / (units + fading_units));
+    }
+}
+
+// The liquids' viscosity (`diffuse`): one Jacobi sweep d_i <- (d_i + a sum_j t_j d_j) / (1 + a sum_j
+// t_j) over the face neighbours j, each by its vote t_j (pbmpm_grid), a = nu_i `diffusion` with nu_i
+// the particles' own viscosity over their own mass (before the walls' images joined it); then the
+// walls again. From `node_d` into `diffused`.
+extern "C" __global__ void pbmpm_diffuse(const KernelParams params, const float friction, const float diffusion,
+                                         const float lo, const float hi0, const float hi1, const float hi2,
+                                         const u64* __restrict__ mass, const u64* __restrict__ own_mass,
+                                         const u64* __restrict__ viscosity, const float4* __restrict__ node_d,
+                                         float4* __restrict__ diffused) {
+    const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
+    const u32 nodes = res[0] * res[1] * res[2];
+    const u32 stride[3] = {1u, res[0], res[0] * res[1]};
+    const float inv_mass_scale = 1.0f / params.fixed_mass_scale;
+    const float low[3] = {lo, lo, lo}, high[3] = {hi0, hi1, hi2};
+    FOR_EACH_INDEX(i, nodes) {
+        const float4 own = node_d[i];
+        const u64 own_q = own_mass ? own_mass[i] : mass[i];
+        float a = 0.0f;
+        if (mass[i] != 0 && own_q != 0)
+            a = fixed_point_value(viscosity[i], inv_mass_scale) / fixed_point_value(own_q, inv_mass_scale) * diffusion;
+        if (a <= 0.0f) {
+            diffused[i] = own;
+            continue;
+        }
+        const u32 c[3] = {i % res[0], (i / res[0]) % res[1], i / (res[0] * res[1])};
+        float sum[3] = {0.0f, 0.0f, 0.0f}, count = 0.0f;
+#pragma unroll
+        for (int axis = 0; axis < 3; ++axis) {
+#pragma unroll
+            for (int side = 0; side < 2; ++side) {
+                if (side == 0 ? c[axis] == 0 : c[axis] + 1 >= res[axis]) continue;
+                const float4 g = node_d[side == 0 ? i - stride[axis] : i + stride[axis]];
+                sum[0] += g.x * g.w, sum[1] += g.y * g.w, sum[2] += g.z * g.w;
+                count += g.w;
+            }
+        }
+        const float denominator = 1.0f + a * count;
+        float d[3] = {(own.x + sum[0] * a) / denominator, (own.y + sum[1] * a) / denominator,
+                      (own.z + sum[2] * a) / denominator};
+        const float xn[3] = {(float)c[0] * params.dx, (float)c[1] * params.dx, (float)c[2] * params.dx};
+        pb_walls(d, xn, low, high, friction, nullptr);
+        diffused[i] = make_float4(d[0], d[1], d[2], own.w);
+    }
+}

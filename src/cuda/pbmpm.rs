@@ -1,0 +1,462 @@
+//! kernels/pbmpm.cu: the position-based substep's launches (`solver.method = "pbmpm"`) and the
+//! buffers it keeps beside the explicit solver's ([`PbmpmBuffers`]). Its grid sums are the fixed-point
+//! mass and momentum accumulators of [`DeviceGrid`](super::grid::DeviceGrid) (the momentum's holding
+//! mass-weighted displacements), so that mirror_walls.cu adds the walls' images to them as it does
+//! for the explicit solver; the substep's order is `CudaSolver::enqueue_pbmpm_substep`.
+
+use super::gpu::Gpu;
+use super::launch::{host_kernel, Launcher, NULL_POINTER};
+use super::state::DeviceState;
+use crate::contract::{PBMPM_CELL_VOLUME_UNITS, PBMPM_PASS_GATHER, PBMPM_PASS_INTEGRATE, PBMPM_PASS_SCATTER};
+use crate::sim::params::Material;
+use crate::sim::pbmpm::{fluid_region, Settings};
+use crate::sim::{Params, Particles, Phase, ScatterMode, Scene};
+use anyhow::{ensure, Context, Result};
+use cudarc::driver::{CudaSlice, CudaStream, PushKernelArg};
+use std::sync::Arc;
+
+host_kernel!(Begin = "pbmpm" / "pbmpm_begin");
+host_kernel!(VolumeTargets = "pbmpm" / "pbmpm_volume_targets");
+host_kernel!(Pass = "pbmpm" / "pbmpm_pass");
+host_kernel!(GridPass = "pbmpm" / "pbmpm_grid");
+host_kernel!(Diffuse = "pbmpm" / "pbmpm_diffuse");
+
+/// What a particle pass does (the contract's `PBMPM_PASS_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassKind {
+    /// The first iteration: the warm start's d and D, projected and scattered.
+    First,
+    /// The node displacements gathered, projected and scattered again.
+    Middle,
+    /// The node displacements gathered and integrated.
+    Last,
+}
+
+impl PassKind {
+    fn mode(self) -> u32 {
+        match self {
+            PassKind::First => PBMPM_PASS_SCATTER,
+            PassKind::Middle => PBMPM_PASS_GATHER | PBMPM_PASS_SCATTER,
+            PassKind::Last => PBMPM_PASS_GATHER | PBMPM_PASS_INTEGRATE,
+        }
+    }
+}
+
+/// The position-based kernels of one GPU.
+pub struct PbmpmKernels {
+    begin: Begin,
+    volume_targets: VolumeTargets,
+    pass: Pass,
+    grid: GridPass,
+    diffuse: Diffuse,
+}
+
+impl PbmpmKernels {
+    pub fn load(modules: &crate::cuda::modules::LoadedModules) -> Result<PbmpmKernels> {
+        Ok(PbmpmKernels {
+            begin: Begin::load(modules)?,
+            volume_targets: VolumeTargets::load(modules)?,
+            pass: Pass::load(modules)?,
+            grid: GridPass::load(modules)?,
+            diffuse: Diffuse::load(modules)?,
+        })
+    }
+}
+
+/// A scene's walls and grid in the terms the kernels take: the fluid region's low plane (the same on
+/// every axis) and high planes, m.
+struct Region {
+    lo: f32,
+    hi: [f32; 3],
+}
+
+/// Pushes a [`Region`] as the kernels take it: lo, then the three hi planes.
+trait RegionArg<'a> {
+    fn region(&mut self, region: &'a Region) -> &mut Self;
+}
+
+impl<'a> RegionArg<'a> for cudarc::driver::LaunchArgs<'a> {
+    fn region(&mut self, region: &'a Region) -> &mut Self {
+        self.arg(&region.lo)
+            .arg(&region.hi[0])
+            .arg(&region.hi[1])
+            .arg(&region.hi[2])
+    }
+}
+
+impl Region {
+    fn of(params: &Params) -> Region {
+        let shape = crate::sim::cpu::GridShape {
+            res: glam::UVec3::from(params.grid_res),
+        };
+        let (lo, hi) = fluid_region(params, shape);
+        Region {
+            lo: lo.x,
+            hi: hi.to_array(),
+        }
+    }
+}
+
+/// The position-based substep's own buffers: per node the scalar sums (the liquids' viscosity, the
+/// fill, liquid mass and volume error), the particles' own sums before the walls' images joined them
+/// (where needed), the node displacements; per particle the pass state (d and the volume target, D,
+/// F^-1) and the volume bias, which persists from substep to substep (checkpoints carry it).
+pub struct PbmpmBuffers {
+    pub settings: Settings,
+    /// Whether a liquid row has a viscosity, so the grid diffuses the displacements.
+    viscous: bool,
+    /// Whether the scene has liquids, whose volume targets need the fill and volume error.
+    liquids: bool,
+    viscosity: Option<CudaSlice<u64>>,
+    /// fill, liquid mass, volume error: `nodes` each, where the scene has liquids.
+    volume_sums: Option<[CudaSlice<u64>; 3]>,
+    /// The mass before the walls' images (viscosity or wall friction under the mirror).
+    own_mass: Option<CudaSlice<u64>>,
+    /// The displacement sums before the images (wall friction under the mirror).
+    own_displacement: Option<CudaSlice<u64>>,
+    /// float4 per node: d, and the node's vote in the viscosity's sweep (0 at a node without mass).
+    node_d: CudaSlice<f32>,
+    /// The same after the viscosity's sweep, where viscous.
+    diffused: Option<CudaSlice<f32>>,
+    pass_d: CudaSlice<f32>,
+    pass_affine: CudaSlice<f32>,
+    f_inverse: Option<CudaSlice<f32>>,
+    pub volume_bias: CudaSlice<f32>,
+}
+
+/// Bytes a particle and a node of the position-based buffers take at most.
+pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 12 + 12 + 1);
+pub const BYTES_PER_NODE: usize = 8 * (1 + 3 + 1 + 3) + 4 * (4 + 4);
+
+impl PbmpmBuffers {
+    /// Zeroed buffers for `scene` (its particles and grid), after checking they fit.
+    pub fn allocate(gpu: &Gpu, scene: &Scene) -> Result<PbmpmBuffers> {
+        let (n, stream) = (scene.slots(), gpu.stream());
+        let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        gpu.ensure_fits(
+            n * BYTES_PER_PARTICLE + nodes * BYTES_PER_NODE,
+            &format!(
+                "the position-based solver's buffers for scene {} ({n} particles, {nodes} grid nodes)",
+                scene.source
+            ),
+            "use a coarser domain.resolution or fewer particles",
+        )?;
+        let rows: Vec<Material> = scene.materials.iter().map(|m| m.law).collect();
+        let viscous = rows
+            .iter()
+            .any(|m| !m.is_solid() && (m.viscosity > 0.0 || m.law != crate::contract::LAW_NEWTONIAN));
+        let liquids = rows.iter().any(|m| !m.is_solid());
+        let mirror = scene.params().wall_mirror_lo != 0;
+        let gripping = scene.pbmpm.wall_friction > 0.0;
+        let f32s = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<f32>(len.max(1))
+                .with_context(|| format!("allocating the position-based {what} ({len} floats)"))
+        };
+        let u64s = |len: usize, what: &str| {
+            stream
+                .alloc_zeros::<u64>(len.max(1))
+                .with_context(|| format!("allocating the position-based {what} ({len} sums)"))
+        };
+        Ok(PbmpmBuffers {
+            settings: scene.pbmpm,
+            viscous,
+            liquids,
+            viscosity: viscous.then(|| u64s(nodes, "viscosity")).transpose()?,
+            volume_sums: match liquids {
+                true => Some([
+                    u64s(nodes, "fill")?,
+                    u64s(nodes, "liquid mass")?,
+                    u64s(nodes, "volume error")?,
+                ]),
+                false => None,
+            },
+            own_mass: (mirror && (viscous || gripping))
+                .then(|| u64s(nodes, "own mass"))
+                .transpose()?,
+            own_displacement: (mirror && gripping)
+                .then(|| u64s(3 * nodes, "own displacement"))
+                .transpose()?,
+            node_d: f32s(4 * nodes, "node displacements")?,
+            diffused: viscous
+                .then(|| f32s(4 * nodes, "diffused displacements"))
+                .transpose()?,
+            pass_d: f32s(4 * n, "particle displacements")?,
+            pass_affine: f32s(12 * n, "affine displacements")?,
+            f_inverse: scene
+                .has_deformation()
+                .then(|| f32s(12 * n, "inverse deformations"))
+                .transpose()?,
+            volume_bias: f32s(n, "volume biases")?,
+        })
+    }
+
+    /// Takes the particles' volume biases (none: a fresh spawn, or a state saved before they were
+    /// kept, starts with none).
+    pub fn upload_bias(&mut self, stream: &Arc<CudaStream>, particles: &Particles) -> Result<()> {
+        if particles.volume_bias.is_empty() {
+            return stream
+                .memset_zeros(&mut self.volume_bias)
+                .context("zeroing the volume biases");
+        }
+        ensure!(
+            particles.volume_bias.len() == particles.len(),
+            "{} volume biases for {} particles",
+            particles.volume_bias.len(),
+            particles.len()
+        );
+        stream
+            .memcpy_htod(&particles.volume_bias, &mut self.volume_bias)
+            .context("uploading the volume biases")
+    }
+
+    /// The volume biases, in slot order (the particles stay in place under this solver). Waits.
+    pub fn download_bias(&self, gpu: &Gpu, count: usize) -> Result<Vec<f32>> {
+        let mut bias = gpu.download(&self.volume_bias)?;
+        bias.truncate(count);
+        Ok(bias)
+    }
+
+    /// The substep's start, in stream order: the grid's sums zeroed, the warm start and the scalar
+    /// scatters (pbmpm_begin), the particles' own mass kept where it is needed later; the walls'
+    /// images are the caller's to add next ([`Self::own_displacement_before_images`] likewise).
+    pub fn begin(
+        &mut self,
+        k: &PbmpmKernels,
+        l: &Launcher,
+        params: &Params,
+        d: &mut DeviceState,
+    ) -> Result<()> {
+        let stream = &l.stream;
+        d.grid.clear(stream)?;
+        for sums in self.scalar_sums_mut() {
+            stream
+                .memset_zeros(sums)
+                .context("zeroing the position-based grid")?;
+        }
+        let (p, g) = (&d.particles, &d.grid);
+        let volume_scale = PBMPM_CELL_VOLUME_UNITS * params.inv_dx.powi(3);
+        let (viscous, liquids) = (u32::from(self.viscous), u32::from(self.liquids));
+        let null = &NULL_POINTER;
+        // SAFETY: the arguments match pbmpm_begin; every buffer is sized for the scene's particles and
+        // nodes, and a null pointer stands where its flag (or the scene) leaves it unread.
+        unsafe {
+            k.begin.0.launch(l, l.cover(p.count), |a| {
+                a.arg(&params.kernel)
+                    .arg(&volume_scale)
+                    .arg(&viscous)
+                    .arg(&liquids)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&p.rho);
+                match &p.deformation {
+                    Some(f) => a.arg(f),
+                    None => a.arg(null),
+                };
+                a.arg(&d.bins.order).arg(g.fixed_mass());
+                match &self.viscosity {
+                    Some(v) => a.arg(v),
+                    None => a.arg(null),
+                };
+                match &self.volume_sums {
+                    Some([fill, mass, error]) => a.arg(fill).arg(mass).arg(error),
+                    None => a.arg(null).arg(null).arg(null),
+                };
+                a.arg(&self.pass_d).arg(&self.pass_affine);
+                match &self.f_inverse {
+                    Some(f) => a.arg(f),
+                    None => a.arg(null),
+                };
+                a.arg(&d.counters.device);
+            })?;
+        }
+        if let Some(own) = &mut self.own_mass {
+            stream
+                .memcpy_dtod(d.grid.fixed_mass(), own)
+                .context("keeping the particles' own mass")?;
+        }
+        Ok(())
+    }
+
+    /// The liquids' sums that the walls' images join before the volume targets are gathered.
+    pub fn volume_sums(&self) -> impl Iterator<Item = &CudaSlice<u64>> {
+        self.volume_sums.iter().flatten()
+    }
+
+    fn scalar_sums_mut(&mut self) -> impl Iterator<Item = &mut CudaSlice<u64>> {
+        self.viscosity
+            .iter_mut()
+            .chain(self.volume_sums.iter_mut().flatten())
+    }
+
+    /// Each liquid particle's volume target, after the images joined the sums; nothing in a scene
+    /// without liquids (their targets stay 0).
+    pub fn volume_targets(
+        &mut self,
+        k: &PbmpmKernels,
+        l: &Launcher,
+        params: &Params,
+        d: &DeviceState,
+    ) -> Result<()> {
+        let Some([fill, mass, error]) = &self.volume_sums else {
+            return Ok(());
+        };
+        let p = &d.particles;
+        // SAFETY: the arguments match pbmpm_volume_targets; buffers sized for the scene.
+        unsafe {
+            k.volume_targets.0.launch(l, l.cover(p.count), |a| {
+                a.arg(&params.kernel)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.rho)
+                    .arg(fill)
+                    .arg(mass)
+                    .arg(error)
+                    .arg(&self.volume_bias)
+                    .arg(&self.pass_d);
+            })
+        }
+    }
+
+    /// The fixed-point units of the displacement sums, per kg m: the momentum's units per kg m/s
+    /// over the substep, so that a displacement of v dt takes the units v would.
+    fn displacement_scale(params: &Params) -> f32 {
+        params.fixed_momentum_scale / params.dt
+    }
+
+    /// One particle pass of the iteration loop.
+    pub fn pass(
+        &self,
+        k: &PbmpmKernels,
+        l: &Launcher,
+        kind: PassKind,
+        params: &Params,
+        d: &DeviceState,
+    ) -> Result<()> {
+        let (p, g) = (&d.particles, &d.grid);
+        let region = Region::of(params);
+        let scale = Self::displacement_scale(params);
+        let mode = kind.mode();
+        let null = &NULL_POINTER;
+        let node_d = self.diffused.as_ref().unwrap_or(&self.node_d);
+        // SAFETY: the arguments match pbmpm_pass; buffers sized for the scene.
+        unsafe {
+            k.pass.0.launch(l, l.cover(p.count), |a| {
+                a.arg(&params.kernel)
+                    .arg(&mode)
+                    .arg(&scale)
+                    .region(&region)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.c)
+                    .arg(&p.rho);
+                match &p.deformation {
+                    Some(f) => a.arg(f),
+                    None => a.arg(null),
+                };
+                a.arg(&d.bins.order)
+                    .arg(node_d)
+                    .arg(g.fixed_momentum())
+                    .arg(&self.pass_d)
+                    .arg(&self.pass_affine);
+                match &self.f_inverse {
+                    Some(f) => a.arg(f),
+                    None => a.arg(null),
+                };
+                a.arg(&d.counters.device);
+            })
+        }
+    }
+
+    /// Keeps the particles' own displacement sums before the walls' images join them, where the
+    /// walls grip under the mirror.
+    pub fn own_displacement_before_images(
+        &mut self,
+        stream: &Arc<CudaStream>,
+        d: &DeviceState,
+    ) -> Result<()> {
+        if let Some(own) = &mut self.own_displacement {
+            stream
+                .memcpy_dtod(d.grid.fixed_momentum(), own)
+                .context("keeping the particles' own displacement")?;
+        }
+        Ok(())
+    }
+
+    /// The node displacements (pbmpm_grid), then the viscosity's sweep (pbmpm_diffuse) where a
+    /// liquid is viscous.
+    pub fn grid(&self, k: &PbmpmKernels, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
+        let g = &d.grid;
+        let nodes = g.num_nodes();
+        let region = Region::of(params);
+        let scale = Self::displacement_scale(params);
+        let friction = self.settings.wall_friction;
+        let diffusion = params.dt * params.inv_dx * params.inv_dx / self.settings.iterations as f32;
+        let null = &NULL_POINTER;
+        // SAFETY: the arguments match pbmpm_grid; buffers sized for the grid (null where unread).
+        unsafe {
+            k.grid.0.launch(l, l.cover(nodes), |a| {
+                a.arg(&params.kernel)
+                    .arg(&scale)
+                    .arg(&friction)
+                    .region(&region)
+                    .arg(g.fixed_mass());
+                match &self.own_mass {
+                    Some(own) => a.arg(own),
+                    None => a.arg(null),
+                };
+                a.arg(g.fixed_momentum());
+                match &self.own_displacement {
+                    Some(own) => a.arg(own),
+                    None => a.arg(null),
+                };
+                a.arg(&self.node_d);
+            })?;
+        }
+        let (Some(diffused), Some(viscosity)) = (&self.diffused, &self.viscosity) else {
+            return Ok(());
+        };
+        // SAFETY: the arguments match pbmpm_diffuse; the sums hold a u64 per node (own mass null
+        // where the mirror is off: the mass is the particles' own), node_d and diffused a float4.
+        unsafe {
+            k.diffuse.0.launch(l, l.cover(nodes), |a| {
+                a.arg(&params.kernel)
+                    .arg(&friction)
+                    .arg(&diffusion)
+                    .region(&region)
+                    .arg(g.fixed_mass());
+                match &self.own_mass {
+                    Some(own) => a.arg(own),
+                    None => a.arg(null),
+                };
+                a.arg(viscosity).arg(&self.node_d).arg(diffused);
+            })
+        }
+    }
+}
+
+/// The parameters the explicit solver's kernels (the walls' mirror) take for the position-based
+/// grid: its sums are fixed point whatever the scene's scatter.
+pub fn fixed_point(params: &Params) -> Params {
+    let mut fixed = *params;
+    fixed.scatter_mode = ScatterMode::FixedPoint.code();
+    fixed
+}
+
+/// What each phase of the position-based substep holds, for the bench tables.
+pub fn phase_label(phase: Phase, iterations: u32) -> String {
+    match phase {
+        Phase::Sort => "bins (by cell)".into(),
+        Phase::P2gInit => {
+            "pbmpm_begin (warm start; mass, viscosity, volume scatters) + mirror_walls + pbmpm_volume_targets"
+                .into()
+        }
+        Phase::P2g => format!(
+            "{} x (pbmpm_pass: gather, constraints, scatter + mirror_walls + pbmpm_grid (+ pbmpm_diffuse))",
+            iterations
+        ),
+        Phase::G2p => "pbmpm_pass (the last gather, integration)".into(),
+        _ => "(none under pbmpm)".into(),
+    }
+}
