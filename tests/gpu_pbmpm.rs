@@ -39,6 +39,7 @@ fn main() -> std::process::ExitCode {
             every_law_follows_the_cpu_reference,
             a_run_gives_the_same_bytes_twice,
             a_checkpoint_resumes_exactly,
+            live_iterations_and_substeps_run_as_the_scene_keys,
             the_violent_scenes_stay_whole_at_one_substep_a_frame,
             a_pool_at_rest_keeps_its_volume_within_1_percent_over_10_s,
             the_dam_break_front_follows_martin_and_moyce,
@@ -149,6 +150,12 @@ fn a_checkpoint_resumes_exactly() {
         "the resumed GPU run differs from the uninterrupted one"
     );
     println!("RESULT pbmpm GPU checkpoint: resumed after 10 frames, identical to the uninterrupted run 5 frames on");
+}
+
+/// The viewer's live iterations and substeps on the GPU run as the scene keys would, byte for byte
+/// ([`live_controls_run_as_the_scene_keys`]).
+fn live_iterations_and_substeps_run_as_the_scene_keys() {
+    live_controls_run_as_the_scene_keys(CUDA);
 }
 
 /// The liquid fired at a wall at 50 m/s and the jelly thrown at the floor at 30 m/s, one substep a

@@ -89,6 +89,13 @@ fn two_runs_give_identical_bytes() {
     );
 }
 
+/// The viewer's live iterations and substeps run as the scene keys would
+/// ([`live_controls_run_as_the_scene_keys`]).
+#[test]
+fn live_iterations_and_substeps_run_as_the_scene_keys() {
+    live_controls_run_as_the_scene_keys(CPU);
+}
+
 /// The scene keys: each wrong combination refused with the key and the fix.
 #[test]
 fn the_scene_keys_are_checked() {

@@ -578,6 +578,15 @@ impl Solver for CudaSolver {
         }
     }
 
+    fn set_iterations(&mut self, iterations: u32) -> Result<()> {
+        let pbmpm = self
+            .pbmpm
+            .as_mut()
+            .context("this CUDA solver runs the explicit scheme, which has no constraint iterations")?;
+        pbmpm.settings.iterations = iterations;
+        Ok(())
+    }
+
     fn apply_push(&mut self, push: &Push) -> Result<()> {
         let (k, l) = (&self.kernels, &self.gpu.launcher);
         k.push.launch(l, push, &self.state.particles)

@@ -19,7 +19,7 @@ use super::capture::{next_free_screenshot, FrameSequence, Image};
 use super::clock::{DrawCosts, DrawSection, Pacing, SimClock, StepCosts};
 use super::colliders::ColliderDrag;
 use super::feed::{Fed, ParticleFeed, Transfer};
-use super::hud::{self, Action, Controls, HudInfo};
+use super::hud::{self, Action, Controls, HudInfo, PbmpmControls};
 use super::renderer::{Colouring, DrawMode, RenderSettings, Renderer, Viewport};
 use super::surface::SurfaceSettings;
 use crate::backend::{self, BackendKind};
@@ -378,6 +378,7 @@ impl ViewerApp {
             push_radius: 0.1,
             box_density: DropShape::default_density(false, scene),
             ball_density: DropShape::default_density(true, scene),
+            pbmpm: PbmpmControls::of(scene),
         };
         Ok((camera, controls))
     }
@@ -450,6 +451,7 @@ impl ViewerApp {
         }
         self.controls.liquid = self.controls.liquid.min(rows.saturating_sub(1));
         self.controls.gravity = Vec3::from(params.gravity);
+        self.controls.pbmpm = PbmpmControls::of(sim.scene());
         self.sim = Some(sim);
         self.scene = scene;
         self.mouse.collider_drag = None;
@@ -637,6 +639,8 @@ impl ViewerApp {
             }
             Action::SetViscosity(row, mu) => self.with_sim(|sim| sim.set_viscosity(row, mu)),
             Action::SetSoundSpeed(row, c) => self.with_sim(|sim| sim.set_sound_speed(row, c)),
+            Action::SetIterations(n) => self.with_sim(|sim| sim.set_iterations(n)),
+            Action::SetSubsteps(n) => self.with_sim(|sim| sim.set_substeps(n)),
             Action::SetGravity(g) => self.with_sim(|sim| sim.set_gravity(g)),
             Action::DropBody { ball } => self.drop_body(ball),
             Action::Quit => {

@@ -75,7 +75,34 @@ pub struct Controls {
     /// scene's start: a box that floats, a ball that sinks).
     pub box_density: f64,
     pub ball_density: f64,
+    /// Position-based MPM's constraint iterations a substep and substeps a frame, where the scene
+    /// runs it (`None` under the explicit scheme).
+    pub pbmpm: Option<PbmpmControls>,
 }
+
+/// The position-based scheme's live controls.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PbmpmControls {
+    pub iterations: u32,
+    pub substeps: u32,
+}
+
+impl PbmpmControls {
+    /// `scene`'s, where it runs position-based MPM.
+    pub fn of(scene: &crate::sim::Scene) -> Option<PbmpmControls> {
+        (scene.method == crate::sim::Method::Pbmpm).then(|| PbmpmControls {
+            iterations: scene.pbmpm.iterations,
+            substeps: scene
+                .time_step
+                .substeps(crate::sim::FRAME_DT, 0.0, scene.dx)
+                .map_or(crate::sim::pbmpm::DEFAULT_SUBSTEPS, |(n, _)| n),
+        })
+    }
+}
+
+/// The sliders' tops: the scene keys take more (64 iterations, 1000 substeps), set in the file.
+const MAX_SLIDER_ITERATIONS: u32 = 16;
+const MAX_SLIDER_SUBSTEPS: u32 = 32;
 
 pub enum Action {
     Step,
@@ -93,6 +120,9 @@ pub enum Action {
     SetViscosity(usize, f32),
     SetSoundSpeed(usize, f32),
     SetGravity(Vec3),
+    /// Position-based MPM's constraint iterations a substep, and substeps a frame.
+    SetIterations(u32),
+    SetSubsteps(u32),
     /// Drops a rigid body into the running scene: a ball (`true`) or a box.
     DropBody {
         ball: bool,
@@ -472,6 +502,38 @@ fn liquid_sliders(
     }
 }
 
+/// Position-based MPM's iterations and substeps: more of either holds a liquid's volume and a
+/// solid's shape more stiffly, at their cost (each iteration is a particle pass, each substep a
+/// start and a last pass more).
+fn pbmpm_sliders(ui: &mut egui::Ui, p: &mut PbmpmControls, actions: &mut Vec<Action>) {
+    // The tops reach a file's larger count, so that the slider shows it rather than clamping it.
+    let (most_iterations, most_substeps) = (
+        MAX_SLIDER_ITERATIONS.max(p.iterations),
+        MAX_SLIDER_SUBSTEPS.max(p.substeps),
+    );
+    if ui
+        .add(
+            egui::Slider::new(&mut p.iterations, 1..=most_iterations).text("constraint iterations a substep"),
+        )
+        .on_hover_text(
+            "position-based MPM: the file's solver.iterations takes up to 64; a snapshot keeps the file's",
+        )
+        .changed()
+    {
+        actions.push(Action::SetIterations(p.iterations));
+    }
+    if ui
+        .add(egui::Slider::new(&mut p.substeps, 1..=most_substeps).text("substeps a frame"))
+        .on_hover_text(
+            "position-based MPM: a deep liquid on a fine grid needs more to hold its volume; the file's \
+             time_step.substeps takes up to 1000; a snapshot keeps the file's",
+        )
+        .changed()
+    {
+        actions.push(Action::SetSubsteps(p.substeps));
+    }
+}
+
 fn physics_controls(
     ui: &mut egui::Ui,
     c: &mut Controls,
@@ -501,6 +563,9 @@ fn physics_controls(
                 });
         }
         liquid_sliders(ui, c, &materials[c.liquid], c.liquid, actions);
+    }
+    if let Some(pbmpm) = &mut c.pbmpm {
+        pbmpm_sliders(ui, pbmpm, actions);
     }
     let mut changed = false;
     ui.horizontal(|ui| {

@@ -748,6 +748,11 @@ impl Solver for PbmpmSolver {
         push.apply_to(&mut self.particles);
         Ok(())
     }
+
+    fn set_iterations(&mut self, iterations: u32) -> anyhow::Result<()> {
+        self.settings.iterations = iterations;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -822,6 +822,43 @@ impl Simulation {
         Ok(&mut self.params.materials[row])
     }
 
+    /// Position-based MPM's constraint iterations a substep (live control), from the next frame on:
+    /// 1 to `pbmpm::MAX_ITERATIONS`. The scene's `solver.iterations` follows, for what reads the
+    /// scene; a checkpoint keeps the scene file's (`Checkpoint::capture` saves the file's text).
+    pub fn set_iterations(&mut self, iterations: u32) -> Result<()> {
+        ensure!(
+            self.scene.method == super::Method::Pbmpm,
+            "the scene runs the explicit scheme, which has no constraint iterations (solver.method = \"pbmpm\")"
+        );
+        ensure!(
+            (1..=super::pbmpm::MAX_ITERATIONS).contains(&iterations),
+            "constraint iterations must be 1 to {}, not {iterations}",
+            super::pbmpm::MAX_ITERATIONS
+        );
+        self.settle()?;
+        self.solver.set_iterations(iterations)?;
+        self.scene.pbmpm.iterations = iterations;
+        Ok(())
+    }
+
+    /// Position-based MPM's substeps a 60 Hz frame (live control), from the next frame on: 1 to
+    /// `pbmpm::MAX_SUBSTEPS`, each 1 / (60 substeps) s. A checkpoint keeps the scene file's.
+    pub fn set_substeps(&mut self, substeps: u32) -> Result<()> {
+        ensure!(
+            self.scene.method == super::Method::Pbmpm,
+            "the scene runs the explicit scheme, whose substep follows the CFL policy (solver.method = \"pbmpm\" \
+             takes a number of substeps)"
+        );
+        ensure!(
+            (1..=super::pbmpm::MAX_SUBSTEPS).contains(&substeps),
+            "substeps a frame must be 1 to {}, not {substeps}",
+            super::pbmpm::MAX_SUBSTEPS
+        );
+        self.settle()?;
+        self.scene.time_step = super::scene::TimeStepPolicy::pbmpm(substeps);
+        Ok(())
+    }
+
     /// Gravity, m/s^2 (live control). Every component must be finite.
     pub fn set_gravity(&mut self, gravity: Vec3) -> Result<()> {
         ensure!(gravity.is_finite(), "gravity must be finite, not {gravity:?}");

@@ -152,6 +152,14 @@ pub trait Solver: Send {
     }
     /// Adds `push.velocity_change(x)` to every particle's velocity (the viewer's mouse push).
     fn apply_push(&mut self, push: &Push) -> Result<()>;
+    /// Position-based MPM's constraint iterations a substep, from the next substep on (a live
+    /// control; `Simulation::set_iterations` checks the count). The explicit solvers refuse.
+    fn set_iterations(&mut self, _iterations: u32) -> Result<()> {
+        anyhow::bail!(
+            "the {} backend's solver here is the explicit one, which has no constraint iterations",
+            self.name()
+        )
+    }
     /// The colliders the next substeps apply (their pose at the end of the substep): [`Simulation`](super::Simulation)
     /// sets them before every substep of a scene that has colliders. A backend without colliders
     /// refuses them.

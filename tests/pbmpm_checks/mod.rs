@@ -129,6 +129,49 @@ pub fn run_bytes(scene: &Scene, frames: u32, backend: BackendKind) -> Vec<u8> {
     bytes
 }
 
+/// The viewer's live controls (`Simulation::set_iterations`, `set_substeps`) set before the first
+/// frame run as the scene that starts with them: water beside a jelly at 2 iterations and 3
+/// substeps a frame, set live on the defaults' scene, writes that scene's bytes 5 frames on; a scene
+/// under the explicit scheme refuses both, and counts outside the keys' ranges are refused.
+pub fn live_controls_run_as_the_scene_keys(backend: BackendKind) {
+    let mut live = simulation(&water_and_jelly(), backend);
+    live.set_iterations(2).unwrap();
+    live.set_substeps(3).unwrap();
+    let toml = water_and_jelly()
+        .toml
+        .replace("method = \"pbmpm\"\n", "method = \"pbmpm\"\niterations = 2\n")
+        + "[time_step]\nsubsteps = 3\n";
+    let keyed = common::scene(&toml);
+    assert_eq!(
+        (keyed.pbmpm.iterations, keyed.num_particles),
+        (2, live.scene().num_particles)
+    );
+    let mut from_keys = simulation(&keyed, backend);
+    for _ in 0..5 {
+        live.advance_frame().unwrap();
+        from_keys.advance_frame().unwrap();
+    }
+    assert!(
+        common::same_particles(&particles(&mut live), &particles(&mut from_keys)),
+        "{backend:?}: the live controls' run differs from the scene keys' run"
+    );
+    for refused in [
+        live.set_iterations(0),
+        live.set_iterations(65),
+        live.set_substeps(0),
+    ] {
+        assert!(refused.is_err(), "{backend:?}: a count out of range was taken");
+    }
+    let explicit_box = common::water_box(
+        16,
+        "[[block]]\nmin = [0.02, 0.02, 0.02]\nmax = [0.08, 0.08, 0.08]\n",
+    );
+    let mut explicit = simulation(&common::scene(&explicit_box), backend);
+    let message = explicit.set_iterations(2).unwrap_err().to_string();
+    assert!(message.contains("explicit"), "{message}");
+    assert!(explicit.set_substeps(2).is_err());
+}
+
 /// Every law of the material table, as `[material]` keys: sand, snow, a Neo-Hookean jelly, an
 /// elastic Bingham mud, a shear-thinning power-law liquid, honey.
 pub fn every_law() -> [(&'static str, &'static str); 6] {
