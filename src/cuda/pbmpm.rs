@@ -103,7 +103,7 @@ impl Region {
 /// F^-1) and the volume bias, which persists from substep to substep (checkpoints carry it).
 pub struct PbmpmBuffers {
     pub settings: Settings,
-    /// Whether a liquid row has a viscosity, so the grid diffuses the displacements.
+    /// Whether the grid diffuses the displacements by the liquids' viscosity (any liquid).
     viscous: bool,
     /// Whether the scene has liquids, whose volume targets need the fill and volume error.
     liquids: bool,
@@ -142,10 +142,9 @@ impl PbmpmBuffers {
             "use a coarser domain.resolution or fewer particles",
         )?;
         let rows: Vec<Material> = scene.materials.iter().map(|m| m.law).collect();
-        let viscous = rows
-            .iter()
-            .any(|m| !m.is_solid() && (m.viscosity > 0.0 || m.law != crate::contract::LAW_NEWTONIAN));
         let liquids = rows.iter().any(|m| !m.is_solid());
+        // Every liquid, an inviscid one too: the viewer's slider may give it a viscosity mid-run.
+        let viscous = liquids;
         let mirror = scene.params().wall_mirror_lo != 0;
         let gripping = scene.pbmpm.wall_friction > 0.0;
         let f32s = |len: usize, what: &str| {
