@@ -10,6 +10,11 @@ use std::sync::Arc;
 /// Host copies in the ring: more than the two requests `Solver` allows outstanding.
 const COUNTER_COPIES: usize = 3;
 
+/// What an overflow of the explicit solver's fixed-point scatter advises.
+pub const EXPLICIT_OVERFLOW_FIX: &str = "the fluid is moving far faster than expected, or blowing up. Lower the \
+     CFL number; the report pipeline's float scatter (solver.pipeline = \"report\", solver.scatter = \"float\") \
+     has no such bound";
+
 /// What one read of the counters says beyond the extremes: the binned pipeline's bookkeeping.
 pub struct CounterReading {
     pub extremes: StepExtremes,
@@ -65,8 +70,9 @@ impl CounterRing {
     }
 
     /// Waits for that slot's copy only (its own event), not for the whole stream. `params` gives the
-    /// fixed-point scales an overflow report names.
-    pub fn wait(&self, slot: usize, params: &Params) -> Result<CounterReading> {
+    /// fixed-point scales an overflow report names, `fix` what it advises ([`EXPLICIT_OVERFLOW_FIX`],
+    /// or the position-based solver's).
+    pub fn wait(&self, slot: usize, params: &Params, fix: &str) -> Result<CounterReading> {
         let (copy, copied) = self
             .copies
             .get(slot)
@@ -81,10 +87,7 @@ impl CounterRing {
             bail!(
                 "the fixed-point scatter overflowed {overflows} times since the last frame (a grid \
                  contribution or sum left the 64-bit range at {:.3e} units/kg, {:.3e} units/(kg m/s), \
-                 or a shared tile's 32-bit sum may have wrapped); \
-                 the fluid is moving far faster than expected, or blowing up. Lower the CFL number; \
-                 the report pipeline's float scatter (solver.pipeline = \"report\", solver.scatter = \
-                 \"float\") has no such bound",
+                 or a shared tile's 32-bit sum may have wrapped); {fix}",
                 params.fixed_mass_scale,
                 params.fixed_momentum_scale
             );

@@ -124,6 +124,12 @@ pub struct PbmpmBuffers {
     pub volume_bias: CudaSlice<f32>,
 }
 
+/// What an overflow of the position-based grid's fixed-point sums advises: under pbmpm it is the
+/// liquid collapsing (a deep liquid on a fine grid, too few substeps: docs/scenes.md).
+pub const OVERFLOW_FIX: &str = "under solver.method = \"pbmpm\" this is the liquid collapsing (particles \
+     compressed to the volume ratio's floor): give the scene more time_step.substeps a frame (a deep liquid on a \
+     fine grid needs more) or more solver.iterations";
+
 /// Bytes a particle and a node of the position-based buffers take at most.
 pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 12 + 12 + 1);
 pub const BYTES_PER_NODE: usize = 8 * (1 + 3 + 1 + 3) + 4 * (4 + 4);

@@ -521,7 +521,11 @@ impl Solver for CudaSolver {
             ExtremesTicket::Ready(extremes) => return Ok(extremes),
             ExtremesTicket::Pending(slot) => slot,
         };
-        let reading = self.state.counters.wait(slot, &self.params)?;
+        let fix = match self.pbmpm {
+            Some(_) => super::pbmpm::OVERFLOW_FIX,
+            None => super::counters::EXPLICIT_OVERFLOW_FIX,
+        };
+        let reading = self.state.counters.wait(slot, &self.params, fix)?;
         self.schedule.rebin_requested |= reading.rebin_needed;
         self.tile_misses += reading.tile_misses;
         Ok(reading.extremes)
