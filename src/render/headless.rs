@@ -9,6 +9,7 @@ use glutin::api::egl::context::PossiblyCurrentContext;
 use glutin::api::egl::device::Device;
 use glutin::api::egl::display::Display;
 use glutin::config::{Api, ConfigSurfaceTypes, ConfigTemplateBuilder};
+use glutin::context::PossiblyCurrentGlContext;
 use glutin::context::{ContextApi, ContextAttributesBuilder, GlProfile, Version};
 use glutin::display::GlDisplay;
 use std::sync::Arc;
@@ -16,8 +17,8 @@ use std::sync::Arc;
 /// An off-screen GL context and a framebuffer of a fixed size, bound for drawing.
 pub struct HeadlessGl {
     gl: Arc<glow::Context>,
-    /// Kept alive for `gl`; dropped after the GL objects.
-    _context: PossiblyCurrentContext,
+    /// Kept alive for `gl`; released and dropped after the GL objects.
+    context: PossiblyCurrentContext,
     _display: Display,
     framebuffer: glow::Framebuffer,
     renderbuffers: [glow::Renderbuffer; 2],
@@ -146,7 +147,7 @@ impl HeadlessGl {
             }
             Ok(HeadlessGl {
                 gl,
-                _context: context,
+                context,
                 _display: display,
                 framebuffer,
                 renderbuffers: [colour, depth],
@@ -195,6 +196,10 @@ impl HeadlessGl {
 
 impl Drop for HeadlessGl {
     fn drop(&mut self) {
+        if !self.context.is_current() {
+            // Dropped on another thread than the one drawing: its GL calls would go elsewhere.
+            return;
+        }
         // SAFETY: our objects; the context is still alive (fields drop after this).
         unsafe {
             self.gl.delete_framebuffer(self.framebuffer);
@@ -202,5 +207,10 @@ impl Drop for HeadlessGl {
                 self.gl.delete_renderbuffer(rb);
             }
         }
+        // Released before glutin destroys it: EGL frees a context destroyed while current only once
+        // its thread lets go of it, and a thread that ends never does, so the context would be left
+        // to the driver's teardown at exit (headless_render, one context per test, once aborted there
+        // with a double free in CI).
+        let _ = self.context.make_not_current_in_place();
     }
 }
