@@ -4,7 +4,7 @@
 //! it, and its deformation where the scene has solids; so does the lifecycle's slot -> place map
 //! where the scene has emitters or sinks.
 
-use super::launch::{host_kernel, Launcher, NULL_POINTER};
+use super::launch::{host_kernel, Launcher, OptionalArg};
 use super::state::{DeviceState, StateArgs};
 use anyhow::Result;
 use cudarc::driver::PushKernelArg;
@@ -33,11 +33,8 @@ impl GatherIntoBinOrder {
                     .deformation(from)
                     .particle_state(to)
                     .arg(&to.slot)
-                    .deformation(to);
-                match &state.flow {
-                    Some(flow) => a.arg(&flow.position),
-                    None => a.arg(&NULL_POINTER),
-                };
+                    .deformation(to)
+                    .arg_or_null(state.flow.as_ref().map(|flow| &flow.position));
             })?;
         }
         state.swap_particle_buffers();

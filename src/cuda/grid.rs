@@ -176,6 +176,18 @@ impl DeviceGrid {
         self.clear_node_block_list(stream)
     }
 
+    /// Zeroes the fixed-point sums alone: the position-based substep's start, whose kernels touch
+    /// neither the float accumulators nor the node-block list.
+    pub fn clear_fixed(&mut self, stream: &Arc<CudaStream>) -> Result<()> {
+        let fixed = self
+            .fixed
+            .as_mut()
+            .context("the fixed-point sums are not allocated")?;
+        let zero = "zeroing the grid's fixed-point sums";
+        stream.memset_zeros(&mut fixed.mass).context(zero)?;
+        stream.memset_zeros(&mut fixed.momentum).context(zero)
+    }
+
     /// Empties the list of touched node blocks, both parts (the grid update empties them after each
     /// walk).
     fn clear_node_block_list(&mut self, stream: &Arc<CudaStream>) -> Result<()> {

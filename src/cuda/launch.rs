@@ -4,7 +4,9 @@
 
 use super::modules::LoadedModules;
 use anyhow::{Context, Result};
-use cudarc::driver::{CudaContext, CudaEvent, CudaFunction, CudaStream, LaunchArgs, LaunchConfig};
+use cudarc::driver::{
+    CudaContext, CudaEvent, CudaFunction, CudaSlice, CudaStream, LaunchArgs, LaunchConfig, PushKernelArg,
+};
 use std::sync::Arc;
 
 /// The most blocks a pass over a list launches per multiprocessor (`Launcher::over_list`).
@@ -15,6 +17,20 @@ const WHOLE_WAVES_UNDER: usize = 3;
 /// A null device pointer, for a pointer argument its kernel reads only where it is set (arguments
 /// go by reference, so a null one needs a place to live).
 pub static NULL_POINTER: u64 = 0;
+
+/// A device buffer a kernel takes where the scene has it, and a null pointer (unread) where not.
+pub trait OptionalArg<'a> {
+    fn arg_or_null<T>(&mut self, buffer: Option<&'a CudaSlice<T>>) -> &mut Self;
+}
+
+impl<'a> OptionalArg<'a> for LaunchArgs<'a> {
+    fn arg_or_null<T>(&mut self, buffer: Option<&'a CudaSlice<T>>) -> &mut Self {
+        match buffer {
+            Some(buffer) => self.arg(buffer),
+            None => self.arg(&NULL_POINTER),
+        }
+    }
+}
 
 /// A loaded kernel and its name.
 #[derive(Clone)]

@@ -5,8 +5,8 @@
 //! for the explicit solver; the substep's order is `CudaSolver::enqueue_pbmpm_substep`.
 
 use super::gpu::Gpu;
-use super::launch::{host_kernel, Launcher, NULL_POINTER};
-use super::state::DeviceState;
+use super::launch::{host_kernel, Launcher, OptionalArg};
+use super::state::{DeviceState, StateArgs};
 use crate::contract::{PBMPM_CELL_VOLUME_UNITS, PBMPM_PASS_GATHER, PBMPM_PASS_INTEGRATE, PBMPM_PASS_SCATTER};
 use crate::sim::params::Material;
 use crate::sim::pbmpm::{fluid_region, Settings};
@@ -233,7 +233,7 @@ impl PbmpmBuffers {
         d: &mut DeviceState,
     ) -> Result<()> {
         let stream = &l.stream;
-        d.grid.clear(stream)?;
+        d.grid.clear_fixed(stream)?;
         for sums in self.scalar_sums_mut() {
             stream
                 .memset_zeros(sums)
@@ -242,7 +242,10 @@ impl PbmpmBuffers {
         let (p, g) = (&d.particles, &d.grid);
         let volume_scale = PBMPM_CELL_VOLUME_UNITS * params.inv_dx.powi(3);
         let (viscous, liquids) = (u32::from(self.viscous), u32::from(self.liquids));
-        let null = &NULL_POINTER;
+        let [fill, mass, error] = self
+            .volume_sums
+            .as_ref()
+            .map_or([None; 3], |[f, m, e]| [Some(f), Some(m), Some(e)]);
         // SAFETY: the arguments match pbmpm_begin; every buffer is sized for the scene's particles and
         // nodes, and a null pointer stands where its flag (or the scene) leaves it unread.
         unsafe {
@@ -251,29 +254,18 @@ impl PbmpmBuffers {
                     .arg(&volume_scale)
                     .arg(&viscous)
                     .arg(&liquids)
-                    .arg(&p.x)
-                    .arg(&p.v)
-                    .arg(&p.c)
-                    .arg(&p.rho);
-                match &p.deformation {
-                    Some(f) => a.arg(f),
-                    None => a.arg(null),
-                };
-                a.arg(&d.bins.order).arg(g.fixed_mass());
-                match &self.viscosity {
-                    Some(v) => a.arg(v),
-                    None => a.arg(null),
-                };
-                match &self.volume_sums {
-                    Some([fill, mass, error]) => a.arg(fill).arg(mass).arg(error),
-                    None => a.arg(null).arg(null).arg(null),
-                };
-                a.arg(&self.pass_d).arg(&self.pass_affine);
-                match &self.f_inverse {
-                    Some(f) => a.arg(f),
-                    None => a.arg(null),
-                };
-                a.arg(&d.counters.device);
+                    .particle_state(p)
+                    .deformation(p)
+                    .arg(&d.bins.order)
+                    .arg(g.fixed_mass())
+                    .arg_or_null(self.viscosity.as_ref())
+                    .arg_or_null(fill)
+                    .arg_or_null(mass)
+                    .arg_or_null(error)
+                    .arg(&self.pass_d)
+                    .arg(&self.pass_affine)
+                    .arg_or_null(self.f_inverse.as_ref())
+                    .arg(&d.counters.device);
             })?;
         }
         if let Some(own) = &mut self.own_mass {
@@ -343,7 +335,6 @@ impl PbmpmBuffers {
         let region = Region::of(params);
         let scale = Self::displacement_scale(params);
         let mode = kind.mode();
-        let null = &NULL_POINTER;
         let node_d = self.diffused.as_ref().unwrap_or(&self.node_d);
         // SAFETY: the arguments match pbmpm_pass; buffers sized for the scene.
         unsafe {
@@ -352,24 +343,15 @@ impl PbmpmBuffers {
                     .arg(&mode)
                     .arg(&scale)
                     .region(&region)
-                    .arg(&p.x)
-                    .arg(&p.v)
-                    .arg(&p.c)
-                    .arg(&p.rho);
-                match &p.deformation {
-                    Some(f) => a.arg(f),
-                    None => a.arg(null),
-                };
-                a.arg(&d.bins.order)
+                    .particle_state(p)
+                    .deformation(p)
+                    .arg(&d.bins.order)
                     .arg(node_d)
                     .arg(g.fixed_momentum())
                     .arg(&self.pass_d)
-                    .arg(&self.pass_affine);
-                match &self.f_inverse {
-                    Some(f) => a.arg(f),
-                    None => a.arg(null),
-                };
-                a.arg(&d.counters.device);
+                    .arg(&self.pass_affine)
+                    .arg_or_null(self.f_inverse.as_ref())
+                    .arg(&d.counters.device);
             })
         }
     }
@@ -398,7 +380,6 @@ impl PbmpmBuffers {
         let scale = Self::displacement_scale(params);
         let friction = self.settings.wall_friction;
         let diffusion = params.dt * params.inv_dx * params.inv_dx / self.settings.iterations as f32;
-        let null = &NULL_POINTER;
         // SAFETY: the arguments match pbmpm_grid; buffers sized for the grid (null where unread).
         unsafe {
             k.grid.0.launch(l, l.cover(nodes), |a| {
@@ -406,17 +387,11 @@ impl PbmpmBuffers {
                     .arg(&scale)
                     .arg(&friction)
                     .region(&region)
-                    .arg(g.fixed_mass());
-                match &self.own_mass {
-                    Some(own) => a.arg(own),
-                    None => a.arg(null),
-                };
-                a.arg(g.fixed_momentum());
-                match &self.own_displacement {
-                    Some(own) => a.arg(own),
-                    None => a.arg(null),
-                };
-                a.arg(&self.node_d);
+                    .arg(g.fixed_mass())
+                    .arg_or_null(self.own_mass.as_ref())
+                    .arg(g.fixed_momentum())
+                    .arg_or_null(self.own_displacement.as_ref())
+                    .arg(&self.node_d);
             })?;
         }
         let (Some(diffused), Some(viscosity)) = (&self.diffused, &self.viscosity) else {
@@ -430,12 +405,11 @@ impl PbmpmBuffers {
                     .arg(&friction)
                     .arg(&diffusion)
                     .region(&region)
-                    .arg(g.fixed_mass());
-                match &self.own_mass {
-                    Some(own) => a.arg(own),
-                    None => a.arg(null),
-                };
-                a.arg(viscosity).arg(&self.node_d).arg(diffused);
+                    .arg(g.fixed_mass())
+                    .arg_or_null(self.own_mass.as_ref())
+                    .arg(viscosity)
+                    .arg(&self.node_d)
+                    .arg(diffused);
             })
         }
     }

@@ -8,7 +8,7 @@ use super::counters::CounterRing;
 use super::flow::DeviceFlow;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE};
-use super::launch::NULL_POINTER;
+use super::launch::{OptionalArg, NULL_POINTER};
 use super::particles::{
     DeviceParticles, BYTES_PER_PARTICLE, DEFORMATION_BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE,
 };
@@ -252,10 +252,7 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
     }
 
     fn deformation(&mut self, particles: &'a DeviceParticles) -> &mut Self {
-        match &particles.deformation {
-            Some(f) => self.arg(f),
-            None => self.arg(&NULL_POINTER),
-        }
+        self.arg_or_null(particles.deformation.as_ref())
     }
 
     fn accumulators(&mut self, grid: &'a DeviceGrid) -> &mut Self {
@@ -282,11 +279,8 @@ impl<'a> StateArgs<'a> for LaunchArgs<'a> {
     fn colliders(&mut self, colliders: &'a DeviceColliders) -> &mut Self {
         self.arg(&colliders.states)
             .arg(&colliders.count)
-            .arg(&colliders.sdf);
-        match &colliders.bodies {
-            Some(bodies) => self.arg(&bodies.impulses),
-            None => self.arg(&NULL_POINTER),
-        }
+            .arg(&colliders.sdf)
+            .arg_or_null(colliders.bodies.as_ref().map(|bodies| &bodies.impulses))
     }
 
     fn sinks(&mut self, flow: Option<&'a DeviceFlow>) -> &mut Self {
