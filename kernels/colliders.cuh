@@ -208,6 +208,55 @@ __device__ __forceinline__ void collider_project_node(const Colliders& colliders
     }
 }
 
+// The position-based grid's boundary condition (ColliderFrame::hold_displacement): for each collider in
+// turn, a node at x whose displacement over the substep of dt is d may not end nearer the surface than
+// it started (than the band, where it started farther), measured where it ends, the frame holding the
+// collider at the substep's end (so the node's start is read at x plus the collider's displacement
+// there). A node that would is moved back out along the normal; a Coulomb collider then shortens the
+// tangential displacement relative to it by its coefficient times that push; a sticking one makes the
+// nodes within its band move with it.
+__device__ __forceinline__ void collider_hold_displacement(const Colliders& colliders, Vec3f x, float dt,
+                                                           float (&d)[3]) {
+    for (u32 k = 0; k < colliders.count; ++k) {
+        const ColliderState& s = colliders.states[k];
+        const Vec3f vc = collider_velocity_at(s, x);
+        const Vec3f moved = v3(vc.x * dt, vc.y * dt, vc.z * dt);
+        const Vec3f start = v3(x.x + moved.x, x.y + moved.y, x.z + moved.z);
+        Vec3f n;
+        if (s.boundary == BOUNDARY_STICK || s.boundary == BOUNDARY_PIPE) {
+            if (!collider_beyond(s, start, s.band) && collider_distance(s, colliders.sdf, start, n) < s.band) {
+                d[0] = moved.x;
+                d[1] = moved.y;
+                d[2] = moved.z;
+            }
+            continue;
+        }
+        const Vec3f end = v3(x.x + d[0], x.y + d[1], x.z + d[2]);
+        if (collider_beyond(s, end, s.band)) continue;
+        const float phi = collider_distance(s, colliders.sdf, end, n);
+        Vec3f start_normal;
+        const float floor = collider_beyond(s, start, s.band)
+                                ? s.band
+                                : fminf(collider_distance(s, colliders.sdf, start, start_normal), s.band);
+        if (!(phi < floor)) continue;  // a NaN distance holds nothing
+        const float taken = floor - phi;
+        d[0] += n.x * taken;
+        d[1] += n.y * taken;
+        d[2] += n.z * taken;
+        if (s.boundary == BOUNDARY_FRICTION) {
+            const Vec3f rel = v3(d[0] - moved.x, d[1] - moved.y, d[2] - moved.z);
+            const float rn = rel.x * n.x + rel.y * n.y + rel.z * n.z;
+            const Vec3f normal = v3(n.x * rn, n.y * rn, n.z * rn);
+            const Vec3f t = v3(rel.x - normal.x, rel.y - normal.y, rel.z - normal.z);
+            const float length = collider_norm(t);
+            const float kept = length > 0.0f ? fmaxf(length - s.friction * taken, 0.0f) / length : 0.0f;
+            d[0] = moved.x + normal.x + t.x * kept;
+            d[1] = moved.y + normal.y + t.y * kept;
+            d[2] = moved.z + normal.z + t.z * kept;
+        }
+    }
+}
+
 // The particle backstop after advection (ColliderFrame::backstop): a particle that ended inside a
 // collider goes back to its surface along the normal and loses its velocity into it. True where it did.
 // A nozzle's pipe holds its liquid rather than keeping it out.

@@ -360,9 +360,13 @@ extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode,
                                       const u32* __restrict__ order, const float4* __restrict__ node_d,
                                       u64* __restrict__ displacement, float4* __restrict__ pass_d,
                                       float4* __restrict__ pass_affine, const float4* __restrict__ f_inverse,
+                                      const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+                                      const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses,
                                       StepCounters* __restrict__ counters) {
     const u32 n = params.num_particles;
+    const Colliders colliders{collider_states, num_colliders, collider_sdf, body_impulses};
     float max_speed = 0.0f, max_density = 0.0f;
+    u32 pushes = 0;
     FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
         const u32 p = order[live ? i : first];
         const float4 xp = x[p], vp = v[p];
@@ -428,9 +432,10 @@ extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode,
                 pb_run_add(run, live, units, at);
             })
         } else if ((mode & PBMPM_PASS_INTEGRATE) && live) {
-            // `integrate`: x += d within the fluid region; F and a liquid's J; v = d / dt, C = D / dt.
-            const float4 xn = make_float4(fminf(fmaxf(xp.x + dp.x, lo), hi0), fminf(fmaxf(xp.y + dp.y, lo), hi1),
-                                          fminf(fmaxf(xp.z + dp.z, lo), hi2), xp.w);
+            // `integrate`: x += d within the fluid region; F and a liquid's J; v = d / dt, C = D / dt; then
+            // the colliders' backstop.
+            float4 xn = make_float4(fminf(fmaxf(xp.x + dp.x, lo), hi0), fminf(fmaxf(xp.y + dp.y, lo), hi1),
+                                    fminf(fmaxf(xp.z + dp.z, lo), hi2), xp.w);
             float r = rho[p];
             if (deformed) {
                 const Mat f = {{{def.f[0][0], def.f[0][1], def.f[0][2]},
@@ -452,8 +457,15 @@ extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode,
                 r = mat.rest_density / fmaxf(j, MIN_LIQUID_VOLUME);
             }
             const float inv_dt = 1.0f / params.dt;
+            float4 vn = make_float4(dp.x * inv_dt, dp.y * inv_dt, dp.z * inv_dt, vp.w);
+            float held[3] = {xn.x, xn.y, xn.z}, vel[3] = {vn.x, vn.y, vn.z};
+            if (collider_backstop(colliders, 0.0f, held, vel)) {
+                xn = make_float4(fminf(fmaxf(held[0], lo), hi0), fminf(fmaxf(held[1], lo), hi1),
+                                 fminf(fmaxf(held[2], lo), hi2), xp.w);
+                vn = make_float4(vel[0], vel[1], vel[2], vp.w);
+                ++pushes;
+            }
             x[p] = xn;
-            const float4 vn = make_float4(dp.x * inv_dt, dp.y * inv_dt, dp.z * inv_dt, vp.w);
             v[p] = vn;
 #pragma unroll
             for (int col = 0; col < 3; ++col)
@@ -467,6 +479,7 @@ extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode,
     if (mode & PBMPM_PASS_INTEGRATE) {
         atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
         atomic_max_nonnegative(&counters->max_density_bits, max_density);
+        if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
     }
 }
 
@@ -498,7 +511,8 @@ __device__ __forceinline__ void pb_walls(float (&d)[3], const float (&x)[3], con
     }
 }
 
-// The node displacements (`grid_update`): the displacement sum over the mass, held by the walls;
+// The node displacements (`grid_update`): the displacement sum over the mass, held by the colliders
+// (collider_hold_displacement), then the walls;
 // the sums are zeroed for the next pass's scatter. `node_d`: d xyz, and in w the node's vote in the
 // viscosity's sweep, m / (m + FADING_NODE_MASS of a cell's mass), 0 where it holds no mass.
 // `own_mass`, `own_displacement`: the sums before the walls' images joined them, where the walls grip
@@ -507,7 +521,10 @@ extern "C" __global__ void pbmpm_grid(const KernelParams params, const float dis
                                       const float lo, const float hi0, const float hi1, const float hi2,
                                       const u64* __restrict__ mass, const u64* __restrict__ own_mass,
                                       u64* __restrict__ displacement, const u64* __restrict__ own_displacement,
-                                      float4* __restrict__ node_d) {
+                                      float4* __restrict__ node_d,
+                                      const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+                                      const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
+    const Colliders colliders{collider_states, num_colliders, collider_sdf, body_impulses};
     const u32 rx = params.grid_res[0], ry = params.grid_res[1];
     const u32 nodes = rx * ry * params.grid_res[2];
     const float inv_mass_scale = 1.0f / params.fixed_mass_scale, inv_scale = 1.0f / displacement_scale;
@@ -532,6 +549,7 @@ extern "C" __global__ void pbmpm_grid(const KernelParams params, const float dis
         for (int a = 0; a < 3; ++a) d[a] = fixed_point_value(sums[a], inv_scale) / m;
         const float xn[3] = {(float)(i % rx) * params.dx, (float)((i / rx) % ry) * params.dx,
                              (float)(i / (rx * ry)) * params.dx};
+        collider_hold_displacement(colliders, v3(xn[0], xn[1], xn[2]), params.dt, d);
         if (own_displacement) {
             const u64 own_q = own_mass[i];
             if (own_q != 0) {
@@ -555,12 +573,15 @@ extern "C" __global__ void pbmpm_grid(const KernelParams params, const float dis
 // The liquids' viscosity (`diffuse`): one Jacobi sweep d_i <- (d_i + a sum_j t_j d_j) / (1 + a sum_j
 // t_j) over the face neighbours j, each by its vote t_j (pbmpm_grid), a = nu_i `diffusion` with nu_i
 // the particles' own viscosity over their own mass (before the walls' images joined it); then the
-// walls again. From `node_d` into `diffused`.
+// colliders and the walls again. From `node_d` into `diffused`.
 extern "C" __global__ void pbmpm_diffuse(const KernelParams params, const float friction, const float diffusion,
                                          const float lo, const float hi0, const float hi1, const float hi2,
                                          const u64* __restrict__ mass, const u64* __restrict__ own_mass,
                                          const u64* __restrict__ viscosity, const float4* __restrict__ node_d,
-                                         float4* __restrict__ diffused) {
+                                         float4* __restrict__ diffused,
+                                         const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+                                         const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses) {
+    const Colliders colliders{collider_states, num_colliders, collider_sdf, body_impulses};
     const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
     const u32 nodes = res[0] * res[1] * res[2];
     const u32 stride[3] = {1u, res[0], res[0] * res[1]};
@@ -592,6 +613,7 @@ extern "C" __global__ void pbmpm_diffuse(const KernelParams params, const float 
         float d[3] = {(own.x + sum[0] * a) / denominator, (own.y + sum[1] * a) / denominator,
                       (own.z + sum[2] * a) / denominator};
         const float xn[3] = {(float)c[0] * params.dx, (float)c[1] * params.dx, (float)c[2] * params.dx};
+        collider_hold_displacement(colliders, v3(xn[0], xn[1], xn[2]), params.dt, d);
         pb_walls(d, xn, low, high, friction, nullptr);
         diffused[i] = make_float4(d[0], d[1], d[2], own.w);
     }

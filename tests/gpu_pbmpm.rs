@@ -1,8 +1,9 @@
 //! The position-based solver (`solver.method = "pbmpm"`) on the GPU (kernels/pbmpm.cu,
 //! src/cuda/pbmpm_substep.rs) against its CPU reference (src/sim/pbmpm.rs), and the checks of
 //! tests/pbmpm.rs on the GPU: the violent scenes at one substep a frame, the pool's volume over 10 s,
-//! the dam break against Martin & Moyce, and runs byte for byte reproducible (the GPU's grid sums
-//! are fixed point). Where no CUDA device and driver are usable, every test is reported as ignored,
+//! the dam break against Martin & Moyce, the colliders (against the CPU, a jelly crushed by a
+//! plate, a block on a Coulomb collider against mu g), and runs byte for byte reproducible (the
+//! GPU's grid sums are fixed point). Where no CUDA device and driver are usable, every test is reported as ignored,
 //! with the reason (tests/harness). Each prints what it measured (lines starting RESULT).
 //!
 //! Tolerance against the CPU: the GPU sums its grid in fixed point and the CPU in floats, in another
@@ -43,6 +44,9 @@ fn main() -> std::process::ExitCode {
             the_violent_scenes_stay_whole_at_one_substep_a_frame,
             a_pool_at_rest_keeps_its_volume_within_1_percent_over_10_s,
             the_dam_break_front_follows_martin_and_moyce,
+            colliders_follow_the_cpu_reference,
+            a_jelly_crushed_by_a_plate_stays_whole_at_one_substep_a_frame,
+            a_block_slides_on_a_coulomb_collider_at_mu_g,
         ],
     )
 }
@@ -193,4 +197,30 @@ fn the_dam_break_front_follows_martin_and_moyce() {
             rms * 100.0
         );
     }
+}
+
+/// Water among colliders of each kind, fixed and moving, and a jelly block sliding on a Coulomb
+/// collider follow the CPU reference for 30 frames (collider_hold_displacement and the backstop
+/// against ColliderFrame's).
+fn colliders_follow_the_cpu_reference() {
+    let cases = [
+        ("water among colliders", water_among_colliders()),
+        ("jelly on a Coulomb platform", block_on_a_coulomb_platform(0.3)),
+    ];
+    let failures: Vec<String> = cases
+        .iter()
+        .filter_map(|(name, scene)| follow_the_cpu(name, scene, 30))
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// tests/pbmpm.rs's jelly crushed by a plate, on the GPU: whole, never inside the plate, springing
+/// back to 90 % of its height or more.
+fn a_jelly_crushed_by_a_plate_stays_whole_at_one_substep_a_frame() {
+    assert_the_crushed_jelly_springs_back(CUDA);
+}
+
+/// tests/pbmpm.rs's jelly block on a Coulomb collider, on the GPU: it slows at mu g within 5 %.
+fn a_block_slides_on_a_coulomb_collider_at_mu_g() {
+    assert_the_block_slows_at_mu_g(CUDA);
 }

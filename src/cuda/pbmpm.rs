@@ -351,6 +351,7 @@ impl PbmpmBuffers {
                     .arg(&self.pass_d)
                     .arg(&self.pass_affine)
                     .arg_or_null(self.f_inverse.as_ref())
+                    .colliders(&d.colliders)
                     .arg(&d.counters.device);
             })
         }
@@ -371,7 +372,8 @@ impl PbmpmBuffers {
         Ok(())
     }
 
-    /// The node displacements (pbmpm_grid), then the viscosity's sweep (pbmpm_diffuse) where a
+    /// The node displacements held by the colliders and the walls (pbmpm_grid), then the viscosity's
+    /// sweep (pbmpm_diffuse) where a
     /// liquid is viscous.
     pub fn grid(&self, k: &PbmpmKernels, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
         let g = &d.grid;
@@ -391,7 +393,8 @@ impl PbmpmBuffers {
                     .arg_or_null(self.own_mass.as_ref())
                     .arg(g.fixed_momentum())
                     .arg_or_null(self.own_displacement.as_ref())
-                    .arg(&self.node_d);
+                    .arg(&self.node_d)
+                    .colliders(&d.colliders);
             })?;
         }
         let (Some(diffused), Some(viscosity)) = (&self.diffused, &self.viscosity) else {
@@ -409,7 +412,8 @@ impl PbmpmBuffers {
                     .arg_or_null(self.own_mass.as_ref())
                     .arg(viscosity)
                     .arg(&self.node_d)
-                    .arg(diffused);
+                    .arg(diffused)
+                    .colliders(&d.colliders);
             })
         }
     }

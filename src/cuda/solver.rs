@@ -537,7 +537,7 @@ impl Solver for CudaSolver {
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
         ensure!(
-            frame.is_empty() || self.pipeline.is_binned(),
+            frame.is_empty() || self.pipeline.is_binned() || self.pbmpm.is_some(),
             "the report pipeline applies no colliders; use --pipeline fused (or solver.pipeline = \"fused\", the default)"
         );
         self.state.colliders.set(self.gpu.stream(), frame)

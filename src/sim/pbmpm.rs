@@ -1,15 +1,16 @@
 //! Position-based MPM (Lewin, "A Position-Based Material Point Method", SIGGRAPH 2024), in 3D: the
-//! single-thread CPU reference of `solver.method = "pbmpm"`, which a GPU port will be tested
-//! against (docs/physics.md, "Position-based MPM").
+//! single-thread CPU reference of `solver.method = "pbmpm"`, which the GPU port (kernels/pbmpm.cu)
+//! is tested against (docs/physics.md, "Position-based MPM").
 //!
 //! A substep works in displacements, not velocities. Each particle starts it with the displacement
 //! it had over the last substep plus gravity's, d = v dt + g dt^2, and the affine part of it,
 //! D = C dt (the warm start). Then `iterations` times: every particle projects its material's
 //! constraint onto D ([`project`]), the particles scatter mass-weighted displacement to the grid
 //! (APIC: w m (d + D (x_i - x_p))) and the walls' mirror images join it as the explicit solver's
-//! momentum, the grid turns it into node displacements, applies the tank's walls to where each node
-//! would move this substep ([`wall_displacement`]) and the liquids'
-//! viscosity as a diffusion of the displacements, and the particles gather d and D back. Last, each particle integrates once ([`integrate`]): x += d, its
+//! momentum, the grid turns it into node displacements, applies the colliders and the tank's walls to
+//! where each node would move this substep ([`ColliderFrame::hold_displacement`],
+//! [`wall_displacement`]) and the liquids' viscosity as a diffusion of the displacements, and the
+//! particles gather d and D back. Last, each particle integrates once ([`integrate`]): x += d, its
 //! deformation F <- (I + D) F with its law's return mapping, a liquid's volume ratio J <- J (1 +
 //! tr D); and v = d / dt, C = D / dt carry the state to the next substep, so that a checkpoint,
 //! the export and the statistics see the particles as they see the explicit solver's.
@@ -19,6 +20,7 @@
 //! soft it looks. The quadratic B-spline stencil is the explicit solver's ([`Stencil`]), the solids'
 //! return mappings and the SVD are src/sim/solid.rs's and src/sim/svd.rs's.
 
+use super::colliders::ColliderFrame;
 use super::cpu::{self, GridShape, Stencil};
 use super::params::{Material, Params};
 use super::phase::{Phase, PhaseClock, PhaseTimings};
@@ -112,6 +114,9 @@ pub struct PbmpmSolver {
     /// Per particle, within a substep: a liquid's volume target, how far past its rest volume its
     /// constraint aims ([`Self::liquid_volumes`]); 0 for a solid.
     target: Vec<f32>,
+    /// The colliders where the substep ends (`Solver::set_colliders`): they hold the grid's nodes
+    /// ([`ColliderFrame::hold_displacement`]) and, after the integration, the particles (the backstop).
+    colliders: ColliderFrame,
     extremes: StepExtremes,
     timings: Vec<PhaseTimings>,
 }
@@ -151,6 +156,7 @@ impl PbmpmSolver {
             affine: Vec::new(),
             f_inverse: Vec::new(),
             target: Vec::new(),
+            colliders: ColliderFrame::default(),
             extremes: StepExtremes::default(),
             timings: Vec::new(),
         }
@@ -336,22 +342,24 @@ impl PbmpmSolver {
         }
     }
 
-    /// Node displacements, held by the walls ([`wall_displacement`]; where the mirror joined the
-    /// scatter and the walls grip, [`wall_displacement_with_images`]).
+    /// Node displacements, held by the colliders ([`ColliderFrame::hold_displacement`]), then by the
+    /// walls ([`wall_displacement`]; where the mirror joined the scatter and the walls grip,
+    /// [`wall_displacement_with_images`]), which have the last word.
     fn grid_update(&mut self, params: &Params) {
         let (lo, hi) = fluid_region(params, self.shape);
         let friction = self.settings.wall_friction;
         for (i, (&m, d)) in self.mass.iter().zip(self.displacement.iter_mut()).enumerate() {
             *d = if m > 0.0 {
                 let x = self.shape.node(i).as_vec3() * params.dx;
+                let held = self.colliders.hold_displacement(x, *d / m, params.dt);
                 match self.own_mass.get(i) {
                     Some(&own) if own > 0.0 => {
                         let own = self.own_displacement[i] / own;
-                        wall_displacement_with_images(*d / m, own, x, lo, hi, friction)
+                        wall_displacement_with_images(held, own, x, lo, hi, friction)
                     }
                     // A node that only images reach has no fluid of its own to grip.
-                    Some(_) => wall_displacement(*d / m, x, lo, hi, 0.0),
-                    None => wall_displacement(*d / m, x, lo, hi, friction),
+                    Some(_) => wall_displacement(held, x, lo, hi, 0.0),
+                    None => wall_displacement(held, x, lo, hi, friction),
                 }
             } else {
                 Vec3::ZERO
@@ -366,8 +374,8 @@ impl PbmpmSolver {
     /// displacements, d_i <- (d_i + a sum_j t_j d_j) / (1 + a sum_j t_j), over the face neighbours j,
     /// each counted by its mass m_j as t_j = m_j / (m_j + [`FADING_NODE_MASS`] of a cell's), a =
     /// nu_i dt / (dx^2 iterations): a substep's iterations together take about one implicit step of
-    /// nu dt / dx^2, and each sweep is a weighted average, stable at any viscosity. Then the walls
-    /// again, which the average may have crossed.
+    /// nu dt / dx^2, and each sweep is a weighted average, stable at any viscosity. Then the colliders
+    /// and the walls again, which the average may have crossed.
     fn diffuse(&mut self, params: &Params, lo: Vec3, hi: Vec3) {
         let scale = params.dt * params.inv_dx * params.inv_dx / self.settings.iterations as f32;
         let res = self.shape.res;
@@ -397,7 +405,8 @@ impl PbmpmSolver {
             }
             let d = (self.previous[i] + sum * a) / (1.0 + a * n);
             let x = node.as_vec3() * params.dx;
-            self.displacement[i] = wall_displacement(d, x, lo, hi, self.settings.wall_friction);
+            let held = self.colliders.hold_displacement(x, d, params.dt);
+            self.displacement[i] = wall_displacement(held, x, lo, hi, self.settings.wall_friction);
         }
     }
 
@@ -417,7 +426,9 @@ impl PbmpmSolver {
         }
     }
 
-    /// Every particle's [`integrate`], and the substep's extremes.
+    /// Every particle's [`integrate`], then the colliders' backstop (a particle that ended inside a
+    /// collider goes back to its surface and loses its velocity into it, as under the explicit
+    /// solver), and the substep's extremes.
     fn integrate_all(&mut self, params: &Params) {
         let (lo, hi) = fluid_region(params, self.shape);
         let p = &mut self.particles;
@@ -431,8 +442,11 @@ impl PbmpmSolver {
                 deformation: p.deformation.get(i).map(|d| (d.f, d.plastic)),
             };
             let out = integrate(mat, state, lo, hi);
-            p.x[i] = out.x;
-            p.v[i] = out.d / params.dt;
+            (p.x[i], p.v[i]) = (out.x, out.d / params.dt);
+            if let Some((x, v)) = self.colliders.backstop(p.x[i], p.v[i]) {
+                (p.x[i], p.v[i]) = (x.clamp(lo, hi), v);
+                self.extremes.backstop_pushes += 1;
+            }
             p.c[i] = out.affine / params.dt;
             p.rho[i] = out.rho;
             if let (Some(d), Some((f, plastic))) = (p.deformation.get_mut(i), out.deformation) {
@@ -751,6 +765,15 @@ impl Solver for PbmpmSolver {
 
     fn set_iterations(&mut self, iterations: u32) -> anyhow::Result<()> {
         self.settings.iterations = iterations;
+        Ok(())
+    }
+
+    fn set_colliders(&mut self, frame: &ColliderFrame) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            frame.states.iter().all(|s| s.body == 0),
+            "solver.method = \"pbmpm\" moves no rigid bodies"
+        );
+        self.colliders.clone_from(frame);
         Ok(())
     }
 }

@@ -445,8 +445,12 @@ impl Scene {
     }
 
     /// Refuses colliders and emitters' pipes on the report pipeline (whose kernels do not apply
-    /// them), and Coulomb colliders under the walls' mirror on the binned one, naming the fix.
+    /// them), and Coulomb colliders under the walls' mirror on the binned one, naming the fix. Nothing
+    /// under pbmpm, whose substep is its own in every pipeline (src/cuda/pbmpm_substep.rs).
     pub fn check_pipeline(&self) -> Result<(), SceneError> {
+        if self.method == Method::Pbmpm {
+            return Ok(());
+        }
         if !self.colliders.is_empty() && self.pipeline == Pipeline::Report {
             return Err(self.refusal(
                 "solver.pipeline",
@@ -479,24 +483,25 @@ impl Scene {
         Ok(())
     }
 
-    /// Refuses what the position-based solver does not run yet, naming the fix: colliders and rigid
-    /// bodies, emitters and sinks, the soft wall, and runs split into ranks. Nothing under the
-    /// explicit method. Checked when the scene loads and again when a backend is made (the command
-    /// line's `--method` may have changed it since).
+    /// Refuses what the position-based solver does not run yet, naming the fix: rigid bodies,
+    /// emitters and sinks, the soft wall, and runs split into ranks. Nothing under the explicit
+    /// method. Checked when the scene loads and again when a backend is made (the command line's
+    /// `--method` may have changed it since).
     pub fn check_method(&self) -> Result<(), SceneError> {
         if self.method != Method::Pbmpm {
             return Ok(());
         }
         let explicit_fix = "drop it, or run the scene with solver.method = \"explicit\" (the default)";
-        if !self.colliders.is_empty() {
+        let bodies = self.colliders.num_bodies();
+        if bodies > 0 {
             return Err(self.refusal(
-                "collider",
+                "collider.density",
                 format!(
-                    "lists {} collider(s), which solver.method = \"pbmpm\" does not apply yet (it has the \
-                     tank's walls only)",
-                    self.colliders.len()
+                    "(or mass) makes {bodies} collider(s) rigid bodies, which solver.method = \"pbmpm\" does \
+                     not move yet (its colliders stand still or follow their motion)"
                 ),
-                explicit_fix,
+                "drop the density and mass (the collider then stands still or follows its motion), or run \
+                 the scene with solver.method = \"explicit\" (the default)",
             ));
         }
         if !self.flow.emitters.is_empty() || !self.flow.sinks.is_empty() {

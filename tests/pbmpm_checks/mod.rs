@@ -353,3 +353,166 @@ pub fn dam_break_front(iterations: u32, substeps: u32, backend: BackendKind) -> 
     );
     rms
 }
+
+/// The plate of [`jelly_crushed_by_a_plate`]: a box 40 x 8 x 20 cm (four cells thick: a collider
+/// thinner than the stencil's reach lets nodes through) whose underside starts 2 cm above
+/// the jelly and goes down 9 cm and back up as a piston of period 0.2 s, five times a second (1.4
+/// m/s at its fastest, 2.4 cm a substep at one substep a frame): it squeezes the jelly to a quarter
+/// of its height.
+const PLATE_START: f32 = 0.16;
+const PLATE_STROKE: f32 = 0.09;
+const PLATE_PERIOD: f32 = 0.2;
+
+/// The 12 x 12 x 10 cm jelly of [`jelly_thrown_at_the_floor`] resting on the floor of a 60 x 40 cm
+/// tank, crushed again and again by a plate ([`PLATE_STROKE`]; a `slip` box collider), one substep a
+/// frame and four iterations.
+pub fn jelly_crushed_by_a_plate() -> Scene {
+    let half = 0.5 * PLATE_STROKE;
+    common::scene(&format!(
+        "[domain]\nsize = [0.6, 0.4, 0.16]\nresolution = [30, 20, 8]\n\
+         [material]\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\nyoungs_modulus = 1.0e5\npoisson_ratio = 0.3\n\
+         [solver]\nmethod = \"pbmpm\"\niterations = 4\n\
+         [time_step]\nsubsteps = 1\n\
+         [[block]]\nmin = [0.24, 0.02, 0.02]\nmax = [0.36, 0.14, 0.12]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.3, {}, 0.08]\nsize = [0.4, 0.08, 0.2]\n\
+         [collider.motion]\npiston = {{ direction = [0.0, -1.0, 0.0], amplitude = {half}, period = {PLATE_PERIOD}, phase = -90.0 }}\n",
+        PLATE_START + 0.04 - half,
+    ))
+}
+
+/// The plate's underside at time t, m.
+pub fn plate_underside(t: f32) -> f32 {
+    let half = 0.5 * PLATE_STROKE;
+    PLATE_START - half + half * (std::f32::consts::TAU * t / PLATE_PERIOD).cos()
+}
+
+/// What [`jelly_crushed_by_a_plate`] did: the jelly's top (its highest particle) after the first frame,
+/// at the plate's first lowest and at its highest as the plate lifts again; the plate's underside at
+/// its lowest; the backstop's pushes over the second.
+pub struct Crush {
+    pub top_at_start: f32,
+    pub top_at_lowest: f32,
+    pub top_back: f32,
+    pub plate_at_lowest: f32,
+    pub backstop_pushes: u64,
+}
+
+/// Runs [`jelly_crushed_by_a_plate`] for a second on `backend`, checking the particles after every
+/// frame ([`assert_sound`]) and that none is inside the plate.
+pub fn crush_the_jelly(backend: BackendKind) -> Crush {
+    let scene = jelly_crushed_by_a_plate();
+    let mut sim = simulation(&scene, backend);
+    let lowest_frame = (0.5 * PLATE_PERIOD * 60.0).round() as u64;
+    let mut crush = Crush {
+        top_at_start: 0.0,
+        top_at_lowest: 0.0,
+        top_back: 0.0,
+        plate_at_lowest: plate_underside(0.5 * PLATE_PERIOD),
+        backstop_pushes: 0,
+    };
+    for frame in 1..=60u64 {
+        let stats = sim.advance_frame().expect("a frame");
+        crush.backstop_pushes += stats.backstop_pushes;
+        let p = particles(&mut sim);
+        assert_sound(&scene, &p, scene.num_particles, &format!("frame {frame}"));
+        let plate = plate_underside(frame as f32 / 60.0);
+        let top = p.x.iter().map(|x| x.y).fold(0.0f32, f32::max);
+        assert!(
+            top <= plate + 1e-4,
+            "frame {frame}: a jelly particle at y = {top:.4} is inside the plate (its underside at {plate:.4})"
+        );
+        match frame {
+            1 => crush.top_at_start = top,
+            f if f == lowest_frame => crush.top_at_lowest = top,
+            f if f > lowest_frame && f <= 2 * lowest_frame => crush.top_back = crush.top_back.max(top),
+            _ => {}
+        }
+    }
+    crush
+}
+
+/// A 10 x 4 x 5 cm jelly block sliding at 1.5 m/s along the top of a Coulomb box collider of
+/// coefficient `mu` (a platform 4 cm high across the tank), 1 cm cells, at the defaults (two
+/// substeps a frame, four iterations).
+pub fn block_on_a_coulomb_platform(mu: f32) -> Scene {
+    common::scene(&format!(
+        "[domain]\nsize = [0.8, 0.15, 0.08]\nresolution = [80, 15, 8]\n\
+         [material]\nlaw = \"fixed-corotated\"\nrest_density = 1000.0\nyoungs_modulus = 1.0e5\npoisson_ratio = 0.3\n\
+         [solver]\nmethod = \"pbmpm\"\n\
+         [[block]]\nmin = [0.05, 0.04, 0.01]\nmax = [0.15, 0.08, 0.06]\nvelocity = [1.5, 0.0, 0.0]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.4, 0.0, 0.04]\nsize = [1.0, 0.08, 0.3]\nfriction = {mu}\n",
+    ))
+}
+
+/// The deceleration of [`block_on_a_coulomb_platform`] on `backend` while it slides: the slope of
+/// its particles' mean x velocity, frame by frame, fitted from 1.3 down to 0.3 m/s.
+pub fn platform_deceleration(mu: f32, backend: BackendKind) -> f32 {
+    let scene = block_on_a_coulomb_platform(mu);
+    let mut sim = simulation(&scene, backend);
+    let mut samples = Vec::new();
+    for frame in 1..=45u32 {
+        sim.advance_frame().expect("a frame");
+        let v = particles(&mut sim).v;
+        let vx = v.iter().map(|v| f64::from(v.x)).sum::<f64>() / v.len() as f64;
+        if vx < 1.3 && vx > 0.3 {
+            samples.push((f64::from(frame) / 60.0, vx));
+        }
+    }
+    assert!(samples.len() >= 10, "too few sliding frames: {samples:?}");
+    -common::fitted_slope(&samples) as f32
+}
+
+/// A water column released towards a slip box turned 30 degrees, a Coulomb one (friction 0.3) on
+/// the floor and a sticking sphere moving across the tank at 0.3 m/s, at the defaults: each kind of
+/// collider, fixed and moving, under pbmpm.
+pub fn water_among_colliders() -> Scene {
+    common::scene(
+        "[domain]\nsize = [0.6, 0.25, 0.08]\nresolution = [60, 25, 8]\n\
+         [material]\nrest_density = 1000.0\nviscosity = 1.0e-3\n\
+         [solver]\nmethod = \"pbmpm\"\n\
+         [[block]]\nmin = [0.01, 0.01, 0.01]\nmax = [0.11, 0.21, 0.06]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.25, 0.05, 0.04]\nsize = [0.08, 0.04, 0.2]\nrotation = [0.0, 0.0, 30.0]\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.45, 0.02, 0.04]\nsize = [0.12, 0.04, 0.2]\nfriction = 0.3\n\
+         [[collider]]\nshape = \"sphere\"\ncenter = [0.5, 0.14, 0.04]\nradius = 0.04\nboundary = \"stick\"\n\
+         [collider.motion]\nvelocity = [-0.3, 0.0, 0.0]\n",
+    )
+}
+
+/// [`crush_the_jelly`] on `backend`, printed; the jelly must spring back to 90 % of its height or
+/// more as the plate lifts.
+pub fn assert_the_crushed_jelly_springs_back(backend: BackendKind) {
+    let start = Instant::now();
+    let crush = crush_the_jelly(backend);
+    println!(
+        "RESULT pbmpm ({backend:?}) jelly crushed by a plate: top {:.3} m, {:.3} m under the plate at its lowest \
+         ({:.3} m), back to {:.3} m as it lifts; {} backstop pushes in 1 s ({:.1} s)",
+        crush.top_at_start,
+        crush.top_at_lowest,
+        crush.plate_at_lowest,
+        crush.top_back,
+        crush.backstop_pushes,
+        start.elapsed().as_secs_f32()
+    );
+    assert!(
+        crush.top_back >= 0.9 * crush.top_at_start,
+        "the jelly did not spring back"
+    );
+}
+
+/// [`platform_deceleration`] on `backend` for mu = 0.2 and 0.4, printed: each within 5 % of mu g,
+/// Coulomb's law.
+pub fn assert_the_block_slows_at_mu_g(backend: BackendKind) {
+    for mu in [0.2f32, 0.4] {
+        let deceleration = platform_deceleration(mu, backend);
+        let expected = mu * 9.81;
+        println!(
+            "RESULT pbmpm ({backend:?}) block on a Coulomb collider, mu = {mu}: slows at {deceleration:.3} m/s^2, \
+             mu g = {expected:.3} ({:+.1} %)",
+            100.0 * (deceleration / expected - 1.0)
+        );
+        assert!(
+            (deceleration / expected - 1.0).abs() < 0.05,
+            "mu = {mu}: {deceleration:.3} m/s^2 against mu g = {expected:.3}"
+        );
+    }
+}

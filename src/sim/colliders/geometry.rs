@@ -252,6 +252,57 @@ impl ColliderFrame {
         v
     }
 
+    /// The position-based grid's boundary condition (`solver.method = "pbmpm"`) at a node at x whose
+    /// displacement over the substep of `dt` s is d: for each collider in turn (scene order), the node
+    /// may not *end* the substep deeper inside it than it started, measured where it ends, so a node
+    /// cannot step through a surface whatever its displacement (the test of the tank's walls,
+    /// `pbmpm::wall_displacement`, for any shape). A node that would is moved back out along the
+    /// normal there; a Coulomb collider then shortens the tangential displacement relative to it by
+    /// its coefficient times that push, to zero at most; a sticking one makes every node within its
+    /// band move with it. The frame holds each collider where the substep ends, so the node's start
+    /// is read at x plus the collider's own displacement at x. The kernels' twin is
+    /// collider_hold_displacement.
+    pub fn hold_displacement(&self, x: Vec3, mut d: Vec3, dt: f32) -> Vec3 {
+        for s in &self.states {
+            let moved = Self::velocity_at(s, x) * dt;
+            let start = x + moved;
+            if s.boundary == BOUNDARY_STICK || s.boundary == BOUNDARY_PIPE {
+                if !beyond(s, start, s.band) && self.distance(s, start).0 < s.band {
+                    d = moved;
+                }
+                continue;
+            }
+            let end = x + d;
+            if beyond(s, end, s.band) {
+                continue;
+            }
+            let (phi, n) = self.distance(s, end);
+            let floor = if beyond(s, start, s.band) {
+                s.band
+            } else {
+                self.distance(s, start).0.min(s.band)
+            };
+            if phi.is_nan() || phi >= floor {
+                continue; // as the kernel's !(phi < floor): a NaN distance holds nothing
+            }
+            let taken = floor - phi;
+            d += n * taken;
+            if s.boundary == BOUNDARY_FRICTION {
+                let rel = d - moved;
+                let normal = n * rel.dot(n);
+                let tangential = rel - normal;
+                let length = norm(tangential);
+                let kept = if length > 0.0 {
+                    (length - s.friction * taken).max(0.0) / length
+                } else {
+                    0.0
+                };
+                d = moved + normal + tangential * kept;
+            }
+        }
+        d
+    }
+
     /// Whether a collider has Coulomb friction: then the CPU backends keep the nodes' own sums
     /// beside the walls' images, for `project_node_exchanging`'s image push.
     pub fn has_friction(&self) -> bool {
