@@ -29,7 +29,8 @@
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
 //! whether the particles' deformation follows, whether their volume bias follows, the rigid body
-//! count K, the dropped body count D); the
+//! count K, the dropped body count D, and a position-based run's iterations and substeps a frame
+//! as it ran them, which its resumed scene takes in place of the file's); the
 //! 214 words of [`Params`]
 //! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, the last two stretches' flow speeds f32, late
@@ -73,7 +74,11 @@ use crate::sim::colliders::bodies::{BodiesState, RigidBody};
 use crate::sim::dropped::{self, DropShape, DroppedBody};
 use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::params::{KernelParams, Material};
-use crate::sim::{Deformation, Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation};
+use crate::sim::pbmpm::{MAX_ITERATIONS, MAX_SUBSTEPS};
+use crate::sim::scene::TimeStepPolicy;
+use crate::sim::{
+    Deformation, Method, Params, Particles, Pipeline, RunClock, ScatterMode, Scene, Simulation, FRAME_DT,
+};
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use glam::{Mat3, Vec3};
@@ -155,6 +160,19 @@ struct Meta {
     /// (version 7 on).
     #[serde(default)]
     volume_bias: bool,
+    /// A position-based run's iterations and substeps as it ran them (absent before they were kept,
+    /// and under the explicit method).
+    #[serde(default)]
+    pbmpm: Option<PbmpmControls>,
+}
+
+/// A position-based run's constraint iterations and substeps a frame as it had them when saved: the
+/// scene file's, or what the viewer's sliders (`Simulation::set_iterations`, `set_substeps`) made
+/// them since.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PbmpmControls {
+    pub iterations: u32,
+    pub substeps: u32,
 }
 
 /// A run's state between two frames.
@@ -179,6 +197,10 @@ pub struct Checkpoint {
     /// The bodies dropped into the run ([`Simulation::drop_body`]), in order; the scene file does
     /// not name them, so [`Self::resume`] adds them to its scene.
     pub dropped: Vec<DroppedBody>,
+    /// A position-based run's iterations and substeps; [`Self::scene`] gives them to its scene in
+    /// place of the file's. `None` under the explicit method and in files written before they were
+    /// kept (their runs resume with the file's).
+    pub pbmpm: Option<PbmpmControls>,
 }
 
 impl Checkpoint {
@@ -200,10 +222,19 @@ impl Checkpoint {
             impulses: sim.solver_mut().body_impulses()?,
         };
         let dropped = sim.dropped().to_vec();
+        let scene = sim.scene();
+        let pbmpm = match (scene.method, scene.time_step) {
+            (Method::Pbmpm, TimeStepPolicy::Fixed { dt }) => Some(PbmpmControls {
+                iterations: scene.pbmpm.iterations,
+                substeps: (FRAME_DT / dt).round() as u32,
+            }),
+            _ => None,
+        };
         Ok(Checkpoint {
             flow,
             bodies,
             dropped,
+            pbmpm,
             scene_source,
             scene_toml,
             backend,
@@ -222,6 +253,19 @@ impl Checkpoint {
             .context("the scene saved in the checkpoint no longer loads")?;
         scene.pipeline = self.pipeline;
         scene.scatter = self.scatter;
+        if let Some(controls) = self.pbmpm {
+            ensure!(
+                scene.method == Method::Pbmpm
+                    && (1..=MAX_ITERATIONS).contains(&controls.iterations)
+                    && (1..=MAX_SUBSTEPS).contains(&controls.substeps),
+                "the checkpoint holds {} iterations and {} substeps a frame of a position-based run, but its \
+                 scene is not one, or they are out of range: the file is inconsistent",
+                controls.iterations,
+                controls.substeps
+            );
+            scene.pbmpm.iterations = controls.iterations;
+            scene.time_step = TimeStepPolicy::pbmpm(controls.substeps);
+        }
         ensure!(
             scene.slots() == self.particles.len()
                 && scene.grid_res == self.params.grid_res
@@ -388,6 +432,7 @@ impl Checkpoint {
             bodies: self.bodies.states.len() as u64,
             dropped: self.dropped.len() as u64,
             volume_bias: !self.particles.volume_bias.is_empty(),
+            pbmpm: self.pbmpm,
         })?;
         let n = self.particles.len();
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
@@ -741,6 +786,7 @@ impl Body<'_> {
             flow,
             bodies,
             dropped,
+            pbmpm: meta.pbmpm,
             scene_source: meta.scene_source,
             scene_toml: meta.scene_toml,
             backend: meta.backend,

@@ -364,10 +364,10 @@ struct MethodArgs {
 }
 
 impl MethodArgs {
-    /// Whether `--method` or `--iterations` changes the scheme the scene file names: a checkpoint
-    /// keeps the scene file's, so such a run is not checkpointed.
+    /// Whether `--method` changes the scheme the scene file names: a checkpoint keeps the file's
+    /// method (its iterations it keeps as the run has them), so such a run is not checkpointed.
     fn changes_method(&self) -> bool {
-        self.method.is_some() || self.iterations.is_some()
+        self.method.is_some()
     }
 
     /// The overrides, after the solver options' ([`SolverArgs::apply`]: `--ranks` is checked
@@ -941,8 +941,8 @@ fn run(args: RunArgs) -> Result<()> {
     args.method.apply(&mut scene)?;
     anyhow::ensure!(
         args.checkpoint.is_none() || !args.method.changes_method(),
-        "--checkpoint keeps the scene file's solver.method and solver.iterations, which --method and \
-         --iterations override here: set them in the scene file to checkpoint this run"
+        "--checkpoint keeps the scene file's solver.method, which --method overrides here: set it in the \
+         scene file to checkpoint this run"
     );
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).

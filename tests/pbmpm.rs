@@ -292,3 +292,36 @@ fn water_among_colliders_stays_whole() {
         start.elapsed().as_secs_f32()
     );
 }
+
+/// `mpm run --checkpoint` keeps `--iterations` (the checkpoint's scene has the run's count) and
+/// refuses `--method`, which a checkpoint does not keep, before any work.
+#[test]
+fn a_checkpointed_run_keeps_its_iterations_and_refuses_a_method_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("ck");
+    let out_arg = out_dir.to_str().unwrap();
+    let refused = common::cpu_run(
+        "dam-break-coarse",
+        "1",
+        &["--method", "pbmpm", "--checkpoint", out_arg],
+    );
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && stderr.contains("--method"),
+        "{stderr}"
+    );
+    assert!(!out_dir.exists(), "the refused run created {}", out_dir.display());
+    let out = common::cpu_run(
+        "pbmpm-dam-break",
+        "1",
+        &["--iterations", "2", "--checkpoint", out_arg],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let file = std::fs::read_dir(&out_dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mpmck"))
+        .expect("a checkpoint");
+    let scene = mpm::checkpoint::Checkpoint::read(&file).unwrap().scene().unwrap();
+    assert_eq!(scene.pbmpm.iterations, 2);
+}

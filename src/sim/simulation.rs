@@ -824,7 +824,7 @@ impl Simulation {
 
     /// Position-based MPM's constraint iterations a substep (live control), from the next frame on:
     /// 1 to `pbmpm::MAX_ITERATIONS`. The scene's `solver.iterations` follows, for what reads the
-    /// scene; a checkpoint keeps the scene file's (`Checkpoint::capture` saves the file's text).
+    /// scene; a checkpoint keeps it (`Checkpoint::pbmpm`).
     pub fn set_iterations(&mut self, iterations: u32) -> Result<()> {
         ensure!(
             self.scene.method == super::Method::Pbmpm,
@@ -842,7 +842,7 @@ impl Simulation {
     }
 
     /// Position-based MPM's substeps a 60 Hz frame (live control), from the next frame on: 1 to
-    /// `pbmpm::MAX_SUBSTEPS`, each 1 / (60 substeps) s. A checkpoint keeps the scene file's.
+    /// `pbmpm::MAX_SUBSTEPS`, each 1 / (60 substeps) s. A checkpoint keeps it (`Checkpoint::pbmpm`).
     pub fn set_substeps(&mut self, substeps: u32) -> Result<()> {
         ensure!(
             self.scene.method == super::Method::Pbmpm,

@@ -4,6 +4,8 @@
 #![allow(dead_code)]
 
 use mpm::backend::{self, BackendKind};
+use mpm::checkpoint::Checkpoint;
+use mpm::sim::scene::TimeStepPolicy;
 use mpm::sim::{Particles, Scene, Simulation};
 use std::time::Instant;
 
@@ -131,8 +133,10 @@ pub fn run_bytes(scene: &Scene, frames: u32, backend: BackendKind) -> Vec<u8> {
 
 /// The viewer's live controls (`Simulation::set_iterations`, `set_substeps`) set before the first
 /// frame run as the scene that starts with them: water beside a jelly at 2 iterations and 3
-/// substeps a frame, set live on the defaults' scene, writes that scene's bytes 5 frames on; a scene
-/// under the explicit scheme refuses both, and counts outside the keys' ranges are refused.
+/// substeps a frame, set live on the defaults' scene, writes that scene's bytes 5 frames on; a
+/// checkpoint of it (a viewer snapshot) keeps the live counts, and its run goes on as the live one
+/// for 3 frames more, byte for byte; a scene under the explicit scheme refuses both, and counts
+/// outside the keys' ranges are refused.
 pub fn live_controls_run_as_the_scene_keys(backend: BackendKind) {
     let mut live = simulation(&water_and_jelly(), backend);
     live.set_iterations(2).unwrap();
@@ -154,6 +158,26 @@ pub fn live_controls_run_as_the_scene_keys(backend: BackendKind) {
     assert!(
         common::same_particles(&particles(&mut live), &particles(&mut from_keys)),
         "{backend:?}: the live controls' run differs from the scene keys' run"
+    );
+    // A checkpoint (a viewer snapshot) keeps the live counts: its run goes on as the live one.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("live.mpmck");
+    Checkpoint::capture(&mut live).unwrap().write_new(&file).unwrap();
+    let saved = Checkpoint::read(&file).unwrap();
+    let scene = saved.scene().unwrap();
+    assert_eq!(
+        (scene.pbmpm.iterations, scene.time_step),
+        (2, TimeStepPolicy::pbmpm(3)),
+        "{backend:?}: the checkpoint's scene lost the live counts"
+    );
+    let mut resumed = saved.resume(scene, backend).unwrap();
+    for _ in 0..3 {
+        live.advance_frame().unwrap();
+        resumed.advance_frame().unwrap();
+    }
+    assert!(
+        common::same_particles(&particles(&mut live), &particles(&mut resumed)),
+        "{backend:?}: the run resumed from a checkpoint of the live controls differs from the live run"
     );
     for refused in [
         live.set_iterations(0),
