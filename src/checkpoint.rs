@@ -29,8 +29,8 @@
 //! The body: a u64 length and that many bytes of JSON ([`Meta`]: the scene text and source, the
 //! solver options, the particle slot count N, the emitter count E, whether a flow state follows,
 //! whether the particles' deformation follows, whether their volume bias follows, the rigid body
-//! count K, the dropped body count D, and a position-based run's iterations and substeps a frame
-//! as it ran them, which its resumed scene takes in place of the file's); the
+//! count K, the dropped body count D, the run's method and a position-based run's iterations and
+//! substeps a frame as it ran them, which its resumed scene takes in place of the file's); the
 //! 214 words of [`Params`]
 //! (the kernel parameters, then the material table's 8 rows of 24 words); the clock (frame u64,
 //! time f64, signal speed f32, signal rise f32, the last two stretches' flow speeds f32, late
@@ -160,6 +160,10 @@ struct Meta {
     /// (version 7 on).
     #[serde(default)]
     volume_bias: bool,
+    /// The method the run had (the command line's `--method` may have changed the file's; absent
+    /// before it was kept).
+    #[serde(default)]
+    method: Option<Method>,
     /// A position-based run's iterations and substeps as it ran them (absent before they were kept,
     /// and under the explicit method).
     #[serde(default)]
@@ -197,6 +201,9 @@ pub struct Checkpoint {
     /// The bodies dropped into the run ([`Simulation::drop_body`]), in order; the scene file does
     /// not name them, so [`Self::resume`] adds them to its scene.
     pub dropped: Vec<DroppedBody>,
+    /// The method the run had, which [`Self::scene`] gives its scene (`--method` may have changed the
+    /// file's); `None` in files written before it was kept (they resume with the file's).
+    pub method: Option<Method>,
     /// A position-based run's iterations and substeps; [`Self::scene`] gives them to its scene in
     /// place of the file's. `None` under the explicit method and in files written before they were
     /// kept (their runs resume with the file's).
@@ -234,6 +241,7 @@ impl Checkpoint {
             flow,
             bodies,
             dropped,
+            method: Some(scene.method),
             pbmpm,
             scene_source,
             scene_toml,
@@ -253,6 +261,9 @@ impl Checkpoint {
             .context("the scene saved in the checkpoint no longer loads")?;
         scene.pipeline = self.pipeline;
         scene.scatter = self.scatter;
+        if let Some(method) = self.method {
+            scene.set_method(method);
+        }
         if let Some(controls) = self.pbmpm {
             ensure!(
                 scene.method == Method::Pbmpm
@@ -432,6 +443,7 @@ impl Checkpoint {
             bodies: self.bodies.states.len() as u64,
             dropped: self.dropped.len() as u64,
             volume_bias: !self.particles.volume_bias.is_empty(),
+            method: self.method,
             pbmpm: self.pbmpm,
         })?;
         let n = self.particles.len();
@@ -786,6 +798,7 @@ impl Body<'_> {
             flow,
             bodies,
             dropped,
+            method: meta.method,
             pbmpm: meta.pbmpm,
             scene_source: meta.scene_source,
             scene_toml: meta.scene_toml,

@@ -364,20 +364,11 @@ struct MethodArgs {
 }
 
 impl MethodArgs {
-    /// Whether `--method` changes the scheme the scene file names: a checkpoint keeps the file's
-    /// method (its iterations it keeps as the run has them), so such a run is not checkpointed.
-    fn changes_method(&self) -> bool {
-        self.method.is_some()
-    }
-
     /// The overrides, after the solver options' ([`SolverArgs::apply`]: `--ranks` is checked
     /// against the method here), and what pbmpm does not run refused ([`Scene::check_method`]).
     fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(method) = self.method {
-            if method != scene.method {
-                scene.time_step = mpm::sim::scene::TimeStepPolicy::default_for(method);
-                scene.method = method;
-            }
+            scene.set_method(method);
         }
         if let Some(iterations) = self.iterations {
             anyhow::ensure!(
@@ -939,11 +930,6 @@ fn run(args: RunArgs) -> Result<()> {
     };
     args.solver.apply(&mut scene);
     args.method.apply(&mut scene)?;
-    anyhow::ensure!(
-        args.checkpoint.is_none() || !args.method.changes_method(),
-        "--checkpoint keeps the scene file's solver.method, which --method overrides here: set it in the \
-         scene file to checkpoint this run"
-    );
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());

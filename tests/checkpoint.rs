@@ -683,11 +683,11 @@ fn version_2_bytes(cp: &Checkpoint) -> Vec<u8> {
         old.extend([0u32; 3]);
     }
     assert_eq!(old.len(), 150);
-    // The body: its JSON (whose `deformation: false` a version-2 reader never looked for), then the
-    // parameters, replaced, and the rest as it is.
+    // The body: its JSON (whose `deformation: false` a version-2 reader never looked for; without the
+    // keys added since), then the parameters, replaced, and the rest as it is.
     let meta_len = u64::from_le_bytes(file[24..32].try_into().unwrap()) as usize;
     let params_at = 32 + meta_len;
-    let mut body = file[24..params_at].to_vec();
+    let mut body = meta_before_the_scheme_was_kept(serde_json::from_slice(&file[32..params_at]).unwrap());
     body.extend(old.iter().flat_map(|w| w.to_le_bytes()));
     body.extend(without_flow_speed(
         &file[params_at + 4 * current.len()..file.len() - 4],
@@ -704,9 +704,31 @@ fn without_flow_speed(after_params: &[u8]) -> Vec<u8> {
 
 /// `cp` as a format before version 6 reads it back: the flow speeds taken as the signal speed.
 fn read_before_version_6(cp: &Checkpoint) -> Checkpoint {
-    let mut read = cp.clone();
+    let mut read = read_before_the_scheme_was_kept(cp);
     read.clock.flow_speeds = [read.clock.signal_speed; 2];
     read
+}
+
+/// A checkpoint's JSON as files written before the run's method and position-based counts were kept
+/// have it (without those keys), after its length, as the body starts.
+fn meta_before_the_scheme_was_kept(mut meta: serde_json::Value) -> Vec<u8> {
+    for key in ["method", "pbmpm"] {
+        meta.as_object_mut().unwrap().remove(key);
+    }
+    let meta = serde_json::to_vec(&meta).unwrap();
+    let mut body = (meta.len() as u64).to_le_bytes().to_vec();
+    body.extend(&meta);
+    body
+}
+
+/// `cp` as a file written before checkpoints kept the run's method and position-based counts reads:
+/// without them (its scene resumes with the file's).
+fn read_before_the_scheme_was_kept(cp: &Checkpoint) -> Checkpoint {
+    Checkpoint {
+        method: None,
+        pbmpm: None,
+        ..cp.clone()
+    }
 }
 
 /// A checkpoint of format version 2, written before the solids, loads with its table's rows as they
@@ -725,7 +747,8 @@ fn a_version_2_checkpoint_of_several_liquids_loads_as_it_was() {
 
 /// The bytes an earlier format `version` wrote for `cp`'s state, where that format is today's
 /// without the counts or flags `missing` in its JSON (each 0 or false in `cp`: nothing of theirs
-/// follows) and, before version 6, without the clock's flow speed.
+/// follows), without the run's method and position-based counts (kept since, in version 7) and,
+/// before version 6, without the clock's flow speed.
 fn without_counts(cp: &Checkpoint, version: u32, missing: &[&str]) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let now = dir.path().join("now.mpmck");
@@ -737,9 +760,7 @@ fn without_counts(cp: &Checkpoint, version: u32, missing: &[&str]) -> Vec<u8> {
         assert!(meta[key] == 0 || meta[key] == false, "{key}: {}", meta[key]);
         meta.as_object_mut().unwrap().remove(*key);
     }
-    let meta = serde_json::to_vec(&meta).unwrap();
-    let mut body = (meta.len() as u64).to_le_bytes().to_vec();
-    body.extend(&meta);
+    let mut body = meta_before_the_scheme_was_kept(meta);
     let params_at = 32 + meta_len;
     let clock_at = params_at + std::mem::size_of::<Params>();
     body.extend(&file[params_at..clock_at]);
@@ -796,7 +817,10 @@ fn a_version_6_checkpoint_loads_as_one_without_a_volume_bias() {
     let dir = tempfile::tempdir().unwrap();
     let v6 = dir.path().join("v6.mpmck");
     std::fs::write(&v6, without_counts(&current, 6, &["volume_bias"])).unwrap();
-    assert_eq!(Checkpoint::read(&v6).unwrap(), current);
+    assert_eq!(
+        Checkpoint::read(&v6).unwrap(),
+        read_before_the_scheme_was_kept(&current)
+    );
 }
 
 /// A pool under the position-based solver: the checkpoint carries its particles' volume bias (the

@@ -133,7 +133,7 @@ pub enum Method {
     #[default]
     Explicit,
     /// Position-based MPM: constraint iterations on each particle's affine displacement, a fixed
-    /// number of substeps a frame, stable at any substep (the CPU reference, `--backend cpu`).
+    /// number of substeps a frame, stable at any substep (CUDA and the single-thread CPU reference).
     Pbmpm,
 }
 

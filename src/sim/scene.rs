@@ -483,6 +483,16 @@ impl Scene {
         Ok(())
     }
 
+    /// Runs the scene under `method` (the command line's `--method`, a checkpoint's): a change of
+    /// method takes that method's default time-step policy (the CFL policy, or pbmpm's default
+    /// substeps a frame).
+    pub fn set_method(&mut self, method: Method) {
+        if method != self.method {
+            self.time_step = TimeStepPolicy::default_for(method);
+            self.method = method;
+        }
+    }
+
     /// Refuses what the position-based solver does not run yet, naming the fix: rigid bodies,
     /// emitters and sinks, the soft wall, and runs split into ranks. Nothing under the explicit
     /// method. Checked when the scene loads and again when a backend is made (the command line's

@@ -254,10 +254,11 @@ impl ColliderFrame {
 
     /// The position-based grid's boundary condition (`solver.method = "pbmpm"`) at a node at x whose
     /// displacement over the substep of `dt` s is d: for each collider in turn (scene order), the node
-    /// may not *end* the substep deeper inside it than it started, measured where it ends, so a node
-    /// cannot step through a surface whatever its displacement (the test of the tank's walls,
-    /// `pbmpm::wall_displacement`, for any shape). A node that would is moved back out along the
-    /// normal there; a Coulomb collider then shortens the tangential displacement relative to it by
+    /// may not *end* the substep nearer its surface than it started, nor nearer than the collider's
+    /// band where it started farther, measured where it ends, so a node cannot step through a surface
+    /// whatever its displacement (the test of the tank's walls, `pbmpm::wall_displacement`, for any
+    /// shape; the band keeps the fluid a cell clear, as the explicit boundary does). A node that
+    /// would is moved back out along the normal there; a Coulomb collider then shortens the tangential displacement relative to it by
     /// its coefficient times that push, to zero at most; a sticking one makes every node within its
     /// band move with it. The frame holds each collider where the substep ends, so the node's start
     /// is read at x plus the collider's own displacement at x. The kernels' twin is
