@@ -209,8 +209,8 @@ impl Drop for HeadlessGl {
         }
         // Released before glutin destroys it: EGL frees a context destroyed while current only once
         // its thread lets go of it, and a thread that ends never does, so the context would be left
-        // to the driver's teardown at exit (headless_render, one context per test, once aborted there
-        // with a double free in CI).
+        // to the driver's teardown at exit (a suspect, not proven, in the double free that aborted
+        // one CI run of headless_render there).
         let _ = self.context.make_not_current_in_place();
     }
 }
