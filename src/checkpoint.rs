@@ -219,7 +219,14 @@ impl Checkpoint {
             .context("a frame is half done; finish it (Simulation::step_frame) before saving the state")?;
         let scene = sim.scene();
         let (scene_source, scene_toml) = (scene.source.clone(), scene.toml.clone());
-        let (pipeline, scatter) = (scene.pipeline, scene.scatter);
+        let (pipeline, scatter, method) = (scene.pipeline, scene.scatter, scene.method);
+        let pbmpm = match (method, scene.time_step) {
+            (Method::Pbmpm, TimeStepPolicy::Fixed { dt }) => Some(PbmpmControls {
+                iterations: scene.pbmpm.iterations,
+                substeps: (FRAME_DT / dt).round() as u32,
+            }),
+            _ => None,
+        };
         let backend = sim.backend().to_string();
         let params = *sim.params();
         let particles = sim.solver_mut().read_particles()?;
@@ -229,19 +236,11 @@ impl Checkpoint {
             impulses: sim.solver_mut().body_impulses()?,
         };
         let dropped = sim.dropped().to_vec();
-        let scene = sim.scene();
-        let pbmpm = match (scene.method, scene.time_step) {
-            (Method::Pbmpm, TimeStepPolicy::Fixed { dt }) => Some(PbmpmControls {
-                iterations: scene.pbmpm.iterations,
-                substeps: (FRAME_DT / dt).round() as u32,
-            }),
-            _ => None,
-        };
         Ok(Checkpoint {
             flow,
             bodies,
             dropped,
-            method: Some(scene.method),
+            method: Some(method),
             pbmpm,
             scene_source,
             scene_toml,

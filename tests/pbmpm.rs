@@ -312,11 +312,7 @@ fn a_checkpoint_keeps_the_command_line_s_method_and_iterations() {
         ],
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let file = std::fs::read_dir(&out_dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "mpmck"))
-        .expect("a checkpoint");
+    let file = out_dir.join("checkpoint_000001.mpmck");
     let scene = mpm::checkpoint::Checkpoint::read(&file).unwrap().scene().unwrap();
     assert_eq!(
         (scene.method, scene.pbmpm.iterations, scene.time_step),
