@@ -2,15 +2,28 @@
 // "pbmpm"` on the GPU, the CPU reference src/sim/pbmpm.rs operation for operation where it can. A
 // substep: pbmpm_begin (the warm start, the mass, viscosity and volume scatters), the walls' mirror
 // of those sums (mirror_walls.cu), pbmpm_volume_targets (each liquid particle's volume target); then
-// `iterations` times a particle pass (the gather of the last iteration's node displacements, the
-// constraints, the scatter of the displacements) and pbmpm_grid (the node displacements held by the
-// walls; pbmpm_diffuse for the liquids' viscosity); the last particle pass gathers and integrates.
+// `iterations` times pbmpm_scatter (the gather of the last iteration's node displacements, the
+// constraints, the scatter of the displacements through a shared tile per bin) and pbmpm_grid (the
+// node displacements held by the walls; pbmpm_diffuse for the liquids' viscosity); pbmpm_integrate
+// gathers once more and integrates.
 //
-// Every grid sum is fixed point (64-bit integer atomics of rounded contributions, which commute): a
-// run writes the same bytes whatever order threads arrive in. The particles are walked in cell order
-// (kernels/bins.cu) and stay in slot order in memory; the sums of a warp's run of particles in one
-// cell are added before the atomics (warp_run_sum), as p2g_init.cu does.
-#include "common.cuh"
+// Every grid sum is fixed point (integer atomics of rounded contributions, which commute): a run
+// writes the same bytes whatever order threads arrive in. The particles are binned by 4x4x4-node
+// block every substep (kernels/bins.cu, the cells of a bin consecutive in `order`) and stay in slot
+// order in memory; pbmpm_begin adds the sums of a warp's run of particles in one cell before its
+// atomics (warp_run_sum), as p2g_init.cu does.
+#include "tiles.cuh"
+
+// pbmpm_scatter's blocks per multiprocessor (its register cap): the fixed-point one_pass's.
+#define PBMPM_SCATTER_MIN_BLOCKS 5
+// pbmpm_scatter's tile holds each contribution's global units whole, as two 32-bit words: its high
+// bits (units >> TILE_UNIT_SHIFT, signed; channels 0 to 2, the displacement's xyz) and its low
+// TILE_UNIT_SHIFT bits (0 to 8191; channels 3 to 5), so that the flush adds to the grid the same
+// 64-bit sum as the contributions' own global atomics would. Rounded to tile units instead (one
+// word), a slow liquid's displacement kept ~3e-6 of a node's sum, not a float's 6e-8, and the GPU
+// left the CPU reference four to twenty times further (BENCHMARKS.md M22).
+#define PB_TILE_CHANNELS 6
+#define PB_TILE_LOW_BITS ((1 << TILE_UNIT_SHIFT) - 1)
 
 // Matrices as m[column][row], as the deformation and C are stored (common.cuh).
 struct Mat {
@@ -213,10 +226,12 @@ __device__ __forceinline__ i64 pb_units(float value, float scale, StepCounters* 
 }
 
 // Adds N channels of a warp run's contributions to `sums[channel * stride + node]`-style targets: the
-// run's head adds the run's sums (every lane must call it).
+// run's head adds the run's sums, summed in the shuffle steps that runs of up to `lanes` lanes need
+// (warp_longest_run; every lane must call it).
 template <int N>
-__device__ __forceinline__ void pb_run_add(WarpRun run, bool live, i64 (&units)[N], u64* const (&targets)[N]) {
-    warp_run_sum(run, units);
+__device__ __forceinline__ void pb_run_add(WarpRun run, u32 lanes, bool live, i64 (&units)[N],
+                                           u64* const (&targets)[N]) {
+    warp_run_sum(run, units, lanes);
     if (run.head && live) {
 #pragma unroll
         for (int k = 0; k < N; ++k)
@@ -289,21 +304,23 @@ extern "C" __global__ void pbmpm_begin(const KernelParams params, const float vo
         const float volume = solid ? m_p / rho[p] : m_p / mat.rest_density;
         const float error = solid ? 0.0f : m_p * (1.0f - mat.rest_density / rho[p]);
         const WarpRun run = warp_run(s.base_index);
+        // Three shuffle steps, not five, for the runs of up to 8 particles of a lattice at rest.
+        const u32 lanes = warp_longest_run(run);
         FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
             i64 units[1] = {live ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0};
             u64* const at[1] = {&mass[node]};
-            pb_run_add(run, live, units, at);
+            pb_run_add(run, lanes, live, units, at);
             if (viscous) {
                 i64 nu_units[1] = {live ? pb_units(w * m_p * nu, params.fixed_mass_scale, counters) : 0};
                 u64* const nu_at[1] = {&viscosity[node]};
-                pb_run_add(run, live, nu_units, nu_at);
+                pb_run_add(run, lanes, live, nu_units, nu_at);
             }
             if (volumes) {
                 i64 v_units[3] = {live ? pb_units(w * volume, volume_scale, counters) : 0,
                                   live && !solid ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0,
                                   live && !solid ? pb_units(w * error, params.fixed_mass_scale, counters) : 0};
                 u64* const v_at[3] = {&fill[node], &liquid_mass[node], &volume_error[node]};
-                pb_run_add(run, live, v_units, v_at);
+                pb_run_add(run, lanes, live, v_units, v_at);
             }
         })
     }
@@ -349,138 +366,241 @@ extern "C" __global__ void pbmpm_volume_targets(const KernelParams params, const
     }
 }
 
-// One particle pass of the iteration loop (`gather`, `project_all` and `scatter`; `integrate_all`
-// in the last): `mode` says which (PBMPM_PASS_*: the first pass does not gather, the last integrates
-// in place of the scatter). The displacement is scattered as w m_p (d + D dx (x_i - x_p) / dx) in units of
-// `displacement_scale` per kg m; `node_d` holds the node displacements the grid pass wrote.
-extern "C" __global__ void pbmpm_pass(const KernelParams params, const u32 mode, const float displacement_scale,
-                                      const float lo, const float hi0, const float hi1, const float hi2,
-                                      float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c,
-                                      float* __restrict__ rho, float4* __restrict__ deformation,
-                                      const u32* __restrict__ order, const float4* __restrict__ node_d,
-                                      u64* __restrict__ displacement, float4* __restrict__ pass_d,
-                                      float4* __restrict__ pass_affine, const float4* __restrict__ f_inverse,
-                                      const ColliderState* __restrict__ collider_states, const u32 num_colliders,
-                                      const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses,
-                                      StepCounters* __restrict__ counters) {
+// A particle's displacement d and affine displacement D for its constraints: gathered from the node
+// displacements of the iteration before (`gather`), or as the pass state holds them (the warm start,
+// or the first pass of a substep). d's w (the volume target) is the pass state's either way.
+__device__ __forceinline__ void pb_displacement(const KernelParams& params, bool gather, const Stencil& s,
+                                                const float4* __restrict__ node_d, const float4* __restrict__ pass_d,
+                                                const float4* __restrict__ pass_affine, u32 n, u32 p, float4& dp,
+                                                Mat& affine) {
+    dp = pass_d[p];
+    if (!gather) {
+        affine = pb_load_mat(pass_affine, n, p);
+        return;
+    }
+    float3 d = make_float3(0.0f, 0.0f, 0.0f);
+    Mat b;
+#pragma unroll
+    for (int col = 0; col < 3; ++col)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) b.m[col][r] = 0.0f;
+    // Rounded as written, the sums of products fused (as NVRTC fused them when this gather was the
+    // warp runs' pass's own code): the same bits in both of the kernels that call it.
+    FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+        const float4 g = node_d[node];
+        const float wd[3] = {__fmul_rn(w, g.x), __fmul_rn(w, g.y), __fmul_rn(w, g.z)};
+        const float offset[3] = {d0, d1, d2};
+        d.x = __fadd_rn(d.x, wd[0]), d.y = __fadd_rn(d.y, wd[1]), d.z = __fadd_rn(d.z, wd[2]);
+        for (int col = 0; col < 3; ++col)
+            for (int r = 0; r < 3; ++r) b.m[col][r] = __fmaf_rn(wd[r], offset[col], b.m[col][r]);
+    })
+    dp.x = d.x, dp.y = d.y, dp.z = d.z;
+#pragma unroll
+    for (int col = 0; col < 3; ++col)
+#pragma unroll
+        for (int r = 0; r < 3; ++r) affine.m[col][r] = b.m[col][r] * (4.0f * params.inv_dx);
+}
+
+// The most tile units a particle's displacement contributions can have per unit weight: |x_i - x_p|
+// <= 1.5 dx per axis. NaN where its state is not finite (as tile_reach).
+__device__ __forceinline__ float pb_tile_reach(const KernelParams& params, float4 dp, const Mat& affine,
+                                               float unit_displacement) {
+    const float d[3] = {dp.x, dp.y, dp.z};
+    float reach = 0.0f, poison = 0.0f;
+#pragma unroll
+    for (int row = 0; row < 3; ++row) {
+        const float spread = fabsf(affine.m[0][row]) + fabsf(affine.m[1][row]) + fabsf(affine.m[2][row]);
+        const float bound = fabsf(d[row]) + 1.5f * params.dx * spread;
+        reach = fmaxf(reach, bound);
+        poison += 0.0f * bound;
+    }
+    return (reach + poison) * unit_displacement;
+}
+
+// The iteration loop's particle pass (`gather`, `project_all` and `scatter`), over the listed bin
+// chunks (tiles.cuh): each particle's d and D (pb_displacement), its constraint (pb_project), then
+// w m_p (d + D (x_i - x_p)) in units of `displacement_scale` per kg m, each contribution rounded on its
+// own, into its chunk's tile (PB_TILE_CHANNELS words a node), flushed once per node with 64-bit
+// atomics. A particle the tile does not take (its stencil outside, or a displacement past the high
+// word's reach) adds the same integers to the grid directly, so the sums do not depend on which
+// particles a tile held. The bins are rebuilt every substep (the particles do not move between its
+// passes), so a stencil leaves its tile only where a position is not finite. Against the warp runs'
+// 64-bit atomics it replaced: BENCHMARKS.md M22.
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_SCATTER_MIN_BLOCKS)
+    pbmpm_scatter(const KernelParams params, const u32 gather, const float displacement_scale,
+                  const BinEntry* __restrict__ bins, const u32* __restrict__ work_counts, const u32* __restrict__ order,
+                  const float4* __restrict__ x, const float4* __restrict__ v, const float* __restrict__ rho,
+                  const float4* __restrict__ deformation, const float4* __restrict__ node_d,
+                  const u64* __restrict__ mass, u64* __restrict__ displacement, float4* __restrict__ pass_d,
+                  float4* __restrict__ pass_affine, const float4* __restrict__ f_inverse,
+                  StepCounters* __restrict__ counters) {
+    __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];  // cleared with the tile; this pass lists no node blocks
+    const u32 n = params.num_particles;
+    const NodeBlocks blocks = node_blocks(params);
+    const float unit = 1.0f / (float)(1 << TILE_UNIT_SHIFT);
+    const float mass_tile_scale = params.fixed_mass_scale * unit;
+    const float displacement_tile_scale = displacement_scale * unit;
+    const float unit_mass = heaviest_particle_mass(params) * mass_tile_scale;
+    u32 misses = 0, overflows = 0;
+    bool far = false;
+
+    const u32 listed = work_counts[WORK_BINS];
+    int* tile = tile_clear<PB_TILE_CHANNELS>(tile_marks, listed);
+    for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
+        const BinEntry bin = bins[entry];
+        const Tile t = make_tile(blocks, bin.bin);
+        for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
+            const u32 p = order[bin.start + j];
+            const float4 xp = x[p];
+            if (is_parked(xp)) continue;
+            const u32 row = material_index(params, v[p]);
+            const Material& mat = material_table[row];
+            const Stencil s = make_stencil(xp, params);
+            float4 dp;
+            Mat affine;
+            pb_displacement(params, gather, s, node_d, pass_d, pass_affine, n, p, dp, affine);
+            const bool deformed = deformation != nullptr && material_carries_deformation(mat);
+            Mat f = pb_identity(), fi = f;
+            float plastic = 0.0f;
+            if (deformed) {
+                const Deformation def = load_deformation(deformation, n, p);
+#pragma unroll
+                for (int col = 0; col < 3; ++col)
+#pragma unroll
+                    for (int r = 0; r < 3; ++r) f.m[col][r] = def.f[col][r];
+                fi = pb_load_mat(f_inverse, n, p);
+                plastic = def.plastic;
+            }
+            if (deformed || !solid_is_solid(mat.law)) affine = pb_project(params, row, affine, rho[p], deformed, f, plastic, fi, dp.w);
+            pass_d[p] = dp;
+            pb_store_mat(pass_affine, n, p, affine);
+
+            u32 first = 0;
+            const bool in_tile = tile_stencil(t, s, first, far);
+            misses += !in_tile;
+            const float m_p = mat.particle_mass;
+            const bool taken = in_tile && tile_takes(s, pb_tile_reach(params, dp, affine, m_p * displacement_tile_scale),
+                                                     m_p * mass_tile_scale);
+            const float d[3] = {dp.x, dp.y, dp.z};
+            const float scale = m_p * displacement_scale;
+            // w m_p (d + D dx (x_i - x_p) / dx) in global units, rounded as written (left to itself,
+            // NVRTC may contract one of the two loops below into fused multiply-adds and not the
+            // other): as the warp runs' pass before the tile rounded it, so that a run writes the
+            // bytes it wrote (BENCHMARKS.md M22).
+            auto units = [&](float w, float d0, float d1, float d2, int a) {
+                const float offset = __fadd_rn(__fadd_rn(__fmul_rn(affine.m[0][a], d0), __fmul_rn(affine.m[1][a], d1)),
+                                               __fmul_rn(affine.m[2][a], d2));
+                return fixed_point_units(__fmul_rn(__fmul_rn(w, scale), __fmaf_rn(offset, params.dx, d[a])), counters);
+            };
+            if (taken) {
+                FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
+                    for (int a = 0; a < 3; ++a) {
+                        const i64 u = units(w, d0, d1, d2, a);
+                        atomicAdd(&tile[a * TILE_NODES + k], (int)(u >> TILE_UNIT_SHIFT));
+                        atomicAdd(&tile[(3 + a) * TILE_NODES + k], (int)(u & PB_TILE_LOW_BITS));
+                    }
+                })
+            } else {
+                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+                    for (int a = 0; a < 3; ++a)
+                        if (const i64 u = units(w, d0, d1, d2, a)) atomicAdd(&displacement[3 * (size_t)node + a], (u64)u);
+                })
+            }
+        }
+        // A node's high words over the chunk are at most its mass's tile units plus one a particle
+        // (tile_takes); where a chunk could pass 32 bits, the node's whole mass (this chunk's and
+        // more) bounds them. The low words stay under 2^13 a particle.
+        const bool may_wrap = tile_chunk_may_wrap(bin.count, unit_mass);
+        const u32 mass_limit = tile_mass_limit(bin.count);
+        FOR_EACH_TILE_NODE_FLUSHED(PB_TILE_CHANNELS, tile, t, params, k, node, sums, {
+            i64 sum[3];
+            bool any = false;
+            for (int a = 0; a < 3; ++a) {
+                sum[a] = (i64)sums[a] * (1 << TILE_UNIT_SHIFT) + (i64)(u32)sums[3 + a];
+                any |= sum[a] != 0;
+            }
+            if (!any) continue;
+            if (may_wrap) overflows += (mass[node] >> TILE_UNIT_SHIFT) >= (u64)mass_limit;
+            for (int a = 0; a < 3; ++a)
+                if (sum[a] != 0) atomicAdd(&displacement[3 * (size_t)node + a], (u64)sum[a]);
+        })
+        __syncthreads();
+    }
+    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
+    if (misses) atomicAdd(&counters->tile_misses, misses);
+    if (far) counters->rebin_needed = 1u;
+}
+
+// The substep's last particle pass (`gather` and `integrate_all`): d and D gathered from the last
+// iteration's node displacements; x += d within the fluid region; F and a liquid's J; v = d / dt,
+// C = D / dt; then the colliders' backstop.
+extern "C" __global__ void pbmpm_integrate(const KernelParams params, const float lo, const float hi0, const float hi1,
+                                           const float hi2, float4* __restrict__ x, float4* __restrict__ v,
+                                           float4* __restrict__ c, float* __restrict__ rho,
+                                           float4* __restrict__ deformation, const u32* __restrict__ order,
+                                           const float4* __restrict__ node_d, const float4* __restrict__ pass_d,
+                                           const float4* __restrict__ pass_affine,
+                                           const ColliderState* __restrict__ collider_states, const u32 num_colliders,
+                                           const float* __restrict__ collider_sdf, u64* __restrict__ body_impulses,
+                                           StepCounters* __restrict__ counters) {
     const u32 n = params.num_particles;
     const Colliders colliders{collider_states, num_colliders, collider_sdf, body_impulses};
     float max_speed = 0.0f, max_density = 0.0f;
     u32 pushes = 0;
-    FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
-        const u32 p = order[live ? i : first];
+    FOR_EACH_INDEX(i, n) {
+        const u32 p = order[i];
         const float4 xp = x[p], vp = v[p];
-        const u32 row = material_index(params, vp);
-        const Material& mat = material_table[row];
+        if (is_parked(xp)) continue;
+        const Material& mat = material_table[material_index(params, vp)];
         const Stencil s = make_stencil(xp, params);
-        float4 dp = pass_d[p];
+        float4 dp;
         Mat affine;
-        if (mode & PBMPM_PASS_GATHER) {
-            float3 d = make_float3(0.0f, 0.0f, 0.0f);
-            Mat b;
+        pb_displacement(params, true, s, node_d, pass_d, pass_affine, n, p, dp, affine);
+        float4 xn = make_float4(fminf(fmaxf(xp.x + dp.x, lo), hi0), fminf(fmaxf(xp.y + dp.y, lo), hi1),
+                                fminf(fmaxf(xp.z + dp.z, lo), hi2), xp.w);
+        float r = rho[p];
+        if (deformation != nullptr && material_carries_deformation(mat)) {
+            Deformation def = load_deformation(deformation, n, p);
+            const Mat f = {{{def.f[0][0], def.f[0][1], def.f[0][2]},
+                            {def.f[1][0], def.f[1][1], def.f[1][2]},
+                            {def.f[2][0], def.f[2][1], def.f[2][2]}}};
+            const Mat trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
 #pragma unroll
             for (int col = 0; col < 3; ++col)
 #pragma unroll
-                for (int r = 0; r < 3; ++r) b.m[col][r] = 0.0f;
-            FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                const float4 g = node_d[node];
-                const float wx = w * g.x, wy = w * g.y, wz = w * g.z;
-                d.x += wx, d.y += wy, d.z += wz;
-                b.m[0][0] += wx * d0, b.m[0][1] += wy * d0, b.m[0][2] += wz * d0;
-                b.m[1][0] += wx * d1, b.m[1][1] += wy * d1, b.m[1][2] += wz * d1;
-                b.m[2][0] += wx * d2, b.m[2][1] += wy * d2, b.m[2][2] += wz * d2;
-            })
-            dp.x = d.x, dp.y = d.y, dp.z = d.z;
-#pragma unroll
-            for (int col = 0; col < 3; ++col)
-#pragma unroll
-                for (int r = 0; r < 3; ++r) affine.m[col][r] = b.m[col][r] * (4.0f * params.inv_dx);
-        } else {
-            affine = pb_load_mat(pass_affine, n, p);
+                for (int q = 0; q < 3; ++q) def.f[col][q] = trial.m[col][q];
+            float tau[3][3];
+            def.plastic = solid_plastic_return(mat, def.f, def.plastic, tau);
+            if (!(mat.law == LAW_HERSCHEL_BULKLEY && !solid_is_solid(mat.law))) pb_clamp_stretch(def.f);
+            store_deformation(deformation, n, p, def);
+            if (solid_is_solid(mat.law)) r = mat.rest_density / fmaxf(fabsf(solid_determinant(def.f)), 1e-6f);
         }
-        const bool deformed = deformation != nullptr && material_carries_deformation(mat);
-        Deformation def;
-        if (deformed && live) def = load_deformation(deformation, n, p);
-        if (mode & PBMPM_PASS_SCATTER) {
-            if (live) {
-                Mat f = pb_identity(), fi = f;
-                if (deformed) {
-#pragma unroll
-                    for (int col = 0; col < 3; ++col)
-#pragma unroll
-                        for (int r = 0; r < 3; ++r) f.m[col][r] = def.f[col][r];
-                    fi = pb_load_mat(f_inverse, n, p);
-                }
-                if (deformed || !solid_is_solid(mat.law))
-                    affine = pb_project(params, row, affine, rho[p], deformed, f, deformed ? def.plastic : 0.0f, fi, dp.w);
-                pass_d[p] = dp;
-                pb_store_mat(pass_affine, n, p, affine);
-            }
-            const float scale = mat.particle_mass * displacement_scale;
-            const WarpRun run = warp_run(s.base_index);
-            FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                const float ws = w * scale;
-                // D dx (x_i - x_p): the offsets are in cells.
-                const float ox = (affine.m[0][0] * d0 + affine.m[1][0] * d1 + affine.m[2][0] * d2) * params.dx;
-                const float oy = (affine.m[0][1] * d0 + affine.m[1][1] * d1 + affine.m[2][1] * d2) * params.dx;
-                const float oz = (affine.m[0][2] * d0 + affine.m[1][2] * d1 + affine.m[2][2] * d2) * params.dx;
-                i64 units[3] = {live ? fixed_point_units(ws * (dp.x + ox), counters) : 0,
-                                live ? fixed_point_units(ws * (dp.y + oy), counters) : 0,
-                                live ? fixed_point_units(ws * (dp.z + oz), counters) : 0};
-                u64* const at[3] = {&displacement[3 * (size_t)node], &displacement[3 * (size_t)node + 1],
-                                    &displacement[3 * (size_t)node + 2]};
-                pb_run_add(run, live, units, at);
-            })
-        } else if ((mode & PBMPM_PASS_INTEGRATE) && live) {
-            // `integrate`: x += d within the fluid region; F and a liquid's J; v = d / dt, C = D / dt; then
-            // the colliders' backstop.
-            float4 xn = make_float4(fminf(fmaxf(xp.x + dp.x, lo), hi0), fminf(fmaxf(xp.y + dp.y, lo), hi1),
-                                    fminf(fmaxf(xp.z + dp.z, lo), hi2), xp.w);
-            float r = rho[p];
-            if (deformed) {
-                const Mat f = {{{def.f[0][0], def.f[0][1], def.f[0][2]},
-                                {def.f[1][0], def.f[1][1], def.f[1][2]},
-                                {def.f[2][0], def.f[2][1], def.f[2][2]}}};
-                const Mat trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
-#pragma unroll
-                for (int col = 0; col < 3; ++col)
-#pragma unroll
-                    for (int q = 0; q < 3; ++q) def.f[col][q] = trial.m[col][q];
-                float tau[3][3];
-                def.plastic = solid_plastic_return(mat, def.f, def.plastic, tau);
-                if (!(mat.law == LAW_HERSCHEL_BULKLEY && !solid_is_solid(mat.law))) pb_clamp_stretch(def.f);
-                store_deformation(deformation, n, p, def);
-                if (solid_is_solid(mat.law)) r = mat.rest_density / fmaxf(fabsf(solid_determinant(def.f)), 1e-6f);
-            }
-            if (!solid_is_solid(mat.law)) {
-                const float j = mat.rest_density / r * (1.0f + pb_trace(affine));
-                r = mat.rest_density / fmaxf(j, MIN_LIQUID_VOLUME);
-            }
-            const float inv_dt = 1.0f / params.dt;
-            float4 vn = make_float4(dp.x * inv_dt, dp.y * inv_dt, dp.z * inv_dt, vp.w);
-            float held[3] = {xn.x, xn.y, xn.z}, vel[3] = {vn.x, vn.y, vn.z};
-            if (collider_backstop(colliders, 0.0f, held, vel)) {
-                xn = make_float4(fminf(fmaxf(held[0], lo), hi0), fminf(fmaxf(held[1], lo), hi1),
-                                 fminf(fmaxf(held[2], lo), hi2), xp.w);
-                vn = make_float4(vel[0], vel[1], vel[2], vp.w);
-                ++pushes;
-            }
-            x[p] = xn;
-            v[p] = vn;
-#pragma unroll
-            for (int col = 0; col < 3; ++col)
-                c[(size_t)col * n + p] = make_float4(affine.m[col][0] * inv_dt, affine.m[col][1] * inv_dt,
-                                                     affine.m[col][2] * inv_dt, 0.0f);
-            rho[p] = r;
-            max_speed = fmaxf(max_speed, sqrtf(vn.x * vn.x + vn.y * vn.y + vn.z * vn.z));
-            max_density = fmaxf(max_density, reported_density(params, vn, r));
+        if (!solid_is_solid(mat.law)) {
+            const float j = mat.rest_density / r * (1.0f + pb_trace(affine));
+            r = mat.rest_density / fmaxf(j, MIN_LIQUID_VOLUME);
         }
+        const float inv_dt = 1.0f / params.dt;
+        float4 vn = make_float4(dp.x * inv_dt, dp.y * inv_dt, dp.z * inv_dt, vp.w);
+        float held[3] = {xn.x, xn.y, xn.z}, vel[3] = {vn.x, vn.y, vn.z};
+        if (collider_backstop(colliders, 0.0f, held, vel)) {
+            xn = make_float4(fminf(fmaxf(held[0], lo), hi0), fminf(fmaxf(held[1], lo), hi1),
+                             fminf(fmaxf(held[2], lo), hi2), xp.w);
+            vn = make_float4(vel[0], vel[1], vel[2], vp.w);
+            ++pushes;
+        }
+        x[p] = xn;
+        v[p] = vn;
+#pragma unroll
+        for (int col = 0; col < 3; ++col)
+            c[(size_t)col * n + p] = make_float4(affine.m[col][0] * inv_dt, affine.m[col][1] * inv_dt,
+                                                 affine.m[col][2] * inv_dt, 0.0f);
+        rho[p] = r;
+        max_speed = fmaxf(max_speed, sqrtf(vn.x * vn.x + vn.y * vn.y + vn.z * vn.z));
+        max_density = fmaxf(max_density, reported_density(params, vn, r));
     }
-    if (mode & PBMPM_PASS_INTEGRATE) {
-        atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
-        atomic_max_nonnegative(&counters->max_density_bits, max_density);
-        if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
-    }
+    atomic_max_nonnegative(&counters->max_speed_bits, max_speed);
+    atomic_max_nonnegative(&counters->max_density_bits, max_density);
+    if (pushes) atomicAdd(&counters->backstop_pushes, pushes);
 }
 
 // `wall_displacement`'s Coulomb friction: shortens the part of d tangential to an `axis` wall by `cut`.

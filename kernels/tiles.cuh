@@ -458,11 +458,10 @@ __device__ __forceinline__ void warp_list_marked_blocks(const KernelParams& para
 }
 
 // Calls body(k, node, sums) for each tile node k inside the grid, `node` its grid index and `sums` its
-// CHANNELS accumulators; then lists the marked node blocks. Every node's accumulators are zeroed as
-// they are read, inside the grid or not, and the marks as they are listed, so the next chunk finds
-// the tile clear without a pass and a barrier of its own (tile_clear runs once, before the first).
-// Starts and ends with a barrier.
-#define FOR_EACH_TILE_NODE_IN_GRID(CHANNELS, tile, t, params, blocks, block_marks, tile_marks, k, node, sums, ...) \
+// CHANNELS accumulators. Every node's accumulators are zeroed as they are read, inside the grid or
+// not, so the next chunk finds the tile clear without a pass of its own (tile_clear runs once, before
+// the first). Starts with a barrier; the caller ends with one before the tile is added to again.
+#define FOR_EACH_TILE_NODE_FLUSHED(CHANNELS, tile, t, params, k, node, sums, ...)                                \
     {                                                                                                            \
         __syncthreads();                                                                                         \
         for (u32 k = threadIdx.x; k < TILE_NODES; k += blockDim.x) {                                             \
@@ -479,5 +478,12 @@ __device__ __forceinline__ void warp_list_marked_blocks(const KernelParams& para
             const u32 node = (u32)_g[0] + (params).grid_res[0] * ((u32)_g[1] + (params).grid_res[1] * (u32)_g[2]); \
             __VA_ARGS__                                                                                          \
         }                                                                                                        \
+    }
+
+// FOR_EACH_TILE_NODE_FLUSHED, then the marked node blocks listed (and the marks cleared as they are),
+// ending with the barrier.
+#define FOR_EACH_TILE_NODE_IN_GRID(CHANNELS, tile, t, params, blocks, block_marks, tile_marks, k, node, sums, ...) \
+    {                                                                                                            \
+        FOR_EACH_TILE_NODE_FLUSHED(CHANNELS, tile, t, params, k, node, sums, __VA_ARGS__)                        \
         tile_list_marked_blocks((params), (t), (blocks), (block_marks), tile_marks);                             \
     }

@@ -491,11 +491,6 @@ device_constants! {
     /// cell's mass of the densest material): a node that particles barely reach, whose mass and
     /// displacement are a rounding's, fades out of it instead of entering with a whole vote.
     FADING_NODE_MASS: f32 = 1.0e-4;
-    /// What a position-based particle pass does (kernels/pbmpm.cu, `PassKind`): gather the node
-    /// displacements of the iteration before, project and scatter, integrate.
-    PBMPM_PASS_GATHER: u32 = 1;
-    PBMPM_PASS_SCATTER: u32 = 2;
-    PBMPM_PASS_INTEGRATE: u32 = 4;
     /// The smallest volume ratio J a liquid particle is given (a safety floor, reached only in a crush
     /// that the iterations could not resolve).
     MIN_LIQUID_VOLUME: f32 = 0.05;

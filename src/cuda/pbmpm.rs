@@ -7,7 +7,7 @@
 use super::gpu::Gpu;
 use super::launch::{host_kernel, Launcher, OptionalArg};
 use super::state::{DeviceState, StateArgs};
-use crate::contract::{PBMPM_CELL_VOLUME_UNITS, PBMPM_PASS_GATHER, PBMPM_PASS_INTEGRATE, PBMPM_PASS_SCATTER};
+use crate::contract::PBMPM_CELL_VOLUME_UNITS;
 use crate::sim::params::Material;
 use crate::sim::pbmpm::{fluid_region, Settings};
 use crate::sim::{Params, Particles, Phase, ScatterMode, Scene};
@@ -17,36 +17,30 @@ use std::sync::Arc;
 
 host_kernel!(Begin = "pbmpm" / "pbmpm_begin");
 host_kernel!(VolumeTargets = "pbmpm" / "pbmpm_volume_targets");
-host_kernel!(Pass = "pbmpm" / "pbmpm_pass");
+host_kernel!(Scatter = "pbmpm" / "pbmpm_scatter");
+host_kernel!(Integrate = "pbmpm" / "pbmpm_integrate");
 host_kernel!(GridPass = "pbmpm" / "pbmpm_grid");
 host_kernel!(Diffuse = "pbmpm" / "pbmpm_diffuse");
 
-/// What a particle pass does (the contract's `PBMPM_PASS_*`).
+/// Which of the iteration loop's particle passes a scatter is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PassKind {
+pub enum ScatterPass {
     /// The first iteration: the warm start's d and D, projected and scattered.
     First,
     /// The node displacements gathered, projected and scattered again.
-    Middle,
-    /// The node displacements gathered and integrated.
-    Last,
+    Gathered,
 }
 
-impl PassKind {
-    fn mode(self) -> u32 {
-        match self {
-            PassKind::First => PBMPM_PASS_SCATTER,
-            PassKind::Middle => PBMPM_PASS_GATHER | PBMPM_PASS_SCATTER,
-            PassKind::Last => PBMPM_PASS_GATHER | PBMPM_PASS_INTEGRATE,
-        }
-    }
-}
+/// Channels per tile node of pbmpm_scatter: the displacement's xyz, a high and a low word each
+/// (`PB_TILE_CHANNELS` in kernels/pbmpm.cu).
+const SCATTER_CHANNELS: u32 = 6;
 
 /// The position-based kernels of one GPU.
 pub struct PbmpmKernels {
     begin: Begin,
     volume_targets: VolumeTargets,
-    pass: Pass,
+    scatter: Scatter,
+    integrate: Integrate,
     grid: GridPass,
     diffuse: Diffuse,
 }
@@ -56,7 +50,8 @@ impl PbmpmKernels {
         Ok(PbmpmKernels {
             begin: Begin::load(modules)?,
             volume_targets: VolumeTargets::load(modules)?,
-            pass: Pass::load(modules)?,
+            scatter: Scatter::load(modules)?,
+            integrate: Integrate::load(modules)?,
             grid: GridPass::load(modules)?,
             diffuse: Diffuse::load(modules)?,
         })
@@ -322,39 +317,75 @@ impl PbmpmBuffers {
         params.fixed_momentum_scale / params.dt
     }
 
-    /// One particle pass of the iteration loop.
-    pub fn pass(
+    /// One particle pass of the iteration loop (pbmpm_scatter): a block per listed bin chunk,
+    /// its tile of `SCATTER_CHANNELS`.
+    pub fn scatter(
         &self,
         k: &PbmpmKernels,
         l: &Launcher,
-        kind: PassKind,
+        pass: ScatterPass,
         params: &Params,
         d: &DeviceState,
     ) -> Result<()> {
         let (p, g) = (&d.particles, &d.grid);
-        let region = Region::of(params);
         let scale = Self::displacement_scale(params);
-        let mode = kind.mode();
-        let node_d = self.diffused.as_ref().unwrap_or(&self.node_d);
-        // SAFETY: the arguments match pbmpm_pass; buffers sized for the scene.
+        let gather = u32::from(pass == ScatterPass::Gathered);
+        let (list, config) = (
+            d.bins.list()?,
+            d.bins.tiled_pass(l, &k.scatter.0, SCATTER_CHANNELS)?,
+        );
+        let node_d = self.node_displacements();
+        // SAFETY: the arguments match pbmpm_scatter; the bin list and order are those of the
+        // substep's binning, the other buffers sized for the scene (F^-1 null where no material
+        // carries a deformation, and then unread).
         unsafe {
-            k.pass.0.launch(l, l.cover(p.count), |a| {
+            k.scatter.0.launch(l, config, |a| {
                 a.arg(&params.kernel)
-                    .arg(&mode)
+                    .arg(&gather)
                     .arg(&scale)
+                    .arg(list)
+                    .arg(&g.work_counts)
+                    .arg(&d.bins.order)
+                    .arg(&p.x)
+                    .arg(&p.v)
+                    .arg(&p.rho)
+                    .deformation(p)
+                    .arg(node_d)
+                    .arg(g.fixed_mass())
+                    .arg(g.fixed_momentum())
+                    .arg(&self.pass_d)
+                    .arg(&self.pass_affine)
+                    .arg_or_null(self.f_inverse.as_ref())
+                    .arg(&d.counters.device);
+            })
+        }
+    }
+
+    /// The substep's last particle pass (pbmpm_integrate): the last gather and the integration.
+    pub fn integrate(&self, k: &PbmpmKernels, l: &Launcher, params: &Params, d: &DeviceState) -> Result<()> {
+        let p = &d.particles;
+        let region = Region::of(params);
+        let node_d = self.node_displacements();
+        // SAFETY: the arguments match pbmpm_integrate; buffers sized for the scene.
+        unsafe {
+            k.integrate.0.launch(l, l.cover(p.count), |a| {
+                a.arg(&params.kernel)
                     .region(&region)
                     .particle_state(p)
                     .deformation(p)
                     .arg(&d.bins.order)
                     .arg(node_d)
-                    .arg(g.fixed_momentum())
                     .arg(&self.pass_d)
                     .arg(&self.pass_affine)
-                    .arg_or_null(self.f_inverse.as_ref())
                     .colliders(&d.colliders)
                     .arg(&d.counters.device);
             })
         }
+    }
+
+    /// The node displacements the particles gather: after the viscosity's sweep where it runs.
+    fn node_displacements(&self) -> &CudaSlice<f32> {
+        self.diffused.as_ref().unwrap_or(&self.node_d)
     }
 
     /// Keeps the particles' own displacement sums before the walls' images join them, where the
@@ -430,16 +461,16 @@ pub fn fixed_point(params: &Params) -> Params {
 /// What each phase of the position-based substep holds, for the bench tables.
 pub fn phase_label(phase: Phase, iterations: u32) -> String {
     match phase {
-        Phase::Sort => "bins (by cell)".into(),
+        Phase::Sort => "bins (by 4x4x4-node block, every substep)".into(),
         Phase::P2gInit => {
             "pbmpm_begin (warm start; mass, viscosity, volume scatters) + mirror_walls + pbmpm_volume_targets"
                 .into()
         }
         Phase::P2g => format!(
-            "{} x (pbmpm_pass: gather, constraints, scatter + mirror_walls + pbmpm_grid (+ pbmpm_diffuse))",
+            "{} x (pbmpm_scatter: gather, constraints, tiled scatter + mirror_walls + pbmpm_grid (+ pbmpm_diffuse))",
             iterations
         ),
-        Phase::G2p => "pbmpm_pass (the last gather, integration)".into(),
+        Phase::G2p => "pbmpm_integrate (the last gather, integration)".into(),
         _ => "(none under pbmpm)".into(),
     }
 }

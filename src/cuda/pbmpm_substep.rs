@@ -6,7 +6,7 @@
 
 use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
-use super::pbmpm::{fixed_point, PassKind};
+use super::pbmpm::{fixed_point, ScatterPass};
 use super::solver::CudaSolver;
 use crate::sim::{Phase, Pipeline};
 use anyhow::{Context, Result};
@@ -45,12 +45,12 @@ impl CudaSolver {
 
         let range = NvtxRange::new(Phase::P2g.name());
         for iteration in 0..pbmpm.settings.iterations {
-            let kind = if iteration == 0 {
-                PassKind::First
+            let pass = if iteration == 0 {
+                ScatterPass::First
             } else {
-                PassKind::Middle
+                ScatterPass::Gathered
             };
-            pbmpm.pass(&k.pbmpm, l, kind, &params, d)?;
+            pbmpm.scatter(&k.pbmpm, l, pass, &params, d)?;
             pbmpm.own_displacement_before_images(&stream, d)?;
             mirror(MirrorQuantity::Momentum, d)?;
             pbmpm.grid(&k.pbmpm, l, &params, d)?;
@@ -59,7 +59,7 @@ impl CudaSolver {
         drop(range);
 
         let _range = NvtxRange::new(Phase::G2p.name());
-        pbmpm.pass(&k.pbmpm, l, PassKind::Last, &params, d)?;
+        pbmpm.integrate(&k.pbmpm, l, &params, d)?;
         self.timing.end_phase(&stream, Phase::G2p, true)
     }
 }

@@ -99,12 +99,12 @@ impl CudaSolver {
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
-        // The position-based substep keeps its particles in place, walked in cell order (the report
-        // pipeline's binning), and sums its grid in fixed point whatever the scene's scatter.
+        // The position-based substep keeps its particles in place, walked by the binned pipeline's
+        // bins (its scatters' tiles), and sums its grid in fixed point whatever the scene's scatter.
         let position_based;
         let scene = if scene.method == Method::Pbmpm {
             let mut adjusted = scene.clone();
-            adjusted.pipeline = Pipeline::Report;
+            adjusted.pipeline = Pipeline::Binned;
             adjusted.scatter = ScatterMode::FixedPoint;
             position_based = adjusted;
             &position_based
@@ -121,7 +121,12 @@ impl CudaSolver {
         };
         let stats = ParticleStats::allocate(gpu.stream())?;
         // Binnings cost more where they also gather the particles (not where memory was short).
-        let sort_interval = sort_interval(state.bin_order.is_some());
+        // The position-based substep bins every substep: its passes scatter at the substep's
+        // starting positions, so each particle then lies in its tile for all of them.
+        let sort_interval = match pbmpm {
+            Some(_) => 1,
+            None => sort_interval(state.bin_order.is_some()),
+        };
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone()),
             gpu,
@@ -537,7 +542,7 @@ impl Solver for CudaSolver {
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
         ensure!(
-            frame.is_empty() || self.pipeline.is_binned() || self.pbmpm.is_some(),
+            frame.is_empty() || self.pipeline.is_binned(),
             "the report pipeline applies no colliders; use --pipeline fused (or solver.pipeline = \"fused\", the default)"
         );
         self.state.colliders.set(self.gpu.stream(), frame)
