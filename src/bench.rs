@@ -356,7 +356,9 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         sort_interval,
     };
     let floor = |phase: Phase| phase.traffic_floor(&traffic);
-    let floor = on_gpu.then_some(&floor as &dyn Fn(Phase) -> f64);
+    // The floors model the explicit solver's kernels; the position-based substep has none yet.
+    let position_based = scene.method == crate::sim::Method::Pbmpm;
+    let floor = (on_gpu && !position_based).then_some(&floor as &dyn Fn(Phase) -> f64);
     let (rows, total) = phase_rows(&samples, label, floor, options.peak_gbs);
     Ok(PhaseReport {
         scene: scene.name.clone(),
@@ -364,8 +366,18 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         grid_res: scene.grid_res,
         backend: sim.backend().to_string(),
         device,
-        scatter: scene.scatter,
-        pipeline: scene.pipeline,
+        // As the solver runs them: the position-based substep walks the binned pipeline's bins and
+        // sums in fixed point whatever the scene's keys (src/cuda/solver.rs).
+        scatter: if position_based {
+            ScatterMode::FixedPoint
+        } else {
+            scene.scatter
+        },
+        pipeline: if position_based {
+            Pipeline::Binned
+        } else {
+            scene.pipeline
+        },
         block_size: match options.backend {
             BackendKind::Cuda => Some(options.block_size.unwrap_or(CudaOptions::from_env()?.block_size)),
             _ => None,
