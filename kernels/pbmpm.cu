@@ -3,19 +3,19 @@
 // substep: pbmpm_begin (the warm start, the mass, viscosity and volume scatters), the walls' mirror
 // of those sums (mirror_walls.cu), pbmpm_volume_targets (each liquid particle's volume target); then
 // `iterations` times pbmpm_scatter (the gather of the last iteration's node displacements, the
-// constraints, the scatter of the displacements through a shared tile per bin) and pbmpm_grid (the
-// node displacements held by the walls; pbmpm_diffuse for the liquids' viscosity); pbmpm_integrate
-// gathers once more and integrates.
+// constraints, the scatter of the displacements) and pbmpm_grid (the node displacements held by the
+// walls; pbmpm_diffuse for the liquids' viscosity); pbmpm_integrate gathers once more and integrates.
 //
-// Every grid sum is fixed point (integer atomics of rounded contributions, which commute): a run
-// writes the same bytes whatever order threads arrive in. The particles are binned by 4x4x4-node
-// block every substep (kernels/bins.cu, the cells of a bin consecutive in `order`) and stay in slot
-// order in memory; pbmpm_begin adds the sums of a warp's run of particles in one cell before its
-// atomics (warp_run_sum), as p2g_init.cu does.
+// Every grid sum is fixed point (integers of rounded contributions, which commute): a run writes the
+// same bytes whatever order threads arrive in. The particles are binned by 4x4x4-node block every
+// substep (kernels/bins.cu) and stay in slot order in memory; pbmpm_begin and pbmpm_scatter walk the
+// bins' chunks, a CUDA block each, summing into the bin's shared tile (tiles.cuh; two words a sum,
+// PB_TILE_LOW_BITS).
 #include "tiles.cuh"
 
-// pbmpm_scatter's blocks per multiprocessor (its register cap): the fixed-point one_pass's.
-#define PBMPM_SCATTER_MIN_BLOCKS 5
+// pbmpm_begin's and pbmpm_scatter's blocks per multiprocessor (their register cap): the fixed-point
+// one_pass's.
+#define PBMPM_TILED_MIN_BLOCKS 5
 // pbmpm_scatter's tile holds each contribution's global units whole, as two 32-bit words: its high
 // bits (units >> TILE_UNIT_SHIFT, signed; channels 0 to 2, the displacement's xyz) and its low
 // TILE_UNIT_SHIFT bits (0 to 8191; channels 3 to 5), so that the flush adds to the grid the same
@@ -24,6 +24,25 @@
 // left the CPU reference four to twenty times further (BENCHMARKS.md M22).
 #define PB_TILE_CHANNELS 6
 #define PB_TILE_LOW_BITS ((1 << TILE_UNIT_SHIFT) - 1)
+// pbmpm_begin's sums in its tile, two words each as above: mass, viscosity, fill, liquid mass,
+// volume error.
+#define PB_BEGIN_SUMS 5
+
+// Adds a contribution's units to sum `sum` of tile node k, as its high and low words (channels `sum`
+// and SUMS + `sum`).
+template <int SUMS>
+__device__ __forceinline__ void pb_tile_add(int* tile, u32 k, int sum, i64 units) {
+    atomicAdd(&tile[sum * TILE_NODES + k], (int)(units >> TILE_UNIT_SHIFT));
+    atomicAdd(&tile[(SUMS + sum) * TILE_NODES + k], (int)(units & PB_TILE_LOW_BITS));
+}
+
+// Sum `sum` of a flushed tile node in global units: its high words' sum (read as unsigned where the
+// sum is never negative, up to 2^32) and its low words'.
+template <int SUMS>
+__device__ __forceinline__ i64 pb_tile_sum(const int (&sums)[2 * SUMS], int sum, bool non_negative) {
+    const i64 high = non_negative ? (i64)(u32)sums[sum] : (i64)sums[sum];
+    return high * (1 << TILE_UNIT_SHIFT) + (i64)(u32)sums[SUMS + sum];
+}
 
 // Matrices as m[column][row], as the deformation and C are stored (common.cuh).
 struct Mat {
@@ -225,42 +244,45 @@ __device__ __forceinline__ i64 pb_units(float value, float scale, StepCounters* 
     return fixed_point_units(value * scale, counters);
 }
 
-// Adds N channels of a warp run's contributions to `sums[channel * stride + node]`-style targets: the
-// run's head adds the run's sums, summed in the shuffle steps that runs of up to `lanes` lanes need
-// (warp_longest_run; every lane must call it).
-template <int N>
-__device__ __forceinline__ void pb_run_add(WarpRun run, u32 lanes, bool live, i64 (&units)[N],
-                                           u64* const (&targets)[N]) {
-    warp_run_sum(run, units, lanes);
-    if (run.head && live) {
-#pragma unroll
-        for (int k = 0; k < N; ++k)
-            if (units[k] != 0) atomicAdd(targets[k], (u64)units[k]);
-    }
-}
-
 // The warm start and the substep's scalar scatters (`begin_substep`, the scatter half of
-// `liquid_volumes`): d = v dt + g dt^2 and D = C dt into the pass state, F^-1; the mass, the liquids'
-// mass-weighted kinematic viscosity (where `viscous`), and where `volumes` the rest volume (solids'
-// m / rho), the liquids' mass and their mass-weighted volume error m (1 - J).
-extern "C" __global__ void pbmpm_begin(const KernelParams params, const float volume_scale, const u32 viscous,
-                                       const u32 volumes, const float4* __restrict__ x, const float4* __restrict__ v,
-                                       const float4* __restrict__ c, const float* __restrict__ rho,
-                                       const float4* __restrict__ deformation, const u32* __restrict__ order,
-                                       u64* __restrict__ mass, u64* __restrict__ viscosity, u64* __restrict__ fill,
-                                       u64* __restrict__ liquid_mass, u64* __restrict__ volume_error,
-                                       float4* __restrict__ pass_d, float4* __restrict__ pass_affine,
-                                       float4* __restrict__ f_inverse, StepCounters* __restrict__ counters) {
+// `liquid_volumes`), over the listed bin chunks as pbmpm_scatter: d = v dt + g dt^2 and D = C dt into
+// the pass state, F^-1; the mass, the liquids' mass-weighted kinematic viscosity (where `viscous`),
+// and where `volumes` the rest volume (solids' m / rho), the liquids' mass and their mass-weighted
+// volume error m (1 - J): PB_BEGIN_SUMS sums in the chunk's tile, two words each. A particle goes to
+// the tile where its stencil fits and its viscosity and volume error are at most its mass in units
+// (kinematic viscosity up to 1 m^2/s, a volume ratio up to 2), so that those sums stay within the
+// mass's bound; the mass itself, and the fill (a lighter material's volume outweighs its mass in
+// units), are checked by the units each thread added against those flushed (tile_count_mass_wraps).
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCKS)
+    pbmpm_begin(const KernelParams params, const float volume_scale, const u32 viscous, const u32 volumes,
+                const BinEntry* __restrict__ bins, const u32* __restrict__ work_counts, const u32* __restrict__ order,
+                const float4* __restrict__ x, const float4* __restrict__ v, const float4* __restrict__ c,
+                const float* __restrict__ rho, const float4* __restrict__ deformation, u64* __restrict__ mass,
+                u64* __restrict__ viscosity, u64* __restrict__ fill, u64* __restrict__ liquid_mass,
+                u64* __restrict__ volume_error, float4* __restrict__ pass_d, float4* __restrict__ pass_affine,
+                float4* __restrict__ f_inverse, StepCounters* __restrict__ counters) {
+    __shared__ u32 tile_marks[TILE_SPAN_BLOCKS];  // cleared with the tile; this pass lists no node blocks
     const u32 n = params.num_particles;
     const float dt = params.dt;
-    FOR_EACH_INDEX_CONVERGED(i, live, first, n) {
-        const u32 p = order[live ? i : first];
-        const float4 xp = x[p], vp = v[p];
-        const u32 row = material_index(params, vp);
-        const Material& mat = material_table[row];
-        const Stencil s = make_stencil(xp, params);
-        const bool solid = solid_is_solid(mat.law);
-        if (live) {
+    const NodeBlocks blocks = node_blocks(params);
+    const float mass_tile_scale = params.fixed_mass_scale / (float)(1 << TILE_UNIT_SHIFT);
+    const float volume_tile_scale = volume_scale / (float)(1 << TILE_UNIT_SHIFT);
+    u64* const targets[PB_BEGIN_SUMS] = {mass, viscosity, fill, liquid_mass, volume_error};
+    i64 mass_balance = 0, fill_balance = 0;  // high words added to the tiles less those flushed
+    u32 misses = 0, overflows = 0;
+    bool far = false;
+
+    const u32 listed = work_counts[WORK_BINS];
+    int* tile = tile_clear<2 * PB_BEGIN_SUMS>(tile_marks, listed);
+    for (u32 entry = blockIdx.x; entry < listed; entry += gridDim.x) {
+        const BinEntry bin = bins[entry];
+        const Tile t = make_tile(blocks, bin.bin);
+        for (u32 j = threadIdx.x; j < bin.count; j += blockDim.x) {
+            const u32 p = order[bin.start + j];
+            const float4 xp = x[p], vp = v[p];
+            if (is_parked(xp)) continue;
+            const Material& mat = material_table[material_index(params, vp)];
+            const bool solid = solid_is_solid(mat.law);
             pass_d[p] = make_float4(vp.x * dt + params.gravity[0] * (dt * dt), vp.y * dt + params.gravity[1] * (dt * dt),
                                     vp.z * dt + params.gravity[2] * (dt * dt), 0.0f);
             Mat affine;
@@ -282,48 +304,86 @@ extern "C" __global__ void pbmpm_begin(const KernelParams params, const float vo
                 }
                 pb_store_mat(f_inverse, n, p, f);
             }
-        }
-        // A liquid's viscosity at its strain rate over the last substep, C.
-        float nu = 0.0f;
-        if (viscous && live && !solid) {
-            float cm[3][3];
+            // A liquid's viscosity at its strain rate over the last substep, C.
+            float nu = 0.0f;
+            if (viscous && !solid) {
+                float cm[3][3];
 #pragma unroll
-            for (int col = 0; col < 3; ++col) {
-                const float4 cc = c[(size_t)col * n + p];
-                cm[col][0] = cc.x, cm[col][1] = cc.y, cm[col][2] = cc.z;
+                for (int col = 0; col < 3; ++col) {
+                    const float4 cc = c[(size_t)col * n + p];
+                    cm[col][0] = cc.x, cm[col][1] = cc.y, cm[col][2] = cc.z;
+                }
+                const float mu = mat.law == LAW_NEWTONIAN
+                                     ? mat.viscosity
+                                     : material_law_viscosity(mat.law, mat.viscosity, mat.flow_index,
+                                                              mat.shear_modulus > 0.0f ? 0.0f : mat.yield_stress,
+                                                              mat.min_viscosity, mat.max_viscosity,
+                                                              mat.relaxation_time, mat.transition_exponent,
+                                                              material_shear_rate(cm));
+                nu = mu / mat.rest_density;
             }
-            const float mu = mat.law == LAW_NEWTONIAN
-                                 ? mat.viscosity
-                                 : material_law_viscosity(mat.law, mat.viscosity, mat.flow_index,
-                                                          mat.shear_modulus > 0.0f ? 0.0f : mat.yield_stress,
-                                                          mat.min_viscosity, mat.max_viscosity, mat.relaxation_time,
-                                                          mat.transition_exponent, material_shear_rate(cm));
-            nu = mu / mat.rest_density;
+            const float m_p = mat.particle_mass;
+            const float volume = solid ? m_p / rho[p] : m_p / mat.rest_density;
+            const float error = solid ? 0.0f : m_p * (1.0f - mat.rest_density / rho[p]);
+
+            const Stencil s = make_stencil(xp, params);
+            u32 first = 0;
+            const bool in_tile = tile_stencil(t, s, first, far);
+            misses += !in_tile;
+            const float unit_m = m_p * mass_tile_scale;
+            const bool taken = in_tile && tile_takes(s, fmaxf(nu, fabsf(error) / m_p) * unit_m, unit_m) &&
+                               volume * volume_tile_scale <= TILE_UNIT_MASS_LIMIT;
+            // Which sums the particle adds to; each one's units, rounded as written (the same integers
+            // in both loops below).
+            const bool adds[PB_BEGIN_SUMS] = {true, viscous != 0, volumes != 0, volumes && !solid, volumes && !solid};
+            auto units = [&](float w, int sum) -> i64 {
+                switch (sum) {
+                    case 0: return pb_units(__fmul_rn(w, m_p), params.fixed_mass_scale, counters);
+                    case 1: return pb_units(__fmul_rn(__fmul_rn(w, m_p), nu), params.fixed_mass_scale, counters);
+                    case 2: return pb_units(__fmul_rn(w, volume), volume_scale, counters);
+                    case 3: return pb_units(__fmul_rn(w, m_p), params.fixed_mass_scale, counters);
+                    default: return pb_units(__fmul_rn(w, error), params.fixed_mass_scale, counters);
+                }
+            };
+            if (taken) {
+                FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
+                    (void)d0, (void)d1, (void)d2;  // a scalar sum's offsets are unused
+                    for (int sum = 0; sum < PB_BEGIN_SUMS; ++sum) {
+                        if (!adds[sum]) continue;
+                        const i64 u = units(w, sum);
+                        if (sum == 0) mass_balance += u >> TILE_UNIT_SHIFT;
+                        if (sum == 2) fill_balance += u >> TILE_UNIT_SHIFT;
+                        pb_tile_add<PB_BEGIN_SUMS>(tile, k, sum, u);
+                    }
+                })
+            } else {
+                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+                    for (int sum = 0; sum < PB_BEGIN_SUMS; ++sum) {
+                        if (!adds[sum]) continue;
+                        if (const i64 u = units(w, sum)) atomicAdd(&targets[sum][node], (u64)u);
+                    }
+                })
+            }
         }
-        const float m_p = mat.particle_mass;
-        const float volume = solid ? m_p / rho[p] : m_p / mat.rest_density;
-        const float error = solid ? 0.0f : m_p * (1.0f - mat.rest_density / rho[p]);
-        const WarpRun run = warp_run(s.base_index);
-        // Three shuffle steps, not five, for the runs of up to 8 particles of a lattice at rest.
-        const u32 lanes = warp_longest_run(run);
-        FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-            i64 units[1] = {live ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0};
-            u64* const at[1] = {&mass[node]};
-            pb_run_add(run, lanes, live, units, at);
-            if (viscous) {
-                i64 nu_units[1] = {live ? pb_units(w * m_p * nu, params.fixed_mass_scale, counters) : 0};
-                u64* const nu_at[1] = {&viscosity[node]};
-                pb_run_add(run, lanes, live, nu_units, nu_at);
-            }
-            if (volumes) {
-                i64 v_units[3] = {live ? pb_units(w * volume, volume_scale, counters) : 0,
-                                  live && !solid ? pb_units(w * m_p, params.fixed_mass_scale, counters) : 0,
-                                  live && !solid ? pb_units(w * error, params.fixed_mass_scale, counters) : 0};
-                u64* const v_at[3] = {&fill[node], &liquid_mass[node], &volume_error[node]};
-                pb_run_add(run, lanes, live, v_units, v_at);
-            }
+        // The viscosity, liquid mass and volume error are at most the mass's units plus one a
+        // particle (taken), the mass and fill never negative.
+        const u32 mass_limit = tile_mass_limit(bin.count);
+        FOR_EACH_TILE_NODE_FLUSHED(2 * PB_BEGIN_SUMS, tile, t, params, k, node, sums, {
+            mass_balance -= (u32)sums[0];
+            fill_balance -= (u32)sums[2];
+            overflows += (u32)sums[0] >= mass_limit;
+            for (int sum = 0; sum < PB_BEGIN_SUMS; ++sum)
+                if (const i64 total = pb_tile_sum<PB_BEGIN_SUMS>(sums, sum, sum != 4))
+                    atomicAdd(&targets[sum][node], (u64)total);
         })
+        __syncthreads();
     }
+    tile_count_mass_wraps(mass_balance, counters);
+    __syncthreads();  // its warps' shared sums are read before the second count writes them
+    tile_count_mass_wraps(fill_balance, counters);
+    if (overflows) atomicAdd(&counters->fixed_overflows, overflows);
+    if (misses) atomicAdd(&counters->tile_misses, misses);
+    if (far) counters->rebin_needed = 1u;
 }
 
 // Each liquid particle's volume target for the substep, with its memory and drift correction (the
@@ -426,7 +486,7 @@ __device__ __forceinline__ float pb_tile_reach(const KernelParams& params, float
 // particles a tile held. The bins are rebuilt every substep (the particles do not move between its
 // passes), so a stencil leaves its tile only where a position is not finite. Against the warp runs'
 // 64-bit atomics it replaced: BENCHMARKS.md M22.
-extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_SCATTER_MIN_BLOCKS)
+extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCKS)
     pbmpm_scatter(const KernelParams params, const u32 gather, const float displacement_scale,
                   const BinEntry* __restrict__ bins, const u32* __restrict__ work_counts, const u32* __restrict__ order,
                   const float4* __restrict__ x, const float4* __restrict__ v, const float* __restrict__ rho,
@@ -494,11 +554,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_SCATTER_MIN_BLO
             };
             if (taken) {
                 FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
-                    for (int a = 0; a < 3; ++a) {
-                        const i64 u = units(w, d0, d1, d2, a);
-                        atomicAdd(&tile[a * TILE_NODES + k], (int)(u >> TILE_UNIT_SHIFT));
-                        atomicAdd(&tile[(3 + a) * TILE_NODES + k], (int)(u & PB_TILE_LOW_BITS));
-                    }
+                    for (int a = 0; a < 3; ++a) pb_tile_add<3>(tile, k, a, units(w, d0, d1, d2, a));
                 })
             } else {
                 FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
@@ -516,7 +572,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_SCATTER_MIN_BLO
             i64 sum[3];
             bool any = false;
             for (int a = 0; a < 3; ++a) {
-                sum[a] = (i64)sums[a] * (1 << TILE_UNIT_SHIFT) + (i64)(u32)sums[3 + a];
+                sum[a] = pb_tile_sum<3>(sums, a, false);
                 any |= sum[a] != 0;
             }
             if (!any) continue;

@@ -34,6 +34,8 @@ pub enum ScatterPass {
 /// Channels per tile node of pbmpm_scatter: the displacement's xyz, a high and a low word each
 /// (`PB_TILE_CHANNELS` in kernels/pbmpm.cu).
 const SCATTER_CHANNELS: u32 = 6;
+/// Channels per tile node of pbmpm_begin: its five sums, two words each (`PB_BEGIN_SUMS`).
+const BEGIN_CHANNELS: u32 = 10;
 
 /// The position-based kernels of one GPU.
 pub struct PbmpmKernels {
@@ -241,17 +243,21 @@ impl PbmpmBuffers {
             .volume_sums
             .as_ref()
             .map_or([None; 3], |[f, m, e]| [Some(f), Some(m), Some(e)]);
-        // SAFETY: the arguments match pbmpm_begin; every buffer is sized for the scene's particles and
-        // nodes, and a null pointer stands where its flag (or the scene) leaves it unread.
+        let (list, config) = (d.bins.list()?, d.bins.tiled_pass(l, &k.begin.0, BEGIN_CHANNELS)?);
+        // SAFETY: the arguments match pbmpm_begin; the bin list and order are the substep's binning's,
+        // every other buffer is sized for the scene's particles and nodes, and a null pointer stands
+        // where its flag (or the scene) leaves it unread.
         unsafe {
-            k.begin.0.launch(l, l.cover(p.count), |a| {
+            k.begin.0.launch(l, config, |a| {
                 a.arg(&params.kernel)
                     .arg(&volume_scale)
                     .arg(&viscous)
                     .arg(&liquids)
+                    .arg(list)
+                    .arg(&g.work_counts)
+                    .arg(&d.bins.order)
                     .particle_state(p)
                     .deformation(p)
-                    .arg(&d.bins.order)
                     .arg(g.fixed_mass())
                     .arg_or_null(self.viscosity.as_ref())
                     .arg_or_null(fill)
