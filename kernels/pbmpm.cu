@@ -44,6 +44,34 @@ __device__ __forceinline__ i64 pb_tile_sum(const int (&sums)[2 * SUMS], int sum,
     return high * (1 << TILE_UNIT_SHIFT) + (i64)(u32)sums[SUMS + sum];
 }
 
+// A particle's scatter of SUMS sums (those `adds` names) to each stencil node: `units(w, d0, d1, d2,
+// sum)` the contribution's global units, into its bin's tile where the tile takes it (`first` its
+// base's tile node), through `to_grid(node, sum, units)` otherwise. `units` runs in both branches and
+// a particle's integers must not depend on which one added them, so it rounds as written.
+// `added_high` gains the high words each sum added to the tile (the wrap checks' balance).
+template <int SUMS, typename Units, typename ToGrid>
+__device__ __forceinline__ void pb_scatter(const Stencil& s, const KernelParams& params, u32 first, bool taken,
+                                           int* tile, const bool (&adds)[SUMS], i64 (&added_high)[SUMS],
+                                           Units units, ToGrid to_grid) {
+    if (taken) {
+        FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
+            for (int sum = 0; sum < SUMS; ++sum) {
+                if (!adds[sum]) continue;
+                const i64 u = units(w, d0, d1, d2, sum);
+                added_high[sum] += u >> TILE_UNIT_SHIFT;
+                pb_tile_add<SUMS>(tile, k, sum, u);
+            }
+        })
+    } else {
+        FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
+            for (int sum = 0; sum < SUMS; ++sum) {
+                if (!adds[sum]) continue;
+                if (const i64 u = units(w, d0, d1, d2, sum)) to_grid(node, sum, u);
+            }
+        })
+    }
+}
+
 // Matrices as m[column][row], as the deformation and C are stored (common.cuh).
 struct Mat {
     float m[3][3];
@@ -333,10 +361,9 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCK
             const float unit_m = m_p * mass_tile_scale;
             const bool taken = in_tile && tile_takes(s, fmaxf(nu, fabsf(error) / m_p) * unit_m, unit_m) &&
                                volume * volume_tile_scale <= TILE_UNIT_MASS_LIMIT;
-            // Which sums the particle adds to; each one's units, rounded as written (the same integers
-            // in both loops below).
+            // Which sums the particle adds to; each one's units, rounded as written.
             const bool adds[PB_BEGIN_SUMS] = {true, viscous != 0, volumes != 0, volumes && !solid, volumes && !solid};
-            auto units = [&](float w, int sum) -> i64 {
+            auto units = [&](float w, float, float, float, int sum) -> i64 {
                 switch (sum) {
                     case 0: return pb_units(__fmul_rn(w, m_p), params.fixed_mass_scale, counters);
                     case 1: return pb_units(__fmul_rn(__fmul_rn(w, m_p), nu), params.fixed_mass_scale, counters);
@@ -345,25 +372,11 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCK
                     default: return pb_units(__fmul_rn(w, error), params.fixed_mass_scale, counters);
                 }
             };
-            if (taken) {
-                FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
-                    (void)d0, (void)d1, (void)d2;  // a scalar sum's offsets are unused
-                    for (int sum = 0; sum < PB_BEGIN_SUMS; ++sum) {
-                        if (!adds[sum]) continue;
-                        const i64 u = units(w, sum);
-                        if (sum == 0) mass_balance += u >> TILE_UNIT_SHIFT;
-                        if (sum == 2) fill_balance += u >> TILE_UNIT_SHIFT;
-                        pb_tile_add<PB_BEGIN_SUMS>(tile, k, sum, u);
-                    }
-                })
-            } else {
-                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                    for (int sum = 0; sum < PB_BEGIN_SUMS; ++sum) {
-                        if (!adds[sum]) continue;
-                        if (const i64 u = units(w, sum)) atomicAdd(&targets[sum][node], (u64)u);
-                    }
-                })
-            }
+            i64 added_high[PB_BEGIN_SUMS] = {};
+            pb_scatter<PB_BEGIN_SUMS>(s, params, first, taken, tile, adds, added_high, units,
+                                      [&](u32 node, int sum, i64 u) { atomicAdd(&targets[sum][node], (u64)u); });
+            mass_balance += added_high[0];
+            fill_balance += added_high[2];
         }
         // The viscosity, liquid mass and volume error are at most the mass's units plus one a
         // particle (taken), the mass and fill never negative.
@@ -544,24 +557,19 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCK
             const float d[3] = {dp.x, dp.y, dp.z};
             const float scale = m_p * displacement_scale;
             // w m_p (d + D dx (x_i - x_p) / dx) in global units, rounded as written (left to itself,
-            // NVRTC may contract one of the two loops below into fused multiply-adds and not the
+            // NVRTC may contract one of pb_scatter's loops into fused multiply-adds and not the
             // other): as the warp runs' pass before the tile rounded it, so that a run writes the
             // bytes it wrote (BENCHMARKS.md M22).
-            auto units = [&](float w, float d0, float d1, float d2, int a) {
+            auto units = [&](float w, float d0, float d1, float d2, int a) -> i64 {
                 const float offset = __fadd_rn(__fadd_rn(__fmul_rn(affine.m[0][a], d0), __fmul_rn(affine.m[1][a], d1)),
                                                __fmul_rn(affine.m[2][a], d2));
                 return fixed_point_units(__fmul_rn(__fmul_rn(w, scale), __fmaf_rn(offset, params.dx, d[a])), counters);
             };
-            if (taken) {
-                FOR_EACH_TILE_STENCIL_NODE_STAGGERED(s, first, k, w, d0, d1, d2, {
-                    for (int a = 0; a < 3; ++a) pb_tile_add<3>(tile, k, a, units(w, d0, d1, d2, a));
-                })
-            } else {
-                FOR_EACH_STENCIL_NODE(s, params, node, w, d0, d1, d2, {
-                    for (int a = 0; a < 3; ++a)
-                        if (const i64 u = units(w, d0, d1, d2, a)) atomicAdd(&displacement[3 * (size_t)node + a], (u64)u);
-                })
-            }
+            const bool adds[3] = {true, true, true};
+            i64 added_high[3] = {};  // unused: the node's mass bounds the sums (below)
+            pb_scatter<3>(s, params, first, taken, tile, adds, added_high, units, [&](u32 node, int a, i64 u) {
+                atomicAdd(&displacement[3 * (size_t)node + a], (u64)u);
+            });
         }
         // A node's high words over the chunk are at most its mass's tile units plus one a particle
         // (tile_takes); where a chunk could pass 32 bits, the node's whole mass (this chunk's and

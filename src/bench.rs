@@ -326,6 +326,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let on_gpu = options.backend == BackendKind::Cuda;
     let fixed_point = scene.scatter == ScatterMode::FixedPoint;
     let ranked = scene.ranks > 1;
+    let position_based = scene.method == crate::sim::Method::Pbmpm;
     // As the solver chose it: where there was no room for the bin-ordered copy, it bins as often as
     // with particles in place (the ranks, which keep theirs in place, say so in their label).
     let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::bins::SORT_INTERVAL);
@@ -336,9 +337,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
             crate::dist::MIGRATION_INTERVAL
         ),
         (true, true, Phase::G2p) => "one_pass + count strays (every rank)".into(),
-        (true, _, _) if scene.method == crate::sim::Method::Pbmpm => {
-            cuda::pbmpm::phase_label(phase, scene.pbmpm.iterations)
-        }
+        (true, _, _) if position_based => cuda::pbmpm::phase_label(phase, scene.pbmpm.iterations),
         (true, _, _) => {
             let label = cuda::pipelines::phase_label(scene.pipeline, phase, Some(fixed_point), sort_interval);
             match sim.solver().phase_kernel(phase) {
@@ -357,7 +356,6 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     };
     let floor = |phase: Phase| phase.traffic_floor(&traffic);
     // The floors model the explicit solver's kernels; the position-based substep has none yet.
-    let position_based = scene.method == crate::sim::Method::Pbmpm;
     let floor = (on_gpu && !position_based).then_some(&floor as &dyn Fn(Phase) -> f64);
     let (rows, total) = phase_rows(&samples, label, floor, options.peak_gbs);
     Ok(PhaseReport {
