@@ -233,6 +233,10 @@ def check(args):
     elif args.transfer not in transfer:
         failures.append(f"particles went by `{transfer}`, expected `{args.transfer}`")
 
+    stopped = re.search(r"viewer: the stepping stopped on an error at t = ([0-9.]+) s", log)
+    if stopped:
+        failures.append(f"the simulation stopped on an error at t = {stopped.group(1)} s (view.log says which)")
+
     if not os.path.exists(args.shot):
         failures.append(f"no screenshot at {args.shot}")
     else:

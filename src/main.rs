@@ -468,9 +468,13 @@ struct ViewArgs {
     solver: SolverArgs,
     #[command(flatten)]
     method: MethodArgs,
-    /// Turn vsync off (draw as fast as possible).
+    /// Turn vsync off (draw as fast as possible, or as --max-fps allows).
     #[arg(long)]
     no_vsync: bool,
+    /// Draw at most this many frames a second (1 to 1000): without vsync, or on a display faster than
+    /// the simulation needs, the draws leave the GPU to the stepping (a 60 Hz display's pace: 60).
+    #[arg(long, value_name = "FPS", allow_negative_numbers = true, value_parser = max_fps)]
+    max_fps: Option<u32>,
     /// Window size in physical pixels, WxH.
     #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
     size: [u32; 2],
@@ -612,6 +616,15 @@ fn fixed_frames(text: &str) -> Result<u32, String> {
     Ok(n as u32)
 }
 
+/// `view --max-fps`: draws a second, 1 to 1000.
+fn max_fps(text: &str) -> Result<u32, String> {
+    let n = count::<1>(text)?;
+    if n > 1000 {
+        return Err(format!("{n} is too many: give 1 to 1000 draws a second"));
+    }
+    Ok(n as u32)
+}
+
 /// Bench step counts arrive as u64 (so that any number typed parses) and are used as usize.
 fn steps(n: u64, flag: &str) -> Result<usize> {
     usize::try_from(n).map_err(|_| anyhow::anyhow!("--{flag} {n} is more than this machine can count"))
@@ -654,6 +667,7 @@ fn view(args: ViewArgs) -> Result<()> {
         scene,
         backend: args.backend,
         vsync: !args.no_vsync,
+        max_fps: args.max_fps,
         size: args.size,
         mode: args.look.draw,
         colouring: args.look.colour,

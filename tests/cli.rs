@@ -81,6 +81,8 @@ fn negative_and_zero_numbers_are_named() {
         (&["run", "--export", "x", "--every", "0"][..], "0 is too small"),
         (&["view", "--fixed-frames", "0"][..], "0 is too small"),
         (&["view", "--fixed-frames", "1000"][..], "1 to 60"),
+        (&["view", "--max-fps", "0"][..], "0 is too small"),
+        (&["view", "--max-fps", "5000"][..], "1 to 1000"),
         (
             &["render", "--frames", "100000", "--no-images"][..],
             "at most 99999",

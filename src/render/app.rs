@@ -43,8 +43,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, StartCause, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::raw_window_handle::HasWindowHandle;
 use winit::window::{Window, WindowId};
@@ -60,6 +60,8 @@ pub struct ViewerOptions {
     pub scene: Scene,
     pub backend: BackendKind,
     pub vsync: bool,
+    /// Draws a second at most: the next draw waits for its turn (`ControlFlow::WaitUntil`).
+    pub max_fps: Option<u32>,
     pub size: [u32; 2],
     pub mode: DrawMode,
     /// `None`: each scene's own default ([`Colouring::default_for`]: by material where it has
@@ -279,6 +281,9 @@ struct ViewerApp {
     fixed_owed: u32,
     /// The longest wall time one draw spent stepping (reported on exit).
     longest_step: Duration,
+    /// The last error that stopped the stepping, with the simulated time it stopped at: reported on
+    /// exit, since the run's frame rate and speed then cover a paused simulation.
+    step_error: Option<(f64, String)>,
     /// Host time per section of a draw, for the exit line.
     draw_costs: DrawCosts,
     /// The phase timings' milliseconds per frame stepped, for the exit line.
@@ -340,6 +345,7 @@ impl ViewerApp {
             step_owed: false,
             fixed_owed: 0,
             longest_step: Duration::ZERO,
+            step_error: None,
             draw_costs: DrawCosts::default(),
             step_costs: StepCosts::default(),
             stepped: None,
@@ -833,10 +839,22 @@ impl ViewerApp {
         if last_frame {
             event_loop.exit();
         }
-        if let Some(gpu) = &self.gpu {
-            gpu.window.request_redraw();
-        }
+        self.schedule_draw(event_loop, now);
         Ok(())
+    }
+
+    /// Asks for the next draw: at once, or under `--max-fps` at its turn after the draw that began
+    /// at `began` (the event loop sleeps until then, answering input meanwhile; [`Self::new_events`]).
+    fn schedule_draw(&self, event_loop: &ActiveEventLoop, began: Instant) {
+        let Some(gpu) = &self.gpu else { return };
+        let turn = self
+            .options
+            .max_fps
+            .map(|fps| began + Duration::from_secs_f64(1.0 / f64::from(fps)));
+        match turn {
+            Some(turn) if turn > Instant::now() => event_loop.set_control_flow(ControlFlow::WaitUntil(turn)),
+            _ => gpu.window.request_redraw(),
+        }
     }
 
     /// The panel, the scene, the images asked for and the present: everything of a draw that does
@@ -1043,6 +1061,14 @@ fn read_back_buffer(gl: &glow::Context, viewport: Viewport) -> Image {
 }
 
 impl ApplicationHandler for ViewerApp {
+    /// A `--max-fps` draw's turn has come (`schedule_draw`).
+    fn new_events(&mut self, event_loop: &ActiveEventLoop, cause: StartCause) {
+        if let (StartCause::ResumeTimeReached { .. }, Some(gpu)) = (cause, &self.gpu) {
+            event_loop.set_control_flow(ControlFlow::Wait);
+            gpu.window.request_redraw();
+        }
+    }
+
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.gpu.is_some() {
             return;
@@ -1164,6 +1190,12 @@ impl ApplicationHandler for ViewerApp {
         let timed: Vec<String> = timed.into_iter().flatten().collect();
         if !timed.is_empty() {
             eprintln!("viewer: timed ms, as the panel shows them: {}", timed.join(", "));
+        }
+        if let Some((time, error)) = &self.step_error {
+            eprintln!(
+                "viewer: the stepping stopped on an error at t = {time:.3} s (the speed below counts the \
+                 paused time after it): {error}"
+            );
         }
         if let (Some((start, sim_start)), Some(sim)) = (self.first_draw, &self.sim) {
             let wall = (self.last_frame - start).as_secs_f64();

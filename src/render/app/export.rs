@@ -330,6 +330,7 @@ max = [0.11, 0.13, 0.11]
             scene,
             backend: BackendKind::Cpu,
             vsync: false,
+            max_fps: None,
             size: [64, 64],
             mode: DrawMode::Points,
             colouring: None,

@@ -209,6 +209,8 @@ impl ViewerApp {
         if let Some(e) = stepped.error {
             self.controls.paused = true;
             self.message = Some(format!("{e:#} (press R to reset)"));
+            let time = self.sim.as_ref().map_or(0.0, Simulation::time_stepped);
+            self.step_error = Some((time, format!("{e:#}")));
         }
         stepped.completed
     }
