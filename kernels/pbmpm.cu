@@ -188,15 +188,17 @@ __device__ __forceinline__ float pb_elasticity_ratio(const Material& mat) {
 }
 
 // One particle's constraint on its affine displacement D (`project` in src/sim/pbmpm.rs, which says
-// what each material's target is). `f`, `f_inverse`: its deformation and F^-1, where it carries one.
+// what each material's target is). `f`, `f_inverse`: its deformation and F^-1, where it carries one;
+// `liquid_relaxation`: `liquid_relaxation` there (none at one iteration).
 __device__ __noinline__ Mat pb_project(const KernelParams params, u32 row, Mat affine, float rho, bool deformed,
-                                       const Mat f, float plastic, const Mat f_inverse, float target) {
+                                       const Mat f, float plastic, const Mat f_inverse, float target,
+                                       float liquid_relaxation) {
     const Material& mat = material_table[row];
     if (!solid_is_solid(mat.law)) {
         const float j = fmaxf(mat.rest_density / rho, MIN_LIQUID_VOLUME);
         const float a = ((1.0f + target) / j - 1.0f - pb_trace(affine)) / 3.0f;
 #pragma unroll
-        for (int c = 0; c < 3; ++c) affine.m[c][c] += LIQUID_RELAXATION * a;
+        for (int c = 0; c < 3; ++c) affine.m[c][c] += liquid_relaxation * a;
         if (deformed && mat.law == LAW_HERSCHEL_BULKLEY && mat.shear_modulus > 0.0f) {
             const Mat f_trial = pb_mul(pb_lerp_add(pb_identity(), affine, 1.0f), f);
             Mat goal = pb_mul(pb_polar_rotation(f_trial), f_inverse);
@@ -501,6 +503,7 @@ __device__ __forceinline__ float pb_tile_reach(const KernelParams& params, float
 // 64-bit atomics it replaced: BENCHMARKS.md M22.
 extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCKS)
     pbmpm_scatter(const KernelParams params, const u32 gather, const float displacement_scale,
+                  const float liquid_relaxation,
                   const BinEntry* __restrict__ bins, const u32* __restrict__ work_counts, const u32* __restrict__ order,
                   const float4* __restrict__ x, const float4* __restrict__ v, const float* __restrict__ rho,
                   const float4* __restrict__ deformation, const float4* __restrict__ node_d,
@@ -544,7 +547,7 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCK
                 fi = pb_load_mat(f_inverse, n, p);
                 plastic = def.plastic;
             }
-            if (deformed || !solid_is_solid(mat.law)) affine = pb_project(params, row, affine, rho[p], deformed, f, plastic, fi, dp.w);
+            if (deformed || !solid_is_solid(mat.law)) affine = pb_project(params, row, affine, rho[p], deformed, f, plastic, fi, dp.w, liquid_relaxation);
             pass_d[p] = dp;
             pb_store_mat(pass_affine, n, p, affine);
 

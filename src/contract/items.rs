@@ -454,6 +454,7 @@ device_constants! {
     // Position-based MPM (src/sim/pbmpm.rs, kernels/pbmpm.cu).
     /// How far past its target an iteration moves a liquid's volume (over-relaxation, as Lewin's
     /// reference implementation's default): the grid's averaging takes part of each correction back.
+    /// At two iterations or more; none at one (`liquid_relaxation` in src/sim/pbmpm.rs says why).
     LIQUID_RELAXATION: f32 = 1.5;
     /// The same for a solid's shape target, before its stiffness weight (`stiffness_weight`).
     SOLID_RELAXATION: f32 = 1.5;

@@ -9,7 +9,7 @@ use super::launch::{host_kernel, Launcher, OptionalArg};
 use super::state::{DeviceState, StateArgs};
 use crate::contract::PBMPM_CELL_VOLUME_UNITS;
 use crate::sim::params::Material;
-use crate::sim::pbmpm::{fluid_region, Settings};
+use crate::sim::pbmpm::{fluid_region, liquid_relaxation, Settings};
 use crate::sim::{Params, Particles, Phase, ScatterMode, Scene};
 use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream, PushKernelArg};
@@ -338,6 +338,7 @@ impl PbmpmBuffers {
         let (p, g) = (&d.particles, &d.grid);
         let scale = Self::displacement_scale(params);
         let gather = u32::from(pass == ScatterPass::Gathered);
+        let relaxation = liquid_relaxation(self.settings.iterations);
         let (list, config) = (
             d.bins.list()?,
             d.bins.tiled_pass(l, &k.scatter.0, SCATTER_CHANNELS)?,
@@ -351,6 +352,7 @@ impl PbmpmBuffers {
                 a.arg(&params.kernel)
                     .arg(&gather)
                     .arg(&scale)
+                    .arg(&relaxation)
                     .arg(list)
                     .arg(&g.work_counts)
                     .arg(&d.bins.order)

@@ -307,7 +307,12 @@ impl PbmpmSolver {
     /// Every particle's constraint on D ([`project`]).
     fn project_all(&mut self, params: &Params) {
         let p = &self.particles;
+        let relaxation = liquid_relaxation(self.settings.iterations);
         for i in (0..p.len()).filter(|&i| p.live[i]) {
+            let volume = VolumeTarget {
+                target: self.target[i],
+                relaxation,
+            };
             let deformation = p.deformation.get(i).map(|d| (d.f, d.plastic));
             self.affine[i] = project(
                 params,
@@ -316,7 +321,7 @@ impl PbmpmSolver {
                 p.rho[i],
                 deformation,
                 self.f_inverse[i],
-                self.target[i],
+                volume,
             );
         }
     }
@@ -608,15 +613,37 @@ fn deviator(a: Mat3) -> Mat3 {
     a - Mat3::from_diagonal(Vec3::splat(trace(a) / 3.0))
 }
 
+/// The liquids' over-relaxation `w` in a substep of `iterations` iterations: [`LIQUID_RELAXATION`]
+/// where a later iteration's gather and projection take part of each overshoot back, none at one
+/// iteration, whose only projection is integrated as it is. Over-relaxed there, a particle expanded
+/// past J (1 + tr D) = 3 (1 + t) was projected past no volume, held at [`MIN_LIQUID_VOLUME`], and
+/// pushed out of it at tens of m/s the next substep: one iteration diverged on every dam break of 1 cm
+/// and finer (BENCHMARKS.md M24).
+pub fn liquid_relaxation(iterations: u32) -> f32 {
+    if iterations > 1 {
+        LIQUID_RELAXATION
+    } else {
+        1.0
+    }
+}
+
+/// A liquid particle's volume constraint in one iteration: its target t ([`PbmpmSolver`]'s
+/// `liquid_volumes`) and how far past it the iteration moves it ([`liquid_relaxation`]).
+#[derive(Clone, Copy, Debug)]
+pub struct VolumeTarget {
+    pub target: f32,
+    pub relaxation: f32,
+}
+
 /// One particle's constraint on its affine displacement `affine` (D), in one iteration: the
 /// particle of material `mat`, density `rho` (a liquid's volume ratio is rho0 / rho), deformation
 /// `deformation` (F and the plastic scalar, where it carries one) with F^-1 `f_inverse`, and (a
-/// liquid's) volume target `target` ([`PbmpmSolver`]'s `liquid_volumes`). Returns the projected D.
+/// liquid's) `volume` target. Returns the projected D.
 /// (A liquid's viscosity acts on the grid: [`PbmpmSolver`]'s `diffuse`.)
 ///
 /// - A liquid's volume: D += w a I with a = ((1 + t) / J - 1 - tr D) / 3, which makes the volume
 ///   it integrates to J (1 + tr D) = 1 + t, t the target (its volume bias, the memory of the load
-///   it carries, and its smoothed volume error; w = [`LIQUID_RELAXATION`]). The target holds both ways, as
+///   it carries, and its smoothed volume error; w its relaxation). The target holds both ways, as
 ///   Lewin's: an expanded particle is pulled back as a compressed one is pushed out (a unilateral
 ///   target, with J held at 1 at most, let the integrated J drift from the particles' real spacing:
 ///   a pool lost about 19 % of its height within 5 s against about 9 % both ways). Its
@@ -638,12 +665,12 @@ pub fn project(
     rho: f32,
     deformation: Option<(Mat3, f32)>,
     f_inverse: Mat3,
-    target: f32,
+    volume: VolumeTarget,
 ) -> Mat3 {
     if !mat.is_solid() {
         let j = (mat.rest_density / rho).max(MIN_LIQUID_VOLUME);
-        let a = ((1.0 + target) / j - 1.0 - trace(affine)) / 3.0;
-        affine += Mat3::from_diagonal(Vec3::splat(LIQUID_RELAXATION * a));
+        let a = ((1.0 + volume.target) / j - 1.0 - trace(affine)) / 3.0;
+        affine += Mat3::from_diagonal(Vec3::splat(volume.relaxation * a));
         if let Some((f, _)) = deformation.filter(|_| mat.is_elastoviscoplastic()) {
             let f_trial = (Mat3::IDENTITY + affine) * f;
             let target = polar_rotation(f_trial) * f_inverse - Mat3::IDENTITY;
