@@ -125,7 +125,7 @@ pub struct PbmpmBuffers {
 /// liquid collapsing (a deep liquid on a fine grid, too few substeps or one iteration: docs/physics.md,
 /// "What it costs and what it gives").
 pub const OVERFLOW_FIX: &str = "under solver.method = \"pbmpm\" this is the liquid collapsing (particles \
-     compressed to the volume ratio's floor): give the scene solver.iterations = 2 or more (one never holds a \
+     compressed to the volume ratio's floor): give the scene solver.iterations = 2 or more (one compresses a \
      falling liquid on a fine grid) and more time_step.substeps a frame (the dam break holds at 8 substeps of 2 \
      iterations on a 1 cm grid, 24 on a 0.5 cm grid)";
 
