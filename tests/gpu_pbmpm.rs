@@ -233,7 +233,7 @@ fn a_block_slides_on_a_coulomb_collider_at_mu_g() {
 /// within 15 % of rest. Measured on
 /// an H200 at the preset's 8 x 2: the densest particle 6.4 rho0, the mean at most 1.128 rho0 (in the
 /// first second, while the load builds up). At 4 x 4 the mean reached 1.48 rho0 and the run ended at
-/// 1.77 s; at 8 x 1 at 0.73 s; 6 x 4 and 4 x 8 ran 5 s but put particles on the floor (M23).
+/// 1.77 s; 6 x 4 and 4 x 8 ran 5 s but put particles on the floor (BENCHMARKS.md M23).
 fn the_million_particle_preset_holds_through_its_splash() {
     let scene = common::scene(mpm::sim::presets::get("pbmpm-1m").unwrap());
     let mut sim = simulation(&scene, CUDA);
