@@ -23,6 +23,8 @@
 
 use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
+use mpm::cuda::{CudaOptions, CudaSolver};
+use mpm::sim::Simulation;
 use pbmpm_checks::*;
 use std::time::Instant;
 
@@ -39,6 +41,7 @@ fn main() -> std::process::ExitCode {
         harness::tests![
             every_law_follows_the_cpu_reference,
             a_run_gives_the_same_bytes_twice,
+            graphed_substeps_match_launched_ones,
             a_checkpoint_resumes_exactly,
             live_iterations_and_substeps_run_as_the_scene_keys,
             the_violent_scenes_stay_whole_at_one_substep_a_frame,
@@ -124,6 +127,48 @@ fn a_run_gives_the_same_bytes_twice() {
     println!(
         "RESULT pbmpm GPU determinism: two 20-frame runs, {} bytes, identical",
         first.len()
+    );
+}
+
+/// Position-based substeps replayed as CUDA graphs (the default) write the bytes of substeps
+/// launched kernel by kernel: water beside a jelly for 15 frames, the iterations changed live at
+/// frame 5 (a new capture) and back at frame 10 (a replay of the first capture), each frame's
+/// substeps all timed.
+fn graphed_substeps_match_launched_ones() {
+    let scene = water_and_jelly();
+    let start = scene.pbmpm.iterations;
+    let mut runs = Vec::new();
+    for graphs in [false, true] {
+        let options = CudaOptions {
+            graphs,
+            ..CudaOptions::default()
+        };
+        let solver = CudaSolver::new(&scene, options).expect("the CUDA solver");
+        let mut sim = Simulation::new(scene.clone(), Box::new(solver));
+        for frame in 0..15 {
+            match frame {
+                5 => sim.set_iterations(start + 1).unwrap(),
+                10 => sim.set_iterations(start).unwrap(),
+                _ => {}
+            }
+            let stats = sim.advance_frame().unwrap();
+            let timed = stats.timings.map_or(0, |t| t.steps);
+            assert_eq!(
+                timed, stats.substeps,
+                "graphs {graphs}, frame {frame}: a timing record per substep"
+            );
+        }
+        runs.push(particle_bytes(&mut sim));
+    }
+    assert!(
+        runs[0] == runs[1],
+        "graphed and launched position-based substeps differ after 15 frames"
+    );
+    println!(
+        "RESULT pbmpm GPU graphs: 15 frames ({} and {} iterations), graphed and launched runs identical ({} bytes)",
+        start,
+        start + 1,
+        runs[0].len()
     );
 }
 

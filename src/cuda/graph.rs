@@ -37,6 +37,9 @@ pub struct SubstepKey {
     /// Which of the solver's two sets of particle buffers the substep starts on
     /// (`DeviceState::particle_buffers`).
     pub particle_buffers: bool,
+    /// The position-based substep's constraint iterations (the viewer's slider sets them); `None`
+    /// for the explicit substep.
+    pub iterations: Option<u32>,
 }
 
 impl PartialEq for SubstepKey {
@@ -47,6 +50,7 @@ impl PartialEq for SubstepKey {
             && self.mass_scattered == other.mass_scattered
             && self.colliders == other.colliders
             && self.particle_buffers == other.particle_buffers
+            && self.iterations == other.iterations
     }
 }
 
@@ -288,13 +292,14 @@ impl SubstepGraphs {
     }
 
     /// Takes out the most recently used graph that enqueued what a substep of `key` would but for
-    /// its parameters' values (the same sort, scatter mode, collider count and particle buffers):
-    /// the one whose executable a capture for `key` is likeliest to update in place.
+    /// its parameters' values (the same sort, scatter mode, collider count, particle buffers and
+    /// iterations): the one whose executable a capture for `key` is likeliest to update in place.
     pub fn take_alike(&mut self, key: &SubstepKey) -> Option<SubstepGraph> {
         let at = self.entries.iter().rposition(|(k, _)| {
             k.sort == key.sort
                 && k.colliders == key.colliders
                 && k.particle_buffers == key.particle_buffers
+                && k.iterations == key.iterations
                 && k.mass_scattered.map(|s| s.mode) == key.mass_scattered.map(|s| s.mode)
         })?;
         self.entries.remove(at).map(|(_, graph)| graph)

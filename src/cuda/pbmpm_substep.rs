@@ -12,7 +12,8 @@ use crate::sim::{Phase, Pipeline};
 use anyhow::{Context, Result};
 
 impl CudaSolver {
-    /// One position-based substep, enqueued launch by launch (`sort`: the schedule's decision).
+    /// One position-based substep, enqueued launch by launch (`sort`: the schedule's decision), or
+    /// into a graph capture (`CudaSolver::step`).
     pub(super) fn enqueue_pbmpm_substep(&mut self, sort: bool) -> Result<()> {
         let stream = self.gpu.stream().clone();
         self.timing.begin_step(&stream)?;

@@ -388,14 +388,23 @@ impl CudaSolver {
         Ok(())
     }
 
-    /// Captures `enqueue_substep` into a graph; its host-side notes (binning, mass scattered) are
+    /// The substep of the scene's scheme: the position-based one where the scene asks for it
+    /// (pbmpm_substep.rs), the explicit one otherwise.
+    fn enqueue_either_substep(&mut self, sort: bool) -> Result<()> {
+        match self.pbmpm {
+            Some(_) => self.enqueue_pbmpm_substep(sort),
+            None => self.enqueue_substep(sort),
+        }
+    }
+
+    /// Captures `enqueue_either_substep` into a graph; its host-side notes (binning, mass scattered) are
     /// made once here, as for a substep enqueued directly.
     /// `alike`: a cached graph to update to the capture ([`SubstepGraphs::take_alike`]).
     fn capture_substep(&mut self, sort: bool, alike: Option<SubstepGraph>) -> Result<SubstepGraph> {
         let stream = self.gpu.stream().clone();
         let placeholders = self.timing.begin_capture()?;
         let enqueue = || {
-            self.enqueue_substep(sort)?;
+            self.enqueue_either_substep(sort)?;
             Ok((self.timing.captured(), self.mass_scattered))
         };
         let graph = SubstepGraph::capture(&stream, &placeholders, enqueue, alike);
@@ -416,15 +425,12 @@ impl Solver for CudaSolver {
             .context("making the simulation's CUDA context current on the stepping thread")
     }
 
-    /// One substep, its phases' launches as pipelines.rs lists them: enqueued kernel by kernel
-    /// (`enqueue_substep`), or as one launch of a captured graph of exactly that work (graph.rs).
+    /// One substep, its phases' launches as pipelines.rs lists them (or the position-based
+    /// substep's, pbmpm_substep.rs): enqueued kernel by kernel (`enqueue_either_substep`), or as one
+    /// launch of a captured graph of exactly that work (graph.rs).
     fn step(&mut self, params: &Params) -> Result<()> {
         self.accept(params)?;
         let sort = self.sort_due();
-        if self.pbmpm.is_some() {
-            let _range = NvtxRange::new("substep (pbmpm)");
-            return self.enqueue_pbmpm_substep(sort);
-        }
         // Not the first substep (it allocates on first use), nor one that scatters as a restored or
         // discarded state's first (`resumed`, which no key holds).
         let graphs = self.options.graphs
@@ -432,17 +438,22 @@ impl Solver for CudaSolver {
             && self.substeps > 0
             && self.resumed.is_none();
         self.substeps += 1;
+        let (enqueued, graphed) = match self.pbmpm {
+            Some(_) => ("substep (pbmpm)", "substep (pbmpm, graph)"),
+            None => ("substep", "substep (graph)"),
+        };
         if !graphs {
-            let _range = NvtxRange::new("substep");
-            return self.enqueue_substep(sort);
+            let _range = NvtxRange::new(enqueued);
+            return self.enqueue_either_substep(sort);
         }
-        let _range = NvtxRange::new("substep (graph)");
+        let _range = NvtxRange::new(graphed);
         let key = SubstepKey {
             params: self.params,
             sort,
             mass_scattered: self.mass_scattered,
             colliders: self.state.colliders.count,
             particle_buffers: self.state.particle_buffers(),
+            iterations: self.pbmpm.as_ref().map(|p| p.settings.iterations),
         };
         let graph = match self.graphs.take(&key) {
             Some(graph) => {
@@ -469,7 +480,10 @@ impl Solver for CudaSolver {
     }
 
     fn resume_after(&mut self, last: &Params) {
-        self.resumed = Some(*last);
+        // The position-based substep keeps no scatter from one substep to the next: nothing to resume.
+        if self.pbmpm.is_none() {
+            self.resumed = Some(*last);
+        }
     }
 
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {

@@ -106,7 +106,12 @@ pub fn run_bytes(scene: &Scene, frames: u32, backend: BackendKind) -> Vec<u8> {
     for _ in 0..frames {
         sim.advance_frame().unwrap();
     }
-    let p = particles(&mut sim);
+    particle_bytes(&mut sim)
+}
+
+/// The bytes of `sim`'s particles as [`run_bytes`] gives them.
+pub fn particle_bytes(sim: &mut Simulation) -> Vec<u8> {
+    let p = particles(sim);
     let mut bytes: Vec<u8> = Vec::new();
     for i in 0..p.len() {
         for v in p.x[i]
