@@ -24,8 +24,10 @@
 use mpm::backend::BackendKind;
 use mpm::checkpoint::Checkpoint;
 use mpm::cuda::{CudaOptions, CudaSolver};
+use mpm::sim::gpu_gate::GpuGate;
 use mpm::sim::Simulation;
 use pbmpm_checks::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 mod common;
@@ -42,6 +44,7 @@ fn main() -> std::process::ExitCode {
             every_law_follows_the_cpu_reference,
             a_run_gives_the_same_bytes_twice,
             graphed_substeps_match_launched_ones,
+            substeps_paced_beside_a_draw_write_the_same_bytes,
             a_checkpoint_resumes_exactly,
             live_iterations_and_substeps_run_as_the_scene_keys,
             the_violent_scenes_stay_whole_at_one_substep_a_frame,
@@ -170,6 +173,24 @@ fn graphed_substeps_match_launched_ones() {
         start + 1,
         runs[0].len()
     );
+}
+
+/// The viewer's stepping beside its draws (`Simulation::share_gpu`: a fixed step's frame enqueued
+/// substep by substep, each waiting for the one before, `Solver::pace`) writes the bytes of the
+/// stepping that enqueues a whole frame at once: water beside a jelly, 10 frames.
+fn substeps_paced_beside_a_draw_write_the_same_bytes() {
+    let scene = water_and_jelly();
+    let unpaced = run_bytes(&scene, 10, CUDA);
+    let mut paced = simulation(&scene, CUDA);
+    paced.share_gpu(Some(Arc::new(GpuGate::default())));
+    for _ in 0..10 {
+        paced.advance_frame().unwrap();
+    }
+    assert!(
+        particle_bytes(&mut paced) == unpaced,
+        "the paced stepping's run differs from the unpaced one"
+    );
+    println!("RESULT pbmpm GPU pacing: 10 frames paced substep by substep, identical to the unpaced run");
 }
 
 /// Water beside a jelly on the GPU, checkpointed through a file after 10 frames (the particles'

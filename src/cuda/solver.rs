@@ -31,7 +31,7 @@ use crate::sim::{
     ScatterMode, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
-use cudarc::driver::CudaStream;
+use cudarc::driver::{sys, CudaEvent, CudaStream};
 use std::sync::Arc;
 
 pub struct CudaSolver {
@@ -68,6 +68,10 @@ pub struct CudaSolver {
     /// `solver.method = "pbmpm"`: the position-based substep's buffers (pbmpm_substep.rs steps it
     /// in place of the explicit one).
     pub(super) pbmpm: Option<PbmpmBuffers>,
+    /// `Solver::pace`'s marks: an event recorded after each paced substep, the last two by turns.
+    pace_marks: Vec<CudaEvent>,
+    /// Substeps paced so far.
+    paced: usize,
 }
 
 /// What the grid holds of a scatter made ahead of its substep: its scatter mode and the fixed-point
@@ -145,6 +149,8 @@ impl CudaSolver {
             device_materials: None,
             snapshots: None,
             pbmpm,
+            pace_marks: Vec::new(),
+            paced: 0,
         };
         let params = solver.params;
         solver.check_params(&params)?;
@@ -477,6 +483,31 @@ impl Solver for CudaSolver {
             .and_then(|events| graph.launch(events));
         self.graphs.put(key, graph);
         launched
+    }
+
+    /// Marks the substep just enqueued and waits for the mark of the substep before it.
+    fn pace(&mut self) -> Result<()> {
+        if self.pace_marks.is_empty() {
+            for _ in 0..2 {
+                let mark = self
+                    .gpu
+                    .ctx
+                    .new_event(Some(sys::CUevent_flags::CU_EVENT_DISABLE_TIMING))
+                    .context("creating the stepping's pacing events")?;
+                self.pace_marks.push(mark);
+            }
+        }
+        let k = self.paced;
+        self.pace_marks[k % 2]
+            .record(self.gpu.stream())
+            .context("marking a paced substep")?;
+        if k > 0 {
+            self.pace_marks[(k - 1) % 2]
+                .synchronize()
+                .context("waiting for the substep before")?;
+        }
+        self.paced += 1;
+        Ok(())
     }
 
     fn resume_after(&mut self, last: &Params) {

@@ -4,6 +4,9 @@
 //! the stepping kept the CUDA queue full, the draw's work waited behind nearly all of it (BENCHMARKS.md
 //! M19). So the viewer closes the gate over its draw, and the stepping enqueues no new stretch of
 //! substeps until the draw's work is done: the GPU runs the draw as one block, between stretches.
+//! Where a stretch is a whole frame (a fixed step, as the position-based solver's), the stepping
+//! passes the gate before each substep and keeps no more than one substep queued (`Solver::pace`):
+//! otherwise the draw waited behind a frame of work (M25).
 
 use std::sync::{Condvar, Mutex, MutexGuard};
 

@@ -478,10 +478,18 @@ impl Simulation {
         Ok(())
     }
 
-    /// Each stretch of substeps is enqueued only while `gate` is open: the viewer closes it while it
-    /// draws on the same GPU ([`GpuGate`]). `None`: nothing to wait for.
+    /// Each stretch of substeps (each substep, where a stretch is a whole frame) is enqueued only
+    /// while `gate` is open: the viewer closes it while it draws on the same GPU ([`GpuGate`]).
+    /// `None`: nothing to wait for.
     pub fn share_gpu(&mut self, gate: Option<Arc<GpuGate>>) {
         self.gpu_gate = gate;
+    }
+
+    /// Returns once the draw that shares the GPU ([`Self::share_gpu`]) has let go of it.
+    fn pass_gpu_gate(&self) {
+        if let Some(gate) = &self.gpu_gate {
+            gate.pass();
+        }
     }
 
     /// Accounts the last frame's trailing stretch now ([`Self::overlap_frames`]): before anything that
@@ -675,10 +683,12 @@ impl Simulation {
         // for the speed to grow over it too. Which extremes a choice sees is fixed by the order of
         // the stretches, never by timing, so runs stay reproducible.
         let mut in_flight: Option<(ExtremesTicket, u32, f32)> = self.trailing.take();
+        // A stretch of a whole frame (a fixed step: the position-based solver's) would fill the
+        // GPU's queue with a frame of work, and a draw sharing the GPU would wait behind all of it:
+        // it is paced substep by substep instead, the gate passed before each (BENCHMARKS.md M25).
+        let paced = self.gpu_gate.is_some() && per_choice.is_none();
         loop {
-            if let Some(gate) = &self.gpu_gate {
-                gate.pass();
-            }
+            self.pass_gpu_gate();
             let left = f64::from(FRAME_DT) - part.simulated;
             let unknown = in_flight.map_or(0.0, |(_, n, dt)| n as f32 * dt);
             let (to_frame_end, dt, limit) = self.steps_for(left as f32, unknown)?;
@@ -687,6 +697,9 @@ impl Simulation {
             self.params.fixed_momentum_scale = self.momentum_scale(planned as f32 * dt, in_flight.is_some());
             let mut n = 0;
             while n < planned {
+                if paced {
+                    self.pass_gpu_gate();
+                }
                 self.emit_due(dt)?;
                 if !self.scene.colliders.is_empty() {
                     // Each substep's boundary conditions with the colliders where the substep ends.
@@ -694,6 +707,9 @@ impl Simulation {
                     self.solver.set_colliders(&self.scene.colliders.frame(end))?;
                 }
                 self.solver.step(&self.params)?;
+                if paced {
+                    self.solver.pace()?;
+                }
                 n += 1;
                 if late() {
                     break;

@@ -112,6 +112,14 @@ pub trait Solver: Send {
     /// two substeps, the first of the new step still kicks with the old one. Every backend does so
     /// (the first substep a solver takes uses its own dt, or [`Self::resume_after`]'s).
     fn step(&mut self, params: &Params) -> Result<()>;
+    /// Called after each substep of a long stretch: waits until the device has run every substep
+    /// but the one enqueued last. How a stepping thread that shares its GPU with a draw (`GpuGate`)
+    /// keeps the queue short, so that the draw's work waits behind a substep rather than a whole
+    /// frame's, while the next substep is enqueued before the device runs dry. Nothing to wait for
+    /// where steps are synchronous.
+    fn pace(&mut self) -> Result<()> {
+        Ok(())
+    }
     /// Tells a solver restored from a checkpoint the parameters of the run's last substep before it,
     /// so that its first substep scatters as the uninterrupted run did (see [`Self::step`]).
     fn resume_after(&mut self, last: &Params);
