@@ -405,7 +405,8 @@ extern "C" __global__ void __launch_bounds__(TILE_THREADS, PBMPM_TILED_MIN_BLOCK
 // gather half of `liquid_volumes`): the fill about it moves its J towards the grid's measure where
 // every stencil node is full, its volume bias gains its smoothed volume error, and the target (the
 // pass state's w) is the bias plus the error's proportional part.
-extern "C" __global__ void pbmpm_volume_targets(const KernelParams params, const float4* __restrict__ x, const float4* __restrict__ v,
+extern "C" __global__ void pbmpm_volume_targets(const KernelParams params, const u32* __restrict__ order,
+                                                const float4* __restrict__ x, const float4* __restrict__ v,
                                                 float* __restrict__ rho, const u64* __restrict__ fill,
                                                 const u64* __restrict__ liquid_mass,
                                                 const u64* __restrict__ volume_error, float* __restrict__ volume_bias,
@@ -414,7 +415,11 @@ extern "C" __global__ void pbmpm_volume_targets(const KernelParams params, const
     // to PBMPM_CELL_VOLUME_UNITS.
     const float inv_cell_units = 1.0f / PBMPM_CELL_VOLUME_UNITS;
     const float inv_mass_scale = 1.0f / params.fixed_mass_scale;
-    FOR_EACH_INDEX(p, params.num_particles) {
+    // In bin order: a warp's particles share stencil nodes, whose sums it then reads once. In slot
+    // order, once the flow has mixed the particles, each read its own 27 nodes' lines (pbmpm-1m 10 s
+    // in: 580 us a substep against 68 at the start, BENCHMARKS.md M25).
+    FOR_EACH_INDEX(i, params.num_particles) {
+        const u32 p = order[i];
         const float4 vp = v[p];
         const Material& mat = material_table[material_index(params, vp)];
         if (solid_is_solid(mat.law)) continue;

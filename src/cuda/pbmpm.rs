@@ -290,8 +290,8 @@ impl PbmpmBuffers {
             .chain(self.volume_sums.iter_mut().flatten())
     }
 
-    /// Each liquid particle's volume target, after the images joined the sums; nothing in a scene
-    /// without liquids (their targets stay 0).
+    /// Each liquid particle's volume target, after the images joined the sums, walked in the
+    /// substep's bin order; nothing in a scene without liquids (their targets stay 0).
     pub fn volume_targets(
         &mut self,
         k: &PbmpmKernels,
@@ -303,10 +303,12 @@ impl PbmpmBuffers {
             return Ok(());
         };
         let p = &d.particles;
-        // SAFETY: the arguments match pbmpm_volume_targets; buffers sized for the scene.
+        // SAFETY: the arguments match pbmpm_volume_targets; buffers sized for the scene, `order` a
+        // permutation of its particles (the substep's binning wrote it).
         unsafe {
             k.volume_targets.0.launch(l, l.cover(p.count), |a| {
                 a.arg(&params.kernel)
+                    .arg(&d.bins.order)
                     .arg(&p.x)
                     .arg(&p.v)
                     .arg(&p.rho)
