@@ -1,6 +1,7 @@
-// bin_order: the fused pipeline keeps its particles stored in bin order. After each binning the
-// particle state (x, v, C's three columns, density, each particle's slot, and where the scene has
-// solids their deformation) is gathered from its place in memory into the place `order` gives it, in a second set of buffers that the host then
+// bin_order: the fused pipeline and the position-based solver keep their particles stored in bin
+// order. After each binning the particle state (x, v, C's three columns, density, each particle's
+// slot, where the scene has solids their deformation, and the position-based solver's volume bias)
+// is gathered from its place in memory into the place `order` gives it, in a second set of buffers that the host then
 // swaps in (src/cuda/bin_order.rs), and `order` becomes the identity. one_pass then reads and
 // writes each warp's particles as whole consecutive runs of memory instead of 32 scattered places
 // reached through `order`: measured on the H100 (BENCHMARKS.md 0r), 6 to 10 % off the mean substep
@@ -23,7 +24,9 @@ extern "C" __global__ void gather_into_bin_order(const u32 n,
                                                 float4* __restrict__ x_out, float4* __restrict__ v_out,
                                                 float4* __restrict__ c_out, float* __restrict__ rho_out,
                                                 u32* __restrict__ slot_out, float4* __restrict__ deformation_out,
-                                                u32* __restrict__ position) {  // null without a flow
+                                                u32* __restrict__ position,  // null without a flow
+                                                const float* __restrict__ bias,  // null but under pbmpm
+                                                float* __restrict__ bias_out) {
     FOR_EACH_INDEX(i, n) {
         const u32 p = order[i];
         x_out[i] = x[p];
@@ -33,6 +36,7 @@ extern "C" __global__ void gather_into_bin_order(const u32 n,
             for (u32 col = 0; col < 3u; ++col) deformation_out[(size_t)col * n + i] = deformation[(size_t)col * n + p];
         }
         rho_out[i] = rho[p];
+        if (bias) bias_out[i] = bias[p];
         const u32 s = slot[p];
         slot_out[i] = s;
         if (position) position[s] = i;

@@ -8,7 +8,8 @@
 //
 // Every grid sum is fixed point (integers of rounded contributions, which commute): a run writes the
 // same bytes whatever order threads arrive in. The particles are binned by 4x4x4-node block every
-// substep (kernels/bins.cu) and stay in slot order in memory; pbmpm_begin and pbmpm_scatter walk the
+// substep (kernels/bins.cu) and gathered into that order in memory (bin_order.cu; in place where
+// memory is short or MPM_BIN_ORDER=0, read through `order`); pbmpm_begin and pbmpm_scatter walk the
 // bins' chunks, a CUDA block each, summing into the bin's shared tile (tiles.cuh; two words a sum,
 // PB_TILE_LOW_BITS).
 #include "tiles.cuh"

@@ -1,20 +1,27 @@
-//! kernels/bin_order.cu: after each binning the fused pipeline gathers its particles into the bins'
-//! order, in its spare buffers, and swaps them in (`DeviceState::swap_particle_buffers`), so that
-//! one_pass reads each chunk's particles from consecutive memory. Each particle's slot travels with
-//! it, and its deformation where the scene has solids; so does the lifecycle's slot -> place map
-//! where the scene has emitters or sinks.
+//! kernels/bin_order.cu: after each binning the fused pipeline and the position-based solver gather
+//! their particles into the bins' order, in spare buffers, which the solver then swaps in
+//! (`CudaSolver::swap_particle_buffers`), so that one_pass and the position-based passes read each
+//! chunk's particles from consecutive memory. Each particle's slot travels with it, and its
+//! deformation where the scene has solids, and the position-based solver's volume bias; so does the
+//! lifecycle's slot -> place map where the scene has emitters or sinks.
 
 use super::launch::{host_kernel, Launcher, OptionalArg};
 use super::state::{DeviceState, StateArgs};
 use anyhow::Result;
-use cudarc::driver::PushKernelArg;
+use cudarc::driver::{CudaSlice, PushKernelArg};
 
 host_kernel!(GatherIntoBinOrder = "bin_order" / "gather_into_bin_order");
 
 impl GatherIntoBinOrder {
-    /// Gathers the particles into bin order and swaps them in, leaving the bins' `order` the
-    /// identity; nothing where the state keeps its particles in place. Whether it launched.
-    pub fn launch(&self, l: &Launcher, state: &mut DeviceState) -> Result<bool> {
+    /// Gathers the particles into bin order in the spare buffers (and `bias`, the position-based
+    /// volume biases, into its spare), leaving the bins' `order` the identity; nothing where the
+    /// state keeps its particles in place. Whether it launched: the caller swaps the buffers then.
+    pub fn launch(
+        &self,
+        l: &Launcher,
+        state: &DeviceState,
+        bias: Option<(&CudaSlice<f32>, &CudaSlice<f32>)>,
+    ) -> Result<bool> {
         let Some(bin_order) = &state.bin_order else {
             return Ok(false);
         };
@@ -22,8 +29,8 @@ impl GatherIntoBinOrder {
         let n = from.count as u32;
         // SAFETY: the arguments match gather_into_bin_order; both particle sets hold n slots of
         // each array, `order` is a permutation of 0..n (the binning just wrote it), `position`
-        // holds a place per slot (or is null without a flow), and both sets hold a deformation or
-        // neither does (null, not read).
+        // holds a place per slot (or is null without a flow), both sets hold a deformation or
+        // neither does (null, not read), and the biases, where given, hold n floats each.
         unsafe {
             self.0.launch(l, l.cover(from.count), |a| {
                 a.arg(&n)
@@ -34,10 +41,11 @@ impl GatherIntoBinOrder {
                     .particle_state(to)
                     .arg(&to.slot)
                     .deformation(to)
-                    .arg_or_null(state.flow.as_ref().map(|flow| &flow.position));
+                    .arg_or_null(state.flow.as_ref().map(|flow| &flow.position))
+                    .arg_or_null(bias.map(|(from, _)| from))
+                    .arg_or_null(bias.map(|(_, to)| to));
             })?;
         }
-        state.swap_particle_buffers();
         Ok(true)
     }
 }

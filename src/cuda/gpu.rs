@@ -6,7 +6,7 @@
 use super::launch::Launcher;
 use super::library;
 use super::modules::{LoadedModules, Origin};
-use crate::sim::Pipeline;
+use crate::sim::{Method, Pipeline, Scene};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr};
 use std::sync::Arc;
@@ -25,8 +25,9 @@ pub struct CudaOptions {
     pub block_size: u32,
     /// Each substep as one CUDA graph launch (graph.rs) rather than a launch per kernel.
     pub graphs: bool,
-    /// The fused pipeline stores its particles in bin order, gathering them there at each binning
-    /// (bin_order.rs); off, they stay at their slots (for comparing the two).
+    /// The fused pipeline and the position-based solver store their particles in bin order,
+    /// gathering them there at each binning (bin_order.rs); off, they stay at their slots (for
+    /// comparing the two).
     pub bin_order: bool,
     /// How one_pass's float scatter sums its runs (one_pass.rs).
     pub float_scatter: FloatScatter,
@@ -100,8 +101,8 @@ impl CudaOptions {
                 "1" => true,
                 "0" => false,
                 _ => bail!(
-                    "MPM_BIN_ORDER={text:?}: use 1 (the fused pipeline stores particles in bin order, the \
-                     default) or 0 (they stay at their slots)"
+                    "MPM_BIN_ORDER={text:?}: use 1 (the fused pipeline and the position-based solver store \
+                     particles in bin order, the default) or 0 (they stay at their slots)"
                 ),
             };
         }
@@ -112,10 +113,11 @@ impl CudaOptions {
         Ok(options)
     }
 
-    /// Whether a solver of `pipeline` stores its particles in bin order (only the fused pipeline
-    /// does; a run without memory for the second copy still keeps them in place, state.rs).
-    pub fn bin_order_for(&self, pipeline: Pipeline) -> bool {
-        self.bin_order && pipeline == Pipeline::Fused
+    /// Whether a solver of `scene` stores its particles in bin order: the fused pipeline's and the
+    /// position-based solver's do (a run without memory for the second copy still keeps them in
+    /// place, state.rs).
+    pub fn bin_order_for(&self, scene: &Scene) -> bool {
+        self.bin_order && (scene.pipeline == Pipeline::Fused || scene.method == Method::Pbmpm)
     }
 
     pub fn validate(&self) -> Result<()> {

@@ -6,6 +6,7 @@
 
 use super::gpu::Gpu;
 use super::launch::{host_kernel, Launcher, OptionalArg};
+use super::particles::DeviceParticles;
 use super::state::{DeviceState, StateArgs};
 use crate::contract::PBMPM_CELL_VOLUME_UNITS;
 use crate::sim::params::Material;
@@ -118,7 +119,11 @@ pub struct PbmpmBuffers {
     pass_d: CudaSlice<f32>,
     pass_affine: CudaSlice<f32>,
     f_inverse: Option<CudaSlice<f32>>,
+    /// Per particle, in the order the particles are stored in (`DeviceParticles::slot` maps it).
     pub volume_bias: CudaSlice<f32>,
+    /// Where the particles are kept in bin order: the biases' second buffer, which each binning
+    /// gathers into (bin_order.rs) before the two swap with the particles' buffers.
+    spare_bias: Option<CudaSlice<f32>>,
 }
 
 /// What an overflow of the position-based grid's fixed-point sums advises: under pbmpm it is the
@@ -130,12 +135,13 @@ pub const OVERFLOW_FIX: &str = "under solver.method = \"pbmpm\" this is the liqu
      iterations on a 1 cm grid, 24 on a 0.5 cm grid)";
 
 /// Bytes a particle and a node of the position-based buffers take at most.
-pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 12 + 12 + 1);
+pub const BYTES_PER_PARTICLE: usize = 4 * (4 + 12 + 12 + 2);
 pub const BYTES_PER_NODE: usize = 8 * (1 + 3 + 1 + 3) + 4 * (4 + 4);
 
 impl PbmpmBuffers {
-    /// Zeroed buffers for `scene` (its particles and grid), after checking they fit.
-    pub fn allocate(gpu: &Gpu, scene: &Scene) -> Result<PbmpmBuffers> {
+    /// Zeroed buffers for `scene` (its particles and grid), after checking they fit; `bin_order`:
+    /// the particles are kept in bin order (their biases then gathered with them).
+    pub fn allocate(gpu: &Gpu, scene: &Scene, bin_order: bool) -> Result<PbmpmBuffers> {
         let (n, stream) = (scene.slots(), gpu.stream());
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         gpu.ensure_fits(
@@ -192,7 +198,20 @@ impl PbmpmBuffers {
                 .then(|| f32s(12 * n, "inverse deformations"))
                 .transpose()?,
             volume_bias: f32s(n, "volume biases")?,
+            spare_bias: bin_order.then(|| f32s(n, "volume biases' spare")).transpose()?,
         })
+    }
+
+    /// The biases and their spare, for a binning that gathers the particles into bin order.
+    pub fn bias_and_spare(&self) -> Option<(&CudaSlice<f32>, &CudaSlice<f32>)> {
+        self.spare_bias.as_ref().map(|spare| (&self.volume_bias, spare))
+    }
+
+    /// Swaps the spare biases in, as the particles' buffers are (`CudaSolver::swap_particle_buffers`).
+    pub fn swap_bias(&mut self) {
+        if let Some(spare) = &mut self.spare_bias {
+            std::mem::swap(&mut self.volume_bias, spare);
+        }
     }
 
     /// Takes the particles' volume biases (none: a fresh spawn, or a state saved before they were
@@ -214,10 +233,14 @@ impl PbmpmBuffers {
             .context("uploading the volume biases")
     }
 
-    /// The volume biases, in slot order (the particles stay in place under this solver). Waits.
-    pub fn download_bias(&self, gpu: &Gpu, count: usize) -> Result<Vec<f32>> {
-        let mut bias = gpu.download(&self.volume_bias)?;
-        bias.truncate(count);
+    /// The volume biases in slot order, `particles` the buffers they are stored beside (their
+    /// slots say whose each is). Waits.
+    pub fn download_bias(&self, gpu: &Gpu, particles: &DeviceParticles) -> Result<Vec<f32>> {
+        let (stored, slots) = (gpu.download(&self.volume_bias)?, gpu.download(&particles.slot)?);
+        let mut bias = vec![0.0; particles.count];
+        for (&b, &slot) in stored.iter().zip(&slots).take(particles.count) {
+            bias[slot as usize] = b;
+        }
         Ok(bias)
     }
 

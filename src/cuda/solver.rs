@@ -118,9 +118,9 @@ impl CudaSolver {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
         let kernels = Kernels::load(&gpu, &options)?;
-        let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene.pipeline))?;
+        let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene))?;
         let pbmpm = match scene.method {
-            Method::Pbmpm => Some(PbmpmBuffers::allocate(&gpu, scene)?),
+            Method::Pbmpm => Some(PbmpmBuffers::allocate(&gpu, scene, state.bin_order.is_some())?),
             Method::Explicit => None,
         };
         let stats = ParticleStats::allocate(gpu.stream())?;
@@ -364,11 +364,26 @@ impl CudaSolver {
             &state.particles.x,
             &mut state.grid.work_counts,
         )?;
-        // The fused pipeline's one_pass reads a bin-ordered state without `order`: every binning
-        // gathers it (`DeviceState::bin_order`).
-        k.bin_order.launch(l, state)?;
+        // The fused pipeline's one_pass reads a bin-ordered state without `order`, and the
+        // position-based passes read theirs in runs: every binning gathers it
+        // (`DeviceState::bin_order`).
+        let bias = self.pbmpm.as_ref().and_then(PbmpmBuffers::bias_and_spare);
+        if k.bin_order.launch(l, state, bias)? {
+            self.swap_particle_buffers();
+        }
         self.schedule.note_binning();
         Ok(())
+    }
+
+    /// Swaps in the spare particle buffers that the last binning gathered the particles into (the
+    /// position-based volume biases with them); nothing where particles stay in place.
+    fn swap_particle_buffers(&mut self) {
+        self.state.swap_particle_buffers();
+        if self.state.bin_order.is_some() {
+            if let Some(pbmpm) = &mut self.pbmpm {
+                pbmpm.swap_bias();
+            }
+        }
     }
 
     /// The binned and fused pipelines' scatter into a grid that holds none (`launch`: p2g_mass or
@@ -466,7 +481,7 @@ impl Solver for CudaSolver {
                 // What enqueue_substep's calls note on the host, for the work the graph replays.
                 if sort {
                     self.schedule.note_binning();
-                    self.state.swap_particle_buffers();
+                    self.swap_particle_buffers();
                 }
                 self.schedule.note_substep();
                 self.mass_scattered = graph.scattered();
@@ -657,7 +672,7 @@ impl Solver for CudaSolver {
     fn read_particles(&mut self) -> Result<Particles> {
         let mut particles = self.state.particles.download(&self.gpu)?;
         if let Some(pbmpm) = &self.pbmpm {
-            particles.volume_bias = pbmpm.download_bias(&self.gpu, particles.len())?;
+            particles.volume_bias = pbmpm.download_bias(&self.gpu, &self.state.particles)?;
         }
         Ok(particles)
     }
