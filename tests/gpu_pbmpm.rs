@@ -134,6 +134,12 @@ fn a_run_gives_the_same_bytes_twice() {
     );
 }
 
+/// `scene` on the GPU under `options`.
+fn simulation_with(scene: &mpm::sim::Scene, options: CudaOptions) -> Simulation {
+    let solver = CudaSolver::new(scene, options).expect("the CUDA solver");
+    Simulation::new(scene.clone(), Box::new(solver))
+}
+
 /// Position-based substeps replayed as CUDA graphs (the default) write the bytes of substeps
 /// launched kernel by kernel: water beside a jelly for 15 frames, the iterations changed live at
 /// frame 5 (a new capture) and back at frame 10 (a replay of the first capture), each frame's
@@ -143,12 +149,13 @@ fn graphed_substeps_match_launched_ones() {
     let start = scene.pbmpm.iterations;
     let mut runs = Vec::new();
     for graphs in [false, true] {
-        let options = CudaOptions {
-            graphs,
-            ..CudaOptions::default()
-        };
-        let solver = CudaSolver::new(&scene, options).expect("the CUDA solver");
-        let mut sim = Simulation::new(scene.clone(), Box::new(solver));
+        let mut sim = simulation_with(
+            &scene,
+            CudaOptions {
+                graphs,
+                ..CudaOptions::default()
+            },
+        );
         for frame in 0..15 {
             match frame {
                 5 => sim.set_iterations(start + 1).unwrap(),
@@ -183,12 +190,13 @@ fn particles_stored_in_bin_order_write_the_bytes_of_particles_in_place() {
     let scene = water_and_jelly();
     let mut runs = Vec::new();
     for bin_order in [false, true] {
-        let options = CudaOptions {
-            bin_order,
-            ..CudaOptions::default()
-        };
-        let solver = CudaSolver::new(&scene, options).expect("the CUDA solver");
-        let mut sim = Simulation::new(scene.clone(), Box::new(solver));
+        let mut sim = simulation_with(
+            &scene,
+            CudaOptions {
+                bin_order,
+                ..CudaOptions::default()
+            },
+        );
         for _ in 0..10 {
             sim.advance_frame().unwrap();
         }
