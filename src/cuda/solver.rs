@@ -379,10 +379,8 @@ impl CudaSolver {
     /// position-based volume biases with them); nothing where particles stay in place.
     fn swap_particle_buffers(&mut self) {
         self.state.swap_particle_buffers();
-        if self.state.bin_order.is_some() {
-            if let Some(pbmpm) = &mut self.pbmpm {
-                pbmpm.swap_bias();
-            }
+        if let Some(pbmpm) = &mut self.pbmpm {
+            pbmpm.swap_bias();
         }
     }
 
