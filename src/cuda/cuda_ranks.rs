@@ -28,8 +28,10 @@
 //! The phases are timed by CUDA events on rank 0's stream (timing.rs), each from the end of the one
 //! before, so an exchange includes any wait for a slower neighbour, and the sort phase the host's
 //! turn between substeps. The host waits for the ranks only where it must: for the stray counts
-//! before each substep, around a migration and `take_owned`, and on one GPU before each carry
-//! (a copy on the receiver's stream reads the sender's buffer).
+//! before each substep, around a migration and `take_owned`. The extremes come as one GPU's do,
+//! requested in stream order and awaited a stretch later (`Solver::request_extremes`); on one GPU a
+//! carry's copy waits for the sender's stream and the sender's next work for the copy, by stream
+//! order, not by the host.
 
 use super::gpu::CudaOptions;
 use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS, HALO_VELOCITY_WORDS, HALO_VOLUME_WORDS};
@@ -44,9 +46,11 @@ use crate::dist::nccl::{Comm, DataType, Nccl};
 use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
+use crate::sim::ExtremesTicket;
 use crate::sim::{Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary};
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
+use std::collections::VecDeque;
 
 pub struct CudaRanks {
     /// Before the solvers: NCCL's communicators go while their devices are still open.
@@ -63,6 +67,9 @@ pub struct CudaRanks {
     merged_stale: bool,
     /// Per rank: the strays its last g2p counted.
     strays: Vec<CudaSlice<u32>>,
+    /// The extremes requested and not yet waited for: each request's handle and every rank's ticket.
+    extremes: VecDeque<(usize, Vec<ExtremesTicket>)>,
+    extremes_requested: usize,
     /// Live particles per rank, as of the last substep.
     counts: Vec<usize>,
     /// Live particles in the run, all ranks together: what every migration must leave.
@@ -187,6 +194,8 @@ impl CudaRanks {
             merged,
             merged_stale: false,
             strays,
+            extremes: VecDeque::new(),
+            extremes_requested: 0,
             timing,
             substeps: 0,
             migrations: 0,
@@ -350,16 +359,25 @@ impl CudaRanks {
         let params = self.solvers[0].params;
         match &self.carrier {
             Carrier::DeviceCopy => {
-                self.wait_all()?; // every rank's packing
                 for link in links {
                     let (words, _) = link.words(what, &params);
                     let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
                     let src = from.send[link.side as usize].slice(..words);
                     let mut dst = to.recv[opposite(link.side) as usize].slice_mut(..words);
-                    self.solvers[link.neighbour]
-                        .stream()
+                    let (sender, receiver) = (
+                        self.solvers[link.rank].stream(),
+                        self.solvers[link.neighbour].stream(),
+                    );
+                    // The copy after the sender's packing; the sender's next packing after the copy.
+                    receiver
+                        .join(sender)
+                        .context("ordering a halo's copy after its packing")?;
+                    receiver
                         .memcpy_dtod(&src, &mut dst)
                         .context("carrying a halo between ranks")?;
+                    sender
+                        .join(receiver)
+                        .context("ordering a halo's packing after its copy")?;
                 }
                 Ok(())
             }
@@ -445,13 +463,20 @@ impl CudaRanks {
     }
 
     /// Moves the slabs if the counts are out of balance, then every live particle to the rank that
-    /// owns its block layer, on the device, checking that none was lost or held twice. `last_dt`:
-    /// the step of the substep whose scatter the grids hold, scattered again where the slabs moved.
+    /// owns its block layer, on the device, checking that each sender moved what its layer counts
+    /// said it held of the others' layers. `last_dt`: the step of the substep whose scatter the
+    /// grids hold, scattered again where the slabs moved.
     fn migrate(&mut self, last_dt: f32) -> Result<()> {
         let before = self.layer_counts()?;
         let per_layer: Vec<u64> = (0..self.slabs.blocks() as usize)
             .map(|layer| before.iter().map(|rank| rank[layer]).sum())
             .collect();
+        let live_before = per_layer.iter().sum::<u64>();
+        ensure!(
+            live_before == self.live,
+            "the ranks hold {live_before} live particles, the run {}: a migration lost or duplicated some",
+            self.live
+        );
         let moved_slabs = match self.slabs.rebalanced(&per_layer, self.walls)? {
             Some(balanced) => {
                 self.slabs = balanced;
@@ -459,9 +484,46 @@ impl CudaRanks {
             }
             None => false,
         };
-        self.wait_all()?;
-        let mut moved = 0;
-        // Each sender's GPU reads its own slots and writes only the moved ones to the receiver.
+        // What each rank holds in the layers each rank owns now (the layer counts waited for every
+        // rank: their streams are idle).
+        let ranks = self.solvers.len();
+        let layers_of =
+            |owner: usize| self.slabs.bounds[owner] as usize..self.slabs.bounds[owner + 1] as usize;
+        let held = |rank: usize, owner: usize| before[rank][layers_of(owner)].iter().sum::<u64>();
+        let others = |rank: usize| (0..ranks).filter(move |&other| other != rank);
+        let sends: Vec<u64> = (0..ranks)
+            .map(|from| others(from).map(|to| held(from, to)).sum())
+            .collect();
+        let receives: Vec<u64> = (0..ranks)
+            .map(|to| others(to).map(|from| held(from, to)).sum())
+            .collect();
+        let moved = sends.iter().sum::<u64>();
+        if moved > 0 {
+            self.move_owned(&sends)?;
+        }
+        for (rank, solver) in self.solvers.iter_mut().enumerate() {
+            self.counts[rank] = per_layer[layers_of(rank)].iter().sum::<u64>() as usize;
+            // A sender's bins still list the slots it parked, which its passes skip; a receiver's
+            // miss the slots it was given.
+            if receives[rank] > 0 {
+                solver.rebin_next();
+            }
+            // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
+            if moved_slabs {
+                solver.discard_scatter(last_dt)?;
+            }
+        }
+        self.migrated.sent += moved;
+        self.migrated.received += moved;
+        self.migrations += 1;
+        Ok(())
+    }
+
+    /// Every rank's live slots in the others' layers to their owners, each sender's GPU writing
+    /// them into the receivers' memory, then waited for (the receivers' next work reads them);
+    /// `sends`: what each rank's layer counts say it sends.
+    fn move_owned(&self, sends: &[u64]) -> Result<()> {
+        let mut counters = Vec::with_capacity(self.solvers.len());
         for (from, sender) in self.solvers.iter().enumerate() {
             let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
             let mut sent = sender
@@ -474,39 +536,17 @@ impl CudaRanks {
                 let slab = (self.slabs.axis, self.slabs.blocks(), layers);
                 k.move_owned(l, &sender.params, slab, &sender.state.particles, dest, &mut sent)?;
             }
-            moved += u64::from(sender.gpu.download(&sent)?[0]);
+            counters.push(sent);
         }
-        self.wait_all()?; // the receivers' slots, written from the senders' GPUs
-        let after = self.layer_counts()?;
-        let live = |counts: &[Vec<u64>]| counts.iter().flatten().sum::<u64>();
-        let migration = Migration {
-            sent: moved,
-            received: moved,
-            live_before: live(&before),
-            live_after: live(&after),
-        };
-        // A slot live on two ranks, or on none, changes the sum over the ranks.
-        ensure!(
-            migration.live_before == self.live && migration.live_after == self.live,
-            "a migration lost or duplicated particles: {} live before, {} after, {} in the run \
-             ({moved} moved)",
-            migration.live_before,
-            migration.live_after,
-            self.live
-        );
-        for (rank, solver) in self.solvers.iter_mut().enumerate() {
-            self.counts[rank] = after[rank].iter().sum::<u64>() as usize;
-            if moved > 0 {
-                solver.rebin_next();
-            }
-            // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
-            if moved_slabs {
-                solver.discard_scatter(last_dt)?;
-            }
+        self.wait_all()?;
+        for (rank, ((solver, sent), &expected)) in self.solvers.iter().zip(&counters).zip(sends).enumerate() {
+            let sent = u64::from(solver.gpu.download(sent)?[0]);
+            ensure!(
+                sent == expected,
+                "rank {rank} moved {sent} particles to the other ranks where its layer counts hold \
+                 {expected}: a migration lost or duplicated particles"
+            );
         }
-        self.migrated.sent += migration.sent;
-        self.migrated.received += migration.received;
-        self.migrations += 1;
         Ok(())
     }
 
@@ -682,9 +722,38 @@ impl Solver for CudaRanks {
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
+        let ticket = self.request_extremes()?;
+        self.wait_extremes(ticket)
+    }
+
+    /// Every rank's request, in stream order; nothing waits.
+    fn request_extremes(&mut self) -> Result<ExtremesTicket> {
+        let tickets = self
+            .solvers
+            .iter_mut()
+            .map(|solver| solver.request_extremes())
+            .collect::<Result<Vec<_>>>()?;
+        self.extremes_requested += 1;
+        let handle = self.extremes_requested;
+        self.extremes.push_back((handle, tickets));
+        Ok(ExtremesTicket::Pending(handle))
+    }
+
+    /// Every rank's extremes of that request, merged; each rank's wait is for its own copy only.
+    fn wait_extremes(&mut self, ticket: ExtremesTicket) -> Result<StepExtremes> {
+        let handle = match ticket {
+            ExtremesTicket::Ready(extremes) => return Ok(extremes),
+            ExtremesTicket::Pending(handle) => handle,
+        };
+        let at = self
+            .extremes
+            .iter()
+            .position(|&(pending, _)| pending == handle)
+            .context("the ranks' extremes awaited twice, or never requested")?;
+        let (_, tickets) = self.extremes.remove(at).context("no pending extremes")?;
         let mut all = StepExtremes::default();
-        for solver in &mut self.solvers {
-            all.merge(&solver.take_extremes()?);
+        for (solver, ticket) in self.solvers.iter_mut().zip(tickets) {
+            all.merge(&solver.wait_extremes(ticket)?);
         }
         Ok(all)
     }
