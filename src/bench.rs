@@ -64,6 +64,9 @@ pub struct PhaseBenchOptions {
     pub steps: usize,
     /// Threads per block of the CUDA kernels; `None`: the environment's or the default.
     pub block_size: Option<u32>,
+    /// One substep in this many times its phases on the GPU (`CudaOptions::phase_sample`); `None`:
+    /// the environment's (`MPM_PHASE_SAMPLE`) or the default.
+    pub phase_sample: Option<u32>,
     /// Overrides the scene's scatter mode.
     pub scatter: Option<ScatterMode>,
     /// Overrides the scene's GPU pipeline.
@@ -83,6 +86,7 @@ impl Default for PhaseBenchOptions {
             warmup_steps: 200,
             steps: 1000,
             block_size: None,
+            phase_sample: None,
             scatter: None,
             pipeline: None,
             ranks: None,
@@ -122,6 +126,9 @@ pub struct PhaseReport {
     pub block_size: Option<u32>,
     pub warmup_steps: usize,
     pub steps: usize,
+    /// Of `steps`, those that timed their phases: the phase rows are theirs, the total every
+    /// substep's (the CUDA backend times the phases of one substep in `MPM_PHASE_SAMPLE`).
+    pub phased_steps: usize,
     /// The substep range over the measured steps, s.
     pub dt_min: f32,
     pub dt_max: f32,
@@ -193,11 +200,14 @@ fn phase_rows(
     floor: Option<&dyn Fn(Phase) -> f64>,
     peak_gbs: f64,
 ) -> (Vec<PhaseRow>, PhaseRow) {
+    // The phases of the substeps that timed them (the CUDA backend samples them, timing.rs); the
+    // total of every substep.
+    let phased: Vec<&PhaseTimings> = samples.iter().filter(|t| t.phased() > 0).collect();
     let rows = Phase::ALL
         .into_iter()
-        .filter(|phase| !phase.is_exchange() || samples.iter().any(|t| t[*phase] > 0.0))
+        .filter(|phase| !phase.is_exchange() || phased.iter().any(|t| t[*phase] > 0.0))
         .map(|phase| {
-            let values = samples.iter().map(|t| t[phase]).collect();
+            let values = phased.iter().map(|t| t[phase]).collect();
             row(
                 phase.name(),
                 label(phase),
@@ -223,6 +233,9 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
             let mut cuda = CudaOptions::from_env()?;
             if let Some(block) = options.block_size {
                 cuda.block_size = block;
+            }
+            if let Some(sample) = options.phase_sample {
+                cuda.phase_sample = sample;
             }
             if scene.ranks > 1 {
                 CudaRanks::check_gpus(scene)?;
@@ -382,6 +395,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         },
         warmup_steps: options.warmup_steps,
         steps: samples.len(),
+        phased_steps: samples.iter().filter(|t| t.phased() > 0).count(),
         dt_min,
         dt_max,
         sim_time_start: sim_time_start.unwrap_or(0.0),
@@ -435,6 +449,17 @@ pub fn phase_table(report: &PhaseReport) -> String {
         "\nState: {}; substep {:.3e} to {:.3e} s; simulated time {:.3} to {:.3} s.\n",
         report.state, report.dt_min, report.dt_max, report.sim_time_start, report.sim_time_end
     );
+    if report.phased_steps < report.steps {
+        let _ = writeln!(
+            out,
+            "Phases timed on {} of the {} substeps (one in MPM_PHASE_SAMPLE, {} by default: each \
+             timing event lengthens the substep; MPM_PHASE_SAMPLE=1 times every one); the total \
+             row is every substep's.\n",
+            report.phased_steps,
+            report.steps,
+            cuda::PHASE_SAMPLE
+        );
+    }
     if let Some(wall) = report.wall_ms_per_substep {
         let _ = writeln!(
             out,

@@ -855,6 +855,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             warmup_steps: steps(args.warmup, "warmup")?,
             steps: steps(args.steps, "steps")?,
             block_size: args.block_size,
+            phase_sample: None,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
             ranks: args.solver.ranks(),

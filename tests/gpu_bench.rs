@@ -17,15 +17,17 @@ fn main() -> std::process::ExitCode {
 }
 
 fn bench_code_measures_every_gpu_phase() {
+    // Every substep's phases: 50 substeps hold few of one in 7, and perhaps no binning among them.
     let options = PhaseBenchOptions {
         warmup_steps: 10,
         steps: 50,
+        phase_sample: Some(1),
         ..PhaseBenchOptions::default()
     };
     let scene = Scene::load("bench-65k").expect("preset");
     let report = bench::phase_bench(&scene, &options).expect("phase bench");
     println!("{}", bench::phase_table(&report));
-    assert_eq!(report.steps, 50);
+    assert_eq!((report.steps, report.phased_steps), (50, 50));
     // One GPU: no exchanges between ranks, so no rows for them.
     let phases: Vec<Phase> = Phase::ALL.into_iter().filter(|p| !p.is_exchange()).collect();
     assert_eq!(report.rows.len(), phases.len());
@@ -52,6 +54,27 @@ fn bench_code_measures_every_gpu_phase() {
         "{}",
         pass.label
     );
+
+    // By default the phases of a sample: their rows from those substeps, the total from all of them.
+    let sampled = PhaseBenchOptions {
+        phase_sample: None,
+        ..options
+    };
+    let report = bench::phase_bench(&scene, &sampled).expect("phase bench");
+    let expected = 50usize.div_ceil(mpm::cuda::PHASE_SAMPLE as usize);
+    assert!(
+        report.phased_steps.abs_diff(expected) <= 1,
+        "{} of 50 substeps timed their phases, one in {} expected",
+        report.phased_steps,
+        mpm::cuda::PHASE_SAMPLE
+    );
+    let update = report
+        .rows
+        .iter()
+        .find(|r| r.phase == Phase::GridUpdate.name())
+        .unwrap();
+    assert!(update.median_ms > 0.0 && report.total.median_ms > update.median_ms);
+    println!("{}", bench::phase_table(&report));
 
     let sweep = bench::scaling_sweep(&[65_536], 20, &options).expect("sweep");
     println!("{}", bench::sweep_table(&sweep));

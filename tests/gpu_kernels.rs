@@ -853,6 +853,15 @@ fn phase_timings_are_measured() {
         let timings = gpu.take_timings().unwrap().expect("CUDA measures timings");
         println!("{pipeline:?}: {timings:?}");
         assert_eq!(timings.steps, 10);
+        // Substeps 0, 7, ... time their phases (one in mpm::cuda::PHASE_SAMPLE), the rest only whole.
+        let phased = 10usize.div_ceil(mpm::cuda::PHASE_SAMPLE as usize);
+        assert_eq!(
+            timings.phased() as usize,
+            phased,
+            "the phases of one substep in {}",
+            mpm::cuda::PHASE_SAMPLE
+        );
+        assert!(timings.unphased_ms > 0.0, "the substeps timed whole are measured");
         for phase in Phase::ALL {
             match phase {
                 Phase::GridClear => assert_eq!(timings[phase], 0.0, "the grid update clears the grid"),
@@ -1034,25 +1043,39 @@ fn graphed_substeps_match_launched_ones() {
             };
             let mut snapshots = Vec::new();
             let mut timed = 0;
+            let mut phased = 0;
             let mut gpu = varying_run(&scene, options, STEPS, (20, 5), |gpu, step, _| {
                 if step % 5 == 0 {
                     let timings = gpu.take_timings().unwrap().expect("CUDA measures timings");
                     for phase in [Phase::P2g, Phase::GridUpdate, Phase::G2p] {
-                        // The fused pipeline's p2g has no work and no timing event.
-                        let empty = phase == Phase::P2g && pipeline == Pipeline::Fused;
+                        // The fused pipeline's p2g has no work and no timing event; a stretch
+                        // without a sampled substep times no phase.
+                        let empty =
+                            (phase == Phase::P2g && pipeline == Pipeline::Fused) || timings.phased() == 0;
                         assert_eq!(timings[phase] > 0.0, !empty, "{phase:?} measured");
                     }
+                    assert!(timings.steps == 0 || timings.total() > 0.0, "every substep timed");
                     timed += timings.steps;
+                    phased += timings.phased();
                 }
                 if step % 100 == 0 {
                     snapshots.push(common::particle_bits(&gpu.read_particles().unwrap()));
                 }
             });
             gpu.take_extremes().unwrap();
-            timed += gpu.take_timings().unwrap().expect("timings").steps;
+            let last = gpu.take_timings().unwrap().expect("timings");
+            timed += last.steps;
+            phased += last.phased();
             assert_eq!(
                 timed as usize, STEPS,
                 "{pipeline:?}, graphs {graphs}: a timing record per substep"
+            );
+            // Substeps 0, 7, 14, ... time their phases, graphed or not.
+            assert_eq!(
+                phased as usize,
+                STEPS.div_ceil(mpm::cuda::PHASE_SAMPLE as usize),
+                "{pipeline:?}, graphs {graphs}: the phases of one substep in {}",
+                mpm::cuda::PHASE_SAMPLE
             );
             println!("{pipeline:?}, graphs {graphs}: {} binnings", gpu.binnings());
             runs.push((gpu.binnings(), snapshots));

@@ -182,7 +182,8 @@ impl CudaRanks {
         } else {
             Carrier::DeviceCopy
         };
-        let timing = PhaseEvents::new(solvers[0].gpu.ctx.clone());
+        // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
+        let timing = PhaseEvents::new(solvers[0].gpu.ctx.clone(), 1);
         Ok(CudaRanks {
             carrier,
             solvers,

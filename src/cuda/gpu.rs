@@ -31,6 +31,9 @@ pub struct CudaOptions {
     pub bin_order: bool,
     /// How one_pass's float scatter sums its runs (one_pass.rs).
     pub float_scatter: FloatScatter,
+    /// One substep in this many times its phases by CUDA events, the others only whole (timing.rs):
+    /// each event is a node on the substep's critical path. 1 times every substep's.
+    pub phase_sample: u32,
 }
 
 /// How the float scatter sums a warp's runs of particles (kernels/one_pass.cu's `Scatter`):
@@ -61,6 +64,12 @@ impl FloatScatter {
     }
 }
 
+/// The substeps of which one times its phases by default (`CudaOptions::phase_sample`): on the H200
+/// the events of the others took bench-65k's substep 4.8 % (BENCHMARKS.md M19, one in 8). Odd, so
+/// that the sampled substeps fall on each place of the rebin cadence (16 substeps) in turn: one in
+/// 8 would time a binning in every other sample.
+pub const PHASE_SAMPLE: u32 = 7;
+
 impl Default for CudaOptions {
     fn default() -> Self {
         CudaOptions {
@@ -69,13 +78,14 @@ impl Default for CudaOptions {
             graphs: true,
             bin_order: true,
             float_scatter: FloatScatter::BySize,
+            phase_sample: PHASE_SAMPLE,
         }
     }
 }
 
 impl CudaOptions {
     /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE`, `MPM_CUDA_GRAPHS`,
-    /// `MPM_BIN_ORDER` and `MPM_FLOAT_SCATTER` where set.
+    /// `MPM_BIN_ORDER`, `MPM_FLOAT_SCATTER` and `MPM_PHASE_SAMPLE` where set.
     pub fn from_env() -> Result<CudaOptions> {
         let mut options = CudaOptions::default();
         if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
@@ -108,6 +118,14 @@ impl CudaOptions {
         }
         if let Ok(text) = std::env::var("MPM_FLOAT_SCATTER") {
             options.float_scatter = FloatScatter::parse(&text)?;
+        }
+        if let Ok(text) = std::env::var("MPM_PHASE_SAMPLE") {
+            options.phase_sample = text.trim().parse().ok().filter(|&n| n >= 1).ok_or_else(|| {
+                anyhow!(
+                    "MPM_PHASE_SAMPLE={text:?}: use a whole number from 1 (every substep's phases \
+                     timed) up; the default, {PHASE_SAMPLE}, times one substep's in {PHASE_SAMPLE}"
+                )
+            })?;
         }
         options.validate()?;
         Ok(options)

@@ -11,7 +11,7 @@
 //! (`cuGraphExecUpdate`: the same kernels in the same order, other arguments, about 12 us in all),
 //! and is instantiated afresh only where there is none or the driver refuses the update. The timing
 //! events are external event-record nodes, pointed at a fresh set of events before each launch, so
-//! every substep keeps its per-phase CUDA-event timings.
+//! every substep keeps its CUDA-event timing (its phases' in the substeps that sample them).
 
 use super::solver::Scattered;
 use super::timing::Recorded;
@@ -21,9 +21,10 @@ use cudarc::driver::{sys, CudaEvent, CudaStream};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-/// Graphs kept: the current stretch's four (with and without the sort, from either set of particle
-/// buffers where the particles are kept in bin order) and the previous stretch's.
-const CACHED_GRAPHS: usize = 8;
+/// Graphs kept: the current stretch's eight (with and without the sort, from either set of particle
+/// buffers where the particles are kept in bin order, with and without the phases' timing events)
+/// and the previous stretch's.
+const CACHED_GRAPHS: usize = 16;
 
 /// What decides the work a substep enqueues; equal keys enqueue identical work.
 #[derive(Clone, Copy)]
@@ -40,6 +41,8 @@ pub struct SubstepKey {
     /// The position-based substep's constraint iterations (the viewer's slider sets them); `None`
     /// for the explicit substep.
     pub iterations: Option<u32>,
+    /// Whether the substep times its phases, or only its start and end (timing.rs).
+    pub phases_timed: bool,
 }
 
 impl PartialEq for SubstepKey {
@@ -51,6 +54,7 @@ impl PartialEq for SubstepKey {
             && self.colliders == other.colliders
             && self.particle_buffers == other.particle_buffers
             && self.iterations == other.iterations
+            && self.phases_timed == other.phases_timed
     }
 }
 
@@ -292,14 +296,16 @@ impl SubstepGraphs {
     }
 
     /// Takes out the most recently used graph that enqueued what a substep of `key` would but for
-    /// its parameters' values (the same sort, scatter mode, collider count, particle buffers and
-    /// iterations): the one whose executable a capture for `key` is likeliest to update in place.
+    /// its parameters' values (the same sort, scatter mode, collider count, particle buffers,
+    /// iterations and timed phases): the one whose executable a capture for `key` is likeliest to
+    /// update in place.
     pub fn take_alike(&mut self, key: &SubstepKey) -> Option<SubstepGraph> {
         let at = self.entries.iter().rposition(|(k, _)| {
             k.sort == key.sort
                 && k.colliders == key.colliders
                 && k.particle_buffers == key.particle_buffers
                 && k.iterations == key.iterations
+                && k.phases_timed == key.phases_timed
                 && k.mass_scattered.map(|s| s.mode) == key.mass_scattered.map(|s| s.mode)
         })?;
         self.entries.remove(at).map(|(_, graph)| graph)

@@ -76,7 +76,7 @@ mod setup;
 pub mod solver;
 
 pub use cuda_ranks::CudaRanks;
-pub use gpu::{CudaOptions, FloatScatter};
+pub use gpu::{CudaOptions, FloatScatter, PHASE_SAMPLE};
 pub use grid::{BYTES_PER_NODE, FIXED_BYTES_PER_NODE};
 pub use launch::NvtxRange;
 pub use modules::Origin as ModuleOrigin;

@@ -61,6 +61,7 @@ impl CudaSolver {
 
         let _range = NvtxRange::new(Phase::G2p.name());
         pbmpm.integrate(&k.pbmpm, l, &params, d)?;
-        self.timing.end_phase(&stream, Phase::G2p, true)
+        self.timing.end_phase(&stream, Phase::G2p, true)?;
+        self.timing.end_step(&stream)
     }
 }

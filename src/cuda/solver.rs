@@ -132,7 +132,7 @@ impl CudaSolver {
             None => sort_interval(state.bin_order.is_some()),
         };
         let mut solver = CudaSolver {
-            timing: PhaseEvents::new(gpu.ctx.clone()),
+            timing: PhaseEvents::new(gpu.ctx.clone(), options.phase_sample),
             gpu,
             kernels,
             state,
@@ -232,7 +232,7 @@ impl CudaSolver {
             let ran = self.run_phase(phase, sort)?;
             self.timing.end_phase(&stream, phase, ran)?;
         }
-        Ok(())
+        self.timing.end_step(&stream)
     }
 
     /// The launches of `phase` in this solver's pipeline (pipelines.rs), in stream order; `sort` is
@@ -473,6 +473,7 @@ impl Solver for CudaSolver {
             colliders: self.state.colliders.count,
             particle_buffers: self.state.particle_buffers(),
             iterations: self.pbmpm.as_ref().map(|p| p.settings.iterations),
+            phases_timed: self.timing.phases_next(),
         };
         let graph = match self.graphs.take(&key) {
             Some(graph) => {

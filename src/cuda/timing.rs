@@ -10,6 +10,12 @@
 //! A substep run as a CUDA graph (graph.rs) records the same events: its capture records a set of
 //! placeholder events as external event-record nodes, and each launch points those nodes at a fresh
 //! set from here (`begin_graphed_step`).
+//!
+//! **Sampled phases.** Each event recorded is a node on the substep's critical path, so a solver
+//! may time the phases of one substep in `sample` only (`CudaOptions::phase_sample`): the others
+//! record their start and their end alone and read as one whole substep
+//! (`PhaseTimings::unphased_ms`), so every substep's time is still measured and the phase table
+//! comes from the sampled ones.
 
 use crate::sim::{Phase, PhaseTimings, MAX_PENDING_STEP_TIMINGS};
 use anyhow::{anyhow, Context, Result};
@@ -42,12 +48,16 @@ fn timed_phases() -> impl Iterator<Item = (Phase, usize)> {
 
 type StepEvents = [CudaEvent; EVENTS_PER_STEP];
 
+/// The slot of the event at a substep's end: the last phase's.
+const END: usize = EVENTS_PER_STEP - 1;
+
 /// Which of a substep's events were recorded (its start always is).
 pub type Recorded = [bool; EVENTS_PER_STEP];
 
 pub struct PhaseEvents {
     ctx: Arc<CudaContext>,
-    pending: VecDeque<(StepEvents, Recorded)>,
+    /// Each substep's events, which of them it recorded, and whether it timed its phases.
+    pending: VecDeque<(StepEvents, Recorded, bool)>,
     /// Events of read substeps, for reuse (creating events costs more than recording them).
     free: Vec<StepEvents>,
     /// The events a graph capture records (kept for the solver's life: the captured graphs name them),
@@ -55,10 +65,16 @@ pub struct PhaseEvents {
     placeholders: Option<StepEvents>,
     capturing: bool,
     captured: Recorded,
+    /// One substep in `sample` times its phases; substeps begun so far (a capture begins none); and
+    /// whether the substep being enqueued times its phases.
+    sample: u64,
+    begun: u64,
+    phased: bool,
 }
 
 impl PhaseEvents {
-    pub fn new(ctx: Arc<CudaContext>) -> PhaseEvents {
+    /// Events that time the phases of one substep in `sample` (every substep's for 1 or 0).
+    pub fn new(ctx: Arc<CudaContext>, sample: u32) -> PhaseEvents {
         PhaseEvents {
             ctx,
             pending: VecDeque::new(),
@@ -66,7 +82,15 @@ impl PhaseEvents {
             placeholders: None,
             capturing: false,
             captured: [false; EVENTS_PER_STEP],
+            sample: u64::from(sample.max(1)),
+            begun: 0,
+            phased: true,
         }
+    }
+
+    /// Whether the next substep begun times its phases (a graph key holds it: graph.rs).
+    pub fn phases_next(&self) -> bool {
+        self.begun % self.sample == 0
     }
 
     fn new_set(&mut self) -> Result<StepEvents> {
@@ -88,29 +112,43 @@ impl PhaseEvents {
         if self.pending.len() >= MAX_PENDING_STEP_TIMINGS {
             self.pending.pop_front();
         }
-        self.pending.push_back((events, recorded));
+        self.phased = self.phases_next();
+        self.begun += 1;
+        self.pending.push_back((events, recorded, self.phased));
     }
 
-    /// Records the substep's start (outside a capture, on a fresh set of events).
+    /// Records the substep's start (outside a capture, on a fresh set of events; a capture's
+    /// substep times its phases where the next substep begun would).
     pub fn begin_step(&mut self, stream: &CudaStream) -> Result<()> {
-        if !self.capturing {
+        if self.capturing {
+            self.phased = self.phases_next();
+        } else {
             let events = self.new_set()?;
             self.push_pending(events, [false; EVENTS_PER_STEP]);
         }
         self.record(stream, 0)
     }
 
-    /// Records the end of `phase`, where it `ran` any work this substep; a phase that did not takes
-    /// no event and reads 0.
+    /// Records the end of `phase`, where it `ran` any work this substep and the substep times its
+    /// phases; a phase that did not run takes no event and reads 0.
     pub fn end_phase(&mut self, stream: &CudaStream, phase: Phase, ran: bool) -> Result<()> {
         let slot = timed_phases()
             .find(|&(timed, _)| timed == phase)
             .map(|(_, slot)| slot)
             .with_context(|| format!("the GPU runs no phase {}", phase.name()))?;
-        if ran {
+        if ran && self.phased {
             self.record(stream, slot)?;
         }
         Ok(())
+    }
+
+    /// Records the end of a substep that does not time its phases (one that does ended with its
+    /// last phase).
+    pub fn end_step(&mut self, stream: &CudaStream) -> Result<()> {
+        match self.phased {
+            true => Ok(()),
+            false => self.record(stream, END),
+        }
     }
 
     fn record(&mut self, stream: &CudaStream, slot: usize) -> Result<()> {
@@ -122,7 +160,7 @@ impl PhaseEvents {
             self.captured[slot] = true;
             return record_external(&placeholders[slot], stream);
         }
-        let (events, recorded) = self
+        let (events, recorded, _) = self
             .pending
             .back_mut()
             .context("a phase ended before its substep began")?;
@@ -155,14 +193,14 @@ impl PhaseEvents {
     pub fn begin_graphed_step(&mut self, recorded: Recorded) -> Result<&[CudaEvent]> {
         let events = self.new_set()?;
         self.push_pending(events, recorded);
-        let (events, _) = self.pending.back().context("no pending timing events")?;
+        let (events, _, _) = self.pending.back().context("no pending timing events")?;
         Ok(events)
     }
 
     /// The per-phase times of every substep whose events have all completed, oldest first.
     pub fn take_completed(&mut self) -> Result<Vec<PhaseTimings>> {
         let mut records = Vec::new();
-        while let Some((events, recorded)) = self.pending.front() {
+        while let Some((events, recorded, phased)) = self.pending.front() {
             let last = (0..EVENTS_PER_STEP)
                 .rev()
                 .find(|&slot| recorded[slot])
@@ -173,20 +211,26 @@ impl PhaseEvents {
             {
                 break;
             }
-            let mut record = PhaseTimings::one_step();
-            let mut since = 0;
-            for (phase, end) in timed_phases() {
-                if !recorded[end] {
-                    continue;
+            let elapsed = |from: usize, to: usize| {
+                events[from]
+                    .elapsed_ms(&events[to])
+                    .map(f64::from)
+                    .context("reading a timing event")
+            };
+            let record = match *phased {
+                true => {
+                    let mut record = PhaseTimings::one_step();
+                    let mut since = 0;
+                    for (phase, end) in timed_phases().filter(|&(_, end)| recorded[end]) {
+                        record[phase] = elapsed(since, end)?;
+                        since = end;
+                    }
+                    record
                 }
-                let ms = events[since]
-                    .elapsed_ms(&events[end])
-                    .context("reading a timing event")?;
-                record[phase] = f64::from(ms);
-                since = end;
-            }
+                false => PhaseTimings::one_unphased_step(elapsed(0, last)?),
+            };
             records.push(record);
-            if let Some((done, _)) = self.pending.pop_front() {
+            if let Some((done, _, _)) = self.pending.pop_front() {
                 self.free.push(done);
             }
         }

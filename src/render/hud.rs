@@ -225,11 +225,22 @@ fn stats(ui: &mut egui::Ui, info: &HudInfo) {
         }
         row("transfer", info.transfer.to_string());
         if let Some(t) = &info.timings {
-            // One completed 60 Hz frame; a phase this backend does not run (0 ms) has no row.
+            // One completed 60 Hz frame; a phase this backend does not run (0 ms) has no row. Where
+            // the backend timed the phases of some substeps only (CUDA: one in 7), their times are
+            // scaled to the frame's substeps.
             row("last 60 Hz frame", format!("{} substeps", t.steps));
+            let phased = t.phased();
+            if phased > 0 && phased < t.steps {
+                row("phases of", format!("{phased} substeps, scaled to {}", t.steps));
+            }
+            let scale = if phased > 0 {
+                f64::from(t.steps) / f64::from(phased)
+            } else {
+                0.0
+            };
             for (phase, ms) in t.iter() {
                 if ms > 0.0 {
-                    row(phase.name(), format!("{ms:.3} ms"));
+                    row(phase.name(), format!("{:.3} ms", ms * scale));
                 }
             }
             row("step total", format!("{:.3} ms", t.total()));

@@ -141,10 +141,15 @@ pub struct Traffic {
 /// Time per phase, summed over `steps` substeps, in milliseconds. The one record of timings that the
 /// runner, the viewer's HUD and the benches read. The CPU measures with a host clock (its phases are
 /// synchronous, [`PhaseClock`]); the CUDA backend with events. A phase a backend does not run stays 0.
+/// Of the `steps`, `unphased` were timed whole, without their phases (the CUDA backend times the
+/// phases of a sample of its substeps, src/cuda/timing.rs): their time is `unphased_ms`, and the
+/// phases' times are the other substeps'.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PhaseTimings {
     pub steps: u32,
     ms: [f64; Phase::COUNT],
+    pub unphased: u32,
+    pub unphased_ms: f64,
 }
 
 impl Index<Phase> for PhaseTimings {
@@ -169,11 +174,28 @@ impl PhaseTimings {
         }
     }
 
+    /// A record of one substep timed whole: `ms` from its start to its end.
+    pub fn one_unphased_step(ms: f64) -> PhaseTimings {
+        PhaseTimings {
+            steps: 1,
+            unphased: 1,
+            unphased_ms: ms,
+            ..PhaseTimings::default()
+        }
+    }
+
     pub fn accumulate(&mut self, other: &PhaseTimings) {
         self.steps += other.steps;
         for phase in Phase::ALL {
             self[phase] += other[phase];
         }
+        self.unphased += other.unphased;
+        self.unphased_ms += other.unphased_ms;
+    }
+
+    /// The substeps whose phases were timed (those the phases' times are of).
+    pub fn phased(&self) -> u32 {
+        self.steps - self.unphased
     }
 
     /// Each phase with its time, in step order.
@@ -181,8 +203,9 @@ impl PhaseTimings {
         Phase::ALL.into_iter().map(|phase| (phase, self[phase]))
     }
 
+    /// Every substep's time, phased or not.
     pub fn total(&self) -> f64 {
-        self.ms.iter().sum()
+        self.ms.iter().sum::<f64>() + self.unphased_ms
     }
 
     /// Milliseconds per substep of the whole step.
@@ -204,14 +227,18 @@ impl PhaseTimings {
     }
 }
 
-/// `{"steps": n, "grid_clear": ms, "sort": ms, ...}`: the phases' names as keys, in step order.
+/// `{"steps": n, "grid_clear": ms, "sort": ms, ..., "unphased_steps": k, "unphased_ms": ms}`: the
+/// phases' names as keys, in step order, then the substeps timed whole (their phases' times are
+/// those of the other n - k).
 impl Serialize for PhaseTimings {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut record = serializer.serialize_struct("PhaseTimings", 1 + Phase::COUNT)?;
+        let mut record = serializer.serialize_struct("PhaseTimings", 3 + Phase::COUNT)?;
         record.serialize_field("steps", &self.steps)?;
         for (phase, ms) in self.iter() {
             record.serialize_field(phase.name(), &ms)?;
         }
+        record.serialize_field("unphased_steps", &self.unphased)?;
+        record.serialize_field("unphased_ms", &self.unphased_ms)?;
         record.end()
     }
 }
@@ -260,13 +287,29 @@ mod tests {
     }
 
     #[test]
+    fn substeps_timed_whole_count_in_the_total_not_in_the_phases() {
+        let mut phased = PhaseTimings::one_step();
+        phased[Phase::G2p] = 2.0;
+        phased[Phase::GridUpdate] = 0.5;
+        let sum = PhaseTimings::sum(&[
+            phased,
+            PhaseTimings::one_unphased_step(2.25),
+            PhaseTimings::one_unphased_step(2.5),
+        ]);
+        assert_eq!((sum.steps, sum.phased(), sum.unphased), (3, 1, 2));
+        assert_eq!(sum[Phase::G2p], 2.0);
+        assert_eq!(sum.total(), 7.25);
+        assert_eq!(sum.per_step(), 7.25 / 3.0);
+    }
+
+    #[test]
     fn timings_serialise_with_the_phase_names_as_keys() {
         let mut t = PhaseTimings::one_step();
         t[Phase::P2g] = 1.5;
         let json = serde_json::to_string(&t).unwrap();
         assert_eq!(
             json,
-            r#"{"steps":1,"grid_clear":0.0,"sort":0.0,"p2g_init":0.0,"p2g":1.5,"halo_sum":0.0,"grid_update":0.0,"halo_fill":0.0,"g2p":0.0}"#
+            r#"{"steps":1,"grid_clear":0.0,"sort":0.0,"p2g_init":0.0,"p2g":1.5,"halo_sum":0.0,"grid_update":0.0,"halo_fill":0.0,"g2p":0.0,"unphased_steps":0,"unphased_ms":0.0}"#
         );
     }
 }
