@@ -1,6 +1,6 @@
-// ranks: what `CudaRanks` (src/cuda/ranks.rs) does to particles across ranks: find those about to
-// leave their rank's reach, count them per block layer for the balance, move them to their new
-// owner, and take every rank's own slots into one set of particles.
+// ranks: what `CudaRanks` (src/cuda/cuda_ranks.rs) does to particles across ranks: find those about
+// to leave their rank's reach, count them per block layer for the balance, append them to their new
+// owner's particles, and take every rank's own particles to their slots in one set.
 #include "tiles.cuh"
 
 // The stencil base node of `xp` along `axis`, rounded as `dist::migrate::base` (no fused
@@ -15,12 +15,12 @@ __device__ __forceinline__ u32 block_layer(int base, u32 layers) {
     return min((u32)max(base, 0) / NODE_BLOCK_EDGE, layers - 1u);
 }
 
-// Counts the live particles whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
+// Counts the live particles of the first `places` whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
 // that one more substep could carry past the rank's ghost planes (`Slabs::keeps`), so the ranks
 // migrate first.
-extern "C" __global__ void count_strays(const KernelParams params, const u32 axis, const int keep_lo, const int keep_hi,
-                                        const float4* __restrict__ x, u32* __restrict__ strays) {
-    FOR_EACH_INDEX(p, params.num_particles) {
+extern "C" __global__ void count_strays(const KernelParams params, const u32 places, const u32 axis, const int keep_lo,
+                                        const int keep_hi, const float4* __restrict__ x, u32* __restrict__ strays) {
+    FOR_EACH_INDEX(p, places) {
         const float4 xp = x[p];
         if (is_parked(xp)) continue;
         const int base = stencil_base_along(params, axis, xp);
@@ -28,15 +28,15 @@ extern "C" __global__ void count_strays(const KernelParams params, const u32 axi
     }
 }
 
-// Adds one rank's live particles per block layer along `axis` to `counts` (`layers` of them, as
+// Adds the live particles of one rank's first `places` per block layer along `axis` to `counts` (`layers` of them, as
 // `dist::migrate::layer_counts` counts): a histogram in shared memory (`layers` u32), then one
 // atomic per layer and CUDA block.
-extern "C" __global__ void count_layers(const KernelParams params, const u32 axis, const u32 layers,
+extern "C" __global__ void count_layers(const KernelParams params, const u32 places, const u32 axis, const u32 layers,
                                         const float4* __restrict__ x, u32* __restrict__ counts) {
     extern __shared__ u32 histogram[];
     for (u32 k = threadIdx.x; k < layers; k += blockDim.x) histogram[k] = 0u;
     __syncthreads();
-    FOR_EACH_INDEX(p, params.num_particles) {
+    FOR_EACH_INDEX(p, places) {
         const float4 xp = x[p];
         if (!is_parked(xp)) atomicAdd(&histogram[block_layer(stencil_base_along(params, axis, xp), layers)], 1u);
     }
@@ -46,42 +46,53 @@ extern "C" __global__ void count_layers(const KernelParams params, const u32 axi
     }
 }
 
-// Migration on one device: every slot live on rank `from` whose block layer lies in
-// first_layer..end_layer (rank `to`'s slab) is copied to `to` live and parked on `from`; `moved`
-// counts them. Both ranks hold every slot, so indices stay as they are.
+// Migration: every particle live on the sending rank's first `from_end` places (its places in use;
+// other senders may be appending past them) whose block layer lies in first_layer..end_layer (the
+// receiving rank's slab) is appended to the receiver's
+// places to_first..to_end (the tail the host reserved for this sender, from the layer counts) and
+// parked on the sender; `moved` counts them. A particle the reserved places cannot hold stays where it
+// is: the host finds `moved` past its count and stops the run. The order within a sender's run of
+// places is the atomics'; the receiver's next binning sorts them.
 extern "C" __global__ void move_owned(const KernelParams params, const u32 axis, const u32 layers, const u32 first_layer,
-                                      const u32 end_layer, float4* __restrict__ from_x,
+                                      const u32 end_layer, const u32 from_end, float4* __restrict__ from_x,
                                       const float4* __restrict__ from_v, const float4* __restrict__ from_c,
-                                      const float* __restrict__ from_rho, float4* __restrict__ to_x,
-                                      float4* __restrict__ to_v, float4* __restrict__ to_c,
-                                      float* __restrict__ to_rho, u32* __restrict__ moved) {
+                                      const float* __restrict__ from_rho, const u32* __restrict__ from_slot,
+                                      const u32 to_count, const u32 to_first, const u32 to_end,
+                                      float4* __restrict__ to_x, float4* __restrict__ to_v,
+                                      float4* __restrict__ to_c, float* __restrict__ to_rho,
+                                      u32* __restrict__ to_slot, u32* __restrict__ moved) {
     const u32 n = params.num_particles;
-    FOR_EACH_INDEX(p, n) {
+    FOR_EACH_INDEX(p, from_end) {
         const float4 xp = from_x[p];
         if (is_parked(xp)) continue;
         const u32 layer = block_layer(stencil_base_along(params, axis, xp), layers);
         if (layer < first_layer || layer >= end_layer) continue;
-        to_x[p] = make_float4(xp.x, xp.y, xp.z, 0.0f);
-        to_v[p] = from_v[p];
-        for (u32 col = 0; col < 3u; ++col) to_c[(size_t)col * n + p] = from_c[(size_t)col * n + p];
-        to_rho[p] = from_rho[p];
+        const u32 q = to_first + atomicAdd(moved, 1u);
+        if (q >= to_end) continue;
+        to_x[q] = xp;
+        to_v[q] = from_v[p];
+        for (u32 col = 0; col < 3u; ++col) to_c[(size_t)col * to_count + q] = from_c[(size_t)col * n + p];
+        to_rho[q] = from_rho[p];
+        to_slot[q] = from_slot[p];
         from_x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
-        atomicAdd(moved, 1u);
     }
 }
 
-// Copies the slots live on one rank (x, v, C's three columns, density) into `out_*`, which every
-// rank writes in turn: a slot is live on exactly one rank.
-extern "C" __global__ void take_owned(const u32 num_slots, const float4* __restrict__ x, const float4* __restrict__ v,
+// Copies one rank's live particles (x, v, C's three columns, density; `count` places) to their
+// slots in `out_*` (`out_count` slots), which every rank writes in turn: a slot is live on exactly
+// one rank.
+extern "C" __global__ void take_owned(const u32 count, const float4* __restrict__ x, const float4* __restrict__ v,
                                       const float4* __restrict__ c, const float* __restrict__ rho,
+                                      const u32* __restrict__ slot, const u32 out_count,
                                       float4* __restrict__ out_x, float4* __restrict__ out_v,
                                       float4* __restrict__ out_c, float* __restrict__ out_rho) {
-    FOR_EACH_INDEX(p, num_slots) {
+    FOR_EACH_INDEX(p, count) {
         const float4 xp = x[p];
-        if (is_parked(xp)) continue;
-        out_x[p] = xp;
-        out_v[p] = v[p];
-        for (u32 col = 0; col < 3u; ++col) out_c[(size_t)col * num_slots + p] = c[(size_t)col * num_slots + p];
-        out_rho[p] = rho[p];
+        const u32 s = slot[p];
+        if (is_parked(xp) || s >= out_count) continue;
+        out_x[s] = xp;
+        out_v[s] = v[p];
+        for (u32 col = 0; col < 3u; ++col) out_c[(size_t)col * out_count + s] = c[(size_t)col * count + p];
+        out_rho[s] = rho[p];
     }
 }

@@ -20,11 +20,14 @@
 //! posted in one group by the one thread that drives them all; the ranks' GPUs reach each other's
 //! memory (peer access), which the particle moves below use.
 //!
-//! Every rank holds every particle slot, live where it owns the particle and parked elsewhere (the
-//! kernels skip parked slots), so a migration (`move_owned`, kernels/ranks.cu beside this file, run
-//! on the sending rank's GPU, launched from ranks.rs) copies the moved slots and flips their flags, and a slot's index never
-//! changes. Readers see one set of every slot on rank 0's GPU, into which `take_owned` copies every
-//! rank's own slots once a frame (`Solver::publish_particles`) or when the host reads them.
+//! **Each rank holds its own particles**, with room for more (`with_room`), each carrying its slot in
+//! the run, and keeps them in bin order as one GPU does: every binning gathers its live particles to
+//! the front of its buffers. A migration (`move_owned`, kernels/ranks.cu, run on the sending rank's
+//! GPU, launched from ranks.rs) appends each sender's leavers after the receiver's places in use
+//! (`extents`), in places the host reserves for that sender from the layer counts (no atomics across
+//! GPUs), and parks them on the sender; a receiver without the room grows first. Readers see one set
+//! of every slot on rank 0's GPU, into which `take_owned` copies every rank's particles to their
+//! slots once a frame (`Solver::publish_particles`) or when the host reads them.
 //! The phases are timed by CUDA events on rank 0's stream (timing.rs), each from the end of the one
 //! before, so an exchange includes any wait for a slower neighbour, and the sort phase the host's
 //! turn between substeps. The host waits for the ranks only where it must: for the stray counts
@@ -51,6 +54,7 @@ use crate::sim::{Params, ParticleView, Particles, Pipeline, Push, Scene, Solver,
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
 use std::collections::VecDeque;
+use std::ops::Range;
 
 pub struct CudaRanks {
     /// Before the solvers: NCCL's communicators go while their devices are still open.
@@ -72,6 +76,11 @@ pub struct CudaRanks {
     extremes_requested: usize,
     /// Live particles per rank, as of the last substep.
     counts: Vec<usize>,
+    /// Per rank, the places its live particles lie within: packed at its last binning, then grown
+    /// by what it received since (a sender's leavers leave parked holes). Migrants go after them.
+    extents: Vec<usize>,
+    /// Times a rank received more particles than its buffers had room for and grew them.
+    growths: u64,
     /// Live particles in the run, all ranks together: what every migration must leave.
     live: u64,
     /// The phases' events, on rank 0's stream.
@@ -152,17 +161,28 @@ impl CudaRanks {
         let mut counts = Vec::new();
         let mut strays = Vec::new();
         for (rank, &device) in devices.iter().enumerate() {
-            let mine = owned_by(&particles, &slabs, rank, params.inv_dx);
-            counts.push(mine.num_live());
-            // Every rank holds every slot at its own place (migration and take_owned copy slot p to
-            // slot p), so the ranks keep their particles where they are, out of bin order.
-            let in_place = CudaOptions {
-                bin_order: false,
+            let slots = owned_by(&particles, &slabs, rank, params.inv_dx);
+            counts.push(slots.len());
+            let mut mine = particles.pick(&slots);
+            mine.park_more(with_room(slots.len()) - slots.len());
+            // The binnings' gathers into bin order are what pack a rank's particles again after
+            // its leavers parked (MPM_BIN_ORDER=0 is for timing one GPU).
+            let packed = CudaOptions {
                 device,
+                bin_order: true,
                 ..options
             };
-            let solver = CudaSolver::from_particles(scene, &mine, in_place)
+            let mut solver = CudaSolver::from_particles(scene, &mine, packed)
                 .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
+            ensure!(
+                solver.keeps_bin_order(),
+                "rank {rank} of {}: no room on its GPU for the second copy of its {} particle places that \
+                 a rank packs them into at each binning; run on more GPUs (--gpus) or with fewer particles",
+                slabs.ranks(),
+                mine.len()
+            );
+            let slots: Vec<u32> = slots.iter().map(|&slot| slot as u32).collect();
+            solver.state.particles.upload_slots(solver.gpu.stream(), &slots)?;
             halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
             strays.push(
                 solver
@@ -191,6 +211,8 @@ impl CudaRanks {
             walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
             slabs,
             live: particles.num_live() as u64,
+            extents: counts.clone(),
+            growths: 0,
             counts,
             merged,
             merged_stale: false,
@@ -255,6 +277,16 @@ impl CudaRanks {
     /// Migrations so far, and what they moved (summed over the ranks).
     pub fn migrated(&self) -> (u64, Migration) {
         (self.migrations, self.migrated)
+    }
+
+    /// Per rank, the particles its buffers have room for, live and parked.
+    pub fn capacities(&self) -> Vec<usize> {
+        self.solvers.iter().map(CudaSolver::capacity).collect()
+    }
+
+    /// Times a rank received more particles than it had room for and grew its buffers.
+    pub fn growths(&self) -> u64 {
+        self.growths
     }
 
     /// The host waits for every rank's stream.
@@ -431,6 +463,7 @@ impl CudaRanks {
             k.count_strays(
                 l,
                 &solver.params,
+                self.extents[rank],
                 self.slabs.axis,
                 keep,
                 &solver.state.particles.x,
@@ -444,7 +477,7 @@ impl CudaRanks {
     fn layer_counts(&self) -> Result<Vec<Vec<u64>>> {
         let layers = self.slabs.blocks();
         let mut all = Vec::with_capacity(self.solvers.len());
-        for solver in &self.solvers {
+        for (solver, &places) in self.solvers.iter().zip(&self.extents) {
             let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
             let mut counts = solver
                 .stream()
@@ -453,6 +486,7 @@ impl CudaRanks {
             k.count_layers(
                 l,
                 &solver.params,
+                places,
                 self.slabs.axis,
                 layers,
                 &solver.state.particles.x,
@@ -490,25 +524,54 @@ impl CudaRanks {
         let ranks = self.solvers.len();
         let layers_of =
             |owner: usize| self.slabs.bounds[owner] as usize..self.slabs.bounds[owner + 1] as usize;
-        let held = |rank: usize, owner: usize| before[rank][layers_of(owner)].iter().sum::<u64>();
-        let others = |rank: usize| (0..ranks).filter(move |&other| other != rank);
-        let sends: Vec<u64> = (0..ranks)
-            .map(|from| others(from).map(|to| held(from, to)).sum())
+        let held = |rank: usize, owner: usize| before[rank][layers_of(owner)].iter().sum::<u64>() as usize;
+        // Each receiver's places for each sender's leavers, `arrivals[to][from]`: after its places
+        // in use, senders in rank order.
+        let arrivals: Vec<Vec<Range<usize>>> = (0..ranks)
+            .map(|to| {
+                let mut next = self.extents[to];
+                (0..ranks)
+                    .map(|from| {
+                        let start = next;
+                        next += if from == to { 0 } else { held(from, to) };
+                        start..next
+                    })
+                    .collect()
+            })
             .collect();
-        let receives: Vec<u64> = (0..ranks)
-            .map(|to| others(to).map(|from| held(from, to)).sum())
-            .collect();
-        let moved = sends.iter().sum::<u64>();
+        let in_use = self.extents.clone();
+        let mut grew = false;
+        let ranks_places = self.solvers.iter_mut().zip(&mut self.extents);
+        for (to, ((solver, extent), arriving)) in ranks_places.zip(&arrivals).enumerate() {
+            let end = arriving.last().map_or(*extent, |last| last.end);
+            if end > solver.capacity() {
+                solver
+                    .grow_particles(with_room(end))
+                    .with_context(|| format!("rank {to} receiving {} particles", end - *extent))?;
+                self.growths += 1;
+                grew = true;
+            }
+            if end > *extent {
+                // Its bins miss the particles it was given (a sender's still list the places it
+                // parked, which its passes skip).
+                solver.rebin_next();
+            }
+            *extent = end;
+        }
+        let moved = arrivals
+            .iter()
+            .flatten()
+            .map(|range| range.len() as u64)
+            .sum::<u64>();
         if moved > 0 {
-            self.move_owned(&sends)?;
+            if grew {
+                // The senders write into the grown buffers once their copies are done.
+                self.wait_all()?;
+            }
+            self.move_owned(&in_use, &arrivals)?;
         }
         for (rank, solver) in self.solvers.iter_mut().enumerate() {
             self.counts[rank] = per_layer[layers_of(rank)].iter().sum::<u64>() as usize;
-            // A sender's bins still list the slots it parked, which its passes skip; a receiver's
-            // miss the slots it was given.
-            if receives[rank] > 0 {
-                solver.rebin_next();
-            }
             // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
             if moved_slabs {
                 solver.discard_scatter(last_dt)?;
@@ -520,31 +583,34 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Every rank's live slots in the others' layers to their owners, each sender's GPU writing
-    /// them into the receivers' memory, then waited for (the receivers' next work reads them);
-    /// `sends`: what each rank's layer counts say it sends.
-    fn move_owned(&self, sends: &[u64]) -> Result<()> {
-        let mut counters = Vec::with_capacity(self.solvers.len());
-        for (from, sender) in self.solvers.iter().enumerate() {
-            let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
-            let mut sent = sender
-                .stream()
-                .alloc_zeros::<u32>(1)
-                .context("allocating the migration counter")?;
-            for to in (0..self.solvers.len()).filter(|&to| to != from) {
+    /// Every rank's live particles (in its places `in_use`) in the others' layers appended to their
+    /// owners, in `arrivals[to][from]` (reserved from the layer counts), each sender's GPU writing
+    /// them into the receivers' memory, then waited for (the receivers' next work reads them); each
+    /// sender's count to each receiver checked against its reservation.
+    fn move_owned(&self, in_use: &[usize], arrivals: &[Vec<Range<usize>>]) -> Result<()> {
+        let mut counters = Vec::new();
+        for (to, arriving) in arrivals.iter().enumerate() {
+            for (from, reserved) in arriving.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
+                let sender = &self.solvers[from];
+                let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
+                let mut moved = sender
+                    .stream()
+                    .alloc_zeros::<u32>(1)
+                    .context("allocating the migration counter")?;
                 let layers = self.slabs.bounds[to]..self.slabs.bounds[to + 1];
-                let dest = &self.solvers[to].state.particles;
                 let slab = (self.slabs.axis, self.slabs.blocks(), layers);
-                k.move_owned(l, &sender.params, slab, &sender.state.particles, dest, &mut sent)?;
+                let walked = (&sender.state.particles, in_use[from]);
+                let receiver = (&self.solvers[to].state.particles, reserved.clone());
+                k.move_owned(l, &sender.params, slab, walked, receiver, &mut moved)?;
+                counters.push((from, to, reserved.len(), moved));
             }
-            counters.push(sent);
         }
         self.wait_all()?;
-        for (rank, ((solver, sent), &expected)) in self.solvers.iter().zip(&counters).zip(sends).enumerate() {
-            let sent = u64::from(solver.gpu.download(sent)?[0]);
+        for (from, to, expected, moved) in counters {
+            let moved = self.solvers[from].gpu.download(&moved)?[0] as usize;
             ensure!(
-                sent == expected,
-                "rank {rank} moved {sent} particles to the other ranks where its layer counts hold \
+                moved == expected,
+                "rank {from} moved {moved} particles to rank {to} where its layer counts hold \
                  {expected}: a migration lost or duplicated particles"
             );
         }
@@ -569,13 +635,17 @@ impl CudaRanks {
     }
 }
 
-/// The slots of `all` that `slabs` gives to `rank` live, every other slot parked.
-fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Particles {
-    let mut mine = all.clone();
-    for (live, x) in mine.live.iter_mut().zip(&all.x) {
-        *live &= slabs.owner(layer(*x, slabs.axis, inv_dx)) == rank;
-    }
-    mine
+/// The live slots of `all` that `slabs` gives to `rank`.
+fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Vec<usize> {
+    (0..all.len())
+        .filter(|&slot| all.live[slot] && slabs.owner(layer(all.x[slot], slabs.axis, inv_dx)) == rank)
+        .collect()
+}
+
+/// The places a rank holding `live` particles allocates: an eighth more and a few blocks' worth,
+/// room for the migrants of several migrations before it must grow (a growth copies its particles).
+fn with_room(live: usize) -> usize {
+    live + live / 8 + 1024
 }
 
 /// The device of each of `ranks` ranks: `one` for them all, or with `Scene::gpus` several, device r
@@ -696,10 +766,16 @@ impl Solver for CudaRanks {
         if self.substeps > 1 && (due || self.strays()? > 0) {
             self.migrate(last_dt)?;
         }
-        for solver in &mut self.solvers {
-            solver.accept(params)?;
+        for (rank, solver) in self.solvers.iter_mut().enumerate() {
+            let mut own = *params;
+            own.num_particles = solver.capacity() as u32;
+            solver.accept(&own)?;
             let sort = solver.sort_due();
             solver.run_phase(Phase::Sort, sort)?;
+            // A binning that gathers into bin order packs the live particles first.
+            if sort && solver.keeps_bin_order() {
+                self.extents[rank] = self.counts[rank];
+            }
         }
         self.end_phase(Phase::Sort)?;
         self.run_phase(Phase::P2gInit)?;

@@ -16,6 +16,8 @@ pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
 /// Bytes of one particle's deformation, where a material carries one: F_E as 3 float4 columns, the
 /// plastic scalar in the first column's w.
 pub const DEFORMATION_BYTES_PER_PARTICLE: usize = 4 * 12;
+/// The slot of a place that holds no particle of the run: a rank's parked places past its own.
+pub const NO_SLOT: u32 = u32::MAX;
 /// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
 pub const BYTES_PER_PARTICLE: usize = STATE_BYTES_PER_PARTICLE + 4 * 3;
 
@@ -125,6 +127,60 @@ impl DeviceParticles {
         }
         stream.synchronize().context("uploading particles")?;
         Ok(())
+    }
+
+    /// Stores `slots` as the slot of each place, from the first: a rank's particles are some of the
+    /// run's, each known by its slot in the run (`CudaRanks`).
+    pub fn upload_slots(&mut self, stream: &Arc<CudaStream>, slots: &[u32]) -> Result<()> {
+        ensure!(
+            slots.len() <= self.count,
+            "{} slots for {} places",
+            slots.len(),
+            self.count
+        );
+        stream
+            .memcpy_htod(slots, &mut self.slot.slice_mut(..slots.len()))
+            .context("uploading the particle slots")
+    }
+
+    /// These particles in buffers of `capacity` places: each array copied to its start (C's and the
+    /// deformation's columns each to its own), the places past `count` parked, holding no slot.
+    pub fn grown(&self, stream: &Arc<CudaStream>, capacity: usize) -> Result<DeviceParticles> {
+        let n = self.count;
+        ensure!(
+            capacity >= n,
+            "growing {n} particles' buffers to {capacity} places"
+        );
+        let mut grown = DeviceParticles::allocate(stream, capacity, self.deformation.is_some())?;
+        let copy = |from: &CudaSlice<f32>, to: &mut CudaSlice<f32>, lanes: usize, columns: usize| {
+            (0..columns).try_for_each(|col| {
+                let (src, dst) = (col * lanes * n, col * lanes * capacity);
+                stream
+                    .memcpy_dtod(
+                        &from.slice(src..src + lanes * n),
+                        &mut to.slice_mut(dst..dst + lanes * n),
+                    )
+                    .context("copying particles into larger buffers")
+            })
+        };
+        copy(&self.x, &mut grown.x, 4, 1)?;
+        copy(&self.v, &mut grown.v, 4, 1)?;
+        copy(&self.c, &mut grown.c, 4, 3)?;
+        copy(&self.rho, &mut grown.rho, 1, 1)?;
+        if let (Some(from), Some(to)) = (&self.deformation, &mut grown.deformation) {
+            copy(from, to, 4, 3)?;
+        }
+        stream
+            .memcpy_dtod(&self.slot, &mut grown.slot.slice_mut(..n))
+            .context("copying particle slots into larger buffers")?;
+        let parked: Vec<f32> = (n..capacity).flat_map(|_| [0.0, 0.0, 0.0, PARKED_W]).collect();
+        stream
+            .memcpy_htod(&parked, &mut grown.x.slice_mut(4 * n..))
+            .context("parking the new places")?;
+        stream
+            .memcpy_htod(&vec![NO_SLOT; capacity - n], &mut grown.slot.slice_mut(n..))
+            .context("marking the new places slotless")?;
+        Ok(grown)
     }
 
     /// A host copy of every slot, in slot order, waiting for the device.

@@ -1,7 +1,7 @@
 //! kernels/ranks.cu: what the ranks of a run split over slabs (cuda_ranks.rs) do to their particles
 //! on the device: count the particles that could step past their rank's ghost planes, count a
-//! slab's particles by layer (for rebalancing), move the slots a migration sends, and gather every
-//! rank's own slots into the one set readers see.
+//! slab's particles by layer (for rebalancing), append the particles a migration sends to their new
+//! rank, and take every rank's own particles to their slots in the one set readers see.
 
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
@@ -30,100 +30,134 @@ impl RanksKernels {
         })
     }
 
-    /// Adds to `strays` the live particles of `x` whose stencil base along `axis` lies outside
-    /// `keep` (`Slabs::keeps`).
+    /// Adds to `strays` the live particles of `x`'s first `places` whose stencil base along `axis`
+    /// lies outside `keep` (`Slabs::keeps`).
+    #[allow(clippy::too_many_arguments)]
     pub fn count_strays(
         &self,
         l: &Launcher,
         params: &Params,
+        places: usize,
         axis: usize,
         keep: (i32, i32),
         x: &CudaSlice<f32>,
         strays: &CudaSlice<u32>,
     ) -> Result<()> {
-        let axis = axis as u32;
-        // SAFETY: the arguments match count_strays; x holds num_particles float4.
+        ensure!(
+            places <= x.len() / 4,
+            "counting strays in {places} places of {}",
+            x.len() / 4
+        );
+        let (places, axis) = (places as u32, axis as u32);
+        // SAFETY: the arguments match count_strays; x holds `places` float4 at least.
         unsafe {
-            self.count_strays
-                .launch(l, l.cover(params.num_particles as usize), |a| {
-                    a.arg(&params.kernel)
-                        .arg(&axis)
-                        .arg(&keep.0)
-                        .arg(&keep.1)
-                        .arg(x)
-                        .arg(strays);
-                })
+            self.count_strays.launch(l, l.cover(places as usize), |a| {
+                a.arg(&params.kernel)
+                    .arg(&places)
+                    .arg(&axis)
+                    .arg(&keep.0)
+                    .arg(&keep.1)
+                    .arg(x)
+                    .arg(strays);
+            })
         }
     }
 
-    /// Adds the live particles of `x` per block layer along `axis` (`layers` of them) to `counts`.
+    /// Adds the live particles of `x`'s first `places` per block layer along `axis` (`layers` of
+    /// them) to `counts`.
+    #[allow(clippy::too_many_arguments)]
     pub fn count_layers(
         &self,
         l: &Launcher,
         params: &Params,
+        places: usize,
         axis: usize,
         layers: u32,
         x: &CudaSlice<f32>,
         counts: &mut CudaSlice<u32>,
     ) -> Result<()> {
+        ensure!(
+            places <= x.len() / 4,
+            "counting layers in {places} places of {}",
+            x.len() / 4
+        );
         let axis = axis as u32;
         // A few CUDA blocks per multiprocessor, each walking many slots: a block per 128 slots spent
         // most of its time zeroing and flushing its histogram between two barriers. Measured on the
         // H100 (BENCHMARKS.md 0y), 16.8M slots on two ranks of one GPU: 221 to 236 us a launch
         // before, 91 to 95 after.
-        let config = l.over_list(
-            &self.count_layers,
-            params.num_particles as usize,
-            params.num_particles as usize,
-            l.block_size,
-            4 * layers,
-        )?;
-        // SAFETY: the arguments match count_layers; x holds num_particles float4, counts `layers`
-        // u32, and the shared histogram is sized for them.
+        let config = l.over_list(&self.count_layers, places, places, l.block_size, 4 * layers)?;
+        let places = places as u32;
+        // SAFETY: the arguments match count_layers; x holds `places` float4 at least, counts
+        // `layers` u32, and the shared histogram is sized for them.
         unsafe {
             self.count_layers.launch(l, config, |a| {
-                a.arg(&params.kernel).arg(&axis).arg(&layers).arg(x).arg(counts);
+                a.arg(&params.kernel)
+                    .arg(&places)
+                    .arg(&axis)
+                    .arg(&layers)
+                    .arg(x)
+                    .arg(counts);
             })
         }
     }
 
-    /// Moves the slots live in `from` whose block layer lies in `slab` (axis, layers of the grid,
-    /// the receiving rank's layers) to `to`, which may lie on another GPU, counting them in `moved`.
+    /// Appends the particles live in `from`'s first `walk` places whose block layer lies in `slab`
+    /// (axis, layers of the grid, the receiving rank's layers) to `to`'s places `places` (reserved
+    /// for them; `to` may lie on another GPU) and parks them in `from`, counting them in `moved`.
+    #[allow(clippy::too_many_arguments)]
     pub fn move_owned(
         &self,
         l: &Launcher,
         params: &Params,
         (axis, layers, mine): (usize, u32, Range<u32>),
-        from: &DeviceParticles,
-        to: &DeviceParticles,
+        (from, walk): (&DeviceParticles, usize),
+        (to, places): (&DeviceParticles, Range<usize>),
         moved: &mut CudaSlice<u32>,
     ) -> Result<()> {
-        ensure!(from.count == to.count, "{} slots for {}", from.count, to.count);
+        ensure!(
+            params.num_particles as usize == from.count && walk <= from.count && places.end <= to.count,
+            "a migration of {walk} of {} places into {places:?} of {}",
+            from.count,
+            to.count
+        );
         let axis = axis as u32;
-        // SAFETY: the arguments match move_owned; both hold num_particles slots of each array.
+        let (walk, to_count) = (walk as u32, to.count as u32);
+        let (first, end) = (places.start as u32, places.end as u32);
+        // SAFETY: the arguments match move_owned; `from` holds num_particles places of each array
+        // (walk of them read), `to` to_count, and the kernel writes only to_first..to_end of them.
         unsafe {
-            self.move_owned
-                .launch(l, l.cover(params.num_particles as usize), |a| {
-                    a.arg(&params.kernel)
-                        .arg(&axis)
-                        .arg(&layers)
-                        .arg(&mine.start)
-                        .arg(&mine.end)
-                        .particle_state(from)
-                        .particle_state(to)
-                        .arg(moved);
-                })
+            self.move_owned.launch(l, l.cover(walk as usize), |a| {
+                a.arg(&params.kernel)
+                    .arg(&axis)
+                    .arg(&layers)
+                    .arg(&mine.start)
+                    .arg(&mine.end)
+                    .arg(&walk)
+                    .particle_state(from)
+                    .arg(&from.slot)
+                    .arg(&to_count)
+                    .arg(&first)
+                    .arg(&end)
+                    .particle_state(to)
+                    .arg(&to.slot)
+                    .arg(moved);
+            })
         }
     }
 
-    /// Copies the slots live in `rank` into `out` (as many slots), which may lie on another GPU.
+    /// Copies the particles live in `rank` to their slots in `out`, which may lie on another GPU.
     pub fn take_owned(&self, l: &Launcher, rank: &DeviceParticles, out: &DeviceParticles) -> Result<()> {
-        ensure!(rank.count == out.count, "{} slots for {}", rank.count, out.count);
-        let n = rank.count as u32;
-        // SAFETY: the arguments match take_owned; both hold `count` slots of each array.
+        let (count, out_count) = (rank.count as u32, out.count as u32);
+        // SAFETY: the arguments match take_owned; `rank` holds `count` places of each array, `out`
+        // `out_count` slots, and the kernel skips a slot past them.
         unsafe {
             self.take_owned.launch(l, l.cover(rank.count), |a| {
-                a.arg(&n).particle_state(rank).particle_state(out);
+                a.arg(&count)
+                    .particle_state(rank)
+                    .arg(&rank.slot)
+                    .arg(&out_count)
+                    .particle_state(out);
             })
         }
     }

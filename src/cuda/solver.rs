@@ -212,12 +212,14 @@ impl CudaSolver {
         self.gpu.stream()
     }
 
-    /// The statistics of `particles` (as many slots as this solver's, on its GPU) by its kernel,
+    /// The statistics of `particles` (any number of slots, on this solver's GPU) by its kernel,
     /// waited for: how the ranks reduce the set of every rank's own slots.
     pub fn summary_of(&mut self, table: &Params, particles: &DeviceParticles) -> Result<Summary> {
         self.use_materials(table)?;
         let (k, l) = (&self.kernels, &self.gpu.launcher);
-        self.stats.request(&k.stats, l, &self.params.kernel, particles)?;
+        let mut params = self.params.kernel;
+        params.num_particles = particles.count as u32;
+        self.stats.request(&k.stats, l, &params, particles)?;
         self.stats.wait()
     }
 
@@ -336,8 +338,33 @@ impl CudaSolver {
         self.schedule.due()
     }
 
-    /// Bins the particles in the next sort phase (ranks.rs: a migration changed which slots are
-    /// live).
+    /// Room for `capacity` particles, the places past the current ones parked
+    /// (`DeviceState::grow_particles`); the next sort phase bins them all.
+    pub(super) fn grow_particles(&mut self, capacity: usize) -> Result<()> {
+        ensure!(
+            self.pbmpm.is_none(),
+            "the position-based solver cannot grow its particles"
+        );
+        self.state.grow_particles(&self.gpu, capacity)?;
+        self.params.num_particles = capacity as u32;
+        // Captured substeps launch with the old buffers.
+        self.graphs.clear();
+        self.schedule.invalidate();
+        Ok(())
+    }
+
+    /// The places this solver's particle buffers hold, live and parked.
+    pub fn capacity(&self) -> usize {
+        self.state.particles.count
+    }
+
+    /// Whether each binning gathers the particles into bin order, which packs the live ones first.
+    pub(super) fn keeps_bin_order(&self) -> bool {
+        self.state.bin_order.is_some()
+    }
+
+    /// Bins the particles in the next sort phase (cuda_ranks.rs: a migration changed which places
+    /// are live).
     pub(super) fn rebin_next(&mut self) {
         self.schedule.invalidate();
     }

@@ -161,6 +161,40 @@ impl DeviceState {
         }
     }
 
+    /// Room for `capacity` particles (`CudaRanks`: a rank that receives more than its spare places
+    /// hold): the particles copied into larger buffers, the spare set and the bins made anew for as
+    /// many. The bins list nothing until the next binning.
+    pub fn grow_particles(&mut self, gpu: &Gpu, capacity: usize) -> Result<()> {
+        let count = self.particles.count;
+        ensure!(
+            self.flow.is_none(),
+            "a run with emitters or sinks keeps its particle slots: it cannot grow them"
+        );
+        let per_particle = BYTES_PER_PARTICLE
+            + self
+                .particles
+                .deformation
+                .as_ref()
+                .map_or(0, |_| DEFORMATION_BYTES_PER_PARTICLE);
+        let copies = 1 + usize::from(self.bin_order.is_some());
+        // The old buffers stay until the copies are made.
+        gpu.ensure_fits(
+            copies * capacity * per_particle,
+            &format!("growing a rank's {count} particle places to {capacity}"),
+            "run on more GPUs (--gpus), or fewer particles",
+        )?;
+        let stream = gpu.stream();
+        let deformed = self.particles.deformation.is_some();
+        self.particles = self.particles.grown(stream, capacity)?;
+        if let Some(order) = &mut self.bin_order {
+            order.spare = DeviceParticles::allocate(stream, capacity, deformed)?;
+            order.swapped = false;
+        }
+        let listed = self.bins.list.is_some();
+        self.bins = Bins::new(&gpu.launcher, self.grid.res, capacity, self.bins.edge, listed)?;
+        Ok(())
+    }
+
     /// Which of its two sets of buffers holds the particles: the kernels' arguments differ, so a
     /// captured substep is for one of them (graph.rs).
     pub fn particle_buffers(&self) -> bool {

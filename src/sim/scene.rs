@@ -201,30 +201,47 @@ impl Particles {
     }
 
     fn pick_live(&self) -> Particles {
-        let keep = |i: &usize| self.live[*i];
-        let pick = |n: usize| (0..n).filter(keep);
-        let n = self.len();
+        let live: Vec<usize> = (0..self.len()).filter(|&i| self.live[i]).collect();
+        self.pick(&live)
+    }
+
+    /// The particles of `slots`, in that order (a rank's share of a run: `CudaRanks`). Arrays that
+    /// came empty (C or a deformation left behind) stay empty.
+    pub fn pick(&self, slots: &[usize]) -> Particles {
+        fn each<T: Copy>(all: &[T], slots: &[usize]) -> Vec<T> {
+            match all.is_empty() {
+                true => Vec::new(),
+                false => slots.iter().map(|&i| all[i]).collect(),
+            }
+        }
         Particles {
-            x: pick(n).map(|i| self.x[i]).collect(),
-            v: pick(n).map(|i| self.v[i]).collect(),
-            c: if self.c.is_empty() {
-                Vec::new()
-            } else {
-                pick(n).map(|i| self.c[i]).collect()
-            },
-            rho: pick(n).map(|i| self.rho[i]).collect(),
-            material: pick(n).map(|i| self.material[i]).collect(),
-            live: vec![true; pick(n).count()],
-            deformation: if self.deformation.is_empty() {
-                Vec::new()
-            } else {
-                pick(n).map(|i| self.deformation[i]).collect()
-            },
-            volume_bias: if self.volume_bias.is_empty() {
-                Vec::new()
-            } else {
-                pick(n).map(|i| self.volume_bias[i]).collect()
-            },
+            x: each(&self.x, slots),
+            v: each(&self.v, slots),
+            c: each(&self.c, slots),
+            rho: each(&self.rho, slots),
+            material: each(&self.material, slots),
+            live: each(&self.live, slots),
+            deformation: each(&self.deformation, slots),
+            volume_bias: each(&self.volume_bias, slots),
+        }
+    }
+
+    /// Appends `count` parked slots at rest at the origin: room a run can fill without growing.
+    pub fn park_more(&mut self, count: usize) {
+        let len = self.len() + count;
+        self.x.resize(len, glam::Vec3::ZERO);
+        self.v.resize(len, glam::Vec3::ZERO);
+        if !self.c.is_empty() {
+            self.c.resize(len, glam::Mat3::ZERO);
+        }
+        self.rho.resize(len, 0.0);
+        self.material.resize(len, 0);
+        self.live.resize(len, false);
+        if !self.deformation.is_empty() {
+            self.deformation.resize(len, Deformation::at_rest(0));
+        }
+        if !self.volume_bias.is_empty() {
+            self.volume_bias.resize(len, 0.0);
         }
     }
 }
