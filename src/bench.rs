@@ -341,7 +341,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     let ranked = scene.ranks > 1;
     let position_based = scene.method == crate::sim::Method::Pbmpm;
     // As the solver chose it: where there was no room for the bin-ordered copy, it bins as often as
-    // with particles in place (the ranks, which keep theirs in place, say so in their label).
+    // with particles in place (the ranks' label names their migration cadence instead).
     let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::bins::SORT_INTERVAL);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
         // src/cuda/ranks.rs: the phases of every rank, timed on rank 0's stream.

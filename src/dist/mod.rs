@@ -20,9 +20,8 @@ pub mod nccl;
 pub mod slabs;
 
 /// Substeps between the ranks' rebalance and migration where no particle strays (every backend's
-/// ranks, so the CPU ranks stay the CUDA ranks' oracle). The ranks keep their particles at their
-/// slots, so this is also the cadence at which they rebin, as a single solver that keeps its
-/// particles in place does (`cuda::bins::SORT_INTERVAL`).
+/// ranks, so the CPU ranks stay the CUDA ranks' oracle). A CUDA rank that receives particles
+/// rebins at once; 16 measured the same as 8 on two H200s (BENCHMARKS.md M28).
 pub const MIGRATION_INTERVAL: u32 = 8;
 
 pub use comm::{Comm, LocalComm};
