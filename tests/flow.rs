@@ -122,7 +122,7 @@ fn parked_slots_are_seen_by_nothing() {
     assert_eq!(live.len(), p.num_live());
     assert!(live.live.iter().all(|&l| l));
     let attributes =
-        mpm::render::feed::read_attributes(sim.solver(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
+        mpm::render::feed::read_attributes(sim.solver_mut(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
     let drawn = attributes.iter().filter(|a| !a[0].is_nan()).count();
     assert_eq!(drawn, p.num_live(), "parked slots would be drawn");
     // The exported frames hold the live particles alone.

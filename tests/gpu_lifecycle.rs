@@ -241,7 +241,7 @@ fn gpu_emission_and_draining_follow_the_cpu() {
         "a live particle sits in the drain"
     );
     let attributes =
-        mpm::render::feed::read_attributes(gpu.solver(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
+        mpm::render::feed::read_attributes(gpu.solver_mut(), mpm::render::ColourBy::Speed, 1000.0).unwrap();
     assert_eq!(attributes.iter().filter(|a| !a[0].is_nan()).count(), p.num_live());
 }
 

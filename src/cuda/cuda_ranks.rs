@@ -1,6 +1,7 @@
 //! `CudaRanks`: one run split into ranks, each a [`CudaSolver`] over its slab of the grid
 //! (`crate::dist`), stepped phase by phase with the ghost exchanges between the phases. What it hands
-//! over (particles slot by slot, extremes, statistics, checkpoints) is what one solver would.
+//! over (particles slot by slot, extremes, checkpoints) is what one solver would; its statistics
+//! too, their sums to rounding.
 //!
 //! | phase | every rank, fused pipeline |
 //! |---|---|
@@ -25,13 +26,17 @@
 //! the front of its buffers. A migration (`move_owned`, kernels/ranks.cu, run on the sending rank's
 //! GPU, launched from ranks.rs) appends each sender's leavers after the receiver's places in use
 //! (`extents`), in places the host reserves for that sender from the layer counts (no atomics across
-//! GPUs), and parks them on the sender; a receiver without the room grows first. Readers see one set
-//! of every slot on rank 0's GPU, into which `take_owned` copies every rank's particles to their
-//! slots once a frame (`Solver::publish_particles`) or when the host reads them.
-//! The phases are timed by CUDA events on rank 0's stream (timing.rs), each from the end of the one
-//! before, so an exchange includes any wait for a slower neighbour, and the sort phase the host's
-//! turn between substeps. The host waits for the ranks only where it must: for the stray counts
-//! before each substep, around a migration and `take_owned`. The extremes come as one GPU's do,
+//! GPUs), and parks them on the sender; a receiver without the room grows first.
+//!
+//! **Readers** see one set of every slot on rank 0's GPU, made at the first read, into which
+//! `take_owned` copies every rank's particles to their slots where something reads them: the
+//! renderer (`Solver::publish_particles`, once a frame), exports and checkpoints. The statistics
+//! are each rank's reduction over its own particles, joined (`Summary::of_parts`), so a run that
+//! nothing reads never gathers its particles. The phases are timed by CUDA events on rank 0's
+//! stream (timing.rs; `MPM_TIMED_RANK` picks another), each from the end of the one before, so an
+//! exchange includes any wait for a slower neighbour, and the sort phase the host's turn between
+//! substeps. The host waits for the ranks only where it must: for the stray counts before each
+//! substep, around a migration and `take_owned`. The extremes come as one GPU's do,
 //! requested in stream order and awaited a stretch later (`Solver::request_extremes`); on one GPU a
 //! carry's copy waits for the sender's stream and the sender's next work for the copy, by stream
 //! order, not by the host.
@@ -39,7 +44,7 @@
 use super::gpu::CudaOptions;
 use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS, HALO_VELOCITY_WORDS, HALO_VOLUME_WORDS};
 use super::launch::Launcher;
-use super::particles::DeviceParticles;
+use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
 use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
 use super::state::DeviceState;
@@ -50,7 +55,9 @@ use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
-use crate::sim::{Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary};
+use crate::sim::{
+    Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary, SummaryTicket,
+};
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
 use std::collections::VecDeque;
@@ -65,10 +72,15 @@ pub struct CudaRanks {
     /// The walls' mirror planes along the slab axis, low and high (`Slabs::rebalanced`).
     walls: (u32, u32),
     /// Every slot, each from the rank that owns it, on rank 0's device (`Solver::particles`), as of
-    /// the last `take_owned`.
-    merged: DeviceParticles,
+    /// the last `take_owned`; made at the first, since a run that nothing reads (a benchmark) needs
+    /// no room for it.
+    merged: Option<DeviceParticles>,
+    /// The run's slots (live and parked), as many as `merged` holds.
+    slots: usize,
     /// Whether the ranks stepped (or were pushed) since `merged` was taken.
     merged_stale: bool,
+    /// What `particles` shows before anything was published: nothing.
+    unpublished: Particles,
     /// Per rank: the strays its last g2p counted.
     strays: Vec<CudaSlice<u32>>,
     /// The extremes requested and not yet waited for: each request's handle and every rank's ticket.
@@ -83,8 +95,9 @@ pub struct CudaRanks {
     growths: u64,
     /// Live particles in the run, all ranks together: what every migration must leave.
     live: u64,
-    /// The phases' events, on rank 0's stream.
+    /// The phases' events, on the timed rank's stream (`CudaOptions::timed_rank`).
     timing: PhaseEvents,
+    timed: usize,
     substeps: u64,
     migrations: u64,
     migrated: Migration,
@@ -192,8 +205,6 @@ impl CudaRanks {
             );
             solvers.push(solver);
         }
-        let mut merged = DeviceParticles::allocate(solvers[0].stream(), particles.len(), false)?;
-        merged.upload(solvers[0].stream(), &particles)?;
         let carrier = if scene.gpus > 1 {
             enable_peer_access(&solvers)?;
             let comms = Comm::init_all(Nccl::get()?, &devices)
@@ -202,8 +213,15 @@ impl CudaRanks {
         } else {
             Carrier::DeviceCopy
         };
+        let timed = options.timed_rank;
+        ensure!(
+            timed < solvers.len(),
+            "MPM_TIMED_RANK={timed}: a run of {} ranks has ranks 0 to {}",
+            solvers.len(),
+            solvers.len() - 1
+        );
         // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
-        let timing = PhaseEvents::new(solvers[0].gpu.ctx.clone(), 1);
+        let timing = PhaseEvents::new(solvers[timed].gpu.ctx.clone(), 1);
         Ok(CudaRanks {
             carrier,
             solvers,
@@ -214,12 +232,15 @@ impl CudaRanks {
             extents: counts.clone(),
             growths: 0,
             counts,
-            merged,
-            merged_stale: false,
+            merged: None,
+            slots: particles.len(),
+            merged_stale: true,
+            unpublished: Particles::default(),
             strays,
             extremes: VecDeque::new(),
             extremes_requested: 0,
             timing,
+            timed,
             substeps: 0,
             migrations: 0,
             migrated: Migration::default(),
@@ -291,13 +312,7 @@ impl CudaRanks {
 
     /// The host waits for every rank's stream.
     fn wait_all(&self) -> Result<()> {
-        for solver in &self.solvers {
-            solver
-                .stream()
-                .synchronize()
-                .context("waiting for a rank (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        }
-        Ok(())
+        wait_for(&self.solvers)
     }
 
     /// Every rank's launches of `phase` (no sort phase: its decision is each rank's), then its end.
@@ -308,9 +323,9 @@ impl CudaRanks {
         self.end_phase(phase)
     }
 
-    /// Marks the end of `phase` on rank 0's stream.
+    /// Marks the end of `phase` on the timed rank's stream.
     fn end_phase(&mut self, phase: Phase) -> Result<()> {
-        let stream = self.solvers[0].stream().clone();
+        let stream = self.solvers[self.timed].stream().clone();
         self.timing.end_phase(&stream, phase, true)
     }
 
@@ -617,22 +632,52 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Every rank's own slots into `merged` where a substep ran since the last time, each rank's
-    /// from its own GPU once every rank is done, waited for (no rank may write its particles while
-    /// they are read).
+    /// Every rank's particles to their slots in `merged` (made on rank 0's GPU the first time)
+    /// where a substep ran since the last time, each rank's from its own GPU once every rank is
+    /// done, waited for (no rank may write its particles while they are read). Every slot is live on
+    /// one rank, so every slot is written.
     fn take_owned(&mut self) -> Result<()> {
-        if !self.merged_stale {
-            return Ok(());
+        let merged = match self.merged.take() {
+            Some(merged) => merged,
+            None => {
+                let first = &self.solvers[0].gpu;
+                first.ensure_fits(
+                    self.slots * STATE_BYTES_PER_PARTICLE,
+                    &format!(
+                        "reading the {} particles of a run on several ranks (they are gathered on rank \
+                         0's GPU)",
+                        self.slots
+                    ),
+                    "run on more GPUs, with fewer particles, or without what reads them (the window, \
+                     exports, checkpoints)",
+                )?;
+                self.merged_stale = true;
+                DeviceParticles::allocate(first.stream(), self.slots, false)?
+            }
+        };
+        let merged = self.merged.insert(merged);
+        if self.merged_stale {
+            wait_for(&self.solvers)?;
+            for solver in &self.solvers {
+                let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
+                k.take_owned(l, &solver.state.particles, merged)?;
+            }
+            wait_for(&self.solvers)?;
+            self.merged_stale = false;
         }
-        self.wait_all()?;
-        for solver in &self.solvers {
-            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
-            k.take_owned(l, &solver.state.particles, &self.merged)?;
-        }
-        self.wait_all()?;
-        self.merged_stale = false;
         Ok(())
     }
+}
+
+/// The host waits for every rank's stream.
+fn wait_for(solvers: &[CudaSolver]) -> Result<()> {
+    for solver in solvers {
+        solver
+            .stream()
+            .synchronize()
+            .context("waiting for a rank (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+    }
+    Ok(())
 }
 
 /// The live slots of `all` that `slabs` gives to `rank`.
@@ -757,8 +802,8 @@ impl Solver for CudaRanks {
     /// One substep, as the table at the top of this file lists its phases.
     fn step(&mut self, params: &Params) -> Result<()> {
         // Recorded behind the last substep's work: the sort phase holds the host's turn between.
-        let first = self.solvers[0].stream().clone();
-        self.timing.begin_step(&first)?;
+        let timed = self.solvers[self.timed].stream().clone();
+        self.timing.begin_step(&timed)?;
         let last_dt = self.solvers[0].params.dt;
         self.substeps += 1;
         // Every particle starts on its owner; the strays were counted by the last substep's g2p.
@@ -846,32 +891,63 @@ impl Solver for CudaRanks {
     fn apply_push(&mut self, push: &Push) -> Result<()> {
         self.solvers.iter_mut().try_for_each(|s| s.apply_push(push))?;
         self.merged_stale = true;
-        self.take_owned()
+        Ok(())
     }
 
+    /// Gathers every rank's particles into the one set `particles` shows.
     fn publish_particles(&mut self) -> Result<()> {
         self.take_owned()
     }
 
+    /// The set of every slot as of the last `publish_particles`; nothing before the first.
     fn particles(&self) -> ParticleView<'_> {
         let rank0 = &self.solvers[0];
-        ParticleView::Device(Box::new(DeviceParticlesView::new(
-            &rank0.gpu,
-            &rank0.kernels.render_attributes,
-            &self.merged,
-        )))
+        match &self.merged {
+            Some(merged) => ParticleView::Device(Box::new(DeviceParticlesView::new(
+                &rank0.gpu,
+                &rank0.kernels.render_attributes,
+                merged,
+            ))),
+            None => ParticleView::Host(&self.unpublished),
+        }
     }
 
     fn read_particles(&mut self) -> Result<Particles> {
         self.take_owned()?;
-        self.merged.download(&self.solvers[0].gpu)
+        let merged = self
+            .merged
+            .as_ref()
+            .context("the ranks' particles were never gathered")?;
+        merged.download(&self.solvers[0].gpu)
     }
 
-    /// Rank 0's statistics kernel over every rank's own slots, on its GPU: what one solver's would
-    /// give, without copying the particles to the host.
+    /// Each rank's statistics kernel over its own particles, on its GPU, in stream order: the
+    /// particles never leave their ranks.
     fn summary(&mut self, table: &Params) -> Result<Summary> {
-        self.take_owned()?;
-        let first = &mut self.solvers[0];
-        first.summary_of(table, &self.merged)
+        let ticket = self.request_summary(table)?;
+        self.wait_summary(ticket)
+    }
+
+    fn request_summary(&mut self, table: &Params) -> Result<SummaryTicket> {
+        for solver in &mut self.solvers {
+            solver.request_summary(table)?;
+        }
+        Ok(SummaryTicket::Pending)
+    }
+
+    /// The ranks' statistics joined (`Summary::of_parts`): counts, extremes and energy as one
+    /// solver's; means and the centre of mass to rounding.
+    fn wait_summary(&mut self, ticket: SummaryTicket) -> Result<Summary> {
+        match ticket {
+            SummaryTicket::Ready(summary) => Ok(summary),
+            SummaryTicket::Pending => {
+                let parts = self
+                    .solvers
+                    .iter_mut()
+                    .map(|solver| solver.wait_summary(SummaryTicket::Pending))
+                    .collect::<Result<Vec<_>>>()?;
+                Ok(Summary::of_parts(&parts))
+            }
+        }
     }
 }

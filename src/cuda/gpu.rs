@@ -34,6 +34,10 @@ pub struct CudaOptions {
     /// One substep in this many times its phases by CUDA events, the others only whole (timing.rs):
     /// each event is a node on the substep's critical path. 1 times every substep's.
     pub phase_sample: u32,
+    /// Several ranks (cuda_ranks.rs): the rank whose stream their phases are timed on. Each phase is
+    /// timed from the end of the one before on that stream, so another rank's view shows where it
+    /// waits.
+    pub timed_rank: usize,
 }
 
 /// How the float scatter sums a warp's runs of particles (kernels/one_pass.cu's `Scatter`):
@@ -79,13 +83,14 @@ impl Default for CudaOptions {
             bin_order: true,
             float_scatter: FloatScatter::BySize,
             phase_sample: PHASE_SAMPLE,
+            timed_rank: 0,
         }
     }
 }
 
 impl CudaOptions {
     /// The defaults, overridden by `MPM_CUDA_DEVICE`, `MPM_CUDA_BLOCK_SIZE`, `MPM_CUDA_GRAPHS`,
-    /// `MPM_BIN_ORDER`, `MPM_FLOAT_SCATTER` and `MPM_PHASE_SAMPLE` where set.
+    /// `MPM_BIN_ORDER`, `MPM_FLOAT_SCATTER`, `MPM_PHASE_SAMPLE` and `MPM_TIMED_RANK` where set.
     pub fn from_env() -> Result<CudaOptions> {
         let mut options = CudaOptions::default();
         if let Ok(text) = std::env::var("MPM_CUDA_DEVICE") {
@@ -125,6 +130,11 @@ impl CudaOptions {
                     "MPM_PHASE_SAMPLE={text:?}: use a whole number from 1 (every substep's phases \
                      timed) up; the default, {PHASE_SAMPLE}, times one substep's in {PHASE_SAMPLE}"
                 )
+            })?;
+        }
+        if let Ok(text) = std::env::var("MPM_TIMED_RANK") {
+            options.timed_rank = text.trim().parse().map_err(|_| {
+                anyhow!("MPM_TIMED_RANK={text:?} is not a rank number (0, the default, 1, ...)")
             })?;
         }
         options.validate()?;

@@ -13,7 +13,6 @@ use super::kernels::Kernels;
 use super::launch::NvtxRange;
 use super::mirror_walls::MirrorQuantity;
 use super::one_pass::Gather;
-use super::particles::DeviceParticles;
 use super::pbmpm::PbmpmBuffers;
 use super::pipelines::{launches, Launch};
 use super::render::DeviceParticlesView;
@@ -210,17 +209,6 @@ impl CudaSolver {
     /// The stream every launch of this solver goes to (the ranks order their exchanges on it).
     pub fn stream(&self) -> &Arc<CudaStream> {
         self.gpu.stream()
-    }
-
-    /// The statistics of `particles` (any number of slots, on this solver's GPU) by its kernel,
-    /// waited for: how the ranks reduce the set of every rank's own slots.
-    pub fn summary_of(&mut self, table: &Params, particles: &DeviceParticles) -> Result<Summary> {
-        self.use_materials(table)?;
-        let (k, l) = (&self.kernels, &self.gpu.launcher);
-        let mut params = self.params.kernel;
-        params.num_particles = particles.count as u32;
-        self.stats.request(&k.stats, l, &params, particles)?;
-        self.stats.wait()
     }
 
     /// The substep's work in stream order, phase by phase (`Phase::ALL`), each phase an NVTX range of

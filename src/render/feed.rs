@@ -109,6 +109,7 @@ impl ParticleFeed {
             renderer.ensure_layout(n, rows);
         }
         let want_interop = self.transfer == Transfer::Interop && self.interop_refused.is_none();
+        sim.solver_mut().publish_particles()?;
         let drawn_in_place = match sim.solver().particles() {
             ParticleView::Device(view) => {
                 let view = DeviceParticlesView::of(view.as_ref())
@@ -243,9 +244,14 @@ fn host_attributes(p: &Particles, colour_by: ColourBy, rest_density: f32, out: &
         .collect_into_vec(out);
 }
 
-/// The vertex attributes the renderer would draw for `solver`'s particles, copied to the host
-/// (kernels/render.cu on a CUDA solver): what the host-copy path uploads.
-pub fn read_attributes(solver: &dyn Solver, colour_by: ColourBy, rest_density: f32) -> Result<Vec<[f32; 4]>> {
+/// The vertex attributes the renderer would draw for `solver`'s particles, published first, copied
+/// to the host (kernels/render.cu on a CUDA solver): what the host-copy path uploads.
+pub fn read_attributes(
+    solver: &mut dyn Solver,
+    colour_by: ColourBy,
+    rest_density: f32,
+) -> Result<Vec<[f32; 4]>> {
+    solver.publish_particles()?;
     let mut out = Vec::new();
     match solver.particles() {
         ParticleView::Device(view) => out = view.copy_render_attributes(colour_by, rest_density)?,

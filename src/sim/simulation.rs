@@ -750,7 +750,6 @@ impl Simulation {
                 return Ok(None);
             }
         }
-        self.solver.publish_particles()?;
         if !self.bodies.is_empty() {
             self.bodies = self.solver.bodies()?;
         }

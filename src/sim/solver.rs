@@ -206,11 +206,12 @@ pub trait Solver: Send {
         Ok(Vec::new())
     }
     /// Where the particles are, for a reader (the renderer) that can use them in place: as of the
-    /// last frame's end ([`Self::publish_particles`]).
+    /// last [`Self::publish_particles`] where the backend keeps them apart from the state it steps.
     fn particles(&self) -> ParticleView<'_>;
     /// Brings what [`Self::particles`] shows up to the substeps run so far, where a backend keeps it
-    /// apart from the state it steps (the ranks gather their own slots into one set); [`Simulation`](super::Simulation)
-    /// calls it at each frame's end.
+    /// apart from the state it steps (the ranks gather their own particles into one set): a reader
+    /// calls it before it reads (the render feed, once a frame); a run that nothing reads pays
+    /// nothing for it.
     fn publish_particles(&mut self) -> Result<()> {
         Ok(())
     }

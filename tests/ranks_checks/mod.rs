@@ -108,7 +108,9 @@ pub fn two_liquids_on_ranks_give_one_gpu_s_bits(on: On) {
 /// particles, growing its buffers where it receives more than they have room for.
 fn split_runs_give_one_gpu_s_bits(scene: &Scene, params: &Params, on: On) {
     let (scene, params) = (scene.clone(), *params);
-    let expected = run(&mut one_gpu(&scene), &params, 200);
+    let mut one = one_gpu(&scene);
+    let expected = run(&mut one, &params, 200);
+    let whole = one.summary(&params).unwrap();
     let again = run(&mut one_gpu(&scene), &params, 200);
     assert!(
         common::particle_bits(&again) == common::particle_bits(&expected),
@@ -155,6 +157,29 @@ fn split_runs_give_one_gpu_s_bits(scene: &Scene, params: &Params, on: On) {
         assert!(
             common::particle_bits(&got) == common::particle_bits(&expected),
             "{n} ranks differ from one GPU in fixed point (positions up to {gap} dx apart)"
+        );
+        // The same particles: each rank's statistics joined give one GPU's, the sums to rounding.
+        let parts = split.summary(&params).unwrap();
+        assert_eq!(
+            (
+                parts.particles,
+                parts.max_speed,
+                parts.density_ratio_min,
+                parts.density_ratio_max
+            ),
+            (
+                whole.particles,
+                whole.max_speed,
+                whole.density_ratio_min,
+                whole.density_ratio_max
+            )
+        );
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b.abs().max(1e-3);
+        assert!(
+            close(parts.kinetic_energy, whole.kinetic_energy)
+                && close(parts.density_ratio_mean.into(), whole.density_ratio_mean.into())
+                && (0..3).all(|a| close(parts.centre_of_mass[a], whole.centre_of_mass[a])),
+            "{n} ranks' statistics {parts:?} differ from one GPU's {whole:?}"
         );
     }
 }
