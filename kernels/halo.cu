@@ -6,16 +6,30 @@
 // carried back and written over the ghosts. The carrier (a device copy on one GPU, NCCL across GPUs)
 // sees only the packed buffers.
 //
-// Packed sums hold HALO_SUM_WORDS u64 per node: mass, momentum x, y, z (the fixed-point units, or
-// the float's bits in the low half under the float scatter), then whether the sender's scatter listed
-// the node's block. The owner lists every such block, so its grid update visits the nodes the
-// one-rank run would, zeros included. Where the rest densities differ (Params::volume_density),
-// the grid's volume (volume.cu) travels too, a u64 per node after all the nodes' sums or
+// The packed buffers are of 32-bit words. Packed sums hold `halo_sum_words` per node: mass,
+// momentum x, y, z (a float each under the float scatter; the fixed-point units, 64 bits each, as
+// two words, low first), then whether the sender's scatter listed the node's block. The owner lists
+// every such block, so its grid update visits the nodes the one-rank run would, zeros included.
+// Packed velocities are a float4 per node. Where the rest densities differ (Params::volume_density),
+// the grid's volume (volume.cu) travels too, 64 bits per node after all the nodes' sums or
 // velocities: summed to the owner with the scatter's sums, written over the ghosts with the
 // velocities.
 #include "tiles.cuh"
 
-#define HALO_SUM_WORDS 5u
+// Words per node of packed sums (src/cuda/halo.rs `sum_words`): the float scatter's 20 bytes are
+// half of what 64-bit words for every sum took (measured: BENCHMARKS.md M28).
+__device__ __forceinline__ u32 halo_sum_words(const KernelParams& params) {
+    return params.scatter_mode == SCATTER_FIXED_POINT ? 9u : 5u;
+}
+
+__device__ __forceinline__ void put_u64(u32* out, u64 value) {
+    out[0] = (u32)value;
+    out[1] = (u32)(value >> 32);
+}
+
+__device__ __forceinline__ u64 get_u64(const u32* in) {
+    return (u64)in[0] | ((u64)in[1] << 32);
+}
 
 // Node `j` of the `num_nodes` nodes of the planes from `first` across `axis`, counted in the grid's
 // memory order (x fastest), so that neighbouring threads read neighbouring nodes whichever the axis.
@@ -41,16 +55,17 @@ __device__ __forceinline__ HaloBlock halo_node_block(const KernelParams& params,
 extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
                                           float4* __restrict__ grid_acc, u64* __restrict__ fixed_mass,
                                           u64* __restrict__ fixed_momentum, u64* __restrict__ volume,
-                                          const u32* __restrict__ block_marks, u64* __restrict__ out) {
+                                          const u32* __restrict__ block_marks, u32* __restrict__ out) {
     const NodeBlocks blocks = node_blocks(params);
+    const u32 words = halo_sum_words(params);
     FOR_EACH_INDEX(j, num_nodes) {
         const u32 i = halo_node(params, axis, first, num_nodes, j);
-        u64* o = out + (size_t)HALO_SUM_WORDS * j;
+        u32* o = out + (size_t)words * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
-            o[0] = fixed_mass[i];
+            put_u64(o, fixed_mass[i]);
             fixed_mass[i] = 0;
             for (u32 a = 0; a < 3u; ++a) {
-                o[1 + a] = fixed_momentum[3 * (size_t)i + a];
+                put_u64(o + 2 + 2 * a, fixed_momentum[3 * (size_t)i + a]);
                 fixed_momentum[3 * (size_t)i + a] = 0;
             }
         } else {
@@ -62,9 +77,9 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
             o[3] = __float_as_uint(acc.z);
         }
         const HaloBlock b = halo_node_block(params, i);
-        o[4] = block_marks[node_block_index(blocks, b.x, b.y, b.z)];
+        o[words - 1] = block_marks[node_block_index(blocks, b.x, b.y, b.z)];
         if (params.volume_density) {
-            out[(size_t)HALO_SUM_WORDS * num_nodes + j] = volume[i];
+            put_u64(out + (size_t)words * num_nodes + 2 * (size_t)j, volume[i]);
             volume[i] = 0;
         }
     }
@@ -72,31 +87,32 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
 
 // Adds packed sums to the edge planes from `first` and lists the blocks the sender listed.
 extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 axis, const u32 first, const u32 num_nodes,
-                                         const u64* __restrict__ in, float4* __restrict__ grid_acc,
+                                         const u32* __restrict__ in, float4* __restrict__ grid_acc,
                                          u64* __restrict__ fixed_mass, u64* __restrict__ fixed_momentum,
                                          u64* __restrict__ volume, u32* __restrict__ block_marks, u32* __restrict__ block_list,
                                          u32* __restrict__ work_counts) {
     const NodeBlocks blocks = node_blocks(params);
     const BlockMarks marks{block_marks, block_list, work_counts};
+    const u32 words = halo_sum_words(params);
     FOR_EACH_INDEX(j, num_nodes) {
         const u32 i = halo_node(params, axis, first, num_nodes, j);
-        const u64* w = in + (size_t)HALO_SUM_WORDS * j;
+        const u32* w = in + (size_t)words * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
-            fixed_mass[i] += w[0];
-            for (u32 a = 0; a < 3u; ++a) fixed_momentum[3 * (size_t)i + a] += w[1 + a];
+            fixed_mass[i] += get_u64(w);
+            for (u32 a = 0; a < 3u; ++a) fixed_momentum[3 * (size_t)i + a] += get_u64(w + 2 + 2 * a);
         } else {
             float4 acc = grid_acc[i];
-            acc.w += __uint_as_float((u32)w[0]);
-            acc.x += __uint_as_float((u32)w[1]);
-            acc.y += __uint_as_float((u32)w[2]);
-            acc.z += __uint_as_float((u32)w[3]);
+            acc.w += __uint_as_float(w[0]);
+            acc.x += __uint_as_float(w[1]);
+            acc.y += __uint_as_float(w[2]);
+            acc.z += __uint_as_float(w[3]);
             grid_acc[i] = acc;
         }
-        if (w[4]) {
+        if (w[words - 1]) {
             const HaloBlock b = halo_node_block(params, i);
             mark_node_block(params, marks, blocks, b.x, b.y, b.z);
         }
-        if (params.volume_density) volume[i] += in[(size_t)HALO_SUM_WORDS * num_nodes + j];
+        if (params.volume_density) volume[i] += get_u64(in + (size_t)words * num_nodes + 2 * (size_t)j);
     }
 }
 

@@ -42,7 +42,7 @@
 //! order, not by the host.
 
 use super::gpu::CudaOptions;
-use super::halo::{HaloBuffers, HaloKernels, Planes, HALO_SUM_WORDS, HALO_VELOCITY_WORDS, HALO_VOLUME_WORDS};
+use super::halo::{sum_words, HaloBuffers, HaloKernels, Planes, VELOCITY_WORDS, VOLUME_WORDS};
 use super::launch::Launcher;
 use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
 use super::render::DeviceParticlesView;
@@ -56,7 +56,8 @@ use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
 use crate::sim::{
-    Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary, SummaryTicket,
+    Params, ParticleView, Particles, Pipeline, Push, ScatterMode, Scene, Solver, StepExtremes, Summary,
+    SummaryTicket,
 };
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
@@ -122,14 +123,20 @@ enum Exchange {
 }
 
 impl Exchange {
-    /// u64 words a node takes packed: HALO_SUM_WORDS, or one float4 of velocity and mass; and the
-    /// grid's volume where the rest densities differ (`volume`).
-    fn words_per_node(self, volume: bool) -> usize {
+    /// 32-bit words a node takes packed under `params` (kernels/halo.cu): its sums in the scatter's
+    /// width and its block mark, or one float4 of velocity and mass; and the grid's volume where the
+    /// rest densities differ.
+    fn words_per_node(self, params: &Params) -> usize {
         let words = match self {
-            Exchange::Sums => HALO_SUM_WORDS,
-            Exchange::Velocities => HALO_VELOCITY_WORDS,
+            Exchange::Sums => sum_words(params.scatter_mode == ScatterMode::FixedPoint.code()),
+            Exchange::Velocities => VELOCITY_WORDS,
         };
-        words + if volume { HALO_VOLUME_WORDS } else { 0 }
+        words
+            + if params.volume_density != 0 {
+                VOLUME_WORDS
+            } else {
+                0
+            }
     }
 }
 
@@ -447,7 +454,7 @@ impl CudaRanks {
                     // count; the neighbour posts the matching receive and send in this group, from
                     // its own side of the same link.
                     unsafe {
-                        comm.send_recv(&sends, &recvs, DataType::U64, stream.cu_stream().cast())?;
+                        comm.send_recv(&sends, &recvs, DataType::U32, stream.cu_stream().cast())?;
                     }
                 }
                 Ok(())
@@ -757,7 +764,7 @@ struct Link {
 }
 
 impl Link {
-    /// The u64 words this rank sends and receives on the link for `what`: its ghost planes' sums go
+    /// The 32-bit words this rank sends and receives on the link for `what`: its ghost planes' sums go
     /// out and its edge planes' come in; its edge planes' velocities go out and its ghosts' come in.
     fn words(&self, what: Exchange, params: &Params) -> (usize, usize) {
         let res = params.grid_res;
@@ -765,7 +772,7 @@ impl Link {
             Exchange::Sums => (&self.ghosts, &self.edge),
             Exchange::Velocities => (&self.edge, &self.ghosts),
         };
-        let words = what.words_per_node(params.volume_density != 0);
+        let words = what.words_per_node(params);
         (words * send.nodes(res), words * recv.nodes(res))
     }
 }

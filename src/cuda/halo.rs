@@ -13,13 +13,21 @@ use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchArgs, PushKernelArg};
 use std::ops::Range;
 
-/// u64 words per node of packed sums: mass, momentum x, y, z, and the sender's block mark
-/// (`HALO_SUM_WORDS` in kernels/halo.cu).
-pub const HALO_SUM_WORDS: usize = 5;
-/// u64 words per node of packed velocities: a float4 of velocity and mass.
-pub const HALO_VELOCITY_WORDS: usize = 2;
-/// u64 words per node added to either where the rest densities differ: the grid's volume.
-pub const HALO_VOLUME_WORDS: usize = 1;
+/// 32-bit words per node of packed sums (`halo_sum_words` in kernels/halo.cu): mass and momentum x,
+/// y, z as floats, or under the fixed-point scatter as 64-bit units of two words each; then the
+/// sender's block mark.
+pub fn sum_words(fixed_point: bool) -> usize {
+    if fixed_point {
+        9
+    } else {
+        5
+    }
+}
+/// 32-bit words per node of packed velocities: a float4 of velocity and mass.
+pub const VELOCITY_WORDS: usize = 4;
+/// 32-bit words per node added to either where the rest densities differ: the grid's volume, 64
+/// bits.
+pub const VOLUME_WORDS: usize = 2;
 
 pub struct HaloKernels {
     pack_sums: Kernel,
@@ -43,11 +51,12 @@ impl Planes {
     }
 }
 
-/// One rank's send and receive buffers, below ([0]) and above ([1]), each large enough for a block
-/// of planes of packed sums and volumes (velocities take less).
+/// One rank's send and receive buffers of 32-bit words, below ([0]) and above ([1]), each large
+/// enough for a block of planes of packed sums and volumes in either scatter mode (velocities take
+/// less).
 pub struct HaloBuffers {
-    pub send: [CudaSlice<u64>; 2],
-    pub recv: [CudaSlice<u64>; 2],
+    pub send: [CudaSlice<u32>; 2],
+    pub recv: [CudaSlice<u32>; 2],
 }
 
 impl HaloBuffers {
@@ -56,11 +65,11 @@ impl HaloBuffers {
             axis,
             range: 0..BLOCK,
         };
-        let words = (HALO_SUM_WORDS + HALO_VOLUME_WORDS) * block.nodes(res);
+        let words = (sum_words(true) + VOLUME_WORDS) * block.nodes(res);
         let stream = gpu.stream();
         let alloc = || {
             stream
-                .alloc_zeros::<u64>(words)
+                .alloc_zeros::<u32>(words)
                 .with_context(|| format!("allocating a halo buffer ({words} words)"))
         };
         Ok(HaloBuffers {
@@ -88,10 +97,11 @@ impl HaloKernels {
         params: &Params,
         planes: &Planes,
         d: &DeviceState,
-        out: &CudaSlice<u64>,
+        out: &CudaSlice<u32>,
     ) -> Result<()> {
-        // SAFETY: the rest of halo_pack_sums' arguments; `out` holds HALO_SUM_WORDS and a volume per
-        // node of a block of planes (`HaloBuffers::allocate`) and ghost planes are at most a block.
+        // SAFETY: the rest of halo_pack_sums' arguments; `out` holds the most words of sums and a
+        // volume per node of a block of planes (`HaloBuffers::allocate`), and ghost planes are at
+        // most a block.
         unsafe {
             over_planes(&self.pack_sums, l, params, &extent(planes, params), |a| {
                 a.accumulators(&d.grid)
@@ -108,7 +118,7 @@ impl HaloKernels {
         l: &Launcher,
         params: &Params,
         planes: &Planes,
-        received: &CudaSlice<u64>,
+        received: &CudaSlice<u32>,
         d: &DeviceState,
     ) -> Result<()> {
         let blocks = &d.grid.node_blocks;
@@ -132,7 +142,7 @@ impl HaloKernels {
         params: &Params,
         planes: &Planes,
         d: &DeviceState,
-        out: &CudaSlice<u64>,
+        out: &CudaSlice<u32>,
     ) -> Result<()> {
         // SAFETY: the rest of halo_pack_velocities' arguments; a float4 and a volume per node take
         // less than the words per node `out` holds.
@@ -149,7 +159,7 @@ impl HaloKernels {
         l: &Launcher,
         params: &Params,
         planes: &Planes,
-        received: &CudaSlice<u64>,
+        received: &CudaSlice<u32>,
         d: &DeviceState,
     ) -> Result<()> {
         // SAFETY: the rest of halo_fill_velocities' arguments; `received` as in `pack_velocities`.
