@@ -131,12 +131,11 @@ impl Exchange {
             Exchange::Sums => sum_words(params.scatter_mode == ScatterMode::FixedPoint.code()),
             Exchange::Velocities => VELOCITY_WORDS,
         };
-        words
-            + if params.volume_density != 0 {
-                VOLUME_WORDS
-            } else {
-                0
-            }
+        let volume = match params.volume_density {
+            0 => 0,
+            _ => VOLUME_WORDS,
+        };
+        words + volume
     }
 }
 
@@ -168,6 +167,13 @@ impl CudaRanks {
         options: CudaOptions,
     ) -> Result<CudaRanks> {
         check_ranks(scene, &slabs)?;
+        ensure!(
+            options.timed_rank < slabs.ranks(),
+            "MPM_TIMED_RANK={}: a run of {} ranks has ranks 0 to {}",
+            options.timed_rank,
+            slabs.ranks(),
+            slabs.ranks() - 1
+        );
         ensure!(
             scene.pipeline == Pipeline::Fused,
             "scene {}: several ranks run the fused pipeline (the default); drop --pipeline {} or run on one rank",
@@ -221,12 +227,6 @@ impl CudaRanks {
             Carrier::DeviceCopy
         };
         let timed = options.timed_rank;
-        ensure!(
-            timed < solvers.len(),
-            "MPM_TIMED_RANK={timed}: a run of {} ranks has ranks 0 to {}",
-            solvers.len(),
-            solvers.len() - 1
-        );
         // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
         let timing = PhaseEvents::new(solvers[timed].gpu.ctx.clone(), 1);
         Ok(CudaRanks {
