@@ -154,6 +154,9 @@ impl CudaRanks {
             scene.method != crate::sim::Method::Pbmpm,
             "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
         );
+        if let Some(note) = crate::dist::small_for_gpus(scene.gpus, particles.num_live()) {
+            eprintln!("note: {note}");
+        }
         let slabs = starting_slabs(scene, &particles, ranks)?;
         CudaRanks::with_slabs(scene, particles, slabs, options)
     }

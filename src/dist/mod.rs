@@ -45,6 +45,25 @@ pub fn starting_slabs(scene: &Scene, particles: &Particles, ranks: usize) -> Res
     })
 }
 
+/// Live particles below which a run steps slower on several GPUs than on one, estimated from
+/// BENCHMARKS.md M28 (two H200s): the exchanges, migrations and the host's turns add 0.15 to 0.4 ms
+/// to a substep, which halving a particle pass (about 0.11 ns a particle on one H200) pays back only
+/// from a few million particles; the dam break's 451,200 took 0.21 ms a substep on two against 0.08
+/// on one.
+pub const FEWEST_PARTICLES_FOR_GPUS: usize = 4_000_000;
+
+/// What a run on `gpus` GPUs of `live` particles says once where it is small enough to step slower
+/// than on one GPU.
+pub fn small_for_gpus(gpus: usize, live: usize) -> Option<String> {
+    (gpus > 1 && live < FEWEST_PARTICLES_FOR_GPUS).then(|| {
+        format!(
+            "--gpus {gpus} with {live} particles: a run of a few million particles or fewer steps \
+             slower on several GPUs than on one (the dam break's 451,200: 0.21 ms a substep on two \
+             H200s, 0.08 on one; docs/several-gpus.md); drop --gpus for it"
+        )
+    })
+}
+
 /// What a run on ranks cannot do yet, or on these slabs, refused before anything is allocated.
 pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
     if scene.flow.is_active() {
@@ -65,4 +84,18 @@ pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::small_for_gpus;
+
+    #[test]
+    fn small_runs_on_several_gpus_are_told_so() {
+        let note = small_for_gpus(2, 451_200).expect("the dam break is small");
+        assert!(note.contains("--gpus 2 with 451200 particles"), "{note}");
+        assert!(note.contains("drop --gpus"), "{note}");
+        assert_eq!(small_for_gpus(1, 451_200), None, "one GPU says nothing");
+        assert_eq!(small_for_gpus(2, 16_777_216), None, "16.8M gains from two GPUs");
+    }
 }
