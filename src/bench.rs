@@ -344,7 +344,8 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
     // with particles in place (the ranks' label names their migration cadence instead).
     let sort_interval = sim.solver().rebin_interval().unwrap_or(cuda::bins::SORT_INTERVAL);
     let label = |phase: Phase| match (on_gpu, ranked, phase) {
-        // src/cuda/ranks.rs: the phases of every rank, timed on rank 0's stream.
+        // src/cuda/cuda_ranks.rs: the phases of every rank, timed on one rank's stream (rank 0's
+        // unless MPM_TIMED_RANK names another).
         (true, true, Phase::Sort) => format!(
             "migrate + rebin (every {} substeps, or when a particle nears its rank's ghost planes)",
             crate::dist::MIGRATION_INTERVAL
