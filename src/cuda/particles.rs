@@ -16,7 +16,8 @@ pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
 /// Bytes of one particle's deformation, where a material carries one: F_E as 3 float4 columns, the
 /// plastic scalar in the first column's w.
 pub const DEFORMATION_BYTES_PER_PARTICLE: usize = 4 * 12;
-/// The slot of a place that holds no particle of the run: a rank's parked places past its own.
+/// The slot of a place a rank's buffers grew by, which holds no particle of the run (no reader
+/// looks at a parked place's slot).
 pub const NO_SLOT: u32 = u32::MAX;
 /// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
 pub const BYTES_PER_PARTICLE: usize = STATE_BYTES_PER_PARTICLE + 4 * 3;
