@@ -49,7 +49,7 @@ use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
 use super::state::DeviceState;
 use super::timing::PhaseEvents;
-use crate::dist::migrate::{layer, Migration};
+use crate::dist::migrate::{Migration, RankParticles};
 use crate::dist::nccl::{Comm, DataType, Nccl};
 use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
@@ -190,10 +190,13 @@ impl CudaRanks {
         let mut counts = Vec::new();
         let mut strays = Vec::new();
         for (rank, &device) in devices.iter().enumerate() {
-            let slots = owned_by(&particles, &slabs, rank, params.inv_dx);
-            counts.push(slots.len());
-            let mut mine = particles.pick(&slots);
-            mine.park_more(with_room(slots.len()) - slots.len());
+            let RankParticles {
+                particles: mut mine,
+                id,
+                ..
+            } = RankParticles::share(&particles, &slabs, rank, params.inv_dx);
+            counts.push(id.len());
+            mine.park_more(with_room(id.len()) - id.len());
             // The binnings' gathers into bin order are what pack a rank's particles again after
             // its leavers parked (MPM_BIN_ORDER=0 is for timing one GPU).
             let packed = CudaOptions {
@@ -210,8 +213,7 @@ impl CudaRanks {
                 slabs.ranks(),
                 mine.len()
             );
-            let slots: Vec<u32> = slots.iter().map(|&slot| slot as u32).collect();
-            solver.state.particles.upload_slots(solver.gpu.stream(), &slots)?;
+            solver.state.particles.upload_slots(solver.gpu.stream(), &id)?;
             halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
             strays.push(
                 solver
@@ -688,13 +690,6 @@ fn wait_for(solvers: &[CudaSolver]) -> Result<()> {
             .context("waiting for a rank (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
     }
     Ok(())
-}
-
-/// The live slots of `all` that `slabs` gives to `rank`.
-fn owned_by(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> Vec<usize> {
-    (0..all.len())
-        .filter(|&slot| all.live[slot] && slabs.owner(layer(all.x[slot], slabs.axis, inv_dx)) == rank)
-        .collect()
 }
 
 /// The places a rank holding `live` particles allocates: an eighth more and a few blocks' worth,

@@ -46,20 +46,14 @@ impl RankParticles {
     /// The particles of `all` (slot = id) that `slabs` gives to `rank`, in id order; parked slots of
     /// `all` go nowhere.
     pub fn share(all: &Particles, slabs: &Slabs, rank: usize, inv_dx: f32) -> RankParticles {
-        let mut mine = RankParticles::default();
-        for i in (0..all.len()).filter(|&i| all.live[i]) {
-            if slabs.owner(layer(all.x[i], slabs.axis, inv_dx)) == rank {
-                mine.push(
-                    i as u32,
-                    all.x[i],
-                    all.v[i],
-                    all.c[i],
-                    all.rho[i],
-                    all.material[i],
-                );
-            }
+        let slots: Vec<usize> = (0..all.len())
+            .filter(|&i| all.live[i] && slabs.owner(layer(all.x[i], slabs.axis, inv_dx)) == rank)
+            .collect();
+        RankParticles {
+            particles: all.pick(&slots),
+            id: slots.iter().map(|&slot| slot as u32).collect(),
+            parked: Vec::new(),
         }
-        mine
     }
 
     fn push(&mut self, id: u32, x: Vec3, v: Vec3, c: Mat3, rho: f32, material: u8) {
