@@ -43,6 +43,25 @@ pub struct RunOptions {
     pub started: Instant,
 }
 
+impl RunOptions {
+    /// `frames` frames that write nothing and show no progress: what a test, or a rank other than
+    /// rank 0 of a run of a process per GPU, steps. Outputs are added with struct update syntax.
+    pub fn writing_nothing(frames: u64, started: Instant) -> RunOptions {
+        RunOptions {
+            frames,
+            export: None,
+            surface: None,
+            volume: None,
+            bodies: None,
+            usd: None,
+            stats: None,
+            checkpoints: None,
+            progress: false,
+            started,
+        }
+    }
+}
+
 /// The JSON-lines stats file: one [`FrameStats`] object per line. Checked when made, created with
 /// its first line: a run that stops before its first frame leaves no empty file behind.
 pub struct StatsFile {

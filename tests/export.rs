@@ -98,16 +98,9 @@ fn a_run_writes_sorted_frames_and_stats_lines_and_refuses_to_overwrite_them() {
     let run = |overwrite: bool| -> anyhow::Result<Vec<mpm::sim::FrameStats>> {
         let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene)?);
         let opts = RunOptions {
-            frames: 4,
             export: Some(PlyExporter::new(&frames, 2, overwrite)?),
-            surface: None,
-            volume: None,
-            bodies: None,
-            usd: None,
             stats: Some(StatsFile::create(&stats, overwrite)?),
-            checkpoints: None,
-            progress: false,
-            started: std::time::Instant::now(),
+            ..RunOptions::writing_nothing(4, std::time::Instant::now())
         };
         runner::run(&mut sim, opts, &mut std::io::sink())
     };
@@ -187,16 +180,8 @@ fn overwrite_leaves_one_run_in_the_folder() {
         let exporter = PlyExporter::new(&frames, 1, overwrite)?;
         let note = exporter.removed_note();
         let opts = RunOptions {
-            frames: count,
             export: Some(exporter),
-            surface: None,
-            volume: None,
-            bodies: None,
-            usd: None,
-            stats: None,
-            checkpoints: None,
-            progress: false,
-            started: std::time::Instant::now(),
+            ..RunOptions::writing_nothing(count, std::time::Instant::now())
         };
         runner::run(&mut sim, opts, &mut std::io::sink())?;
         Ok(note)
@@ -252,18 +237,7 @@ fn a_huge_frame_count_does_not_abort() {
             Ok(())
         }
     }
-    let opts = RunOptions {
-        frames: 99_999_999_999,
-        export: None,
-        surface: None,
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
-    };
+    let opts = RunOptions::writing_nothing(99_999_999_999, std::time::Instant::now());
     let e = runner::run(&mut sim, opts, &mut Closed).unwrap_err();
     assert!(format!("{e:#}").to_lowercase().contains("pipe"), "{e:#}");
 }
@@ -305,16 +279,8 @@ material = "water"
     let frames = dir.path().join("frames");
     let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
     let opts = RunOptions {
-        frames: 1,
         export: Some(PlyExporter::new(&frames, 1, false).unwrap()),
-        surface: None,
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
+        ..RunOptions::writing_nothing(1, std::time::Instant::now())
     };
     runner::run(&mut sim, opts, &mut std::io::sink()).unwrap();
     let (vertices, comments) = read_back_all(&frames.join("frame_000000.ply"));

@@ -128,16 +128,8 @@ fn parked_slots_are_seen_by_nothing() {
     // The exported frames hold the live particles alone.
     let dir = tempfile::tempdir().unwrap();
     let opts = mpm::runner::RunOptions {
-        frames: 1,
         export: Some(mpm::export::PlyExporter::new(dir.path(), 1, false).unwrap()),
-        surface: None,
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
+        ..mpm::runner::RunOptions::writing_nothing(1, std::time::Instant::now())
     };
     mpm::runner::run(&mut sim, opts, &mut std::io::sink()).unwrap();
     let live_now = sim.solver_mut().read_particles().unwrap().num_live();

@@ -391,18 +391,7 @@ velocity = [50.0, 0.0, 0.0]
     }
     let solver = mpm::backend::create(mpm::backend::BackendKind::Cpu, &scene).unwrap();
     let mut sim = Simulation::new(scene, solver);
-    let opts = mpm::runner::RunOptions {
-        frames: 3,
-        export: None,
-        surface: None,
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
-    };
+    let opts = mpm::runner::RunOptions::writing_nothing(3, std::time::Instant::now());
     let mut out = Vec::new();
     let all = mpm::runner::run(&mut sim, opts, &mut out).unwrap();
     for stats in &all {

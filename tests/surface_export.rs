@@ -296,16 +296,8 @@ fn run_with_surface(
     let settings = SurfaceSettings::for_scene(scene, SurfaceOverrides::default()).unwrap();
     let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, scene).unwrap());
     let opts = RunOptions {
-        frames,
-        export: None,
         surface: Some(SurfaceExporter::new(dir, every, format, settings, false).unwrap()),
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
+        ..RunOptions::writing_nothing(frames, std::time::Instant::now())
     };
     let mut out = Vec::new();
     let stats = runner::run(&mut sim, opts, &mut out).unwrap();
@@ -411,16 +403,8 @@ fn a_failed_write_on_a_worker_stops_the_run() {
     std::fs::remove_dir(&out).unwrap();
     let mut sim = Simulation::new(scene.clone(), backend::create(BackendKind::Cpu, &scene).unwrap());
     let opts = RunOptions {
-        frames: 3,
-        export: None,
         surface: Some(exporter),
-        volume: None,
-        bodies: None,
-        usd: None,
-        stats: None,
-        checkpoints: None,
-        progress: false,
-        started: std::time::Instant::now(),
+        ..RunOptions::writing_nothing(3, std::time::Instant::now())
     };
     let e = runner::run(&mut sim, opts, &mut std::io::sink()).unwrap_err();
     let text = format!("{e:#}");
