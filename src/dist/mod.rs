@@ -10,11 +10,14 @@
 //! - [`comm`]: what carries it, a grouped send/recv and an all-gather; reductions are folded in
 //!   rank order, so every rank gets the same bits.
 //! - [`cpu_ranks`]: the CPU reference as N ranks in one process, the decomposition's oracle.
-//! - [`nccl`]: NCCL found and loaded at run time, and the calls the ranks on several GPUs will make.
+//! - [`nccl`]: NCCL found and loaded at run time, and the calls the ranks on several GPUs make.
+//! - [`launch`]: a rank per process: its place from the launcher's environment, and the file
+//!   rendezvous that hands every rank the NCCL id.
 
 pub mod comm;
 pub mod cpu_ranks;
 pub mod halo;
+pub mod launch;
 pub mod migrate;
 pub mod nccl;
 pub mod slabs;

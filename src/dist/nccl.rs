@@ -53,6 +53,7 @@ struct Functions {
     error_string: unsafe extern "C" fn(NcclResult) -> *const c_char,
     all_reduce:
         unsafe extern "C" fn(*const c_void, *mut c_void, usize, c_int, c_int, RawComm, Stream) -> NcclResult,
+    all_gather: unsafe extern "C" fn(*const c_void, *mut c_void, usize, c_int, RawComm, Stream) -> NcclResult,
     send: unsafe extern "C" fn(*const c_void, usize, c_int, c_int, RawComm, Stream) -> NcclResult,
     recv: unsafe extern "C" fn(*mut c_void, usize, c_int, c_int, RawComm, Stream) -> NcclResult,
     group_start: unsafe extern "C" fn() -> NcclResult,
@@ -97,6 +98,7 @@ impl Nccl {
                 comm_abort: *library.get(b"ncclCommAbort\0")?,
                 error_string: *library.get(b"ncclGetErrorString\0")?,
                 all_reduce: *library.get(b"ncclAllReduce\0")?,
+                all_gather: *library.get(b"ncclAllGather\0")?,
                 send: *library.get(b"ncclSend\0")?,
                 recv: *library.get(b"ncclRecv\0")?,
                 group_start: *library.get(b"ncclGroupStart\0")?,
@@ -244,6 +246,33 @@ impl Comm {
             )
         };
         self.nccl.check(result, "ncclAllReduce")
+    }
+
+    /// Gathers `count` values of `data_type` at device address `send` from every rank into `recv`,
+    /// rank r's at r * count, on every rank, in `stream`'s order.
+    ///
+    /// # Safety
+    /// `send` must be a device buffer of at least `count` values of `data_type` and `recv` of
+    /// `size * count`, on this communicator's device, alive until `stream` has run the gather.
+    pub unsafe fn all_gather(
+        &self,
+        (send, recv): (u64, u64),
+        count: usize,
+        data_type: DataType,
+        stream: Stream,
+    ) -> Result<()> {
+        // SAFETY: the caller vouches for the buffers and the stream.
+        let result = unsafe {
+            (self.nccl.functions.all_gather)(
+                send as *const c_void,
+                recv as *mut c_void,
+                count,
+                data_type as c_int,
+                self.raw,
+                stream,
+            )
+        };
+        self.nccl.check(result, "ncclAllGather")
     }
 
     /// Sends and receives, as one NCCL group: `sends` are (peer, device address, count), `recvs` the
