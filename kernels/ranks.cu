@@ -78,15 +78,16 @@ extern "C" __global__ void move_owned(const KernelParams params, const u32 axis,
     }
 }
 
-// Copies one rank's live particles (x, v, C's three columns, density; `count` places) to their
-// slots in `out_*` (`out_count` slots), which every rank writes in turn: a slot is live on exactly
-// one rank.
-extern "C" __global__ void take_owned(const u32 count, const float4* __restrict__ x, const float4* __restrict__ v,
-                                      const float4* __restrict__ c, const float* __restrict__ rho,
-                                      const u32* __restrict__ slot, const u32 out_count,
-                                      float4* __restrict__ out_x, float4* __restrict__ out_v,
-                                      float4* __restrict__ out_c, float* __restrict__ out_rho) {
-    FOR_EACH_INDEX(p, count) {
+// Copies one rank's live particles (x, v, C's three columns, density) among the first `places` of
+// its `count` to their slots in `out_*` (`out_count` slots), which every rank writes in turn: a
+// slot is live on exactly one rank.
+extern "C" __global__ void take_owned(const u32 places, const u32 count, const float4* __restrict__ x,
+                                      const float4* __restrict__ v, const float4* __restrict__ c,
+                                      const float* __restrict__ rho, const u32* __restrict__ slot,
+                                      const u32 out_count, float4* __restrict__ out_x,
+                                      float4* __restrict__ out_v, float4* __restrict__ out_c,
+                                      float* __restrict__ out_rho) {
+    FOR_EACH_INDEX(p, places) {
         const float4 xp = x[p];
         const u32 s = slot[p];
         if (is_parked(xp) || s >= out_count) continue;

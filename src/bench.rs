@@ -75,6 +75,8 @@ pub struct PhaseBenchOptions {
     pub ranks: Option<usize>,
     /// Runs the ranks on this many GPUs (`Scene::gpus`).
     pub gpus: Option<usize>,
+    /// Runs one rank in this process, the others in theirs (`Scene::process`, `--processes`).
+    pub process: Option<crate::dist::launch::Process>,
     /// Memory bandwidth for the traffic floor, GB/s.
     pub peak_gbs: f64,
 }
@@ -91,6 +93,7 @@ impl Default for PhaseBenchOptions {
             pipeline: None,
             ranks: None,
             gpus: None,
+            process: None,
             peak_gbs: H200_PEAK_GBS,
         }
     }
@@ -187,6 +190,9 @@ fn with_overrides(scene: &Scene, options: &PhaseBenchOptions) -> Scene {
     }
     if let Some(gpus) = options.gpus {
         scene.gpus = gpus;
+    }
+    if options.process.is_some() {
+        scene.process = options.process;
     }
     scene
 }

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use mpm::backend::{self, BackendKind};
 use mpm::bench;
 use mpm::checkpoint::{Checkpoint, CheckpointSeries};
+use mpm::dist::launch::Process;
 use mpm::export::bodies::BodyExporter;
 use mpm::export::frames::{Exports, FrameExportSet};
 use mpm::export::mesh_files::SurfaceFormat;
@@ -403,35 +404,66 @@ struct SolverArgs {
     /// exchanges over NCCL (backend cuda; docs/several-gpus.md).
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
     gpus: Option<u64>,
+    /// Run one rank per process, as mpirun, srun or torchrun start them: the rank and the number of
+    /// processes from the launcher's environment, each process on one GPU (backend cuda; `mpm run`
+    /// and `mpm bench`; docs/several-gpus.md).
+    #[arg(long, conflicts_with_all = ["ranks", "gpus"])]
+    processes: bool,
 }
 
 impl SolverArgs {
-    fn apply(&self, scene: &mut Scene) {
+    /// The overrides, and with `--processes` this process's place among the ranks (`process`).
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(scatter) = self.scatter {
             scene.scatter = scatter;
         }
         if let Some(pipeline) = self.pipeline {
             scene.pipeline = pipeline;
         }
-        if let Some(ranks) = self.ranks() {
+        if let Some(ranks) = self.ranks()? {
             scene.ranks = ranks;
         }
-        if let Some(gpus) = self.gpus() {
+        if let Some(gpus) = self.gpus()? {
             scene.gpus = gpus;
         }
+        scene.process = self.process()?;
+        Ok(())
     }
 
-    /// `--ranks`, or `--gpus` (a rank per GPU), where given (a count past the address space reads as
-    /// the largest, which the slab check then refuses with the limit).
-    fn ranks(&self) -> Option<usize> {
-        self.ranks
+    /// With `--processes`, this process's place, from its launcher's environment; `None` where the
+    /// run is one process (a launch of one runs as without the flag).
+    fn process(&self) -> Result<Option<Process>> {
+        if !self.processes {
+            return Ok(None);
+        }
+        let process = Process::from_env(&|name| std::env::var(name).ok())?;
+        Ok((process.size > 1).then_some(process))
+    }
+
+    /// `--ranks`, or `--gpus` (a rank per GPU), or with `--processes` the processes, where given (a
+    /// count past the address space reads as the largest, which the slab check then refuses with
+    /// the limit).
+    fn ranks(&self) -> Result<Option<usize>> {
+        let asked = self
+            .ranks
             .or(self.gpus)
-            .map(|n| n.try_into().unwrap_or(usize::MAX))
+            .map(|n| n.try_into().unwrap_or(usize::MAX));
+        Ok(asked.or(self.process()?.map(|p| p.size)))
     }
 
-    /// `--gpus`, where given.
-    fn gpus(&self) -> Option<usize> {
-        self.gpus.map(|n| n.try_into().unwrap_or(usize::MAX))
+    /// `--gpus`, or with `--processes` the processes (a GPU each), where given.
+    fn gpus(&self) -> Result<Option<usize>> {
+        let asked = self.gpus.map(|n| n.try_into().unwrap_or(usize::MAX));
+        Ok(asked.or(self.process()?.map(|p| p.size)))
+    }
+
+    /// The window draws what one process steps.
+    fn refuse_processes(&self, command: &str) -> Result<()> {
+        anyhow::ensure!(
+            !self.processes,
+            "--processes: `mpm {command}` runs in one process; use --gpus N to step on the GPUs of              this host, or `mpm run --processes` for a run without a window"
+        );
+        Ok(())
     }
 }
 
@@ -644,8 +676,9 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 }
 
 fn view(args: ViewArgs) -> Result<()> {
+    args.solver.refuse_processes("view")?;
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
     args.method.apply(&mut scene)?;
     // The exports are made after the viewer's own paths are checked and before the window opens:
     // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
@@ -683,8 +716,9 @@ fn view(args: ViewArgs) -> Result<()> {
 }
 
 fn render_frames(args: RenderArgs) -> Result<()> {
+    args.solver.refuse_processes("render")?;
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
     args.method.apply(&mut scene)?;
     if let Some(path) = &args.timings {
         anyhow::ensure!(
@@ -780,7 +814,7 @@ struct BenchArgs {
 
 fn bench(args: BenchArgs) -> Result<()> {
     anyhow::ensure!(
-        !(args.sweep && args.solver.ranks().is_some_and(|n| n > 1)),
+        !(args.sweep && args.solver.ranks()?.is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
     );
     anyhow::ensure!(
@@ -788,15 +822,18 @@ fn bench(args: BenchArgs) -> Result<()> {
         "--peak-gbs {} must be a positive bandwidth in GB/s (4800 for an H200)",
         args.peak_gbs
     );
-    if let Some(path) = &args.json {
+    if let (Some(path), false) = (&args.json, args.solver.process()?.is_some_and(|p| p.rank > 0)) {
         check_output_file(path, "--json", args.overwrite)?;
     }
     // Before the backend is resolved: `auto` would announce timing the CPU, then refuse the ranks.
     backend::check_ranks(
         args.backend,
-        args.solver.ranks().unwrap_or(1),
-        args.solver.gpus().unwrap_or(1),
+        args.solver.ranks()?.unwrap_or(1),
+        args.solver.gpus()?.unwrap_or(1),
     )?;
+    let process = args.solver.process()?;
+    // One table, one JSON: rank 0's; the others run the same benchmark silently beside it.
+    let root = process.is_none_or(|p| p.rank == 0);
     let scenes = if !args.particles.is_empty() {
         let scenes = args
             .particles
@@ -858,15 +895,19 @@ fn bench(args: BenchArgs) -> Result<()> {
             phase_sample: None,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
-            ranks: args.solver.ranks(),
-            gpus: args.solver.gpus(),
+            ranks: args.solver.ranks()?,
+            gpus: args.solver.gpus()?,
+            process,
             peak_gbs: args.peak_gbs,
         },
         cpu_baseline_steps: args.cpu_baseline.then_some(steps(args.cpu_steps, "cpu-steps")?),
         sweep,
     };
-    let report = bench::run(&plan, &mut std::io::stdout().lock())?;
-    if let Some(path) = &args.json {
+    let report = match root {
+        true => bench::run(&plan, &mut std::io::stdout().lock())?,
+        false => bench::run(&plan, &mut std::io::sink())?,
+    };
+    if let (Some(path), true) = (&args.json, root) {
         let text = serde_json::to_string_pretty(&report)?;
         std::fs::write(path, text + "\n")
             .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), mpm::text::io_reason(&e)))?;
@@ -943,8 +984,11 @@ fn run(args: RunArgs) -> Result<()> {
             args.backend.unwrap_or(BackendKind::Auto),
         ),
     };
-    args.solver.apply(&mut scene);
+    args.solver.apply(&mut scene)?;
     args.method.apply(&mut scene)?;
+    // With a process per rank, rank 0 writes every output and every line; the others step their
+    // ranks beside it.
+    let root = scene.process.is_none_or(|p| p.rank == 0);
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());
@@ -960,6 +1004,11 @@ fn run(args: RunArgs) -> Result<()> {
             Simulation::new(scene, solver)
         }
     };
+    if !root {
+        let quiet = RunOptions::writing_nothing(args.frames, started);
+        runner::run(&mut sim, quiet, &mut std::io::sink())?;
+        return sim.solver_mut().finish();
+    }
     // Then every output, before the first step, so a bad path fails at once, not after a long run.
     let scene = sim.scene();
     let exports = args.exports.build(scene, args.overwrite)?;
@@ -997,7 +1046,9 @@ fn run(args: RunArgs) -> Result<()> {
         scene.dx,
         sim.params().materials[0].sound_speed(),
         sim.backend(),
-        if scene.gpus > 1 {
+        if let Some(process) = scene.process {
+            format!(" on {} GPUs, a process each ({})", process.size, process.launcher)
+        } else if scene.gpus > 1 {
             format!(" on {} GPUs", scene.gpus)
         } else if scene.ranks > 1 {
             format!(" on {} ranks", scene.ranks)
@@ -1040,7 +1091,7 @@ fn run(args: RunArgs) -> Result<()> {
         started,
     };
     runner::run(&mut sim, opts, &mut std::io::stdout().lock())?;
-    Ok(())
+    sim.solver_mut().finish()
 }
 
 fn scenes(show: Option<Option<String>>, mesh: Option<String>) -> Result<()> {

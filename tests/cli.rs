@@ -108,6 +108,46 @@ fn negative_and_zero_numbers_are_named() {
     }
 }
 
+/// `--processes` outside a launcher names the launchers and their variables, before any work; the
+/// window refuses it; and a rank-only variable without the run's size is named.
+#[test]
+fn processes_outside_a_launcher_are_refused_with_the_launch_commands() {
+    let launchers = [
+        "OMPI_COMM_WORLD_RANK",
+        "OMPI_COMM_WORLD_SIZE",
+        "PMI_RANK",
+        "PMI_SIZE",
+        "SLURM_PROCID",
+        "SLURM_NTASKS",
+        "RANK",
+        "WORLD_SIZE",
+    ];
+    let run = |args: &[&str], env: &[(&str, &str)]| {
+        let mut command = Command::new(common::mpm_binary());
+        for name in launchers {
+            command.env_remove(name);
+        }
+        command.args(args).envs(env.iter().copied()).output().unwrap()
+    };
+    let out = run(&["run", "--processes", "--frames", "1"], &[]);
+    assert!(!out.status.success());
+    let text = stderr(&out);
+    assert!(
+        text.contains("mpirun -n N") && text.contains("SLURM_PROCID"),
+        "{text}"
+    );
+    let out = run(&["view", "--processes"], &[]);
+    assert!(
+        stderr(&out).contains("`mpm view` runs in one process"),
+        "{}",
+        stderr(&out)
+    );
+    let out = run(&["run", "--processes", "--frames", "1"], &[("RANK", "1")]);
+    assert!(stderr(&out).contains("WORLD_SIZE"), "{}", stderr(&out));
+    let out = run(&["run", "--processes", "--gpus", "2"], &[]);
+    assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
+}
+
 /// `--gpus` is refused, naming the fix, where it cannot run: on the CPU backends, beside `--ranks`,
 /// and at zero. The fix for the CPU backends is CUDA where a device works, else dropping `--gpus`
 /// (`refusals_give_advice_that_runs_here` runs it).

@@ -69,6 +69,17 @@ impl CounterRing {
         Ok(slot)
     }
 
+    /// Whether that slot's copy has landed, without waiting.
+    pub fn copied(&self, slot: usize) -> Result<bool> {
+        let (_, copied) = self
+            .copies
+            .get(slot)
+            .context("an extremes ticket of another solver")?;
+        copied
+            .try_is_complete()
+            .context("querying the step counters' copy (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")
+    }
+
     /// Waits for that slot's copy only (its own event), not for the whole stream. `params` gives the
     /// fixed-point scales an overflow report names, `fix` what it advises ([`EXPLICIT_OVERFLOW_FIX`],
     /// or the position-based solver's).

@@ -15,31 +15,43 @@
 //! The fused pipeline scatters the next substep inside one_pass, so the ghost sums travel at the
 //! start of the substep that uses them, before the walls' mirror.
 //!
-//! **Where the ranks run** (`Scene::gpus`). On one GPU every rank runs on device
-//! `CudaOptions::device` and the carrier is a device copy between the ranks' halo buffers. On
-//! several, rank r runs on device r and the halos travel by NCCL's send and receive, every rank's
-//! posted in one group by the one thread that drives them all; the ranks' GPUs reach each other's
-//! memory (peer access), which the particle moves below use.
+//! **Where the ranks run** (`Scene::gpus`, `Scene::process`). On one GPU every rank runs on device
+//! `CudaOptions::device` and the carrier is a device copy on the receiver's stream. On several GPUs
+//! of this process, rank r runs on device r; with `--processes`, this process drives its one rank
+//! on the GPU of its local rank. Between GPUs everything travels by NCCL's send and receive (every
+//! rank's of this process posted in one group by the one thread that drives them): halos, migrants,
+//! the readers' set. Nothing writes into another rank's memory, so the GPUs need no peer access.
+//!
+//! **The host's exchanges between processes.** What the host decides from every rank's numbers
+//! (the stray counts, the layer counts a migration is planned from, the statistics) comes from an
+//! all-gather, on each process alike, so each plans the same migration; the extremes the time step
+//! is chosen from are all-reduced on the device, in stream order, before their copy to the host
+//! (`reduce_counters`), so each picks the same step. Each exchange starts with a word saying what
+//! it is for (`Turn`): rank 0 alone writes the outputs, and calls the others to send it their
+//! particles (`Turn::Gather`) at whichever exchange they wait in next; every substep opens with
+//! one, so the others are called before they step on. A process waiting on the others
+//! watches their heartbeats (`dist::launch::Watch`) and stops, naming the rank, when one dies.
 //!
 //! **Each rank holds its own particles**, with room for more (`with_room`), each carrying its slot in
 //! the run, and keeps them in bin order as one GPU does: every binning gathers its live particles to
-//! the front of its buffers. A migration (`move_owned`, kernels/ranks.cu, run on the sending rank's
-//! GPU, launched from ranks.rs) appends each sender's leavers after the receiver's places in use
-//! (`extents`), in places the host reserves for that sender from the layer counts (no atomics across
-//! GPUs), and parks them on the sender; a receiver without the room grows first.
+//! the front of its buffers. A migration (`move_owned`, kernels/ranks.cu, launched from ranks.rs)
+//! packs each sender's leavers for each receiver into a buffer of their own, parking them on the
+//! sender, and the carrier appends them after the receiver's places in use (`extents`), in places
+//! the receiver reserves for that sender from the layer counts every rank has; a receiver without
+//! the room grows first.
 //!
 //! **Readers** see one set of every slot on rank 0's GPU, made at the first read, into which
 //! `take_owned` copies every rank's particles to their slots where something reads them: the
 //! renderer (`Solver::publish_particles`, once a frame), exports and checkpoints. The statistics
 //! are each rank's reduction over its own particles, joined (`Summary::of_parts`), so a run that
 //! nothing reads never gathers its particles. The phases are timed by CUDA events on rank 0's
-//! stream (timing.rs; `MPM_TIMED_RANK` picks another), each from the end of the one before, so an
-//! exchange includes any wait for a slower neighbour, and the sort phase the host's turn between
-//! substeps. The host waits for the ranks only where it must: for the stray counts before each
-//! substep, around a migration and `take_owned`. The extremes come as one GPU's do,
-//! requested in stream order and awaited a stretch later (`Solver::request_extremes`); on one GPU a
-//! carry's copy waits for the sender's stream and the sender's next work for the copy, by stream
-//! order, not by the host.
+//! stream (timing.rs; `MPM_TIMED_RANK` picks another; with `--processes` each process times its
+//! own), each from the end of the one before, so an exchange includes any wait for a slower
+//! neighbour, and the sort phase the host's turn between substeps. The host waits for the ranks
+//! only where it must: for the stray counts before each substep, around a migration and
+//! `take_owned`. The extremes come as one GPU's do, requested in stream order and awaited a
+//! stretch later (`Solver::request_extremes`); on one GPU a carry's copy waits for the sender's
+//! stream and the sender's next work for the copy, by stream order, not by the host.
 
 use super::gpu::CudaOptions;
 use super::halo::{sum_words, HaloBuffers, HaloKernels, Planes, VELOCITY_WORDS, VOLUME_WORDS};
@@ -49,8 +61,9 @@ use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
 use super::state::DeviceState;
 use super::timing::PhaseEvents;
+use crate::dist::launch::{self, Process, Watch};
 use crate::dist::migrate::{Migration, RankParticles};
-use crate::dist::nccl::{Comm, DataType, Nccl};
+use crate::dist::nccl::{Comm, DataType, Nccl, Reduction, UniqueId};
 use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
@@ -61,13 +74,23 @@ use crate::sim::{
 };
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
-use std::collections::VecDeque;
+use std::cell::Cell;
+use std::collections::{HashMap, VecDeque};
 use std::ops::Range;
+use std::time::{Duration, Instant};
 
 pub struct CudaRanks {
     /// Before the solvers: NCCL's communicators go while their devices are still open.
     carrier: Carrier,
+    /// The ranks this process drives: every rank of the run, or with `--processes` its one.
     solvers: Vec<CudaSolver>,
+    /// The run's rank of `solvers[0]`: the others follow it.
+    first: usize,
+    /// With `--processes`: the other processes' heartbeats, watched while waiting on them.
+    watch: Option<Watch>,
+    /// A wait on the other processes failed: their communicators are aborted, not destroyed (a
+    /// destroy would wait for transfers that will never come).
+    failed: Cell<bool>,
     halos: Vec<HaloBuffers>,
     slabs: Slabs,
     /// The walls' mirror planes along the slab axis, low and high (`Slabs::rebalanced`).
@@ -80,19 +103,27 @@ pub struct CudaRanks {
     slots: usize,
     /// Whether the ranks stepped (or were pushed) since `merged` was taken.
     merged_stale: bool,
+    /// On rank 0, where another GPU's rank lands on its way into `merged`; kept from one read to
+    /// the next, grown when short.
+    landing: Option<DeviceParticles>,
+    /// Per (sender, receiver) of this process's senders: where a migration packs the leavers, kept
+    /// from one migration to the next (grown when short), so a migration allocates nothing.
+    packing: HashMap<(usize, usize), DeviceParticles>,
     /// What `particles` shows before anything was published: nothing.
     unpublished: Particles,
-    /// Per rank: the strays its last g2p counted.
+    /// Per rank of this process: the strays its last g2p counted.
     strays: Vec<CudaSlice<u32>>,
     /// The extremes requested and not yet waited for: each request's handle and every rank's ticket.
     extremes: VecDeque<(usize, Vec<ExtremesTicket>)>,
     extremes_requested: usize,
-    /// Live particles per rank, as of the last substep.
+    /// Live particles per rank of the run, as of the last substep.
     counts: Vec<usize>,
-    /// Per rank, the places its live particles lie within: packed at its last binning, then grown
-    /// by what it received since (a sender's leavers leave parked holes). Migrants go after them.
+    /// Per rank of this process, the places its live particles lie within: packed at its last
+    /// binning, then grown by what it received since (a sender's leavers leave parked holes).
+    /// Migrants go after them.
     extents: Vec<usize>,
-    /// Times a rank received more particles than its buffers had room for and grew them.
+    /// Times a rank of this process received more particles than its buffers had room for and
+    /// grew them.
     growths: u64,
     /// Live particles in the run, all ranks together: what every migration must leave.
     live: u64,
@@ -102,6 +133,40 @@ pub struct CudaRanks {
     substeps: u64,
     migrations: u64,
     migrated: Migration,
+    /// `MPM_RANKS_HOST_TIMES=1`: where this process's host thread spends its time, told at the end.
+    host_times: Option<HostTimes>,
+}
+
+/// Where the host thread of a run on ranks spends its time, summed over the run and printed when
+/// the ranks are dropped (`MPM_RANKS_HOST_TIMES=1`): inside the substeps, between them, and waiting
+/// in the exchanges with the other processes.
+#[derive(Default)]
+struct HostTimes {
+    substeps: u64,
+    in_step: Duration,
+    between_steps: Duration,
+    in_turns: Duration,
+    in_extremes: Duration,
+    last_return: Option<Instant>,
+}
+
+impl HostTimes {
+    fn from_env() -> Option<HostTimes> {
+        (std::env::var("MPM_RANKS_HOST_TIMES").as_deref() == Ok("1")).then(HostTimes::default)
+    }
+
+    fn report(&self, rank: usize) -> String {
+        let per = |d: Duration| d.as_secs_f64() * 1e3 / self.substeps.max(1) as f64;
+        format!(
+            "rank {rank}: host time over {} substeps, ms a substep: in step {:.4} (exchanges with the \
+             other processes {:.4}), between steps {:.4} (waiting for extremes {:.4})",
+            self.substeps,
+            per(self.in_step),
+            per(self.in_turns),
+            per(self.between_steps),
+            per(self.in_extremes)
+        )
+    }
 }
 
 /// Below and above: a rank's two sides, its halo buffers' indices.
@@ -139,12 +204,47 @@ impl Exchange {
     }
 }
 
-/// What carries the packed halos from rank to rank.
+/// What carries halos and particles from rank to rank.
 enum Carrier {
-    /// Every rank on one GPU: a device copy into the neighbour's receive buffer.
+    /// Every rank on one GPU: a device copy into the receiver's buffer.
     DeviceCopy,
-    /// One rank per GPU: NCCL's send and receive between neighbours, rank r's communicator at r.
+    /// A rank per GPU: NCCL's send and receive, one communicator per rank of this process (its
+    /// `rank` the run's).
     Nccl(Vec<Comm>),
+}
+
+/// What a host-side exchange between the processes of a run is for, its first word: each process
+/// must come to the same one, except that rank 0 may call the others to a gather at any of theirs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Turn {
+    /// Before a substep: the stray counts.
+    Step = 1,
+    /// The statistics of a frame.
+    Summary = 2,
+    /// Rank 0 reads the particles: every rank sends it its own.
+    Gather = 3,
+    /// Rank 0 ended the run.
+    Done = 4,
+}
+
+impl Turn {
+    fn of(word: u64) -> Option<Turn> {
+        [Turn::Step, Turn::Summary, Turn::Gather, Turn::Done]
+            .into_iter()
+            .find(|turn| *turn as u64 == word)
+    }
+}
+
+/// The words of a turn: its kind and what it carries (a summary's nine at most).
+const TURN_WORDS: usize = 10;
+
+/// One run of particles carried between two ranks: its sender and receiver, and at each end of it
+/// this process drives, the set and places it leaves or lands in (of one length).
+struct Run<'a> {
+    from: usize,
+    to: usize,
+    sent: Option<(&'a DeviceParticles, Range<usize>)>,
+    landed: Option<(&'a DeviceParticles, Range<usize>)>,
 }
 
 impl CudaRanks {
@@ -155,14 +255,16 @@ impl CudaRanks {
             "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
         );
         if let Some(note) = crate::dist::small_for_gpus(scene.gpus, particles.num_live()) {
-            eprintln!("note: {note}");
+            if scene.process.is_none_or(|p| p.rank == 0) {
+                eprintln!("note: {note}");
+            }
         }
         let slabs = starting_slabs(scene, &particles, ranks)?;
         CudaRanks::with_slabs(scene, particles, slabs, options)
     }
 
     /// Ranks of `particles` (every slot) on the given slabs, whatever their balance: the next rebin
-    /// moves them.
+    /// moves them. With `Scene::process`, only this process's rank.
     pub fn with_slabs(
         scene: &Scene,
         particles: Particles,
@@ -184,19 +286,32 @@ impl CudaRanks {
             scene.pipeline.name()
         );
         let params = scene.params();
+        let mine = match scene.process {
+            Some(process) => {
+                ensure!(
+                    process.size == slabs.ranks(),
+                    "a run of {} processes splits into as many ranks, not {}",
+                    process.size,
+                    slabs.ranks()
+                );
+                process.rank..process.rank + 1
+            }
+            None => 0..slabs.ranks(),
+        };
         let devices = rank_devices(scene, slabs.ranks(), options.device)?;
         let mut solvers = Vec::new();
         let mut halos = Vec::new();
-        let mut counts = Vec::new();
+        let mut counts = vec![0usize; slabs.ranks()];
+        let mut extents = Vec::new();
         let mut strays = Vec::new();
-        for (rank, &device) in devices.iter().enumerate() {
+        for (rank, &device) in mine.clone().zip(&devices) {
             let RankParticles {
-                particles: mut mine,
+                particles: mut share,
                 id,
                 ..
             } = RankParticles::share(&particles, &slabs, rank, params.inv_dx);
-            counts.push(id.len());
-            mine.park_more(with_room(id.len()) - id.len());
+            extents.push(id.len());
+            share.park_more(with_room(id.len()) - id.len());
             // The binnings' gathers into bin order are what pack a rank's particles again after
             // its leavers parked (MPM_BIN_ORDER=0 is for timing one GPU).
             let packed = CudaOptions {
@@ -204,14 +319,14 @@ impl CudaRanks {
                 bin_order: true,
                 ..options
             };
-            let mut solver = CudaSolver::from_particles(scene, &mine, packed)
+            let mut solver = CudaSolver::from_particles(scene, &share, packed)
                 .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
             ensure!(
                 solver.keeps_bin_order(),
                 "rank {rank} of {}: no room on its GPU for the second copy of its {} particle places that \
                  a rank packs them into at each binning; run on more GPUs (--gpus) or with fewer particles",
                 slabs.ranks(),
-                mine.len()
+                share.len()
             );
             solver.state.particles.upload_slots(solver.gpu.stream(), &id)?;
             halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
@@ -223,30 +338,50 @@ impl CudaRanks {
             );
             solvers.push(solver);
         }
-        let carrier = if scene.gpus > 1 {
-            enable_peer_access(&solvers)?;
-            let comms = Comm::init_all(Nccl::get()?, &devices)
-                .with_context(|| format!("joining the {} GPUs in one NCCL communicator", devices.len()))?;
-            Carrier::Nccl(comms)
-        } else {
-            Carrier::DeviceCopy
+        let layers = crate::dist::migrate::layer_counts(&particles, &slabs, params.inv_dx);
+        for (rank, count) in counts.iter_mut().enumerate() {
+            let owned = slabs.bounds[rank] as usize..slabs.bounds[rank + 1] as usize;
+            *count = layers[owned].iter().sum::<u64>() as usize;
+        }
+        let (carrier, watch) = match scene.process {
+            Some(process) => {
+                let (comm, watch) = join_processes(&process, &solvers[0])?;
+                (Carrier::Nccl(vec![comm]), Some(watch))
+            }
+            None if scene.gpus > 1 => {
+                let comms = Comm::init_all(Nccl::get()?, &devices).with_context(|| {
+                    format!("joining the {} GPUs in one NCCL communicator", devices.len())
+                })?;
+                (Carrier::Nccl(comms), None)
+            }
+            None => (Carrier::DeviceCopy, None),
         };
-        let timed = options.timed_rank;
+        // The timed rank is one of this process's: with a process per rank, its own.
+        let timed = options
+            .timed_rank
+            .checked_sub(mine.start)
+            .filter(|&t| t < solvers.len())
+            .unwrap_or(0);
         // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
         let timing = PhaseEvents::new(solvers[timed].gpu.ctx.clone(), 1);
         Ok(CudaRanks {
             carrier,
             solvers,
+            first: mine.start,
+            watch,
+            failed: Cell::new(false),
             halos,
             walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
             slabs,
             live: particles.num_live() as u64,
-            extents: counts.clone(),
+            extents,
             growths: 0,
             counts,
             merged: None,
             slots: particles.len(),
             merged_stale: true,
+            landing: None,
+            packing: HashMap::new(),
             unpublished: Particles::default(),
             strays,
             extremes: VecDeque::new(),
@@ -256,44 +391,41 @@ impl CudaRanks {
             substeps: 0,
             migrations: 0,
             migrated: Migration::default(),
+            host_times: HostTimes::from_env(),
         })
     }
 
     /// What `--gpus` (`Scene::gpus` above 1) needs, checked before any particle is made: as many
-    /// CUDA devices, a peer path between every two of them, and NCCL. Each missing piece is named
-    /// with its fix.
+    /// CUDA devices and NCCL; with `--processes`, the GPU of this process's local rank and NCCL.
+    /// Each missing piece is named with its fix.
     pub fn check_gpus(scene: &Scene) -> Result<()> {
+        if let Some(process) = scene.process {
+            process_device(&process, super::library::devices()?.len())?;
+            return Nccl::get().map(drop);
+        }
         let gpus = scene.gpus;
         if gpus <= 1 {
             return Ok(());
         }
-        let devices = super::library::devices()?;
-        let count = devices.len();
+        let count = super::library::devices()?.len();
         ensure!(
             gpus <= count,
             "--gpus {gpus}: this machine has {count} CUDA device{} (`mpm devices` lists them); ask \
              for at most {count}",
             if count == 1 { "" } else { "s" }
         );
-        for (i, device) in devices.iter().take(gpus).enumerate() {
-            if let Some(j) = (0..gpus).find(|&j| j != i && !device.peer_access[j]) {
-                bail!(
-                    "--gpus {gpus}: GPU {i} cannot reach GPU {j}'s memory (no peer access; `mpm \
-                     devices` shows it), which ranks on the GPUs of one host move particles \
-                     through; run on GPUs joined by NVLink or a PCIe switch with peer access, or \
-                     on one GPU"
-                );
-            }
-        }
         Nccl::get().map(drop)
     }
 
     /// The device's name, and how many ranks share it or how many GPUs the ranks run on.
     pub fn device_name(&self) -> String {
-        let (name, ranks) = (self.solvers[0].device_name(), self.solvers.len());
-        match self.carrier {
-            Carrier::DeviceCopy => format!("{name}, {ranks} ranks"),
-            Carrier::Nccl(_) => format!("{ranks} x {name}, a rank each (NCCL)"),
+        let (name, ranks) = (self.solvers[0].device_name(), self.slabs.ranks());
+        match (&self.carrier, &self.watch) {
+            (Carrier::DeviceCopy, _) => format!("{name}, {ranks} ranks"),
+            (Carrier::Nccl(_), None) => format!("{ranks} x {name}, a rank each (NCCL)"),
+            (Carrier::Nccl(_), Some(_)) => {
+                format!("{name}, rank {} of {ranks}, a process each (NCCL)", self.first)
+            }
         }
     }
 
@@ -312,19 +444,92 @@ impl CudaRanks {
         (self.migrations, self.migrated)
     }
 
-    /// Per rank, the particles its buffers have room for, live and parked.
+    /// Per rank of this process, the particles its buffers have room for, live and parked.
     pub fn capacities(&self) -> Vec<usize> {
         self.solvers.iter().map(CudaSolver::capacity).collect()
     }
 
-    /// Times a rank received more particles than it had room for and grew its buffers.
+    /// Times a rank of this process received more particles than it had room for and grew its
+    /// buffers.
     pub fn growths(&self) -> u64 {
         self.growths
     }
 
-    /// The host waits for every rank's stream.
+    /// Whether this process drives every rank of the run.
+    fn in_one_process(&self) -> bool {
+        self.watch.is_none()
+    }
+
+    /// This process's ranks, as the run numbers them.
+    fn mine(&self) -> Range<usize> {
+        self.first..self.first + self.solvers.len()
+    }
+
+    /// The host waits for every rank of this process; with a process per rank, watching the
+    /// others' heartbeats while it waits (a transfer from a rank that died never ends).
     fn wait_all(&self) -> Result<()> {
-        wait_for(&self.solvers)
+        if self.in_one_process() {
+            return wait_for(&self.solvers);
+        }
+        for solver in &self.solvers {
+            // SAFETY: queries a live stream of this process.
+            self.watch_until(
+                &mut || match unsafe { sys::cuStreamQuery(solver.stream().cu_stream()) } {
+                    sys::CUresult::CUDA_SUCCESS => Ok(true),
+                    sys::CUresult::CUDA_ERROR_NOT_READY => Ok(false),
+                    error => bail!("its GPU failed while waiting on the other ranks: {error:?}"),
+                },
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Polls `done` until it says so, looking at the other processes' heartbeats every second; a
+    /// rank gone or silent, a wait past `MPM_RANK_TIMEOUT`, or an error of `done` marks this
+    /// process failed (its communicators are then aborted) and names it.
+    fn watch_until(&self, done: &mut dyn FnMut() -> Result<bool>) -> Result<()> {
+        let watch = self.watch.as_ref().context("a wait watched without a watch")?;
+        let start = Instant::now();
+        let mut next_look = Duration::from_secs(1);
+        let failed = |why: anyhow::Error| {
+            self.failed.set(true);
+            why.context(format!("rank {}", self.first))
+        };
+        loop {
+            if done().map_err(failed)? {
+                return Ok(());
+            }
+            let waited = start.elapsed();
+            if waited > next_look {
+                next_look += Duration::from_secs(1);
+                watch.check().map_err(failed)?;
+                if waited > watch.timeout {
+                    return Err(failed(anyhow::anyhow!(
+                        "waited {} s on the other ranks, which all still run: one of them hangs \
+                         (MPM_RANK_TIMEOUT sets the limit)",
+                        waited.as_secs()
+                    )));
+                }
+            }
+            // A substep's wait is a fraction of a millisecond: spin through it, as the driver's own
+            // waits do (yielding the thread instead measured the same, BENCHMARKS.md M29); a long
+            // one (rank 0 writing a checkpoint) sleeps between looks.
+            if waited > Duration::from_millis(20) {
+                std::thread::sleep(Duration::from_micros(200));
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+    }
+
+    /// With a process per rank, the host waits for this process's rank before it waits on a
+    /// download or an event of its own: a wait that watches the others (`wait_all`), where the
+    /// rank's stream holds transfers from them. In one process, nothing: the plain waits follow.
+    fn wait_watched(&self) -> Result<()> {
+        match self.in_one_process() {
+            true => Ok(()),
+            false => self.wait_all(),
+        }
     }
 
     /// Every rank's launches of `phase` (no sort phase: its decision is each rank's), then its end.
@@ -367,17 +572,18 @@ impl CudaRanks {
         })
     }
 
-    /// Every rank's links to its neighbours: what each exchange packs, carries and unpacks.
+    /// The links of this process's ranks to their neighbours: what each exchange packs, carries
+    /// and unpacks.
     fn links(&self) -> Vec<Link> {
-        (0..self.solvers.len())
+        self.mine()
             .flat_map(|rank| SIDES.into_iter().filter_map(move |side| self.link(rank, side)))
             .collect()
     }
 
-    /// What a halo kernel on `rank` launches with: the kernels, the rank's launcher, parameters and
-    /// buffers.
+    /// What a halo kernel on `rank` (one of this process's) launches with: the kernels, the rank's
+    /// launcher, parameters and buffers.
     fn halo_launch(&self, rank: usize) -> (&HaloKernels, &Launcher, &Params, &DeviceState) {
-        let solver = &self.solvers[rank];
+        let solver = &self.solvers[rank - self.first];
         (
             &solver.kernels.halo,
             &solver.gpu.launcher,
@@ -394,7 +600,7 @@ impl CudaRanks {
         let links = self.links();
         for link in &links {
             let (k, l, params, state) = self.halo_launch(link.rank);
-            let out = &self.halos[link.rank].send[link.side as usize];
+            let out = &self.halos[link.rank - self.first].send[link.side as usize];
             match what {
                 Exchange::Sums => k.pack_sums(l, params, &link.ghosts, state, out)?,
                 Exchange::Velocities => k.pack_velocities(l, params, &link.edge, state, out)?,
@@ -403,7 +609,7 @@ impl CudaRanks {
         self.carry(&links, what)?;
         for link in &links {
             let (k, l, params, state) = self.halo_launch(link.rank);
-            let got = &self.halos[link.rank].recv[link.side as usize];
+            let got = &self.halos[link.rank - self.first].recv[link.side as usize];
             match what {
                 Exchange::Sums => k.add_sums(l, params, &link.edge, got, state)?,
                 Exchange::Velocities => k.fill_velocities(l, params, &link.ghosts, got, state)?,
@@ -467,20 +673,172 @@ impl CudaRanks {
         }
     }
 
-    /// Particles the last g2p left where one more substep could carry them past their rank's ghost
-    /// planes (`Slabs::keeps`), all ranks together.
-    fn strays(&self) -> Result<u64> {
-        let mut total = 0;
-        for (solver, strays) in self.solvers.iter().zip(&self.strays) {
-            total += u64::from(solver.gpu.download(strays)?[0]);
+    /// Carries each run of particles from its sender's set to its receiver's: on one GPU a copy of
+    /// each array on the receiver's stream after the sender's, across GPUs NCCL's sends and
+    /// receives of each array (this process posting its ranks' ends of them).
+    fn carry_particles(&self, runs: &[Run]) -> Result<()> {
+        let stream_of = |rank: usize| self.solvers[rank - self.first].stream();
+        match &self.carrier {
+            Carrier::DeviceCopy => {
+                for run in runs {
+                    let (Some((from, sent)), Some((to, landed))) = (&run.sent, &run.landed) else {
+                        bail!(
+                            "a run of particles from rank {} to rank {} lacks an end",
+                            run.from,
+                            run.to
+                        );
+                    };
+                    let (sender, receiver) = (stream_of(run.from), stream_of(run.to));
+                    receiver
+                        .join(sender)
+                        .context("ordering a particle copy after its packing")?;
+                    let pieces = from.segments(sender, sent.clone())?;
+                    let into = to.segments(receiver, landed.clone())?;
+                    for (&(src, words), &(dst, _)) in pieces.iter().zip(&into) {
+                        // SAFETY: both ranges lie in live buffers of this device (`segments`
+                        // checked the places), of equal lengths as runs of one length.
+                        unsafe {
+                            cudarc::driver::result::memcpy_dtod_async(
+                                dst,
+                                src,
+                                4 * words,
+                                receiver.cu_stream(),
+                            )
+                        }
+                        .context("copying particles between ranks")?;
+                    }
+                    sender
+                        .join(receiver)
+                        .context("ordering a sender's next work after its copy")?;
+                }
+                Ok(())
+            }
+            Carrier::Nccl(comms) => comms[0].nccl().group(|| {
+                for comm in comms {
+                    let stream = stream_of(comm.rank);
+                    let mut sends = Vec::new();
+                    let mut recvs = Vec::new();
+                    for run in runs {
+                        if let (Some((from, places)), true) = (&run.sent, run.from == comm.rank) {
+                            let pieces = from.segments(stream, places.clone())?;
+                            sends.extend(pieces.into_iter().map(|(at, words)| (run.to, at, words)));
+                        }
+                        if let (Some((to, places)), true) = (&run.landed, run.to == comm.rank) {
+                            let pieces = to.segments(stream, places.clone())?;
+                            recvs.extend(pieces.into_iter().map(|(at, words)| (run.from, at, words)));
+                        }
+                    }
+                    // SAFETY: `segments` checked every range against its set, which outlives the
+                    // transfers (the caller waits for them); the other end posts the same runs'
+                    // ranges, of the same lengths, in the same order.
+                    unsafe {
+                        comm.send_recv(&sends, &recvs, DataType::U32, stream.cu_stream().cast())?;
+                    }
+                }
+                Ok(())
+            }),
         }
-        Ok(total)
     }
 
-    /// Counts each rank's strays after its g2p.
+    /// Every rank's `words` (one list per rank of this process, of one length on every rank), on
+    /// every process, in rank order: here already where this process drives every rank, else
+    /// gathered by NCCL.
+    fn gather_words(&self, mine: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
+        if self.in_one_process() {
+            return Ok(mine);
+        }
+        let Carrier::Nccl(comms) = &self.carrier else {
+            bail!("ranks in processes of their own exchange over NCCL");
+        };
+        let (solver, len) = (&self.solvers[0], mine[0].len());
+        let (rank, ranks) = (self.first, self.slabs.ranks());
+        let stream = solver.stream();
+        let mut all = stream
+            .alloc_zeros::<u64>(len * ranks)
+            .context("allocating the gathered words")?;
+        stream
+            .memcpy_htod(&mine[0], &mut all.slice_mut(rank * len..(rank + 1) * len))
+            .context("uploading words to gather")?;
+        {
+            let (base, _) = all.device_ptr(stream);
+            let at = |r: usize| base + (r * len * std::mem::size_of::<u64>()) as u64;
+            // SAFETY: `all` holds `len` words per rank, this rank's at its place (NCCL's in-place
+            // gather), alive until the waits below; every rank gathers the same length.
+            unsafe {
+                comms[0].all_gather((at(rank), base), len, DataType::U64, stream.cu_stream().cast())?;
+            }
+        }
+        self.wait_all()?;
+        let words = solver.gpu.download(&all)?;
+        Ok(words.chunks(len).map(<[u64]>::to_vec).collect())
+    }
+
+    /// A host-side exchange of `turn` between this process's ranks and the others: every rank's
+    /// `payload` (one per rank of this process, at most TURN_WORDS - 1 words each), in rank order.
+    /// Rank 0 may call the others to a gather at any turn of theirs: they send it their particles
+    /// and come again. Processes that come to different turns ran apart, and stop.
+    fn turn(&mut self, turn: Turn, payload: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
+        if self.in_one_process() {
+            return Ok(payload);
+        }
+        let len = payload[0].len();
+        ensure!(len < TURN_WORDS, "a turn of {len} words");
+        let started = Instant::now();
+        let agreed = self.agree(turn, payload, len);
+        if let Some(times) = &mut self.host_times {
+            times.in_turns += started.elapsed();
+        }
+        agreed
+    }
+
+    /// `turn`'s exchange, until every process came to it (after any gathers rank 0 called).
+    fn agree(&mut self, turn: Turn, payload: Vec<Vec<u64>>, len: usize) -> Result<Vec<Vec<u64>>> {
+        loop {
+            let mut words = vec![0; TURN_WORDS];
+            words[0] = turn as u64;
+            words[1..=len].copy_from_slice(&payload[0]);
+            let all = self.gather_words(vec![words])?;
+            let called = Turn::of(all[0][0]);
+            if called == Some(Turn::Gather) && turn != Turn::Gather {
+                self.take_owned()?;
+                continue;
+            }
+            if called == Some(Turn::Done) && turn != Turn::Done {
+                bail!(
+                    "rank {}: rank 0 ended the run where this rank came to {turn:?}: the processes ran \
+                     apart (every process must run the same command)",
+                    self.first
+                );
+            }
+            // Rank 0's call to a gather meets the others wherever they are.
+            let differs = |w: &&Vec<u64>| turn != Turn::Gather && w[0] != turn as u64;
+            if let Some((rank, other)) = all.iter().enumerate().find(|(_, w)| differs(w)) {
+                bail!(
+                    "rank {} came to {turn:?} where rank {rank} came to {:?}: the processes ran apart \
+                     (every process must run the same command)",
+                    self.first,
+                    Turn::of(other[0])
+                );
+            }
+            return Ok(all.into_iter().map(|w| w[1..=len].to_vec()).collect());
+        }
+    }
+
+    /// Particles the last g2p left where one more substep could carry them past their rank's ghost
+    /// planes (`Slabs::keeps`), all ranks together: the step's turn.
+    fn strays(&mut self) -> Result<u64> {
+        self.wait_watched()?;
+        let mut counts = Vec::new();
+        for (solver, strays) in self.solvers.iter().zip(&self.strays) {
+            counts.push(vec![u64::from(solver.gpu.download(strays)?[0])]);
+        }
+        Ok(self.turn(Turn::Step, counts)?.iter().map(|count| count[0]).sum())
+    }
+
+    /// Counts the strays of each rank of this process after its g2p.
     fn count_strays(&mut self) -> Result<()> {
-        for (rank, (solver, strays)) in self.solvers.iter().zip(&mut self.strays).enumerate() {
-            let kept = self.slabs.kept_bases(rank);
+        for (local, (solver, strays)) in self.solvers.iter().zip(&mut self.strays).enumerate() {
+            let kept = self.slabs.kept_bases(self.first + local);
             let keep = (*kept.start(), *kept.end());
             solver
                 .stream()
@@ -490,7 +848,7 @@ impl CudaRanks {
             k.count_strays(
                 l,
                 &solver.params,
-                self.extents[rank],
+                self.extents[local],
                 self.slabs.axis,
                 keep,
                 &solver.state.particles.x,
@@ -500,10 +858,10 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Live particles per block layer along the slab axis, per rank.
+    /// Live particles per block layer along the slab axis, per rank of the run.
     fn layer_counts(&self) -> Result<Vec<Vec<u64>>> {
         let layers = self.slabs.blocks();
-        let mut all = Vec::with_capacity(self.solvers.len());
+        let mut mine = Vec::with_capacity(self.solvers.len());
         for (solver, &places) in self.solvers.iter().zip(&self.extents) {
             let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
             let mut counts = solver
@@ -519,15 +877,16 @@ impl CudaRanks {
                 &solver.state.particles.x,
                 &mut counts,
             )?;
-            all.push(solver.gpu.download(&counts)?.into_iter().map(u64::from).collect());
+            mine.push(solver.gpu.download(&counts)?.into_iter().map(u64::from).collect());
         }
-        Ok(all)
+        self.gather_words(mine)
     }
 
     /// Moves the slabs if the counts are out of balance, then every live particle to the rank that
-    /// owns its block layer, on the device, checking that each sender moved what its layer counts
-    /// said it held of the others' layers. `last_dt`: the step of the substep whose scatter the
-    /// grids hold, scattered again where the slabs moved.
+    /// owns its block layer, checking that each sender moved what its layer counts said it held of
+    /// the others' layers. Every process plans the same migration from every rank's layer counts.
+    /// `last_dt`: the step of the substep whose scatter the grids hold, scattered again where the
+    /// slabs moved.
     fn migrate(&mut self, last_dt: f32) -> Result<()> {
         let before = self.layer_counts()?;
         let per_layer: Vec<u64> = (0..self.slabs.blocks() as usize)
@@ -546,61 +905,54 @@ impl CudaRanks {
             }
             None => false,
         };
-        // What each rank holds in the layers each rank owns now (the layer counts waited for every
-        // rank: their streams are idle).
-        let ranks = self.solvers.len();
-        let layers_of =
-            |owner: usize| self.slabs.bounds[owner] as usize..self.slabs.bounds[owner + 1] as usize;
+        // What each rank holds in the layers each rank owns now.
+        let ranks = self.slabs.ranks();
+        let slabs = self.slabs.clone();
+        let layers_of = |owner: usize| slabs.bounds[owner] as usize..slabs.bounds[owner + 1] as usize;
         let held = |rank: usize, owner: usize| before[rank][layers_of(owner)].iter().sum::<u64>() as usize;
-        // Each receiver's places for each sender's leavers, `arrivals[to][from]`: after its places
-        // in use, senders in rank order.
-        let arrivals: Vec<Vec<Range<usize>>> = (0..ranks)
-            .map(|to| {
-                let mut next = self.extents[to];
-                (0..ranks)
-                    .map(|from| {
-                        let start = next;
-                        next += if from == to { 0 } else { held(from, to) };
-                        start..next
-                    })
-                    .collect()
-            })
-            .collect();
+        let leavers = |from: usize, to: usize| if from == to { 0 } else { held(from, to) };
+        // Each receiver of this process reserves places for each sender's leavers after its places
+        // in use, senders in rank order: `arrivals[local][from]`.
         let in_use = self.extents.clone();
-        let mut grew = false;
-        let ranks_places = self.solvers.iter_mut().zip(&mut self.extents);
-        for (to, ((solver, extent), arriving)) in ranks_places.zip(&arrivals).enumerate() {
-            let end = arriving.last().map_or(*extent, |last| last.end);
-            if end > solver.capacity() {
+        let mut arrivals: Vec<Vec<Range<usize>>> = Vec::new();
+        for (local, solver) in self.solvers.iter_mut().enumerate() {
+            let to = self.first + local;
+            let extent = &mut self.extents[local];
+            let mut next = *extent;
+            let arriving: Vec<Range<usize>> = (0..ranks)
+                .map(|from| {
+                    let start = next;
+                    next += leavers(from, to);
+                    start..next
+                })
+                .collect();
+            if next > solver.capacity() {
                 solver
-                    .grow_particles(with_room(end))
-                    .with_context(|| format!("rank {to} receiving {} particles", end - *extent))?;
+                    .grow_particles(with_room(next))
+                    .with_context(|| format!("rank {to} receiving {} particles", next - *extent))?;
                 self.growths += 1;
-                grew = true;
             }
-            if end > *extent {
+            if next > *extent {
                 // Its bins miss the particles it was given (a sender's still list the places it
                 // parked, which its passes skip).
                 solver.rebin_next();
             }
-            *extent = end;
+            *extent = next;
+            arrivals.push(arriving);
         }
-        let moved = arrivals
-            .iter()
-            .flatten()
-            .map(|range| range.len() as u64)
+        let moved = (0..ranks)
+            .flat_map(|from| (0..ranks).map(move |to| (from, to)))
+            .map(|(from, to)| leavers(from, to) as u64)
             .sum::<u64>();
         if moved > 0 {
-            if grew {
-                // The senders write into the grown buffers once their copies are done.
-                self.wait_all()?;
-            }
-            self.move_owned(&in_use, &arrivals)?;
+            self.move_owned(&slabs, &leavers, &in_use, &arrivals)?;
         }
-        for (rank, solver) in self.solvers.iter_mut().enumerate() {
-            self.counts[rank] = per_layer[layers_of(rank)].iter().sum::<u64>() as usize;
-            // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
-            if moved_slabs {
+        for (rank, count) in self.counts.iter_mut().enumerate() {
+            *count = per_layer[layers_of(rank)].iter().sum::<u64>() as usize;
+        }
+        // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
+        if moved_slabs {
+            for solver in &mut self.solvers {
                 solver.discard_scatter(last_dt)?;
             }
         }
@@ -610,31 +962,84 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Every rank's live particles (in its places `in_use`) in the others' layers appended to their
-    /// owners, in `arrivals[to][from]` (reserved from the layer counts), each sender's GPU writing
-    /// them into the receivers' memory, then waited for (the receivers' next work reads them); each
-    /// sender's count to each receiver checked against its reservation.
-    fn move_owned(&self, in_use: &[usize], arrivals: &[Vec<Range<usize>>]) -> Result<()> {
-        let mut counters = Vec::new();
-        for (to, arriving) in arrivals.iter().enumerate() {
-            for (from, reserved) in arriving.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
-                let sender = &self.solvers[from];
-                let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
-                let mut moved = sender
-                    .stream()
-                    .alloc_zeros::<u32>(1)
-                    .context("allocating the migration counter")?;
-                let layers = self.slabs.bounds[to]..self.slabs.bounds[to + 1];
-                let slab = (self.slabs.axis, self.slabs.blocks(), layers);
-                let walked = (&sender.state.particles, in_use[from]);
-                let receiver = (&self.solvers[to].state.particles, reserved.clone());
-                k.move_owned(l, &sender.params, slab, walked, receiver, &mut moved)?;
-                counters.push((from, to, reserved.len(), moved));
+    /// Each sender of this process packs its live particles (in its places in use) of each other
+    /// rank's layers into its buffer for that rank (`packing`), parking them, and the carrier
+    /// appends them to their owners in `arrivals` (each receiver's of this process, reserved from
+    /// the layer counts; `in_use` their places in use before); waited for, each sender's count to
+    /// each receiver checked against `leavers`.
+    fn move_owned(
+        &mut self,
+        slabs: &Slabs,
+        leavers: &dyn Fn(usize, usize) -> usize,
+        in_use: &[usize],
+        arrivals: &[Vec<Range<usize>>],
+    ) -> Result<()> {
+        let ranks = slabs.ranks();
+        let pairs: Vec<(usize, usize)> = self
+            .mine()
+            .flat_map(|from| (0..ranks).map(move |to| (from, to)))
+            .filter(|&(from, to)| leavers(from, to) > 0)
+            .collect();
+        for &(from, to) in &pairs {
+            let count = leavers(from, to);
+            if self
+                .packing
+                .get(&(from, to))
+                .is_none_or(|buffer| buffer.count < count)
+            {
+                let sender = &self.solvers[from - self.first].state.particles;
+                let deformed = sender.deformation.is_some();
+                let stream = self.solvers[from - self.first].stream();
+                let buffer = DeviceParticles::allocate(stream, with_room(count), deformed)?;
+                self.packing.insert((from, to), buffer);
             }
         }
+        let mut packed = Vec::new();
+        for &(from, to) in &pairs {
+            let (sender, count) = (&self.solvers[from - self.first], leavers(from, to));
+            let buffer = &self.packing[&(from, to)];
+            let stream = sender.stream();
+            let mut moved = stream
+                .alloc_zeros::<u32>(1)
+                .context("allocating the migration counter")?;
+            let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
+            let layers = slabs.bounds[to]..slabs.bounds[to + 1];
+            let slab = (slabs.axis, slabs.blocks(), layers);
+            let walked = (&sender.state.particles, in_use[from - self.first]);
+            k.move_owned(l, &sender.params, slab, walked, (buffer, 0..count), &mut moved)?;
+            packed.push((from, to, buffer, moved));
+        }
+        let mut runs = Vec::new();
+        for (from, to, buffer, _) in &packed {
+            let landed = self.mine().contains(to).then(|| {
+                let reserved = arrivals[to - self.first][*from].clone();
+                (&self.solvers[to - self.first].state.particles, reserved)
+            });
+            runs.push(Run {
+                from: *from,
+                to: *to,
+                sent: Some((buffer, 0..leavers(*from, *to))),
+                landed,
+            });
+        }
+        // Runs from the other processes' ranks to this one's.
+        for (local, arriving) in arrivals.iter().enumerate() {
+            let to = self.first + local;
+            for from in (0..ranks).filter(|from| !self.mine().contains(from) && leavers(*from, to) > 0) {
+                let particles = &self.solvers[local].state.particles;
+                runs.push(Run {
+                    from,
+                    to,
+                    sent: None,
+                    landed: Some((particles, arriving[from].clone())),
+                });
+            }
+        }
+        self.carry_particles(&runs)?;
         self.wait_all()?;
-        for (from, to, expected, moved) in counters {
-            let moved = self.solvers[from].gpu.download(&moved)?[0] as usize;
+        for (from, to, _, moved) in &packed {
+            let moved = self.solvers[from - self.first].gpu.download(moved)?[0] as usize;
+            let expected = leavers(*from, *to);
             ensure!(
                 moved == expected,
                 "rank {from} moved {moved} particles to rank {to} where its layer counts hold \
@@ -644,40 +1049,166 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// Every rank's particles to their slots in `merged` (made on rank 0's GPU the first time)
-    /// where a substep ran since the last time, each rank's from its own GPU once every rank is
-    /// done, waited for (no rank may write its particles while they are read). Every slot is live on
-    /// one rank, so every slot is written.
-    fn take_owned(&mut self) -> Result<()> {
-        let merged = match self.merged.take() {
-            Some(merged) => merged,
-            None => {
-                let first = &self.solvers[0].gpu;
-                first.ensure_fits(
-                    self.slots * STATE_BYTES_PER_PARTICLE,
-                    &format!(
-                        "reading the {} particles of a run on several ranks (they are gathered on rank \
-                         0's GPU)",
-                        self.slots
-                    ),
-                    "run on more GPUs, with fewer particles, or without what reads them (the window, \
-                     exports, checkpoints)",
-                )?;
-                self.merged_stale = true;
-                DeviceParticles::allocate(first.stream(), self.slots, false)?
-            }
-        };
-        let merged = self.merged.insert(merged);
-        if self.merged_stale {
-            wait_for(&self.solvers)?;
-            for solver in &self.solvers {
-                let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
-                k.take_owned(l, &solver.state.particles, merged)?;
-            }
-            wait_for(&self.solvers)?;
-            self.merged_stale = false;
+    /// One substep, as the table at the top of this file lists its phases.
+    fn step_ranks(&mut self, params: &Params) -> Result<()> {
+        // Recorded behind the last substep's work: the sort phase holds the host's turn between.
+        let timed = self.solvers[self.timed].stream().clone();
+        self.timing.begin_step(&timed)?;
+        let last_dt = self.solvers[0].params.dt;
+        self.substeps += 1;
+        // Every substep starts with the host's turn (across processes, where rank 0 may call the
+        // others to a gather before anything moves). Every particle starts on its owner; the
+        // strays were counted by the last substep's g2p.
+        let strays = self.strays()?;
+        let due = self.substeps % u64::from(MIGRATION_INTERVAL) == 0;
+        if self.substeps > 1 && (due || strays > 0) {
+            self.migrate(last_dt)?;
         }
+        for (local, solver) in self.solvers.iter_mut().enumerate() {
+            let mut own = *params;
+            own.num_particles = solver.capacity() as u32;
+            solver.accept(&own)?;
+            let sort = solver.sort_due();
+            solver.run_phase(Phase::Sort, sort)?;
+            // A binning that gathers into bin order packs the live particles first.
+            if sort && solver.keeps_bin_order() {
+                self.extents[local] = self.counts[self.first + local];
+            }
+        }
+        self.end_phase(Phase::Sort)?;
+        self.run_phase(Phase::P2gInit)?;
+        self.exchange(Exchange::Sums)?;
+        self.end_phase(Phase::HaloSum)?;
+        self.run_phase(Phase::GridUpdate)?;
+        self.exchange(Exchange::Velocities)?;
+        self.end_phase(Phase::HaloFill)?;
+        for solver in &mut self.solvers {
+            solver.run_phase(Phase::G2p, false)?;
+        }
+        self.count_strays()?;
+        self.merged_stale = true;
+        self.end_phase(Phase::G2p)
+    }
+
+    /// Each rank's step counters (`StepCounters`, contract/items.rs) reduced over every rank in
+    /// place, in stream order, as `StepExtremes::merge` joins them on the host: the largest density,
+    /// speed and signal speed, the fixed-point overflows and backstop pushes summed. The binned
+    /// pipeline's words (a rebin asked for, tile misses) stay each rank's own.
+    fn reduce_counters(&self) -> Result<()> {
+        let Carrier::Nccl(comms) = &self.carrier else {
+            bail!("ranks in processes of their own reduce over NCCL");
+        };
+        // (first word, words, reduction) of the eight u32 words.
+        const REDUCED: [(u64, usize, Reduction); 4] = [
+            (0, 2, Reduction::Max),
+            (2, 1, Reduction::Sum),
+            (3, 1, Reduction::Max),
+            (6, 1, Reduction::Sum),
+        ];
+        comms[0].nccl().group(|| {
+            for (comm, solver) in comms.iter().zip(&self.solvers) {
+                let stream = solver.stream();
+                let (base, _) = solver.state.counters.device.device_ptr(stream);
+                for (first, words, op) in REDUCED {
+                    let at = base + 4 * first;
+                    // SAFETY: the counters are eight u32 words on this rank's device, alive with
+                    // the solver; every rank reduces the same words in the same order.
+                    unsafe {
+                        comm.all_reduce((at, at), words, DataType::U32, op, stream.cu_stream().cast())?;
+                    }
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Every rank's particles to their slots in `merged` (made on rank 0's GPU the first time):
+    /// rank 0's, and on one GPU every rank's, straight from its own set; the others' carried to rank
+    /// 0 first, one rank at a time. Each process's part is waited for (no rank may write its
+    /// particles while they are read). Every slot is live on one rank, so every slot is written.
+    /// With a process per rank, every process comes here together (`Turn::Gather`).
+    fn take_owned(&mut self) -> Result<()> {
+        let extents = self.gather_words(self.extents.iter().map(|&e| vec![e as u64]).collect())?;
+        let root_here = self.first == 0;
+        if root_here && self.merged.is_none() {
+            let first = &self.solvers[0].gpu;
+            first.ensure_fits(
+                self.slots * STATE_BYTES_PER_PARTICLE,
+                &format!(
+                    "reading the {} particles of a run on several ranks (they are gathered on rank \
+                     0's GPU)",
+                    self.slots
+                ),
+                "run on more GPUs, with fewer particles, or without what reads them (the window, \
+                 exports, checkpoints)",
+            )?;
+            self.merged = Some(DeviceParticles::allocate(first.stream(), self.slots, false)?);
+        }
+        let direct = matches!(self.carrier, Carrier::DeviceCopy);
+        let extents: Vec<usize> = extents.iter().map(|e| e[0] as usize).collect();
+        let carried = (1..extents.len())
+            .filter(|_| !direct)
+            .map(|rank| extents[rank])
+            .max();
+        if let (true, Some(most)) = (root_here, carried) {
+            if self.landing.as_ref().is_none_or(|landing| landing.count < most) {
+                let root = &self.solvers[0];
+                let deformed = root.state.particles.deformation.is_some();
+                self.landing = Some(DeviceParticles::allocate(
+                    root.stream(),
+                    with_room(most),
+                    deformed,
+                )?);
+            }
+        }
+        self.wait_all()?;
+        for (rank, &extent) in extents.iter().enumerate() {
+            let here = self.mine().contains(&rank);
+            if !root_here && !here {
+                continue;
+            }
+            let root = &self.solvers[0];
+            if root_here && (rank == 0 || direct) {
+                let merged = self.merged.as_ref().context("the readers' set is made above")?;
+                let (k, l) = (&root.kernels.ranks, &root.gpu.launcher);
+                k.take_owned(l, &self.solvers[rank].state.particles, extent, merged)?;
+                continue;
+            }
+            let landing = self.landing.as_ref().filter(|_| root_here);
+            let sent = here.then(|| (&self.solvers[rank - self.first].state.particles, 0..extent));
+            let run = Run {
+                from: rank,
+                to: 0,
+                sent,
+                landed: landing.map(|set| (set, 0..extent)),
+            };
+            self.carry_particles(&[run])?;
+            if let (Some(landing), Some(merged)) = (landing, &self.merged) {
+                let (k, l) = (&root.kernels.ranks, &root.gpu.launcher);
+                k.take_owned(l, landing, extent, merged)?;
+            }
+            // The landing set is free again once its copy into `merged` is done.
+            self.wait_all()?;
+        }
+        self.wait_all()?;
+        self.merged_stale = false;
         Ok(())
+    }
+
+    /// Rank 0's read of every particle: the others called to it where they run in processes of
+    /// their own. Nothing where nothing stepped since the last.
+    fn read_all(&mut self) -> Result<()> {
+        if !self.merged_stale && self.merged.is_some() {
+            return Ok(());
+        }
+        ensure!(
+            self.first == 0,
+            "rank {}: only rank 0 reads the run's particles (it writes every output)",
+            self.first
+        );
+        let none = vec![Vec::new(); self.solvers.len()];
+        self.turn(Turn::Gather, none)?;
+        self.take_owned()
     }
 }
 
@@ -699,8 +1230,12 @@ fn with_room(live: usize) -> usize {
 }
 
 /// The device of each of `ranks` ranks: `one` for them all, or with `Scene::gpus` several, device r
-/// for rank r, checked against the devices there are.
+/// for rank r, checked against the devices there are; with a process per rank, this process's.
 fn rank_devices(scene: &Scene, ranks: usize, one: usize) -> Result<Vec<usize>> {
+    if let Some(process) = scene.process {
+        CudaRanks::check_gpus(scene)?;
+        return Ok(vec![process_device(&process, super::library::devices()?.len())?]);
+    }
     if scene.gpus <= 1 {
         return Ok(vec![one; ranks]);
     }
@@ -714,41 +1249,64 @@ fn rank_devices(scene: &Scene, ranks: usize, one: usize) -> Result<Vec<usize>> {
     Ok((0..ranks).collect())
 }
 
-/// Lets every rank's GPU read and write every other's memory, which migration and `take_owned`
-/// do (`CudaRanks::check_gpus` made sure the hardware has a path for it).
-fn enable_peer_access(solvers: &[CudaSolver]) -> Result<()> {
-    for (i, a) in solvers.iter().enumerate() {
-        for (j, b) in solvers.iter().enumerate().filter(|&(j, _)| j != i) {
-            a.gpu.ctx.bind_to_thread().context("binding a rank's context")?;
-            // SAFETY: the context bound above gains access to `b`'s; flags must be 0.
-            match unsafe { sys::cuCtxEnablePeerAccess(b.gpu.ctx.cu_ctx(), 0) } {
-                sys::CUresult::CUDA_SUCCESS | sys::CUresult::CUDA_ERROR_PEER_ACCESS_ALREADY_ENABLED => {}
-                error => bail!("enabling GPU {i}'s access to GPU {j}'s memory: {error:?}"),
-            }
-            // The buffers come from `b`'s stream-ordered pool (cuMemAllocAsync), which the
-            // context's peer access does not cover: the pool grants `a` access itself.
-            let mut pool = std::ptr::null_mut();
-            let access = sys::CUmemAccessDesc {
-                location: sys::CUmemLocation {
-                    type_: sys::CUmemLocationType::CU_MEM_LOCATION_TYPE_DEVICE,
-                    id: a.gpu.ctx.ordinal() as std::ffi::c_int,
-                },
-                flags: sys::CUmemAccess_flags::CU_MEM_ACCESS_FLAGS_PROT_READWRITE,
-            };
-            // SAFETY: `pool` receives `b`'s current pool, which then takes one access descriptor.
-            let granted = unsafe {
-                match sys::cuDeviceGetMemPool(&mut pool, b.gpu.ctx.cu_device()) {
-                    sys::CUresult::CUDA_SUCCESS => sys::cuMemPoolSetAccess(pool, &access, 1),
-                    error => error,
-                }
-            };
-            ensure!(
-                granted == sys::CUresult::CUDA_SUCCESS,
-                "granting GPU {i} access to GPU {j}'s memory pool: {granted:?}"
-            );
-        }
+/// The GPU a process drives among the `visible` it sees: its local rank's, or the one it sees
+/// where the launcher gave each process its own (`CUDA_VISIBLE_DEVICES`).
+fn process_device(process: &Process, visible: usize) -> Result<usize> {
+    match visible {
+        0 => bail!("rank {}: this process sees no CUDA device", process.rank),
+        1 => Ok(0),
+        _ if process.local_rank < visible => Ok(process.local_rank),
+        _ => bail!(
+            "rank {} is local rank {} on its host, which shows this process {visible} GPUs: start \
+             at most {visible} processes a host (mpirun --npernode, srun --ntasks-per-node), or give \
+             each its own GPU (srun --gpus-per-task 1)",
+            process.rank,
+            process.local_rank
+        ),
     }
-    Ok(())
+}
+
+/// This process's rank joins the others: the rendezvous hands it rank 0's NCCL id, the heartbeats
+/// start, and NCCL joins them in one communicator (on `solver`'s device).
+fn join_processes(process: &Process, solver: &CudaSolver) -> Result<(Comm, Watch)> {
+    // A process may join several times (a benchmark of several scenes): each time under a name of
+    // its own, the same in every process, since each joins as often as the others.
+    static JOINS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let join = JOINS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let var = |name: &str| std::env::var(name).ok();
+    let folder = process.rendezvous_folder(&var)?;
+    let run = format!("{}-{join}", process.run_name(&var)?);
+    let watch = Watch::start(process, &folder, &run, launch::rank_timeout(&var)?)?;
+    let file = launch::rendezvous_file(&folder, &run);
+    let nccl = Nccl::get()?;
+    let id = if process.rank == 0 {
+        let id = nccl.unique_id()?;
+        let bytes: Vec<u8> = id.internal.iter().map(|&b| b as u8).collect();
+        launch::publish_id(&file, &bytes)?;
+        id
+    } else {
+        let bytes = launch::read_id(&file, 128, launch::launch_time(), launch::RENDEZVOUS_WAIT)?;
+        let mut id = UniqueId { internal: [0; 128] };
+        for (to, from) in id.internal.iter_mut().zip(bytes) {
+            *to = from as std::ffi::c_char;
+        }
+        id
+    };
+    solver.bind_to_thread()?;
+    let comm = Comm::init(nccl, id, process.rank, process.size).with_context(|| {
+        format!(
+            "rank {} of {} joining the others ({}, rendezvous {})",
+            process.rank,
+            process.size,
+            process.launcher,
+            file.display()
+        )
+    })?;
+    if process.rank == 0 {
+        // Every rank has joined: the id is spent.
+        let _ = std::fs::remove_file(&file);
+    }
+    Ok((comm, watch))
 }
 
 /// Where two neighbouring ranks meet, seen from one of them: this rank's ghost planes there (the
@@ -793,6 +1351,52 @@ fn pair(halos: &mut [HaloBuffers], from: usize, to: usize) -> (&HaloBuffers, &mu
     }
 }
 
+/// A rank's statistics as the words of a turn, and back.
+fn summary_words(s: &Summary) -> Vec<u64> {
+    let bits = |x: f32| u64::from(x.to_bits());
+    let mut words = vec![
+        s.particles as u64,
+        bits(s.max_speed),
+        bits(s.density_ratio_min),
+        bits(s.density_ratio_mean),
+        bits(s.density_ratio_max),
+        s.kinetic_energy.to_bits(),
+    ];
+    words.extend(s.centre_of_mass.iter().map(|c| c.to_bits()));
+    words
+}
+
+fn summary_of(words: &[u64]) -> Summary {
+    let float = |w: u64| f32::from_bits(w as u32);
+    Summary {
+        particles: words[0] as usize,
+        max_speed: float(words[1]),
+        density_ratio_min: float(words[2]),
+        density_ratio_mean: float(words[3]),
+        density_ratio_max: float(words[4]),
+        kinetic_energy: f64::from_bits(words[5]),
+        centre_of_mass: [6, 7, 8].map(|i| f64::from_bits(words[i])),
+    }
+}
+
+impl Drop for CudaRanks {
+    /// After a failed wait on the other processes, and with a process per rank always (this one
+    /// may be dropped on an error the others do not share), the communicators are aborted: a
+    /// destroy would wait for the transfers in flight, which a rank that stopped never completes.
+    fn drop(&mut self) {
+        if let Some(times) = &self.host_times {
+            eprintln!("{}", times.report(self.first));
+        }
+        if self.failed.get() || !self.in_one_process() {
+            if let Carrier::Nccl(comms) = std::mem::replace(&mut self.carrier, Carrier::DeviceCopy) {
+                for comm in comms {
+                    let _ = comm.abort();
+                }
+            }
+        }
+    }
+}
+
 impl Solver for CudaRanks {
     /// The CUDA backend's name: what the ranks hand over is what one solver would.
     fn name(&self) -> &'static str {
@@ -806,40 +1410,19 @@ impl Solver for CudaRanks {
 
     /// One substep, as the table at the top of this file lists its phases.
     fn step(&mut self, params: &Params) -> Result<()> {
-        // Recorded behind the last substep's work: the sort phase holds the host's turn between.
-        let timed = self.solvers[self.timed].stream().clone();
-        self.timing.begin_step(&timed)?;
-        let last_dt = self.solvers[0].params.dt;
-        self.substeps += 1;
-        // Every particle starts on its owner; the strays were counted by the last substep's g2p.
-        let due = self.substeps % u64::from(MIGRATION_INTERVAL) == 0;
-        if self.substeps > 1 && (due || self.strays()? > 0) {
-            self.migrate(last_dt)?;
-        }
-        for (rank, solver) in self.solvers.iter_mut().enumerate() {
-            let mut own = *params;
-            own.num_particles = solver.capacity() as u32;
-            solver.accept(&own)?;
-            let sort = solver.sort_due();
-            solver.run_phase(Phase::Sort, sort)?;
-            // A binning that gathers into bin order packs the live particles first.
-            if sort && solver.keeps_bin_order() {
-                self.extents[rank] = self.counts[rank];
+        let entered = Instant::now();
+        if let Some(times) = &mut self.host_times {
+            if let Some(left) = times.last_return {
+                times.between_steps += entered - left;
             }
         }
-        self.end_phase(Phase::Sort)?;
-        self.run_phase(Phase::P2gInit)?;
-        self.exchange(Exchange::Sums)?;
-        self.end_phase(Phase::HaloSum)?;
-        self.run_phase(Phase::GridUpdate)?;
-        self.exchange(Exchange::Velocities)?;
-        self.end_phase(Phase::HaloFill)?;
-        for solver in &mut self.solvers {
-            solver.run_phase(Phase::G2p, false)?;
+        let stepped = self.step_ranks(params);
+        if let Some(times) = &mut self.host_times {
+            times.substeps += 1;
+            times.in_step += entered.elapsed();
+            times.last_return = Some(Instant::now());
         }
-        self.count_strays()?;
-        self.merged_stale = true;
-        self.end_phase(Phase::G2p)
+        stepped
     }
 
     fn resume_after(&mut self, last: &Params) {
@@ -853,8 +1436,12 @@ impl Solver for CudaRanks {
         self.wait_extremes(ticket)
     }
 
-    /// Every rank's request, in stream order; nothing waits.
+    /// Every rank's request, in stream order; nothing waits. With a process per rank, the ranks'
+    /// counters are reduced over NCCL first, in stream order, so each rank's copy holds the run's.
     fn request_extremes(&mut self) -> Result<ExtremesTicket> {
+        if !self.in_one_process() {
+            self.reduce_counters()?;
+        }
         let tickets = self
             .solvers
             .iter_mut()
@@ -878,6 +1465,17 @@ impl Solver for CudaRanks {
             .position(|&(pending, _)| pending == handle)
             .context("the ranks' extremes awaited twice, or never requested")?;
         let (_, tickets) = self.extremes.remove(at).context("no pending extremes")?;
+        if !self.in_one_process() {
+            // Reduced on the device (`reduce_counters`): this rank's copy is the run's.
+            let ticket = tickets.into_iter().next().context("a rank's extremes ticket")?;
+            let solver = &self.solvers[0];
+            let started = Instant::now();
+            self.watch_until(&mut || solver.extremes_ready(&ticket))?;
+            if let Some(times) = &mut self.host_times {
+                times.in_extremes += started.elapsed();
+            }
+            return self.solvers[0].wait_extremes(ticket);
+        }
         let mut all = StepExtremes::default();
         for (solver, ticket) in self.solvers.iter_mut().zip(tickets) {
             all.merge(&solver.wait_extremes(ticket)?);
@@ -901,7 +1499,7 @@ impl Solver for CudaRanks {
 
     /// Gathers every rank's particles into the one set `particles` shows.
     fn publish_particles(&mut self) -> Result<()> {
-        self.take_owned()
+        self.read_all()
     }
 
     /// The set of every slot as of the last `publish_particles`; nothing before the first.
@@ -918,7 +1516,7 @@ impl Solver for CudaRanks {
     }
 
     fn read_particles(&mut self) -> Result<Particles> {
-        self.take_owned()?;
+        self.read_all()?;
         let merged = self
             .merged
             .as_ref()
@@ -946,13 +1544,25 @@ impl Solver for CudaRanks {
         match ticket {
             SummaryTicket::Ready(summary) => Ok(summary),
             SummaryTicket::Pending => {
-                let parts = self
-                    .solvers
-                    .iter_mut()
-                    .map(|solver| solver.wait_summary(SummaryTicket::Pending))
-                    .collect::<Result<Vec<_>>>()?;
+                self.wait_watched()?;
+                let mut mine = Vec::new();
+                for solver in &mut self.solvers {
+                    mine.push(summary_words(&solver.wait_summary(SummaryTicket::Pending)?));
+                }
+                let parts: Vec<Summary> = self
+                    .turn(Turn::Summary, mine)?
+                    .iter()
+                    .map(|words| summary_of(words))
+                    .collect();
                 Ok(Summary::of_parts(&parts))
             }
         }
+    }
+
+    /// With a process per rank: rank 0 tells the others the run has ended; they send it their
+    /// particles for as long as it reads them, until then.
+    fn finish(&mut self) -> Result<()> {
+        let none = vec![Vec::new(); self.solvers.len()];
+        self.turn(Turn::Done, none).map(drop)
     }
 }

@@ -7,8 +7,9 @@ use super::gpu::Gpu;
 use crate::contract::PARKED_W;
 use crate::sim::{Deformation, Particles};
 use anyhow::{bail, ensure, Context, Result};
-use cudarc::driver::{CudaSlice, CudaStream};
+use cudarc::driver::{CudaSlice, CudaStream, DevicePtr};
 use glam::{Mat3, Vec3};
+use std::ops::Range;
 use std::sync::Arc;
 
 /// Bytes of one particle's state: x, v as float4; C as 3 float4; rho; its slot.
@@ -142,6 +143,35 @@ impl DeviceParticles {
         stream
             .memcpy_htod(slots, &mut self.slot.slice_mut(..slots.len()))
             .context("uploading the particle slots")
+    }
+
+    /// The device ranges, as (address, 32-bit words), that hold `places` of each array: a run of
+    /// particles as a carrier sends or receives it (`CudaRanks`), listed in one order, so that runs
+    /// of one length in two sets list ranges of equal lengths.
+    pub fn segments(&self, stream: &CudaStream, places: Range<usize>) -> Result<Vec<(u64, usize)>> {
+        ensure!(
+            places.start <= places.end && places.end <= self.count,
+            "places {places:?} of {} particles",
+            self.count
+        );
+        let (count, len) = (self.count, places.len());
+        let word = std::mem::size_of::<f32>() as u64;
+        let mut out = Vec::new();
+        let mut add = |base: u64, lanes: usize, columns: usize| {
+            for col in 0..columns {
+                let first = col * lanes * count + lanes * places.start;
+                out.push((base + first as u64 * word, lanes * len));
+            }
+        };
+        add(self.x.device_ptr(stream).0, 4, 1);
+        add(self.v.device_ptr(stream).0, 4, 1);
+        add(self.c.device_ptr(stream).0, 4, 3);
+        add(self.rho.device_ptr(stream).0, 1, 1);
+        add(self.slot.device_ptr(stream).0, 1, 1);
+        if let Some(deformation) = &self.deformation {
+            add(deformation.device_ptr(stream).0, 4, 3);
+        }
+        Ok(out)
     }
 
     /// These particles in buffers of `capacity` places: each array copied to its start (C's and the

@@ -146,14 +146,22 @@ impl RanksKernels {
         }
     }
 
-    /// Copies the particles live in `rank` to their slots in `out`, which may lie on another GPU.
-    pub fn take_owned(&self, l: &Launcher, rank: &DeviceParticles, out: &DeviceParticles) -> Result<()> {
-        let (count, out_count) = (rank.count as u32, out.count as u32);
-        // SAFETY: the arguments match take_owned; `rank` holds `count` places of each array, `out`
-        // `out_count` slots, and the kernel skips a slot past them.
+    /// Copies the particles live in the first `places` of `rank` to their slots in `out`.
+    pub fn take_owned(
+        &self,
+        l: &Launcher,
+        rank: &DeviceParticles,
+        places: usize,
+        out: &DeviceParticles,
+    ) -> Result<()> {
+        ensure!(places <= rank.count, "taking {places} places of {}", rank.count);
+        let (walk, count, out_count) = (places as u32, rank.count as u32, out.count as u32);
+        // SAFETY: the arguments match take_owned; `rank` holds `count` places of each array (the
+        // first `walk` read), `out` `out_count` slots, and the kernel skips a slot past them.
         unsafe {
-            self.take_owned.launch(l, l.cover(rank.count), |a| {
-                a.arg(&count)
+            self.take_owned.launch(l, l.cover(places), |a| {
+                a.arg(&walk)
+                    .arg(&count)
                     .particle_state(rank)
                     .arg(&rank.slot)
                     .arg(&out_count)

@@ -342,6 +342,15 @@ impl CudaSolver {
     }
 
     /// The places this solver's particle buffers hold, live and parked.
+    /// Whether the extremes of `ticket` have reached the host, without waiting (a caller that
+    /// must watch something else while it waits polls this).
+    pub(super) fn extremes_ready(&self, ticket: &ExtremesTicket) -> Result<bool> {
+        match ticket {
+            ExtremesTicket::Ready(_) => Ok(true),
+            ExtremesTicket::Pending(slot) => self.state.counters.copied(*slot),
+        }
+    }
+
     pub fn capacity(&self) -> usize {
         self.state.particles.count
     }

@@ -109,6 +109,9 @@ pub struct Scene {
     /// GPUs the ranks run on (`--gpus`): 1, every rank on the one device; or as many as ranks, one
     /// rank per GPU, exchanging over NCCL. A run option, like `ranks`.
     pub gpus: usize,
+    /// Where the ranks run one per process (`--processes`): this process's place among them, each
+    /// driving one GPU; `None`, every rank in this process. A run option, like `ranks`.
+    pub process: Option<crate::dist::launch::Process>,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).
     pub particles_per_axis: u32,

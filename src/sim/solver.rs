@@ -215,6 +215,11 @@ pub trait Solver: Send {
     fn publish_particles(&mut self) -> Result<()> {
         Ok(())
     }
+    /// The run has ended: where the ranks run one per process, rank 0 says so to the others, which
+    /// go on sending it their particles for its last outputs until it does. Nothing elsewhere.
+    fn finish(&mut self) -> Result<()> {
+        Ok(())
+    }
     /// Emits a layer from each emitter whose bit is set in `mask` (`sim::flow`), before the next
     /// substep. Only a solver made with the scene's emitters can.
     fn emit(&mut self, _params: &Params, mask: u32) -> Result<()> {

@@ -490,14 +490,23 @@ pub fn same_particles(a: &Particles, b: &Particles) -> bool {
 /// ranks of one device for 5 more; the PLY files of frames 5 and 10 must be the same bytes (a
 /// checkpoint resumes on any rank count).
 pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&str]) {
+    split_checkpoint_resumes_on_three_ranks(backend, split, 1);
+}
+
+/// As [`ranks_checkpoint_resumes_on_another_rank_count`], the split run launched as `processes`
+/// processes (`launch_processes`) with `split` (`--processes`); rank 0's output is returned.
+pub fn split_checkpoint_resumes_on_three_ranks(backend: &str, split: &[&str], processes: usize) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| {
-        let out = std::process::Command::new(mpm_binary())
+    let command = |args: &[&str]| {
+        let mut command = std::process::Command::new(mpm_binary());
+        command
             .current_dir(dir.path())
             .args(["run", "--backend", backend, "--scatter", "fixed-point"])
-            .args(args)
-            .output()
-            .unwrap();
+            .args(args);
+        command
+    };
+    let run = |args: &[&str]| {
+        let out = command(args).output().unwrap();
         let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "mpm run {args:?}: {text}");
         text
@@ -525,7 +534,16 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&s
     .into_iter()
     .chain(split.iter().copied())
     .collect();
-    run(&first);
+    let split_output = match processes {
+        1 => run(&first),
+        n => {
+            let outputs = wait_for_processes(launch_processes(dir.path(), n, &mut || command(&first)));
+            for (rank, (ok, text)) in outputs.iter().enumerate() {
+                assert!(ok, "rank {rank} of mpm run {first:?}: {text}");
+            }
+            outputs[0].1.clone()
+        }
+    };
     let resumed = run(&[
         "--resume",
         "ck/checkpoint_000005.mpmck",
@@ -546,6 +564,67 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&s
         read("whole/frame_000010.ply") == read("resumed/frame_000010.ply"),
         "frame 10 resumed on 3 ranks from {split:?} differs from one rank's"
     );
+    split_output
+}
+
+/// `n` processes of `command`, started as torch's launcher starts them (`RANK`, `WORLD_SIZE`,
+/// `LOCAL_RANK`), meeting in `dir` under a name of their own (`MPM_RENDEZVOUS`, `MPM_RUN_ID`).
+pub fn launch_processes(
+    dir: &std::path::Path,
+    n: usize,
+    command: &mut dyn FnMut() -> std::process::Command,
+) -> Vec<Launched> {
+    static LAUNCHES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let launch = LAUNCHES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let run_id = format!("test-{}-{launch}", std::process::id());
+    (0..n)
+        .map(|rank| {
+            command()
+                .env("RANK", rank.to_string())
+                .env("WORLD_SIZE", n.to_string())
+                .env("LOCAL_RANK", rank.to_string())
+                .env("MPM_RENDEZVOUS", dir)
+                .env("MPM_RUN_ID", &run_id)
+                .stdout(std::fs::File::create(dir.join(format!("{run_id}.rank{rank}.out"))).unwrap())
+                .stderr(std::fs::File::create(dir.join(format!("{run_id}.rank{rank}.err"))).unwrap())
+                .spawn()
+                .map(|child| Launched {
+                    child,
+                    dir: dir.to_path_buf(),
+                    name: format!("{run_id}.rank{rank}"),
+                })
+                .unwrap()
+        })
+        .collect()
+}
+
+/// A process `launch_processes` started, its output going to files beside the run (a pipe nobody
+/// drains would stop it once full).
+pub struct Launched {
+    pub child: std::process::Child,
+    dir: std::path::PathBuf,
+    name: String,
+}
+
+impl Launched {
+    /// What it wrote so far, stdout then stderr.
+    pub fn output(&self) -> String {
+        let read = |ext: &str| {
+            std::fs::read_to_string(self.dir.join(format!("{}.{ext}", self.name))).unwrap_or_default()
+        };
+        read("out") + &read("err")
+    }
+}
+
+/// Each process's success and output (stdout, then stderr), in rank order.
+pub fn wait_for_processes(launched: Vec<Launched>) -> Vec<(bool, String)> {
+    launched
+        .into_iter()
+        .map(|mut launched| {
+            let status = launched.child.wait().unwrap();
+            (status.success(), launched.output())
+        })
+        .collect()
 }
 
 /// `steps` substeps of `scene` at `params` on the CPU reference and the GPU (its fused pipeline

@@ -166,6 +166,7 @@ impl Validator<'_> {
             pbmpm,
             ranks: 1,
             gpus: 1,
+            process: None,
             time_step,
             particles_per_axis,
             bodies,
