@@ -437,6 +437,7 @@ impl SolverArgs {
             return Ok(None);
         }
         let process = Process::from_env(&|name| std::env::var(name).ok())?;
+        mpm::dist::launch::prefer_nccl_without_cumem();
         Ok((process.size > 1).then_some(process))
     }
 

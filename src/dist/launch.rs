@@ -184,6 +184,16 @@ impl Process {
     }
 }
 
+/// Turns NCCL's cuMem (virtual memory) buffers between processes off, unless `NCCL_CUMEM_ENABLE`
+/// is set already: with them, two processes of ranks on two H200s stepped the dam break at 1.03 ms a
+/// substep, their host threads slower in every call; without, at 0.31, against one process's 0.28
+/// (BENCHMARKS.md M29, call 8). Called before NCCL is loaded, while the process has one thread.
+pub fn prefer_nccl_without_cumem() {
+    if std::env::var_os("NCCL_CUMEM_ENABLE").is_none() {
+        std::env::set_var("NCCL_CUMEM_ENABLE", "0");
+    }
+}
+
 /// A run name fit for a file name.
 fn clean(name: &str) -> String {
     name.chars()
