@@ -120,6 +120,29 @@ pub fn check_ranks(kind: BackendKind, ranks: usize, gpus: usize) -> Result<()> {
     }
 }
 
+/// `--processes` (a CUDA rank in each of `processes` processes) with `kind`, refused where it
+/// cannot run here, with advice that does: a CPU backend, or no usable CUDA device.
+pub fn check_processes(kind: BackendKind, processes: usize) -> Result<()> {
+    let value = clap::ValueEnum::to_possible_value(&kind).expect("every backend has a command-line name");
+    let name = value.get_name();
+    if matches!(kind, BackendKind::Cpu | BackendKind::CpuParallel) {
+        bail!(
+            "--processes runs a CUDA rank in each process, and --backend {name} runs on the CPU: use \
+             --backend cuda, or split the CPU reference into thread ranks in one process (no launcher) \
+             with --backend cpu --ranks {processes}"
+        );
+    }
+    if let Err(why) = crate::cuda::library::device_available() {
+        bail!(
+            "--processes runs a CUDA rank in each process, and this machine has no usable CUDA device \
+             ({}); split the CPU reference into thread ranks in one process (no launcher) with \
+             --backend cpu --ranks {processes}",
+            no_cuda_reason(&why)
+        );
+    }
+    Ok(())
+}
+
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU
 /// backend with a one-line notice on stderr when CUDA is unavailable; `Cuda` reports why it is.
 pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {

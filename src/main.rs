@@ -814,6 +814,12 @@ struct BenchArgs {
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
+    let process = args.solver.process()?;
+    if let Some(process) = process {
+        backend::check_processes(args.backend, process.size)?;
+    }
+    // One table, one JSON: rank 0's; the others run the same benchmark silently beside it.
+    let root = process.is_none_or(|p| p.rank == 0);
     anyhow::ensure!(
         !(args.sweep && args.solver.ranks()?.is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
@@ -823,7 +829,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         "--peak-gbs {} must be a positive bandwidth in GB/s (4800 for an H200)",
         args.peak_gbs
     );
-    if let (Some(path), false) = (&args.json, args.solver.process()?.is_some_and(|p| p.rank > 0)) {
+    if let (Some(path), true) = (&args.json, root) {
         check_output_file(path, "--json", args.overwrite)?;
     }
     // Before the backend is resolved: `auto` would announce timing the CPU, then refuse the ranks.
@@ -832,9 +838,6 @@ fn bench(args: BenchArgs) -> Result<()> {
         args.solver.ranks()?.unwrap_or(1),
         args.solver.gpus()?.unwrap_or(1),
     )?;
-    let process = args.solver.process()?;
-    // One table, one JSON: rank 0's; the others run the same benchmark silently beside it.
-    let root = process.is_none_or(|p| p.rank == 0);
     let scenes = if !args.particles.is_empty() {
         let scenes = args
             .particles
@@ -990,6 +993,9 @@ fn run(args: RunArgs) -> Result<()> {
     // With a process per rank, rank 0 writes every output and every line; the others step their
     // ranks beside it.
     let root = scene.process.is_none_or(|p| p.rank == 0);
+    if let Some(process) = scene.process {
+        backend::check_processes(backend_kind, process.size)?;
+    }
     // A checkpoint's bodies dropped into its run are bodies too, which its scene file does not name
     // (the exporter checks the run's scene, which has them, again).
     let dropped = resumed.as_ref().map_or(0, |checkpoint| checkpoint.dropped.len());

@@ -146,6 +146,17 @@ fn processes_outside_a_launcher_are_refused_with_the_launch_commands() {
     assert!(stderr(&out).contains("WORLD_SIZE"), "{}", stderr(&out));
     let out = run(&["run", "--processes", "--gpus", "2"], &[]);
     assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
+    let launched = [("RANK", "0"), ("WORLD_SIZE", "2")];
+    for command in ["run", "bench"] {
+        let out = run(&[command, "--processes", "--backend", "cpu"], &launched);
+        let text = stderr(&out);
+        assert!(!out.status.success());
+        assert!(
+            text.contains("--processes runs a CUDA rank in each process")
+                && text.contains("--backend cpu --ranks 2"),
+            "mpm {command}: {text}"
+        );
+    }
 }
 
 /// `--gpus` is refused, naming the fix, where it cannot run: on the CPU backends, beside `--ranks`,
