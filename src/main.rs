@@ -462,7 +462,8 @@ impl SolverArgs {
     fn refuse_processes(&self, command: &str) -> Result<()> {
         anyhow::ensure!(
             !self.processes,
-            "--processes: `mpm {command}` runs in one process; use --gpus N to step on the GPUs of              this host, or `mpm run --processes` for a run without a window"
+            "--processes: `mpm {command}` runs in one process; use --gpus N to step on the GPUs of \
+             this host, or `mpm run --processes` for a run without a window"
         );
         Ok(())
     }
