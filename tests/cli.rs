@@ -138,7 +138,8 @@ fn processes_outside_a_launcher_are_refused_with_the_launch_commands() {
     );
     let out = run(&["view", "--processes"], &[]);
     assert!(
-        stderr(&out).contains("`mpm view` runs in one process"),
+        stderr(&out)
+            .contains("`mpm view` runs in one process; use --gpus N to step on the GPUs of this host"),
         "{}",
         stderr(&out)
     );
