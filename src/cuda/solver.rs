@@ -341,7 +341,6 @@ impl CudaSolver {
         Ok(())
     }
 
-    /// The places this solver's particle buffers hold, live and parked.
     /// Whether the extremes of `ticket` have reached the host, without waiting (a caller that
     /// must watch something else while it waits polls this).
     pub(super) fn extremes_ready(&self, ticket: &ExtremesTicket) -> Result<bool> {
@@ -351,6 +350,7 @@ impl CudaSolver {
         }
     }
 
+    /// The places this solver's particle buffers hold, live and parked.
     pub fn capacity(&self) -> usize {
         self.state.particles.count
     }
