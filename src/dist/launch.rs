@@ -74,7 +74,7 @@ const LAUNCHERS: [Variables; 4] = [
 /// The variables that name a launch, per launcher, joined into the run's name.
 const RUN_NAMES: [&[&str]; 4] = [
     &["OMPI_MCA_ess_base_jobid", "PMIX_NAMESPACE"],
-    &["PMI_KVSNAME", "PMIX_NAMESPACE"],
+    &["PMIX_NAMESPACE"],
     &["SLURM_JOB_ID", "SLURM_STEP_ID"],
     &["TORCHELASTIC_RUN_ID", "MASTER_ADDR", "MASTER_PORT"],
 ];
