@@ -36,10 +36,20 @@ pub struct Process {
     pub launcher: &'static str,
 }
 
-/// A launcher's variables: rank, size, local rank, local size.
+/// A launcher's variables: rank, size, local rank, and what says whether every process runs on
+/// one host.
 struct Variables {
     launcher: &'static str,
-    names: [&'static str; 4],
+    names: [&'static str; 3],
+    hosts: Hosts,
+}
+
+/// How a launcher says whether its processes share one host.
+enum Hosts {
+    /// The processes on this host: one host where they are all of them.
+    LocalSize(&'static str),
+    /// The hosts of the launch.
+    Count(&'static str),
 }
 
 const LAUNCHERS: [Variables; 4] = [
@@ -49,25 +59,23 @@ const LAUNCHERS: [Variables; 4] = [
             "OMPI_COMM_WORLD_RANK",
             "OMPI_COMM_WORLD_SIZE",
             "OMPI_COMM_WORLD_LOCAL_RANK",
-            "OMPI_COMM_WORLD_LOCAL_SIZE",
         ],
+        hosts: Hosts::LocalSize("OMPI_COMM_WORLD_LOCAL_SIZE"),
     },
     Variables {
         launcher: "Hydra (MPICH or Intel MPI mpirun)",
-        names: ["PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID", "MPI_LOCALNRANKS"],
+        names: ["PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID"],
+        hosts: Hosts::LocalSize("MPI_LOCALNRANKS"),
     },
     Variables {
         launcher: "Slurm (srun)",
-        names: [
-            "SLURM_PROCID",
-            "SLURM_NTASKS",
-            "SLURM_LOCALID",
-            "SLURM_NTASKS_PER_NODE",
-        ],
+        names: ["SLURM_PROCID", "SLURM_NTASKS", "SLURM_LOCALID"],
+        hosts: Hosts::Count("SLURM_NNODES"),
     },
     Variables {
         launcher: "torch's launcher (RANK, WORLD_SIZE)",
-        names: ["RANK", "WORLD_SIZE", "LOCAL_RANK", "LOCAL_WORLD_SIZE"],
+        names: ["RANK", "WORLD_SIZE", "LOCAL_RANK"],
+        hosts: Hosts::LocalSize("LOCAL_WORLD_SIZE"),
     },
 ];
 
@@ -100,14 +108,13 @@ impl Process {
         let number = |name: &str| -> Result<Option<usize>> {
             var(name)
                 .map(|text| {
-                    // Slurm writes tasks per node as "4(x2)" where the hosts differ; its first count.
-                    let head = text.split(['(', ',']).next().unwrap_or("").trim();
-                    head.parse::<usize>()
+                    text.trim()
+                        .parse::<usize>()
                         .with_context(|| format!("{name}={text}, set by {}: not a count", vars.launcher))
                 })
                 .transpose()
         };
-        let [rank, size, local, local_size] = vars.names;
+        let [rank, size, local] = vars.names;
         let size = number(size)?.with_context(|| {
             format!(
                 "{} sets {rank} but not {size}: a rank without the run's size",
@@ -124,7 +131,10 @@ impl Process {
         let local_rank = number(local)?.unwrap_or(rank);
         // Where the launcher does not say how many processes share the host, one host is assumed
         // (a wait on the rendezvous across hosts then says to set MPM_RENDEZVOUS).
-        let one_host = number(local_size)?.is_none_or(|local_size| local_size == size);
+        let one_host = match vars.hosts {
+            Hosts::LocalSize(name) => number(name)?.is_none_or(|local_size| local_size == size),
+            Hosts::Count(name) => number(name)?.is_none_or(|hosts| hosts == 1),
+        };
         Ok(Process {
             rank,
             size,
@@ -390,13 +400,19 @@ mod tests {
             ("SLURM_PROCID", "1"),
             ("SLURM_NTASKS", "2"),
             ("SLURM_LOCALID", "1"),
-            ("SLURM_NTASKS_PER_NODE", "2"),
+            ("SLURM_NNODES", "1"),
             ("SLURM_JOB_ID", "77"),
             ("SLURM_STEP_ID", "0"),
         ]);
         let p = Process::from_env(&slurm).unwrap();
         assert_eq!((p.rank, p.size, p.local_rank, p.one_host), (1, 2, 1, true));
         assert_eq!(p.run_name(&slurm).unwrap(), "77-0");
+        let two_nodes = env(&[
+            ("SLURM_PROCID", "3"),
+            ("SLURM_NTASKS", "4"),
+            ("SLURM_NNODES", "2"),
+        ]);
+        assert!(!Process::from_env(&two_nodes).unwrap().one_host);
         let torch = env(&[("RANK", "0"), ("WORLD_SIZE", "2"), ("LOCAL_RANK", "0")]);
         let p = Process::from_env(&torch).unwrap();
         assert_eq!((p.rank, p.size, p.local_rank, p.one_host), (0, 2, 0, true));
