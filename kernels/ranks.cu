@@ -1,6 +1,6 @@
 // ranks: what `CudaRanks` (src/cuda/cuda_ranks.rs) does to particles across ranks: find those about
-// to leave their rank's reach, count them per block layer for the balance, append them to their new
-// owner's particles, and take every rank's own particles to their slots in one set.
+// to leave their rank's reach, count them per block layer for the balance, pack them for their new
+// owner, and take every rank's own particles to their slots in one set.
 #include "tiles.cuh"
 
 // The stencil base node of `xp` along `axis`, rounded as `dist::migrate::base` (no fused
@@ -46,13 +46,13 @@ extern "C" __global__ void count_layers(const KernelParams params, const u32 pla
     }
 }
 
-// Migration: every particle live on the sending rank's first `from_end` places (its places in use;
-// other senders may be appending past them) whose block layer lies in first_layer..end_layer (the
-// receiving rank's slab) is appended to the receiver's
-// places to_first..to_end (the tail the host reserved for this sender, from the layer counts) and
-// parked on the sender; `moved` counts them. A particle the reserved places cannot hold stays where it
-// is: the host finds `moved` past its count and stops the run. The order within a sender's run of
-// places is the atomics'; the receiver's next binning sorts them.
+// Migration: every particle live on the sending rank's first `from_end` places (its places in use)
+// whose block layer lies in first_layer..end_layer (the receiving rank's slab) is packed into
+// places to_first..to_end of `to_*` (the sender's buffer for that receiver, as many places as the
+// layer counts say it holds of that slab; the carrier then takes them to the receiver) and parked
+// on the sender; `moved` counts them. A particle the places cannot hold stays where it is: the host
+// finds `moved` past its count and stops the run. The order within the packed places is the
+// atomics'; the receiver's next binning sorts them.
 extern "C" __global__ void move_owned(const KernelParams params, const u32 axis, const u32 layers, const u32 first_layer,
                                       const u32 end_layer, const u32 from_end, float4* __restrict__ from_x,
                                       const float4* __restrict__ from_v, const float4* __restrict__ from_c,

@@ -1,6 +1,6 @@
 //! kernels/ranks.cu: what the ranks of a run split over slabs (cuda_ranks.rs) do to their particles
 //! on the device: count the particles that could step past their rank's ghost planes, count a
-//! slab's particles by layer (for rebalancing), append the particles a migration sends to their new
+//! slab's particles by layer (for rebalancing), pack the particles a migration sends to their new
 //! rank, and take every rank's own particles to their slots in the one set readers see.
 
 use super::launch::{Kernel, Launcher};
@@ -102,9 +102,10 @@ impl RanksKernels {
         }
     }
 
-    /// Appends the particles live in `from`'s first `walk` places whose block layer lies in `slab`
-    /// (axis, layers of the grid, the receiving rank's layers) to `to`'s places `places` (reserved
-    /// for them; `to` may lie on another GPU) and parks them in `from`, counting them in `moved`.
+    /// Packs the particles live in `from`'s first `walk` places whose block layer lies in `slab`
+    /// (axis, layers of the grid, the receiving rank's layers) into `to`'s places `places` (the
+    /// sender's buffer for that receiver, on the same GPU) and parks them in `from`, counting them in
+    /// `moved`.
     #[allow(clippy::too_many_arguments)]
     pub fn move_owned(
         &self,
