@@ -17,6 +17,21 @@ pub const STATE_BYTES_PER_PARTICLE: usize = 4 * (4 + 4 + 12 + 1 + 1);
 /// Bytes of one particle's deformation, where a material carries one: F_E as 3 float4 columns, the
 /// plastic scalar in the first column's w.
 pub const DEFORMATION_BYTES_PER_PARTICLE: usize = 4 * 12;
+/// Bytes of one particle's state on the device, its deformation where `deformed`: what each set of
+/// particles (the one stepped, the bin-order gather's spare) takes a particle.
+pub fn state_bytes(deformed: bool) -> usize {
+    STATE_BYTES_PER_PARTICLE
+        + if deformed {
+            DEFORMATION_BYTES_PER_PARTICLE
+        } else {
+            0
+        }
+}
+/// Bytes on the device a particle takes, its deformation where `deformed`: its state and the bins'
+/// order, key and rank ([`BYTES_PER_PARTICLE`] with the deformation).
+pub fn device_bytes(deformed: bool) -> usize {
+    BYTES_PER_PARTICLE - STATE_BYTES_PER_PARTICLE + state_bytes(deformed)
+}
 /// The slot of a place a rank's buffers grew by, which holds no particle of the run (no reader
 /// looks at a parked place's slot).
 pub const NO_SLOT: u32 = u32::MAX;

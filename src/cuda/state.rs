@@ -9,9 +9,7 @@ use super::flow::DeviceFlow;
 use super::gpu::Gpu;
 use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE};
 use super::launch::{OptionalArg, NULL_POINTER};
-use super::particles::{
-    DeviceParticles, BYTES_PER_PARTICLE, DEFORMATION_BYTES_PER_PARTICLE, STATE_BYTES_PER_PARTICLE,
-};
+use super::particles::{device_bytes, state_bytes, DeviceParticles};
 use crate::sim::flow::FlowState;
 use crate::sim::{Method, Params, Pipeline, ScatterMode, Scene};
 use anyhow::{ensure, Result};
@@ -68,13 +66,8 @@ impl DeviceState {
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
         let deformed = scene.has_deformation();
-        let per_particle_state = STATE_BYTES_PER_PARTICLE
-            + if deformed {
-                DEFORMATION_BYTES_PER_PARTICLE
-            } else {
-                0
-            };
-        let needed = n * (BYTES_PER_PARTICLE + per_particle_state - STATE_BYTES_PER_PARTICLE)
+        let per_particle_state = state_bytes(deformed);
+        let needed = n * device_bytes(deformed)
             + nodes
                 * (BYTES_PER_NODE
                     + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 }
@@ -170,12 +163,8 @@ impl DeviceState {
             self.flow.is_none(),
             "a run with emitters or sinks keeps its particle slots: it cannot grow them"
         );
-        let per_particle = BYTES_PER_PARTICLE
-            + self
-                .particles
-                .deformation
-                .as_ref()
-                .map_or(0, |_| DEFORMATION_BYTES_PER_PARTICLE);
+        let deformed = self.particles.deformation.is_some();
+        let per_particle = device_bytes(deformed);
         let copies = 1 + usize::from(self.bin_order.is_some());
         // The old buffers stay until the copies are made.
         gpu.ensure_fits(
@@ -184,7 +173,6 @@ impl DeviceState {
             "run on more GPUs (--gpus), or fewer particles",
         )?;
         let stream = gpu.stream();
-        let deformed = self.particles.deformation.is_some();
         self.particles = self.particles.grown(stream, capacity)?;
         if let Some(order) = &mut self.bin_order {
             order.spare = DeviceParticles::allocate(stream, capacity, deformed)?;
