@@ -74,9 +74,7 @@ pub fn check_ranks(kind: BackendKind, ranks: usize, gpus: usize) -> Result<()> {
         return Ok(());
     }
     let cuda = crate::cuda::library::device_available();
-    // The name the command line takes (clap's, from the variant), so the advice spells it as typed.
-    let value = clap::ValueEnum::to_possible_value(&kind).expect("every backend has a command-line name");
-    let name = value.get_name();
+    let name = command_line_name(kind);
     let on_gpu = matches!(kind, BackendKind::Cuda | BackendKind::Auto);
     match (&cuda, on_gpu, gpus > 1) {
         (Ok(()), false, true) => bail!(
@@ -120,11 +118,17 @@ pub fn check_ranks(kind: BackendKind, ranks: usize, gpus: usize) -> Result<()> {
     }
 }
 
+/// The name the command line takes for `kind` (clap's, from the variant), so advice spells it as
+/// typed.
+fn command_line_name(kind: BackendKind) -> String {
+    let value = clap::ValueEnum::to_possible_value(&kind).expect("every backend has a command-line name");
+    value.get_name().to_string()
+}
+
 /// `--processes` (a CUDA rank in each of `processes` processes) with `kind`, refused where it
 /// cannot run here, with advice that does: a CPU backend, or no usable CUDA device.
 pub fn check_processes(kind: BackendKind, processes: usize) -> Result<()> {
-    let value = clap::ValueEnum::to_possible_value(&kind).expect("every backend has a command-line name");
-    let name = value.get_name();
+    let name = command_line_name(kind);
     if matches!(kind, BackendKind::Cpu | BackendKind::CpuParallel) {
         bail!(
             "--processes runs a CUDA rank in each process, and --backend {name} runs on the CPU: use \
