@@ -436,9 +436,14 @@ impl SolverArgs {
         if !self.processes {
             return Ok(None);
         }
-        let process = Process::from_env(&|name| std::env::var(name).ok())?;
+        let var = |name: &str| std::env::var(name).ok();
+        let process = Process::from_env(&var)?;
+        if process.size == 1 {
+            return Ok(None);
+        }
+        process.check_settings(&var)?;
         mpm::dist::launch::prefer_nccl_without_cumem();
-        Ok((process.size > 1).then_some(process))
+        Ok(Some(process))
     }
 
     /// `--ranks`, or `--gpus` (a rank per GPU), or with `--processes` the processes, where given (a

@@ -147,6 +147,17 @@ fn processes_outside_a_launcher_are_refused_with_the_launch_commands() {
     assert!(stderr(&out).contains("WORLD_SIZE"), "{}", stderr(&out));
     let out = run(&["run", "--processes", "--gpus", "2"], &[]);
     assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
+    let nowhere = [
+        ("RANK", "0"),
+        ("WORLD_SIZE", "2"),
+        ("MPM_RENDEZVOUS", "/no/such/folder"),
+    ];
+    let out = run(&["run", "--processes", "--frames", "1"], &nowhere);
+    let text = stderr(&out);
+    assert!(
+        text.contains("MPM_RENDEZVOUS=/no/such/folder: not a folder"),
+        "{text}"
+    );
     let launched = [("RANK", "0"), ("WORLD_SIZE", "2")];
     for command in ["run", "bench"] {
         let out = run(&[command, "--processes", "--backend", "cpu"], &launched);

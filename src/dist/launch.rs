@@ -144,6 +144,14 @@ impl Process {
         })
     }
 
+    /// The settings a join reads (`MPM_RENDEZVOUS`, the run's name, `MPM_RANK_TIMEOUT`), checked
+    /// before any work, so a bad one fails at once rather than after the scene is made.
+    pub fn check_settings(&self, var: &dyn Fn(&str) -> Option<String>) -> Result<()> {
+        self.rendezvous_folder(var)?;
+        self.run_name(var)?;
+        rank_timeout(var).map(drop)
+    }
+
     /// The name of this launch, the same in each of its processes: `MPM_RUN_ID`, the launcher's
     /// job, or on one host the launching process.
     pub fn run_name(&self, var: &dyn Fn(&str) -> Option<String>) -> Result<String> {
