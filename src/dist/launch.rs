@@ -341,7 +341,8 @@ impl Watch {
                 .map(|modified| now.duration_since(modified).unwrap_or_default());
             match age {
                 Err(_) => bail!(
-                    "rank {rank} has ended (its heartbeat file {} is gone): the run stops; see rank                      {rank}'s output for why",
+                    "rank {rank} has ended (its heartbeat file {} is gone): the run stops; see rank \
+                     {rank}'s output for why",
                     file.display()
                 ),
                 Ok(age) if age > SILENCE => bail!(
@@ -362,6 +363,30 @@ impl Drop for Watch {
             let _ = beating.join();
         }
         let _ = std::fs::remove_file(heartbeat_file(&self.folder, &self.run, self.rank));
+    }
+}
+
+/// What a process sets up before it joins the others, whatever carries their exchanges: the
+/// rendezvous folder, the join's name and its heartbeat.
+pub struct Joining {
+    pub folder: PathBuf,
+    /// The run's name and the join's count: a process may join several times (a benchmark of
+    /// several scenes), each time under a name of its own, the same in every process, since each
+    /// joins as often as the others.
+    pub run: String,
+    pub watch: Watch,
+}
+
+impl Joining {
+    /// Starts this process's heartbeat under its next join's name.
+    pub fn start(process: &Process) -> Result<Joining> {
+        static JOINS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let join = JOINS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let var = |name: &str| std::env::var(name).ok();
+        let folder = process.rendezvous_folder(&var)?;
+        let run = format!("{}-{join}", process.run_name(&var)?);
+        let watch = Watch::start(process, &folder, &run, rank_timeout(&var)?)?;
+        Ok(Joining { folder, run, watch })
     }
 }
 
