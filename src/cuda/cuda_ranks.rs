@@ -254,7 +254,8 @@ impl CudaRanks {
             scene.method != crate::sim::Method::Pbmpm,
             "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
         );
-        if let Some(note) = crate::dist::small_for_gpus(scene.gpus, particles.num_live()) {
+        let gpus = scene.process.map_or(scene.gpus, |p| p.size);
+        if let Some(note) = crate::dist::small_for_gpus(gpus, particles.num_live()) {
             if scene.process.is_none_or(|p| p.rank == 0) {
                 eprintln!("note: {note}");
             }
@@ -1269,14 +1270,7 @@ fn process_device(process: &Process, visible: usize) -> Result<usize> {
 /// This process's rank joins the others: the rendezvous hands it rank 0's NCCL id, the heartbeats
 /// start, and NCCL joins them in one communicator (on `solver`'s device).
 fn join_processes(process: &Process, solver: &CudaSolver) -> Result<(Comm, Watch)> {
-    // A process may join several times (a benchmark of several scenes): each time under a name of
-    // its own, the same in every process, since each joins as often as the others.
-    static JOINS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let join = JOINS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let var = |name: &str| std::env::var(name).ok();
-    let folder = process.rendezvous_folder(&var)?;
-    let run = format!("{}-{join}", process.run_name(&var)?);
-    let watch = Watch::start(process, &folder, &run, launch::rank_timeout(&var)?)?;
+    let launch::Joining { folder, run, watch } = launch::Joining::start(process)?;
     let file = launch::rendezvous_file(&folder, &run);
     let nccl = Nccl::get()?;
     let id = if process.rank == 0 {
