@@ -125,26 +125,28 @@ fn command_line_name(kind: BackendKind) -> String {
     value.get_name().to_string()
 }
 
-/// `--processes` (a CUDA rank in each of `processes` processes) with `kind`, refused where it
-/// cannot run here, with advice that does: a CPU backend, or no usable CUDA device.
+/// `--processes` (a rank in each of `processes` processes) with `kind`, refused where it cannot run
+/// here, with advice that does: a CUDA rank each (`cuda`, or `auto` with a usable device), or the
+/// CPU reference's (`cpu`); cpu-parallel steps one rank.
 pub fn check_processes(kind: BackendKind, processes: usize) -> Result<()> {
     let name = command_line_name(kind);
-    if matches!(kind, BackendKind::Cpu | BackendKind::CpuParallel) {
-        bail!(
-            "--processes runs a CUDA rank in each process, and --backend {name} runs on the CPU: use \
-             --backend cuda, or split the CPU reference into thread ranks in one process (no launcher) \
-             with --backend cpu --ranks {processes}"
-        );
+    match kind {
+        BackendKind::Cpu => Ok(()),
+        BackendKind::CpuParallel => bail!(
+            "--processes runs a rank in each process, and the {name} backend steps one rank: use \
+             --backend cuda for a GPU each, or --backend cpu for the CPU reference's ranks"
+        ),
+        BackendKind::Cuda | BackendKind::Auto => match crate::cuda::library::device_available() {
+            Ok(()) => Ok(()),
+            Err(why) => bail!(
+                "--processes with --backend {name} runs a CUDA rank in each process, and this \
+                 machine has no usable CUDA device ({}); run the CPU reference's ranks as these \
+                 processes with --backend cpu, or as threads of one process (no launcher) with \
+                 --backend cpu --ranks {processes}",
+                no_cuda_reason(&why)
+            ),
+        },
     }
-    if let Err(why) = crate::cuda::library::device_available() {
-        bail!(
-            "--processes runs a CUDA rank in each process, and this machine has no usable CUDA device \
-             ({}); split the CPU reference into thread ranks in one process (no launcher) with \
-             --backend cpu --ranks {processes}",
-            no_cuda_reason(&why)
-        );
-    }
-    Ok(())
 }
 
 /// Spawns the scene's particles on the chosen backend. `Auto` falls back to the multi-threaded CPU

@@ -405,8 +405,9 @@ struct SolverArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count::<1>, conflicts_with = "ranks")]
     gpus: Option<u64>,
     /// Run one rank per process, as mpirun, srun or torchrun start them: the rank and the number of
-    /// processes from the launcher's environment, each process on one GPU (backend cuda; `mpm run`
-    /// and `mpm bench`; docs/several-gpus.md).
+    /// processes from the launcher's environment, each process on one GPU (backend cuda), or with
+    /// --backend cpu the CPU reference's ranks on one host (`mpm run` and `mpm bench`;
+    /// docs/several-gpus.md).
     #[arg(long, conflicts_with_all = ["ranks", "gpus"])]
     processes: bool,
 }
@@ -423,7 +424,7 @@ impl SolverArgs {
         if let Some(ranks) = self.ranks()? {
             scene.ranks = ranks;
         }
-        if let Some(gpus) = self.gpus()? {
+        if let Some(gpus) = self.gpus() {
             scene.gpus = gpus;
         }
         scene.process = self.process()?;
@@ -457,10 +458,9 @@ impl SolverArgs {
         Ok(asked.or(self.process()?.map(|p| p.size)))
     }
 
-    /// `--gpus`, or with `--processes` the processes (a GPU each), where given.
-    fn gpus(&self) -> Result<Option<usize>> {
-        let asked = self.gpus.map(|n| n.try_into().unwrap_or(usize::MAX));
-        Ok(asked.or(self.process()?.map(|p| p.size)))
+    /// `--gpus`, where given (a process per rank finds its GPU from its place, `Scene::process`).
+    fn gpus(&self) -> Option<usize> {
+        self.gpus.map(|n| n.try_into().unwrap_or(usize::MAX))
     }
 
     /// The window draws what one process steps.
@@ -842,7 +842,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     backend::check_ranks(
         args.backend,
         args.solver.ranks()?.unwrap_or(1),
-        args.solver.gpus()?.unwrap_or(1),
+        args.solver.gpus().unwrap_or(1),
     )?;
     let scenes = if !args.particles.is_empty() {
         let scenes = args
@@ -906,7 +906,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
             ranks: args.solver.ranks()?,
-            gpus: args.solver.gpus()?,
+            gpus: args.solver.gpus(),
             process,
             peak_gbs: args.peak_gbs,
         },
@@ -1060,7 +1060,11 @@ fn run(args: RunArgs) -> Result<()> {
         sim.params().materials[0].sound_speed(),
         sim.backend(),
         if let Some(process) = scene.process {
-            format!(" on {} GPUs, a process each ({})", process.size, process.launcher)
+            let units = if sim.backend() == "cpu" { "ranks" } else { "GPUs" };
+            format!(
+                " on {} {units}, a process each ({})",
+                process.size, process.launcher
+            )
         } else if scene.gpus > 1 {
             format!(" on {} GPUs", scene.gpus)
         } else if scene.ranks > 1 {

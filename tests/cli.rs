@@ -160,14 +160,25 @@ fn processes_outside_a_launcher_are_refused_with_the_launch_commands() {
     );
     let launched = [("RANK", "0"), ("WORLD_SIZE", "2")];
     for command in ["run", "bench"] {
-        let out = run(&[command, "--processes", "--backend", "cpu"], &launched);
+        let out = run(&[command, "--processes", "--backend", "cpu-parallel"], &launched);
         let text = stderr(&out);
         assert!(!out.status.success());
         assert!(
-            text.contains("--processes runs a CUDA rank in each process")
-                && text.contains("--backend cpu --ranks 2"),
+            text.contains("the cpu-parallel backend steps one rank")
+                && text.contains("--backend cpu for the CPU reference's ranks"),
             "mpm {command}: {text}"
         );
+        if mpm::cuda::library::device_available().is_err() {
+            let out = run(&[command, "--processes", "--backend", "cuda"], &launched);
+            let text = stderr(&out);
+            assert!(!out.status.success());
+            assert!(
+                text.contains("no usable CUDA device")
+                    && text.contains("as these processes with --backend cpu")
+                    && text.contains("--backend cpu --ranks 2"),
+                "mpm {command}: {text}"
+            );
+        }
     }
 }
 

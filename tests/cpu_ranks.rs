@@ -300,3 +300,27 @@ fn a_moving_collider_across_the_cut_gives_one_rank_s_bits() {
 fn a_checkpoint_of_two_ranks_resumes_on_three() {
     common::ranks_checkpoint_resumes_on_another_rank_count("cpu", &["--ranks", "2"]);
 }
+
+/// `mpm run --processes --backend cpu` launched as two processes (as torch's launcher starts them):
+/// rank 0 writes frame 5 with one rank's bytes, and its checkpoint resumes on 3 thread ranks to
+/// frame 10, one rank's bytes again.
+#[test]
+fn two_processes_give_one_rank_s_bytes_and_resume_on_three_ranks() {
+    let out = common::split_checkpoint_resumes_on_three_ranks("cpu", &["--processes"], 2);
+    assert!(out.contains("on 2 ranks, a process each"), "{out}");
+}
+
+/// Two processes whose rank 1 is killed mid-run: rank 0 stops within 30 s, naming rank 1, and its
+/// latest checkpoint resumes.
+#[test]
+fn a_killed_process_stops_the_other_within_30_s() {
+    let took = common::a_failed_process_stops_the_run("cpu", "KILL");
+    eprintln!("rank 0 stopped {took:.1} s after rank 1 was killed");
+}
+
+/// As above, rank 1 stopped (`SIGSTOP`, a hang): its heartbeat falls silent and rank 0 names it.
+#[test]
+fn a_stopped_process_stops_the_other_within_30_s() {
+    let took = common::a_failed_process_stops_the_run("cpu", "STOP");
+    eprintln!("rank 0 stopped {took:.1} s after rank 1 was stopped");
+}

@@ -1,12 +1,17 @@
-//! The CPU reference split into ranks: each rank a thread running the reference's phases on its own
-//! slab's particles, with the ghost exchange between the phases and migration at rebin time, over
-//! the in-process communicator. It is the decomposition's oracle: the same scene must give what one
-//! rank gives, to float rounding (a node's sum adds the same terms in another order).
+//! The CPU reference split into ranks: each rank runs the reference's phases on its own slab's
+//! particles, with the ghost exchange between the phases and migration at rebin time. The ranks are
+//! threads of one process joined by channels, or with `--processes` a process each joined by Unix
+//! sockets (`sockets`), launched as the CUDA ranks' processes are: the same launch, heartbeats and
+//! outputs on a machine without a GPU. It is the decomposition's oracle: the same scene must give
+//! what one rank gives, to float rounding (a node's sum adds the same terms in another order), and
+//! byte for byte under the fixed-point scatter.
 
-use super::comm::{all_sum, any, Comm, LocalComm};
+use super::comm::{all_gather, all_sum, any, Comm, LocalComm};
 use super::halo::HaloNodes;
-use super::migrate::{base, layer_counts, Migration, RankParticles};
+use super::launch::{Joining, RENDEZVOUS_WAIT};
+use super::migrate::{base, layer_counts, Migrant, Migration, RankParticles};
 use super::slabs::Slabs;
+use super::sockets::SocketComm;
 use super::{check_ranks, starting_slabs};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::cpu::{is_fixed_point, CpuSolver};
@@ -16,7 +21,8 @@ use crate::sim::push::Push;
 use crate::sim::solver::{push_step_timing, Solver, StepExtremes};
 use crate::sim::ParticleView;
 use crate::sim::{Particles, Scene};
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, ensure, Result};
+use bytemuck::Zeroable;
 
 /// One rank: the reference solver over its particles and a grid in the domain's node numbering, of
 /// which it touches its slab and ghost planes.
@@ -105,6 +111,24 @@ impl Rank {
         Ok(clock.finish())
     }
 
+    /// Its live particles, by id.
+    fn live(&self) -> Vec<Migrant> {
+        let p = &self.solver.particles;
+        (0..p.len())
+            .filter(|&i| p.live[i])
+            .map(|i| Migrant::of(p, i, self.store.id[i]))
+            .collect()
+    }
+
+    /// What it hands over after a substep timed as `timings`.
+    fn handover(&mut self, timings: PhaseTimings) -> Result<Handover> {
+        Ok(Handover {
+            particles: self.live(),
+            extremes: self.solver.take_extremes()?,
+            timings,
+        })
+    }
+
     /// The mass scatter's ghost sums to their owners: its integer units under the fixed-point
     /// scatter, else the float mass; and the volume's, where the rest densities differ.
     fn sum_mass(&mut self, comm: &mut dyn Comm, params: &Params) -> Result<()> {
@@ -169,15 +193,96 @@ impl Rank {
     }
 }
 
-/// The CPU reference over `ranks` thread ranks: a [`Solver`] like any other, whose particles read
-/// back in the one-rank run's slot order (by id).
+/// What a rank hands over after each substep: its live particles, by id (for readers and
+/// checkpoints), its extremes (the next time step's) and its phase times.
+struct Handover {
+    particles: Vec<Migrant>,
+    extremes: StepExtremes,
+    timings: PhaseTimings,
+}
+
+impl Handover {
+    /// Everything but the particles, and their count, as words of one length on every rank.
+    fn words(&self) -> Vec<u64> {
+        let e = &self.extremes;
+        let mut words = vec![
+            self.particles.len() as u64,
+            u64::from(e.max_density.to_bits()),
+            u64::from(e.max_speed.to_bits()),
+            u64::from(e.max_signal_speed.to_bits()),
+            e.backstop_pushes,
+        ];
+        words.extend(Phase::ALL.map(|phase| self.timings[phase].to_bits()));
+        words
+    }
+
+    /// A handover from its `words`, its particles to come.
+    fn from_words(words: &[u64]) -> (Handover, usize) {
+        let float = |w: u64| f32::from_bits(w as u32);
+        let mut timings = PhaseTimings::one_step();
+        for (phase, &bits) in Phase::ALL.into_iter().zip(&words[5..]) {
+            timings[phase] = f64::from_bits(bits);
+        }
+        let extremes = StepExtremes {
+            max_density: float(words[1]),
+            max_speed: float(words[2]),
+            max_signal_speed: float(words[3]),
+            backstop_pushes: words[4],
+        };
+        let handover = Handover {
+            particles: Vec::new(),
+            extremes,
+            timings,
+        };
+        (handover, words[0] as usize)
+    }
+}
+
+/// Every process's handover, in rank order, given this process's: what one process of thread ranks
+/// holds after a substep, each process holds.
+fn handovers_of_processes(comm: &mut dyn Comm, mine: Handover) -> Result<Vec<Handover>> {
+    let (me, size) = (comm.rank(), comm.size());
+    let words = mine.words();
+    let all = all_gather(comm, &words)?;
+    let mut handovers: Vec<Handover> = Vec::with_capacity(size);
+    for rank in 0..size {
+        let (mut handover, count) = Handover::from_words(&all[rank * words.len()..(rank + 1) * words.len()]);
+        if rank != me {
+            handover.particles = vec![Migrant::zeroed(); count];
+        }
+        handovers.push(handover);
+    }
+    let sends: Vec<(usize, &[u8])> = (0..size)
+        .filter(|&to| to != me && !mine.particles.is_empty())
+        .map(|to| (to, bytemuck::cast_slice(&mine.particles)))
+        .collect();
+    let mut recvs: Vec<(usize, &mut [u8])> = handovers
+        .iter_mut()
+        .enumerate()
+        .filter(|(from, h)| *from != me && !h.particles.is_empty())
+        .map(|(from, h)| (from, bytemuck::cast_slice_mut(h.particles.as_mut_slice())))
+        .collect();
+    comm.exchange(&sends, &mut recvs)?;
+    handovers[me].particles = mine.particles;
+    Ok(handovers)
+}
+
+/// The CPU reference over `ranks` ranks: a [`Solver`] like any other, whose particles read back in
+/// the one-rank run's slot order (by id). With `Scene::process` the ranks are processes, this one
+/// drives its own, and after each substep every process holds what the others hand over (all the
+/// particles, the extremes, the phase times), so every `Solver` call but the step is its own.
 pub struct CpuRanks {
+    /// This process's ranks: every rank of the run, or with a process per rank its one.
     ranks: Vec<Rank>,
-    comms: Vec<LocalComm>,
+    /// Their communicators, in the same order: channels between threads, or sockets to the other
+    /// processes.
+    comms: Vec<Box<dyn Comm>>,
+    in_processes: bool,
     /// The one-rank run's slots: ids run over them.
     slots: usize,
     /// The particles as of the last substep, by id (for `Solver::particles`).
     gathered: Particles,
+    extremes: StepExtremes,
     timings: Vec<PhaseTimings>,
     inv_dx: f32,
 }
@@ -190,18 +295,34 @@ impl CpuRanks {
     }
 
     /// Ranks on the given slabs (one per slab), whatever their balance: the next rebin moves them.
+    /// With `Scene::process`, this process's rank, joined to the others'.
     pub fn with_slabs(scene: &Scene, particles: Particles, slabs: Slabs) -> Result<CpuRanks> {
         check_ranks(scene, &slabs)?;
         let params = scene.params();
         let ranks = slabs.ranks();
-        let per_rank = (0..ranks)
-            .map(|r| Rank::new(&particles, scene, &slabs, r))
-            .collect();
+        let (mine, comms): (std::ops::Range<usize>, Vec<Box<dyn Comm>>) = match scene.process {
+            Some(process) => {
+                ensure!(
+                    process.size == ranks,
+                    "a run of {} processes splits into as many ranks, not {ranks}",
+                    process.size
+                );
+                let Joining { run, watch, .. } = Joining::start(&process)?;
+                let comm = SocketComm::join(&process, &run, watch, RENDEZVOUS_WAIT)?;
+                (process.rank..process.rank + 1, vec![Box::new(comm)])
+            }
+            None => {
+                let comms = LocalComm::group(ranks).into_iter();
+                (0..ranks, comms.map(|c| Box::new(c) as Box<dyn Comm>).collect())
+            }
+        };
         Ok(CpuRanks {
-            ranks: per_rank,
-            comms: LocalComm::group(ranks),
+            ranks: mine.map(|r| Rank::new(&particles, scene, &slabs, r)).collect(),
+            comms,
+            in_processes: scene.process.is_some(),
             slots: particles.len(),
             gathered: particles,
+            extremes: StepExtremes::default(),
             timings: Vec::new(),
             inv_dx: params.inv_dx,
         })
@@ -212,12 +333,12 @@ impl CpuRanks {
         &self.ranks[0].slabs
     }
 
-    /// Live particles per rank.
+    /// Live particles per rank of this process.
     pub fn counts(&self) -> Vec<usize> {
         self.ranks.iter().map(|r| r.solver.particles.num_live()).collect()
     }
 
-    /// Live particles per block layer along the slab axis, all ranks together.
+    /// Live particles per block layer along the slab axis, this process's ranks together.
     pub fn layer_counts(&self) -> Vec<u64> {
         let slabs = self.slabs();
         let inv_dx = self.inv_dx;
@@ -238,20 +359,48 @@ impl CpuRanks {
         (self.ranks[0].migrations, self.ranks[0].migrated)
     }
 
+    /// One substep of every rank, and what each handed over, in rank order.
+    fn substep(&mut self, params: &Params) -> Result<Vec<Handover>> {
+        if self.in_processes {
+            let (rank, comm) = (&mut self.ranks[0], self.comms[0].as_mut());
+            let timings = rank.substep(comm, params)?;
+            let mine = rank.handover(timings)?;
+            return handovers_of_processes(comm, mine);
+        }
+        let results: Vec<Result<Handover>> = std::thread::scope(|s| {
+            let running: Vec<_> = self
+                .ranks
+                .iter_mut()
+                .zip(self.comms.iter_mut())
+                .map(|(rank, comm)| {
+                    s.spawn(move || {
+                        let timings = rank.substep(comm.as_mut(), params)?;
+                        rank.handover(timings)
+                    })
+                })
+                .collect();
+            running
+                .into_iter()
+                .map(|r| {
+                    r.join()
+                        .unwrap_or_else(|_| Err(anyhow!("a rank's thread panicked")))
+                })
+                .collect()
+        });
+        // A rank's own error comes first; the others' only say that it stopped.
+        results.into_iter().collect()
+    }
+
     /// Every rank's live particles at their ids' slots; a slot no rank holds stays parked.
-    fn gather(&mut self) -> Result<()> {
+    fn gather<'a>(&mut self, lists: impl Iterator<Item = &'a [Migrant]>) -> Result<()> {
         let g = &mut self.gathered;
         g.live.iter_mut().for_each(|l| *l = false);
-        for rank in &self.ranks {
-            let p = &rank.solver.particles;
-            for i in (0..p.len()).filter(|&i| p.live[i]) {
-                let id = rank.store.id[i] as usize;
-                if id >= self.slots || g.live[id] {
-                    bail!("particle {id} is held twice or out of range: the ranks disagree");
-                }
-                (g.x[id], g.v[id], g.c[id], g.rho[id], g.live[id]) = (p.x[i], p.v[i], p.c[i], p.rho[i], true);
-                g.material[id] = p.material[i];
+        for m in lists.flatten() {
+            let id = m.id as usize;
+            if id >= self.slots || g.live[id] {
+                bail!("particle {id} is held twice or out of range: the ranks disagree");
             }
+            m.place(g, id);
         }
         Ok(())
     }
@@ -265,32 +414,17 @@ impl Solver for CpuRanks {
     }
 
     fn step(&mut self, params: &Params) -> Result<()> {
-        let results: Vec<Result<PhaseTimings>> = std::thread::scope(|s| {
-            let running: Vec<_> = self
-                .ranks
-                .iter_mut()
-                .zip(self.comms.iter_mut())
-                .map(|(rank, comm)| s.spawn(move || rank.substep(comm, params)))
-                .collect();
-            running
-                .into_iter()
-                .map(|r| {
-                    r.join()
-                        .unwrap_or_else(|_| Err(anyhow!("a rank's thread panicked")))
-                })
-                .collect()
-        });
-        // The slowest rank sets each phase's pace. A rank's own error comes first; the others' only
-        // say that it stopped.
+        let handovers = self.substep(params)?;
+        // The slowest rank sets each phase's pace.
         let mut step = PhaseTimings::one_step();
-        for result in results {
-            let t = result?;
+        for h in &handovers {
             for phase in Phase::ALL {
-                step[phase] = step[phase].max(t[phase]);
+                step[phase] = step[phase].max(h.timings[phase]);
             }
+            self.extremes.merge(&h.extremes);
         }
         push_step_timing(&mut self.timings, step);
-        self.gather()
+        self.gather(handovers.iter().map(|h| h.particles.as_slice()))
     }
 
     fn resume_after(&mut self, last: &Params) {
@@ -300,11 +434,7 @@ impl Solver for CpuRanks {
     }
 
     fn take_extremes(&mut self) -> Result<StepExtremes> {
-        let mut all = StepExtremes::default();
-        for rank in &mut self.ranks {
-            all.merge(&rank.solver.take_extremes()?);
-        }
-        Ok(all)
+        Ok(std::mem::take(&mut self.extremes))
     }
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {
@@ -326,9 +456,14 @@ impl Solver for CpuRanks {
     }
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {
+        ensure!(
+            !self.in_processes,
+            "a push comes from the window, which steps one process's ranks"
+        );
         self.ranks
             .iter_mut()
             .try_for_each(|r| r.solver.apply_push(push))?;
-        self.gather()
+        let lists: Vec<Vec<Migrant>> = self.ranks.iter().map(Rank::live).collect();
+        self.gather(lists.iter().map(Vec::as_slice))
     }
 }

@@ -23,6 +23,27 @@ pub struct Migrant {
 }
 const _: () = assert!(std::mem::size_of::<Migrant>() == 72);
 
+impl Migrant {
+    /// Slot `i` of `p`, named `id`.
+    pub fn of(p: &Particles, i: usize, id: u32) -> Migrant {
+        Migrant {
+            id,
+            rho: p.rho[i],
+            material: u32::from(p.material[i]),
+            x: p.x[i].to_array(),
+            v: p.v[i].to_array(),
+            c: p.c[i].to_cols_array(),
+        }
+    }
+
+    /// Writes it over slot `s` of `p`, live.
+    pub fn place(&self, p: &mut Particles, s: usize) {
+        (p.x[s], p.v[s], p.rho[s], p.live[s]) = (Vec3::from(self.x), Vec3::from(self.v), self.rho, true);
+        p.c[s] = Mat3::from_cols_array(&self.c);
+        p.material[s] = self.material as u8;
+    }
+}
+
 /// A rank's particles: the slots, each live one's id, and the parked slots free for arrivals.
 #[derive(Debug, Clone, Default)]
 pub struct RankParticles {
@@ -56,23 +77,21 @@ impl RankParticles {
         }
     }
 
-    fn push(&mut self, id: u32, x: Vec3, v: Vec3, c: Mat3, rho: f32, material: u8) {
+    fn push(&mut self, m: &Migrant) {
         let p = &mut self.particles;
         match self.parked.pop() {
             Some(slot) => {
-                let s = slot as usize;
-                (p.x[s], p.v[s], p.c[s], p.rho[s], p.live[s]) = (x, v, c, rho, true);
-                p.material[s] = material;
-                self.id[s] = id;
+                m.place(p, slot as usize);
+                self.id[slot as usize] = m.id;
             }
             None => {
-                p.x.push(x);
-                p.v.push(v);
-                p.c.push(c);
-                p.rho.push(rho);
-                p.material.push(material);
+                p.x.push(Vec3::from(m.x));
+                p.v.push(Vec3::from(m.v));
+                p.c.push(Mat3::from_cols_array(&m.c));
+                p.rho.push(m.rho);
+                p.material.push(m.material as u8);
                 p.live.push(true);
-                self.id.push(id);
+                self.id.push(m.id);
             }
         }
     }
@@ -90,14 +109,7 @@ impl RankParticles {
             }
             let to = slabs.owner(layer(p.x[i], slabs.axis, inv_dx));
             if to != me {
-                leaving[to].push(Migrant {
-                    id: self.id[i],
-                    rho: p.rho[i],
-                    material: u32::from(p.material[i]),
-                    x: p.x[i].to_array(),
-                    v: p.v[i].to_array(),
-                    c: p.c[i].to_cols_array(),
-                });
+                leaving[to].push(Migrant::of(p, i, self.id[i]));
                 p.live[i] = false;
                 self.parked.push(i as u32);
             }
@@ -122,8 +134,7 @@ impl RankParticles {
         let received: u64 = arriving.iter().map(|a| a.len() as u64).sum();
         // In sender order, each sender's in its slot order: the same slots every run.
         for m in arriving.iter().flatten() {
-            let c = Mat3::from_cols_array(&m.c);
-            self.push(m.id, Vec3::from(m.x), Vec3::from(m.v), c, m.rho, m.material as u8);
+            self.push(m);
         }
         let sent = counts.iter().sum::<u64>();
         let live_after = self.particles.num_live() as u64;

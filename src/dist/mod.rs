@@ -9,10 +9,12 @@
 //!   so that none is lost or held twice.
 //! - [`comm`]: what carries it, a grouped send/recv and an all-gather; reductions are folded in
 //!   rank order, so every rank gets the same bits.
-//! - [`cpu_ranks`]: the CPU reference as N ranks in one process, the decomposition's oracle.
+//! - [`cpu_ranks`]: the CPU reference as N ranks, threads of one process or a process each, the
+//!   decomposition's oracle.
 //! - [`nccl`]: NCCL found and loaded at run time, and the calls the ranks on several GPUs make.
 //! - [`launch`]: a rank per process: its place from the launcher's environment, and the file
 //!   rendezvous that hands every rank the NCCL id.
+//! - [`sockets`]: the CPU ranks' processes of one host, joined by Unix sockets.
 
 pub mod comm;
 pub mod cpu_ranks;
@@ -21,6 +23,7 @@ pub mod launch;
 pub mod migrate;
 pub mod nccl;
 pub mod slabs;
+pub mod sockets;
 
 /// Substeps between the ranks' rebalance and migration where no particle strays (every backend's
 /// ranks, so the CPU ranks stay the CUDA ranks' oracle). A CUDA rank that receives particles

@@ -110,7 +110,8 @@ pub struct Scene {
     /// rank per GPU, exchanging over NCCL. A run option, like `ranks`.
     pub gpus: usize,
     /// Where the ranks run one per process (`--processes`): this process's place among them, each
-    /// driving one GPU; `None`, every rank in this process. A run option, like `ranks`.
+    /// driving one GPU, or with the CPU backend one rank of the reference; `None`, every rank in
+    /// this process. A run option, like `ranks`.
     pub process: Option<crate::dist::launch::Process>,
     pub time_step: TimeStepPolicy,
     /// Particles per cell along one axis (the lattice is `n^3` per cell).

@@ -753,3 +753,86 @@ pub fn fitted_slope(points: &[(f64, f64)]) -> f64 {
         .fold((0.0, 0.0), |(a, b), p| (a + p.0 * p.0, b + p.0 * p.1));
     (n * sxy - sx * sy) / (n * sxx - sx * sx)
 }
+
+/// A run on `backend` of two processes (the coarse dam break, a checkpoint every 2 frames) whose
+/// rank 1 gets signal `signal` (`KILL`: it dies; `STOP`: it hangs) after rank 0's second
+/// checkpoint: rank 0 must stop within 30 s, failing, its error naming rank 1, and its latest
+/// checkpoint must resume. Returns how long rank 0 took to stop, in seconds.
+pub fn a_failed_process_stops_the_run(backend: &str, signal: &str) -> f64 {
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let mut command = || {
+        let mut command = std::process::Command::new(mpm_binary());
+        command.current_dir(dir.path()).args([
+            "run",
+            "--backend",
+            backend,
+            "--scene",
+            "dam-break-coarse",
+            "--frames",
+            "100000",
+            "--processes",
+            "--checkpoint",
+            "ck",
+            "--checkpoint-every",
+            "2",
+        ]);
+        command
+    };
+    let mut launched = launch_processes(dir.path(), 2, &mut command);
+    let started = Instant::now();
+    let checkpoints = || std::fs::read_dir(dir.path().join("ck")).map_or(0, |d| d.count());
+    while checkpoints() < 2 {
+        assert!(
+            started.elapsed() < Duration::from_secs(180),
+            "no second checkpoint after 180 s: {}",
+            launched[0].output()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let signalled = std::process::Command::new("kill")
+        .args(["-s", signal, &launched[1].child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(signalled.success(), "kill -s {signal} failed");
+    let hit = Instant::now();
+    let status = loop {
+        if let Some(status) = launched[0].child.try_wait().unwrap() {
+            break status;
+        }
+        if hit.elapsed() > Duration::from_secs(30) {
+            let _ = launched[0].child.kill();
+            let _ = launched[1].child.kill();
+            panic!(
+                "rank 0 still ran 30 s after rank 1 got SIG{signal}: {}",
+                launched[0].output()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let took = hit.elapsed().as_secs_f64();
+    // A stopped process is still there: end it.
+    launched[1].child.kill().unwrap();
+    launched[1].child.wait().unwrap();
+    let text = launched[0].output();
+    assert!(
+        !status.success(),
+        "rank 0 ended well after rank 1 got SIG{signal}: {text}"
+    );
+    assert!(
+        text.contains("rank 1"),
+        "rank 0's error does not name rank 1: {text}"
+    );
+    let resumed = std::process::Command::new(mpm_binary())
+        .current_dir(dir.path())
+        .args(["run", "--backend", backend, "--resume", "ck", "--frames", "1"])
+        .output()
+        .unwrap();
+    let resumed_text =
+        String::from_utf8_lossy(&resumed.stdout).to_string() + &String::from_utf8_lossy(&resumed.stderr);
+    assert!(
+        resumed.status.success(),
+        "the latest checkpoint does not resume: {resumed_text}"
+    );
+    took
+}
