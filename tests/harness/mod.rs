@@ -119,3 +119,11 @@ pub fn headless_gl() -> Result<(), String> {
         .map(drop)
         .map_err(|why| format!("no headless OpenGL: {why:#}"))
 }
+
+/// An MPI launcher: `mpirun` on the PATH (Open MPI's, or MPICH's Hydra).
+pub fn mpirun() -> Result<(), String> {
+    match std::process::Command::new("mpirun").arg("--version").output() {
+        Ok(out) if out.status.success() => Ok(()),
+        _ => Err("no mpirun on the PATH: install Open MPI or MPICH (Debian: apt install openmpi-bin)".into()),
+    }
+}
