@@ -120,10 +120,18 @@ pub fn headless_gl() -> Result<(), String> {
         .map_err(|why| format!("no headless OpenGL: {why:#}"))
 }
 
-/// An MPI launcher: `mpirun` on the PATH (Open MPI's, or MPICH's Hydra).
+/// An MPI launcher: `mpirun` on the PATH (Open MPI's, or MPICH's Hydra), or MPICH's wheel where
+/// .ci/run installs it (.ci-cache/mpich).
 pub fn mpirun() -> Result<(), String> {
-    match std::process::Command::new("mpirun").arg("--version").output() {
-        Ok(out) if out.status.success() => Ok(()),
-        _ => Err("no mpirun on the PATH: install Open MPI or MPICH (Debian: apt install openmpi-bin)".into()),
+    let wheel = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci-cache/mpich/bin/mpiexec");
+    let works = |launcher: &std::path::Path| {
+        std::process::Command::new(launcher)
+            .arg("--version")
+            .output()
+            .is_ok_and(|out| out.status.success())
+    };
+    if works("mpirun".as_ref()) || works(&wheel) {
+        return Ok(());
     }
+    Err("no mpirun on the PATH: install Open MPI or MPICH (Debian: apt install openmpi-bin)".into())
 }
