@@ -255,7 +255,8 @@ impl CudaRanks {
             "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
         );
         let gpus = scene.process.map_or(scene.gpus, |p| p.size);
-        if let Some(note) = crate::dist::small_for_gpus(gpus, particles.num_live()) {
+        let live = particles.num_live();
+        if let Some(note) = crate::dist::small_for_gpus(gpus, scene.process.is_some(), live) {
             if scene.process.is_none_or(|p| p.rank == 0) {
                 eprintln!("note: {note}");
             }

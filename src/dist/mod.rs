@@ -59,13 +59,21 @@ pub fn starting_slabs(scene: &Scene, particles: &Particles, ranks: usize) -> Res
 pub const FEWEST_PARTICLES_FOR_GPUS: usize = 4_000_000;
 
 /// What a run on `gpus` GPUs of `live` particles says once where it is small enough to step slower
-/// than on one GPU.
-pub fn small_for_gpus(gpus: usize, live: usize) -> Option<String> {
+/// than on one GPU; `in_processes`: a GPU per process (`--processes`), not `--gpus`.
+pub fn small_for_gpus(gpus: usize, in_processes: bool, live: usize) -> Option<String> {
+    let (asked, instead) = if in_processes {
+        (
+            format!("{gpus} processes"),
+            "run it as one process, without the launcher and --processes",
+        )
+    } else {
+        (format!("--gpus {gpus}"), "drop --gpus for it")
+    };
     (gpus > 1 && live < FEWEST_PARTICLES_FOR_GPUS).then(|| {
         format!(
-            "--gpus {gpus} with {live} particles: a run of a few million particles or fewer steps \
-             slower on several GPUs than on one (the dam break's 451,200: 0.21 ms a substep on two \
-             H200s, 0.08 on one; docs/several-gpus.md); drop --gpus for it"
+            "{asked} with {live} particles: a run of a few million particles or fewer steps slower \
+             on several GPUs than on one (the dam break's 451,200: 0.21 ms a substep on two H200s, \
+             0.08 on one; docs/several-gpus.md); {instead}"
         )
     })
 }
@@ -98,10 +106,20 @@ mod tests {
 
     #[test]
     fn small_runs_on_several_gpus_are_told_so() {
-        let note = small_for_gpus(2, 451_200).expect("the dam break is small");
+        let note = small_for_gpus(2, false, 451_200).expect("the dam break is small");
         assert!(note.contains("--gpus 2 with 451200 particles"), "{note}");
         assert!(note.contains("drop --gpus"), "{note}");
-        assert_eq!(small_for_gpus(1, 451_200), None, "one GPU says nothing");
-        assert_eq!(small_for_gpus(2, 16_777_216), None, "16.8M gains from two GPUs");
+        let note = small_for_gpus(2, true, 451_200).expect("the dam break is small");
+        assert!(note.contains("2 processes with 451200 particles"), "{note}");
+        assert!(
+            note.contains("run it as one process") && !note.contains("--gpus"),
+            "{note}"
+        );
+        assert_eq!(small_for_gpus(1, false, 451_200), None, "one GPU says nothing");
+        assert_eq!(
+            small_for_gpus(2, false, 16_777_216),
+            None,
+            "16.8M gains from two GPUs"
+        );
     }
 }
