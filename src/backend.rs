@@ -187,7 +187,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
             scene.ranks,
             scene.source
         );
-        return create_ranks(kind, scene, initial);
+        return create_ranks(kind, scene, state.map(|saved| saved.particles));
     }
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
@@ -295,23 +295,26 @@ pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()>
     set_bodies(solver, scene, &BodiesState::at_start(start), &features)
 }
 
-/// A run split into `scene.ranks` ranks (`crate::dist`) of `particles`: CUDA solvers (on one device,
-/// or one per GPU with `scene.gpus`; `auto` asks for them too, with no CPU fallback) or the CPU
-/// reference's thread ranks.
-fn create_ranks(
-    kind: BackendKind,
-    scene: &Scene,
-    particles: impl FnOnce() -> Particles,
-) -> Result<Box<dyn Solver>> {
+/// A run split into `scene.ranks` ranks (`crate::dist`), from a checkpoint's `saved` particles or
+/// the scene's start: CUDA solvers (on one device, or one per GPU with `scene.gpus`, or this
+/// process's with `scene.process`, which spawns its share alone; `auto` asks for them too, with no
+/// CPU fallback) or the CPU reference's ranks.
+fn create_ranks(kind: BackendKind, scene: &Scene, saved: Option<&Particles>) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
     check_ranks(kind, ranks, scene.gpus)?;
     match kind {
         BackendKind::Cuda | BackendKind::Auto => {
             let options = CudaOptions::from_env()?;
             CudaRanks::check_gpus(scene)?;
-            Ok(Box::new(CudaRanks::new(scene, particles(), ranks, options)?))
+            Ok(Box::new(match saved {
+                Some(particles) => CudaRanks::new(scene, particles, ranks, options)?,
+                None => CudaRanks::spawn(scene, ranks, options)?,
+            }))
         }
-        BackendKind::Cpu => Ok(Box::new(CpuRanks::new(scene, particles(), ranks)?)),
+        BackendKind::Cpu => {
+            let particles = saved.map_or_else(|| scene.spawn(), Particles::clone);
+            Ok(Box::new(CpuRanks::new(scene, particles, ranks)?))
+        }
         // check_ranks refused it already, with the advice.
         BackendKind::CpuParallel => bail!("--ranks {ranks}: the cpu-parallel backend runs on one rank"),
     }

@@ -245,7 +245,7 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
             }
             if scene.ranks > 1 {
                 CudaRanks::check_gpus(scene)?;
-                let solver = CudaRanks::new(scene, scene.spawn(), scene.ranks, cuda)?;
+                let solver = CudaRanks::spawn(scene, scene.ranks, cuda)?;
                 let device = solver.device_name();
                 return Ok((Box::new(solver), device));
             }

@@ -56,13 +56,13 @@ fn a_checkpoint_of_two_ranks_resumes_on_three() {
 fn ranks_refuse_what_they_do_not_run() {
     let (mut scene, _) = tank(ScatterMode::Float);
     scene.pipeline = Pipeline::Binned;
-    let err = CudaRanks::new(&scene, scene.spawn(), 2, CudaOptions::default())
+    let err = CudaRanks::new(&scene, &scene.spawn(), 2, CudaOptions::default())
         .err()
         .unwrap()
         .to_string();
     assert!(err.contains("fused pipeline"), "{err}");
     scene.pipeline = Pipeline::Fused;
-    let err = CudaRanks::new(&scene, scene.spawn(), 7, CudaOptions::default())
+    let err = CudaRanks::new(&scene, &scene.spawn(), 7, CudaOptions::default())
         .err()
         .unwrap()
         .to_string();

@@ -90,7 +90,7 @@ fn more_gpus_than_the_host_has_are_refused() {
     scene.gpus = count + 1;
     let particles = common::stirred(&scene);
     let slabs = mpm::dist::starting_slabs(&scene, &particles, count + 1).unwrap();
-    let err = CudaRanks::with_slabs(&scene, particles, slabs, CudaOptions::default())
+    let err = CudaRanks::with_slabs(&scene, &particles, slabs, CudaOptions::default())
         .err()
         .map(|e| format!("{e:#}"))
         .unwrap_or_default();

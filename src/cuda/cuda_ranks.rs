@@ -64,7 +64,7 @@ use super::timing::PhaseEvents;
 use crate::dist::launch::{self, Process, Watch};
 use crate::dist::migrate::{Migration, RankParticles};
 use crate::dist::nccl::{Comm, DataType, Nccl, Reduction, UniqueId};
-use crate::dist::{check_ranks, starting_slabs, Slabs, MIGRATION_INTERVAL};
+use crate::dist::{check_ranks, starting_slabs, Slabs, Spawn, Start, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
@@ -248,28 +248,43 @@ struct Run<'a> {
 }
 
 impl CudaRanks {
-    /// `ranks` ranks of `particles` (every slot of `scene`'s run), the slabs balanced for them.
-    pub fn new(scene: &Scene, particles: Particles, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
+    /// `scene`'s start on `ranks` ranks: spawned whole where this process drives every rank; with a
+    /// process per rank (`Scene::process`), walked for this process's share alone.
+    pub fn spawn(scene: &Scene, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
+        match scene.process {
+            Some(_) => CudaRanks::new(scene, &Spawn::new(scene), ranks, options),
+            None => CudaRanks::new(scene, &scene.spawn(), ranks, options),
+        }
+    }
+
+    /// `ranks` ranks of `particles` (every slot of `scene`'s run, or what gives each rank its
+    /// share), the slabs balanced for them.
+    pub fn new(
+        scene: &Scene,
+        particles: &dyn Start,
+        ranks: usize,
+        options: CudaOptions,
+    ) -> Result<CudaRanks> {
         ensure!(
             scene.method != crate::sim::Method::Pbmpm,
             "solver.method = \"pbmpm\" runs on one rank: drop --ranks and --gpus"
         );
         let gpus = scene.process.map_or(scene.gpus, |p| p.size);
-        let live = particles.num_live();
+        let live = particles.live() as usize;
         if let Some(note) = crate::dist::small_for_gpus(gpus, scene.process.is_some(), live) {
             if scene.process.is_none_or(|p| p.rank == 0) {
                 eprintln!("note: {note}");
             }
         }
-        let slabs = starting_slabs(scene, &particles, ranks)?;
+        let slabs = starting_slabs(scene, particles, ranks)?;
         CudaRanks::with_slabs(scene, particles, slabs, options)
     }
 
-    /// Ranks of `particles` (every slot) on the given slabs, whatever their balance: the next rebin
-    /// moves them. With `Scene::process`, only this process's rank.
+    /// Ranks of `particles` on the given slabs, whatever their balance: the next rebin moves them.
+    /// With `Scene::process`, only this process's rank.
     pub fn with_slabs(
         scene: &Scene,
-        particles: Particles,
+        particles: &dyn Start,
         slabs: Slabs,
         options: CudaOptions,
     ) -> Result<CudaRanks> {
@@ -311,7 +326,7 @@ impl CudaRanks {
                 particles: mut share,
                 id,
                 ..
-            } = RankParticles::share(&particles, &slabs, rank, params.inv_dx);
+            } = particles.share(&slabs, rank, params.inv_dx);
             extents.push(id.len());
             share.park_more(with_room(id.len()) - id.len());
             // The binnings' gathers into bin order are what pack a rank's particles again after
@@ -340,7 +355,7 @@ impl CudaRanks {
             );
             solvers.push(solver);
         }
-        let layers = crate::dist::migrate::layer_counts(&particles, &slabs, params.inv_dx);
+        let layers = particles.layer_counts(&slabs, params.inv_dx);
         for (rank, count) in counts.iter_mut().enumerate() {
             let owned = slabs.bounds[rank] as usize..slabs.bounds[rank + 1] as usize;
             *count = layers[owned].iter().sum::<u64>() as usize;
@@ -375,12 +390,12 @@ impl CudaRanks {
             halos,
             walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
             slabs,
-            live: particles.num_live() as u64,
+            live: particles.live(),
             extents,
             growths: 0,
             counts,
             merged: None,
-            slots: particles.len(),
+            slots: particles.slots(),
             merged_stale: true,
             landing: None,
             packing: HashMap::new(),

@@ -15,6 +15,8 @@
 //! - [`launch`]: a rank per process: its place from the launcher's environment, and the file
 //!   rendezvous that hands every rank the NCCL id.
 //! - [`sockets`]: the CPU ranks' processes of one host, joined by Unix sockets.
+//! - [`share`]: what ranks start from, the run's particles or, for a process of one rank, its
+//!   share of a scene's spawn alone.
 
 pub mod comm;
 pub mod cpu_ranks;
@@ -22,6 +24,7 @@ pub mod halo;
 pub mod launch;
 pub mod migrate;
 pub mod nccl;
+pub mod share;
 pub mod slabs;
 pub mod sockets;
 
@@ -32,17 +35,18 @@ pub const MIGRATION_INTERVAL: u32 = 8;
 
 pub use comm::{Comm, LocalComm};
 pub use cpu_ranks::CpuRanks;
+pub use share::{Spawn, Start};
 pub use slabs::Slabs;
 
-use crate::sim::{Particles, Scene};
+use crate::sim::Scene;
 use anyhow::{bail, Result};
 
 /// The slabs a run on `ranks` ranks starts with: balanced for `particles` (to whole block layers)
 /// where that keeps the walls' mirror pairs in the end slabs, else even.
-pub fn starting_slabs(scene: &Scene, particles: &Particles, ranks: usize) -> Result<Slabs> {
+pub fn starting_slabs(scene: &Scene, particles: &dyn Start, ranks: usize) -> Result<Slabs> {
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), ranks)?;
     let params = scene.params();
-    let balanced = even.balanced(&migrate::layer_counts(particles, &even, params.inv_dx))?;
+    let balanced = even.balanced(&particles.layer_counts(&even, params.inv_dx))?;
     let walls = (params.wall_mirror_lo, params.wall_mirror_hi[even.axis]);
     Ok(if balanced.holds_mirror(walls.0, walls.1) {
         balanced

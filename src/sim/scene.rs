@@ -9,7 +9,7 @@ mod lattice;
 mod spec;
 mod validate;
 
-pub use lattice::Lattice;
+pub use lattice::{Lattice, SpawnedParticle};
 pub use spec::*;
 pub(crate) use validate::available_host_memory;
 pub use validate::SceneError;

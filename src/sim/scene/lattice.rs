@@ -67,6 +67,16 @@ impl Lattice {
     }
 }
 
+/// A particle as spawned: where, how fast, its density and its row of the material table (at rest
+/// otherwise: no affine velocity, no deformation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpawnedParticle {
+    pub x: Vec3,
+    pub v: Vec3,
+    pub rho: f32,
+    pub material: u8,
+}
+
 impl Scene {
     pub fn lattice(&self) -> Lattice {
         Lattice {
@@ -78,7 +88,6 @@ impl Scene {
     /// that an earlier body already covers; then the parked slots up to the capacity (at the origin,
     /// at rest).
     pub fn spawn(&self) -> Particles {
-        let lattice = self.lattice();
         let slots = self.slots();
         let mut particles = Particles {
             x: Vec::with_capacity(slots),
@@ -90,21 +99,15 @@ impl Scene {
             deformation: Vec::new(),
             volume_bias: Vec::new(),
         };
-        let colliders = self.colliders_at_start();
-        for (k, body) in self.bodies.iter().enumerate() {
-            for p in self.own_points(&lattice, k, &colliders) {
-                particles.x.push(p.as_vec3());
-                particles.v.push(body.velocity);
-                particles
-                    .rho
-                    .push(self.materials[usize::from(body.material)].law.rest_density);
-                particles.material.push(body.material);
-            }
-        }
+        self.each_spawned(|_, p| {
+            particles.x.push(p.x);
+            particles.v.push(p.v);
+            particles.rho.push(p.rho);
+            particles.material.push(p.material);
+        });
         if self.has_deformation() {
-            let at_rest = |row: u8| Deformation::at_rest(self.materials[usize::from(row)].law.law);
-            particles.deformation = particles.material.iter().map(|&row| at_rest(row)).collect();
-            particles.deformation.resize(slots, at_rest(0));
+            particles.deformation = particles.material.iter().map(|&row| self.at_rest(row)).collect();
+            particles.deformation.resize(slots, self.at_rest(0));
         }
         debug_assert_eq!(particles.x.len(), self.num_particles);
         particles.x.resize(slots, Vec3::ZERO);
@@ -113,6 +116,35 @@ impl Scene {
         particles.material.resize(slots, 0);
         particles.live.resize(slots, false);
         particles
+    }
+
+    /// Each live particle [`spawn`](Scene::spawn) makes, with its slot, in slot order, none of them
+    /// kept: what a process of one rank takes its share from (`dist::share::Spawn`).
+    pub fn each_spawned(&self, mut visit: impl FnMut(usize, SpawnedParticle)) {
+        let lattice = self.lattice();
+        let colliders = self.colliders_at_start();
+        let mut slot = 0;
+        for (k, body) in self.bodies.iter().enumerate() {
+            let rho = self.materials[usize::from(body.material)].law.rest_density;
+            for p in self.own_points(&lattice, k, &colliders) {
+                let x = p.as_vec3();
+                visit(
+                    slot,
+                    SpawnedParticle {
+                        x,
+                        v: body.velocity,
+                        rho,
+                        material: body.material,
+                    },
+                );
+                slot += 1;
+            }
+        }
+    }
+
+    /// The rest state of material row `row`'s deformation.
+    pub fn at_rest(&self, row: u8) -> Deformation {
+        Deformation::at_rest(self.materials[usize::from(row)].law.law)
     }
 
     /// The lattice points of body `k` that no earlier body covers: where its particles go.
