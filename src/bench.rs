@@ -258,7 +258,12 @@ fn create_solver(scene: &Scene, options: &PhaseBenchOptions) -> Result<(Box<dyn 
         }
         BackendKind::Cpu => Ok((
             backend::create(BackendKind::Cpu, scene)?,
-            if scene.ranks > 1 {
+            if let Some(process) = scene.process {
+                format!(
+                    "CPU, rank {} of {}, a process each (the reference split into slabs; {})",
+                    process.rank, process.size, process.launcher
+                )
+            } else if scene.ranks > 1 {
                 format!(
                     "CPU, {} ranks of one thread each (the reference split into slabs)",
                     scene.ranks

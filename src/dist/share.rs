@@ -74,10 +74,7 @@ impl Start for Spawn<'_> {
         let (p, id) = (&mut mine.particles, &mut mine.id);
         scene.each_spawned(|slot, s| {
             if slabs.owner(layer(s.x, slabs.axis, inv_dx)) == rank {
-                p.x.push(s.x);
-                p.v.push(s.v);
-                p.rho.push(s.rho);
-                p.material.push(s.material);
+                p.push_spawned(s);
                 id.push(slot as u32);
             }
         });

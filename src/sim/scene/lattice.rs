@@ -77,6 +77,16 @@ pub struct SpawnedParticle {
     pub material: u8,
 }
 
+impl Particles {
+    /// Appends `p`'s position, velocity, density and material (a spawn fills the rest whole).
+    pub fn push_spawned(&mut self, p: SpawnedParticle) {
+        self.x.push(p.x);
+        self.v.push(p.v);
+        self.rho.push(p.rho);
+        self.material.push(p.material);
+    }
+}
+
 impl Scene {
     pub fn lattice(&self) -> Lattice {
         Lattice {
@@ -99,12 +109,7 @@ impl Scene {
             deformation: Vec::new(),
             volume_bias: Vec::new(),
         };
-        self.each_spawned(|_, p| {
-            particles.x.push(p.x);
-            particles.v.push(p.v);
-            particles.rho.push(p.rho);
-            particles.material.push(p.material);
-        });
+        self.each_spawned(|_, p| particles.push_spawned(p));
         if self.has_deformation() {
             particles.deformation = particles.material.iter().map(|&row| self.at_rest(row)).collect();
             particles.deformation.resize(slots, self.at_rest(0));
