@@ -968,16 +968,21 @@ fn devices() -> Result<()> {
 
 fn run(args: RunArgs) -> Result<()> {
     let started = std::time::Instant::now();
+    // With a process per rank, rank 0 writes every output and every line; the others step their
+    // ranks beside it.
+    let root = args.solver.process()?.is_none_or(|p| p.rank == 0);
     // A folder of checkpoints stands for its latest one: what a user resuming a run means.
     let resume = match args.resume.as_deref() {
         Some(dir) if dir.is_dir() => {
             let newest = mpm::checkpoint::newest_in(dir)?;
-            writeln!(
-                std::io::stdout(),
-                "--resume {}: a folder; resuming from its latest checkpoint, {}",
-                dir.display(),
-                newest.display()
-            )?;
+            if root {
+                writeln!(
+                    std::io::stdout(),
+                    "--resume {}: a folder; resuming from its latest checkpoint, {}",
+                    dir.display(),
+                    newest.display()
+                )?;
+            }
             Some(newest)
         }
         path => path.map(PathBuf::from),
@@ -996,9 +1001,6 @@ fn run(args: RunArgs) -> Result<()> {
     };
     args.solver.apply(&mut scene)?;
     args.method.apply(&mut scene)?;
-    // With a process per rank, rank 0 writes every output and every line; the others step their
-    // ranks beside it.
-    let root = scene.process.is_none_or(|p| p.rank == 0);
     if let Some(process) = scene.process {
         backend::check_processes(backend_kind, process.size)?;
     }

@@ -67,7 +67,7 @@ fn a_checkpoint_of_two_gpus_resumes_on_one() {
 /// GPU's bytes, and its checkpoint resumes on 3 ranks of one GPU to frame 10, one GPU's bytes again.
 fn two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks() {
     let out = common::split_checkpoint_resumes_on_three_ranks("cuda", &["--processes"], 2);
-    assert!(out.contains("on 2 GPUs, a process each"), "{out}");
+    assert!(out[0].contains("on 2 GPUs, a process each"), "{}", out[0]);
 }
 
 /// A run of two processes whose rank 1 is killed mid-run: rank 0 stops within 30 s, naming rank 1,

@@ -494,8 +494,13 @@ pub fn ranks_checkpoint_resumes_on_another_rank_count(backend: &str, split: &[&s
 }
 
 /// As [`ranks_checkpoint_resumes_on_another_rank_count`], the split run launched as `processes`
-/// processes (`launch_processes`) with `split` (`--processes`); rank 0's output is returned.
-pub fn split_checkpoint_resumes_on_three_ranks(backend: &str, split: &[&str], processes: usize) -> String {
+/// processes (`launch_processes`) with `split` (`--processes`); each process's output is returned,
+/// in rank order.
+pub fn split_checkpoint_resumes_on_three_ranks(
+    backend: &str,
+    split: &[&str],
+    processes: usize,
+) -> Vec<String> {
     let dir = tempfile::tempdir().unwrap();
     let command = |args: &[&str]| {
         let mut command = std::process::Command::new(mpm_binary());
@@ -535,13 +540,13 @@ pub fn split_checkpoint_resumes_on_three_ranks(backend: &str, split: &[&str], pr
     .chain(split.iter().copied())
     .collect();
     let split_output = match processes {
-        1 => run(&first),
+        1 => vec![run(&first)],
         n => {
             let outputs = wait_for_processes(launch_processes(dir.path(), n, &mut || command(&first)));
             for (rank, (ok, text)) in outputs.iter().enumerate() {
                 assert!(ok, "rank {rank} of mpm run {first:?}: {text}");
             }
-            outputs[0].1.clone()
+            outputs.into_iter().map(|(_, text)| text).collect()
         }
     };
     let resumed = run(&[
