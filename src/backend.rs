@@ -179,16 +179,6 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
         scene.check_pipeline()?;
     }
     let initial = || state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
-    if scene.ranks > 1 {
-        ensure!(
-            scene.colliders.num_bodies() == 0,
-            "--ranks {}: scene {} has rigid bodies (colliders with a density or mass), which run on one rank; \
-             drop --ranks and --gpus",
-            scene.ranks,
-            scene.source
-        );
-        return create_ranks(kind, scene, state.map(|saved| saved.particles));
-    }
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
         scene.flow.is_active().then(|| {
@@ -199,6 +189,16 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
             Lifecycle::new(scene, flow_state)
         })
     };
+    if scene.ranks > 1 {
+        ensure!(
+            scene.colliders.num_bodies() == 0,
+            "--ranks {}: scene {} has rigid bodies (colliders with a density or mass), which run on one rank; \
+             drop --ranks and --gpus",
+            scene.ranks,
+            scene.source
+        );
+        return create_ranks(kind, scene, state.map(|saved| saved.particles), lifecycle());
+    }
     let parallel = || -> Box<dyn Solver> {
         Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
     };
@@ -296,10 +296,15 @@ pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()>
 }
 
 /// A run split into `scene.ranks` ranks (`crate::dist`), from a checkpoint's `saved` particles or
-/// the scene's start: CUDA solvers (on one device, or one per GPU with `scene.gpus`, or this
+/// the scene's start, with the emitters' and sinks' `lifecycle` where the scene has them: CUDA solvers (on one device, or one per GPU with `scene.gpus`, or this
 /// process's with `scene.process`, which spawns its share alone; `auto` asks for them too, with no
 /// CPU fallback) or the CPU reference's ranks.
-fn create_ranks(kind: BackendKind, scene: &Scene, saved: Option<&Particles>) -> Result<Box<dyn Solver>> {
+fn create_ranks(
+    kind: BackendKind,
+    scene: &Scene,
+    saved: Option<&Particles>,
+    lifecycle: Option<Lifecycle>,
+) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
     check_ranks(kind, ranks, scene.gpus)?;
     match kind {
@@ -313,7 +318,9 @@ fn create_ranks(kind: BackendKind, scene: &Scene, saved: Option<&Particles>) -> 
         }
         BackendKind::Cpu => {
             let particles = saved.map_or_else(|| scene.spawn(), Particles::clone);
-            Ok(Box::new(CpuRanks::new(scene, particles, ranks)?))
+            Ok(Box::new(
+                CpuRanks::new(scene, particles, ranks)?.with_lifecycle(lifecycle),
+            ))
         }
         // check_ranks refused it already, with the advice.
         BackendKind::CpuParallel => bail!("--ranks {ranks}: the cpu-parallel backend runs on one rank"),

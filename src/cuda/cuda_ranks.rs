@@ -290,6 +290,13 @@ impl CudaRanks {
     ) -> Result<CudaRanks> {
         check_ranks(scene, &slabs)?;
         ensure!(
+            !scene.flow.is_active(),
+            "scene {}: emitters and sinks do not run on the CUDA ranks yet: run it on one GPU, or \
+             split its CPU reference with --backend cpu --ranks {}",
+            scene.source,
+            slabs.ranks()
+        );
+        ensure!(
             options.timed_rank < slabs.ranks(),
             "MPM_TIMED_RANK={}: a run of {} ranks has ranks 0 to {}",
             options.timed_rank,

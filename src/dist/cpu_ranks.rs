@@ -9,12 +9,13 @@
 use super::comm::{all_gather, all_sum, any, Comm, LocalComm};
 use super::halo::HaloNodes;
 use super::launch::{Joining, RENDEZVOUS_WAIT};
-use super::migrate::{base, layer_counts, Migrant, Migration, RankParticles};
+use super::migrate::{base, layer, layer_counts, Migrant, Migration, RankParticles};
 use super::slabs::Slabs;
 use super::sockets::SocketComm;
 use super::{check_ranks, starting_slabs};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::cpu::{is_fixed_point, CpuSolver};
+use crate::sim::flow::{Flow, FlowCounts, FlowState, Lifecycle, Slots};
 use crate::sim::params::{gathers_volume, DensityRule, Params};
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::push::Push;
@@ -111,6 +112,30 @@ impl Rank {
         Ok(clock.finish())
     }
 
+    /// Parks its live particles inside a sink of `flow`, as the reference's drain does after g2p,
+    /// and names them.
+    fn drain(&mut self, flow: &Flow) -> Vec<u32> {
+        let (p, store) = (&mut self.solver.particles, &mut self.store);
+        let mut drained = Vec::new();
+        for i in 0..p.len() {
+            if p.live[i] && flow.sinks.iter().any(|sink| sink.contains(p.x[i])) {
+                p.live[i] = false;
+                store.parked.push(i as u32);
+                drained.push(store.id[i]);
+            }
+        }
+        drained
+    }
+
+    /// Takes in new particles (an emission's, in its slabs), each into a parked slot or a new one.
+    fn take_in(&mut self, arrivals: &[Migrant]) {
+        self.store.particles = std::mem::take(&mut self.solver.particles);
+        for m in arrivals {
+            self.store.push(m);
+        }
+        self.solver.particles = std::mem::take(&mut self.store.particles);
+    }
+
     /// Its live particles, by id.
     fn live(&self) -> Vec<Migrant> {
         let p = &self.solver.particles;
@@ -120,10 +145,13 @@ impl Rank {
             .collect()
     }
 
-    /// What it hands over after a substep timed as `timings`.
-    fn handover(&mut self, timings: PhaseTimings) -> Result<Handover> {
+    /// What it hands over after a substep timed as `timings`, its particles in `flow`'s sinks
+    /// drained first.
+    fn handover(&mut self, timings: PhaseTimings, flow: Option<&Flow>) -> Result<Handover> {
+        let drained = flow.map_or_else(Vec::new, |flow| self.drain(flow));
         Ok(Handover {
             particles: self.live(),
+            drained,
             extremes: self.solver.take_extremes()?,
             timings,
         })
@@ -193,13 +221,18 @@ impl Rank {
     }
 }
 
-/// What a rank hands over after each substep: its live particles, by id (for readers and
-/// checkpoints), its extremes (the next time step's) and its phase times.
+/// What a rank hands over after each substep: its live particles, by id (for readers, checkpoints
+/// and the emitters' look at each nozzle point's last particle), the ids its sinks drained, its
+/// extremes (the next time step's) and its phase times.
 struct Handover {
     particles: Vec<Migrant>,
+    drained: Vec<u32>,
     extremes: StepExtremes,
     timings: PhaseTimings,
 }
+
+/// The words of a handover before its phase times.
+const HANDOVER_WORDS: usize = 6;
 
 impl Handover {
     /// Everything but the particles, and their count, as words of one length on every rank.
@@ -207,6 +240,7 @@ impl Handover {
         let e = &self.extremes;
         let mut words = vec![
             self.particles.len() as u64,
+            self.drained.len() as u64,
             u64::from(e.max_density.to_bits()),
             u64::from(e.max_speed.to_bits()),
             u64::from(e.max_signal_speed.to_bits()),
@@ -216,25 +250,24 @@ impl Handover {
         words
     }
 
-    /// A handover from its `words`, its particles to come.
-    fn from_words(words: &[u64]) -> (Handover, usize) {
+    /// A handover from its `words`, its particles and drained ids to come (room for them made).
+    fn from_words(words: &[u64]) -> Handover {
         let float = |w: u64| f32::from_bits(w as u32);
         let mut timings = PhaseTimings::one_step();
-        for (phase, &bits) in Phase::ALL.into_iter().zip(&words[5..]) {
+        for (phase, &bits) in Phase::ALL.into_iter().zip(&words[HANDOVER_WORDS..]) {
             timings[phase] = f64::from_bits(bits);
         }
-        let extremes = StepExtremes {
-            max_density: float(words[1]),
-            max_speed: float(words[2]),
-            max_signal_speed: float(words[3]),
-            backstop_pushes: words[4],
-        };
-        let handover = Handover {
-            particles: Vec::new(),
-            extremes,
+        Handover {
+            particles: vec![Migrant::zeroed(); words[0] as usize],
+            drained: vec![0; words[1] as usize],
+            extremes: StepExtremes {
+                max_density: float(words[2]),
+                max_speed: float(words[3]),
+                max_signal_speed: float(words[4]),
+                backstop_pushes: words[5],
+            },
             timings,
-        };
-        (handover, words[0] as usize)
+        }
     }
 }
 
@@ -244,26 +277,30 @@ fn handovers_of_processes(comm: &mut dyn Comm, mine: Handover) -> Result<Vec<Han
     let (me, size) = (comm.rank(), comm.size());
     let words = mine.words();
     let all = all_gather(comm, &words)?;
-    let mut handovers: Vec<Handover> = Vec::with_capacity(size);
-    for rank in 0..size {
-        let (mut handover, count) = Handover::from_words(&all[rank * words.len()..(rank + 1) * words.len()]);
-        if rank != me {
-            handover.particles = vec![Migrant::zeroed(); count];
-        }
-        handovers.push(handover);
-    }
+    let mut handovers: Vec<Handover> = all.chunks(words.len()).map(Handover::from_words).collect();
+    // To each other process its particles, then what its sinks drained (each skipped where empty,
+    // as every process knows from the words).
+    let messages: [&[u8]; 2] = [
+        bytemuck::cast_slice(&mine.particles),
+        bytemuck::cast_slice(&mine.drained),
+    ];
     let sends: Vec<(usize, &[u8])> = (0..size)
-        .filter(|&to| to != me && !mine.particles.is_empty())
-        .map(|to| (to, bytemuck::cast_slice(&mine.particles)))
+        .filter(|&to| to != me)
+        .flat_map(|to| messages.iter().filter(|m| !m.is_empty()).map(move |m| (to, *m)))
         .collect();
-    let mut recvs: Vec<(usize, &mut [u8])> = handovers
-        .iter_mut()
-        .enumerate()
-        .filter(|(from, h)| *from != me && !h.particles.is_empty())
-        .map(|(from, h)| (from, bytemuck::cast_slice_mut(h.particles.as_mut_slice())))
-        .collect();
+    let mut recvs: Vec<(usize, &mut [u8])> = Vec::new();
+    for (from, h) in handovers.iter_mut().enumerate().filter(|(from, _)| *from != me) {
+        let particles: &mut [u8] = bytemuck::cast_slice_mut(h.particles.as_mut_slice());
+        let drained: &mut [u8] = bytemuck::cast_slice_mut(h.drained.as_mut_slice());
+        recvs.extend(
+            [particles, drained]
+                .into_iter()
+                .filter(|m| !m.is_empty())
+                .map(|m| (from, m)),
+        );
+    }
     comm.exchange(&sends, &mut recvs)?;
-    handovers[me].particles = mine.particles;
+    handovers[me] = mine;
     Ok(handovers)
 }
 
@@ -282,6 +319,9 @@ pub struct CpuRanks {
     slots: usize,
     /// The particles as of the last substep, by id (for `Solver::particles`).
     gathered: Particles,
+    /// The emitters and sinks, where the scene has them: the one-rank reference's state, the same
+    /// in every process.
+    lifecycle: Option<Lifecycle>,
     extremes: StepExtremes,
     timings: Vec<PhaseTimings>,
     inv_dx: f32,
@@ -322,10 +362,17 @@ impl CpuRanks {
             in_processes: scene.process.is_some(),
             slots: particles.len(),
             gathered: particles,
+            lifecycle: None,
             extremes: StepExtremes::default(),
             timings: Vec::new(),
             inv_dx: params.inv_dx,
         })
+    }
+
+    /// The ranks with the scene's emitters and sinks, from a fresh run's or a checkpoint's state.
+    pub fn with_lifecycle(mut self, lifecycle: Option<Lifecycle>) -> CpuRanks {
+        self.lifecycle = lifecycle;
+        self
     }
 
     /// The slabs as they stand (they move when the counts drift out of balance).
@@ -361,10 +408,14 @@ impl CpuRanks {
 
     /// One substep of every rank, and what each handed over, in rank order.
     fn substep(&mut self, params: &Params) -> Result<Vec<Handover>> {
+        // The sinks drain on the ranks, which hand over what they drained; the lifecycle's state
+        // (the free slots, the nozzle points' last particles) is every process's own copy.
+        let flow = self.lifecycle.as_ref().map(|l| l.flow.clone());
+        let sinks = flow.as_deref().filter(|flow| !flow.sinks.is_empty());
         if self.in_processes {
             let (rank, comm) = (&mut self.ranks[0], self.comms[0].as_mut());
             let timings = rank.substep(comm, params)?;
-            let mine = rank.handover(timings)?;
+            let mine = rank.handover(timings, sinks)?;
             return handovers_of_processes(comm, mine);
         }
         let results: Vec<Result<Handover>> = std::thread::scope(|s| {
@@ -375,7 +426,7 @@ impl CpuRanks {
                 .map(|(rank, comm)| {
                     s.spawn(move || {
                         let timings = rank.substep(comm.as_mut(), params)?;
-                        rank.handover(timings)
+                        rank.handover(timings, sinks)
                     })
                 })
                 .collect();
@@ -424,7 +475,50 @@ impl Solver for CpuRanks {
             self.extremes.merge(&h.extremes);
         }
         push_step_timing(&mut self.timings, step);
+        if let Some(lifecycle) = &mut self.lifecycle {
+            // Sorted after the drains, as the reference sorts its own: the free slots do not
+            // depend on which rank drained which particle.
+            for &id in handovers.iter().flat_map(|h| &h.drained) {
+                lifecycle.state.drain(id);
+            }
+            lifecycle.state.settle();
+        }
         self.gather(handovers.iter().map(|h| h.particles.as_slice()))
+    }
+
+    /// The reference's emission, on the run's particles as of the last substep (each nozzle point
+    /// looks at its last particle wherever it is), every process alike; each new particle then goes
+    /// to the rank whose slab holds it.
+    fn emit(&mut self, _params: &Params, mask: u32) -> Result<()> {
+        let Some(lifecycle) = &mut self.lifecycle else {
+            bail!("this solver has no emitters");
+        };
+        lifecycle.state.settle();
+        // An emission pops at most a slot per nozzle point off the top of the free slots.
+        let state = &lifecycle.state;
+        let top: Vec<u32> = state.free.iter().rev().take(state.last.len()).copied().collect();
+        let before = state.free.len();
+        lifecycle.emit(Slots::of(&mut self.gathered), mask);
+        let emitted = &top[..before - lifecycle.state.free.len()];
+        let (g, inv_dx) = (&self.gathered, self.inv_dx);
+        for rank in &mut self.ranks {
+            let slabs = &rank.slabs;
+            let mine: Vec<Migrant> = emitted
+                .iter()
+                .filter(|&&id| slabs.owner(layer(g.x[id as usize], slabs.axis, inv_dx)) == rank.rank)
+                .map(|&id| Migrant::of(g, id as usize, id))
+                .collect();
+            rank.take_in(&mine);
+        }
+        Ok(())
+    }
+
+    fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
+        Ok(self.lifecycle.as_ref().map(|l| l.state.counts))
+    }
+
+    fn flow_state(&mut self) -> Result<Option<FlowState>> {
+        Ok(self.lifecycle.as_ref().map(|l| l.state.clone()))
     }
 
     fn resume_after(&mut self, last: &Params) {

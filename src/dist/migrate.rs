@@ -77,7 +77,8 @@ impl RankParticles {
         }
     }
 
-    fn push(&mut self, m: &Migrant) {
+    /// Takes in `m`: the most recently parked slot, or a new one at the end.
+    pub fn push(&mut self, m: &Migrant) {
         let p = &mut self.particles;
         match self.parked.pop() {
             Some(slot) => {

@@ -84,9 +84,6 @@ pub fn small_for_gpus(gpus: usize, in_processes: bool, live: usize) -> Option<St
 
 /// What a run on ranks cannot do yet, or on these slabs, refused before anything is allocated.
 pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
-    if scene.flow.is_active() {
-        bail!("emitters and sinks do not run on several ranks yet: run this scene on one rank");
-    }
     if scene.has_deformation() {
         bail!(
             "solids and liquids with a shear_modulus do not run on several ranks yet (a migrant carries \

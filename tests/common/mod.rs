@@ -501,6 +501,16 @@ pub fn split_checkpoint_resumes_on_three_ranks(
     split: &[&str],
     processes: usize,
 ) -> Vec<String> {
+    scene_split_resumes_on_three_ranks("dam-break-coarse", backend, split, processes)
+}
+
+/// As [`split_checkpoint_resumes_on_three_ranks`], of `scene` (a preset or a file).
+pub fn scene_split_resumes_on_three_ranks(
+    scene: &str,
+    backend: &str,
+    split: &[&str],
+    processes: usize,
+) -> Vec<String> {
     let dir = tempfile::tempdir().unwrap();
     let command = |args: &[&str]| {
         let mut command = std::process::Command::new(mpm_binary());
@@ -516,17 +526,10 @@ pub fn split_checkpoint_resumes_on_three_ranks(
         assert!(out.status.success(), "mpm run {args:?}: {text}");
         text
     };
-    run(&[
-        "--scene",
-        "dam-break-coarse",
-        "--frames",
-        "10",
-        "--export",
-        "whole",
-    ]);
+    run(&["--scene", scene, "--frames", "10", "--export", "whole"]);
     let first: Vec<&str> = [
         "--scene",
-        "dam-break-coarse",
+        scene,
         "--frames",
         "5",
         "--checkpoint",
