@@ -296,9 +296,10 @@ pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()>
 }
 
 /// A run split into `scene.ranks` ranks (`crate::dist`), from a checkpoint's `saved` particles or
-/// the scene's start, with the emitters' and sinks' `lifecycle` where the scene has them: CUDA solvers (on one device, or one per GPU with `scene.gpus`, or this
-/// process's with `scene.process`, which spawns its share alone; `auto` asks for them too, with no
-/// CPU fallback) or the CPU reference's ranks.
+/// the scene's start, with the emitters' and sinks' `lifecycle` where the scene has them: CUDA
+/// solvers (on one device, or one per GPU with `scene.gpus`, or this process's with
+/// `scene.process`, which spawns its share alone; `auto` asks for them too, with no CPU fallback)
+/// or the CPU reference's ranks.
 fn create_ranks(
     kind: BackendKind,
     scene: &Scene,

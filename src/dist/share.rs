@@ -92,7 +92,7 @@ mod tests {
     use super::*;
 
     /// A spawn walked rank by rank gives each rank what the whole spawn's share gives it, and the
-    /// same layer counts: a tank with two bodies over each other (the second skips the first's points)
+    /// same layer counts: a tank with two overlapping bodies (the second skips the first's points)
     /// and a collider the particles avoid.
     #[test]
     fn a_spawn_s_shares_are_the_whole_spawn_s() {
