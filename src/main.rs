@@ -413,22 +413,22 @@ struct SolverArgs {
 }
 
 impl SolverArgs {
-    /// The overrides, and with `--processes` this process's place among the ranks (`process`).
-    fn apply(&self, scene: &mut Scene) -> Result<()> {
+    /// The overrides, and this process's place among the ranks where they run a process each
+    /// (`process`, from [`SolverArgs::process`]).
+    fn apply(&self, scene: &mut Scene, process: Option<Process>) {
         if let Some(scatter) = self.scatter {
             scene.scatter = scatter;
         }
         if let Some(pipeline) = self.pipeline {
             scene.pipeline = pipeline;
         }
-        if let Some(ranks) = self.ranks()? {
+        if let Some(ranks) = self.ranks(process) {
             scene.ranks = ranks;
         }
         if let Some(gpus) = self.gpus() {
             scene.gpus = gpus;
         }
-        scene.process = self.process()?;
-        Ok(())
+        scene.process = process;
     }
 
     /// With `--processes`, this process's place, from its launcher's environment; `None` where the
@@ -447,15 +447,15 @@ impl SolverArgs {
         Ok(Some(process))
     }
 
-    /// `--ranks`, or `--gpus` (a rank per GPU), or with `--processes` the processes, where given (a
+    /// `--ranks`, or `--gpus` (a rank per GPU), or the processes of `process`'s run, where given (a
     /// count past the address space reads as the largest, which the slab check then refuses with
     /// the limit).
-    fn ranks(&self) -> Result<Option<usize>> {
+    fn ranks(&self, process: Option<Process>) -> Option<usize> {
         let asked = self
             .ranks
             .or(self.gpus)
             .map(|n| n.try_into().unwrap_or(usize::MAX));
-        Ok(asked.or(self.process()?.map(|p| p.size)))
+        asked.or(process.map(|p| p.size))
     }
 
     /// `--gpus`, where given (a process per rank finds its GPU from its place, `Scene::process`).
@@ -685,7 +685,7 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 fn view(args: ViewArgs) -> Result<()> {
     args.solver.refuse_processes("view")?;
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene, None);
     args.method.apply(&mut scene)?;
     // The exports are made after the viewer's own paths are checked and before the window opens:
     // every refusal comes first, as in `mpm run`. Their notes go to stderr, the viewer's log.
@@ -725,7 +725,7 @@ fn view(args: ViewArgs) -> Result<()> {
 fn render_frames(args: RenderArgs) -> Result<()> {
     args.solver.refuse_processes("render")?;
     let mut scene = Scene::load(&args.scene)?;
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene, None);
     args.method.apply(&mut scene)?;
     if let Some(path) = &args.timings {
         anyhow::ensure!(
@@ -827,7 +827,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     // One table, one JSON: rank 0's; the others run the same benchmark silently beside it.
     let root = process.is_none_or(|p| p.rank == 0);
     anyhow::ensure!(
-        !(args.sweep && args.solver.ranks()?.is_some_and(|n| n > 1)),
+        !(args.sweep && args.solver.ranks(process).is_some_and(|n| n > 1)),
         "--sweep times one rank; run it without --ranks"
     );
     anyhow::ensure!(
@@ -841,7 +841,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     // Before the backend is resolved: `auto` would announce timing the CPU, then refuse the ranks.
     backend::check_ranks(
         args.backend,
-        args.solver.ranks()?.unwrap_or(1),
+        args.solver.ranks(process).unwrap_or(1),
         args.solver.gpus().unwrap_or(1),
     )?;
     let scenes = if !args.particles.is_empty() {
@@ -905,7 +905,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             phase_sample: None,
             scatter: args.solver.scatter,
             pipeline: args.solver.pipeline,
-            ranks: args.solver.ranks()?,
+            ranks: args.solver.ranks(process),
             gpus: args.solver.gpus(),
             process,
             peak_gbs: args.peak_gbs,
@@ -970,7 +970,8 @@ fn run(args: RunArgs) -> Result<()> {
     let started = std::time::Instant::now();
     // With a process per rank, rank 0 writes every output and every line; the others step their
     // ranks beside it.
-    let root = args.solver.process()?.is_none_or(|p| p.rank == 0);
+    let process = args.solver.process()?;
+    let root = process.is_none_or(|p| p.rank == 0);
     // A folder of checkpoints stands for its latest one: what a user resuming a run means.
     let resume = match args.resume.as_deref() {
         Some(dir) if dir.is_dir() => {
@@ -999,7 +1000,7 @@ fn run(args: RunArgs) -> Result<()> {
             args.backend.unwrap_or(BackendKind::Auto),
         ),
     };
-    args.solver.apply(&mut scene)?;
+    args.solver.apply(&mut scene, process);
     args.method.apply(&mut scene)?;
     if let Some(process) = scene.process {
         backend::check_processes(backend_kind, process.size)?;
