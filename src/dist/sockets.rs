@@ -30,6 +30,9 @@ pub struct SocketComm {
     /// Per rank of the run, the stream to it (none to this one).
     peers: Vec<Option<UnixStream>>,
     watch: Watch,
+    /// This rank's name, held for the run: a second launch under the same name is refused at its
+    /// bind rather than left waiting for ranks that already joined.
+    _listener: UnixListener,
 }
 
 impl SocketComm {
@@ -123,6 +126,7 @@ impl SocketComm {
             rank: me,
             peers,
             watch,
+            _listener: listener,
         })
     }
 
@@ -359,5 +363,35 @@ mod tests {
         });
         let err = errors[0].clone().unwrap();
         assert!(err.contains("rank 1") && err.contains("stopped"), "{err}");
+    }
+
+    #[test]
+    fn a_second_launch_under_a_running_name_is_refused_at_once() {
+        let run = format!("unit-{}-twice", std::process::id());
+        let started = std::time::Instant::now();
+        let errors = on_ranks(2, &run, |comm| {
+            if comm.rank() != 0 {
+                return None;
+            }
+            // Rank 0 of another launch of the same name, while this one runs.
+            let folder = tempfile::tempdir().unwrap();
+            let process = Process {
+                rank: 0,
+                size: 2,
+                local_rank: 0,
+                one_host: true,
+                launcher: "a test",
+            };
+            let watch = Watch::start(&process, folder.path(), &run, Duration::from_secs(60)).unwrap();
+            SocketComm::join(&process, &run, watch, Duration::from_secs(60))
+                .err()
+                .map(|e| format!("{e:#}"))
+        });
+        let err = errors[0].clone().expect("the second rank 0 joined");
+        assert!(err.contains("already listens as this rank"), "{err}");
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "refused only after a wait"
+        );
     }
 }
