@@ -10,7 +10,10 @@
 // A particle's slot (its index as users see it: export, checkpoints, the CPU reference) travels with
 // it, so readers put the particles back in slot order (DeviceParticles::download). Where the scene has
 // emitters or sinks, `position` (slot -> place in memory) follows too: the lifecycle names particles
-// by slot (kernels/lifecycle.cu). Which place a particle takes inside its cell varies from run to
+// by slot (kernels/lifecycle.cu). On one GPU every place holds its own slot, parked or live; a rank
+// of several (src/cuda/cuda_ranks.rs) may hold parked copies of slots that live elsewhere (a migrant's,
+// a drained particle's, a spare place's), so it follows only its live particles (`live_only`), which
+// is all its lifecycle asks. Which place a particle takes inside its cell varies from run to
 // run (bin_count's ranks); no result depends on it: every per-particle result is the same wherever
 // the particle is stored, and the fixed-point scatter sums integers.
 #include "common.cuh"
@@ -25,11 +28,13 @@ extern "C" __global__ void gather_into_bin_order(const u32 n,
                                                 float4* __restrict__ c_out, float* __restrict__ rho_out,
                                                 u32* __restrict__ slot_out, float4* __restrict__ deformation_out,
                                                 u32* __restrict__ position,  // null without a flow
+                                                const u32 live_only,  // a rank's: only its live slots
                                                 const float* __restrict__ bias,  // null but under pbmpm
                                                 float* __restrict__ bias_out) {
     FOR_EACH_INDEX(i, n) {
         const u32 p = order[i];
-        x_out[i] = x[p];
+        const float4 xp = x[p];
+        x_out[i] = xp;
         v_out[i] = v[p];
         for (u32 col = 0; col < 3u; ++col) c_out[(size_t)col * n + i] = c[(size_t)col * n + p];
         if (deformation) {
@@ -39,7 +44,7 @@ extern "C" __global__ void gather_into_bin_order(const u32 n,
         if (bias) bias_out[i] = bias[p];
         const u32 s = slot[p];
         slot_out[i] = s;
-        if (position) position[s] = i;
+        if (position && !(live_only && is_parked(xp))) position[s] = i;
         order[i] = i;
     }
 }

@@ -8,7 +8,13 @@
 // the fused pipeline stores particles in bin order (bin_order.cu), so a slot's place in the particle
 // arrays is looked up in `position` (the identity in the binned pipeline, which never moves them).
 // Both are one block: their work is a substep's drains and the nozzles' points, not the particles.
+//
+// On the ranks of a run (src/cuda/cuda_ranks.rs) every rank keeps the same stack and nozzle points:
+// the host shares each substep's drains among them before `settle_free`, `nozzles_blocked` gives
+// each rank's look at the last particles it holds, the host ORs the looks, and every rank then runs
+// the same emission, writing only the particles its slab holds, after its places in use.
 #include "tiles.cuh"
+#include "slabs.cuh"
 
 #define SETTLE_SHARED 4096u
 
@@ -66,6 +72,12 @@ extern "C" __global__ void __launch_bounds__(1024) settle_free(u32* __restrict__
 // rounded as the tiles round, and their node blocks listed; under the fused pipeline (whose one_pass
 // scattered the momentum too) so is their momentum, m_p u: at rest density with C = 0 and its
 // deformation at rest a particle's stress impulse is zero. Otherwise the next scatter covers them.
+//
+// On a rank: `blocked_by` holds every rank's look at each point's last particle (nozzles_blocked), OR'd;
+// a new particle is written only where its block layer lies in own_first..own_end along `axis` (the
+// rank's slab), at the next of the places counted from `append_at` by `appended`, its slot and
+// `position` set. On one GPU `blocked` and `appended` are null and the layers one, own_first..own_end
+// 0..1: every particle goes to its slot's place.
 extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const KernelParams params, const u32 mask,
     const float4* __restrict__ points,      // xyz, w = the emitter's index as bits
@@ -74,9 +86,13 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
     const float clearance_sq,
     u32* __restrict__ emits,                // scratch, one per point
     u32* __restrict__ last,                 // per point: its last slot, or NO_PARTICLE
-    const u32* __restrict__ position,       // per slot: its place in the particle arrays
+    u32* __restrict__ position,             // per slot: its place in the particle arrays
     const u32* __restrict__ free_slots, FlowCounters* __restrict__ flow,
+    const u32* __restrict__ blocked_by,     // per point, the ranks' looks; null on one GPU
+    const u32 axis, const u32 layers, const u32 own_first, const u32 own_end,
+    const u32 append_at, u32* __restrict__ appended,  // null on one GPU
     float4* __restrict__ x, float4* __restrict__ v, float4* __restrict__ c, float* __restrict__ rho,
+    u32* __restrict__ slot,
     float4* __restrict__ deformation,  // null where no material carries one
     const u32 scatter_mass, float4* grid_acc, u64* fixed_mass, u64* fixed_momentum,
     u32* block_marks, u32* block_list, u32* work_counts, StepCounters* __restrict__ counters) {
@@ -91,7 +107,9 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
         if (mask & (1u << __float_as_uint(at.w))) {
             const u32 previous = last[g];
             bool clear = true;
-            if (previous != NO_PARTICLE) {
+            if (blocked_by) {
+                clear = blocked_by[g] == 0u;
+            } else if (previous != NO_PARTICLE) {
                 const float4 xp = x[position[previous]];
                 const float dx = xp.x - at.x, dy = xp.y - at.y, dz = xp.z - at.z;
                 clear = xp.w != 0.0f || dx * dx + dy * dy + dz * dz >= clearance_sq;
@@ -123,12 +141,19 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
             __syncthreads();
         }
         const u32 rank = carried + scan[threadIdx.x] - wants;
-        if (wants && rank < available) {
-            const u32 slot = free_slots[available - 1u - rank];
-            const u32 p = position[slot];
-            const float4 at = points[g];
+        const float4 at = wants ? points[g] : make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+        const float4 xp = make_float4(at.x, at.y, at.z, 0.0f);
+        const u32 layer = block_layer(stencil_base_along(params, axis, xp), layers);
+        const u32 taken = wants && rank < available ? free_slots[available - 1u - rank] : NO_PARTICLE;
+        if (taken != NO_PARTICLE) last[g] = taken;
+        if (taken != NO_PARTICLE && layer >= own_first && layer < own_end) {
+            u32 p = position[taken];
+            if (appended) {
+                p = append_at + atomicAdd(appended, 1u);
+                position[taken] = p;
+                slot[p] = taken;
+            }
             const float4 u = velocities[__float_as_uint(at.w)];  // w: the emitter's material tag
-            const float4 xp = make_float4(at.x, at.y, at.z, 0.0f);
             const Material& mat = material_table[material_index(params, u)];
             const float m_p = mat.particle_mass;
             x[p] = xp;
@@ -143,7 +168,6 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
                 rest.plastic = solid_rest_plastic(mat.law);
                 store_deformation(deformation, n, p, rest);
             }
-            last[g] = slot;
             if (scatter_mass) {
                 const Stencil s = make_stencil(xp, params);
                 mark_stencil_blocks(params, marks, blocks, s);
@@ -170,5 +194,30 @@ extern "C" __global__ void __launch_bounds__(1024) emit_particles(
         flow->sorted = min(flow->sorted, flow->free_count);
         flow->emitted += (u64)taken;
         flow->exhausted += (u64)(carried - taken);
+    }
+}
+
+// A rank's look at the nozzle points of the emitters in `mask` (see the top of this file): per point,
+// 1 where its last particle is live among this rank's first `places` and within the clearance of
+// it, else 0. `position` is current for the slots this rank holds; for any other it may name a place
+// holding another slot, a parked place, or one past `places`, each of which the look rejects.
+extern "C" __global__ void nozzles_blocked(const u32 mask, const float4* __restrict__ points, const u32 num_points,
+                                           const float clearance_sq, const u32* __restrict__ last,
+                                           const u32* __restrict__ position, const u32 places,
+                                           const float4* __restrict__ x, const u32* __restrict__ slot,
+                                           u32* __restrict__ blocked) {
+    FOR_EACH_INDEX(g, num_points) {
+        const float4 at = points[g];
+        const u32 previous = last[g];
+        u32 near = 0u;
+        if ((mask & (1u << __float_as_uint(at.w))) && previous != NO_PARTICLE) {
+            const u32 p = position[previous];
+            if (p < places && slot[p] == previous) {
+                const float4 xp = x[p];
+                const float dx = xp.x - at.x, dy = xp.y - at.y, dz = xp.z - at.z;
+                near = xp.w == 0.0f && dx * dx + dy * dy + dz * dz < clearance_sq;
+            }
+        }
+        blocked[g] = near;
     }
 }

@@ -1,19 +1,9 @@
 // ranks: what `CudaRanks` (src/cuda/cuda_ranks.rs) does to particles across ranks: find those about
 // to leave their rank's reach, count them per block layer for the balance, pack them for their new
-// owner, and take every rank's own particles to their slots in one set.
+// owner, and take every rank's own particles to their slots in one set (the slots no rank holds
+// parked first, where a run's sinks and emitters park and fill them).
 #include "tiles.cuh"
-
-// The stencil base node of `xp` along `axis`, rounded as `dist::migrate::base` (no fused
-// multiply-add), so host and device agree on every particle's block layer.
-__device__ __forceinline__ int stencil_base_along(const KernelParams& params, u32 axis, float4 xp) {
-    const float along = axis == 0u ? xp.x : axis == 1u ? xp.y : xp.z;
-    return (int)floorf(__fsub_rn(__fmul_rn(along, params.inv_dx), 0.5f));
-}
-
-// The block layer of a base node, clamped into the grid's `layers` as `Slabs::owner` clamps it.
-__device__ __forceinline__ u32 block_layer(int base, u32 layers) {
-    return min((u32)max(base, 0) / NODE_BLOCK_EDGE, layers - 1u);
-}
+#include "slabs.cuh"
 
 // Counts the live particles of the first `places` whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
 // that one more substep could carry past the rank's ghost planes (`Slabs::keeps`), so the ranks
@@ -95,5 +85,14 @@ extern "C" __global__ void take_owned(const u32 places, const u32 count, const f
         out_v[s] = v[p];
         for (u32 col = 0; col < 3u; ++col) out_c[(size_t)col * out_count + s] = c[(size_t)col * count + p];
         out_rho[s] = rho[p];
+    }
+}
+
+// Parks every slot of `x`'s first `count` (its position kept): the readers' set before the ranks
+// take their particles to it, where a run with emitters or sinks has slots that no rank holds.
+extern "C" __global__ void park_slots(const u32 count, float4* __restrict__ x) {
+    FOR_EACH_INDEX(s, count) {
+        const float4 xs = x[s];
+        x[s] = make_float4(xs.x, xs.y, xs.z, PARKED_W);
     }
 }

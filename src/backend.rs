@@ -312,8 +312,9 @@ fn create_ranks(
         BackendKind::Cuda | BackendKind::Auto => {
             let options = CudaOptions::from_env()?;
             CudaRanks::check_gpus(scene)?;
+            let flow = lifecycle.map(|lifecycle| lifecycle.state);
             Ok(Box::new(match saved {
-                Some(particles) => CudaRanks::new(scene, particles, ranks, options)?,
+                Some(particles) => CudaRanks::new(scene, particles, flow.as_ref(), ranks, options)?,
                 None => CudaRanks::spawn(scene, ranks, options)?,
             }))
         }

@@ -23,6 +23,7 @@ fn main() -> std::process::ExitCode {
             a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
             the_halo_phases_are_timed_and_migrations_counted,
             a_checkpoint_of_two_ranks_resumes_on_three,
+            emitters_and_sinks_on_ranks_give_one_gpu_s_bytes,
             ranks_refuse_what_they_do_not_run,
         ],
     )
@@ -53,16 +54,22 @@ fn a_checkpoint_of_two_ranks_resumes_on_three() {
     common::ranks_checkpoint_resumes_on_another_rank_count("cuda", &["--ranks", "2"]);
 }
 
+/// `fountain` on 2 ranks of one GPU: one GPU's bytes at frame 5, with particles emitted and
+/// drained, and its checkpoint resumes on 3 ranks to one GPU's bytes at frame 10.
+fn emitters_and_sinks_on_ranks_give_one_gpu_s_bytes() {
+    common::fountain_on_ranks_gives_one_rank_s_bytes("cuda", &["--ranks", "2"], 1);
+}
+
 fn ranks_refuse_what_they_do_not_run() {
     let (mut scene, _) = tank(ScatterMode::Float);
     scene.pipeline = Pipeline::Binned;
-    let err = CudaRanks::new(&scene, &scene.spawn(), 2, CudaOptions::default())
+    let err = CudaRanks::new(&scene, &scene.spawn(), None, 2, CudaOptions::default())
         .err()
         .unwrap()
         .to_string();
     assert!(err.contains("fused pipeline"), "{err}");
     scene.pipeline = Pipeline::Fused;
-    let err = CudaRanks::new(&scene, &scene.spawn(), 7, CudaOptions::default())
+    let err = CudaRanks::new(&scene, &scene.spawn(), None, 7, CudaOptions::default())
         .err()
         .unwrap()
         .to_string();

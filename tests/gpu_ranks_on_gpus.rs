@@ -26,6 +26,7 @@ fn main() -> std::process::ExitCode {
             the_halo_phases_run_over_nccl_and_are_timed,
             a_checkpoint_of_two_gpus_resumes_on_one,
             two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks,
+            emitters_and_sinks_on_two_gpus_give_one_gpu_s_bytes,
             a_killed_rank_stops_the_other_within_30_s,
             a_stopped_rank_stops_the_other_within_30_s,
             more_gpus_than_the_host_has_are_refused,
@@ -70,6 +71,15 @@ fn two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks() {
     assert!(out[0].contains("on 2 GPUs, a process each"), "{}", out[0]);
 }
 
+/// `fountain` on two GPUs in one process and as two processes: one GPU's bytes at frame 5, with
+/// particles emitted and drained, and each checkpoint resumes on 3 ranks of one GPU to one GPU's
+/// bytes at frame 10.
+fn emitters_and_sinks_on_two_gpus_give_one_gpu_s_bytes() {
+    for (split, processes) in [(&["--gpus", "2"][..], 1), (&["--processes"][..], 2)] {
+        common::fountain_on_ranks_gives_one_rank_s_bytes("cuda", split, processes);
+    }
+}
+
 /// A run of two processes whose rank 1 is killed mid-run: rank 0 stops within 30 s, naming rank 1,
 /// and its latest checkpoint resumes.
 fn a_killed_rank_stops_the_other_within_30_s() {
@@ -90,7 +100,7 @@ fn more_gpus_than_the_host_has_are_refused() {
     scene.gpus = count + 1;
     let particles = common::stirred(&scene);
     let slabs = mpm::dist::starting_slabs(&scene, &particles, count + 1).unwrap();
-    let err = CudaRanks::with_slabs(&scene, &particles, slabs, CudaOptions::default())
+    let err = CudaRanks::with_slabs(&scene, &particles, None, slabs, CudaOptions::default())
         .err()
         .map(|e| format!("{e:#}"))
         .unwrap_or_default();

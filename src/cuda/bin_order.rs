@@ -27,9 +27,11 @@ impl GatherIntoBinOrder {
         };
         let (from, to) = (&state.particles, &bin_order.spare);
         let n = from.count as u32;
+        let live_only = u32::from(state.flow.as_ref().is_some_and(|flow| flow.shared));
         // SAFETY: the arguments match gather_into_bin_order; both particle sets hold n slots of
         // each array, `order` is a permutation of 0..n (the binning just wrote it), `position`
-        // holds a place per slot (or is null without a flow), both sets hold a deformation or
+        // holds a place per slot of the run (or is null without a flow; a rank's writes only its
+        // live particles' slots, each held once), both sets hold a deformation or
         // neither does (null, not read), and the biases, where given, hold n floats each.
         unsafe {
             self.0.launch(l, l.cover(from.count), |a| {
@@ -42,6 +44,7 @@ impl GatherIntoBinOrder {
                     .arg(&to.slot)
                     .deformation(to)
                     .arg_or_null(state.flow.as_ref().map(|flow| &flow.position))
+                    .arg(&live_only)
                     .arg_or_null(bias.map(|(from, _)| from))
                     .arg_or_null(bias.map(|(_, to)| to));
             })?;

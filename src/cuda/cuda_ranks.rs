@@ -10,7 +10,7 @@
 //! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
 //! | grid_update | the walls' mirror of mass and momentum, the grid update |
 //! | halo_fill   | its edge planes' velocities packed, carried to the neighbours' ghost planes |
-//! | g2p         | one_pass (gather, advect, scatter the next substep), then count the strays |
+//! | g2p         | one_pass (gather, advect, drain into the sinks, scatter the next substep), every rank's drains onto every rank's free slots, then count the strays |
 //!
 //! The fused pipeline scatters the next substep inside one_pass, so the ghost sums travel at the
 //! start of the substep that uses them, before the walls' mirror.
@@ -40,6 +40,12 @@
 //! the receiver reserves for that sender from the layer counts every rank has; a receiver without
 //! the room grows first.
 //!
+//! **Emitters and sinks** (`SharedFlow`): every rank keeps the run's lifecycle alike, the free
+//! slots and each nozzle point's last slot. A substep's drains are gathered from every rank onto
+//! every rank's stack before it is sorted; an emission ORs every rank's look at the nozzle points'
+//! last particles, then every rank runs it alike and keeps the new particles its slab holds,
+//! appended after its places in use (kernels/lifecycle.cu).
+//!
 //! **Readers** see one set of every slot on rank 0's GPU, made at the first read, into which
 //! `take_owned` copies every rank's particles to their slots where something reads them: the
 //! renderer (`Solver::publish_particles`, once a frame), exports and checkpoints. The statistics
@@ -56,6 +62,7 @@
 use super::gpu::CudaOptions;
 use super::halo::{sum_words, HaloBuffers, HaloKernels, Planes, VELOCITY_WORDS, VOLUME_WORDS};
 use super::launch::Launcher;
+use super::lifecycle::RankEmission;
 use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
 use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
@@ -66,6 +73,7 @@ use crate::dist::migrate::{Migration, RankParticles};
 use crate::dist::nccl::{Comm, DataType, Nccl, Reduction, UniqueId};
 use crate::dist::{check_ranks, starting_slabs, Slabs, Spawn, Start, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
+use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
 use crate::sim::{
@@ -135,6 +143,22 @@ pub struct CudaRanks {
     migrated: Migration,
     /// `MPM_RANKS_HOST_TIMES=1`: where this process's host thread spends its time, told at the end.
     host_times: Option<HostTimes>,
+    /// The emitters and sinks, where the scene has them.
+    flow: Option<SharedFlow>,
+}
+
+/// The emitters' and sinks' lifecycle on the ranks. Every rank keeps the run's free slots and nozzle
+/// points alike (kernels/lifecycle.cu): after each substep every rank's drains go onto every rank's
+/// stack and are settled there; an emission takes every rank's look at the nozzle points' last
+/// particles, OR'd, and every rank then runs it alike, writing only the particles its slab holds.
+struct SharedFlow {
+    /// Whether the scene has sinks (without, no substep drains anything).
+    sinks: bool,
+    points: usize,
+    /// Per rank of this process: its look at the nozzle points, then the run's.
+    looks: Vec<CudaSlice<u32>>,
+    /// Per rank of this process: the particles the last emission gave it.
+    appended: Vec<CudaSlice<u32>>,
 }
 
 /// Where the host thread of a run on ranks spends its time, summed over the run and printed when
@@ -225,11 +249,13 @@ enum Turn {
     Gather = 3,
     /// Rank 0 ended the run.
     Done = 4,
+    /// Before an emission: the ranks' looks at the nozzle points follow.
+    Emit = 5,
 }
 
 impl Turn {
     fn of(word: u64) -> Option<Turn> {
-        [Turn::Step, Turn::Summary, Turn::Gather, Turn::Done]
+        [Turn::Step, Turn::Summary, Turn::Gather, Turn::Done, Turn::Emit]
             .into_iter()
             .find(|turn| *turn as u64 == word)
     }
@@ -252,16 +278,18 @@ impl CudaRanks {
     /// process per rank (`Scene::process`), walked for this process's share alone.
     pub fn spawn(scene: &Scene, ranks: usize, options: CudaOptions) -> Result<CudaRanks> {
         match scene.process {
-            Some(_) => CudaRanks::new(scene, &Spawn::new(scene), ranks, options),
-            None => CudaRanks::new(scene, &scene.spawn(), ranks, options),
+            Some(_) => CudaRanks::new(scene, &Spawn::new(scene), None, ranks, options),
+            None => CudaRanks::new(scene, &scene.spawn(), None, ranks, options),
         }
     }
 
     /// `ranks` ranks of `particles` (every slot of `scene`'s run, or what gives each rank its
-    /// share), the slabs balanced for them.
+    /// share), the slabs balanced for them; where the scene has emitters or sinks, their lifecycle
+    /// in `flow` (a checkpoint's; `None`: the scene's start).
     pub fn new(
         scene: &Scene,
         particles: &dyn Start,
+        flow: Option<&FlowState>,
         ranks: usize,
         options: CudaOptions,
     ) -> Result<CudaRanks> {
@@ -277,25 +305,20 @@ impl CudaRanks {
             }
         }
         let slabs = starting_slabs(scene, particles, ranks)?;
-        CudaRanks::with_slabs(scene, particles, slabs, options)
+        CudaRanks::with_slabs(scene, particles, flow, slabs, options)
     }
 
-    /// Ranks of `particles` on the given slabs, whatever their balance: the next rebin moves them.
-    /// With `Scene::process`, only this process's rank.
+    /// Ranks of `particles` (and the lifecycle in `flow`, as `new` takes them) on the given slabs,
+    /// whatever their balance: the next rebin moves them. With `Scene::process`, only this
+    /// process's rank.
     pub fn with_slabs(
         scene: &Scene,
         particles: &dyn Start,
+        flow: Option<&FlowState>,
         slabs: Slabs,
         options: CudaOptions,
     ) -> Result<CudaRanks> {
         check_ranks(scene, &slabs)?;
-        ensure!(
-            !scene.flow.is_active(),
-            "scene {}: emitters and sinks do not run on the CUDA ranks yet: run it on one GPU, or \
-             split its CPU reference with --backend cpu --ranks {}",
-            scene.source,
-            slabs.ranks()
-        );
         ensure!(
             options.timed_rank < slabs.ranks(),
             "MPM_TIMED_RANK={}: a run of {} ranks has ranks 0 to {}",
@@ -323,6 +346,15 @@ impl CudaRanks {
             None => 0..slabs.ranks(),
         };
         let devices = rank_devices(scene, slabs.ranks(), options.device)?;
+        let flow_start;
+        let flow = match flow {
+            Some(state) => Some(state),
+            None if scene.flow.is_active() => {
+                flow_start = FlowState::start(&scene.flow, scene.num_particles);
+                Some(&flow_start)
+            }
+            None => None,
+        };
         let mut solvers = Vec::new();
         let mut halos = Vec::new();
         let mut counts = vec![0usize; slabs.ranks()];
@@ -343,7 +375,7 @@ impl CudaRanks {
                 bin_order: true,
                 ..options
             };
-            let mut solver = CudaSolver::from_particles(scene, &share, packed)
+            let solver = CudaSolver::rank(scene, &share, &id, flow, packed)
                 .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
             ensure!(
                 solver.keeps_bin_order(),
@@ -352,7 +384,6 @@ impl CudaRanks {
                 slabs.ranks(),
                 share.len()
             );
-            solver.state.particles.upload_slots(solver.gpu.stream(), &id)?;
             halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
             strays.push(
                 solver
@@ -362,6 +393,10 @@ impl CudaRanks {
             );
             solvers.push(solver);
         }
+        let flow = match scene.flow.is_active() {
+            true => Some(SharedFlow::allocate(&solvers, !scene.flow.sinks.is_empty())?),
+            false => None,
+        };
         let layers = particles.layer_counts(&slabs, params.inv_dx);
         for (rank, count) in counts.iter_mut().enumerate() {
             let owned = slabs.bounds[rank] as usize..slabs.bounds[rank + 1] as usize;
@@ -416,6 +451,7 @@ impl CudaRanks {
             migrations: 0,
             migrated: Migration::default(),
             host_times: HostTimes::from_env(),
+            flow,
         })
     }
 
@@ -1109,9 +1145,141 @@ impl CudaRanks {
         for solver in &mut self.solvers {
             solver.run_phase(Phase::G2p, false)?;
         }
+        if self.flow.as_ref().is_some_and(|flow| flow.sinks) {
+            self.share_drains()?;
+        }
         self.count_strays()?;
         self.merged_stale = true;
         self.end_phase(Phase::G2p)
+    }
+
+    /// Every rank's drains of this substep onto every rank's free stack, in rank order, then
+    /// settled there (sorted: which slot an emission takes never depends on which rank drained
+    /// what); the live counts follow. A rank's drains are the slots its sinks pushed since its
+    /// stack was last settled.
+    fn share_drains(&mut self) -> Result<()> {
+        self.wait_watched()?;
+        let mut unsettled = Vec::new();
+        for solver in &self.solvers {
+            let flow = solver
+                .state
+                .flow
+                .as_ref()
+                .context("a rank without the run's lifecycle")?;
+            unsettled.push(flow.unsettled(&solver.gpu)?);
+        }
+        let lengths = self.gather_words(unsettled.iter().map(|(_, own)| vec![own.len() as u64]).collect())?;
+        let lengths: Vec<usize> = lengths.iter().map(|l| l[0] as usize).collect();
+        let longest = lengths.iter().copied().max().unwrap_or(0);
+        if longest == 0 {
+            return Ok(());
+        }
+        let padded = unsettled
+            .iter()
+            .map(|(_, own)| {
+                let mut words: Vec<u64> = own.iter().map(|&slot| u64::from(slot)).collect();
+                words.resize(longest, 0);
+                words
+            })
+            .collect();
+        let all = self.gather_words(padded)?;
+        let drained: Vec<u32> = all
+            .iter()
+            .zip(&lengths)
+            .flat_map(|(words, &len)| words[..len].iter().map(|&slot| slot as u32))
+            .collect();
+        for (solver, (counters, own)) in self.solvers.iter_mut().zip(unsettled) {
+            let stream = solver.stream().clone();
+            let flow = solver
+                .state
+                .flow
+                .as_mut()
+                .context("a rank without the run's lifecycle")?;
+            flow.replace_unsettled(&stream, counters, own.len(), &drained)?;
+            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
+            k.settle(l, flow)?;
+        }
+        for (count, len) in self.counts.iter_mut().zip(&lengths) {
+            *count -= len;
+        }
+        self.live -= drained.len() as u64;
+        Ok(())
+    }
+
+    /// One emission of the emitters in `mask`, every rank alike (`SharedFlow`): each rank of this
+    /// process looks at the nozzle points' last particles it holds, the looks are OR'd over the
+    /// run's ranks, and each rank writes the new particles its slab holds after its places in use
+    /// (grown first where the nozzle points could outgrow them).
+    fn emit_on_ranks(&mut self, params: &Params, mask: u32) -> Result<()> {
+        // With a process per rank, rank 0 may call the others to a gather at this turn.
+        self.turn(Turn::Emit, vec![Vec::new(); self.solvers.len()])?;
+        let flow = self.flow.as_mut().context("this run has no emitters")?;
+        let points = flow.points;
+        let mut looks = Vec::new();
+        for (local, solver) in self.solvers.iter_mut().enumerate() {
+            let mut own = *params;
+            own.num_particles = solver.capacity() as u32;
+            solver.accept(&own)?;
+            let places = (&solver.state.particles, self.extents[local]);
+            let device = solver
+                .state
+                .flow
+                .as_ref()
+                .context("a rank without the run's lifecycle")?;
+            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
+            k.nozzles_blocked(l, mask, device, places, &mut flow.looks[local])?;
+            looks.push(pack_bits(&solver.gpu.download(&flow.looks[local])?));
+        }
+        let looks = self.gather_words(looks)?;
+        let blocked: Vec<u32> = (0..points)
+            .map(|g| u32::from(looks.iter().any(|bits| bits[g / 64] >> (g % 64) & 1 == 1)))
+            .collect();
+        let flow = self.flow.as_mut().context("this run has no emitters")?;
+        let axis = self.slabs.axis;
+        let layers = self.slabs.blocks();
+        for (local, solver) in self.solvers.iter_mut().enumerate() {
+            let rank = self.first + local;
+            let extent = self.extents[local];
+            if extent + points > solver.capacity() {
+                solver
+                    .grow_particles(with_room(extent + points))
+                    .with_context(|| format!("rank {rank} making room for an emission"))?;
+                self.growths += 1;
+                let mut own = *params;
+                own.num_particles = solver.capacity() as u32;
+                solver.accept(&own)?;
+            }
+            let stream = solver.stream().clone();
+            stream
+                .memcpy_htod(&blocked, &mut flow.looks[local])
+                .context("uploading the ranks' looks at the nozzle points")?;
+            stream
+                .memset_zeros(&mut flow.appended[local])
+                .context("zeroing the emission's count")?;
+            let emission = RankEmission {
+                blocked: &flow.looks[local],
+                axis,
+                layers,
+                own: self.slabs.bounds[rank]..self.slabs.bounds[rank + 1],
+                append_at: extent,
+                appended: &flow.appended[local],
+            };
+            solver.emit_into(mask, Some(&emission))?;
+        }
+        let mut appended = Vec::new();
+        for (solver, count) in self.solvers.iter().zip(&flow.appended) {
+            appended.push(vec![u64::from(solver.gpu.download(count)?[0])]);
+        }
+        let appended = self.gather_words(appended)?;
+        for (local, extent) in self.extents.iter_mut().enumerate() {
+            *extent += appended[self.first + local][0] as usize;
+        }
+        for (count, new) in self.counts.iter_mut().zip(&appended) {
+            *count += new[0] as usize;
+        }
+        self.live += appended.iter().map(|new| new[0]).sum::<u64>();
+        self.merged_stale = true;
+        Ok(())
     }
 
     /// Each rank's step counters (`StepCounters`, contract/items.rs) reduced over every rank in
@@ -1167,6 +1335,11 @@ impl CudaRanks {
                  exports, checkpoints)",
             )?;
             self.merged = Some(DeviceParticles::allocate(first.stream(), self.slots, false)?);
+        }
+        // Slots that no rank holds (drained, or never emitted yet) read as parked.
+        if let (true, Some(merged), Some(_)) = (root_here, &self.merged, &self.flow) {
+            let root = &self.solvers[0];
+            root.kernels.ranks.park_slots(&root.gpu.launcher, merged)?;
         }
         let direct = matches!(self.carrier, Carrier::DeviceCopy);
         let extents: Vec<usize> = extents.iter().map(|e| e[0] as usize).collect();
@@ -1234,6 +1407,42 @@ impl CudaRanks {
         self.turn(Turn::Gather, none)?;
         self.take_owned()
     }
+}
+
+impl SharedFlow {
+    /// The look and count buffers of each of `solvers`, ranks of a scene with emitters or sinks.
+    fn allocate(solvers: &[CudaSolver], sinks: bool) -> Result<SharedFlow> {
+        let points = solvers[0]
+            .state
+            .flow
+            .as_ref()
+            .context("a rank without the run's lifecycle")?
+            .num_points as usize;
+        let mut flow = SharedFlow {
+            sinks,
+            points,
+            looks: Vec::new(),
+            appended: Vec::new(),
+        };
+        for solver in solvers {
+            let stream = solver.stream();
+            let alloc = |len: usize| stream.alloc_zeros::<u32>(len.max(1));
+            flow.looks
+                .push(alloc(points).context("allocating the nozzle points' looks")?);
+            flow.appended
+                .push(alloc(1).context("allocating an emission's count")?);
+        }
+        Ok(flow)
+    }
+}
+
+/// `flags` (0 or 1 each) as bits, 64 a word.
+fn pack_bits(flags: &[u32]) -> Vec<u64> {
+    let mut words = vec![0u64; flags.len().div_ceil(64)];
+    for (i, &flag) in flags.iter().enumerate() {
+        words[i / 64] |= u64::from(flag != 0) << (i % 64);
+    }
+    words
 }
 
 /// The host waits for every rank's stream.
@@ -1502,6 +1711,21 @@ impl Solver for CudaRanks {
 
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {
         Ok(Some(self.timing.take_completed()?))
+    }
+
+    fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
+        self.emit_on_ranks(params, mask)
+    }
+
+    /// Every rank keeps the run's lifecycle alike: this process's first rank's is the run's.
+    fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
+        self.wait_watched()?;
+        self.solvers[0].flow_counts()
+    }
+
+    fn flow_state(&mut self) -> Result<Option<FlowState>> {
+        self.wait_watched()?;
+        self.solvers[0].flow_state()
     }
 
     fn set_colliders(&mut self, frame: &ColliderFrame) -> Result<()> {

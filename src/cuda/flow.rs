@@ -6,9 +6,10 @@ use super::gpu::Gpu;
 use super::launch::Launcher;
 use super::particles::{material_tag, slots_in_place};
 use crate::contract::FlowCounters;
-use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE};
+use crate::sim::flow::{Flow, FlowCounts, FlowState, CLEARANCE, NO_PARTICLE};
 use anyhow::{ensure, Context, Result};
-use cudarc::driver::CudaSlice;
+use cudarc::driver::{CudaSlice, CudaStream};
+use std::sync::Arc;
 
 /// The lifecycle's device buffers.
 pub struct DeviceFlow {
@@ -32,6 +33,10 @@ pub struct DeviceFlow {
     pub sinks: CudaSlice<f32>,
     pub num_sinks: u32,
     pub clearance_sq: f32,
+    /// Whether this is a rank's copy of a lifecycle that every rank of a run keeps alike
+    /// (cuda_ranks.rs): `position` then names only the live particles this rank holds, and each
+    /// substep's drains are settled once every rank's are on the stack, not by the substep itself.
+    pub shared: bool,
 }
 
 impl DeviceFlow {
@@ -91,7 +96,24 @@ impl DeviceFlow {
             sinks: upload_f32(&sinks, "the sinks")?,
             num_sinks: flow.sinks.len() as u32,
             clearance_sq: (CLEARANCE * spacing) * (CLEARANCE * spacing),
+            shared: false,
         })
+    }
+
+    /// Makes this a rank's copy (`shared`) holding the slots `slots[place]`: every other slot's
+    /// place is none (`NO_PARTICLE`), which the nozzles' look rejects.
+    pub fn share_with_ranks(&mut self, stream: &Arc<CudaStream>, slots: &[u32]) -> Result<()> {
+        self.shared = true;
+        let mut position = vec![NO_PARTICLE; self.capacity.max(1)];
+        for (place, &slot) in slots.iter().enumerate() {
+            let at = position
+                .get_mut(slot as usize)
+                .with_context(|| format!("slot {slot} of a run of {}", self.capacity))?;
+            *at = place as u32;
+        }
+        stream
+            .memcpy_htod(&position, &mut self.position)
+            .context("uploading the rank's places of its slots")
     }
 
     /// What emitters and sinks did so far. Waits for the device.
@@ -112,6 +134,51 @@ impl DeviceFlow {
             last,
             counts: self.counts(&counters),
         })
+    }
+
+    /// The slots pushed on the stack since it was last settled (on a rank: its sinks' drains of a
+    /// substep), and the counters as they stand. Waits for the device.
+    pub fn unsettled(&self, gpu: &Gpu) -> Result<(FlowCounters, Vec<u32>)> {
+        let counters = self.read_counters(gpu)?;
+        let (sorted, count) = (counters.sorted as usize, counters.free_count as usize);
+        let pushed = match count > sorted {
+            true => gpu.download(&self.free.slice(sorted..count))?,
+            false => Vec::new(),
+        };
+        Ok((counters, pushed))
+    }
+
+    /// Puts `drained` (every rank's drains of a substep) in place of this rank's own, the `own`
+    /// slots pushed since the stack was settled as `counters` read them, counting the others' as
+    /// drained too: every rank's stack then holds the same slots, which the settle that follows
+    /// sorts.
+    pub fn replace_unsettled(
+        &mut self,
+        stream: &Arc<CudaStream>,
+        counters: FlowCounters,
+        own: usize,
+        drained: &[u32],
+    ) -> Result<()> {
+        let sorted = counters.sorted as usize;
+        ensure!(
+            sorted + drained.len() <= self.capacity && own <= drained.len(),
+            "{} drained slots on a stack of {sorted} settled, {} slots in all",
+            drained.len(),
+            self.capacity
+        );
+        if !drained.is_empty() {
+            stream
+                .memcpy_htod(drained, &mut self.free.slice_mut(sorted..sorted + drained.len()))
+                .context("uploading the ranks' drained slots")?;
+        }
+        let shared = FlowCounters {
+            free_count: (sorted + drained.len()) as u64,
+            drained: counters.drained + (drained.len() - own) as u64,
+            ..counters
+        };
+        stream
+            .memcpy_htod(&[shared], &mut self.counters)
+            .context("uploading the lifecycle's counters")
     }
 
     fn read_counters(&self, gpu: &Gpu) -> Result<FlowCounters> {

@@ -8,7 +8,7 @@ use super::library;
 use super::modules::{LoadedModules, Origin};
 use crate::sim::{Method, Pipeline, Scene};
 use anyhow::{anyhow, bail, ensure, Context, Result};
-use cudarc::driver::{CudaContext, CudaSlice, CudaStream, DeviceRepr};
+use cudarc::driver::{CudaContext, CudaStream, DevicePtr, DeviceRepr};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -243,7 +243,7 @@ impl Gpu {
     }
 
     /// A host copy of `buffer`, waiting for everything enqueued before it.
-    pub fn download<T: DeviceRepr + Default + Clone>(&self, buffer: &CudaSlice<T>) -> Result<Vec<T>> {
+    pub fn download<T: DeviceRepr + Default + Clone>(&self, buffer: &impl DevicePtr<T>) -> Result<Vec<T>> {
         let mut host = vec![T::default(); buffer.len()];
         let stream = self.stream();
         stream

@@ -18,6 +18,7 @@ pub struct RanksKernels {
     count_layers: Kernel,
     move_owned: Kernel,
     take_owned: Kernel,
+    park_slots: Kernel,
 }
 
 impl RanksKernels {
@@ -27,6 +28,7 @@ impl RanksKernels {
             count_layers: Kernel::load(modules, "ranks", "count_layers")?,
             move_owned: Kernel::load(modules, "ranks", "move_owned")?,
             take_owned: Kernel::load(modules, "ranks", "take_owned")?,
+            park_slots: Kernel::load(modules, "ranks", "park_slots")?,
         })
     }
 
@@ -167,6 +169,18 @@ impl RanksKernels {
                     .arg(&rank.slot)
                     .arg(&out_count)
                     .particle_state(out);
+            })
+        }
+    }
+
+    /// Parks every slot of `set` (cuda_ranks.rs: the readers' set of a run with emitters or sinks,
+    /// before the ranks take their particles to it).
+    pub fn park_slots(&self, l: &Launcher, set: &DeviceParticles) -> Result<()> {
+        let count = set.count as u32;
+        // SAFETY: the arguments match park_slots; x holds `count` float4.
+        unsafe {
+            self.park_slots.launch(l, l.cover(set.count), |a| {
+                a.arg(&count).arg(&set.x);
             })
         }
     }

@@ -18,7 +18,7 @@ impl CudaSolver {
         if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_deformation() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
-        let solver = CudaSolver::allocate(scene, None, options)?;
+        let solver = CudaSolver::allocate(scene, scene.slots(), None, options)?;
         spawn_on_device(&solver.gpu, &solver.kernels.spawn, scene, &solver.state.particles)?;
         Ok(solver)
     }
@@ -37,7 +37,6 @@ impl CudaSolver {
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
-        let mut scene = scene.clone();
         if scene.flow.is_active() {
             ensure!(
                 particles.len() == scene.slots(),
@@ -45,11 +44,42 @@ impl CudaSolver {
                 particles.len(),
                 scene.slots()
             );
-        } else {
+        }
+        CudaSolver::upload(scene, particles, flow, options)
+    }
+
+    /// A rank's solver (cuda_ranks.rs): `share` at its places, each carrying its slot in the run
+    /// (`slots`); where the scene has emitters or sinks, the run's lifecycle in `flow`, whose free
+    /// slots and nozzle points name the run's slots, and each held slot's place in `position`.
+    pub(super) fn rank(
+        scene: &Scene,
+        share: &Particles,
+        slots: &[u32],
+        flow: Option<&FlowState>,
+        options: CudaOptions,
+    ) -> Result<CudaSolver> {
+        let mut solver = CudaSolver::upload(scene, share, flow, options)?;
+        let stream = solver.gpu.stream().clone();
+        solver.state.particles.upload_slots(&stream, slots)?;
+        if let Some(flow) = &mut solver.state.flow {
+            flow.share_with_ranks(&stream, slots)?;
+        }
+        Ok(solver)
+    }
+
+    /// `particles` at their places, in a solver of as many places; the lifecycle in `flow`.
+    fn upload(
+        scene: &Scene,
+        particles: &Particles,
+        flow: Option<&FlowState>,
+        options: CudaOptions,
+    ) -> Result<CudaSolver> {
+        let mut scene = scene.clone();
+        if !scene.flow.is_active() {
             scene.num_particles = particles.len();
             scene.flow.capacity = particles.len();
         }
-        let mut solver = CudaSolver::allocate(&scene, flow, options)?;
+        let mut solver = CudaSolver::allocate(&scene, particles.len(), flow, options)?;
         solver.state.particles.upload(solver.gpu.stream(), particles)?;
         if let Some(pbmpm) = &mut solver.pbmpm {
             pbmpm.upload_bias(solver.gpu.stream(), particles)?;

@@ -11,6 +11,7 @@ use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::kernels::Kernels;
 use super::launch::NvtxRange;
+use super::lifecycle::RankEmission;
 use super::mirror_walls::MirrorQuantity;
 use super::one_pass::Gather;
 use super::pbmpm::PbmpmBuffers;
@@ -96,9 +97,11 @@ impl Scattered {
 }
 
 impl CudaSolver {
-    /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer.
+    /// Checks the scene against what the kernels take, opens the GPU and allocates every buffer,
+    /// `places` particles' (`Scene::slots` but on a rank of several, cuda_ranks.rs).
     pub(super) fn allocate(
         scene: &Scene,
+        places: usize,
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
@@ -117,7 +120,7 @@ impl CudaSolver {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
         let kernels = Kernels::load(&gpu, &options)?;
-        let state = DeviceState::allocate(&gpu, scene, flow, options.bin_order_for(scene))?;
+        let state = DeviceState::allocate(&gpu, scene, places, flow, options.bin_order_for(scene))?;
         let pbmpm = match scene.method {
             Method::Pbmpm => Some(PbmpmBuffers::allocate(&gpu, scene, state.bin_order.is_some())?),
             Method::Explicit => None,
@@ -130,6 +133,8 @@ impl CudaSolver {
             Some(_) => 1,
             None => sort_interval(state.bin_order.is_some()),
         };
+        let mut params = scene.params();
+        params.num_particles = places as u32;
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone(), options.phase_sample),
             gpu,
@@ -138,7 +143,7 @@ impl CudaSolver {
             stats,
             options,
             pipeline: scene.pipeline,
-            params: scene.params(),
+            params,
             schedule: BinSchedule::every(sort_interval),
             mass_scattered: None,
             tile_misses: 0,
@@ -291,7 +296,8 @@ impl CudaSolver {
                 } else {
                     k.one_pass.launch(l, Gather::Substep, p, d)?;
                 }
-                if let Some(flow) = d.flow.as_ref().filter(|f| f.num_sinks > 0) {
+                // A rank's drains are settled once every rank's are on its stack (cuda_ranks.rs).
+                if let Some(flow) = d.flow.as_ref().filter(|f| f.num_sinks > 0 && !f.shared) {
                     k.lifecycle.settle(l, flow)?;
                 }
                 self.mass_scattered = Some(Scattered::by(&self.params));
@@ -358,6 +364,19 @@ impl CudaSolver {
     /// Whether each binning gathers the particles into bin order, which packs the live ones first.
     pub(super) fn keeps_bin_order(&self) -> bool {
         self.state.bin_order.is_some()
+    }
+
+    /// One emission of the emitters in `mask` (as of the parameters accepted last); on a rank,
+    /// `rank` says which of the new particles are its own and where they go (cuda_ranks.rs).
+    pub(super) fn emit_into(&mut self, mask: u32, rank: Option<&RankEmission>) -> Result<()> {
+        let (k, l) = (&self.kernels, &self.gpu.launcher);
+        // New particles join the sums the grid holds: in their momentum units (`grid_params`).
+        let into = self.grid_params();
+        let scattered = self.mass_scattered.is_some();
+        k.lifecycle.emit(l, &into, mask, scattered, &self.state, rank)?;
+        // The new particles are in no bin yet.
+        self.schedule.invalidate();
+        Ok(())
     }
 
     /// Bins the particles in the next sort phase (cuda_ranks.rs: a migration changed which places
@@ -557,14 +576,7 @@ impl Solver for CudaSolver {
 
     fn emit(&mut self, params: &Params, mask: u32) -> Result<()> {
         self.accept(params)?;
-        let (k, l) = (&self.kernels, &self.gpu.launcher);
-        // New particles join the sums the grid holds: in their momentum units (`grid_params`).
-        let into = self.grid_params();
-        k.lifecycle
-            .emit(l, &into, mask, self.mass_scattered.is_some(), &self.state)?;
-        // The new particles are in no bin yet.
-        self.schedule.invalidate();
-        Ok(())
+        self.emit_into(mask, None)
     }
 
     fn rebin_interval(&self) -> Option<u32> {

@@ -52,16 +52,18 @@ impl DeviceState {
         Ok(())
     }
 
-    /// Zeroed buffers for every slot of `scene` (its particles are uploaded or spawned next), and the
-    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks;
-    /// `bin_order`: the spare particle buffers of a pipeline that keeps its particles in bin order.
+    /// Zeroed buffers for `places` particles of `scene` (every slot on one GPU; its particles are
+    /// uploaded or spawned next), and the lifecycle in `flow` (`None`: the scene's start) where the
+    /// scene has emitters or sinks, which names the run's slots; `bin_order`: the spare particle
+    /// buffers of a pipeline that keeps its particles in bin order.
     pub fn allocate(
         gpu: &Gpu,
         scene: &Scene,
+        places: usize,
         flow: Option<&FlowState>,
         bin_order: bool,
     ) -> Result<DeviceState> {
-        let n = scene.slots();
+        let n = places;
         let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
@@ -158,11 +160,9 @@ impl DeviceState {
     /// hold): the particles copied into larger buffers, the spare set and the bins made anew for as
     /// many. The bins list nothing until the next binning.
     pub fn grow_particles(&mut self, gpu: &Gpu, capacity: usize) -> Result<()> {
+        // A rank's places grow, the run's slots do not: the lifecycle's buffers (sized by the slots)
+        // stay, and `position` keeps naming the places, which the copy keeps.
         let count = self.particles.count;
-        ensure!(
-            self.flow.is_none(),
-            "a run with emitters or sinks keeps its particle slots: it cannot grow them"
-        );
         let deformed = self.particles.deformation.is_some();
         let per_particle = device_bytes(deformed);
         let copies = 1 + usize::from(self.bin_order.is_some());

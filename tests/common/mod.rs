@@ -575,6 +575,32 @@ pub fn scene_split_resumes_on_three_ranks(
     split_output
 }
 
+/// `fountain` (a jet into a basin with a floor drain) split as `split` says, in `processes`
+/// processes: the sinks drain on the ranks, each nozzle point looks at its last particle wherever it
+/// is, and each emitted particle goes to the rank whose slab holds it, so frame 5 is one rank's bytes,
+/// with particles both emitted and drained by then; the checkpoint (its free slots and nozzle points
+/// included) resumes on 3 ranks to one rank's bytes at frame 10. Each process's output.
+pub fn fountain_on_ranks_gives_one_rank_s_bytes(
+    backend: &str,
+    split: &[&str],
+    processes: usize,
+) -> Vec<String> {
+    let out = scene_split_resumes_on_three_ranks("fountain", backend, split, processes);
+    let last = out[0]
+        .lines()
+        .rfind(|line| line.contains("emitted="))
+        .unwrap_or_else(|| panic!("no frame line with the flow's counts: {}", out[0]));
+    let count = |key: &str| -> u64 {
+        let at = last.find(key).unwrap() + key.len();
+        last[at..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    assert!(
+        count("emitted=") > 0 && count("drained=") > 0,
+        "nothing emitted or drained by frame 5: {last}"
+    );
+    out
+}
+
 /// `n` processes of `command`, started as torch's launcher starts them (`RANK`, `WORLD_SIZE`,
 /// `LOCAL_RANK`), meeting in `dir` under a name of their own (`MPM_RENDEZVOUS`, `MPM_RUN_ID`).
 pub fn launch_processes(

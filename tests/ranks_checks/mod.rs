@@ -72,7 +72,14 @@ pub fn ranks(scene: &Scene, ranks: usize, on: On) -> CudaRanks {
     } else {
         mpm::dist::starting_slabs(scene, &particles, ranks).unwrap()
     };
-    CudaRanks::with_slabs(&on.place(scene, ranks), &particles, slabs, CudaOptions::default()).unwrap()
+    CudaRanks::with_slabs(
+        &on.place(scene, ranks),
+        &particles,
+        None,
+        slabs,
+        CudaOptions::default(),
+    )
+    .unwrap()
 }
 
 pub fn run(solver: &mut dyn Solver, params: &Params, substeps: u32) -> Particles {
@@ -245,7 +252,14 @@ pub fn a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(on: On) {
     let mut scene = Scene::load("dam-break-coarse").unwrap();
     scene.scatter = ScatterMode::FixedPoint;
     let one = mpm::backend::create(BackendKind::Cuda, &scene).unwrap();
-    let split = CudaRanks::new(&on.place(&scene, 2), &scene.spawn(), 2, CudaOptions::default()).unwrap();
+    let split = CudaRanks::new(
+        &on.place(&scene, 2),
+        &scene.spawn(),
+        None,
+        2,
+        CudaOptions::default(),
+    )
+    .unwrap();
     println!("slabs {:?}, counts {:?}", split.slabs().bounds, split.counts());
     let mut one = Simulation::new(scene.clone(), one);
     let mut split = Simulation::new(scene.clone(), Box::new(split));
