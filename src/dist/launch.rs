@@ -18,6 +18,8 @@
 //! rendezvous (`init_method="file://..."`) in spirit: no socket protocol of our own.
 
 use anyhow::{bail, ensure, Context, Result};
+use std::os::linux::net::SocketAddrExt;
+use std::os::unix::net::{SocketAddr, UnixListener};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
@@ -289,6 +291,10 @@ const SILENCE: Duration = Duration::from_secs(10);
 /// wait or a long write of rank 0's does not silence it), and a process waiting on the others looks
 /// at theirs (`Watch::check`). A file gone (its process ended) or ten seconds old (killed, or
 /// stopped) names its rank.
+///
+/// Before its heartbeat starts, a process claims its rank's name (`rank_address`) for the run: a
+/// second launch under a running launch's name is refused there, before it writes, or on failing
+/// removes, the heartbeat file that the running rank of its number keeps.
 pub struct Watch {
     folder: PathBuf,
     run: String,
@@ -298,11 +304,27 @@ pub struct Watch {
     pub timeout: Duration,
     stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
     beating: Option<std::thread::JoinHandle<()>>,
+    /// This rank's name, held for the run (the CPU processes' sockets take connections on it).
+    listener: UnixListener,
+}
+
+/// The name rank `rank` of run `run` listens under, in Linux's abstract namespace: nothing on disk,
+/// and the name is free again as soon as its process ends, however it ends.
+pub fn rank_address(run: &str, rank: usize) -> Result<SocketAddr> {
+    SocketAddr::from_abstract_name(format!("mpm-{run}.rank{rank}").as_bytes())
+        .context("naming a rank's socket")
 }
 
 impl Watch {
     /// Starts this process's heartbeat for run `run` in `folder`.
     pub fn start(process: &Process, folder: &Path, run: &str, timeout: Duration) -> Result<Watch> {
+        let listener = UnixListener::bind_addr(&rank_address(run, process.rank)?).with_context(|| {
+            format!(
+                "rank {} of run {run}: another process already runs as this rank (a launch under the \
+                 same name still runs?); set MPM_RUN_ID to a name of this launch's own",
+                process.rank
+            )
+        })?;
         let mine = heartbeat_file(folder, run, process.rank);
         std::fs::write(&mine, b"")
             .with_context(|| format!("writing the heartbeat file {}", mine.display()))?;
@@ -328,7 +350,13 @@ impl Watch {
             timeout,
             stop,
             beating: Some(beating),
+            listener,
         })
+    }
+
+    /// This rank's listener, under `rank_address`.
+    pub fn listener(&self) -> &UnixListener {
+        &self.listener
     }
 
     /// An error naming the first other rank whose heartbeat is gone or silent.
@@ -417,6 +445,38 @@ mod tests {
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect();
         move |name| map.get(name).cloned()
+    }
+
+    #[test]
+    fn a_second_launch_under_a_running_name_leaves_its_heartbeat_alone() {
+        let folder = tempfile::tempdir().unwrap();
+        let run = format!("unit-{}-claim", std::process::id());
+        let process = Process {
+            rank: 1,
+            size: 2,
+            local_rank: 1,
+            one_host: true,
+            launcher: "a test",
+        };
+        let timeout = Duration::from_secs(60);
+        let running = Watch::start(&process, folder.path(), &run, timeout).unwrap();
+        let err = Watch::start(&process, folder.path(), &run, timeout)
+            .err()
+            .map(|e| format!("{e:#}"))
+            .expect("a second rank 1 of the same run started");
+        assert!(
+            err.contains("rank 1 of run") && err.contains("MPM_RUN_ID"),
+            "{err}"
+        );
+        let beat = heartbeat_file(folder.path(), &run, 1);
+        assert!(
+            beat.exists(),
+            "the running rank's heartbeat went with the refused launch"
+        );
+        drop(running);
+        assert!(!beat.exists(), "a rank that ends removes its heartbeat");
+        // Its name is free again: a later launch under it starts.
+        Watch::start(&process, folder.path(), &run, timeout).unwrap();
     }
 
     #[test]

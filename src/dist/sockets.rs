@@ -11,11 +11,10 @@
 //! within seconds, not at the end of the rank timeout.
 
 use super::comm::Comm;
-use super::launch::{Process, Watch};
+use super::launch::{rank_address, Process, Watch};
 use anyhow::{bail, ensure, Context, Result};
 use std::io::{ErrorKind, Read, Write};
-use std::os::linux::net::SocketAddrExt;
-use std::os::unix::net::{SocketAddr, UnixListener, UnixStream};
+use std::os::unix::net::UnixStream;
 use std::time::{Duration, Instant};
 
 /// How long one read or write waits before the heartbeats are looked at again.
@@ -29,10 +28,8 @@ pub struct SocketComm {
     rank: usize,
     /// Per rank of the run, the stream to it (none to this one).
     peers: Vec<Option<UnixStream>>,
+    /// Holds this rank's name for the run (`Watch::listener`), on which the higher ranks connected.
     watch: Watch,
-    /// This rank's name, held for the run: a second launch under the same name is refused at its
-    /// bind rather than left waiting for ranks that already joined.
-    _listener: UnixListener,
 }
 
 impl SocketComm {
@@ -49,16 +46,7 @@ impl SocketComm {
             process.size
         );
         let (me, size) = (process.rank, process.size);
-        let address = |rank: usize| -> Result<SocketAddr> {
-            SocketAddr::from_abstract_name(format!("mpm-{run}.rank{rank}").as_bytes())
-                .context("naming a rank's socket")
-        };
-        let listener = UnixListener::bind_addr(&address(me)?).with_context(|| {
-            format!(
-                "rank {me} of run {run}: another process already listens as this rank (a launch \
-                 under the same name still runs?); set MPM_RUN_ID to a name of this launch's own"
-            )
-        })?;
+        let listener = watch.listener();
         let mut peers: Vec<Option<UnixStream>> = (0..size).map(|_| None).collect();
         let deadline = Instant::now() + wait;
         let late = |what: &str| {
@@ -70,7 +58,7 @@ impl SocketComm {
         };
         for (peer, slot) in peers.iter_mut().enumerate().take(me) {
             let stream = loop {
-                match UnixStream::connect_addr(&address(peer)?) {
+                match UnixStream::connect_addr(&rank_address(run, peer)?) {
                     Ok(stream) => break stream,
                     Err(_) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
                     Err(e) => return Err(e).context(late(&format!("rank {peer} to listen"))),
@@ -126,7 +114,6 @@ impl SocketComm {
             rank: me,
             peers,
             watch,
-            _listener: listener,
         })
     }
 
@@ -373,7 +360,8 @@ mod tests {
             if comm.rank() != 0 {
                 return None;
             }
-            // Rank 0 of another launch of the same name, while this one runs.
+            // Rank 0 of another launch of the same name, while this one runs: refused as it
+            // claims the name, before its heartbeat (launch.rs tests that the running one's stays).
             let folder = tempfile::tempdir().unwrap();
             let process = Process {
                 rank: 0,
@@ -382,13 +370,12 @@ mod tests {
                 one_host: true,
                 launcher: "a test",
             };
-            let watch = Watch::start(&process, folder.path(), &run, Duration::from_secs(60)).unwrap();
-            SocketComm::join(&process, &run, watch, Duration::from_secs(60))
+            Watch::start(&process, folder.path(), &run, Duration::from_secs(60))
                 .err()
                 .map(|e| format!("{e:#}"))
         });
         let err = errors[0].clone().expect("the second rank 0 joined");
-        assert!(err.contains("already listens as this rank"), "{err}");
+        assert!(err.contains("already runs as this rank"), "{err}");
         assert!(
             started.elapsed() < Duration::from_secs(30),
             "refused only after a wait"
