@@ -1,7 +1,8 @@
 //! Choosing and creating a backend.
 
+use crate::checkpoint::ParticlesInFile;
 use crate::cuda::{CudaOptions, CudaRanks, CudaSolver};
-use crate::dist::CpuRanks;
+use crate::dist::{CpuRanks, Start};
 use crate::sim::colliders::bodies::{BodiesState, ContactFeature};
 use crate::sim::cpu::CpuSolver;
 use crate::sim::cpu_parallel::ParallelCpuSolver;
@@ -9,6 +10,7 @@ use crate::sim::flow::{FlowState, Lifecycle};
 use crate::sim::pbmpm::{self, PbmpmSolver};
 use crate::sim::{Method, Particles, Scene, Solver};
 use anyhow::{bail, ensure, Result};
+use std::borrow::Cow;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendKind {
@@ -158,11 +160,37 @@ pub fn create(kind: BackendKind, scene: &Scene) -> Result<Box<dyn Solver>> {
 /// What a solver restored from a checkpoint starts from in place of the scene's start.
 #[derive(Debug, Clone, Copy)]
 pub struct SavedState<'a> {
-    pub particles: &'a Particles,
+    pub particles: SavedParticles<'a>,
     /// The emitters' and sinks' state, where the scene has them.
     pub flow: Option<&'a FlowState>,
     /// The rigid bodies (none where the scene has none).
     pub bodies: &'a BodiesState,
+}
+
+/// A checkpoint's particles: read whole, or left in its file, from which the process of a rank
+/// reads only its share (`Checkpoint::open`).
+#[derive(Debug, Clone, Copy)]
+pub enum SavedParticles<'a> {
+    Read(&'a Particles),
+    InFile(&'a ParticlesInFile),
+}
+
+impl<'a> SavedParticles<'a> {
+    /// What ranks start from.
+    fn start(self) -> &'a dyn Start {
+        match self {
+            SavedParticles::Read(particles) => particles,
+            SavedParticles::InFile(particles) => particles,
+        }
+    }
+
+    /// Every particle: a solver of one rank holds them all.
+    fn whole(self) -> Result<Cow<'a, Particles>> {
+        Ok(match self {
+            SavedParticles::Read(particles) => Cow::Borrowed(particles),
+            SavedParticles::InFile(particles) => Cow::Owned(particles.read_all()?),
+        })
+    }
 }
 
 /// [`create`] with a checkpoint's state in place of the scene's start.
@@ -178,7 +206,12 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
         // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
         scene.check_pipeline()?;
     }
-    let initial = || state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
+    let initial = || -> Result<Particles> {
+        match state {
+            Some(saved) => Ok(saved.particles.whole()?.into_owned()),
+            None => Ok(scene.spawn()),
+        }
+    };
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
         scene.flow.is_active().then(|| {
@@ -199,11 +232,13 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
         );
         return create_ranks(kind, scene, state.map(|saved| saved.particles), lifecycle());
     }
-    let parallel = || -> Box<dyn Solver> {
-        Box::new(ParallelCpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
+    let parallel = || -> Result<Box<dyn Solver>> {
+        Ok(Box::new(
+            ParallelCpuSolver::new(initial()?, scene.grid_res).with_lifecycle(lifecycle()),
+        ))
     };
     let cuda = |options: CudaOptions| match state {
-        Some(saved) => CudaSolver::restore(scene, saved.particles, saved.flow, options),
+        Some(saved) => CudaSolver::restore(scene, &*saved.particles.whole()?, saved.flow, options),
         None => CudaSolver::new(scene, options),
     };
     // The bodies' contact features are the scene's; their states the checkpoint's, or the start.
@@ -212,12 +247,14 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
         Some(saved) => saved.bodies.clone(),
         None => BodiesState::at_start(start),
     };
-    let reference = || -> Box<dyn Solver> {
-        Box::new(CpuSolver::new(initial(), scene.grid_res).with_lifecycle(lifecycle()))
+    let reference = || -> Result<Box<dyn Solver>> {
+        Ok(Box::new(
+            CpuSolver::new(initial()?, scene.grid_res).with_lifecycle(lifecycle()),
+        ))
     };
     let mut solver: Box<dyn Solver> = match kind {
-        BackendKind::Cpu => reference(),
-        BackendKind::CpuParallel => parallel(),
+        BackendKind::Cpu => reference()?,
+        BackendKind::CpuParallel => parallel()?,
         BackendKind::Cuda => Box::new(cuda(CudaOptions::from_env()?)?),
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Box::new(solver),
@@ -228,7 +265,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
                      the scene has rigid bodies",
                     no_cuda_reason(&why)
                 );
-                reference()
+                reference()?
             }
             Err(why) => {
                 eprintln!(
@@ -236,7 +273,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
                     no_cuda_reason(&why),
                     crate::text::count(ParallelCpuSolver::threads(), "thread", "threads")
                 );
-                parallel()
+                parallel()?
             }
         },
     };
@@ -250,16 +287,26 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
 /// before any work starts, as does a scene the solver does not run yet (`Scene::check_method`).
 fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
     scene.check_method()?;
-    let particles = || state.map_or_else(|| scene.spawn(), |saved| saved.particles.clone());
-    let reference =
-        || -> Box<dyn Solver> { Box::new(PbmpmSolver::new(particles(), scene.grid_res, scene.pbmpm)) };
+    let particles = || -> Result<Particles> {
+        match state {
+            Some(saved) => Ok(saved.particles.whole()?.into_owned()),
+            None => Ok(scene.spawn()),
+        }
+    };
+    let reference = || -> Result<Box<dyn Solver>> {
+        Ok(Box::new(PbmpmSolver::new(
+            particles()?,
+            scene.grid_res,
+            scene.pbmpm,
+        )))
+    };
     let cuda = |options: CudaOptions| match state {
-        Some(saved) => CudaSolver::restore(scene, saved.particles, None, options),
+        Some(saved) => CudaSolver::restore(scene, &*saved.particles.whole()?, None, options),
         None => CudaSolver::new(scene, options),
     };
     Ok(match kind {
         BackendKind::CpuParallel => bail!("{}", pbmpm::NOT_CPU_PARALLEL),
-        BackendKind::Cpu => reference(),
+        BackendKind::Cpu => reference()?,
         BackendKind::Cuda => Box::new(cuda(CudaOptions::from_env()?)?),
         BackendKind::Auto => match CudaOptions::from_env().and_then(cuda) {
             Ok(solver) => Box::new(solver),
@@ -269,7 +316,7 @@ fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> 
                      on one thread (cpu)",
                     no_cuda_reason(&why)
                 );
-                reference()
+                reference()?
             }
         },
     })
@@ -303,7 +350,7 @@ pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()>
 fn create_ranks(
     kind: BackendKind,
     scene: &Scene,
-    saved: Option<&Particles>,
+    saved: Option<SavedParticles>,
     lifecycle: Option<Lifecycle>,
 ) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
@@ -314,12 +361,15 @@ fn create_ranks(
             CudaRanks::check_gpus(scene)?;
             let flow = lifecycle.map(|lifecycle| lifecycle.state);
             Ok(Box::new(match saved {
-                Some(particles) => CudaRanks::new(scene, particles, flow.as_ref(), ranks, options)?,
+                Some(particles) => CudaRanks::new(scene, particles.start(), flow.as_ref(), ranks, options)?,
                 None => CudaRanks::spawn(scene, ranks, options)?,
             }))
         }
         BackendKind::Cpu => {
-            let particles = saved.map_or_else(|| scene.spawn(), Particles::clone);
+            let particles = match saved {
+                Some(saved) => saved.whole()?.into_owned(),
+                None => scene.spawn(),
+            };
             Ok(Box::new(
                 CpuRanks::new(scene, particles, ranks)?.with_lifecycle(lifecycle),
             ))

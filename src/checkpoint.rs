@@ -66,8 +66,11 @@
 //!
 //! A file is written to a temporary name in its directory, flushed to the disk, and renamed, so a
 //! crash never leaves a partial file under a checkpoint's name; an existing file is never replaced.
+//! It is read with its checksum checked a piece at a time; [`Checkpoint::read`] then reads its
+//! particles whole, and [`Checkpoint::open`] leaves them in the file ([`ParticlesInFile`]), from
+//! which a process of one rank reads its share alone.
 
-use crate::backend::{self, BackendKind, SavedState};
+use crate::backend::{self, BackendKind, SavedParticles, SavedState};
 use crate::contract::{LAW_NEWTONIAN, MAX_MATERIALS};
 use crate::export::claim_output_dir;
 use crate::sim::colliders::bodies::{BodiesState, RigidBody};
@@ -81,11 +84,15 @@ use crate::sim::{
 };
 use crate::text::io_reason;
 use anyhow::{anyhow, bail, ensure, Context, Result};
-use glam::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
+
+mod in_file;
+use in_file::ParticleLayout;
+pub use in_file::ParticlesInFile;
 
 /// The first bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"MPMCKPT\0";
@@ -192,6 +199,9 @@ pub struct Checkpoint {
     pub scatter: ScatterMode,
     pub params: Params,
     pub clock: RunClock,
+    /// The run's particle slots, live and parked: the particles' length, where they were read
+    /// ([`Self::read`]; [`Self::open`] leaves them in the file, and them empty).
+    pub slots: usize,
     pub particles: Particles,
     /// The emitters' and sinks' state (free slots, nozzle points' last particles, counts), where the
     /// scene has them.
@@ -249,6 +259,7 @@ impl Checkpoint {
             scatter,
             params,
             clock,
+            slots: particles.len(),
             particles,
         })
     }
@@ -277,14 +288,14 @@ impl Checkpoint {
             scene.time_step = TimeStepPolicy::pbmpm(controls.substeps);
         }
         ensure!(
-            scene.slots() == self.particles.len()
+            scene.slots() == self.slots
                 && scene.grid_res == self.params.grid_res
                 && scene.flow.is_active() == self.flow.is_some()
                 && scene.flow.emitters.len() == self.clock.emitter_phases.len()
                 && scene.materials.len() == self.params.material_count as usize,
             "the checkpoint holds {} particle slots on a {:?} grid and {} materials, but its scene has {} \
              on {:?} and {} materials: the file is inconsistent",
-            self.particles.len(),
+            self.slots,
             self.params.grid_res,
             self.params.material_count,
             scene.slots(),
@@ -347,10 +358,30 @@ impl Checkpoint {
     /// (from [`Self::scene`], solver options possibly overridden), the bodies dropped into the run
     /// added to it.
     pub fn resume(&self, scene: Scene, backend: BackendKind) -> Result<Simulation> {
+        self.resume_with(scene, backend, SavedParticles::Read(&self.particles))
+    }
+
+    /// [`Self::resume`] from particles left in the checkpoint's file ([`Self::open`]): where the
+    /// scene runs as a process of one rank (`Scene::process`, CUDA), it reads only its share.
+    pub fn resume_from_file(
+        &self,
+        scene: Scene,
+        backend: BackendKind,
+        particles: &ParticlesInFile,
+    ) -> Result<Simulation> {
+        self.resume_with(scene, backend, SavedParticles::InFile(particles))
+    }
+
+    fn resume_with(
+        &self,
+        scene: Scene,
+        backend: BackendKind,
+        particles: SavedParticles,
+    ) -> Result<Simulation> {
         let scene = self.with_dropped(scene)?;
         self.check_bodies(&scene)?;
         let saved = SavedState {
-            particles: &self.particles,
+            particles,
             flow: self.flow.as_ref(),
             bodies: &self.bodies,
         };
@@ -446,6 +477,12 @@ impl Checkpoint {
             pbmpm: self.pbmpm,
         })?;
         let n = self.particles.len();
+        ensure!(
+            n == self.slots,
+            "a checkpoint of {} slots holds {n} particles: one opened with its particles left in its \
+             file is read, not written",
+            self.slots
+        );
         let flow = self.flow.as_ref().map(flow_bytes).unwrap_or_default();
         let body = 8
             + meta.len()
@@ -506,7 +543,18 @@ impl Checkpoint {
     /// Reads a checkpoint, refusing (with what is wrong and what to do) a file that is not one, one
     /// of another format version, a truncated one and one whose checksum does not match.
     pub fn read(path: &Path) -> Result<Checkpoint> {
-        let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+        let (mut checkpoint, particles) = Checkpoint::open(path)?;
+        checkpoint.particles = particles
+            .read_all()
+            .map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))?;
+        Ok(checkpoint)
+    }
+
+    /// Reads and checks a checkpoint as [`Self::read`] does, but for its particles, which stay in
+    /// the file (the checkpoint's `particles` are empty): a process that resumes its share of a run
+    /// reads only that (`ParticlesInFile` gives the ranks their shares).
+    pub fn open(path: &Path) -> Result<(Checkpoint, ParticlesInFile)> {
+        let file = File::open(path).map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => anyhow!(
                 "there is no checkpoint {}: give the path of a checkpoint_NNNNNN.mpmck that \
                  `mpm run --checkpoint DIR` wrote, or a viewer snapshot",
@@ -514,25 +562,28 @@ impl Checkpoint {
             ),
             _ => anyhow!("cannot read the checkpoint {}: {}", path.display(), io_reason(&e)),
         })?;
-        Checkpoint::from_bytes(&bytes).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
+        Checkpoint::open_file(file).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
     }
 
-    pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint> {
-        let magic_len = bytes.len().min(MAGIC.len());
-        if bytes[..magic_len] != MAGIC[..magic_len] || bytes.is_empty() {
+    fn open_file(file: File) -> Result<(Checkpoint, ParticlesInFile)> {
+        let actual = file.metadata().context("cannot read its length")?.len();
+        let mut head = vec![0u8; HEADER_BYTES.min(actual as usize)];
+        file.read_exact_at(&mut head, 0)
+            .map_err(|e| anyhow!("cannot read it: {}", io_reason(&e)))?;
+        let magic_len = head.len().min(MAGIC.len());
+        if head[..magic_len] != MAGIC[..magic_len] || head.is_empty() {
             bail!(
                 "is not an mpm checkpoint (it does not begin with the checkpoint header); give a file \
                  that `mpm run --checkpoint DIR` or the viewer's snapshot wrote (*.{EXTENSION})"
             );
         }
-        if bytes.len() < HEADER_BYTES {
+        if head.len() < HEADER_BYTES {
             bail!(
-                "is truncated: {} bytes, less than the {HEADER_BYTES}-byte header (the write was cut \
-                 off, or the file was copied in part); use an earlier checkpoint",
-                bytes.len()
+                "is truncated: {actual} bytes, less than the {HEADER_BYTES}-byte header (the write was \
+                 cut off, or the file was copied in part); use an earlier checkpoint"
             );
         }
-        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
+        let word = |at: usize| u32::from_le_bytes(head[at..at + 4].try_into().expect("4 bytes"));
         let version = word(8);
         if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
             bail!(
@@ -545,12 +596,11 @@ impl Checkpoint {
                 }
             );
         }
-        let body = u64::from_le_bytes(bytes[16..24].try_into().expect("8 bytes"));
+        let body = u64::from_le_bytes(head[16..24].try_into().expect("8 bytes"));
         let expected = (HEADER_BYTES as u64)
             .checked_add(body)
             .and_then(|b| b.checked_add(CHECKSUM_BYTES as u64))
             .context("is damaged: its header gives an impossible length")?;
-        let actual = bytes.len() as u64;
         if actual < expected {
             bail!(
                 "is truncated: {actual} bytes of the {expected} its header announces (the write was cut \
@@ -564,45 +614,86 @@ impl Checkpoint {
                 actual - expected
             );
         }
-        let end = expected as usize - CHECKSUM_BYTES;
-        let stored = word(end);
-        let computed = crc32fast::hash(&bytes[..end]);
+        let end = expected - CHECKSUM_BYTES as u64;
+        // The checksum over the whole file, read a piece at a time: nothing of it is held.
+        let mut crc = crc32fast::Hasher::new();
+        let mut piece = vec![0u8; 8 << 20];
+        let mut at = 0;
+        while at < end {
+            let len = piece.len().min((end - at) as usize);
+            file.read_exact_at(&mut piece[..len], at)
+                .map_err(|e| anyhow!("cannot read it: {}", io_reason(&e)))?;
+            crc.update(&piece[..len]);
+            at += len as u64;
+        }
+        let mut stored = [0u8; 4];
+        file.read_exact_at(&mut stored, end)
+            .map_err(|e| anyhow!("cannot read it: {}", io_reason(&e)))?;
+        let (stored, computed) = (u32::from_le_bytes(stored), crc.finalize());
         if stored != computed {
             bail!(
                 "is corrupt: its checksum does not match its contents (stored {stored:08x}, computed \
                  {computed:08x}); the file was damaged after it was written; use an earlier checkpoint"
             );
         }
-        Body {
-            bytes: &bytes[HEADER_BYTES..end],
+        let mut reader = std::io::BufReader::new(&file);
+        reader.seek(SeekFrom::Start(HEADER_BYTES as u64))?;
+        let (checkpoint, layout) = Body {
+            reader,
+            at: HEADER_BYTES as u64,
+            left: end - HEADER_BYTES as u64,
             version,
         }
         .checkpoint()
-        .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")
+        .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")?;
+        let particles = ParticlesInFile::new(file, layout, checkpoint.params.material_count)
+            .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")?;
+        Ok((checkpoint, particles))
     }
 }
 
-/// Reads the body's fields in order.
-struct Body<'a> {
-    bytes: &'a [u8],
+/// Reads the body's fields in order from the file; the particles' arrays it passes over, noting
+/// where each lies ([`ParticleLayout`]).
+struct Body<R> {
+    reader: R,
+    /// The file offset of the next byte.
+    at: u64,
+    /// Bytes of the body not yet passed.
+    left: u64,
     /// The file's format version: what the parameters and particles look like.
     version: u32,
 }
 
-impl Body<'_> {
-    fn take(&mut self, n: usize, what: &str) -> Result<&[u8]> {
-        ensure!(self.bytes.len() >= n, "the body ends inside {what}");
-        let (head, rest) = self.bytes.split_at(n);
-        self.bytes = rest;
-        Ok(head)
+impl<R: Read + Seek> Body<R> {
+    fn take(&mut self, n: usize, what: &str) -> Result<Vec<u8>> {
+        ensure!(self.left >= n as u64, "the body ends inside {what}");
+        let mut bytes = vec![0u8; n];
+        self.reader
+            .read_exact(&mut bytes)
+            .map_err(|e| anyhow!("cannot read {what}: {}", io_reason(&e)))?;
+        (self.at, self.left) = (self.at + n as u64, self.left - n as u64);
+        Ok(bytes)
+    }
+
+    /// Passes over `count` items of `size` bytes: where they begin in the file.
+    fn skip(&mut self, count: usize, size: usize, what: &str) -> Result<u64> {
+        let n = count
+            .checked_mul(size)
+            .and_then(|n| u64::try_from(n).ok())
+            .with_context(|| format!("{count} {what}"))?;
+        ensure!(self.left >= n, "the body ends inside {what}");
+        let at = self.at;
+        self.reader.seek(SeekFrom::Current(n as i64))?;
+        (self.at, self.left) = (at + n, self.left - n);
+        Ok(at)
     }
 
     fn u64(&mut self, what: &str) -> Result<u64> {
-        Ok(u64::from_le_bytes(self.take(8, what)?.try_into()?))
+        Ok(u64::from_le_bytes(self.take(8, what)?.as_slice().try_into()?))
     }
 
     fn u32(&mut self, what: &str) -> Result<u32> {
-        Ok(u32::from_le_bytes(self.take(4, what)?.try_into()?))
+        Ok(u32::from_le_bytes(self.take(4, what)?.as_slice().try_into()?))
     }
 
     fn words(&mut self, n: usize, what: &str) -> Result<Vec<u32>> {
@@ -648,14 +739,9 @@ impl Body<'_> {
         })
     }
 
-    fn vectors<T: bytemuck::Pod>(&mut self, n: usize, what: &str) -> Result<Vec<T>> {
-        let words = self.words(n * std::mem::size_of::<T>() / 4, what)?;
-        Ok(bytemuck::cast_slice(&words).to_vec())
-    }
-
-    fn checkpoint(mut self) -> Result<Checkpoint> {
+    fn checkpoint(mut self) -> Result<(Checkpoint, ParticleLayout)> {
         let meta_len = usize::try_from(self.u64("the scene's length")?)?;
-        let meta: Meta = serde_json::from_slice(self.take(meta_len, "the scene")?)?;
+        let meta: Meta = serde_json::from_slice(&self.take(meta_len, "the scene")?)?;
         let params: Params = if self.version == 1 {
             params_from_version_1(&self.words(VERSION_1_PARAMS_WORDS, "the parameters")?)
         } else if self.version == 2 {
@@ -695,50 +781,27 @@ impl Body<'_> {
                 .push(f64::from_bits(self.u64("the emitters' phases")?));
         }
         let n = usize::try_from(meta.particles)?;
-        let per_particle = if self.version == 1 {
-            BYTES_PER_PARTICLE - 1
-        } else {
-            BYTES_PER_PARTICLE
-        };
-        ensure!(
-            self.bytes.len() >= per_particle * n,
-            "{} bytes of particles for {n} particles",
-            self.bytes.len()
-        );
-        let particles = Particles {
-            x: self.vectors::<Vec3>(n, "positions")?,
-            v: self.vectors::<Vec3>(n, "velocities")?,
-            c: self.vectors::<Mat3>(n, "affine matrices")?,
-            rho: self.vectors::<f32>(n, "densities")?,
-            live: self.take(n, "live flags")?.iter().map(|&b| b != 0).collect(),
-            // Version 1 knew one material: every particle is made of row 0.
-            material: if self.version == 1 {
-                vec![0; n]
-            } else {
-                self.take(n, "material rows")?.to_vec()
+        // Version 1 knew one material: it has no rows, every particle is made of row 0.
+        let layout = ParticleLayout {
+            count: n,
+            x: self.skip(n, 12, "positions")?,
+            v: self.skip(n, 12, "velocities")?,
+            c: self.skip(n, 36, "affine matrices")?,
+            rho: self.skip(n, 4, "densities")?,
+            live: self.skip(n, 1, "live flags")?,
+            material: match self.version {
+                1 => None,
+                _ => Some(self.skip(n, 1, "material rows")?),
             },
-            deformation: if meta.deformation {
-                self.vectors::<Deformation>(n, "deformations")?
-            } else {
-                Vec::new()
+            deformation: match meta.deformation {
+                true => Some(self.skip(n, std::mem::size_of::<Deformation>(), "deformations")?),
+                false => None,
             },
-            volume_bias: if meta.volume_bias {
-                self.vectors::<f32>(n, "volume biases")?
-            } else {
-                Vec::new()
+            volume_bias: match meta.volume_bias {
+                true => Some(self.skip(n, 4, "volume biases")?),
+                false => None,
             },
         };
-        if let Some(slot) = particles
-            .material
-            .iter()
-            .position(|&m| u32::from(m) >= params.material_count)
-        {
-            bail!(
-                "slot {slot} is made of material row {}, but the table has {}",
-                particles.material[slot],
-                params.material_count
-            );
-        }
         let flow = if meta.flow {
             let free_len = usize::try_from(self.u64("the free slots")?)?;
             let free = self.words(free_len, "the free slots")?;
@@ -788,12 +851,8 @@ impl Body<'_> {
         let dropped = (0..meta.dropped)
             .map(|_| self.dropped_body())
             .collect::<Result<Vec<_>>>()?;
-        ensure!(
-            self.bytes.is_empty(),
-            "{} bytes after the state",
-            self.bytes.len()
-        );
-        Ok(Checkpoint {
+        ensure!(self.left == 0, "{} bytes after the state", self.left);
+        let checkpoint = Checkpoint {
             flow,
             bodies,
             dropped,
@@ -806,8 +865,10 @@ impl Body<'_> {
             scatter: meta.scatter,
             params,
             clock,
-            particles,
-        })
+            slots: n,
+            particles: Particles::default(),
+        };
+        Ok((checkpoint, layout))
     }
 }
 
@@ -980,7 +1041,7 @@ impl CheckpointSeries {
     ) -> Result<CheckpointSeries> {
         ensure!(every >= 1, "--checkpoint-every must be at least 1");
         let same_scene = |name: &str| {
-            Checkpoint::read(&dir.join(name)).is_ok_and(|other| {
+            Checkpoint::open(&dir.join(name)).is_ok_and(|(other, _)| {
                 resumed
                     .is_some_and(|r| other.scene_source == r.scene_source && other.scene_toml == r.scene_toml)
             })

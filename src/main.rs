@@ -6,6 +6,7 @@ use mpm::backend::{self, BackendKind};
 use mpm::bench;
 use mpm::checkpoint::{Checkpoint, CheckpointSeries};
 use mpm::dist::launch::Process;
+use mpm::dist::Start;
 use mpm::export::bodies::BodyExporter;
 use mpm::export::frames::{Exports, FrameExportSet};
 use mpm::export::mesh_files::SurfaceFormat;
@@ -988,8 +989,13 @@ fn run(args: RunArgs) -> Result<()> {
         }
         path => path.map(PathBuf::from),
     };
-    // The checkpoint is read and checked first: a bad file fails before anything is created.
-    let resumed = resume.as_deref().map(Checkpoint::read).transpose()?;
+    // The checkpoint is read and checked first: a bad file fails before anything is created. Its
+    // particles stay in the file until it is known whether this process needs them all.
+    let opened = resume.as_deref().map(Checkpoint::open).transpose()?;
+    let (mut resumed, in_file) = match opened {
+        Some((checkpoint, particles)) => (Some(checkpoint), Some(particles)),
+        None => (None, None),
+    };
     let (mut scene, backend_kind) = match &resumed {
         Some(checkpoint) => (
             checkpoint.scene()?,
@@ -1013,9 +1019,22 @@ fn run(args: RunArgs) -> Result<()> {
     }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
     // it) fails before any output exists, so nothing is left behind to block the retry.
-    let mut sim = match &resumed {
-        Some(checkpoint) => checkpoint.resume(scene, backend_kind)?,
-        None => {
+    // A process of one CUDA rank reads its share of the checkpoint's particles and no more; any
+    // other run reads them all (the CPU ranks' processes each keep the run's set anyway).
+    let share_only = scene.process.is_some_and(|p| p.size > 1) && backend_kind != BackendKind::Cpu;
+    if let (Some(checkpoint), Some(particles), Some(path)) = (&mut resumed, &in_file, resume.as_deref()) {
+        if !share_only {
+            checkpoint.particles = particles
+                .read_all()
+                .with_context(|| format!("checkpoint {}", path.display()))?;
+        }
+    }
+    let mut sim = match (&resumed, &in_file) {
+        (Some(checkpoint), Some(particles)) if share_only => {
+            checkpoint.resume_from_file(scene, backend_kind, particles)?
+        }
+        (Some(checkpoint), _) => checkpoint.resume(scene, backend_kind)?,
+        (None, _) => {
             let solver = backend::create(backend_kind, &scene)?;
             Simulation::new(scene, solver)
         }
@@ -1048,9 +1067,9 @@ fn run(args: RunArgs) -> Result<()> {
         "scene {} ({}): {} particles{}, grid {}x{}x{}, dx = {} m, c0 = {:.2} m/s, backend {}{}",
         scene.name,
         scene.source,
-        resumed
+        in_file
             .as_ref()
-            .map_or(scene.num_particles, |c| c.particles.num_live()),
+            .map_or(scene.num_particles as u64, |particles| particles.live()),
         if scene.flow.is_active() {
             format!(" (capacity {})", scene.slots())
         } else {

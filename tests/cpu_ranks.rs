@@ -324,61 +324,7 @@ fn emitters_and_sinks_on_ranks_give_one_rank_s_bytes() {
 /// 8 is one rank's bytes, and rank 1 prints nothing (rank 0 says which checkpoint it resumed).
 #[test]
 fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| {
-        let out = std::process::Command::new(common::mpm_binary())
-            .current_dir(dir.path())
-            .args([
-                "run",
-                "--backend",
-                "cpu",
-                "--scatter",
-                "fixed-point",
-                "--scene",
-                "dam-break-coarse",
-            ])
-            .args(args)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    };
-    run(&["--frames", "8", "--export", "whole"]);
-    run(&["--frames", "4", "--checkpoint", "ck", "--checkpoint-every", "4"]);
-    let mut resume = || {
-        let mut command = std::process::Command::new(common::mpm_binary());
-        command.current_dir(dir.path()).args([
-            "run",
-            "--backend",
-            "cpu",
-            "--resume",
-            "ck",
-            "--frames",
-            "4",
-            "--export",
-            "resumed",
-            "--processes",
-        ]);
-        command
-    };
-    let outputs = common::wait_for_processes(common::launch_processes(dir.path(), 2, &mut resume));
-    for (rank, (ok, text)) in outputs.iter().enumerate() {
-        assert!(ok, "rank {rank}: {text}");
-    }
-    assert!(
-        outputs[0].1.contains("resuming from its latest checkpoint"),
-        "{}",
-        outputs[0].1
-    );
-    assert!(
-        outputs[1].1.is_empty(),
-        "rank 1 wrote lines of its own: {}",
-        outputs[1].1
-    );
-    let read = |path: &str| std::fs::read(dir.path().join(path)).unwrap();
-    assert!(
-        read("whole/frame_000008.ply") == read("resumed/frame_000008.ply"),
-        "frame 8 resumed by two processes differs from one rank's"
-    );
+    common::two_processes_resume_one_rank_s_checkpoint_to_its_bytes("cpu");
 }
 
 /// Two processes whose rank 1 is killed mid-run: rank 0 stops within 30 s, naming rank 1, and its

@@ -26,6 +26,7 @@ fn main() -> std::process::ExitCode {
             the_halo_phases_run_over_nccl_and_are_timed,
             a_checkpoint_of_two_gpus_resumes_on_one,
             two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks,
+            two_processes_resume_one_gpu_s_checkpoint_to_its_bytes,
             emitters_and_sinks_on_two_gpus_give_one_gpu_s_bytes,
             a_killed_rank_stops_the_other_within_30_s,
             a_stopped_rank_stops_the_other_within_30_s,
@@ -69,6 +70,12 @@ fn a_checkpoint_of_two_gpus_resumes_on_one() {
 fn two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks() {
     let out = common::split_checkpoint_resumes_on_three_ranks("cuda", &["--processes"], 2);
     assert!(out[0].contains("on 2 GPUs, a process each"), "{}", out[0]);
+}
+
+/// One GPU's checkpoint resumed by two processes, a GPU each, each reading only its share of the
+/// file's particles: frame 8 is one GPU's bytes.
+fn two_processes_resume_one_gpu_s_checkpoint_to_its_bytes() {
+    common::two_processes_resume_one_rank_s_checkpoint_to_its_bytes("cuda");
 }
 
 /// `fountain` on two GPUs in one process and as two processes: one GPU's bytes at frame 5, with

@@ -365,7 +365,7 @@ impl CudaRanks {
                 particles: mut share,
                 id,
                 ..
-            } = particles.share(&slabs, rank, params.inv_dx);
+            } = particles.share(&slabs, rank, params.inv_dx)?;
             extents.push(id.len());
             share.park_more(with_room(id.len()) - id.len());
             // The binnings' gathers into bin order are what pack a rank's particles again after
@@ -397,7 +397,7 @@ impl CudaRanks {
             true => Some(SharedFlow::allocate(&solvers, !scene.flow.sinks.is_empty())?),
             false => None,
         };
-        let layers = particles.layer_counts(&slabs, params.inv_dx);
+        let layers = particles.layer_counts(&slabs, params.inv_dx)?;
         for (rank, count) in counts.iter_mut().enumerate() {
             let owned = slabs.bounds[rank] as usize..slabs.bounds[rank + 1] as usize;
             *count = layers[owned].iter().sum::<u64>() as usize;

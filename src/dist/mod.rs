@@ -46,7 +46,7 @@ use anyhow::{bail, Result};
 pub fn starting_slabs(scene: &Scene, particles: &dyn Start, ranks: usize) -> Result<Slabs> {
     let even = Slabs::even(glam::UVec3::from(scene.grid_res), ranks)?;
     let params = scene.params();
-    let balanced = even.balanced(&particles.layer_counts(&even, params.inv_dx))?;
+    let balanced = even.balanced(&particles.layer_counts(&even, params.inv_dx)?)?;
     let walls = (params.wall_mirror_lo, params.wall_mirror_hi[even.axis]);
     Ok(if balanced.holds_mirror(walls.0, walls.1) {
         balanced

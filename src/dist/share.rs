@@ -1,12 +1,14 @@
-//! What ranks start from: the run's every slot, held whole ([`Particles`]), or a scene's spawn
-//! walked again for each question and never held ([`Spawn`]). A process of one rank
-//! (`--processes`) starts from the spawn, so its host holds its own share of the particles, not the
-//! run's: a billion particles as two processes of one host no longer need the run twice in host
-//! memory at start.
+//! What ranks start from: the run's every slot, held whole ([`Particles`]), a scene's spawn
+//! walked again for each question and never held ([`Spawn`]), or a checkpoint's particles read from
+//! its file for each question (`checkpoint::ParticlesInFile`). A process of one rank
+//! (`--processes`) starts from the spawn or the file, so its host holds its own share of the
+//! particles, not the run's: a billion particles as two processes of one host no longer need the
+//! run twice in host memory at start.
 
 use super::migrate::{layer, layer_counts, RankParticles};
 use super::slabs::Slabs;
 use crate::sim::{Particles, Scene};
+use anyhow::Result;
 
 /// A run's particles as its ranks are made from them.
 pub trait Start {
@@ -15,9 +17,9 @@ pub trait Start {
     /// Its live particles.
     fn live(&self) -> u64;
     /// Live particles per block layer along `slabs.axis`.
-    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Vec<u64>;
+    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Result<Vec<u64>>;
     /// The live particles `slabs` gives to `rank`, in id order.
-    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> RankParticles;
+    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> Result<RankParticles>;
 }
 
 impl Start for Particles {
@@ -29,12 +31,12 @@ impl Start for Particles {
         self.num_live() as u64
     }
 
-    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Vec<u64> {
-        layer_counts(self, slabs, inv_dx)
+    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Result<Vec<u64>> {
+        Ok(layer_counts(self, slabs, inv_dx))
     }
 
-    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> RankParticles {
-        RankParticles::share(self, slabs, rank, inv_dx)
+    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> Result<RankParticles> {
+        Ok(RankParticles::share(self, slabs, rank, inv_dx))
     }
 }
 
@@ -59,16 +61,16 @@ impl Start for Spawn<'_> {
         self.scene.num_particles as u64
     }
 
-    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Vec<u64> {
+    fn layer_counts(&self, slabs: &Slabs, inv_dx: f32) -> Result<Vec<u64>> {
         let mut counts = vec![0u64; slabs.blocks() as usize];
         self.scene.each_spawned(|_, p| {
             let l = layer(p.x, slabs.axis, inv_dx).min(slabs.blocks() - 1);
             counts[l as usize] += 1;
         });
-        counts
+        Ok(counts)
     }
 
-    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> RankParticles {
+    fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> Result<RankParticles> {
         let scene = self.scene;
         let mut mine = RankParticles::default();
         let (p, id) = (&mut mine.particles, &mut mine.id);
@@ -83,7 +85,7 @@ impl Start for Spawn<'_> {
         if scene.has_deformation() {
             p.deformation = p.material.iter().map(|&row| scene.at_rest(row)).collect();
         }
-        mine
+        Ok(mine)
     }
 }
 
@@ -127,15 +129,15 @@ mod tests {
         assert_eq!(spawn.slots(), whole.slots());
         assert_eq!(spawn.live(), whole.live());
         assert_eq!(
-            spawn.layer_counts(&slabs, inv_dx),
-            whole.layer_counts(&slabs, inv_dx)
+            spawn.layer_counts(&slabs, inv_dx).unwrap(),
+            whole.layer_counts(&slabs, inv_dx).unwrap()
         );
         assert_eq!(super::super::starting_slabs(&scene, &spawn, 3).unwrap(), slabs);
         let mut held = 0;
         for rank in 0..3 {
             let (a, b) = (
-                spawn.share(&slabs, rank, inv_dx),
-                whole.share(&slabs, rank, inv_dx),
+                spawn.share(&slabs, rank, inv_dx).unwrap(),
+                whole.share(&slabs, rank, inv_dx).unwrap(),
             );
             assert_eq!(a.id, b.id, "rank {rank}'s ids");
             assert!(a.particles == b.particles, "rank {rank}'s particles");

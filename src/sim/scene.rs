@@ -230,6 +230,19 @@ impl Particles {
         }
     }
 
+    /// Moves `other`'s particles after these (a share read a piece at a time: checkpoint.rs), each
+    /// array appended to its own; `other` is left empty.
+    pub fn append(&mut self, other: &mut Particles) {
+        self.x.append(&mut other.x);
+        self.v.append(&mut other.v);
+        self.c.append(&mut other.c);
+        self.rho.append(&mut other.rho);
+        self.material.append(&mut other.material);
+        self.live.append(&mut other.live);
+        self.deformation.append(&mut other.deformation);
+        self.volume_bias.append(&mut other.volume_bias);
+    }
+
     /// Appends `count` parked slots at rest at the origin: room a run can fill without growing.
     pub fn park_more(&mut self, count: usize) {
         let len = self.len() + count;

@@ -601,6 +601,67 @@ pub fn fountain_on_ranks_gives_one_rank_s_bytes(
     out
 }
 
+/// One rank's checkpoint of the fixed-point coarse dam break resumed by two processes (each reads
+/// the file and keeps its share; the CUDA processes read only theirs from it): frame 8 is one rank's
+/// bytes, and rank 1 prints nothing (rank 0 says which checkpoint it resumed).
+pub fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes(backend: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(mpm_binary())
+            .current_dir(dir.path())
+            .args([
+                "run",
+                "--backend",
+                backend,
+                "--scatter",
+                "fixed-point",
+                "--scene",
+                "dam-break-coarse",
+            ])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    run(&["--frames", "8", "--export", "whole"]);
+    run(&["--frames", "4", "--checkpoint", "ck", "--checkpoint-every", "4"]);
+    let mut resume = || {
+        let mut command = std::process::Command::new(mpm_binary());
+        command.current_dir(dir.path()).args([
+            "run",
+            "--backend",
+            backend,
+            "--resume",
+            "ck",
+            "--frames",
+            "4",
+            "--export",
+            "resumed",
+            "--processes",
+        ]);
+        command
+    };
+    let outputs = wait_for_processes(launch_processes(dir.path(), 2, &mut resume));
+    for (rank, (ok, text)) in outputs.iter().enumerate() {
+        assert!(ok, "rank {rank}: {text}");
+    }
+    assert!(
+        outputs[0].1.contains("resuming from its latest checkpoint"),
+        "{}",
+        outputs[0].1
+    );
+    assert!(
+        outputs[1].1.is_empty(),
+        "rank 1 wrote lines of its own: {}",
+        outputs[1].1
+    );
+    let read = |path: &str| std::fs::read(dir.path().join(path)).unwrap();
+    assert!(
+        read("whole/frame_000008.ply") == read("resumed/frame_000008.ply"),
+        "frame 8 resumed by two processes differs from one rank's"
+    );
+}
+
 /// `n` processes of `command`, started as torch's launcher starts them (`RANK`, `WORLD_SIZE`,
 /// `LOCAL_RANK`), meeting in `dir` under a name of their own (`MPM_RENDEZVOUS`, `MPM_RUN_ID`).
 pub fn launch_processes(

@@ -404,7 +404,7 @@ pub fn box_vortex(
     }
     let bodies = mpm::sim::colliders::bodies::BodiesState::default();
     let saved = backend::SavedState {
-        particles: &start,
+        particles: backend::SavedParticles::Read(&start),
         flow: None,
         bodies: &bodies,
     };
