@@ -311,6 +311,18 @@ fn two_processes_give_one_rank_s_bytes_and_resume_on_three_ranks() {
     assert!(out[1].is_empty(), "rank 1 wrote lines of its own: {}", out[1]);
 }
 
+/// Four processes (the four-GPU launch's shape, on the CPU reference): rank 0 writes frame 5 with
+/// one rank's bytes, the other three print nothing, and the checkpoint resumes on 3 thread ranks to
+/// one rank's bytes at frame 10.
+#[test]
+fn four_processes_give_one_rank_s_bytes_and_resume_on_three_ranks() {
+    let out = common::split_checkpoint_resumes_on_three_ranks("cpu", &["--processes"], 4);
+    assert!(out[0].contains("on 4 ranks, a process each"), "{}", out[0]);
+    for (rank, text) in out.iter().enumerate().skip(1) {
+        assert!(text.is_empty(), "rank {rank} wrote lines of its own: {text}");
+    }
+}
+
 /// A jet into a basin with a floor drain (`fountain`) on 2 thread ranks and as two processes gives
 /// one rank's bytes, and resumes on 3 ranks to them (`fountain_on_ranks_gives_one_rank_s_bytes`).
 #[test]
@@ -324,7 +336,7 @@ fn emitters_and_sinks_on_ranks_give_one_rank_s_bytes() {
 /// 8 is one rank's bytes, and rank 1 prints nothing (rank 0 says which checkpoint it resumed).
 #[test]
 fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes() {
-    common::two_processes_resume_one_rank_s_checkpoint_to_its_bytes("cpu");
+    common::processes_resume_one_rank_s_checkpoint_to_its_bytes("cpu", 2);
 }
 
 /// Two processes whose rank 1 is killed mid-run: rank 0 stops within 30 s, naming rank 1, and its

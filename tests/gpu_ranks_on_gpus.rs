@@ -75,7 +75,7 @@ fn two_processes_give_one_gpu_s_bytes_and_resume_on_three_ranks() {
 /// One GPU's checkpoint resumed by two processes, a GPU each, each reading only its share of the
 /// file's particles: frame 8 is one GPU's bytes.
 fn two_processes_resume_one_gpu_s_checkpoint_to_its_bytes() {
-    common::two_processes_resume_one_rank_s_checkpoint_to_its_bytes("cuda");
+    common::processes_resume_one_rank_s_checkpoint_to_its_bytes("cuda", 2);
 }
 
 /// `fountain` on two GPUs in one process and as two processes: one GPU's bytes at frame 5, with

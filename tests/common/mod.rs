@@ -601,10 +601,10 @@ pub fn fountain_on_ranks_gives_one_rank_s_bytes(
     out
 }
 
-/// One rank's checkpoint of the fixed-point coarse dam break resumed by two processes (each reads
-/// the file and keeps its share; the CUDA processes read only theirs from it): frame 8 is one rank's
-/// bytes, and rank 1 prints nothing (rank 0 says which checkpoint it resumed).
-pub fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes(backend: &str) {
+/// One rank's checkpoint of the fixed-point coarse dam break resumed by `processes` processes (each
+/// reads the file and keeps its share; the CUDA processes read only theirs from it): frame 8 is one
+/// rank's bytes, and only rank 0 prints (which checkpoint it resumed).
+pub fn processes_resume_one_rank_s_checkpoint_to_its_bytes(backend: &str, processes: usize) {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
         let out = std::process::Command::new(mpm_binary())
@@ -641,7 +641,7 @@ pub fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes(backend: &str) {
         ]);
         command
     };
-    let outputs = wait_for_processes(launch_processes(dir.path(), 2, &mut resume));
+    let outputs = wait_for_processes(launch_processes(dir.path(), processes, &mut resume));
     for (rank, (ok, text)) in outputs.iter().enumerate() {
         assert!(ok, "rank {rank}: {text}");
     }
@@ -650,15 +650,13 @@ pub fn two_processes_resume_one_rank_s_checkpoint_to_its_bytes(backend: &str) {
         "{}",
         outputs[0].1
     );
-    assert!(
-        outputs[1].1.is_empty(),
-        "rank 1 wrote lines of its own: {}",
-        outputs[1].1
-    );
+    for (rank, (_, text)) in outputs.iter().enumerate().skip(1) {
+        assert!(text.is_empty(), "rank {rank} wrote lines of its own: {text}");
+    }
     let read = |path: &str| std::fs::read(dir.path().join(path)).unwrap();
     assert!(
         read("whole/frame_000008.ply") == read("resumed/frame_000008.ply"),
-        "frame 8 resumed by two processes differs from one rank's"
+        "frame 8 resumed by {processes} processes differs from one rank's"
     );
 }
 

@@ -98,11 +98,23 @@ pub fn cuda_device_and_nccl() -> Result<(), String> {
 
 /// Two CUDA devices or more, and NCCL.
 pub fn two_cuda_devices_and_nccl() -> Result<(), String> {
+    cuda_devices_and_nccl(2)
+}
+
+/// Four CUDA devices or more, and NCCL.
+pub fn four_cuda_devices_and_nccl() -> Result<(), String> {
+    cuda_devices_and_nccl(4)
+}
+
+fn cuda_devices_and_nccl(needed: i32) -> Result<(), String> {
     cuda_device_and_nccl()?;
     let count =
         cudarc::driver::CudaContext::device_count().map_err(|e| format!("counting CUDA devices: {e:?}"))?;
-    if count < 2 {
-        return Err(format!("{count} CUDA device; two are needed"));
+    if count < needed {
+        return Err(format!(
+            "{count} CUDA device{}; {needed} are needed",
+            if count == 1 { "" } else { "s" }
+        ));
     }
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! The checks `CudaRanks` answers to wherever its ranks run: on one GPU (tests/gpu_ranks.rs) and one
-//! rank per GPU over NCCL (tests/gpu_ranks_on_gpus.rs). Each runs a split run against one CUDA solver.
+//! rank per GPU over NCCL (tests/gpu_ranks_on_gpus.rs, tests/gpu_ranks_on_four_gpus.rs). Each runs a split run against one CUDA solver.
 //!
 //! The fixed-point scatter sums integers, which do not care how they are split between ranks, so
 //! N ranks must give one solver's bits slot for slot. The float scatter adds in whatever order the
@@ -16,25 +16,28 @@ use super::common;
 /// Where the ranks run.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub enum On {
-    /// Every rank on device 0, device copies between them: 2 and 3 ranks.
+    /// Every rank on device 0, device copies between them: 2, 3 and 4 ranks.
     OneGpu,
     /// Rank r on device r, NCCL between them: 2 ranks on devices 0 and 1.
     TwoGpus,
+    /// As `TwoGpus`, 4 ranks on devices 0 to 3.
+    FourGpus,
 }
 
 impl On {
     /// The rank counts checked.
     fn rank_counts(self) -> &'static [usize] {
         match self {
-            On::OneGpu => &[2, 3],
+            On::OneGpu => &[2, 3, 4],
             On::TwoGpus => &[2],
+            On::FourGpus => &[4],
         }
     }
 
     /// `scene` placed here, split into `ranks`.
     fn place(self, scene: &Scene, ranks: usize) -> Scene {
         let mut scene = scene.clone();
-        scene.gpus = if self == On::TwoGpus { ranks } else { 1 };
+        scene.gpus = if self == On::OneGpu { 1 } else { ranks };
         scene
     }
 }
