@@ -40,11 +40,11 @@
 //! the receiver reserves for that sender from the layer counts every rank has; a receiver without
 //! the room grows first.
 //!
-//! **Emitters and sinks** (`SharedFlow`): every rank keeps the run's lifecycle alike, the free
-//! slots and each nozzle point's last slot. A substep's drains are gathered from every rank onto
-//! every rank's stack before it is sorted; an emission ORs every rank's look at the nozzle points'
-//! last particles, then every rank runs it alike and keeps the new particles its slab holds,
-//! appended after its places in use (kernels/lifecycle.cu).
+//! **Emitters and sinks** (`SharedFlow`, cuda_ranks/flow.rs): every rank keeps the run's lifecycle
+//! alike, the free slots and each nozzle point's last slot. A substep's drains are gathered from
+//! every rank onto every rank's stack before it is sorted; an emission ORs every rank's look at the
+//! nozzle points' last particles, then every rank runs it alike and keeps the new particles its slab
+//! holds, appended after its places in use (kernels/lifecycle.cu).
 //!
 //! **Readers** see one set of every slot on rank 0's GPU, made at the first read, into which
 //! `take_owned` copies every rank's particles to their slots where something reads them: the
@@ -62,7 +62,6 @@
 use super::gpu::CudaOptions;
 use super::halo::{sum_words, HaloBuffers, HaloKernels, Planes, VELOCITY_WORDS, VOLUME_WORDS};
 use super::launch::Launcher;
-use super::lifecycle::RankEmission;
 use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
 use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
@@ -86,6 +85,9 @@ use std::cell::Cell;
 use std::collections::{HashMap, VecDeque};
 use std::ops::Range;
 use std::time::{Duration, Instant};
+
+mod flow;
+use flow::SharedFlow;
 
 pub struct CudaRanks {
     /// Before the solvers: NCCL's communicators go while their devices are still open.
@@ -145,20 +147,6 @@ pub struct CudaRanks {
     host_times: Option<HostTimes>,
     /// The emitters and sinks, where the scene has them.
     flow: Option<SharedFlow>,
-}
-
-/// The emitters' and sinks' lifecycle on the ranks. Every rank keeps the run's free slots and nozzle
-/// points alike (kernels/lifecycle.cu): after each substep every rank's drains go onto every rank's
-/// stack and are settled there; an emission takes every rank's look at the nozzle points' last
-/// particles, OR'd, and every rank then runs it alike, writing only the particles its slab holds.
-struct SharedFlow {
-    /// Whether the scene has sinks (without, no substep drains anything).
-    sinks: bool,
-    points: usize,
-    /// Per rank of this process: its look at the nozzle points, then the run's.
-    looks: Vec<CudaSlice<u32>>,
-    /// Per rank of this process: the particles the last emission gave it.
-    appended: Vec<CudaSlice<u32>>,
 }
 
 /// Where the host thread of a run on ranks spends its time, summed over the run and printed when
@@ -1153,135 +1141,6 @@ impl CudaRanks {
         self.end_phase(Phase::G2p)
     }
 
-    /// Every rank's drains of this substep onto every rank's free stack, in rank order, then
-    /// settled there (sorted: which slot an emission takes never depends on which rank drained
-    /// what); the live counts follow. A rank's drains are the slots its sinks pushed since its
-    /// stack was last settled.
-    fn share_drains(&mut self) -> Result<()> {
-        self.wait_watched()?;
-        let mut unsettled = Vec::new();
-        for solver in &self.solvers {
-            let flow = solver
-                .state
-                .flow
-                .as_ref()
-                .context("a rank without the run's lifecycle")?;
-            unsettled.push(flow.unsettled(&solver.gpu)?);
-        }
-        let lengths = self.gather_words(unsettled.iter().map(|(_, own)| vec![own.len() as u64]).collect())?;
-        let lengths: Vec<usize> = lengths.iter().map(|l| l[0] as usize).collect();
-        let longest = lengths.iter().copied().max().unwrap_or(0);
-        if longest == 0 {
-            return Ok(());
-        }
-        let padded = unsettled
-            .iter()
-            .map(|(_, own)| {
-                let mut words: Vec<u64> = own.iter().map(|&slot| u64::from(slot)).collect();
-                words.resize(longest, 0);
-                words
-            })
-            .collect();
-        let all = self.gather_words(padded)?;
-        let drained: Vec<u32> = all
-            .iter()
-            .zip(&lengths)
-            .flat_map(|(words, &len)| words[..len].iter().map(|&slot| slot as u32))
-            .collect();
-        for (solver, (counters, own)) in self.solvers.iter_mut().zip(unsettled) {
-            let stream = solver.stream().clone();
-            let flow = solver
-                .state
-                .flow
-                .as_mut()
-                .context("a rank without the run's lifecycle")?;
-            flow.replace_unsettled(&stream, counters, own.len(), &drained)?;
-            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
-            k.settle(l, flow)?;
-        }
-        for (count, len) in self.counts.iter_mut().zip(&lengths) {
-            *count -= len;
-        }
-        self.live -= drained.len() as u64;
-        Ok(())
-    }
-
-    /// One emission of the emitters in `mask`, every rank alike (`SharedFlow`): each rank of this
-    /// process looks at the nozzle points' last particles it holds, the looks are OR'd over the
-    /// run's ranks, and each rank writes the new particles its slab holds after its places in use
-    /// (grown first where the nozzle points could outgrow them).
-    fn emit_on_ranks(&mut self, params: &Params, mask: u32) -> Result<()> {
-        // With a process per rank, rank 0 may call the others to a gather at this turn.
-        self.turn(Turn::Emit, vec![Vec::new(); self.solvers.len()])?;
-        let flow = self.flow.as_mut().context("this run has no emitters")?;
-        let points = flow.points;
-        let mut looks = Vec::new();
-        for (local, solver) in self.solvers.iter_mut().enumerate() {
-            let mut own = *params;
-            own.num_particles = solver.capacity() as u32;
-            solver.accept(&own)?;
-            let places = (&solver.state.particles, self.extents[local]);
-            let device = solver
-                .state
-                .flow
-                .as_ref()
-                .context("a rank without the run's lifecycle")?;
-            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
-            k.nozzles_blocked(l, mask, device, places, &mut flow.looks[local])?;
-            looks.push(pack_bits(&solver.gpu.download(&flow.looks[local])?));
-        }
-        let looks = self.gather_words(looks)?;
-        let blocked: Vec<u32> = (0..points)
-            .map(|g| u32::from(looks.iter().any(|bits| bits[g / 64] >> (g % 64) & 1 == 1)))
-            .collect();
-        let flow = self.flow.as_mut().context("this run has no emitters")?;
-        let axis = self.slabs.axis;
-        let layers = self.slabs.blocks();
-        for (local, solver) in self.solvers.iter_mut().enumerate() {
-            let rank = self.first + local;
-            let extent = self.extents[local];
-            if extent + points > solver.capacity() {
-                solver
-                    .grow_particles(with_room(extent + points))
-                    .with_context(|| format!("rank {rank} making room for an emission"))?;
-                self.growths += 1;
-                let mut own = *params;
-                own.num_particles = solver.capacity() as u32;
-                solver.accept(&own)?;
-            }
-            let stream = solver.stream().clone();
-            stream
-                .memcpy_htod(&blocked, &mut flow.looks[local])
-                .context("uploading the ranks' looks at the nozzle points")?;
-            stream
-                .memset_zeros(&mut flow.appended[local])
-                .context("zeroing the emission's count")?;
-            let emission = RankEmission {
-                blocked: &flow.looks[local],
-                axis,
-                layers,
-                own: self.slabs.bounds[rank]..self.slabs.bounds[rank + 1],
-                append_at: extent,
-                appended: &flow.appended[local],
-            };
-            solver.emit_into(mask, Some(&emission))?;
-        }
-        let mut appended = Vec::new();
-        for (solver, count) in self.solvers.iter().zip(&flow.appended) {
-            appended.push(vec![u64::from(solver.gpu.download(count)?[0])]);
-        }
-        let appended = self.gather_words(appended)?;
-        for (local, extent) in self.extents.iter_mut().enumerate() {
-            *extent += appended[self.first + local][0] as usize;
-        }
-        for (count, new) in self.counts.iter_mut().zip(&appended) {
-            *count += new[0] as usize;
-        }
-        self.live += appended.iter().map(|new| new[0]).sum::<u64>();
-        self.merged_stale = true;
-        Ok(())
-    }
-
     /// Each rank's step counters (`StepCounters`, contract/items.rs) reduced over every rank in
     /// place, in stream order, as `StepExtremes::merge` joins them on the host: the largest density,
     /// speed and signal speed, the fixed-point overflows and backstop pushes summed. The binned
@@ -1407,42 +1266,6 @@ impl CudaRanks {
         self.turn(Turn::Gather, none)?;
         self.take_owned()
     }
-}
-
-impl SharedFlow {
-    /// The look and count buffers of each of `solvers`, ranks of a scene with emitters or sinks.
-    fn allocate(solvers: &[CudaSolver], sinks: bool) -> Result<SharedFlow> {
-        let points = solvers[0]
-            .state
-            .flow
-            .as_ref()
-            .context("a rank without the run's lifecycle")?
-            .num_points as usize;
-        let mut flow = SharedFlow {
-            sinks,
-            points,
-            looks: Vec::new(),
-            appended: Vec::new(),
-        };
-        for solver in solvers {
-            let stream = solver.stream();
-            let alloc = |len: usize| stream.alloc_zeros::<u32>(len.max(1));
-            flow.looks
-                .push(alloc(points).context("allocating the nozzle points' looks")?);
-            flow.appended
-                .push(alloc(1).context("allocating an emission's count")?);
-        }
-        Ok(flow)
-    }
-}
-
-/// `flags` (0 or 1 each) as bits, 64 a word.
-fn pack_bits(flags: &[u32]) -> Vec<u64> {
-    let mut words = vec![0u64; flags.len().div_ceil(64)];
-    for (i, &flag) in flags.iter().enumerate() {
-        words[i / 64] |= u64::from(flag != 0) << (i % 64);
-    }
-    words
 }
 
 /// The host waits for every rank's stream.
