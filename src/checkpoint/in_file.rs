@@ -173,7 +173,7 @@ impl Start for ParticlesInFile {
 mod tests {
     use crate::backend::{self, BackendKind};
     use crate::checkpoint::Checkpoint;
-    use crate::dist::{starting_slabs, Start};
+    use crate::dist::share::assert_answers_as_whole;
     use crate::sim::{Scene, Simulation};
 
     /// `fountain`'s start (a third of its slots live, the rest parked) saved, then read back a
@@ -192,23 +192,7 @@ mod tests {
         assert!(opened.particles.is_empty() && opened.slots == whole.len());
         in_file.chunk = 7_001;
         assert!(whole.num_live() < whole.len(), "the start has parked slots");
-        assert_eq!(in_file.slots(), whole.slots());
-        assert_eq!(in_file.live(), whole.live());
         assert!(in_file.read_all().unwrap() == whole);
-        let inv_dx = scene.params().inv_dx;
-        let slabs = starting_slabs(&scene, &whole, 3).unwrap();
-        assert_eq!(starting_slabs(&scene, &in_file, 3).unwrap(), slabs);
-        assert_eq!(
-            in_file.layer_counts(&slabs, inv_dx).unwrap(),
-            whole.layer_counts(&slabs, inv_dx).unwrap()
-        );
-        for rank in 0..3 {
-            let (a, b) = (
-                in_file.share(&slabs, rank, inv_dx).unwrap(),
-                whole.share(&slabs, rank, inv_dx).unwrap(),
-            );
-            assert_eq!(a.id, b.id, "rank {rank}'s ids");
-            assert!(a.particles == b.particles, "rank {rank}'s particles");
-        }
+        assert_answers_as_whole(&scene, &in_file, &whole, 3);
     }
 }

@@ -89,6 +89,34 @@ impl Start for Spawn<'_> {
     }
 }
 
+/// Asserts that `start` answers every question a run of `ranks` ranks of `scene` asks as `whole`
+/// (the same run's particles, held) answers it: slots, live particles, the slabs cut, each slab
+/// layer's count, and each rank's share, ids and particles; the shares together hold every live
+/// particle.
+#[cfg(test)]
+pub(crate) fn assert_answers_as_whole(scene: &Scene, start: &dyn Start, whole: &Particles, ranks: usize) {
+    let inv_dx = scene.params().inv_dx;
+    let slabs = super::starting_slabs(scene, whole, ranks).unwrap();
+    assert_eq!(start.slots(), whole.slots());
+    assert_eq!(start.live(), whole.live());
+    assert_eq!(
+        start.layer_counts(&slabs, inv_dx).unwrap(),
+        whole.layer_counts(&slabs, inv_dx).unwrap()
+    );
+    assert_eq!(super::starting_slabs(scene, start, ranks).unwrap(), slabs);
+    let mut held = 0;
+    for rank in 0..ranks {
+        let (a, b) = (
+            start.share(&slabs, rank, inv_dx).unwrap(),
+            whole.share(&slabs, rank, inv_dx).unwrap(),
+        );
+        assert_eq!(a.id, b.id, "rank {rank}'s ids");
+        assert!(a.particles == b.particles, "rank {rank}'s particles");
+        held += a.id.len();
+    }
+    assert_eq!(held as u64, whole.live());
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -122,27 +150,6 @@ mod tests {
             "shares.toml",
         )
         .unwrap();
-        let whole = scene.spawn();
-        let spawn = Spawn::new(&scene);
-        let inv_dx = scene.params().inv_dx;
-        let slabs = super::super::starting_slabs(&scene, &whole, 3).unwrap();
-        assert_eq!(spawn.slots(), whole.slots());
-        assert_eq!(spawn.live(), whole.live());
-        assert_eq!(
-            spawn.layer_counts(&slabs, inv_dx).unwrap(),
-            whole.layer_counts(&slabs, inv_dx).unwrap()
-        );
-        assert_eq!(super::super::starting_slabs(&scene, &spawn, 3).unwrap(), slabs);
-        let mut held = 0;
-        for rank in 0..3 {
-            let (a, b) = (
-                spawn.share(&slabs, rank, inv_dx).unwrap(),
-                whole.share(&slabs, rank, inv_dx).unwrap(),
-            );
-            assert_eq!(a.id, b.id, "rank {rank}'s ids");
-            assert!(a.particles == b.particles, "rank {rank}'s particles");
-            held += a.id.len();
-        }
-        assert_eq!(held as u64, whole.live());
+        assert_answers_as_whole(&scene, &Spawn::new(&scene), &scene.spawn(), 3);
     }
 }
