@@ -193,6 +193,14 @@ impl<'a> SavedParticles<'a> {
     }
 }
 
+/// What a solver of one rank starts from: every particle of a checkpoint's `state`, or `scene`'s spawn.
+fn starting_particles(scene: &Scene, state: Option<SavedState>) -> Result<Particles> {
+    match state {
+        Some(saved) => Ok(saved.particles.whole()?.into_owned()),
+        None => Ok(scene.spawn()),
+    }
+}
+
 /// [`create`] with a checkpoint's state in place of the scene's start.
 pub fn restore(kind: BackendKind, scene: &Scene, saved: SavedState) -> Result<Box<dyn Solver>> {
     create_with(kind, scene, Some(saved))
@@ -206,12 +214,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
         // Refused here rather than falling back to the CPU: the user asked for the report's kernels.
         scene.check_pipeline()?;
     }
-    let initial = || -> Result<Particles> {
-        match state {
-            Some(saved) => Ok(saved.particles.whole()?.into_owned()),
-            None => Ok(scene.spawn()),
-        }
-    };
+    let initial = || starting_particles(scene, state);
     // The emitters' and sinks' state: a checkpoint's, or a fresh run's start.
     let lifecycle = || {
         scene.flow.is_active().then(|| {
@@ -230,7 +233,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
             scene.ranks,
             scene.source
         );
-        return create_ranks(kind, scene, state.map(|saved| saved.particles), lifecycle());
+        return create_ranks(kind, scene, state, lifecycle());
     }
     let parallel = || -> Result<Box<dyn Solver>> {
         Ok(Box::new(
@@ -287,12 +290,7 @@ fn create_with(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> R
 /// before any work starts, as does a scene the solver does not run yet (`Scene::check_method`).
 fn create_pbmpm(kind: BackendKind, scene: &Scene, state: Option<SavedState>) -> Result<Box<dyn Solver>> {
     scene.check_method()?;
-    let particles = || -> Result<Particles> {
-        match state {
-            Some(saved) => Ok(saved.particles.whole()?.into_owned()),
-            None => Ok(scene.spawn()),
-        }
-    };
+    let particles = || starting_particles(scene, state);
     let reference = || -> Result<Box<dyn Solver>> {
         Ok(Box::new(PbmpmSolver::new(
             particles()?,
@@ -342,15 +340,15 @@ pub fn set_starting_bodies(solver: &mut dyn Solver, scene: &Scene) -> Result<()>
     set_bodies(solver, scene, &BodiesState::at_start(start), &features)
 }
 
-/// A run split into `scene.ranks` ranks (`crate::dist`), from a checkpoint's `saved` particles or
-/// the scene's start, with the emitters' and sinks' `lifecycle` where the scene has them: CUDA
-/// solvers (on one device, or one per GPU with `scene.gpus`, or this process's with
-/// `scene.process`, which spawns its share alone; `auto` asks for them too, with no CPU fallback)
-/// or the CPU reference's ranks.
+/// A run split into `scene.ranks` ranks (`crate::dist`), from a checkpoint's `state` or the scene's
+/// start, with the emitters' and sinks' `lifecycle` where the scene has them: CUDA solvers (on one
+/// device, or one per GPU with `scene.gpus`, or this process's with `scene.process`, which spawns
+/// or reads its share alone; `auto` asks for them too, with no CPU fallback) or the CPU
+/// reference's ranks.
 fn create_ranks(
     kind: BackendKind,
     scene: &Scene,
-    saved: Option<SavedParticles>,
+    state: Option<SavedState>,
     lifecycle: Option<Lifecycle>,
 ) -> Result<Box<dyn Solver>> {
     let ranks = scene.ranks;
@@ -360,16 +358,13 @@ fn create_ranks(
             let options = CudaOptions::from_env()?;
             CudaRanks::check_gpus(scene)?;
             let flow = lifecycle.map(|lifecycle| lifecycle.state);
-            Ok(Box::new(match saved {
-                Some(particles) => CudaRanks::new(scene, particles.start(), flow.as_ref(), ranks, options)?,
+            Ok(Box::new(match state {
+                Some(saved) => CudaRanks::new(scene, saved.particles.start(), flow.as_ref(), ranks, options)?,
                 None => CudaRanks::spawn(scene, ranks, options)?,
             }))
         }
         BackendKind::Cpu => {
-            let particles = match saved {
-                Some(saved) => saved.whole()?.into_owned(),
-                None => scene.spawn(),
-            };
+            let particles = starting_particles(scene, state)?;
             Ok(Box::new(
                 CpuRanks::new(scene, particles, ranks)?.with_lifecycle(lifecycle),
             ))
