@@ -7,6 +7,7 @@
 
 use super::bins::{sort_interval, BinSchedule};
 use super::bodies::DeviceBodies;
+use super::flow::DeviceFlow;
 use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
 use super::kernels::Kernels;
@@ -21,7 +22,7 @@ use super::snapshot::SnapshotRing;
 use super::state::DeviceState;
 use super::stats::ParticleStats;
 use super::timing::PhaseEvents;
-use crate::contract::{Material, MAX_MATERIALS};
+use crate::contract::{FlowCounters, Material, MAX_MATERIALS};
 use crate::sim::colliders::bodies::{BodiesState, BodyWalls, ContactFeature, RigidBody};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
@@ -31,7 +32,7 @@ use crate::sim::{
     ScatterMode, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{ensure, Context, Result};
-use cudarc::driver::{sys, CudaEvent, CudaStream};
+use cudarc::driver::{sys, CudaEvent, CudaSlice, CudaStream};
 use std::sync::Arc;
 
 pub struct CudaSolver {
@@ -377,6 +378,55 @@ impl CudaSolver {
         // The new particles are in no bin yet.
         self.schedule.invalidate();
         Ok(())
+    }
+
+    /// A rank's lifecycle (cuda_ranks/flow.rs): the slots its sinks pushed since its free stack was
+    /// last settled, and the counters as they stand. Waits for the device.
+    pub(super) fn unsettled_drains(&self) -> Result<(FlowCounters, Vec<u32>)> {
+        self.rank_flow()?.unsettled(&self.gpu)
+    }
+
+    /// Puts `drained`, every rank's drains of a substep, in place of this rank's `own` (as
+    /// `counters` read them) and sorts them on the free stack, as one GPU settles its own.
+    pub(super) fn settle_drains(
+        &mut self,
+        counters: FlowCounters,
+        own: usize,
+        drained: &[u32],
+    ) -> Result<()> {
+        let stream = self.gpu.stream().clone();
+        let flow = self
+            .state
+            .flow
+            .as_mut()
+            .context("a rank without the run's lifecycle")?;
+        flow.replace_unsettled(&stream, counters, own, drained)?;
+        self.kernels.lifecycle.settle(&self.gpu.launcher, flow)
+    }
+
+    /// This rank's look at the nozzle points of the emitters in `mask` (nozzles_blocked), its
+    /// particles among its first `places`, into `looks` and back to the host.
+    pub(super) fn look_at_nozzles(
+        &self,
+        mask: u32,
+        places: usize,
+        looks: &mut CudaSlice<u32>,
+    ) -> Result<Vec<u32>> {
+        let (k, l) = (&self.kernels.lifecycle, &self.gpu.launcher);
+        k.nozzles_blocked(l, mask, self.rank_flow()?, (&self.state.particles, places), looks)?;
+        self.gpu.download(looks)
+    }
+
+    /// The nozzle points of the scene's emitters.
+    pub(super) fn nozzle_points(&self) -> Result<usize> {
+        Ok(self.rank_flow()?.num_points as usize)
+    }
+
+    fn rank_flow(&self) -> Result<&DeviceFlow> {
+        self.state
+            .flow
+            .as_ref()
+            .context("a rank without the run's lifecycle")
     }
 
     /// Bins the particles in the next sort phase (cuda_ranks.rs: a migration changed which places

@@ -32,12 +32,7 @@ impl CudaRanks {
         self.wait_watched()?;
         let mut unsettled = Vec::new();
         for solver in &self.solvers {
-            let flow = solver
-                .state
-                .flow
-                .as_ref()
-                .context("a rank without the run's lifecycle")?;
-            unsettled.push(flow.unsettled(&solver.gpu)?);
+            unsettled.push(solver.unsettled_drains()?);
         }
         let lengths = self.gather_words(unsettled.iter().map(|(_, own)| vec![own.len() as u64]).collect())?;
         let lengths: Vec<usize> = lengths.iter().map(|l| l[0] as usize).collect();
@@ -60,15 +55,7 @@ impl CudaRanks {
             .flat_map(|(words, &len)| words[..len].iter().map(|&slot| slot as u32))
             .collect();
         for (solver, (counters, own)) in self.solvers.iter_mut().zip(unsettled) {
-            let stream = solver.stream().clone();
-            let flow = solver
-                .state
-                .flow
-                .as_mut()
-                .context("a rank without the run's lifecycle")?;
-            flow.replace_unsettled(&stream, counters, own.len(), &drained)?;
-            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
-            k.settle(l, flow)?;
+            solver.settle_drains(counters, own.len(), &drained)?;
         }
         for (count, len) in self.counts.iter_mut().zip(&lengths) {
             *count -= len;
@@ -91,15 +78,8 @@ impl CudaRanks {
             let mut own = *params;
             own.num_particles = solver.capacity() as u32;
             solver.accept(&own)?;
-            let places = (&solver.state.particles, self.extents[local]);
-            let device = solver
-                .state
-                .flow
-                .as_ref()
-                .context("a rank without the run's lifecycle")?;
-            let (k, l) = (&solver.kernels.lifecycle, &solver.gpu.launcher);
-            k.nozzles_blocked(l, mask, device, places, &mut flow.looks[local])?;
-            looks.push(pack_bits(&solver.gpu.download(&flow.looks[local])?));
+            let look = solver.look_at_nozzles(mask, self.extents[local], &mut flow.looks[local])?;
+            looks.push(pack_bits(&look));
         }
         let looks = self.gather_words(looks)?;
         let blocked: Vec<u32> = (0..points)
@@ -157,12 +137,7 @@ impl CudaRanks {
 impl SharedFlow {
     /// The look and count buffers of each of `solvers`, ranks of a scene with emitters or sinks.
     pub(super) fn allocate(solvers: &[CudaSolver], sinks: bool) -> Result<SharedFlow> {
-        let points = solvers[0]
-            .state
-            .flow
-            .as_ref()
-            .context("a rank without the run's lifecycle")?
-            .num_points as usize;
+        let points = solvers[0].nozzle_points()?;
         let mut flow = SharedFlow {
             sinks,
             points,
