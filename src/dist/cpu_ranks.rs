@@ -118,7 +118,7 @@ impl Rank {
         let (p, store) = (&mut self.solver.particles, &mut self.store);
         let mut drained = Vec::new();
         for i in 0..p.len() {
-            if p.live[i] && flow.sinks.iter().any(|sink| sink.contains(p.x[i])) {
+            if p.live[i] && flow.in_a_sink(p.x[i]) {
                 p.live[i] = false;
                 store.parked.push(i as u32);
                 drained.push(store.id[i]);

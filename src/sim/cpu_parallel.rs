@@ -284,11 +284,11 @@ impl ParallelCpuSolver {
             return;
         }
         let p = &mut self.inner.particles;
-        let sinks = &lifecycle.flow.sinks;
+        let flow = &lifecycle.flow;
         let drained: Vec<usize> = (0..p.len())
             .into_par_iter()
             .with_min_len(MIN_PER_TASK)
-            .filter(|&i| p.live[i] && sinks.iter().any(|s| s.contains(p.x[i])))
+            .filter(|&i| p.live[i] && flow.in_a_sink(p.x[i]))
             .collect();
         for i in drained {
             p.live[i] = false;

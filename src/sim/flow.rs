@@ -92,6 +92,12 @@ impl Flow {
         !self.emitters.is_empty() || !self.sinks.is_empty()
     }
 
+    /// Whether `x` lies inside one of the sinks: a live particle that ends a substep there drains.
+    #[inline]
+    pub fn in_a_sink(&self, x: Vec3) -> bool {
+        self.sinks.iter().any(|sink| sink.contains(x))
+    }
+
     /// Nozzle points of all emitters, in emitter order.
     pub fn num_points(&self) -> usize {
         self.emitters.iter().map(|e| e.points.len()).sum()
@@ -241,7 +247,7 @@ impl Lifecycle {
     /// Parks the particle in `slot` if it ended the substep at `x` inside a sink; true if it did.
     #[inline]
     pub fn drains(&mut self, slot: usize, x: Vec3) -> bool {
-        if self.flow.sinks.iter().any(|s| s.contains(x)) {
+        if self.flow.in_a_sink(x) {
             self.state.drain(slot as u32);
             true
         } else {
