@@ -358,9 +358,17 @@ fn create_ranks(
             let options = CudaOptions::from_env()?;
             CudaRanks::check_gpus(scene)?;
             let flow = lifecycle.map(|lifecycle| lifecycle.state);
-            Ok(Box::new(match state {
-                Some(saved) => CudaRanks::new(scene, saved.particles.start(), flow.as_ref(), ranks, options)?,
-                None => CudaRanks::spawn(scene, ranks, options)?,
+            // A process of one rank starts from its share alone (read from a checkpoint's file, or
+            // spawned: `CudaRanks::spawn`); one process of every rank from the whole run.
+            Ok(Box::new(match (state, scene.process) {
+                (Some(saved), Some(_)) => {
+                    CudaRanks::new(scene, saved.particles.start(), flow.as_ref(), ranks, options)?
+                }
+                (Some(saved), None) => {
+                    let whole = saved.particles.whole()?;
+                    CudaRanks::new(scene, &*whole, flow.as_ref(), ranks, options)?
+                }
+                (None, _) => CudaRanks::spawn(scene, ranks, options)?,
             }))
         }
         BackendKind::Cpu => {

@@ -361,8 +361,9 @@ impl Checkpoint {
         self.resume_with(scene, backend, SavedParticles::Read(&self.particles))
     }
 
-    /// [`Self::resume`] from particles left in the checkpoint's file ([`Self::open`]): where the
-    /// scene runs as a process of one rank (`Scene::process`, CUDA), it reads only its share.
+    /// [`Self::resume`] from particles left in the checkpoint's file ([`Self::open`]): the backend
+    /// reads what its solver holds, a process of one CUDA rank (`Scene::process`) its share alone,
+    /// any other solver every particle.
     pub fn resume_from_file(
         &self,
         scene: Scene,
@@ -544,9 +545,7 @@ impl Checkpoint {
     /// of another format version, a truncated one and one whose checksum does not match.
     pub fn read(path: &Path) -> Result<Checkpoint> {
         let (mut checkpoint, particles) = Checkpoint::open(path)?;
-        checkpoint.particles = particles
-            .read_all()
-            .map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))?;
+        checkpoint.particles = particles.read_all()?;
         Ok(checkpoint)
     }
 
@@ -562,10 +561,10 @@ impl Checkpoint {
             ),
             _ => anyhow!("cannot read the checkpoint {}: {}", path.display(), io_reason(&e)),
         })?;
-        Checkpoint::open_file(file).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
+        Checkpoint::open_file(file, path).map_err(|e| anyhow!("checkpoint {}: {e:#}", path.display()))
     }
 
-    fn open_file(file: File) -> Result<(Checkpoint, ParticlesInFile)> {
+    fn open_file(file: File, path: &Path) -> Result<(Checkpoint, ParticlesInFile)> {
         let actual = file.metadata().context("cannot read its length")?.len();
         let mut head = vec![0u8; HEADER_BYTES.min(actual as usize)];
         file.read_exact_at(&mut head, 0)
@@ -646,7 +645,7 @@ impl Checkpoint {
         }
         .checkpoint()
         .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")?;
-        let particles = ParticlesInFile::new(file, layout, checkpoint.params.material_count)
+        let particles = ParticlesInFile::new(file, path, layout, checkpoint.params.material_count)
             .context("is damaged (its checksum matches, so it was written so: a bug of the writer)")?;
         Ok((checkpoint, particles))
     }

@@ -991,11 +991,7 @@ fn run(args: RunArgs) -> Result<()> {
     };
     // The checkpoint is read and checked first: a bad file fails before anything is created. Its
     // particles stay in the file until it is known whether this process needs them all.
-    let opened = resume.as_deref().map(Checkpoint::open).transpose()?;
-    let (mut resumed, in_file) = match opened {
-        Some((checkpoint, particles)) => (Some(checkpoint), Some(particles)),
-        None => (None, None),
-    };
+    let (resumed, in_file) = resume.as_deref().map(Checkpoint::open).transpose()?.unzip();
     let (mut scene, backend_kind) = match &resumed {
         Some(checkpoint) => (
             checkpoint.scene()?,
@@ -1019,22 +1015,9 @@ fn run(args: RunArgs) -> Result<()> {
     }
     // The simulation first: a backend that cannot run the scene (no GPU, a pipeline that refuses
     // it) fails before any output exists, so nothing is left behind to block the retry.
-    // A process of one CUDA rank reads its share of the checkpoint's particles and no more; any
-    // other run reads them all (the CPU ranks' processes each keep the run's set anyway).
-    let share_only = scene.process.is_some_and(|p| p.size > 1) && backend_kind != BackendKind::Cpu;
-    if let (Some(checkpoint), Some(particles), Some(path)) = (&mut resumed, &in_file, resume.as_deref()) {
-        if !share_only {
-            checkpoint.particles = particles
-                .read_all()
-                .with_context(|| format!("checkpoint {}", path.display()))?;
-        }
-    }
     let mut sim = match (&resumed, &in_file) {
-        (Some(checkpoint), Some(particles)) if share_only => {
-            checkpoint.resume_from_file(scene, backend_kind, particles)?
-        }
-        (Some(checkpoint), _) => checkpoint.resume(scene, backend_kind)?,
-        (None, _) => {
+        (Some(checkpoint), Some(particles)) => checkpoint.resume_from_file(scene, backend_kind, particles)?,
+        _ => {
             let solver = backend::create(backend_kind, &scene)?;
             Simulation::new(scene, solver)
         }

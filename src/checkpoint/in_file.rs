@@ -10,6 +10,7 @@ use glam::{Mat3, Vec3};
 use std::fs::File;
 use std::ops::Range;
 use std::os::unix::fs::FileExt;
+use std::path::{Path, PathBuf};
 
 // Every array is read into place as the file's little-endian words are laid out; a big-endian host
 // would need them turned (mpm runs on x86_64 and aarch64, both little-endian).
@@ -37,6 +38,8 @@ pub(super) struct ParticleLayout {
 #[derive(Debug)]
 pub struct ParticlesInFile {
     file: File,
+    /// For messages.
+    path: PathBuf,
     layout: ParticleLayout,
     live: u64,
     /// Particles a question reads at a time (CHUNK; fewer in the tests, to cross pieces).
@@ -46,9 +49,15 @@ pub struct ParticlesInFile {
 impl ParticlesInFile {
     /// The particles of `file` as `layout` places them, their live flags counted and their
     /// material rows checked against a table of `materials` rows (both read a piece at a time).
-    pub(super) fn new(file: File, layout: ParticleLayout, materials: u32) -> Result<ParticlesInFile> {
+    pub(super) fn new(
+        file: File,
+        path: &Path,
+        layout: ParticleLayout,
+        materials: u32,
+    ) -> Result<ParticlesInFile> {
         let mut particles = ParticlesInFile {
             file,
+            path: path.to_path_buf(),
             layout,
             live: 0,
             chunk: CHUNK,
@@ -112,7 +121,13 @@ impl ParticlesInFile {
                 bytemuck::cast_slice_mut(&mut items),
                 at + (range.start * size) as u64,
             )
-            .map_err(|e| anyhow!("cannot read its {what}: {}", crate::text::io_reason(&e)))?;
+            .map_err(|e| {
+                anyhow!(
+                    "cannot read the {what} of checkpoint {}: {}",
+                    self.path.display(),
+                    crate::text::io_reason(&e)
+                )
+            })?;
         Ok(items)
     }
 
