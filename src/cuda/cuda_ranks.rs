@@ -60,12 +60,10 @@
 //! stream and the sender's next work for the copy, by stream order, not by the host.
 
 use super::gpu::CudaOptions;
-use super::halo::{sum_words, HaloBuffers, HaloKernels, Planes, VELOCITY_WORDS, VOLUME_WORDS};
-use super::launch::Launcher;
+use super::halo::{Exchange, HaloBuffers, Planes};
+use super::launch::NvtxRange;
 use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
-use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
-use super::state::DeviceState;
 use super::timing::PhaseEvents;
 use crate::dist::launch::{self, Process, Watch};
 use crate::dist::migrate::{Migration, RankParticles};
@@ -76,8 +74,7 @@ use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
 use crate::sim::{
-    Params, ParticleView, Particles, Pipeline, Push, ScatterMode, Scene, Solver, StepExtremes, Summary,
-    SummaryTicket,
+    Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::{sys, CudaSlice, DevicePtr};
@@ -188,32 +185,6 @@ const SIDES: [Side; 2] = [Side::Below, Side::Above];
 enum Side {
     Below = 0,
     Above = 1,
-}
-
-/// What an exchange carries (`CudaRanks::exchange`).
-#[derive(Clone, Copy)]
-enum Exchange {
-    /// The scatter's sums on the ghost planes, to their owner (halo_sum).
-    Sums,
-    /// The grid update's velocities on the edge planes, to the neighbours' ghosts (halo_fill).
-    Velocities,
-}
-
-impl Exchange {
-    /// 32-bit words a node takes packed under `params` (kernels/halo.cu): its sums in the scatter's
-    /// width and its block mark, or one float4 of velocity and mass; and the grid's volume where the
-    /// rest densities differ.
-    fn words_per_node(self, params: &Params) -> usize {
-        let words = match self {
-            Exchange::Sums => sum_words(params.scatter_mode == ScatterMode::FixedPoint.code()),
-            Exchange::Velocities => VELOCITY_WORDS,
-        };
-        let volume = match params.volume_density {
-            0 => 0,
-            _ => VOLUME_WORDS,
-        };
-        words + volume
-    }
 }
 
 /// What carries halos and particles from rank to rank.
@@ -372,7 +343,7 @@ impl CudaRanks {
                 slabs.ranks(),
                 share.len()
             );
-            halos.push(HaloBuffers::allocate(&solver.gpu, scene.grid_res, slabs.axis)?);
+            halos.push(solver.halo_buffers(slabs.axis)?);
             strays.push(
                 solver
                     .stream()
@@ -410,7 +381,7 @@ impl CudaRanks {
             .filter(|&t| t < solvers.len())
             .unwrap_or(0);
         // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
-        let timing = PhaseEvents::new(solvers[timed].gpu.ctx.clone(), 1);
+        let timing = PhaseEvents::new(solvers[timed].context().clone(), 1);
         Ok(CudaRanks {
             carrier,
             solvers,
@@ -580,18 +551,14 @@ impl CudaRanks {
         }
     }
 
-    /// Every rank's launches of `phase` (no sort phase: its decision is each rank's), then its end.
-    fn run_phase(&mut self, phase: Phase) -> Result<()> {
+    /// Every rank's launches of `phase` (not the sort phase: its decision is each rank's): whether
+    /// any rank enqueued work.
+    fn run_phase(&mut self, phase: Phase) -> Result<bool> {
+        let mut ran = false;
         for solver in &mut self.solvers {
-            solver.run_phase(phase, false)?;
+            ran |= solver.run_phase(phase, false)?;
         }
-        self.end_phase(phase)
-    }
-
-    /// Marks the end of `phase` on the timed rank's stream.
-    fn end_phase(&mut self, phase: Phase) -> Result<()> {
-        let stream = self.solvers[self.timed].stream().clone();
-        self.timing.end_phase(&stream, phase, true)
+        Ok(ran)
     }
 
     /// Where rank `rank` meets its neighbour on `side`; `None` at the domain's ends.
@@ -628,18 +595,6 @@ impl CudaRanks {
             .collect()
     }
 
-    /// What a halo kernel on `rank` (one of this process's) launches with: the kernels, the rank's
-    /// launcher, parameters and buffers.
-    fn halo_launch(&self, rank: usize) -> (&HaloKernels, &Launcher, &Params, &DeviceState) {
-        let solver = &self.solvers[rank - self.first];
-        (
-            &solver.kernels.halo,
-            &solver.gpu.launcher,
-            &solver.params,
-            &solver.state,
-        )
-    }
-
     /// One exchange between every pair of neighbours: each rank packs its side of it into its send
     /// buffers, the carrier copies them across, each rank unpacks what arrived. The scatter's sums
     /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
@@ -647,21 +602,15 @@ impl CudaRanks {
     fn exchange(&mut self, what: Exchange) -> Result<()> {
         let links = self.links();
         for link in &links {
-            let (k, l, params, state) = self.halo_launch(link.rank);
+            let (packed, _) = link.planes(what);
             let out = &self.halos[link.rank - self.first].send[link.side as usize];
-            match what {
-                Exchange::Sums => k.pack_sums(l, params, &link.ghosts, state, out)?,
-                Exchange::Velocities => k.pack_velocities(l, params, &link.edge, state, out)?,
-            }
+            self.solvers[link.rank - self.first].pack_halo(what, packed, out)?;
         }
         self.carry(&links, what)?;
         for link in &links {
-            let (k, l, params, state) = self.halo_launch(link.rank);
+            let (_, unpacked) = link.planes(what);
             let got = &self.halos[link.rank - self.first].recv[link.side as usize];
-            match what {
-                Exchange::Sums => k.add_sums(l, params, &link.edge, got, state)?,
-                Exchange::Velocities => k.fill_velocities(l, params, &link.ghosts, got, state)?,
-            }
+            self.solvers[link.rank - self.first].unpack_halo(what, unpacked, got)?;
         }
         Ok(())
     }
@@ -670,7 +619,7 @@ impl CudaRanks {
     /// copy on the receiver's stream once every rank has packed; across GPUs NCCL's sends and
     /// receives on each rank's stream, after its packing and before its unpacking.
     fn carry(&mut self, links: &[Link], what: Exchange) -> Result<()> {
-        let params = self.solvers[0].params;
+        let params = *self.solvers[0].params();
         match &self.carrier {
             Carrier::DeviceCopy => {
                 for link in links {
@@ -817,7 +766,7 @@ impl CudaRanks {
             }
         }
         self.wait_all()?;
-        let words = solver.gpu.download(&all)?;
+        let words = solver.download_words(&all)?;
         Ok(words.chunks(len).map(<[u64]>::to_vec).collect())
     }
 
@@ -878,7 +827,7 @@ impl CudaRanks {
         self.wait_watched()?;
         let mut counts = Vec::new();
         for (solver, strays) in self.solvers.iter().zip(&self.strays) {
-            counts.push(vec![u64::from(solver.gpu.download(strays)?[0])]);
+            counts.push(vec![u64::from(solver.read_count(strays)?)]);
         }
         Ok(self.turn(Turn::Step, counts)?.iter().map(|count| count[0]).sum())
     }
@@ -888,20 +837,7 @@ impl CudaRanks {
         for (local, (solver, strays)) in self.solvers.iter().zip(&mut self.strays).enumerate() {
             let kept = self.slabs.kept_bases(self.first + local);
             let keep = (*kept.start(), *kept.end());
-            solver
-                .stream()
-                .memset_zeros(strays)
-                .context("zeroing the stray counter")?;
-            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
-            k.count_strays(
-                l,
-                &solver.params,
-                self.extents[local],
-                self.slabs.axis,
-                keep,
-                &solver.state.particles.x,
-                strays,
-            )?;
+            solver.count_strays(self.extents[local], self.slabs.axis, keep, strays)?;
         }
         Ok(())
     }
@@ -911,21 +847,7 @@ impl CudaRanks {
         let layers = self.slabs.blocks();
         let mut mine = Vec::with_capacity(self.solvers.len());
         for (solver, &places) in self.solvers.iter().zip(&self.extents) {
-            let (k, l) = (&solver.kernels.ranks, &solver.gpu.launcher);
-            let mut counts = solver
-                .stream()
-                .alloc_zeros::<u32>(layers as usize)
-                .context("allocating layer counts")?;
-            k.count_layers(
-                l,
-                &solver.params,
-                places,
-                self.slabs.axis,
-                layers,
-                &solver.state.particles.x,
-                &mut counts,
-            )?;
-            mine.push(solver.gpu.download(&counts)?.into_iter().map(u64::from).collect());
+            mine.push(solver.layer_counts(places, self.slabs.axis, layers)?);
         }
         self.gather_words(mine)
     }
@@ -1035,10 +957,7 @@ impl CudaRanks {
                 .get(&(from, to))
                 .is_none_or(|buffer| buffer.count < count)
             {
-                let sender = &self.solvers[from - self.first].state.particles;
-                let deformed = sender.deformation.is_some();
-                let stream = self.solvers[from - self.first].stream();
-                let buffer = DeviceParticles::allocate(stream, with_room(count), deformed)?;
+                let buffer = self.solvers[from - self.first].allocate_like_owned(with_room(count))?;
                 self.packing.insert((from, to), buffer);
             }
         }
@@ -1046,22 +965,16 @@ impl CudaRanks {
         for &(from, to) in &pairs {
             let (sender, count) = (&self.solvers[from - self.first], leavers(from, to));
             let buffer = &self.packing[&(from, to)];
-            let stream = sender.stream();
-            let mut moved = stream
-                .alloc_zeros::<u32>(1)
-                .context("allocating the migration counter")?;
-            let (k, l) = (&sender.kernels.ranks, &sender.gpu.launcher);
             let layers = slabs.bounds[to]..slabs.bounds[to + 1];
             let slab = (slabs.axis, slabs.blocks(), layers);
-            let walked = (&sender.state.particles, in_use[from - self.first]);
-            k.move_owned(l, &sender.params, slab, walked, (buffer, 0..count), &mut moved)?;
+            let moved = sender.pack_leavers(slab, in_use[from - self.first], buffer, count)?;
             packed.push((from, to, buffer, moved));
         }
         let mut runs = Vec::new();
         for (from, to, buffer, _) in &packed {
             let landed = self.mine().contains(to).then(|| {
                 let reserved = arrivals[to - self.first][*from].clone();
-                (&self.solvers[to - self.first].state.particles, reserved)
+                (self.solvers[to - self.first].owned(), reserved)
             });
             runs.push(Run {
                 from: *from,
@@ -1074,7 +987,7 @@ impl CudaRanks {
         for (local, arriving) in arrivals.iter().enumerate() {
             let to = self.first + local;
             for from in (0..ranks).filter(|from| !self.mine().contains(from) && leavers(*from, to) > 0) {
-                let particles = &self.solvers[local].state.particles;
+                let particles = self.solvers[local].owned();
                 runs.push(Run {
                     from,
                     to,
@@ -1086,7 +999,7 @@ impl CudaRanks {
         self.carry_particles(&runs)?;
         self.wait_all()?;
         for (from, to, _, moved) in &packed {
-            let moved = self.solvers[from - self.first].gpu.download(moved)?[0] as usize;
+            let moved = self.solvers[from - self.first].read_count(moved)? as usize;
             let expected = leavers(*from, *to);
             ensure!(
                 moved == expected,
@@ -1097,12 +1010,14 @@ impl CudaRanks {
         Ok(())
     }
 
-    /// One substep, as the table at the top of this file lists its phases.
+    /// One substep, as the table at the top of this file lists its phases: `Phase::ALL` in step
+    /// order as one GPU walks it (`CudaSolver::enqueue_substep`), every rank's launches of a phase
+    /// (pipelines.rs) enqueued before the next, the exchanges in their phases.
     fn step_ranks(&mut self, params: &Params) -> Result<()> {
         // Recorded behind the last substep's work: the sort phase holds the host's turn between.
         let timed = self.solvers[self.timed].stream().clone();
         self.timing.begin_step(&timed)?;
-        let last_dt = self.solvers[0].params.dt;
+        let last_dt = self.solvers[0].params().dt;
         self.substeps += 1;
         // Every substep starts with the host's turn (across processes, where rank 0 may call the
         // others to a gather before anything moves). Every particle starts on its owner; the
@@ -1112,33 +1027,44 @@ impl CudaRanks {
         if self.substeps > 1 && (due || strays > 0) {
             self.migrate(last_dt)?;
         }
-        for (local, solver) in self.solvers.iter_mut().enumerate() {
+        for solver in &mut self.solvers {
             let mut own = *params;
             own.num_particles = solver.capacity() as u32;
             solver.accept(&own)?;
+        }
+        for phase in Phase::ALL.into_iter().filter(|p| p.runs_on_gpu()) {
+            let _range = NvtxRange::new(phase.name());
+            let ran = match (phase, Exchange::of(phase)) {
+                (_, Some(what)) => self.exchange(what).map(|()| true)?,
+                (Phase::Sort, _) => self.sort_ranks()?,
+                (Phase::G2p, _) => {
+                    self.run_phase(phase)?;
+                    if self.flow.as_ref().is_some_and(|flow| flow.sinks) {
+                        self.share_drains()?;
+                    }
+                    self.count_strays()?;
+                    self.merged_stale = true;
+                    true
+                }
+                _ => self.run_phase(phase)?,
+            };
+            self.timing.end_phase(&timed, phase, ran)?;
+        }
+        self.timing.end_step(&timed)
+    }
+
+    /// Each rank's sort phase, where its own schedule says (a rank binning that gathers into bin
+    /// order packs its live particles to the front of its places). Timed always: it holds the
+    /// host's turn and any migration.
+    fn sort_ranks(&mut self) -> Result<bool> {
+        for (local, solver) in self.solvers.iter_mut().enumerate() {
             let sort = solver.sort_due();
             solver.run_phase(Phase::Sort, sort)?;
-            // A binning that gathers into bin order packs the live particles first.
             if sort && solver.keeps_bin_order() {
                 self.extents[local] = self.counts[self.first + local];
             }
         }
-        self.end_phase(Phase::Sort)?;
-        self.run_phase(Phase::P2gInit)?;
-        self.exchange(Exchange::Sums)?;
-        self.end_phase(Phase::HaloSum)?;
-        self.run_phase(Phase::GridUpdate)?;
-        self.exchange(Exchange::Velocities)?;
-        self.end_phase(Phase::HaloFill)?;
-        for solver in &mut self.solvers {
-            solver.run_phase(Phase::G2p, false)?;
-        }
-        if self.flow.as_ref().is_some_and(|flow| flow.sinks) {
-            self.share_drains()?;
-        }
-        self.count_strays()?;
-        self.merged_stale = true;
-        self.end_phase(Phase::G2p)
+        Ok(true)
     }
 
     /// Each rank's step counters (`StepCounters`, contract/items.rs) reduced over every rank in
@@ -1159,7 +1085,7 @@ impl CudaRanks {
         comms[0].nccl().group(|| {
             for (comm, solver) in comms.iter().zip(&self.solvers) {
                 let stream = solver.stream();
-                let (base, _) = solver.state.counters.device.device_ptr(stream);
+                let base = solver.step_counters_at();
                 for (first, words, op) in REDUCED {
                     let at = base + 4 * first;
                     // SAFETY: the counters are eight u32 words on this rank's device, alive with
@@ -1182,7 +1108,7 @@ impl CudaRanks {
         let extents = self.gather_words(self.extents.iter().map(|&e| vec![e as u64]).collect())?;
         let root_here = self.first == 0;
         if root_here && self.merged.is_none() {
-            let first = &self.solvers[0].gpu;
+            let first = &self.solvers[0];
             first.ensure_fits(
                 self.slots * STATE_BYTES_PER_PARTICLE,
                 &format!(
@@ -1197,8 +1123,7 @@ impl CudaRanks {
         }
         // Slots that no rank holds (drained, or never emitted yet) read as parked.
         if let (true, Some(merged), Some(_)) = (root_here, &self.merged, &self.flow) {
-            let root = &self.solvers[0];
-            root.kernels.ranks.park_slots(&root.gpu.launcher, merged)?;
+            self.solvers[0].park_readers(merged)?;
         }
         let direct = matches!(self.carrier, Carrier::DeviceCopy);
         let extents: Vec<usize> = extents.iter().map(|e| e[0] as usize).collect();
@@ -1208,13 +1133,7 @@ impl CudaRanks {
             .max();
         if let (true, Some(most)) = (root_here, carried) {
             if self.landing.as_ref().is_none_or(|landing| landing.count < most) {
-                let root = &self.solvers[0];
-                let deformed = root.state.particles.deformation.is_some();
-                self.landing = Some(DeviceParticles::allocate(
-                    root.stream(),
-                    with_room(most),
-                    deformed,
-                )?);
+                self.landing = Some(self.solvers[0].allocate_like_owned(with_room(most))?);
             }
         }
         self.wait_all()?;
@@ -1226,12 +1145,11 @@ impl CudaRanks {
             let root = &self.solvers[0];
             if root_here && (rank == 0 || direct) {
                 let merged = self.merged.as_ref().context("the readers' set is made above")?;
-                let (k, l) = (&root.kernels.ranks, &root.gpu.launcher);
-                k.take_owned(l, &self.solvers[rank].state.particles, extent, merged)?;
+                root.take_into_readers(self.solvers[rank].owned(), extent, merged)?;
                 continue;
             }
             let landing = self.landing.as_ref().filter(|_| root_here);
-            let sent = here.then(|| (&self.solvers[rank - self.first].state.particles, 0..extent));
+            let sent = here.then(|| (self.solvers[rank - self.first].owned(), 0..extent));
             let run = Run {
                 from: rank,
                 to: 0,
@@ -1240,8 +1158,7 @@ impl CudaRanks {
             };
             self.carry_particles(&[run])?;
             if let (Some(landing), Some(merged)) = (landing, &self.merged) {
-                let (k, l) = (&root.kernels.ranks, &root.gpu.launcher);
-                k.take_owned(l, landing, extent, merged)?;
+                root.take_into_readers(landing, extent, merged)?;
             }
             // The landing set is free again once its copy into `merged` is done.
             self.wait_all()?;
@@ -1369,14 +1286,20 @@ struct Link {
 }
 
 impl Link {
-    /// The 32-bit words this rank sends and receives on the link for `what`: its ghost planes' sums go
-    /// out and its edge planes' come in; its edge planes' velocities go out and its ghosts' come in.
-    fn words(&self, what: Exchange, params: &Params) -> (usize, usize) {
-        let res = params.grid_res;
-        let (send, recv) = match what {
+    /// The planes this rank packs for the link in `what` and those it unpacks into: its ghost
+    /// planes' sums go out and come in on its edge planes; its edge planes' velocities go out and
+    /// come in over its ghosts.
+    fn planes(&self, what: Exchange) -> (&Planes, &Planes) {
+        match what {
             Exchange::Sums => (&self.ghosts, &self.edge),
             Exchange::Velocities => (&self.edge, &self.ghosts),
-        };
+        }
+    }
+
+    /// The 32-bit words this rank sends and receives on the link for `what`.
+    fn words(&self, what: Exchange, params: &Params) -> (usize, usize) {
+        let res = params.grid_res;
+        let (send, recv) = self.planes(what);
         let words = what.words_per_node(params);
         (words * send.nodes(res), words * recv.nodes(res))
     }
@@ -1570,11 +1493,7 @@ impl Solver for CudaRanks {
     fn particles(&self) -> ParticleView<'_> {
         let rank0 = &self.solvers[0];
         match &self.merged {
-            Some(merged) => ParticleView::Device(Box::new(DeviceParticlesView::new(
-                &rank0.gpu,
-                &rank0.kernels.render_attributes,
-                merged,
-            ))),
+            Some(merged) => ParticleView::Device(Box::new(rank0.view_of(merged))),
             None => ParticleView::Host(&self.unpublished),
         }
     }
@@ -1585,7 +1504,7 @@ impl Solver for CudaRanks {
             .merged
             .as_ref()
             .context("the ranks' particles were never gathered")?;
-        merged.download(&self.solvers[0].gpu)
+        self.solvers[0].download_set(merged)
     }
 
     /// Each rank's statistics kernel over its own particles, on its GPU, in stream order: the

@@ -1,14 +1,14 @@
 //! kernels/halo.cu: the two ends of the ghost exchange on one rank's grid (the scatter's ghost sums
 //! packed for their owner and added to its edge planes; the owner's updated edge planes packed and
-//! written over the neighbours' ghosts) and the buffers a carrier moves between ranks. `ranks.rs`
-//! runs them; `dist::halo` is the CPU's version.
+//! written over the neighbours' ghosts) and the buffers a carrier moves between ranks. A rank's
+//! solver runs them (as_rank.rs), where cuda_ranks.rs asks; `dist::halo` is the CPU's version.
 
 use super::gpu::Gpu;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
 use super::state::{DeviceState, StateArgs};
 use crate::dist::slabs::BLOCK;
-use crate::sim::Params;
+use crate::sim::{Params, Phase, ScatterMode};
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, LaunchArgs, PushKernelArg};
 use std::ops::Range;
@@ -28,6 +28,41 @@ pub const VELOCITY_WORDS: usize = 4;
 /// 32-bit words per node added to either where the rest densities differ: the grid's volume, 64
 /// bits.
 pub const VOLUME_WORDS: usize = 2;
+
+/// What an exchange carries (cuda_ranks.rs: `CudaRanks::exchange`).
+#[derive(Clone, Copy)]
+pub enum Exchange {
+    /// The scatter's sums on the ghost planes, to their owner (halo_sum).
+    Sums,
+    /// The grid update's velocities on the edge planes, to the neighbours' ghosts (halo_fill).
+    Velocities,
+}
+
+impl Exchange {
+    /// The exchange of `phase`, one of the two (`Phase::is_exchange`).
+    pub fn of(phase: Phase) -> Option<Exchange> {
+        match phase {
+            Phase::HaloSum => Some(Exchange::Sums),
+            Phase::HaloFill => Some(Exchange::Velocities),
+            _ => None,
+        }
+    }
+
+    /// 32-bit words a node takes packed under `params` (kernels/halo.cu): its sums in the scatter's
+    /// width and its block mark, or one float4 of velocity and mass; and the grid's volume where the
+    /// rest densities differ.
+    pub fn words_per_node(self, params: &Params) -> usize {
+        let words = match self {
+            Exchange::Sums => sum_words(params.scatter_mode == ScatterMode::FixedPoint.code()),
+            Exchange::Velocities => VELOCITY_WORDS,
+        };
+        let volume = match params.volume_density {
+            0 => 0,
+            _ => VOLUME_WORDS,
+        };
+        words + volume
+    }
+}
 
 pub struct HaloKernels {
     pack_sums: Kernel,

@@ -21,7 +21,8 @@
 //! through that table phase by phase (`Phase::ALL`) and answers what a frame asks of a solver;
 //! `inspect` is the kernel tests' view of it. [`cuda_ranks::CudaRanks`] runs several solvers as
 //! the ranks of one run, each over its slab (`crate::dist`), with the ghost exchanges between their
-//! phases. [`interop`] registers the renderer's GL buffers with CUDA.
+//! phases; it asks each solver only what `as_rank` lets it (a rank's halo ends, its counts, its
+//! particles for the carriers), never its buffers. [`interop`] registers the renderer's GL buffers with CUDA.
 
 // The bottom: one GPU and the buffers it holds. None of these imports a kernel's host file.
 pub mod bin_lists;
@@ -67,6 +68,7 @@ pub mod volume;
 
 // On top: the kernel table, which pipeline runs what in each phase, and the substep, on one GPU or
 // as several ranks.
+mod as_rank;
 pub mod cuda_ranks;
 mod inspect;
 pub mod kernels;

@@ -119,7 +119,7 @@ impl CudaRanks {
         }
         let mut appended = Vec::new();
         for (solver, count) in self.solvers.iter().zip(&flow.appended) {
-            appended.push(vec![u64::from(solver.gpu.download(count)?[0])]);
+            appended.push(vec![u64::from(solver.read_count(count)?)]);
         }
         let appended = self.gather_words(appended)?;
         for (local, extent) in self.extents.iter_mut().enumerate() {
