@@ -15,18 +15,19 @@
 //! The fused pipeline scatters the next substep inside one_pass, so the ghost sums travel at the
 //! start of the substep that uses them, before the walls' mirror.
 //!
-//! **Where the ranks run** (`Scene::gpus`, `Scene::process`). On one GPU every rank runs on device
-//! `CudaOptions::device` and the carrier is a device copy on the receiver's stream. On several GPUs
-//! of this process, rank r runs on device r; with `--processes`, this process drives its one rank
-//! on the GPU of its local rank. Between GPUs everything travels by NCCL's send and receive (every
-//! rank's of this process posted in one group by the one thread that drives them): halos, migrants,
-//! the readers' set. Nothing writes into another rank's memory, so the GPUs need no peer access.
+//! **Where the ranks run** (`Scene::gpus`, `Scene::process`), and what joins them (the `Transport`,
+//! cuda_ranks/transport.rs). On one GPU every rank runs on device `CudaOptions::device`, joined by
+//! device copies on the receiver's stream. On several GPUs of this process, rank r runs on device
+//! r; with `--processes`, this process drives its one rank on the GPU of its local rank. Between
+//! GPUs everything travels by NCCL's send and receive (every rank's of this process posted in one
+//! group by the one thread that drives them): halos, migrants, the readers' set. Each rank is asked
+//! for its part through its solver (as_rank.rs), never reached into.
 //!
 //! **The host's exchanges between processes.** What the host decides from every rank's numbers
 //! (the stray counts, the layer counts a migration is planned from, the statistics) comes from an
 //! all-gather, on each process alike, so each plans the same migration; the extremes the time step
 //! is chosen from are all-reduced on the device, in stream order, before their copy to the host
-//! (`reduce_counters`), so each picks the same step. Each exchange starts with a word saying what
+//! (`Transport::reduce_counters`), so each picks the same step. Each exchange starts with a word saying what
 //! it is for (`Turn`): rank 0 alone writes the outputs, and calls the others to send it their
 //! particles (`Turn::Gather`) at whichever exchange they wait in next; every substep opens with
 //! one, so the others are called before they step on. A process waiting on the others
@@ -67,7 +68,7 @@ use super::solver::CudaSolver;
 use super::timing::PhaseEvents;
 use crate::dist::launch::{self, Process, Watch};
 use crate::dist::migrate::{Migration, RankParticles};
-use crate::dist::nccl::{Comm, DataType, Nccl, Reduction, UniqueId};
+use crate::dist::nccl::{Comm, Nccl, UniqueId};
 use crate::dist::{check_ranks, starting_slabs, Slabs, Spawn, Start, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
@@ -77,27 +78,24 @@ use crate::sim::{
     Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{bail, ensure, Context, Result};
-use cudarc::driver::{sys, CudaSlice, DevicePtr};
-use std::cell::Cell;
+use cudarc::driver::CudaSlice;
 use std::collections::{HashMap, VecDeque};
 use std::ops::Range;
 use std::time::{Duration, Instant};
 
 mod flow;
+mod transport;
 use flow::SharedFlow;
+use transport::{DeviceCopies, NcclInProcess, NcclPerProcess, Transport};
 
 pub struct CudaRanks {
-    /// Before the solvers: NCCL's communicators go while their devices are still open.
-    carrier: Carrier,
+    /// What joins the ranks (transport.rs). Before the solvers: NCCL's communicators go while their
+    /// devices are still open.
+    transport: Box<dyn Transport>,
     /// The ranks this process drives: every rank of the run, or with `--processes` its one.
     solvers: Vec<CudaSolver>,
     /// The run's rank of `solvers[0]`: the others follow it.
     first: usize,
-    /// With `--processes`: the other processes' heartbeats, watched while waiting on them.
-    watch: Option<Watch>,
-    /// A wait on the other processes failed: their communicators are aborted, not destroyed (a
-    /// destroy would wait for transfers that will never come).
-    failed: Cell<bool>,
     halos: Vec<HaloBuffers>,
     slabs: Slabs,
     /// The walls' mirror planes along the slab axis, low and high (`Slabs::rebalanced`).
@@ -187,13 +185,13 @@ enum Side {
     Above = 1,
 }
 
-/// What carries halos and particles from rank to rank.
-enum Carrier {
-    /// Every rank on one GPU: a device copy into the receiver's buffer.
-    DeviceCopy,
-    /// A rank per GPU: NCCL's send and receive, one communicator per rank of this process (its
-    /// `rank` the run's).
-    Nccl(Vec<Comm>),
+impl Side {
+    fn opposite(self) -> Side {
+        match self {
+            Side::Below => Side::Above,
+            Side::Above => Side::Below,
+        }
+    }
 }
 
 /// What a host-side exchange between the processes of a run is for, its first word: each process
@@ -361,18 +359,18 @@ impl CudaRanks {
             let owned = slabs.bounds[rank] as usize..slabs.bounds[rank + 1] as usize;
             *count = layers[owned].iter().sum::<u64>() as usize;
         }
-        let (carrier, watch) = match scene.process {
+        let transport: Box<dyn Transport> = match scene.process {
             Some(process) => {
                 let (comm, watch) = join_processes(&process, &solvers[0])?;
-                (Carrier::Nccl(vec![comm]), Some(watch))
+                Box::new(NcclPerProcess::new(comm, watch))
             }
             None if scene.gpus > 1 => {
                 let comms = Comm::init_all(Nccl::get()?, &devices).with_context(|| {
                     format!("joining the {} GPUs in one NCCL communicator", devices.len())
                 })?;
-                (Carrier::Nccl(comms), None)
+                Box::new(NcclInProcess { comms })
             }
-            None => (Carrier::DeviceCopy, None),
+            None => Box::new(DeviceCopies),
         };
         // The timed rank is one of this process's: with a process per rank, its own.
         let timed = options
@@ -383,11 +381,9 @@ impl CudaRanks {
         // Every substep's phases: the ranks' run no graphs, and their exchanges are what is watched.
         let timing = PhaseEvents::new(solvers[timed].context().clone(), 1);
         Ok(CudaRanks {
-            carrier,
+            transport,
             solvers,
             first: mine.start,
-            watch,
-            failed: Cell::new(false),
             halos,
             walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
             slabs,
@@ -439,13 +435,7 @@ impl CudaRanks {
     /// The device's name, and how many ranks share it or how many GPUs the ranks run on.
     pub fn device_name(&self) -> String {
         let (name, ranks) = (self.solvers[0].device_name(), self.slabs.ranks());
-        match (&self.carrier, &self.watch) {
-            (Carrier::DeviceCopy, _) => format!("{name}, {ranks} ranks"),
-            (Carrier::Nccl(_), None) => format!("{ranks} x {name}, a rank each (NCCL)"),
-            (Carrier::Nccl(_), Some(_)) => {
-                format!("{name}, rank {} of {ranks}, a process each (NCCL)", self.first)
-            }
-        }
+        self.transport.joined(&name, ranks, self.first)
     }
 
     /// The slabs as they stand (they move when the counts drift out of balance).
@@ -476,79 +466,12 @@ impl CudaRanks {
 
     /// Whether this process drives every rank of the run.
     fn in_one_process(&self) -> bool {
-        self.watch.is_none()
+        self.transport.in_one_process()
     }
 
     /// This process's ranks, as the run numbers them.
     fn mine(&self) -> Range<usize> {
         self.first..self.first + self.solvers.len()
-    }
-
-    /// The host waits for every rank of this process; with a process per rank, watching the
-    /// others' heartbeats while it waits (a transfer from a rank that died never ends).
-    fn wait_all(&self) -> Result<()> {
-        if self.in_one_process() {
-            return wait_for(&self.solvers);
-        }
-        for solver in &self.solvers {
-            // SAFETY: queries a live stream of this process.
-            self.watch_until(
-                &mut || match unsafe { sys::cuStreamQuery(solver.stream().cu_stream()) } {
-                    sys::CUresult::CUDA_SUCCESS => Ok(true),
-                    sys::CUresult::CUDA_ERROR_NOT_READY => Ok(false),
-                    error => bail!("its GPU failed while waiting on the other ranks: {error:?}"),
-                },
-            )?;
-        }
-        Ok(())
-    }
-
-    /// Polls `done` until it says so, looking at the other processes' heartbeats every second; a
-    /// rank gone or silent, a wait past `MPM_RANK_TIMEOUT`, or an error of `done` marks this
-    /// process failed (its communicators are then aborted) and names it.
-    fn watch_until(&self, done: &mut dyn FnMut() -> Result<bool>) -> Result<()> {
-        let watch = self.watch.as_ref().context("a wait watched without a watch")?;
-        let start = Instant::now();
-        let mut next_look = Duration::from_secs(1);
-        let failed = |why: anyhow::Error| {
-            self.failed.set(true);
-            why.context(format!("rank {}", self.first))
-        };
-        loop {
-            if done().map_err(failed)? {
-                return Ok(());
-            }
-            let waited = start.elapsed();
-            if waited > next_look {
-                next_look += Duration::from_secs(1);
-                watch.check().map_err(failed)?;
-                if waited > watch.timeout {
-                    return Err(failed(anyhow::anyhow!(
-                        "waited {} s on the other ranks, which all still run: one of them hangs \
-                         (MPM_RANK_TIMEOUT sets the limit)",
-                        waited.as_secs()
-                    )));
-                }
-            }
-            // A substep's wait is a fraction of a millisecond: spin through it, as the driver's own
-            // waits do (yielding the thread instead measured the same, BENCHMARKS.md M29); a long
-            // one (rank 0 writing a checkpoint) sleeps between looks.
-            if waited > Duration::from_millis(20) {
-                std::thread::sleep(Duration::from_micros(200));
-            } else {
-                std::hint::spin_loop();
-            }
-        }
-    }
-
-    /// With a process per rank, the host waits for this process's rank before it waits on a
-    /// download or an event of its own: a wait that watches the others (`wait_all`), where the
-    /// rank's stream holds transfers from them. In one process, nothing: the plain waits follow.
-    fn wait_watched(&self) -> Result<()> {
-        match self.in_one_process() {
-            true => Ok(()),
-            false => self.wait_all(),
-        }
     }
 
     /// Every rank's launches of `phase` (not the sort phase: its decision is each rank's): whether
@@ -606,168 +529,14 @@ impl CudaRanks {
             let out = &self.halos[link.rank - self.first].send[link.side as usize];
             self.solvers[link.rank - self.first].pack_halo(what, packed, out)?;
         }
-        self.carry(&links, what)?;
+        self.transport
+            .carry_halos(&self.solvers, &mut self.halos, &links, what)?;
         for link in &links {
             let (_, unpacked) = link.planes(what);
             let got = &self.halos[link.rank - self.first].recv[link.side as usize];
             self.solvers[link.rank - self.first].unpack_halo(what, unpacked, got)?;
         }
         Ok(())
-    }
-
-    /// Carries every rank's packed send buffers to its neighbours' receive buffers: on one GPU a
-    /// copy on the receiver's stream once every rank has packed; across GPUs NCCL's sends and
-    /// receives on each rank's stream, after its packing and before its unpacking.
-    fn carry(&mut self, links: &[Link], what: Exchange) -> Result<()> {
-        let params = *self.solvers[0].params();
-        match &self.carrier {
-            Carrier::DeviceCopy => {
-                for link in links {
-                    let (words, _) = link.words(what, &params);
-                    let (from, to) = pair(&mut self.halos, link.rank, link.neighbour);
-                    let src = from.send[link.side as usize].slice(..words);
-                    let mut dst = to.recv[opposite(link.side) as usize].slice_mut(..words);
-                    let (sender, receiver) = (
-                        self.solvers[link.rank].stream(),
-                        self.solvers[link.neighbour].stream(),
-                    );
-                    // The copy after the sender's packing; the sender's next packing after the copy.
-                    receiver
-                        .join(sender)
-                        .context("ordering a halo's copy after its packing")?;
-                    receiver
-                        .memcpy_dtod(&src, &mut dst)
-                        .context("carrying a halo between ranks")?;
-                    sender
-                        .join(receiver)
-                        .context("ordering a halo's packing after its copy")?;
-                }
-                Ok(())
-            }
-            Carrier::Nccl(comms) => comms[0].nccl().group(|| {
-                for (comm, (solver, halo)) in comms.iter().zip(self.solvers.iter().zip(&self.halos)) {
-                    let stream = solver.stream();
-                    let mut sends = Vec::new();
-                    let mut recvs = Vec::new();
-                    // The pointers stay valid: the buffers live as long as the ranks.
-                    for link in links.iter().filter(|link| link.rank == comm.rank) {
-                        let (send_words, recv_words) = link.words(what, &params);
-                        let side = link.side as usize;
-                        let (send, _) = halo.send[side].device_ptr(stream);
-                        let (recv, _) = halo.recv[side].device_ptr(stream);
-                        sends.push((link.neighbour, send, send_words));
-                        recvs.push((link.neighbour, recv, recv_words));
-                    }
-                    // SAFETY: each buffer holds a block of planes of packed sums, more than either
-                    // count; the neighbour posts the matching receive and send in this group, from
-                    // its own side of the same link.
-                    unsafe {
-                        comm.send_recv(&sends, &recvs, DataType::U32, stream.cu_stream().cast())?;
-                    }
-                }
-                Ok(())
-            }),
-        }
-    }
-
-    /// Carries each run of particles from its sender's set to its receiver's: on one GPU a copy of
-    /// each array on the receiver's stream after the sender's, across GPUs NCCL's sends and
-    /// receives of each array (this process posting its ranks' ends of them).
-    fn carry_particles(&self, runs: &[Run]) -> Result<()> {
-        let stream_of = |rank: usize| self.solvers[rank - self.first].stream();
-        match &self.carrier {
-            Carrier::DeviceCopy => {
-                for run in runs {
-                    let (Some((from, sent)), Some((to, landed))) = (&run.sent, &run.landed) else {
-                        bail!(
-                            "a run of particles from rank {} to rank {} lacks an end",
-                            run.from,
-                            run.to
-                        );
-                    };
-                    let (sender, receiver) = (stream_of(run.from), stream_of(run.to));
-                    receiver
-                        .join(sender)
-                        .context("ordering a particle copy after its packing")?;
-                    let pieces = from.segments(sender, sent.clone())?;
-                    let into = to.segments(receiver, landed.clone())?;
-                    for (&(src, words), &(dst, _)) in pieces.iter().zip(&into) {
-                        // SAFETY: both ranges lie in live buffers of this device (`segments`
-                        // checked the places), of equal lengths as runs of one length.
-                        unsafe {
-                            cudarc::driver::result::memcpy_dtod_async(
-                                dst,
-                                src,
-                                4 * words,
-                                receiver.cu_stream(),
-                            )
-                        }
-                        .context("copying particles between ranks")?;
-                    }
-                    sender
-                        .join(receiver)
-                        .context("ordering a sender's next work after its copy")?;
-                }
-                Ok(())
-            }
-            Carrier::Nccl(comms) => comms[0].nccl().group(|| {
-                for comm in comms {
-                    let stream = stream_of(comm.rank);
-                    let mut sends = Vec::new();
-                    let mut recvs = Vec::new();
-                    for run in runs {
-                        if let (Some((from, places)), true) = (&run.sent, run.from == comm.rank) {
-                            let pieces = from.segments(stream, places.clone())?;
-                            sends.extend(pieces.into_iter().map(|(at, words)| (run.to, at, words)));
-                        }
-                        if let (Some((to, places)), true) = (&run.landed, run.to == comm.rank) {
-                            let pieces = to.segments(stream, places.clone())?;
-                            recvs.extend(pieces.into_iter().map(|(at, words)| (run.from, at, words)));
-                        }
-                    }
-                    // SAFETY: `segments` checked every range against its set, which outlives the
-                    // transfers (the caller waits for them); the other end posts the same runs'
-                    // ranges, of the same lengths, in the same order.
-                    unsafe {
-                        comm.send_recv(&sends, &recvs, DataType::U32, stream.cu_stream().cast())?;
-                    }
-                }
-                Ok(())
-            }),
-        }
-    }
-
-    /// Every rank's `words` (one list per rank of this process, of one length on every rank), on
-    /// every process, in rank order: here already where this process drives every rank, else
-    /// gathered by NCCL.
-    fn gather_words(&self, mine: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
-        if self.in_one_process() {
-            return Ok(mine);
-        }
-        let Carrier::Nccl(comms) = &self.carrier else {
-            bail!("ranks in processes of their own exchange over NCCL");
-        };
-        let (solver, len) = (&self.solvers[0], mine[0].len());
-        let (rank, ranks) = (self.first, self.slabs.ranks());
-        let stream = solver.stream();
-        let mut all = stream
-            .alloc_zeros::<u64>(len * ranks)
-            .context("allocating the gathered words")?;
-        stream
-            .memcpy_htod(&mine[0], &mut all.slice_mut(rank * len..(rank + 1) * len))
-            .context("uploading words to gather")?;
-        {
-            let (base, _) = all.device_ptr(stream);
-            let at = |r: usize| base + (r * len * std::mem::size_of::<u64>()) as u64;
-            // SAFETY: `all` holds `len` words per rank, this rank's at its place (NCCL's in-place
-            // gather), alive until the waits below; every rank gathers the same length.
-            unsafe {
-                comms[0].all_gather((at(rank), base), len, DataType::U64, stream.cu_stream().cast())?;
-            }
-        }
-        self.wait_all()?;
-        let words = solver.download_words(&all)?;
-        Ok(words.chunks(len).map(<[u64]>::to_vec).collect())
     }
 
     /// A host-side exchange of `turn` between this process's ranks and the others: every rank's
@@ -794,7 +563,9 @@ impl CudaRanks {
             let mut words = vec![0; TURN_WORDS];
             words[0] = turn as u64;
             words[1..=len].copy_from_slice(&payload[0]);
-            let all = self.gather_words(vec![words])?;
+            let all = self
+                .transport
+                .gather_words(&self.solvers, self.first, vec![words])?;
             let called = Turn::of(all[0][0]);
             if called == Some(Turn::Gather) && turn != Turn::Gather {
                 self.take_owned()?;
@@ -824,7 +595,7 @@ impl CudaRanks {
     /// Particles the last g2p left where one more substep could carry them past their rank's ghost
     /// planes (`Slabs::keeps`), all ranks together: the step's turn.
     fn strays(&mut self) -> Result<u64> {
-        self.wait_watched()?;
+        self.transport.wait_watched(&self.solvers)?;
         let mut counts = Vec::new();
         for (solver, strays) in self.solvers.iter().zip(&self.strays) {
             counts.push(vec![u64::from(solver.read_count(strays)?)]);
@@ -849,7 +620,7 @@ impl CudaRanks {
         for (solver, &places) in self.solvers.iter().zip(&self.extents) {
             mine.push(solver.layer_counts(places, self.slabs.axis, layers)?);
         }
-        self.gather_words(mine)
+        self.transport.gather_words(&self.solvers, self.first, mine)
     }
 
     /// Moves the slabs if the counts are out of balance, then every live particle to the rank that
@@ -996,8 +767,8 @@ impl CudaRanks {
                 });
             }
         }
-        self.carry_particles(&runs)?;
-        self.wait_all()?;
+        self.transport.carry_particles(&self.solvers, self.first, &runs)?;
+        self.transport.wait_all(&self.solvers)?;
         for (from, to, _, moved) in &packed {
             let moved = self.solvers[from - self.first].read_count(moved)? as usize;
             let expected = leavers(*from, *to);
@@ -1067,45 +838,17 @@ impl CudaRanks {
         Ok(true)
     }
 
-    /// Each rank's step counters (`StepCounters`, contract/items.rs) reduced over every rank in
-    /// place, in stream order, as `StepExtremes::merge` joins them on the host: the largest density,
-    /// speed and signal speed, the fixed-point overflows and backstop pushes summed. The binned
-    /// pipeline's words (a rebin asked for, tile misses) stay each rank's own.
-    fn reduce_counters(&self) -> Result<()> {
-        let Carrier::Nccl(comms) = &self.carrier else {
-            bail!("ranks in processes of their own reduce over NCCL");
-        };
-        // (first word, words, reduction) of the eight u32 words.
-        const REDUCED: [(u64, usize, Reduction); 4] = [
-            (0, 2, Reduction::Max),
-            (2, 1, Reduction::Sum),
-            (3, 1, Reduction::Max),
-            (6, 1, Reduction::Sum),
-        ];
-        comms[0].nccl().group(|| {
-            for (comm, solver) in comms.iter().zip(&self.solvers) {
-                let stream = solver.stream();
-                let base = solver.step_counters_at();
-                for (first, words, op) in REDUCED {
-                    let at = base + 4 * first;
-                    // SAFETY: the counters are eight u32 words on this rank's device, alive with
-                    // the solver; every rank reduces the same words in the same order.
-                    unsafe {
-                        comm.all_reduce((at, at), words, DataType::U32, op, stream.cu_stream().cast())?;
-                    }
-                }
-            }
-            Ok(())
-        })
-    }
-
     /// Every rank's particles to their slots in `merged` (made on rank 0's GPU the first time):
     /// rank 0's, and on one GPU every rank's, straight from its own set; the others' carried to rank
     /// 0 first, one rank at a time. Each process's part is waited for (no rank may write its
     /// particles while they are read). Every slot is live on one rank, so every slot is written.
     /// With a process per rank, every process comes here together (`Turn::Gather`).
     fn take_owned(&mut self) -> Result<()> {
-        let extents = self.gather_words(self.extents.iter().map(|&e| vec![e as u64]).collect())?;
+        let extents = self.transport.gather_words(
+            &self.solvers,
+            self.first,
+            self.extents.iter().map(|&e| vec![e as u64]).collect(),
+        )?;
         let root_here = self.first == 0;
         if root_here && self.merged.is_none() {
             let first = &self.solvers[0];
@@ -1125,7 +868,7 @@ impl CudaRanks {
         if let (true, Some(merged), Some(_)) = (root_here, &self.merged, &self.flow) {
             self.solvers[0].park_readers(merged)?;
         }
-        let direct = matches!(self.carrier, Carrier::DeviceCopy);
+        let direct = self.transport.reads_in_place();
         let extents: Vec<usize> = extents.iter().map(|e| e[0] as usize).collect();
         let carried = (1..extents.len())
             .filter(|_| !direct)
@@ -1136,7 +879,7 @@ impl CudaRanks {
                 self.landing = Some(self.solvers[0].allocate_like_owned(with_room(most))?);
             }
         }
-        self.wait_all()?;
+        self.transport.wait_all(&self.solvers)?;
         for (rank, &extent) in extents.iter().enumerate() {
             let here = self.mine().contains(&rank);
             if !root_here && !here {
@@ -1156,14 +899,15 @@ impl CudaRanks {
                 sent,
                 landed: landing.map(|set| (set, 0..extent)),
             };
-            self.carry_particles(&[run])?;
+            self.transport
+                .carry_particles(&self.solvers, self.first, &[run])?;
             if let (Some(landing), Some(merged)) = (landing, &self.merged) {
                 root.take_into_readers(landing, extent, merged)?;
             }
             // The landing set is free again once its copy into `merged` is done.
-            self.wait_all()?;
+            self.transport.wait_all(&self.solvers)?;
         }
-        self.wait_all()?;
+        self.transport.wait_all(&self.solvers)?;
         self.merged_stale = false;
         Ok(())
     }
@@ -1183,17 +927,6 @@ impl CudaRanks {
         self.turn(Turn::Gather, none)?;
         self.take_owned()
     }
-}
-
-/// The host waits for every rank's stream.
-fn wait_for(solvers: &[CudaSolver]) -> Result<()> {
-    for solver in solvers {
-        solver
-            .stream()
-            .synchronize()
-            .context("waiting for a rank (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-    }
-    Ok(())
 }
 
 /// The places a rank holding `live` particles allocates: an eighth more and a few blocks' worth,
@@ -1305,24 +1038,6 @@ impl Link {
     }
 }
 
-fn opposite(side: Side) -> Side {
-    match side {
-        Side::Below => Side::Above,
-        Side::Above => Side::Below,
-    }
-}
-
-/// Two distinct ranks' halo buffers, one to read and one to write.
-fn pair(halos: &mut [HaloBuffers], from: usize, to: usize) -> (&HaloBuffers, &mut HaloBuffers) {
-    if from < to {
-        let (low, high) = halos.split_at_mut(to);
-        (&low[from], &mut high[0])
-    } else {
-        let (low, high) = halos.split_at_mut(from);
-        (&high[0], &mut low[to])
-    }
-}
-
 /// A rank's statistics as the words of a turn, and back.
 fn summary_words(s: &Summary) -> Vec<u64> {
     let bits = |x: f32| u64::from(x.to_bits());
@@ -1352,19 +1067,11 @@ fn summary_of(words: &[u64]) -> Summary {
 }
 
 impl Drop for CudaRanks {
-    /// After a failed wait on the other processes, and with a process per rank always (this one
-    /// may be dropped on an error the others do not share), the communicators are aborted: a
-    /// destroy would wait for the transfers in flight, which a rank that stopped never completes.
+    /// `MPM_RANKS_HOST_TIMES=1`: where the host's time went. (A process's communicator is aborted
+    /// by its transport.)
     fn drop(&mut self) {
         if let Some(times) = &self.host_times {
             eprintln!("{}", times.report(self.first));
-        }
-        if self.failed.get() || !self.in_one_process() {
-            if let Carrier::Nccl(comms) = std::mem::replace(&mut self.carrier, Carrier::DeviceCopy) {
-                for comm in comms {
-                    let _ = comm.abort();
-                }
-            }
         }
     }
 }
@@ -1412,7 +1119,7 @@ impl Solver for CudaRanks {
     /// counters are reduced over NCCL first, in stream order, so each rank's copy holds the run's.
     fn request_extremes(&mut self) -> Result<ExtremesTicket> {
         if !self.in_one_process() {
-            self.reduce_counters()?;
+            self.transport.reduce_counters(&self.solvers)?;
         }
         let tickets = self
             .solvers
@@ -1438,11 +1145,12 @@ impl Solver for CudaRanks {
             .context("the ranks' extremes awaited twice, or never requested")?;
         let (_, tickets) = self.extremes.remove(at).context("no pending extremes")?;
         if !self.in_one_process() {
-            // Reduced on the device (`reduce_counters`): this rank's copy is the run's.
+            // Reduced on the device (`Transport::reduce_counters`): this rank's copy is the run's.
             let ticket = tickets.into_iter().next().context("a rank's extremes ticket")?;
             let solver = &self.solvers[0];
             let started = Instant::now();
-            self.watch_until(&mut || solver.extremes_ready(&ticket))?;
+            self.transport
+                .watch_until(&mut || solver.extremes_ready(&ticket))?;
             if let Some(times) = &mut self.host_times {
                 times.in_extremes += started.elapsed();
             }
@@ -1465,12 +1173,12 @@ impl Solver for CudaRanks {
 
     /// Every rank keeps the run's lifecycle alike: this process's first rank's is the run's.
     fn flow_counts(&mut self) -> Result<Option<FlowCounts>> {
-        self.wait_watched()?;
+        self.transport.wait_watched(&self.solvers)?;
         self.solvers[0].flow_counts()
     }
 
     fn flow_state(&mut self) -> Result<Option<FlowState>> {
-        self.wait_watched()?;
+        self.transport.wait_watched(&self.solvers)?;
         self.solvers[0].flow_state()
     }
 
@@ -1527,7 +1235,7 @@ impl Solver for CudaRanks {
         match ticket {
             SummaryTicket::Ready(summary) => Ok(summary),
             SummaryTicket::Pending => {
-                self.wait_watched()?;
+                self.transport.wait_watched(&self.solvers)?;
                 let mut mine = Vec::new();
                 for solver in &mut self.solvers {
                     mine.push(summary_words(&solver.wait_summary(SummaryTicket::Pending)?));

@@ -29,12 +29,16 @@ impl CudaRanks {
     /// what); the live counts follow. A rank's drains are the slots its sinks pushed since its
     /// stack was last settled.
     pub(super) fn share_drains(&mut self) -> Result<()> {
-        self.wait_watched()?;
+        self.transport.wait_watched(&self.solvers)?;
         let mut unsettled = Vec::new();
         for solver in &self.solvers {
             unsettled.push(solver.unsettled_drains()?);
         }
-        let lengths = self.gather_words(unsettled.iter().map(|(_, own)| vec![own.len() as u64]).collect())?;
+        let lengths = self.transport.gather_words(
+            &self.solvers,
+            self.first,
+            unsettled.iter().map(|(_, own)| vec![own.len() as u64]).collect(),
+        )?;
         let lengths: Vec<usize> = lengths.iter().map(|l| l[0] as usize).collect();
         let longest = lengths.iter().copied().max().unwrap_or(0);
         if longest == 0 {
@@ -48,7 +52,7 @@ impl CudaRanks {
                 words
             })
             .collect();
-        let all = self.gather_words(padded)?;
+        let all = self.transport.gather_words(&self.solvers, self.first, padded)?;
         let drained: Vec<u32> = all
             .iter()
             .zip(&lengths)
@@ -81,7 +85,7 @@ impl CudaRanks {
             let look = solver.look_at_nozzles(mask, self.extents[local], &mut flow.looks[local])?;
             looks.push(pack_bits(&look));
         }
-        let looks = self.gather_words(looks)?;
+        let looks = self.transport.gather_words(&self.solvers, self.first, looks)?;
         let blocked: Vec<u32> = (0..points)
             .map(|g| u32::from(looks.iter().any(|bits| bits[g / 64] >> (g % 64) & 1 == 1)))
             .collect();
@@ -121,7 +125,7 @@ impl CudaRanks {
         for (solver, count) in self.solvers.iter().zip(&flow.appended) {
             appended.push(vec![u64::from(solver.read_count(count)?)]);
         }
-        let appended = self.gather_words(appended)?;
+        let appended = self.transport.gather_words(&self.solvers, self.first, appended)?;
         for (local, extent) in self.extents.iter_mut().enumerate() {
             *extent += appended[self.first + local][0] as usize;
         }
