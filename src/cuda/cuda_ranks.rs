@@ -69,6 +69,7 @@ use super::timing::PhaseEvents;
 use crate::dist::launch::{self, Process, Watch};
 use crate::dist::migrate::{Migration, RankParticles};
 use crate::dist::nccl::{Comm, Nccl, UniqueId};
+use crate::dist::slabs::BLOCK;
 use crate::dist::{check_ranks, starting_slabs, Slabs, Spawn, Start, MIGRATION_INTERVAL};
 use crate::sim::colliders::ColliderFrame;
 use crate::sim::flow::{FlowCounts, FlowState};
@@ -524,17 +525,77 @@ impl CudaRanks {
     /// from the edge back over the ghosts.
     fn exchange(&mut self, what: Exchange) -> Result<()> {
         let links = self.links();
-        for link in &links {
+        self.exchange_over(&links, what)
+    }
+
+    /// `what` over `links` (this process's ranks' ends of them): each end packs its planes, the
+    /// transport carries them, each end unpacks what arrived. An end without planes does neither.
+    fn exchange_over(&mut self, links: &[Link], what: Exchange) -> Result<()> {
+        for link in links {
             let (packed, _) = link.planes(what);
-            let out = &self.halos[link.rank - self.first].send[link.side as usize];
-            self.solvers[link.rank - self.first].pack_halo(what, packed, out)?;
+            if !packed.range.is_empty() {
+                let out = &self.halos[link.rank - self.first].send[link.side as usize];
+                self.solvers[link.rank - self.first].pack_halo(what, packed, out)?;
+            }
         }
         self.transport
-            .carry_halos(&self.solvers, &mut self.halos, &links, what)?;
-        for link in &links {
+            .carry_halos(&self.solvers, &mut self.halos, links, what)?;
+        for link in links {
             let (_, unpacked) = link.planes(what);
-            let got = &self.halos[link.rank - self.first].recv[link.side as usize];
-            self.solvers[link.rank - self.first].unpack_halo(what, unpacked, got)?;
+            if !unpacked.range.is_empty() {
+                let got = &self.halos[link.rank - self.first].recv[link.side as usize];
+                self.solvers[link.rank - self.first].unpack_halo(what, unpacked, got)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// After the cuts moved (`old` the slabs before): the grid holds the last one_pass's scatter,
+    /// each rank's from its particles before they migrated, on its old slab and ghost planes. Each
+    /// rank's sums on the nodes another rank owns now go to that rank, a block of planes at a time,
+    /// and are added there (the sender's zeroed), so the halo exchange and the grid update that
+    /// follow see the sums one GPU would, bit for bit in fixed point. Scattering again from the
+    /// migrated particles would not: a plastic solid's scatter takes the stress its pass's return
+    /// mapping gave, which a scatter alone computes anew from the deformation, to other rounding.
+    fn carry_old_scatter(&mut self, old: &Slabs) -> Result<()> {
+        let (new, ranks) = (self.slabs.clone(), self.slabs.ranks());
+        let planes = |range: Range<u32>| Planes {
+            axis: new.axis,
+            range,
+        };
+        let held = |rank: usize| old.low_ghost(rank).start..old.high_ghost(rank).end;
+        for (from, to) in (0..ranks).flat_map(|from| (0..ranks).map(move |to| (from, to))) {
+            let (held, owned) = (held(from), new.owned(to));
+            if from == to || held.end <= owned.start || owned.end <= held.start {
+                continue;
+            }
+            let side = if to > from { Side::Above } else { Side::Below };
+            let mut at = held.start.max(owned.start);
+            while at < held.end.min(owned.end) {
+                let chunk = at..(at + BLOCK).min(held.end.min(owned.end));
+                at = chunk.end;
+                let none = planes(chunk.start..chunk.start);
+                let mut links = Vec::new();
+                if self.mine().contains(&from) {
+                    links.push(Link {
+                        rank: from,
+                        side,
+                        neighbour: to,
+                        ghosts: planes(chunk.clone()),
+                        edge: none.clone(),
+                    });
+                }
+                if self.mine().contains(&to) {
+                    links.push(Link {
+                        rank: to,
+                        side: side.opposite(),
+                        neighbour: from,
+                        ghosts: none,
+                        edge: planes(chunk),
+                    });
+                }
+                self.exchange_over(&links, Exchange::Sums)?;
+            }
         }
         Ok(())
     }
@@ -626,9 +687,8 @@ impl CudaRanks {
     /// Moves the slabs if the counts are out of balance, then every live particle to the rank that
     /// owns its block layer, checking that each sender moved what its layer counts said it held of
     /// the others' layers. Every process plans the same migration from every rank's layer counts.
-    /// `last_dt`: the step of the substep whose scatter the grids hold, scattered again where the
-    /// slabs moved.
-    fn migrate(&mut self, last_dt: f32) -> Result<()> {
+    /// Where the slabs moved, the scatter the grids hold follows them (`carry_old_scatter`).
+    fn migrate(&mut self) -> Result<()> {
         let before = self.layer_counts()?;
         let per_layer: Vec<u64> = (0..self.slabs.blocks() as usize)
             .map(|layer| before.iter().map(|rank| rank[layer]).sum())
@@ -639,6 +699,7 @@ impl CudaRanks {
             "the ranks hold {live_before} live particles, the run {}: a migration lost or duplicated some",
             self.live
         );
+        let old = self.slabs.clone();
         let moved_slabs = match self.slabs.rebalanced(&per_layer, self.walls)? {
             Some(balanced) => {
                 self.slabs = balanced;
@@ -693,9 +754,7 @@ impl CudaRanks {
         }
         // A rank's scatter lies in its old slab and ghost planes, which the new halo may miss.
         if moved_slabs {
-            for solver in &mut self.solvers {
-                solver.discard_scatter(last_dt)?;
-            }
+            self.carry_old_scatter(&old)?;
         }
         self.migrated.sent += moved;
         self.migrated.received += moved;
@@ -788,7 +847,6 @@ impl CudaRanks {
         // Recorded behind the last substep's work: the sort phase holds the host's turn between.
         let timed = self.solvers[self.timed].stream().clone();
         self.timing.begin_step(&timed)?;
-        let last_dt = self.solvers[0].params().dt;
         self.substeps += 1;
         // Every substep starts with the host's turn (across processes, where rank 0 may call the
         // others to a gather before anything moves). Every particle starts on its owner; the
@@ -796,7 +854,7 @@ impl CudaRanks {
         let strays = self.strays()?;
         let due = self.substeps % u64::from(MIGRATION_INTERVAL) == 0;
         if self.substeps > 1 && (due || strays > 0) {
-            self.migrate(last_dt)?;
+            self.migrate()?;
         }
         for solver in &mut self.solvers {
             let mut own = *params;

@@ -59,8 +59,8 @@ pub struct CudaSolver {
     /// Substeps enqueued so far: the first runs without a graph (it allocates on first use).
     substeps: u64,
     /// Fused pipeline: the step and momentum units of the substep before a restored state
-    /// (`Solver::resume_after`) or a dropped scatter (`discard_scatter`), which its first scatter
-    /// takes, as the uninterrupted run's last one_pass did.
+    /// (`Solver::resume_after`), which its first scatter takes, as the uninterrupted run's last
+    /// one_pass did.
     resumed: Option<Params>,
     /// The material table in the kernels' constant memory (`use_materials`).
     device_materials: Option<[Material; MAX_MATERIALS as usize]>,
@@ -433,19 +433,6 @@ impl CudaSolver {
     /// are live).
     pub(super) fn rebin_next(&mut self) {
         self.schedule.invalidate();
-    }
-
-    /// Drops the scatter the grid holds, so the next substep scatters again as a first one does,
-    /// with `last_dt`, the step of the substep that made it (ranks.rs: after the slabs moved, a
-    /// rank's partial sums may lie beyond its new ghost planes). Fixed point scatters the same units.
-    pub(super) fn discard_scatter(&mut self, last_dt: f32) -> Result<()> {
-        if let Some(scattered) = self.mass_scattered.take() {
-            self.state.grid.clear(self.gpu.stream())?;
-            let mut last = self.params.with_dt(last_dt);
-            last.fixed_momentum_scale = scattered.momentum_scale();
-            self.resumed = Some(last);
-        }
-        Ok(())
     }
 
     pub(super) fn sort(&mut self) -> Result<()> {

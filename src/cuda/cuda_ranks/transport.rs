@@ -139,6 +139,9 @@ impl Transport for DeviceCopies {
         let params = *solvers[0].params();
         for link in links {
             let (words, _) = link.words(what, &params);
+            if words == 0 {
+                continue;
+            }
             let (from, to) = pair(halos, link.rank, link.neighbour);
             let src = from.send[link.side as usize].slice(..words);
             let mut dst = to.recv[link.side.opposite() as usize].slice_mut(..words);
@@ -386,8 +389,14 @@ fn nccl_carry_halos(
                 let side = link.side as usize;
                 let (send, _) = halo.send[side].device_ptr(stream);
                 let (recv, _) = halo.recv[side].device_ptr(stream);
-                sends.push((link.neighbour, send, send_words));
-                recvs.push((link.neighbour, recv, recv_words));
+                // An end without planes (`CudaRanks::carry_old_scatter`'s one-way transfers) posts
+                // nothing; its peer knows the same.
+                if send_words > 0 {
+                    sends.push((link.neighbour, send, send_words));
+                }
+                if recv_words > 0 {
+                    recvs.push((link.neighbour, recv, recv_words));
+                }
             }
             // SAFETY: each buffer holds a block of planes of packed sums, more than either count;
             // the neighbour posts the matching receive and send in this group, from its own side of
