@@ -36,6 +36,15 @@ extern "C" __global__ void count_layers(const KernelParams params, const u32 pla
     }
 }
 
+// A particle's deformation (F_E's three float4 columns, the plastic scalar in the first's w) from
+// place p of a set of `count` places to place q of one of `to_count`, where the run carries one
+// (both pointers null where it does not).
+__device__ __forceinline__ void copy_deformation(const float4* __restrict__ from, const u32 count, const u32 p,
+                                                 float4* __restrict__ to, const u32 to_count, const u32 q) {
+    if (from == nullptr || to == nullptr) return;
+    for (u32 col = 0; col < 3u; ++col) to[(size_t)col * to_count + q] = from[(size_t)col * count + p];
+}
+
 // Migration: every particle live on the sending rank's first `from_end` places (its places in use)
 // whose block layer lies in first_layer..end_layer (the receiving rank's slab) is packed into
 // places to_first..to_end of `to_*` (the sender's buffer for that receiver, as many places as the
@@ -47,10 +56,11 @@ extern "C" __global__ void move_owned(const KernelParams params, const u32 axis,
                                       const u32 end_layer, const u32 from_end, float4* __restrict__ from_x,
                                       const float4* __restrict__ from_v, const float4* __restrict__ from_c,
                                       const float* __restrict__ from_rho, const u32* __restrict__ from_slot,
-                                      const u32 to_count, const u32 to_first, const u32 to_end,
-                                      float4* __restrict__ to_x, float4* __restrict__ to_v,
-                                      float4* __restrict__ to_c, float* __restrict__ to_rho,
-                                      u32* __restrict__ to_slot, u32* __restrict__ moved) {
+                                      const float4* __restrict__ from_deformation, const u32 to_count,
+                                      const u32 to_first, const u32 to_end, float4* __restrict__ to_x,
+                                      float4* __restrict__ to_v, float4* __restrict__ to_c,
+                                      float* __restrict__ to_rho, u32* __restrict__ to_slot,
+                                      float4* __restrict__ to_deformation, u32* __restrict__ moved) {
     const u32 n = params.num_particles;
     FOR_EACH_INDEX(p, from_end) {
         const float4 xp = from_x[p];
@@ -64,19 +74,21 @@ extern "C" __global__ void move_owned(const KernelParams params, const u32 axis,
         for (u32 col = 0; col < 3u; ++col) to_c[(size_t)col * to_count + q] = from_c[(size_t)col * n + p];
         to_rho[q] = from_rho[p];
         to_slot[q] = from_slot[p];
+        copy_deformation(from_deformation, n, p, to_deformation, to_count, q);
         from_x[p] = make_float4(xp.x, xp.y, xp.z, PARKED_W);
     }
 }
 
-// Copies one rank's live particles (x, v, C's three columns, density) among the first `places` of
+// Copies one rank's live particles (x, v, C's three columns, density, deformation) among the first `places` of
 // its `count` to their slots in `out_*` (`out_count` slots), which every rank writes in turn: a
 // slot is live on exactly one rank.
 extern "C" __global__ void take_owned(const u32 places, const u32 count, const float4* __restrict__ x,
                                       const float4* __restrict__ v, const float4* __restrict__ c,
                                       const float* __restrict__ rho, const u32* __restrict__ slot,
-                                      const u32 out_count, float4* __restrict__ out_x,
-                                      float4* __restrict__ out_v, float4* __restrict__ out_c,
-                                      float* __restrict__ out_rho) {
+                                      const float4* __restrict__ deformation, const u32 out_count,
+                                      float4* __restrict__ out_x, float4* __restrict__ out_v,
+                                      float4* __restrict__ out_c, float* __restrict__ out_rho,
+                                      float4* __restrict__ out_deformation) {
     FOR_EACH_INDEX(p, places) {
         const float4 xp = x[p];
         const u32 s = slot[p];
@@ -85,6 +97,7 @@ extern "C" __global__ void take_owned(const u32 places, const u32 count, const f
         out_v[s] = v[p];
         for (u32 col = 0; col < 3u; ++col) out_c[(size_t)col * out_count + s] = c[(size_t)col * count + p];
         out_rho[s] = rho[p];
+        copy_deformation(deformation, count, p, out_deformation, out_count, s);
     }
 }
 

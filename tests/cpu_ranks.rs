@@ -259,6 +259,56 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
     }
 }
 
+/// Water, a jelly, snow and sand side by side across the cuts (`common::STIRRED_SOLIDS`), in fixed
+/// point: 200 stirred substeps on 2 and 3 ranks give one rank's bits, every slot's deformation
+/// gradient and plastic scalar included, after particles of every material crossed the cuts.
+#[test]
+fn solids_on_ranks_are_byte_identical_to_one() {
+    let scene = common::scene(common::STIRRED_SOLIDS);
+    let params = common::cfl_params_of_fastest(&scene);
+    let mut one = CpuSolver::new(common::stirred(&scene), scene.grid_res);
+    for _ in 0..200 {
+        one.step(&params).unwrap();
+    }
+    let reference = common::particle_bits(&one.particles);
+    let deformed = one
+        .particles
+        .deformation
+        .iter()
+        .filter(|d| !d.f.abs_diff_eq(glam::Mat3::IDENTITY, 1e-3))
+        .count();
+    assert!(
+        deformed > 1000,
+        "only {deformed} particles deformed: did the solids move?"
+    );
+    for ranks in [2, 3] {
+        let mut split = if ranks == 2 {
+            let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
+            CpuRanks::with_slabs(&scene, common::stirred(&scene), even).unwrap()
+        } else {
+            CpuRanks::new(&scene, common::stirred(&scene), ranks).unwrap()
+        };
+        for _ in 0..200 {
+            split.step(&params).unwrap();
+        }
+        let (rebins, migrated) = split.migrated();
+        println!(
+            "{ranks} ranks: {rebins} rebins moved {} particles, bounds {:?}",
+            migrated.sent,
+            split.slabs().bounds
+        );
+        assert!(
+            migrated.sent > 1000,
+            "few particles crossed a cut: {}",
+            migrated.sent
+        );
+        assert!(
+            common::particle_bits(&split.read_particles().unwrap()) == reference,
+            "{ranks} ranks differ from one in fixed point"
+        );
+    }
+}
+
 /// A moving box across the cut between two ranks (after the first rebin moves the cut into it):
 /// its boundary acts on nodes of both slabs and its backstop on particles of both ranks, and the
 /// fixed-point run on 2 ranks still gives one rank's bits, backstop counts included.

@@ -18,6 +18,7 @@ fn main() -> std::process::ExitCode {
         harness::tests![
             fixed_point_ranks_give_one_gpu_s_bits,
             two_liquids_on_ranks_give_one_gpu_s_bits,
+            solids_on_ranks_give_one_gpu_s_bits,
             float_ranks_follow_one_gpu,
             a_moving_collider_across_the_cut_gives_one_gpu_s_bits,
             a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
@@ -78,4 +79,8 @@ fn ranks_refuse_what_they_do_not_run() {
 
 fn two_liquids_on_ranks_give_one_gpu_s_bits() {
     ranks_checks::two_liquids_on_ranks_give_one_gpu_s_bits(On::OneGpu);
+}
+
+fn solids_on_ranks_give_one_gpu_s_bits() {
+    ranks_checks::solids_on_ranks_give_one_gpu_s_bits(On::OneGpu);
 }

@@ -20,6 +20,7 @@ fn main() -> std::process::ExitCode {
         harness::tests![
             fixed_point_on_two_gpus_gives_one_gpu_s_bits,
             two_liquids_on_two_gpus_give_one_gpu_s_bits,
+            solids_on_two_gpus_give_one_gpu_s_bits,
             float_on_two_gpus_follows_one_gpu,
             a_moving_collider_across_the_gpus_cut_gives_one_gpu_s_bits,
             a_dam_break_on_two_gpus_gives_one_gpu_s_bits_frame_by_frame,
@@ -119,4 +120,8 @@ fn more_gpus_than_the_host_has_are_refused() {
 
 fn two_liquids_on_two_gpus_give_one_gpu_s_bits() {
     ranks_checks::two_liquids_on_ranks_give_one_gpu_s_bits(On::TwoGpus);
+}
+
+fn solids_on_two_gpus_give_one_gpu_s_bits() {
+    ranks_checks::solids_on_ranks_give_one_gpu_s_bits(On::TwoGpus);
 }

@@ -168,7 +168,10 @@ impl Start for ParticlesInFile {
 
     /// A piece at a time: the pieces' live particles of `rank`'s slab, every array of them.
     fn share(&self, slabs: &Slabs, rank: usize, inv_dx: f32) -> Result<RankParticles> {
-        let mut mine = RankParticles::default();
+        let mut mine = RankParticles {
+            deformed: self.layout.deformation.is_some(),
+            ..RankParticles::default()
+        };
         for range in self.pieces() {
             let (live, x) = self.live_positions(range.clone())?;
             let owned: Vec<usize> = (0..range.len())

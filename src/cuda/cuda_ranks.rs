@@ -63,7 +63,7 @@
 use super::gpu::CudaOptions;
 use super::halo::{Exchange, HaloBuffers, Planes};
 use super::launch::NvtxRange;
-use super::particles::{DeviceParticles, STATE_BYTES_PER_PARTICLE};
+use super::particles::{state_bytes, DeviceParticles};
 use super::solver::CudaSolver;
 use super::timing::PhaseEvents;
 use crate::dist::launch::{self, Process, Watch};
@@ -76,7 +76,8 @@ use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
 use crate::sim::{
-    Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary, SummaryTicket,
+    Deformation, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
+    SummaryTicket,
 };
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::CudaSlice;
@@ -326,6 +327,10 @@ impl CudaRanks {
             } = particles.share(&slabs, rank, params.inv_dx)?;
             extents.push(id.len());
             share.park_more(with_room(id.len()) - id.len());
+            if scene.has_deformation() {
+                // A share that starts empty still carries a deformation per place.
+                share.deformation.resize(share.len(), Deformation::at_rest(0));
+            }
             // The binnings' gathers into bin order are what pack a rank's particles again after
             // its leavers parked (MPM_BIN_ORDER=0 is for timing one GPU).
             let packed = CudaOptions {
@@ -911,7 +916,7 @@ impl CudaRanks {
         if root_here && self.merged.is_none() {
             let first = &self.solvers[0];
             first.ensure_fits(
-                self.slots * STATE_BYTES_PER_PARTICLE,
+                self.slots * state_bytes(first.owned().deformation.is_some()),
                 &format!(
                     "reading the {} particles of a run on several ranks (they are gathered on rank \
                      0's GPU)",
@@ -920,7 +925,7 @@ impl CudaRanks {
                 "run on more GPUs, with fewer particles, or without what reads them (the window, \
                  exports, checkpoints)",
             )?;
-            self.merged = Some(DeviceParticles::allocate(first.stream(), self.slots, false)?);
+            self.merged = Some(first.allocate_like_owned(self.slots)?);
         }
         // Slots that no rank holds (drained, or never emitted yet) read as parked.
         if let (true, Some(merged), Some(_)) = (root_here, &self.merged, &self.flow) {

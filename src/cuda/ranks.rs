@@ -124,6 +124,10 @@ impl RanksKernels {
             from.count,
             to.count
         );
+        ensure!(
+            from.deformation.is_some() == to.deformation.is_some(),
+            "a migration into a set that differs in carrying a deformation"
+        );
         let axis = axis as u32;
         let (walk, to_count) = (walk as u32, to.count as u32);
         let (first, end) = (places.start as u32, places.end as u32);
@@ -139,11 +143,13 @@ impl RanksKernels {
                     .arg(&walk)
                     .particle_state(from)
                     .arg(&from.slot)
+                    .deformation(from)
                     .arg(&to_count)
                     .arg(&first)
                     .arg(&end)
                     .particle_state(to)
                     .arg(&to.slot)
+                    .deformation(to)
                     .arg(moved);
             })
         }
@@ -158,6 +164,10 @@ impl RanksKernels {
         out: &DeviceParticles,
     ) -> Result<()> {
         ensure!(places <= rank.count, "taking {places} places of {}", rank.count);
+        ensure!(
+            rank.deformation.is_some() == out.deformation.is_some(),
+            "taking particles into a set that differs in carrying a deformation"
+        );
         let (walk, count, out_count) = (places as u32, rank.count as u32, out.count as u32);
         // SAFETY: the arguments match take_owned; `rank` holds `count` places of each array (the
         // first `walk` read), `out` `out_count` slots, and the kernel skips a slot past them.
@@ -167,8 +177,10 @@ impl RanksKernels {
                     .arg(&count)
                     .particle_state(rank)
                     .arg(&rank.slot)
+                    .deformation(rank)
                     .arg(&out_count)
-                    .particle_state(out);
+                    .particle_state(out)
+                    .deformation(out);
             })
         }
     }

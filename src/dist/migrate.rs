@@ -4,7 +4,7 @@
 
 use super::comm::{all_gather, all_sum, Comm};
 use super::slabs::Slabs;
-use crate::sim::Particles;
+use crate::sim::{Deformation, Particles};
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
@@ -20,12 +20,17 @@ pub struct Migrant {
     pub x: [f32; 3],
     pub v: [f32; 3],
     pub c: [f32; 9],
+    /// Its deformation where the run carries one (`Particles::deformation`): F_E by columns, then
+    /// the plastic scalar; zeros otherwise.
+    pub f: [f32; 9],
+    pub plastic: f32,
 }
-const _: () = assert!(std::mem::size_of::<Migrant>() == 72);
+const _: () = assert!(std::mem::size_of::<Migrant>() == 112);
 
 impl Migrant {
     /// Slot `i` of `p`, named `id`.
     pub fn of(p: &Particles, i: usize, id: u32) -> Migrant {
+        let deformation = p.deformation.get(i);
         Migrant {
             id,
             rho: p.rho[i],
@@ -33,14 +38,26 @@ impl Migrant {
             x: p.x[i].to_array(),
             v: p.v[i].to_array(),
             c: p.c[i].to_cols_array(),
+            f: deformation.map_or([0.0; 9], |d| d.f.to_cols_array()),
+            plastic: deformation.map_or(0.0, |d| d.plastic),
         }
     }
 
-    /// Writes it over slot `s` of `p`, live.
+    fn deformation(&self) -> Deformation {
+        Deformation {
+            f: Mat3::from_cols_array(&self.f),
+            plastic: self.plastic,
+        }
+    }
+
+    /// Writes it over slot `s` of `p`, live (its deformation where `p` carries them).
     pub fn place(&self, p: &mut Particles, s: usize) {
         (p.x[s], p.v[s], p.rho[s], p.live[s]) = (Vec3::from(self.x), Vec3::from(self.v), self.rho, true);
         p.c[s] = Mat3::from_cols_array(&self.c);
         p.material[s] = self.material as u8;
+        if let Some(d) = p.deformation.get_mut(s) {
+            *d = self.deformation();
+        }
     }
 }
 
@@ -51,6 +68,9 @@ pub struct RankParticles {
     pub id: Vec<u32>,
     /// Parked slots, the next to fill last.
     pub parked: Vec<u32>,
+    /// Whether the run's particles carry a deformation: then `particles` has one per slot, even
+    /// where the rank starts with none.
+    pub deformed: bool,
 }
 
 /// What a migration moved, summed over the ranks.
@@ -74,6 +94,7 @@ impl RankParticles {
             particles: all.pick(&slots),
             id: slots.iter().map(|&slot| slot as u32).collect(),
             parked: Vec::new(),
+            deformed: !all.deformation.is_empty(),
         }
     }
 
@@ -92,6 +113,9 @@ impl RankParticles {
                 p.rho.push(m.rho);
                 p.material.push(m.material as u8);
                 p.live.push(true);
+                if self.deformed {
+                    p.deformation.push(m.deformation());
+                }
                 self.id.push(m.id);
             }
         }

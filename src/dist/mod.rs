@@ -84,12 +84,6 @@ pub fn small_for_gpus(gpus: usize, in_processes: bool, live: usize) -> Option<St
 
 /// What a run on ranks cannot do yet, or on these slabs, refused before anything is allocated.
 pub fn check_ranks(scene: &Scene, slabs: &Slabs) -> Result<()> {
-    if scene.has_deformation() {
-        bail!(
-            "solids and liquids with a shear_modulus do not run on several ranks yet (a migrant carries \
-             no deformation gradient): run this scene on one rank or GPU"
-        );
-    }
     let params = scene.params();
     if !slabs.holds_mirror(params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]) {
         bail!(

@@ -84,6 +84,7 @@ impl Start for Spawn<'_> {
         (p.c, p.live) = (vec![glam::Mat3::ZERO; n], vec![true; n]);
         if scene.has_deformation() {
             p.deformation = p.material.iter().map(|&row| scene.at_rest(row)).collect();
+            mine.deformed = true;
         }
         Ok(mine)
     }

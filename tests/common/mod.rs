@@ -434,6 +434,73 @@ min = [0.25, 0.03125, 0.03125]
 max = [0.5, 0.5, 0.6]
 "#;
 
+/// [`STIRRED_TANK`]'s block as four materials side by side along x, the axis the ranks cut: water,
+/// a jelly (fixed-corotated), snow and sand, in fixed point. Each solid's deformation crosses the
+/// cuts with its particles; the rest densities differ, so the grid's volume crosses them too.
+pub const STIRRED_SOLIDS: &str = r#"
+[domain]
+size = [1.5, 0.75, 0.75]
+resolution = [48, 24, 24]
+[solver]
+scatter = "fixed-point"
+[[material]]
+name = "water"
+rest_density = 1000.0
+sound_speed = 10.0
+[[material]]
+name = "jelly"
+law = "fixed-corotated"
+rest_density = 1000.0
+youngs_modulus = 1.0e5
+poisson_ratio = 0.3
+[[material]]
+name = "snow"
+law = "snow"
+rest_density = 400.0
+youngs_modulus = 1.4e5
+poisson_ratio = 0.2
+[[material]]
+name = "sand"
+law = "sand"
+rest_density = 1600.0
+youngs_modulus = 3.5e5
+poisson_ratio = 0.3
+friction_angle = 30.0
+[[block]]
+material = "water"
+min = [0.03125, 0.03125, 0.03125]
+max = [0.15, 0.5, 0.6]
+[[block]]
+material = "jelly"
+min = [0.15, 0.03125, 0.03125]
+max = [0.28, 0.5, 0.6]
+[[block]]
+material = "snow"
+min = [0.28, 0.03125, 0.03125]
+max = [0.4, 0.5, 0.6]
+[[block]]
+material = "sand"
+min = [0.4, 0.03125, 0.03125]
+max = [0.5, 0.5, 0.6]
+"#;
+
+/// [`cfl_params`] at the step of `scene`'s fastest material (a solid's P wave): the step a scene of
+/// several materials needs.
+pub fn cfl_params_of_fastest(scene: &Scene) -> Params {
+    let mut params = scene.params();
+    let fastest = scene
+        .materials
+        .iter()
+        .map(|m| m.law.sound_speed())
+        .fold(0.0, f32::max);
+    let (_, dt) = scene
+        .time_step
+        .substeps(mpm::sim::FRAME_DT, fastest + 2.0, scene.dx)
+        .unwrap();
+    params.dt = dt;
+    params
+}
+
 /// [`STIRRED_TANK`] in fixed point with a box moving across it at x 0.2 to 0.3 m, where the first
 /// rebin of two ranks puts the cut.
 pub fn stirred_tank_with_moving_box() -> String {

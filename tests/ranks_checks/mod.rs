@@ -63,6 +63,17 @@ pub fn liquids_tank() -> (Scene, Params) {
     (scene, params)
 }
 
+/// [`common::STIRRED_SOLIDS`]: water, a jelly, snow and sand side by side across the cuts, in fixed
+/// point, at their fastest material's step.
+pub fn solids_tank() -> (Scene, Params) {
+    let scene = common::scene(common::STIRRED_SOLIDS);
+    assert!(scene.has_deformation());
+    let mut params = common::cfl_params_of_fastest(&scene);
+    params.density_rule = scene.pipeline.density_rule().code();
+    assert_eq!(params.scatter_mode, ScatterMode::FixedPoint.code());
+    (scene, params)
+}
+
 pub fn one_gpu(scene: &Scene) -> CudaSolver {
     CudaSolver::from_particles(scene, &common::stirred(scene), CudaOptions::default()).unwrap()
 }
@@ -110,6 +121,14 @@ pub fn fixed_point_ranks_give_one_gpu_s_bits(on: On) {
 /// ([`liquids_tank`]): the grid's volume crosses the cuts as the mass does.
 pub fn two_liquids_on_ranks_give_one_gpu_s_bits(on: On) {
     let (scene, params) = liquids_tank();
+    split_runs_give_one_gpu_s_bits(&scene, &params, on);
+}
+
+/// [`fixed_point_ranks_give_one_gpu_s_bits`] with solids ([`solids_tank`]): each migrant carries
+/// its deformation gradient and plastic scalar, and the readers' set takes them, so every slot's
+/// deformation is one GPU's bits too ([`common::particle_bits`] holds it).
+pub fn solids_on_ranks_give_one_gpu_s_bits(on: On) {
+    let (scene, params) = solids_tank();
     split_runs_give_one_gpu_s_bits(&scene, &params, on);
 }
 
