@@ -32,11 +32,16 @@
 // With `gather` 0 the kernel is the scatter half alone, with the state and density the particles
 // carry: the first substep after they were spawned or uploaded (nothing to gather yet). The same
 // instructions scatter in both uses, so a run resumed from a checkpoint scatters the bits the
-// uninterrupted run scattered. Also flags `rebin_needed` where a particle moved about a cell since
+// uninterrupted run scattered; but for a plastic solid, whose gather's return mapping hands the
+// scatter the stress of its own decomposition where the scatter alone computes it anew from the
+// stored deformation (to other rounding): so a frame's last substep (`gather` 2,
+// GATHER_ENDING_FRAME) scatters as the scatter alone does, and a checkpoint of the frame resumes
+// to the same bits. Also flags `rebin_needed` where a particle moved about a cell since
 // binning.
 #include "tiles.cuh"
 
 #define SCATTER_CHANNELS 4  // mass, then momentum x, y, z: channel-major in the fixed-point tile
+#define GATHER_ENDING_FRAME 2u  // `gather` at a frame's last substep (src/cuda/one_pass.rs)
 
 // The kernel's parameters, and their names, for its entry points below.
 #define ONE_PASS_PARAMETERS                                                                                     \
@@ -264,7 +269,7 @@ __device__ __forceinline__ void one_pass(ONE_PASS_PARAMETERS) {
             const ParticleImpulse q =
                 SOLIDS && deformed
                     ? deformed_impulse(params, material_table[material_index(params, vp)], rho_p, vp, c0, c1, c2, d,
-                                       returned ? tau : nullptr)
+                                       returned && gather != GATHER_ENDING_FRAME ? tau : nullptr)
                     : particle_impulse<MATERIALS>(params, rho_p, vp, c0, c1, c2);
             const Stencil s = make_stencil(xp, params);
             u32 first = 0;

@@ -22,6 +22,7 @@ fn main() -> std::process::ExitCode {
             float_ranks_follow_one_gpu,
             a_moving_collider_across_the_cut_gives_one_gpu_s_bits,
             a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
+            a_plastic_solid_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame,
             the_halo_phases_are_timed_and_migrations_counted,
             a_checkpoint_of_two_ranks_resumes_on_three,
             emitters_and_sinks_on_ranks_give_one_gpu_s_bytes,
@@ -44,6 +45,10 @@ fn a_moving_collider_across_the_cut_gives_one_gpu_s_bits() {
 
 fn a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame() {
     ranks_checks::a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(On::OneGpu);
+}
+
+fn a_plastic_solid_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame() {
+    ranks_checks::a_plastic_solid_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(On::OneGpu);
 }
 
 fn the_halo_phases_are_timed_and_migrations_counted() {

@@ -1167,6 +1167,12 @@ impl Solver for CudaRanks {
         stepped
     }
 
+    fn ends_frame_next(&mut self) {
+        for solver in &mut self.solvers {
+            solver.ends_frame_next();
+        }
+    }
+
     fn resume_after(&mut self, last: &Params) {
         for solver in &mut self.solvers {
             solver.resume_after(last);

@@ -43,6 +43,9 @@ pub struct SubstepKey {
     pub iterations: Option<u32>,
     /// Whether the substep times its phases, or only its start and end (timing.rs).
     pub phases_timed: bool,
+    /// Whether the substep ends a frame (`Solver::ends_frame_next`: its fused pass scatters a
+    /// plastic solid's stress as a resumed run's first scatter does).
+    pub ends_frame: bool,
 }
 
 impl PartialEq for SubstepKey {
@@ -55,6 +58,7 @@ impl PartialEq for SubstepKey {
             && self.particle_buffers == other.particle_buffers
             && self.iterations == other.iterations
             && self.phases_timed == other.phases_timed
+            && self.ends_frame == other.ends_frame
     }
 }
 

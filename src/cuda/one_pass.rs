@@ -26,6 +26,10 @@ pub enum Gather {
     None,
     /// The end of a substep: g2p, advection and the density, from the grid the substep updated.
     Substep,
+    /// The end of a frame's last substep: as `Substep`, but a plastic solid scatters the stress of
+    /// its stored deformation, as `None` does, not the one its return mapping gave: a run resumed
+    /// from a checkpoint of the frame scatters these bits again (`Solver::ends_frame_next`).
+    SubstepEndingFrame,
 }
 
 /// The planes kernel from this many times the particles the device holds of it at once (its
@@ -140,7 +144,12 @@ impl OnePass {
             0
         };
         let config = d.bins.tiled_pass(l, kernel, tile_channels)?;
-        let gather = u32::from(gather == Gather::Substep);
+        // kernels/one_pass.cu's `gather` argument.
+        let gather: u32 = match gather {
+            Gather::None => 0,
+            Gather::Substep => 1,
+            Gather::SubstepEndingFrame => 2,
+        };
         // SAFETY: the arguments match every one_pass entry in kernels/one_pass.cu (one parameter
         // list); the bin list, order and node-block list are
         // sized for this grid and these particles; a null order where the particles are stored in

@@ -69,6 +69,9 @@ pub struct CudaSolver {
     /// `solver.method = "pbmpm"`: the position-based substep's buffers (pbmpm_substep.rs steps it
     /// in place of the explicit one).
     pub(super) pbmpm: Option<PbmpmBuffers>,
+    /// How the next substep's fused pass gathers: `Gather::SubstepEndingFrame` where it ends a frame
+    /// (`Solver::ends_frame_next`), for that substep alone.
+    gather: Gather,
     /// `Solver::pace`'s marks: an event recorded after each paced substep, the last two by turns.
     pace_marks: Vec<CudaEvent>,
     /// Substeps paced so far.
@@ -154,6 +157,7 @@ impl CudaSolver {
             device_materials: None,
             snapshots: None,
             pbmpm,
+            gather: Gather::Substep,
             pace_marks: Vec::new(),
             paced: 0,
         };
@@ -295,13 +299,16 @@ impl CudaSolver {
                 if launch == Launch::G2p2g {
                     k.g2p2g.launch(l, p, d)?;
                 } else {
-                    k.one_pass.launch(l, Gather::Substep, p, d)?;
+                    k.one_pass.launch(l, self.gather, p, d)?;
                 }
                 // A rank's drains are settled once every rank's are on its stack (cuda_ranks.rs).
                 if let Some(flow) = d.flow.as_ref().filter(|f| f.num_sinks > 0 && !f.shared) {
                     k.lifecycle.settle(l, flow)?;
                 }
                 self.mass_scattered = Some(Scattered::by(&self.params));
+                // A frame's end holds for the one pass that ends its last substep (the ranks launch
+                // their phases without `Solver::step`).
+                self.gather = Gather::Substep;
             }
         }
         Ok(true)
@@ -487,6 +494,60 @@ impl CudaSolver {
         Ok(())
     }
 
+    /// `Solver::step`'s work, under this substep's `gather`.
+    fn enqueue_step(&mut self, params: &Params) -> Result<()> {
+        self.accept(params)?;
+        let sort = self.sort_due();
+        // Not the first substep (it allocates on first use), nor one that scatters as a restored or
+        // discarded state's first (`resumed`, which no key holds).
+        let graphs = self.options.graphs
+            && !self.gpu.launcher.sync_each_launch
+            && self.substeps > 0
+            && self.resumed.is_none();
+        self.substeps += 1;
+        let (enqueued, graphed) = match self.pbmpm {
+            Some(_) => ("substep (pbmpm)", "substep (pbmpm, graph)"),
+            None => ("substep", "substep (graph)"),
+        };
+        if !graphs {
+            let _range = NvtxRange::new(enqueued);
+            return self.enqueue_either_substep(sort);
+        }
+        let _range = NvtxRange::new(graphed);
+        let key = SubstepKey {
+            params: self.params,
+            sort,
+            mass_scattered: self.mass_scattered,
+            colliders: self.state.colliders.count,
+            particle_buffers: self.state.particle_buffers(),
+            iterations: self.pbmpm.as_ref().map(|p| p.settings.iterations),
+            phases_timed: self.timing.phases_next(),
+            ends_frame: self.gather == Gather::SubstepEndingFrame,
+        };
+        let graph = match self.graphs.take(&key) {
+            Some(graph) => {
+                // What enqueue_substep's calls note on the host, for the work the graph replays.
+                if sort {
+                    self.schedule.note_binning();
+                    self.swap_particle_buffers();
+                }
+                self.schedule.note_substep();
+                self.mass_scattered = graph.scattered();
+                graph
+            }
+            None => {
+                let alike = self.graphs.take_alike(&key);
+                self.capture_substep(sort, alike)?
+            }
+        };
+        let launched = self
+            .timing
+            .begin_graphed_step(graph.recorded())
+            .and_then(|events| graph.launch(events));
+        self.graphs.put(key, graph);
+        launched
+    }
+
     /// The substep of the scene's scheme: the position-based one where the scene asks for it
     /// (pbmpm_substep.rs), the explicit one otherwise.
     fn enqueue_either_substep(&mut self, sort: bool) -> Result<()> {
@@ -528,55 +589,10 @@ impl Solver for CudaSolver {
     /// substep's, pbmpm_substep.rs): enqueued kernel by kernel (`enqueue_either_substep`), or as one
     /// launch of a captured graph of exactly that work (graph.rs).
     fn step(&mut self, params: &Params) -> Result<()> {
-        self.accept(params)?;
-        let sort = self.sort_due();
-        // Not the first substep (it allocates on first use), nor one that scatters as a restored or
-        // discarded state's first (`resumed`, which no key holds).
-        let graphs = self.options.graphs
-            && !self.gpu.launcher.sync_each_launch
-            && self.substeps > 0
-            && self.resumed.is_none();
-        self.substeps += 1;
-        let (enqueued, graphed) = match self.pbmpm {
-            Some(_) => ("substep (pbmpm)", "substep (pbmpm, graph)"),
-            None => ("substep", "substep (graph)"),
-        };
-        if !graphs {
-            let _range = NvtxRange::new(enqueued);
-            return self.enqueue_either_substep(sort);
-        }
-        let _range = NvtxRange::new(graphed);
-        let key = SubstepKey {
-            params: self.params,
-            sort,
-            mass_scattered: self.mass_scattered,
-            colliders: self.state.colliders.count,
-            particle_buffers: self.state.particle_buffers(),
-            iterations: self.pbmpm.as_ref().map(|p| p.settings.iterations),
-            phases_timed: self.timing.phases_next(),
-        };
-        let graph = match self.graphs.take(&key) {
-            Some(graph) => {
-                // What enqueue_substep's calls note on the host, for the work the graph replays.
-                if sort {
-                    self.schedule.note_binning();
-                    self.swap_particle_buffers();
-                }
-                self.schedule.note_substep();
-                self.mass_scattered = graph.scattered();
-                graph
-            }
-            None => {
-                let alike = self.graphs.take_alike(&key);
-                self.capture_substep(sort, alike)?
-            }
-        };
-        let launched = self
-            .timing
-            .begin_graphed_step(graph.recorded())
-            .and_then(|events| graph.launch(events));
-        self.graphs.put(key, graph);
-        launched
+        let stepped = self.enqueue_step(params);
+        // `ends_frame_next` holds for one substep.
+        self.gather = Gather::Substep;
+        stepped
     }
 
     /// Marks the substep just enqueued and waits for the mark of the substep before it.
@@ -602,6 +618,10 @@ impl Solver for CudaSolver {
         }
         self.paced += 1;
         Ok(())
+    }
+
+    fn ends_frame_next(&mut self) {
+        self.gather = Gather::SubstepEndingFrame;
     }
 
     fn resume_after(&mut self, last: &Params) {

@@ -706,6 +706,9 @@ impl Simulation {
                     let end = self.time + part.simulated + f64::from(n + 1) * f64::from(dt);
                     self.solver.set_colliders(&self.scene.colliders.frame(end))?;
                 }
+                if n + 1 == to_frame_end {
+                    self.solver.ends_frame_next();
+                }
                 self.solver.step(&self.params)?;
                 if paced {
                     self.solver.pace()?;

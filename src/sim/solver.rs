@@ -120,6 +120,12 @@ pub trait Solver: Send {
     fn pace(&mut self) -> Result<()> {
         Ok(())
     }
+    /// Says that the next substep is its frame's last, after which a checkpoint may be taken. A
+    /// solver that scatters ahead of the next substep (the GPU's fused pass) makes that scatter as
+    /// the first substep of a run resumed there makes it, so the resumed run goes on with the same
+    /// bits: a plastic solid's stress taken from its stored deformation, not from the pass's return
+    /// mapping (docs/checkpoints.md). Nothing to do where every scatter is made so.
+    fn ends_frame_next(&mut self) {}
     /// Tells a solver restored from a checkpoint the parameters of the run's last substep before it,
     /// so that its first substep scatters as the uninterrupted run did (see [`Self::step`]).
     fn resume_after(&mut self, last: &Params);

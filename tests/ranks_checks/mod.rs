@@ -271,7 +271,20 @@ pub fn a_moving_collider_across_the_cut_gives_one_gpu_s_bits(on: On) {
 /// Through `Simulation`, as the runner drives a solver: the dam-break preset, coarse, in fixed point,
 /// frame by frame (each substep's time step chosen from the ranks' merged extremes).
 pub fn a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(on: On) {
-    let mut scene = Scene::load("dam-break-coarse").unwrap();
+    a_preset_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame("dam-break-coarse", 20, on);
+}
+
+/// [`a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame`] with sand (`sand-column`), a
+/// plastic solid: each frame's last substep scatters its stress as a resumed run's first does
+/// (`Solver::ends_frame_next`), on every rank as on one GPU, and only that substep.
+pub fn a_plastic_solid_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(on: On) {
+    a_preset_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame("sand-column", 10, on);
+}
+
+/// `name` in fixed point, driven frame by frame by a `Simulation` (the frames' time steps chosen
+/// from the ranks' extremes), on one GPU and on 2 ranks: the same bits at every frame.
+fn a_preset_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(name: &str, frames: u64, on: On) {
+    let mut scene = Scene::load(name).unwrap();
     scene.scatter = ScatterMode::FixedPoint;
     let one = mpm::backend::create(BackendKind::Cuda, &scene).unwrap();
     let split = CudaRanks::new(
@@ -285,7 +298,7 @@ pub fn a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(on: On) {
     println!("slabs {:?}, counts {:?}", split.slabs().bounds, split.counts());
     let mut one = Simulation::new(scene.clone(), one);
     let mut split = Simulation::new(scene.clone(), Box::new(split));
-    for frame in 1..=20 {
+    for frame in 1..=frames {
         one.advance_frame().unwrap();
         split.advance_frame().unwrap();
         let (a, b) = (
@@ -294,7 +307,7 @@ pub fn a_dam_break_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(on: On) {
         );
         assert!(
             common::particle_bits(&a) == common::particle_bits(&b),
-            "frame {frame}: 2 ranks differ from one GPU"
+            "{name}, frame {frame}: 2 ranks differ from one GPU"
         );
     }
 }
