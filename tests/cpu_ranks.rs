@@ -202,6 +202,17 @@ fn more_ranks_than_the_grid_holds_is_a_clear_error() {
 /// are split between ranks: 2 and 3 ranks give the one-rank reference's bits exactly, particle by
 /// particle (by id), through 200 stirred substeps with migrations, under both density rules. The 2
 /// ranks start on even slabs, so their first rebin also moves the bounds.
+/// `scene` stirred (`common::stirred`) on `ranks` ranks: 2 on even slabs (their first rebin moves
+/// the cut), more on balanced ones.
+fn stirred_on(scene: &Scene, ranks: usize) -> CpuRanks {
+    if ranks == 2 {
+        let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
+        CpuRanks::with_slabs(scene, common::stirred(scene), even).unwrap()
+    } else {
+        CpuRanks::new(scene, common::stirred(scene), ranks).unwrap()
+    }
+}
+
 #[test]
 fn fixed_point_ranks_are_byte_identical_to_one() {
     for pipeline in [Pipeline::Fused, Pipeline::Binned] {
@@ -230,12 +241,7 @@ fn fixed_point_ranks_are_byte_identical_to_one() {
             "the fixed-point scatter is not the float one: {gap} dx apart"
         );
         for ranks in [2, 3] {
-            let mut split = if ranks == 2 {
-                let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
-                CpuRanks::with_slabs(&scene, common::stirred(&scene), even).unwrap()
-            } else {
-                CpuRanks::new(&scene, common::stirred(&scene), ranks).unwrap()
-            };
+            let mut split = stirred_on(&scene, ranks);
             let start = split.slabs().bounds.clone();
             for _ in 0..200 {
                 split.step(&params).unwrap();
@@ -282,12 +288,7 @@ fn solids_on_ranks_are_byte_identical_to_one() {
         "only {deformed} particles deformed: did the solids move?"
     );
     for ranks in [2, 3] {
-        let mut split = if ranks == 2 {
-            let even = Slabs::even(glam::UVec3::from(scene.grid_res), 2).unwrap();
-            CpuRanks::with_slabs(&scene, common::stirred(&scene), even).unwrap()
-        } else {
-            CpuRanks::new(&scene, common::stirred(&scene), ranks).unwrap()
-        };
+        let mut split = stirred_on(&scene, ranks);
         for _ in 0..200 {
             split.step(&params).unwrap();
         }

@@ -28,7 +28,9 @@ pub(super) trait Transport: Send {
     fn joined(&self, name: &str, ranks: usize, first: usize) -> String;
 
     /// Whether this process drives every rank of the run.
-    fn in_one_process(&self) -> bool;
+    fn in_one_process(&self) -> bool {
+        true
+    }
 
     /// Whether rank 0 reads every rank's particles where they lie (they share its GPU), rather than
     /// having them carried to it.
@@ -51,13 +53,10 @@ pub(super) trait Transport: Send {
     fn carry_particles(&self, solvers: &[CudaSolver], first: usize, runs: &[Run]) -> Result<()>;
 
     /// Every rank's `mine` (one list per rank of this process, of one length on every rank), on
-    /// every process, in rank order.
-    fn gather_words(
-        &self,
-        solvers: &[CudaSolver],
-        first: usize,
-        mine: Vec<Vec<u64>>,
-    ) -> Result<Vec<Vec<u64>>>;
+    /// every process, in rank order: already here where this process drives every rank.
+    fn gather_words(&self, _: &[CudaSolver], _first: usize, mine: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
+        Ok(mine)
+    }
 
     /// Each rank's step counters reduced over every rank in place, in stream order, where the
     /// ranks' copies are not merged on one host (`StepExtremes::merge`).
@@ -117,10 +116,6 @@ impl NcclPerProcess {
 impl Transport for DeviceCopies {
     fn joined(&self, name: &str, ranks: usize, _first: usize) -> String {
         format!("{name}, {ranks} ranks")
-    }
-
-    fn in_one_process(&self) -> bool {
-        true
     }
 
     fn reads_in_place(&self) -> bool {
@@ -189,19 +184,11 @@ impl Transport for DeviceCopies {
         }
         Ok(())
     }
-
-    fn gather_words(&self, _: &[CudaSolver], _: usize, mine: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
-        Ok(mine)
-    }
 }
 
 impl Transport for NcclInProcess {
     fn joined(&self, name: &str, ranks: usize, _first: usize) -> String {
         format!("{ranks} x {name}, a rank each (NCCL)")
-    }
-
-    fn in_one_process(&self) -> bool {
-        true
     }
 
     fn carry_halos(
@@ -216,10 +203,6 @@ impl Transport for NcclInProcess {
 
     fn carry_particles(&self, solvers: &[CudaSolver], first: usize, runs: &[Run]) -> Result<()> {
         nccl_carry_particles(&self.comms, solvers, first, runs)
-    }
-
-    fn gather_words(&self, _: &[CudaSolver], _: usize, mine: Vec<Vec<u64>>) -> Result<Vec<Vec<u64>>> {
-        Ok(mine)
     }
 }
 
