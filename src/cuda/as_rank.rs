@@ -2,7 +2,7 @@
 //! asks of a rank: the two ends of each ghost exchange on its grid (kernels/halo.cu, halo.rs), its
 //! counts of the particles nearing its ghost planes and of its particles per block layer, its
 //! leavers packed for a migration and its particles taken into the readers' set (kernels/ranks.cu,
-//! ranks.rs), and its particles and counters as the carriers and the reductions see them. The
+//! ranks.rs), and its particles and counters as the transport and the reductions see them. The
 //! ranks reach a solver's buffers and kernels only through these.
 
 use super::halo::{Exchange, HaloBuffers, Planes};
@@ -104,7 +104,7 @@ impl CudaSolver {
         self.gpu.download(words)
     }
 
-    /// Its particles, places and slots, as the carriers read and write them.
+    /// Its particles, places and slots, as the transport reads and writes them.
     pub(super) fn owned(&self) -> &DeviceParticles {
         &self.state.particles
     }

@@ -5,7 +5,7 @@
 //!
 //! | phase | every rank, fused pipeline |
 //! |---|---|
-//! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every MIGRATION_INTERVAL substeps: rebalance the slabs and migrate; then bin where the rank's schedule says |
+//! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every MIGRATION_INTERVAL substeps: rebalance the slabs and migrate (where the cuts move, the grids' scatter follows them: `carry_old_scatter`); then bin where the rank's schedule says |
 //! | p2g_init    | the first substep's scatter |
 //! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
 //! | grid_update | the walls' mirror of mass and momentum, the grid update |
@@ -27,17 +27,17 @@
 //! (the stray counts, the layer counts a migration is planned from, the statistics) comes from an
 //! all-gather, on each process alike, so each plans the same migration; the extremes the time step
 //! is chosen from are all-reduced on the device, in stream order, before their copy to the host
-//! (`Transport::reduce_counters`), so each picks the same step. Each exchange starts with a word saying what
-//! it is for (`Turn`): rank 0 alone writes the outputs, and calls the others to send it their
-//! particles (`Turn::Gather`) at whichever exchange they wait in next; every substep opens with
-//! one, so the others are called before they step on. A process waiting on the others
+//! (`Transport::reduce_counters`), so each picks the same step. Each exchange starts with a word
+//! saying what it is for (`Turn`): rank 0 alone writes the outputs, and calls the others to send it
+//! their particles (`Turn::Gather`) at whichever exchange they wait in next; every substep opens
+//! with one, so the others are called before they step on. A process waiting on the others
 //! watches their heartbeats (`dist::launch::Watch`) and stops, naming the rank, when one dies.
 //!
 //! **Each rank holds its own particles**, with room for more (`with_room`), each carrying its slot in
 //! the run, and keeps them in bin order as one GPU does: every binning gathers its live particles to
 //! the front of its buffers. A migration (`move_owned`, kernels/ranks.cu, launched from ranks.rs)
 //! packs each sender's leavers for each receiver into a buffer of their own, parking them on the
-//! sender, and the carrier appends them after the receiver's places in use (`extents`), in places
+//! sender, and the transport appends them after the receiver's places in use (`extents`), in places
 //! the receiver reserves for that sender from the layer counts every rank has; a receiver without
 //! the room grows first.
 //!
@@ -525,7 +525,7 @@ impl CudaRanks {
     }
 
     /// One exchange between every pair of neighbours: each rank packs its side of it into its send
-    /// buffers, the carrier copies them across, each rank unpacks what arrived. The scatter's sums
+    /// buffers, the transport carries them across, each rank unpacks what arrived. The scatter's sums
     /// go from the ghost planes to the owner's edge, where they are added; the updated velocities
     /// from the edge back over the ghosts.
     fn exchange(&mut self, what: Exchange) -> Result<()> {
@@ -768,7 +768,7 @@ impl CudaRanks {
     }
 
     /// Each sender of this process packs its live particles (in its places in use) of each other
-    /// rank's layers into its buffer for that rank (`packing`), parking them, and the carrier
+    /// rank's layers into its buffer for that rank (`packing`), parking them, and the transport
     /// appends them to their owners in `arrivals` (each receiver's of this process, reserved from
     /// the layer counts; `in_use` their places in use before); waited for, each sender's count to
     /// each receiver checked against `leavers`.

@@ -1,6 +1,6 @@
 //! kernels/halo.cu: the two ends of the ghost exchange on one rank's grid (the scatter's ghost sums
 //! packed for their owner and added to its edge planes; the owner's updated edge planes packed and
-//! written over the neighbours' ghosts) and the buffers a carrier moves between ranks. A rank's
+//! written over the neighbours' ghosts) and the buffers a transport moves between ranks. A rank's
 //! solver runs them (as_rank.rs), where cuda_ranks.rs asks; `dist::halo` is the CPU's version.
 
 use super::gpu::Gpu;

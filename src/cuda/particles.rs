@@ -161,7 +161,7 @@ impl DeviceParticles {
     }
 
     /// The device ranges, as (address, 32-bit words), that hold `places` of each array: a run of
-    /// particles as a carrier sends or receives it (`CudaRanks`), listed in one order, so that runs
+    /// particles as a transport sends or receives it (`CudaRanks`), listed in one order, so that runs
     /// of one length in two sets list ranges of equal lengths.
     pub fn segments(&self, stream: &CudaStream, places: Range<usize>) -> Result<Vec<(u64, usize)>> {
         ensure!(
