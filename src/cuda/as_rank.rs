@@ -167,6 +167,12 @@ impl CudaSolver {
         DeviceParticlesView::new(&self.gpu, &self.kernels.render_attributes, readers)
     }
 
+    /// Its live particles among its first `places`, written over their slots of `all` on the host
+    /// (`DeviceParticles::place_live_into`); how many.
+    pub(super) fn place_owned_into(&self, places: usize, all: &mut Particles) -> Result<usize> {
+        self.state.particles.place_live_into(&self.gpu, places, all)
+    }
+
     /// A set on its GPU, on the host.
     pub(super) fn download_set(&self, set: &DeviceParticles) -> Result<Particles> {
         set.download(&self.gpu)

@@ -975,6 +975,30 @@ impl CudaRanks {
         Ok(())
     }
 
+    /// What a host reader takes in one process: each rank's live particles downloaded from its own
+    /// GPU and written over their slots, one rank at a time, so no GPU holds every slot (a run too
+    /// large for rank 0's GPU to, the billion particles of two GPUs, still exports and
+    /// checkpoints). Slots no rank holds (drained, or never emitted) read as parked, at rest at the
+    /// origin.
+    fn read_rank_by_rank(&mut self) -> Result<Particles> {
+        let mut all = Particles::default();
+        all.park_more(self.slots);
+        all.c = vec![glam::Mat3::ZERO; self.slots];
+        if self.solvers[0].owned().deformation.is_some() {
+            all.deformation = vec![Deformation::at_rest(0); self.slots];
+        }
+        let mut written = 0;
+        for (solver, &places) in self.solvers.iter().zip(&self.extents) {
+            written += solver.place_owned_into(places, &mut all)?;
+        }
+        ensure!(
+            written as u64 == self.live,
+            "the ranks hold {written} live particles, the run {}: a migration lost or duplicated some",
+            self.live
+        );
+        Ok(all)
+    }
+
     /// Rank 0's read of every particle: the others called to it where they run in processes of
     /// their own. Nothing where nothing stepped since the last.
     fn read_all(&mut self) -> Result<()> {
@@ -1275,7 +1299,12 @@ impl Solver for CudaRanks {
         }
     }
 
+    /// In one process, rank by rank on the host (`read_rank_by_rank`); with a process per rank,
+    /// gathered into the readers' set on rank 0's GPU first.
     fn read_particles(&mut self) -> Result<Particles> {
+        if self.in_one_process() {
+            return self.read_rank_by_rank();
+        }
         self.read_all()?;
         let merged = self
             .merged

@@ -229,6 +229,69 @@ impl DeviceParticles {
         Ok(grown)
     }
 
+    /// Writes the particles live among the first `places` over their slots of `all` (a run's slots,
+    /// on the host, marked live as they are written), waiting for the device: how a host reader
+    /// takes a rank's particles without gathering every slot on one GPU (`CudaRanks`). Returns how
+    /// many it wrote; a slot out of `all`'s range or written twice is an error.
+    pub fn place_live_into(&self, gpu: &Gpu, places: usize, all: &mut Particles) -> Result<usize> {
+        ensure!(places <= self.count, "reading {places} places of {}", self.count);
+        let stream = gpu.stream();
+        let columns = |buffer: &CudaSlice<f32>, lanes: usize, columns: usize| -> Result<Vec<f32>> {
+            let mut host = vec![0.0f32; lanes * places * columns];
+            for (col, out) in host.chunks_mut(lanes * places.max(1)).enumerate().take(columns) {
+                let first = col * lanes * self.count;
+                stream
+                    .memcpy_dtoh(&buffer.slice(first..first + lanes * places), out)
+                    .context("copying a rank's particles from the GPU")?;
+            }
+            Ok(host)
+        };
+        let (x, v, c, rho) = (
+            columns(&self.x, 4, 1)?,
+            columns(&self.v, 4, 1)?,
+            columns(&self.c, 4, 3)?,
+            columns(&self.rho, 1, 1)?,
+        );
+        let deformation = match &self.deformation {
+            Some(buffer) => Some(columns(buffer, 4, 3)?),
+            None => None,
+        };
+        let mut slot = vec![0u32; places];
+        stream
+            .memcpy_dtoh(&self.slot.slice(..places), &mut slot)
+            .context("copying a rank's particle slots from the GPU")?;
+        stream
+            .synchronize()
+            .context("waiting for the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
+        ensure!(
+            deformation.is_none() || all.deformation.len() == all.len(),
+            "a rank's particles carry a deformation the run's set has no room for"
+        );
+        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
+        let mat3 =
+            |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, places + i), vec3(a, 2 * places + i));
+        let mut written = 0;
+        for i in (0..places).filter(|&i| x[4 * i + 3] == 0.0) {
+            let s = slot[i] as usize;
+            ensure!(
+                s < all.len() && !all.live[s],
+                "slot {s} (place {i} of a rank) is out of the run's {} slots or live on two ranks",
+                all.len()
+            );
+            (all.x[s], all.v[s], all.c[s]) = (vec3(&x, i), vec3(&v, i), mat3(&c, i));
+            (all.rho[s], all.live[s]) = (rho[i], true);
+            all.material[s] = material_of_tag(v[4 * i + 3]);
+            if let Some(d) = &deformation {
+                all.deformation[s] = Deformation {
+                    f: mat3(d, i),
+                    plastic: d[4 * i + 3],
+                };
+            }
+            written += 1;
+        }
+        Ok(written)
+    }
+
     /// A host copy of every slot, in slot order, waiting for the device.
     pub fn download(&self, gpu: &Gpu) -> Result<Particles> {
         let deformation = match &self.deformation {
