@@ -35,6 +35,9 @@ pub fn device_bytes(deformed: bool) -> usize {
 /// The slot of a place a rank's buffers grew by, which holds no particle of the run (no reader
 /// looks at a parked place's slot).
 pub const NO_SLOT: u32 = u32::MAX;
+/// Places [`DeviceParticles::place_live_into`] reads at a time: about 23 MB staged on the host (35
+/// with a deformation), a piece's copies a few milliseconds.
+pub const READ_PIECE: usize = 1 << 18;
 /// Bytes on the device per particle: its state and the bins' order, key and rank (bins.rs).
 pub const BYTES_PER_PARTICLE: usize = STATE_BYTES_PER_PARTICLE + 4 * 3;
 
@@ -231,51 +234,63 @@ impl DeviceParticles {
 
     /// Writes the particles live among the first `places` over their slots of `all` (a run's slots,
     /// on the host, marked live as they are written), waiting for the device: how a host reader
-    /// takes a rank's particles without gathering every slot on one GPU (`CudaRanks`). Returns how
-    /// many it wrote; a slot out of `all`'s range or written twice is an error.
+    /// takes a rank's particles without gathering every slot on one GPU (`CudaRanks`). Read
+    /// [`READ_PIECE`] places at a time, so the host stages at most a piece. Returns how many it
+    /// wrote; a slot out of `all`'s range or written twice is an error.
     pub fn place_live_into(&self, gpu: &Gpu, places: usize, all: &mut Particles) -> Result<usize> {
         ensure!(places <= self.count, "reading {places} places of {}", self.count);
-        let stream = gpu.stream();
-        let columns = |buffer: &CudaSlice<f32>, lanes: usize, columns: usize| -> Result<Vec<f32>> {
-            let mut host = vec![0.0f32; lanes * places * columns];
-            for (col, out) in host.chunks_mut(lanes * places.max(1)).enumerate().take(columns) {
-                let first = col * lanes * self.count;
+        ensure!(
+            self.deformation.is_none() || all.deformation.len() == all.len(),
+            "a rank's particles carry a deformation the run's set has no room for"
+        );
+        let mut written = 0;
+        for start in (0..places).step_by(READ_PIECE) {
+            written += self.place_piece_into(gpu, start..places.min(start + READ_PIECE), all)?;
+        }
+        Ok(written)
+    }
+
+    /// [`Self::place_live_into`] for the places `piece`.
+    fn place_piece_into(&self, gpu: &Gpu, piece: Range<usize>, all: &mut Particles) -> Result<usize> {
+        let (stream, n) = (gpu.stream(), piece.len());
+        // Each of an array's `columns` (C's and the deformation's three) for the piece, one after
+        // another.
+        let read = |buffer: &CudaSlice<f32>, lanes: usize, columns: usize| -> Result<Vec<f32>> {
+            let mut host = vec![0.0f32; lanes * n * columns];
+            for (col, out) in host.chunks_mut(lanes * n).enumerate() {
+                let first = lanes * (col * self.count + piece.start);
                 stream
-                    .memcpy_dtoh(&buffer.slice(first..first + lanes * places), out)
+                    .memcpy_dtoh(&buffer.slice(first..first + lanes * n), out)
                     .context("copying a rank's particles from the GPU")?;
             }
             Ok(host)
         };
         let (x, v, c, rho) = (
-            columns(&self.x, 4, 1)?,
-            columns(&self.v, 4, 1)?,
-            columns(&self.c, 4, 3)?,
-            columns(&self.rho, 1, 1)?,
+            read(&self.x, 4, 1)?,
+            read(&self.v, 4, 1)?,
+            read(&self.c, 4, 3)?,
+            read(&self.rho, 1, 1)?,
         );
         let deformation = match &self.deformation {
-            Some(buffer) => Some(columns(buffer, 4, 3)?),
+            Some(buffer) => Some(read(buffer, 4, 3)?),
             None => None,
         };
-        let mut slot = vec![0u32; places];
+        let mut slot = vec![0u32; n];
         stream
-            .memcpy_dtoh(&self.slot.slice(..places), &mut slot)
+            .memcpy_dtoh(&self.slot.slice(piece.clone()), &mut slot)
             .context("copying a rank's particle slots from the GPU")?;
         stream
             .synchronize()
             .context("waiting for the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        ensure!(
-            deformation.is_none() || all.deformation.len() == all.len(),
-            "a rank's particles carry a deformation the run's set has no room for"
-        );
         let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
-        let mat3 =
-            |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, places + i), vec3(a, 2 * places + i));
+        let mat3 = |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, n + i), vec3(a, 2 * n + i));
         let mut written = 0;
-        for i in (0..places).filter(|&i| x[4 * i + 3] == 0.0) {
+        for i in (0..n).filter(|&i| x[4 * i + 3] == 0.0) {
             let s = slot[i] as usize;
             ensure!(
                 s < all.len() && !all.live[s],
-                "slot {s} (place {i} of a rank) is out of the run's {} slots or live on two ranks",
+                "slot {s} (place {} of a rank) is out of the run's {} slots or live on two ranks",
+                piece.start + i,
                 all.len()
             );
             (all.x[s], all.v[s], all.c[s]) = (vec3(&x, i), vec3(&v, i), mat3(&c, i));
