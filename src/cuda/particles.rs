@@ -239,10 +239,6 @@ impl DeviceParticles {
     /// wrote; a slot out of `all`'s range or written twice is an error.
     pub fn place_live_into(&self, gpu: &Gpu, places: usize, all: &mut Particles) -> Result<usize> {
         ensure!(places <= self.count, "reading {places} places of {}", self.count);
-        ensure!(
-            self.deformation.is_none() || all.deformation.len() == all.len(),
-            "a rank's particles carry a deformation the run's set has no room for"
-        );
         let mut written = 0;
         for start in (0..places).step_by(READ_PIECE) {
             written += self.place_piece_into(gpu, start..places.min(start + READ_PIECE), all)?;
@@ -282,29 +278,15 @@ impl DeviceParticles {
         stream
             .synchronize()
             .context("waiting for the GPU (a kernel may have failed; MPM_CUDA_SYNC=1 names it)")?;
-        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
-        let mat3 = |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, n + i), vec3(a, 2 * n + i));
-        let mut written = 0;
-        for i in (0..n).filter(|&i| x[4 * i + 3] == 0.0) {
-            let s = slot[i] as usize;
-            ensure!(
-                s < all.len() && !all.live[s],
-                "slot {s} (place {} of a rank) is out of the run's {} slots or live on two ranks",
-                piece.start + i,
-                all.len()
-            );
-            (all.x[s], all.v[s], all.c[s]) = (vec3(&x, i), vec3(&v, i), mat3(&c, i));
-            (all.rho[s], all.live[s]) = (rho[i], true);
-            all.material[s] = material_of_tag(v[4 * i + 3]);
-            if let Some(d) = &deformation {
-                all.deformation[s] = Deformation {
-                    f: mat3(d, i),
-                    plastic: d[4 * i + 3],
-                };
-            }
-            written += 1;
-        }
-        Ok(written)
+        let host = HostParticles {
+            x: &x,
+            v: &v,
+            c: Some(&c),
+            rho: &rho,
+            slot: &slot,
+            deformation: deformation.as_deref(),
+        };
+        host.place_live_into(all, piece.start)
     }
 
     /// A host copy of every slot, in slot order, waiting for the device.
@@ -342,35 +324,91 @@ impl HostParticles<'_> {
     /// rayon's pool: the export thread does this for every exported frame, while the surface and
     /// volume workers may hold the pool for seconds.
     pub fn in_slot_order(&self) -> Result<Particles> {
-        let n = self.slot.len();
         let place = places_of_slots(self.slot)?;
-        let vec3 = |a: &[f32], i: usize| Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2]);
-        let (x, v) = (self.x, self.v);
-        let columns = |a: &[f32], i: usize| Mat3::from_cols(vec3(a, i), vec3(a, n + i), vec3(a, 2 * n + i));
         Ok(Particles {
-            x: place.iter().map(|&i| vec3(x, i)).collect(),
-            v: place.iter().map(|&i| vec3(v, i)).collect(),
+            x: place.iter().map(|&i| self.x_at(i)).collect(),
+            v: place.iter().map(|&i| self.v_at(i)).collect(),
             c: match self.c {
-                Some(c) => place.iter().map(|&i| columns(c, i)).collect(),
+                Some(c) => place.iter().map(|&i| self.columns(c, i)).collect(),
                 None => Vec::new(),
             },
             rho: place.iter().map(|&i| self.rho[i]).collect(),
-            material: place.iter().map(|&i| material_of_tag(v[4 * i + 3])).collect(),
-            live: place.iter().map(|&i| x[4 * i + 3] == 0.0).collect(),
+            material: place.iter().map(|&i| self.material_at(i)).collect(),
+            live: place.iter().map(|&i| self.live_at(i)).collect(),
             deformation: match self.deformation {
-                Some(d) => place
-                    .iter()
-                    .map(|&i| Deformation {
-                        f: columns(d, i),
-                        plastic: d[4 * i + 3],
-                    })
-                    .collect(),
+                Some(d) => place.iter().map(|&i| self.deformation_at(d, i)).collect(),
                 None => Vec::new(),
             },
             // The position-based solver's alone, which runs on the CPU.
             volume_bias: Vec::new(),
         })
     }
+
+    /// Writes the live places over their slots of `all` (a run's slots; these places some of a
+    /// rank's, the first of them its place `first`), marking them live: a piece of
+    /// `DeviceParticles::place_live_into`. Returns how many it wrote; a slot out of `all`'s range
+    /// or written twice is an error.
+    pub fn place_live_into(&self, all: &mut Particles, first: usize) -> Result<usize> {
+        let c = self.c.context("a rank's particles read without C")?;
+        ensure!(
+            self.deformation.is_none() || all.deformation.len() == all.len(),
+            "a rank's particles carry a deformation the run's set has no room for"
+        );
+        let mut written = 0;
+        for i in (0..self.slot.len()).filter(|&i| self.live_at(i)) {
+            let s = self.slot[i] as usize;
+            ensure!(
+                s < all.len() && !all.live[s],
+                "slot {s} (place {} of a rank) is out of the run's {} slots or live on two ranks",
+                first + i,
+                all.len()
+            );
+            (all.x[s], all.v[s], all.c[s]) = (self.x_at(i), self.v_at(i), self.columns(c, i));
+            (all.rho[s], all.live[s], all.material[s]) = (self.rho[i], true, self.material_at(i));
+            if let Some(d) = self.deformation {
+                all.deformation[s] = self.deformation_at(d, i);
+            }
+            written += 1;
+        }
+        Ok(written)
+    }
+
+    fn x_at(&self, i: usize) -> Vec3 {
+        lanes_xyz(self.x, i)
+    }
+
+    fn v_at(&self, i: usize) -> Vec3 {
+        lanes_xyz(self.v, i)
+    }
+
+    /// x.w: 0 for a live particle, PARKED_W for a parked slot.
+    fn live_at(&self, i: usize) -> bool {
+        self.x[4 * i + 3] == 0.0
+    }
+
+    fn material_at(&self, i: usize) -> u8 {
+        material_of_tag(self.v[4 * i + 3])
+    }
+
+    /// Place `i`'s matrix of an array of three float4 columns (C, or F_E), each column as many
+    /// places long as these.
+    fn columns(&self, a: &[f32], i: usize) -> Mat3 {
+        let n = self.slot.len();
+        Mat3::from_cols(lanes_xyz(a, i), lanes_xyz(a, n + i), lanes_xyz(a, 2 * n + i))
+    }
+
+    /// F_E's columns, the plastic scalar in the first one's w.
+    fn deformation_at(&self, d: &[f32], i: usize) -> Deformation {
+        Deformation {
+            f: self.columns(d, i),
+            plastic: d[4 * i + 3],
+        }
+    }
+}
+
+/// The x, y, z lanes of float4 `i` of `a`.
+fn lanes_xyz(a: &[f32], i: usize) -> Vec3 {
+    Vec3::new(a[4 * i], a[4 * i + 1], a[4 * i + 2])
 }
 
 /// v.w of a particle of material row `material`: the row's bits (kernels/material.cuh
@@ -410,7 +448,86 @@ pub fn places_of_slots(slot: &[u32]) -> Result<Vec<usize>> {
 
 #[cfg(test)]
 mod tests {
-    use super::places_of_slots;
+    use super::{places_of_slots, HostParticles};
+    use crate::contract::PARKED_W;
+    use crate::sim::Particles;
+
+    /// A rank's places written over their slots give each live particle exactly as the whole set
+    /// unpacked in slot order has it, the parked place left out.
+    #[test]
+    fn live_places_land_on_their_slots_as_the_slot_order_unpacks_them() {
+        // Four places in memory order holding slots 2, 0, 3, 1, the third parked, every value
+        // distinct.
+        let float4s = |base: f32, w: [f32; 4]| -> Vec<f32> {
+            (0..16)
+                .map(|k| if k % 4 == 3 { w[k / 4] } else { base + k as f32 })
+                .collect()
+        };
+        let x = float4s(0.0, [0.0, 0.0, PARKED_W, 0.0]);
+        let v = float4s(100.0, [0.0, f32::from_bits(1), 0.0, f32::from_bits(2)]);
+        let c: Vec<f32> = (0..48).map(|k| 200.0 + k as f32).collect();
+        let d: Vec<f32> = (0..48).map(|k| 300.0 + k as f32).collect();
+        let (rho, slot) = (vec![1.0, 2.0, 3.0, 4.0], vec![2, 0, 3, 1]);
+        let host = HostParticles {
+            x: &x,
+            v: &v,
+            c: Some(&c),
+            rho: &rho,
+            slot: &slot,
+            deformation: Some(&d),
+        };
+        let whole = host.in_slot_order().unwrap();
+        // Slot 0 lies at place 1: its float4s' lanes 4 to 6, C's and F_E's columns a column (4
+        // places of 4 lanes) apart, the plastic scalar in F_E's first column's w, material row 1.
+        let vec3 = |a: f32| glam::Vec3::new(a, a + 1.0, a + 2.0);
+        assert_eq!(
+            (whole.x[0], whole.v[0], whole.rho[0]),
+            (vec3(4.0), vec3(104.0), 2.0)
+        );
+        assert_eq!(
+            whole.c[0],
+            glam::Mat3::from_cols(vec3(204.0), vec3(220.0), vec3(236.0))
+        );
+        let f = glam::Mat3::from_cols(vec3(304.0), vec3(320.0), vec3(336.0));
+        assert_eq!((whole.deformation[0].f, whole.deformation[0].plastic), (f, 307.0));
+        assert_eq!(
+            (whole.material[0], whole.live),
+            (1, vec![true, true, true, false])
+        );
+        let mut all = Particles::default();
+        all.park_more(4);
+        all.c = vec![glam::Mat3::ZERO; 4];
+        all.deformation = vec![crate::sim::Deformation::at_rest(0); 4];
+        assert_eq!(host.place_live_into(&mut all, 0).unwrap(), 3);
+        assert_eq!(
+            all.live,
+            vec![true, true, true, false],
+            "slot 3's place is parked"
+        );
+        for s in 0..3 {
+            assert_eq!(
+                (
+                    all.x[s],
+                    all.v[s],
+                    all.c[s],
+                    all.rho[s],
+                    all.material[s],
+                    all.deformation[s]
+                ),
+                (
+                    whole.x[s],
+                    whole.v[s],
+                    whole.c[s],
+                    whole.rho[s],
+                    whole.material[s],
+                    whole.deformation[s]
+                ),
+                "slot {s}"
+            );
+        }
+        let twice = host.place_live_into(&mut all, 0).unwrap_err().to_string();
+        assert!(twice.contains("live on two ranks"), "{twice}");
+    }
 
     #[test]
     fn places_invert_the_stored_slots() {
