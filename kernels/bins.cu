@@ -28,7 +28,7 @@ extern "C" __global__ void bin_count(const KernelParams params,
                                     u32* __restrict__ key,
                                     u32* __restrict__ rank) {
     u32 bins[3];
-    for (int a = 0; a < 3; ++a) bins[a] = (params.grid_res[a] + edge - 1) / edge;
+    for (int a = 0; a < 3; ++a) bins[a] = (params.box_res[a] + edge - 1) / edge;
     // Parked slots (kernels/lifecycle.cu) take the PARKED_KEYS keys past every bin's, a warp to a
     // key: they sort to the end of `order`, in no bin and no list, and the warps' atomics spread over
     // PARKED_KEYS counters instead of queuing on one.
@@ -39,8 +39,11 @@ extern "C" __global__ void bin_count(const KernelParams params,
             k = parked_key + (first + threadIdx.x) / 32u % PARKED_KEYS;
         } else if (live) {
             const Stencil s = make_stencil(x[p], params);
-            const u32 bin = s.base[0] / edge + bins[0] * (s.base[1] / edge + bins[1] * (s.base[2] / edge));
-            const u32 cell = s.base[0] % edge + edge * (s.base[1] % edge + edge * (s.base[2] % edge));
+            // Bins (and their cells) count from the grid box's first node.
+            u32 b[3];
+            for (int a = 0; a < 3; ++a) b[a] = s.base[a] - params.box_lo[a];
+            const u32 bin = b[0] / edge + bins[0] * (b[1] / edge + bins[1] * (b[2] / edge));
+            const u32 cell = b[0] % edge + edge * (b[1] % edge + edge * (b[2] % edge));
             k = bin * edge * edge * edge + cell;
         }
         const u32 lane = threadIdx.x & 31u;

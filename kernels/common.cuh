@@ -27,12 +27,36 @@
             if (const bool live = index < (count); true)
 
 // ---------------------------------------------------------------------------------------------
+// Where a node is stored. Kernels work in the domain's node coordinates; a GPU's grid holds the box
+// params.box_lo .. box_lo + box_res of them (one GPU: the whole grid; a rank of several: its slab and
+// ghost planes along the slab axis, src/cuda/grid.rs `GridBox`), x fastest. Only the address of a
+// node depends on the box.
+
+__device__ __forceinline__ u32 grid_index(const KernelParams& params, u32 x, u32 y, u32 z) {
+    return (x - params.box_lo[0]) + params.box_res[0] * ((y - params.box_lo[1]) + params.box_res[1] * (z - params.box_lo[2]));
+}
+
+// The domain coordinates of the node stored at i.
+__device__ __forceinline__ void grid_node_of(const KernelParams& params, u32 i, u32 c[3]) {
+    const u32 rx = params.box_res[0], ry = params.box_res[1];
+    c[0] = params.box_lo[0] + i % rx;
+    c[1] = params.box_lo[1] + (i / rx) % ry;
+    c[2] = params.box_lo[2] + i / (rx * ry);
+}
+
+// Whether the box holds node c.
+__device__ __forceinline__ bool in_grid_box(const KernelParams& params, const u32 c[3]) {
+    return c[0] - params.box_lo[0] < params.box_res[0] && c[1] - params.box_lo[1] < params.box_res[1] &&
+           c[2] - params.box_lo[2] < params.box_res[2];
+}
+
+// ---------------------------------------------------------------------------------------------
 // The quadratic B-spline stencil of docs/physics.md, in the same operation order as `Stencil` in
 // src/sim/cpu.rs, so that the CPU reference and the kernels round alike wherever they can.
 
 struct Stencil {
     u32 base[3];     // base = floor(X - 0.5), the lowest stencil node
-    u32 base_index;  // its node index
+    u32 base_index;  // where its node is stored (grid_index)
     float fx[3];     // X - base, each in [0.5, 1.5)
     float w[3][3];   // w[o][axis]: weight of node base + o along axis
 };
@@ -49,7 +73,7 @@ __device__ __forceinline__ Stencil make_stencil(float4 x, const KernelParams& pa
         s.w[1][a] = 0.75f - (f - 1.0f) * (f - 1.0f);
         s.w[2][a] = 0.5f * (f - 0.5f) * (f - 0.5f);
     }
-    s.base_index = s.base[0] + params.grid_res[0] * (s.base[1] + params.grid_res[1] * s.base[2]);
+    s.base_index = grid_index(params, s.base[0], s.base[1], s.base[2]);
     return s;
 }
 
@@ -79,8 +103,8 @@ __device__ __forceinline__ Stencil make_stencil(float4 x, const KernelParams& pa
 
 // The same over the grid's own node indices.
 #define FOR_EACH_STENCIL_NODE(s, params, node, weight, d0, d1, d2, ...)                            \
-    FOR_EACH_STENCIL_NODE_AT(s, (s).base_index, (params).grid_res[0],                              \
-                             (params).grid_res[0] * (params).grid_res[1], node, weight, d0, d1, d2, __VA_ARGS__)
+    FOR_EACH_STENCIL_NODE_AT(s, (s).base_index, (params).box_res[0],                               \
+                             (params).box_res[0] * (params).box_res[1], node, weight, d0, d1, d2, __VA_ARGS__)
 
 // ---------------------------------------------------------------------------------------------
 // Fixed-point scatter. Each contribution is scaled and rounded to the nearest integer (not truncated:
@@ -436,7 +460,7 @@ __device__ __forceinline__ G2pResult g2p_gather(const KernelParams& params, floa
     // sums, added in another order). Measured on the H100 with the scatter's impulse below
     // (BENCHMARKS.md 0y): the float substep 2 to 8 % shorter, the most where the GPU is full.
     const float wd0[3] = {s.w[0][0] * (0.0f - s.fx[0]), s.w[1][0] * (1.0f - s.fx[0]), s.w[2][0] * (2.0f - s.fx[0])};
-    const u32 row_stride = params.grid_res[0], plane_stride = params.grid_res[0] * params.grid_res[1];
+    const u32 row_stride = params.box_res[0], plane_stride = params.box_res[0] * params.box_res[1];
 #pragma unroll
     for (int oz = 0; oz < 3; ++oz) {
         const float d2 = (float)oz - s.fx[2];
@@ -648,12 +672,12 @@ __device__ __forceinline__ void zero_node_sums(const KernelParams& params, u32 i
 // colliders' boundary conditions, free slip in the walls' boundary band (last, as in src/sim/cpu.rs).
 __device__ __forceinline__ void update_node_velocity(const KernelParams& params, u32 i, const NodeSums& s,
                                                      float4* grid_vel, const Colliders& colliders) {
-    const u32 rx = params.grid_res[0], ry = params.grid_res[1], rz = params.grid_res[2];
     const u32 band = params.boundary_band;
     float vel[3] = {0.0f, 0.0f, 0.0f};
     if (s.m > 0.0f) {
-        const u32 node[3] = {i % rx, (i / rx) % ry, i / (rx * ry)};
-        const u32 res[3] = {rx, ry, rz};
+        u32 node[3];
+        grid_node_of(params, i, node);
+        const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
         for (int a = 0; a < 3; ++a) vel[a] = s.mv[a] / s.m + params.gravity[a] * params.dt;
         if (colliders.count) {
             const Vec3f x = v3((float)node[0] * params.dx, (float)node[1] * params.dx, (float)node[2] * params.dx);

@@ -37,7 +37,7 @@ extern "C" __global__ void grid_update(const KernelParams params,
                                        u64* __restrict__ fixed_mass,      // in (fixed-point); zeroed
                                        u64* __restrict__ fixed_momentum,  // in (fixed-point); zeroed
                                        StepCounters* __restrict__ counters) {
-    const u32 num_nodes = params.grid_res[0] * params.grid_res[1] * params.grid_res[2];
+    const u32 num_nodes = params.box_res[0] * params.box_res[1] * params.box_res[2];
     FOR_EACH_INDEX(i, num_nodes) {
         // The report's pipeline applies no colliders (the host refuses scenes that have them).
         update_node(params, i, grid_acc, grid_vel, fixed_mass, fixed_momentum, counters, Colliders{nullptr, 0u, nullptr, nullptr});
@@ -85,8 +85,8 @@ __device__ __forceinline__ V orbit_slot(const V v[8], u32 own) {
 // kernel unrolls it, its registers weighing on the wall blocks alone now (BENCHMARKS.md M14, w5:
 // unrolled in the shared launch, 1 to 3 % off the small scenes, whose blocks nearly all meet a wall).
 template <typename V, int UNROLL>
-__device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const MirrorOrbit& o, u32 own,
-                                                  const u32 res[3], const float4* grid_acc, const u64* fixed_mass,
+__device__ __forceinline__ void mirrored_channels(const KernelParams& params, const MirrorAxis m[3],
+                                                  const MirrorOrbit& o, u32 own, const float4* grid_acc, const u64* fixed_mass,
                                                   const u64* fixed_momentum, V mine[4]) {
 #pragma unroll
     for (int k = 0; k < 4; ++k) mine[k] = V(0);
@@ -98,7 +98,7 @@ __device__ __forceinline__ void mirrored_channels(const MirrorAxis m[3], const M
 #pragma unroll
         for (u32 T = 0; T < 8; ++T) {
             u32 r[3];
-            if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(m, o, T, res, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
+            if (!(T & ~o.axes)) mirror_load(mirror_orbit_node(params, m, o, T, r), ch, grid_acc, fixed_mass, fixed_momentum, v[T]);
         }
         mirror_orbit_channel(m, o, ch, v);
         const V picked = orbit_slot(v, own);
@@ -132,10 +132,10 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
         crossing |= mirror_crosses_blocks(m[b], o.zone[b], c[b]);
     }
     V mine[4];
-    mirrored_channels<V, UNROLL>(m, o, own, params.grid_res, grid_acc, fixed_mass, fixed_momentum, mine);
+    mirrored_channels<V, UNROLL>(params, m, o, own, grid_acc, fixed_mass, fixed_momentum, mine);
     NodeSums s = node_sums(params, mine, counters);
     if (OWN_SUMS) {
-        const size_t i = c[0] + (size_t)params.grid_res[0] * (c[1] + (size_t)params.grid_res[1] * c[2]);
+        const size_t i = grid_index(params, c[0], c[1], c[2]);
         V own_sums[4];
 #pragma unroll
         for (int ch = 0; ch < 4; ++ch) mirror_load(i, ch, grid_acc, fixed_mass, fixed_momentum, own_sums[ch]);
@@ -162,7 +162,8 @@ __device__ __forceinline__ NodeSums mirrored_sums(const KernelParams& params, co
 // Each clears its blocks' marks and empties its part of the list when done (empty_list_part).
 
 // One CUDA block of NODE_BLOCK_NODES (64) threads to a listed node block: thread t's node of block b,
-// its grid index, and whether it lies inside the grid (the last blocks of an axis may stick out).
+// where it is stored, and whether it lies inside the grid's box (the last blocks of an axis may stick
+// out).
 struct BlockNode {
     u32 c[3];
     u32 i;
@@ -171,11 +172,13 @@ struct BlockNode {
 
 __device__ __forceinline__ BlockNode block_node(const KernelParams& params, const NodeBlocks& blocks, u32 b) {
     BlockNode n;
-    n.c[0] = NODE_BLOCK_EDGE * (b % blocks.count[0]) + (threadIdx.x & 3u);
-    n.c[1] = NODE_BLOCK_EDGE * ((b / blocks.count[0]) % blocks.count[1]) + ((threadIdx.x >> 2) & 3u);
-    n.c[2] = NODE_BLOCK_EDGE * (b / (blocks.count[0] * blocks.count[1])) + (threadIdx.x >> 4);
-    n.inside = n.c[0] < params.grid_res[0] && n.c[1] < params.grid_res[1] && n.c[2] < params.grid_res[2];
-    n.i = n.c[0] + params.grid_res[0] * (n.c[1] + params.grid_res[1] * n.c[2]);
+    u32 block[3];
+    node_block_of(blocks, b, block);
+    n.c[0] = NODE_BLOCK_EDGE * block[0] + (threadIdx.x & 3u);
+    n.c[1] = NODE_BLOCK_EDGE * block[1] + ((threadIdx.x >> 2) & 3u);
+    n.c[2] = NODE_BLOCK_EDGE * block[2] + (threadIdx.x >> 4);
+    n.inside = in_grid_box(params, n.c);
+    n.i = grid_index(params, n.c[0], n.c[1], n.c[2]);
     return n;
 }
 
@@ -389,13 +392,13 @@ extern "C" __global__ void __launch_bounds__(64, 14) grid_update_wall_blocks_fri
 }
 
 // The nodes within wall w's reach (0 where w is not in `walls`): 2 reach + 1 planes across the other
-// two axes.
+// two axes of the grid's box.
 __device__ __forceinline__ u32 wall_reach_nodes(const KernelParams& params, u32 walls, u32 w) {
     if (!((walls >> w) & 1u)) return 0;
     const u32 a = w / 2;
     const MirrorAxis m = mirror_axis(params, a);
     const u32 reach = w & 1u ? m.hi_reach : m.lo_reach;
-    return (2 * reach + 1) * params.grid_res[(a + 1) % 3] * params.grid_res[(a + 2) % 3];
+    return (2 * reach + 1) * params.box_res[(a + 1) % 3] * params.box_res[(a + 2) % 3];
 }
 
 // After a grid update that mirrored (the fused pipeline) on a grid where some orbit crosses node
@@ -425,13 +428,14 @@ extern "C" __global__ void clear_crossing_orbits(const KernelParams params, cons
             const u32 a = w / 2;
             const MirrorAxis m = mirror_axis(params, a);
             const u32 centre = w & 1u ? m.hi : m.lo, reach = w & 1u ? m.hi_reach : m.lo_reach;
-            const u32 width = 2 * reach + 1, across = params.grid_res[(a + 1) % 3];
+            const u32 width = 2 * reach + 1, across = params.box_res[(a + 1) % 3];
             u32 c[3];
             c[a] = centre - reach + i % width;
-            c[(a + 1) % 3] = (i / width) % across;
-            c[(a + 2) % 3] = i / (width * across);
-            const u32 node = c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
-            zero_node_sums(params, node, grid_acc, fixed_mass, fixed_momentum);
+            c[(a + 1) % 3] = params.box_lo[(a + 1) % 3] + (i / width) % across;
+            c[(a + 2) % 3] = params.box_lo[(a + 2) % 3] + i / (width * across);
+            // A rank's box holds a wall of the slab axis whole, or none of it.
+            if (in_grid_box(params, c))
+                zero_node_sums(params, grid_index(params, c[0], c[1], c[2]), grid_acc, fixed_mass, fixed_momentum);
         }
     }
 }

@@ -1,6 +1,6 @@
 // halo: the ghost exchange's two ends on one rank's grid (src/cuda/halo.rs; src/dist/halo.rs is the
 // CPU ranks' version of the same rule). A rank holds the grid in the domain's node numbering and
-// touches its slab and one block of ghost planes on each inner face. After the scatter, the ghost
+// touches its slab and one block of ghost planes on each inner face: the box its grid holds. After the scatter, the ghost
 // planes' partial sums are packed (and zeroed, as the grid update would), carried to the owner and
 // added to its edge planes; after the grid update, the owner's edge planes' velocities are packed,
 // carried back and written over the ghosts. The carrier (a device copy on one GPU, NCCL across GPUs)
@@ -31,24 +31,23 @@ __device__ __forceinline__ u64 get_u64(const u32* in) {
     return (u64)in[0] | ((u64)in[1] << 32);
 }
 
-// Node `j` of the `num_nodes` nodes of the planes from `first` across `axis`, counted in the grid's
-// memory order (x fastest), so that neighbouring threads read neighbouring nodes whichever the axis.
-__device__ __forceinline__ u32 halo_node(const KernelParams& params, u32 axis, u32 first, u32 num_nodes, u32 j) {
-    u32 box[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
+// Node `j` of the `num_nodes` nodes of the planes from `first` (a domain coordinate) across `axis`,
+// counted in the grid's memory order (x fastest), so that neighbouring threads read neighbouring
+// nodes whichever the axis: where it is stored, its node in c.
+__device__ __forceinline__ u32 halo_node(const KernelParams& params, u32 axis, u32 first, u32 num_nodes, u32 j,
+                                         u32 c[3]) {
+    u32 box[3] = {params.box_res[0], params.box_res[1], params.box_res[2]};
     box[axis] = num_nodes / (box[0] * box[1] * box[2] / box[axis]);
-    u32 c[3] = {j % box[0], (j / box[0]) % box[1], j / (box[0] * box[1])};
-    c[axis] += first;
-    return c[0] + params.grid_res[0] * (c[1] + params.grid_res[1] * c[2]);
+    c[0] = j % box[0];
+    c[1] = (j / box[0]) % box[1];
+    c[2] = j / (box[0] * box[1]);
+    for (u32 a = 0; a < 3u; ++a) c[a] += a == axis ? first : params.box_lo[a];
+    return grid_index(params, c[0], c[1], c[2]);
 }
 
-// The node block of node i, per axis.
-struct HaloBlock {
-    u32 x, y, z;
-};
-
-__device__ __forceinline__ HaloBlock halo_node_block(const KernelParams& params, u32 i) {
-    const u32 rx = params.grid_res[0], ry = params.grid_res[1];
-    return HaloBlock{(i % rx) / NODE_BLOCK_EDGE, ((i / rx) % ry) / NODE_BLOCK_EDGE, (i / (rx * ry)) / NODE_BLOCK_EDGE};
+// The index of node c's block (node_block_index).
+__device__ __forceinline__ u32 halo_node_block(const NodeBlocks& blocks, const u32 c[3]) {
+    return node_block_index(blocks, c[0] / NODE_BLOCK_EDGE, c[1] / NODE_BLOCK_EDGE, c[2] / NODE_BLOCK_EDGE);
 }
 
 // Packs and zeroes the scatter's sums on `num_nodes` nodes of the ghost planes from `first`.
@@ -59,7 +58,8 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
     const NodeBlocks blocks = node_blocks(params);
     const u32 words = halo_sum_words(params);
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        u32 c[3];
+        const u32 i = halo_node(params, axis, first, num_nodes, j, c);
         u32* o = out + (size_t)words * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
             put_u64(o, fixed_mass[i]);
@@ -76,8 +76,7 @@ extern "C" __global__ void halo_pack_sums(const KernelParams params, const u32 a
             o[2] = __float_as_uint(acc.y);
             o[3] = __float_as_uint(acc.z);
         }
-        const HaloBlock b = halo_node_block(params, i);
-        o[words - 1] = block_marks[node_block_index(blocks, b.x, b.y, b.z)];
+        o[words - 1] = block_marks[halo_node_block(blocks, c)];
         if (params.volume_density) {
             put_u64(out + (size_t)words * num_nodes + 2 * (size_t)j, volume[i]);
             volume[i] = 0;
@@ -95,7 +94,8 @@ extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 ax
     const BlockMarks marks{block_marks, block_list, work_counts};
     const u32 words = halo_sum_words(params);
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        u32 c[3];
+        const u32 i = halo_node(params, axis, first, num_nodes, j, c);
         const u32* w = in + (size_t)words * j;
         if (params.scatter_mode == SCATTER_FIXED_POINT) {
             fixed_mass[i] += get_u64(w);
@@ -108,10 +108,8 @@ extern "C" __global__ void halo_add_sums(const KernelParams params, const u32 ax
             acc.z += __uint_as_float(w[3]);
             grid_acc[i] = acc;
         }
-        if (w[words - 1]) {
-            const HaloBlock b = halo_node_block(params, i);
-            mark_node_block(params, marks, blocks, b.x, b.y, b.z);
-        }
+        if (w[words - 1]) mark_node_block(params, marks, blocks, c[0] / NODE_BLOCK_EDGE, c[1] / NODE_BLOCK_EDGE,
+                                          c[2] / NODE_BLOCK_EDGE);
         if (params.volume_density) volume[i] += get_u64(in + (size_t)words * num_nodes + 2 * (size_t)j);
     }
 }
@@ -123,7 +121,8 @@ extern "C" __global__ void halo_pack_velocities(const KernelParams params, const
                                                 const u64* __restrict__ volume, float4* __restrict__ out) {
     u64* volume_out = reinterpret_cast<u64*>(out + num_nodes);
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        u32 c[3];
+        const u32 i = halo_node(params, axis, first, num_nodes, j, c);
         out[j] = grid_vel[i];
         if (params.volume_density) volume_out[j] = volume[i];
     }
@@ -135,7 +134,8 @@ extern "C" __global__ void halo_fill_velocities(const KernelParams params, const
                                                 float4* __restrict__ grid_vel, u64* __restrict__ volume) {
     const u64* volume_in = reinterpret_cast<const u64*>(in + num_nodes);
     FOR_EACH_INDEX(j, num_nodes) {
-        const u32 i = halo_node(params, axis, first, num_nodes, j);
+        u32 c[3];
+        const u32 i = halo_node(params, axis, first, num_nodes, j, c);
         grid_vel[i] = in[j];
         if (params.volume_density) volume[i] = volume_in[j];
     }

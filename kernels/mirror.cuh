@@ -86,11 +86,12 @@ __device__ __forceinline__ MirrorOrbit mirror_orbit(const MirrorAxis m[3], const
     return o;
 }
 
-// The grid index of the orbit's slot T (T a subset of o.axes).
-__device__ __forceinline__ size_t mirror_orbit_node(const MirrorAxis m[3], const MirrorOrbit& o, u32 T,
-                                                    const u32 res[3], u32 r[3]) {
+// Where the orbit's slot T is stored (T a subset of o.axes), its node in r. The box holds it: a
+// rank's box holds both ends of every mirror pair it meets (`Slabs::holds_mirror`).
+__device__ __forceinline__ size_t mirror_orbit_node(const KernelParams& params, const MirrorAxis m[3],
+                                                    const MirrorOrbit& o, u32 T, u32 r[3]) {
     for (int b = 0; b < 3; ++b) r[b] = (T >> b) & 1u ? mirror_reflect(m[b], o.zone[b], o.rep[b]) : o.rep[b];
-    return r[0] + (size_t)res[0] * (r[1] + (size_t)res[1] * r[2]);
+    return grid_index(params, r[0], r[1], r[2]);
 }
 
 // Adds the images to one channel of an orbit's values (0 the mass, 1 + k momentum k) axis by axis

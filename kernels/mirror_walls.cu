@@ -66,7 +66,8 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
     if (params.wall_mirror_lo == 0) return;
     // The volume is fixed-point units whatever the scatter mode.
     const bool fixed = quantity == MIRROR_VOLUME || params.scatter_mode == SCATTER_FIXED_POINT;
-    const u32 res[3] = {params.grid_res[0], params.grid_res[1], params.grid_res[2]};
+    // Across each axis, the grid box's nodes: a rank meets the walls of its own box.
+    const u32 res[3] = {params.box_res[0], params.box_res[1], params.box_res[2]};
     const MirrorAxis m[3] = {mirror_axis(params, 0), mirror_axis(params, 1), mirror_axis(params, 2)};
     // Slab of axis a: its fluid-side coordinates (fastest), then the other two axes in order.
     u32 slab[3];
@@ -79,8 +80,9 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
         const u32 width = mirror_slab_width(m[a]);
         u32 c[3];
         c[a] = mirror_slab_coordinate(m[a], i % width);
-        c[(a + 1) % 3] = (i / width) % res[(a + 1) % 3];
-        c[(a + 2) % 3] = i / (width * res[(a + 1) % 3]);
+        c[(a + 1) % 3] = params.box_lo[(a + 1) % 3] + (i / width) % res[(a + 1) % 3];
+        c[(a + 2) % 3] = params.box_lo[(a + 2) % 3] + i / (width * res[(a + 1) % 3]);
+        if (!in_grid_box(params, c)) continue;
 
         // This node is its orbit's representative only on the fluid side of each of its walls, and
         // only in the slab of the lowest of their axes.
@@ -97,7 +99,7 @@ extern "C" __global__ void mirror_walls(const KernelParams params, const u32 qua
         for (u32 T = 0; T < 8; ++T) {
             if (T & ~axes) continue;
             u32 r[3];
-            node[T] = mirror_orbit_node(m, o, T, res, r);
+            node[T] = mirror_orbit_node(params, m, o, T, r);
             block[T] = node_block_index(blocks, r[0] / NODE_BLOCK_EDGE, r[1] / NODE_BLOCK_EDGE, r[2] / NODE_BLOCK_EDGE);
             if (block_marks) marked[T] = block_marks[block[T]];
         }

@@ -123,7 +123,7 @@ __device__ __forceinline__ void scatter_runs_by_plane(const KernelParams& params
     const float m_p = q.mass;
     zero_unless_live(live, s, q);
     const u32 longest = warp_longest_run(run);
-    const u32 row = params.grid_res[0], plane = params.grid_res[0] * params.grid_res[1];
+    const u32 row = params.box_res[0], plane = params.box_res[0] * params.box_res[1];
 #pragma unroll
     for (u32 oz = 0; oz < 3; ++oz) {
         // Selected, not indexed: a dynamic index would put the stencil in local memory. (The planes

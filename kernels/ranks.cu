@@ -7,14 +7,20 @@
 
 // Counts the live particles of the first `places` whose stencil base along `axis` lies outside keep_lo..=keep_hi: those
 // that one more substep could carry past the rank's ghost planes (`Slabs::keeps`), so the ranks
-// migrate first.
+// migrate first (strays[0]); and of those, the ones whose stencil already left the grid's box
+// (strays[1]): a particle that moved more than a cell in a substep, whose sums the box could not
+// hold, which stops the run.
 extern "C" __global__ void count_strays(const KernelParams params, const u32 places, const u32 axis, const int keep_lo,
                                         const int keep_hi, const float4* __restrict__ x, u32* __restrict__ strays) {
+    const int box_lo = (int)params.box_lo[axis], box_hi = box_lo + (int)params.box_res[axis] - 3;
     FOR_EACH_INDEX(p, places) {
         const float4 xp = x[p];
         if (is_parked(xp)) continue;
         const int base = stencil_base_along(params, axis, xp);
-        if (base < keep_lo || base > keep_hi) atomicAdd(strays, 1u);
+        if (base < keep_lo || base > keep_hi) {
+            atomicAdd(&strays[0], 1u);
+            if (base < box_lo || base > box_hi) atomicAdd(&strays[1], 1u);
+        }
     }
 }
 

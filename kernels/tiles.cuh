@@ -67,18 +67,32 @@ static_assert(TILE_NODES == TILE_EDGE * TILE_EDGE * TILE_EDGE, "TILE_NODES in sr
 #define TILE_UNIT_MASS_LIMIT 268435456.0f /* 2^28 */
 
 
+// The grid box's node blocks (the box starts on a block's edge: src/cuda/grid.rs `GridBox`). Kernels
+// name a block by its domain coordinates (node / NODE_BLOCK_EDGE); the marks and lists by its index
+// in the box, which is also the index of the bin of its nodes.
 struct NodeBlocks {
     u32 count[3];  // node blocks per axis
+    u32 lo[3];     // the box's first block
 };
 
 __device__ __forceinline__ NodeBlocks node_blocks(const KernelParams& params) {
     NodeBlocks b;
-    for (int a = 0; a < 3; ++a) b.count[a] = (params.grid_res[a] + NODE_BLOCK_EDGE - 1) / NODE_BLOCK_EDGE;
+    for (int a = 0; a < 3; ++a) {
+        b.count[a] = (params.box_res[a] + NODE_BLOCK_EDGE - 1) / NODE_BLOCK_EDGE;
+        b.lo[a] = params.box_lo[a] / NODE_BLOCK_EDGE;
+    }
     return b;
 }
 
 __device__ __forceinline__ u32 node_block_index(const NodeBlocks& blocks, u32 bx, u32 by, u32 bz) {
-    return bx + blocks.count[0] * (by + blocks.count[1] * bz);
+    return (bx - blocks.lo[0]) + blocks.count[0] * ((by - blocks.lo[1]) + blocks.count[1] * (bz - blocks.lo[2]));
+}
+
+// The domain coordinates of the block at index b.
+__device__ __forceinline__ void node_block_of(const NodeBlocks& blocks, u32 b, u32 block[3]) {
+    block[0] = blocks.lo[0] + b % blocks.count[0];
+    block[1] = blocks.lo[1] + (b / blocks.count[0]) % blocks.count[1];
+    block[2] = blocks.lo[2] + b / (blocks.count[0] * blocks.count[1]);
 }
 
 __device__ __forceinline__ u32 node_block_total(const NodeBlocks& blocks) {
@@ -130,14 +144,12 @@ __device__ __forceinline__ void mark_stencil_blocks(const KernelParams& params, 
 // and a mark per node block the tile overlaps.
 struct Tile {
     int origin[3];  // grid node of tile node (0, 0, 0): 4 b - TILE_HALO per axis
-    u32 bin[3];
+    u32 bin[3];     // its bin's node block, in domain coordinates
 };
 
 __device__ __forceinline__ Tile make_tile(const NodeBlocks& blocks, u32 bin) {
     Tile t;
-    t.bin[0] = bin % blocks.count[0];
-    t.bin[1] = (bin / blocks.count[0]) % blocks.count[1];
-    t.bin[2] = bin / (blocks.count[0] * blocks.count[1]);
+    node_block_of(blocks, bin, t.bin);
     for (int a = 0; a < 3; ++a) t.origin[a] = (int)(NODE_BLOCK_EDGE * t.bin[a]) - TILE_HALO;
     return t;
 }
@@ -323,7 +335,7 @@ __device__ __forceinline__ void tile_count_mass_wraps(i64 balance, StepCounters*
 // unrolled stencil loops, so this folds to one multiply-add).
 __device__ __forceinline__ u32 stencil_node(const Stencil& s, const KernelParams& params, u32 offset) {
     const u32 o[3] = {offset % TILE_EDGE, (offset / TILE_EDGE) % TILE_EDGE, offset / (TILE_EDGE * TILE_EDGE)};
-    return s.base_index + o[0] + params.grid_res[0] * (o[1] + params.grid_res[1] * o[2]);
+    return s.base_index + o[0] + params.box_res[0] * (o[1] + params.box_res[1] * o[2]);
 }
 
 // A contribution the tile did not take, to the global grid: fixed point rounded as the tile rounds
@@ -470,12 +482,11 @@ __device__ __forceinline__ void warp_list_marked_blocks(const KernelParams& para
                 sums[_ch] = (tile)[_ch * TILE_NODES + k];                                                        \
                 (tile)[_ch * TILE_NODES + k] = 0;                                                                \
             }                                                                                                    \
-            const int _g[3] = {(t).origin[0] + (int)(k % TILE_EDGE), (t).origin[1] + (int)((k / TILE_EDGE) % TILE_EDGE), \
-                               (t).origin[2] + (int)(k / (TILE_EDGE * TILE_EDGE))};                              \
-            if (_g[0] < 0 || _g[1] < 0 || _g[2] < 0 || _g[0] >= (int)(params).grid_res[0] ||                     \
-                _g[1] >= (int)(params).grid_res[1] || _g[2] >= (int)(params).grid_res[2])                        \
-                continue;                                                                                        \
-            const u32 node = (u32)_g[0] + (params).grid_res[0] * ((u32)_g[1] + (params).grid_res[1] * (u32)_g[2]); \
+            const u32 _g[3] = {(u32)((t).origin[0] + (int)(k % TILE_EDGE)),                                  \
+                               (u32)((t).origin[1] + (int)((k / TILE_EDGE) % TILE_EDGE)),                        \
+                               (u32)((t).origin[2] + (int)(k / (TILE_EDGE * TILE_EDGE)))};                       \
+            if (!in_grid_box((params), _g)) continue; /* a node below 0 wraps past every box */                  \
+            const u32 node = grid_index((params), _g[0], _g[1], _g[2]);                                          \
             __VA_ARGS__                                                                                          \
         }                                                                                                        \
     }

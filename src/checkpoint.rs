@@ -105,12 +105,17 @@ pub const EXTENSION: &str = "mpmck";
 /// Magic, version, reserved word and body length.
 const HEADER_BYTES: usize = 8 + 4 + 4 + 8;
 const CHECKSUM_BYTES: usize = 4;
-const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4;
+/// The parameters' words in a file: every word of [`Params`] but the grid box's, which say where a
+/// GPU holds its grid, not what the run is (`KernelParams::box_lo`, the kernel parameters' last six).
+const PARAMS_WORDS: usize = std::mem::size_of::<Params>() / 4 - BOX_WORDS;
+const BOX_WORDS: usize = 6;
+const _: () = assert!(std::mem::offset_of!(KernelParams, box_lo) == 4 * (KERNEL_WORDS - BOX_WORDS));
+const _: () = assert!(std::mem::size_of::<KernelParams>() == 4 * KERNEL_WORDS);
 /// Version 1's parameters: one material (8 words), then gravity to the density rule (20 words).
 const VERSION_1_PARAMS_WORDS: usize = 28;
 /// Version 2's material rows: the liquids' 13 words and 3 of padding.
 const VERSION_2_MATERIAL_WORDS: usize = 16;
-/// Version 2's parameters: the table of 8 rows of 16 words, then the kernel parameters.
+/// Version 2's parameters: the kernel parameters as saved, then the table of 8 rows of 16 words.
 const VERSION_2_PARAMS_WORDS: usize =
     PARAMS_WORDS - (MATERIAL_WORDS - VERSION_2_MATERIAL_WORDS) * MAX_MATERIALS as usize;
 const MATERIAL_WORDS: usize = std::mem::size_of::<Material>() / 4;
@@ -502,10 +507,7 @@ impl Checkpoint {
         out.write_all(&(body as u64).to_le_bytes())?;
         out.write_all(&(meta.len() as u64).to_le_bytes())?;
         out.write_all(&meta)?;
-        write_words(
-            out,
-            bytemuck::cast_slice::<Params, u32>(std::slice::from_ref(&self.params)),
-        )?;
+        write_words(out, &saved_params_words(&self.params))?;
         let clock = &self.clock;
         out.write_all(&clock.frame.to_le_bytes())?;
         out.write_all(&clock.time.to_bits().to_le_bytes())?;
@@ -746,7 +748,7 @@ impl<R: Read + Seek> Body<R> {
         } else if self.version == 2 {
             params_from_version_2(&self.words(VERSION_2_PARAMS_WORDS, "the parameters")?)
         } else {
-            bytemuck::pod_read_unaligned(bytemuck::cast_slice(&self.words(PARAMS_WORDS, "the parameters")?))
+            params_from_saved(&self.words(PARAMS_WORDS, "the parameters")?)
         };
         ensure!(
             (1..=MAX_MATERIALS).contains(&params.material_count),
@@ -871,6 +873,23 @@ impl<R: Read + Seek> Body<R> {
     }
 }
 
+/// The words a checkpoint holds of `params`: all but the grid box's.
+pub fn saved_params_words(params: &Params) -> Vec<u32> {
+    let words: &[u32] = bytemuck::cast_slice(std::slice::from_ref(params));
+    let (kernel, table) = words.split_at(KERNEL_WORDS);
+    [&kernel[..KERNEL_WORDS - BOX_WORDS], table].concat()
+}
+
+/// [`saved_params_words`]'s words as [`Params`], the box the whole grid's (one GPU's; a solver that
+/// holds a part of the grid sets its own).
+fn params_from_saved(words: &[u32]) -> Params {
+    let (kernel, table) = words.split_at(KERNEL_WORDS - BOX_WORDS);
+    let whole = [kernel, &[0; BOX_WORDS], table].concat();
+    let mut params: Params = bytemuck::pod_read_unaligned(bytemuck::cast_slice(&whole));
+    params.kernel.box_res = params.kernel.grid_res;
+    params
+}
+
 /// Version 2's 150 words of parameters as today's [`Params`]: the kernel parameters as they were,
 /// then each material row's 13 words of the liquids' parameters (its 3 of padding dropped), the
 /// solids' parameters zero.
@@ -880,13 +899,13 @@ pub fn params_from_version_2(words: &[u32]) -> Params {
         VERSION_2_PARAMS_WORDS,
         "version 2's parameters are 150 words"
     );
-    let (kernel, table) = words.split_at(KERNEL_WORDS);
+    let (kernel, table) = words.split_at(KERNEL_WORDS - BOX_WORDS);
     let mut today = kernel.to_vec();
     for row in table.chunks_exact(VERSION_2_MATERIAL_WORDS) {
         today.extend_from_slice(&row[..LIQUID_MATERIAL_WORDS]);
         today.resize(today.len() + MATERIAL_WORDS - LIQUID_MATERIAL_WORDS, 0);
     }
-    bytemuck::pod_read_unaligned(bytemuck::cast_slice(&today))
+    params_from_saved(&today)
 }
 
 /// Version 1's 28 words of parameters as today's [`Params`]: its one material becomes row 0 of a
@@ -934,6 +953,8 @@ pub fn params_from_version_1(words: &[u32]) -> Params {
         wall_mirror_hi: u3(24),
         density_rule: words[27],
         volume_density: 0,
+        box_lo: [0; 3],
+        box_res: u3(12),
     };
     Params { kernel, materials }
 }

@@ -4,7 +4,7 @@
 
 use mpm::backend::{self, BackendKind};
 use mpm::checkpoint::{Checkpoint, CheckpointSeries, FORMAT_VERSION};
-use mpm::sim::{Params, ScatterMode, Scene, Simulation};
+use mpm::sim::{ScatterMode, Scene, Simulation};
 use std::path::Path;
 use std::process::Output;
 
@@ -674,9 +674,9 @@ fn version_2_bytes(cp: &Checkpoint) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     cp.write_new(&dir.path().join("now.mpmck")).unwrap();
     let file = std::fs::read(dir.path().join("now.mpmck")).unwrap();
-    let current: Vec<u32> = bytemuck::cast_slice::<Params, u32>(std::slice::from_ref(&cp.params)).to_vec();
-    let kernel_words = std::mem::size_of::<mpm::contract::KernelParams>() / 4;
+    let current = mpm::checkpoint::saved_params_words(&cp.params);
     let row_words = std::mem::size_of::<mpm::contract::Material>() / 4;
+    let kernel_words = current.len() - row_words * mpm::contract::MAX_MATERIALS as usize;
     let mut old = current[..kernel_words].to_vec();
     for row in current[kernel_words..].chunks_exact(row_words) {
         old.extend(&row[..13]);
@@ -762,7 +762,7 @@ fn without_counts(cp: &Checkpoint, version: u32, missing: &[&str]) -> Vec<u8> {
     }
     let mut body = meta_before_the_scheme_was_kept(meta);
     let params_at = 32 + meta_len;
-    let clock_at = params_at + std::mem::size_of::<Params>();
+    let clock_at = params_at + 4 * mpm::checkpoint::saved_params_words(&cp.params).len();
     body.extend(&file[params_at..clock_at]);
     let after_params = &file[clock_at..file.len() - 4];
     if version < 6 {

@@ -109,6 +109,13 @@ device_structs! {
         /// Rows of the material table in use (`sim::Params::materials`): 1 for a scene of one
         /// material, whose kernels take row 0 without reading a particle's index.
         material_count: u32,
+        /// The box of nodes this GPU's grid holds, `box_lo .. box_lo + box_res` per axis, node (i,
+        /// j, k) stored at (i - box_lo.x) + box_res.x ((j - box_lo.y) + box_res.y (k - box_lo.z)):
+        /// one GPU holds the whole grid (0, `grid_res`), a rank its slab and ghost planes
+        /// (src/cuda/grid.rs `GridBox`). Last, and never saved: where a GPU holds its grid is no
+        /// part of a run's state (src/checkpoint.rs writes the words before it).
+        box_lo: [u32; 3],
+        box_res: [u32; 3],
     }
 
     /// What the kernels count and reduce between substep choices; the host reads it back once per

@@ -1,10 +1,12 @@
 //! What a solver does as one rank of a run split over slabs, everything `CudaRanks` (cuda_ranks.rs)
-//! asks of a rank: the two ends of each ghost exchange on its grid (kernels/halo.cu, halo.rs), its
+//! asks of a rank: its grid of its slab and ghost planes, made anew where the slabs move, and the
+//! two ends of each ghost exchange on it (kernels/halo.cu, halo.rs), its
 //! counts of the particles nearing its ghost planes and of its particles per block layer, its
 //! leavers packed for a migration and its particles taken into the readers' set (kernels/ranks.cu,
 //! ranks.rs), and its particles and counters as the transport and the reductions see them. The
 //! ranks reach a solver's buffers and kernels only through these.
 
+use super::grid::{DeviceGrid, GridBox};
 use super::halo::{Exchange, HaloBuffers, Planes};
 use super::particles::DeviceParticles;
 use super::render::DeviceParticlesView;
@@ -23,13 +25,48 @@ impl CudaSolver {
 
     /// Send and receive buffers for its exchanges across `axis` (`HaloBuffers::allocate`).
     pub(super) fn halo_buffers(&self, axis: usize) -> Result<HaloBuffers> {
-        HaloBuffers::allocate(&self.gpu, self.params.grid_res, axis)
+        HaloBuffers::allocate(&self.gpu, self.params.box_res, axis)
+    }
+
+    /// The nodes its grid holds.
+    pub(super) fn held(&self) -> GridBox {
+        self.state.grid.held
+    }
+
+    /// A grid of the nodes of `held` in place of its own (the slabs moved), zeroed, its particles
+    /// binned again before its next pass. Returns the grid it replaced, with the parameters its
+    /// kernels ran on it, for `pack_old_sums`.
+    pub(super) fn rebox(&mut self, held: GridBox) -> Result<(DeviceGrid, Params)> {
+        let old = self.state.rebox(&self.gpu, held)?;
+        let ran = self.params;
+        held.set_in(&mut self.params);
+        self.rebin_next();
+        Ok((old, ran))
+    }
+
+    /// The sums on planes `planes` of a grid `rebox` replaced (`old`, with its parameters) into
+    /// `out`, zeroed there, for `unpack_halo` to add where they belong now.
+    pub(super) fn pack_old_sums(
+        &self,
+        old: &(DeviceGrid, Params),
+        planes: &Planes,
+        out: &CudaSlice<u32>,
+    ) -> Result<()> {
+        let (grid, ran) = old;
+        self.kernels
+            .halo
+            .pack_sums(&self.gpu.launcher, ran, planes, grid, out)
     }
 
     /// Its side of `what` into `out`: the scatter's sums on its ghost planes `planes` (zeroed as they
     /// are packed), or its updated velocities on its edge planes `planes`.
     pub(super) fn pack_halo(&self, what: Exchange, planes: &Planes, out: &CudaSlice<u32>) -> Result<()> {
-        let (k, l, p, d) = (&self.kernels.halo, &self.gpu.launcher, &self.params, &self.state);
+        let (k, l, p, d) = (
+            &self.kernels.halo,
+            &self.gpu.launcher,
+            &self.params,
+            &self.state.grid,
+        );
         match what {
             Exchange::Sums => k.pack_sums(l, p, planes, d, out),
             Exchange::Velocities => k.pack_velocities(l, p, planes, d, out),
@@ -39,15 +76,21 @@ impl CudaSolver {
     /// What a neighbour packed for it, `got`, into its grid: sums added to its edge planes
     /// `planes` (listing the sender's node blocks), or velocities written over its ghost planes.
     pub(super) fn unpack_halo(&self, what: Exchange, planes: &Planes, got: &CudaSlice<u32>) -> Result<()> {
-        let (k, l, p, d) = (&self.kernels.halo, &self.gpu.launcher, &self.params, &self.state);
+        let (k, l, p, d) = (
+            &self.kernels.halo,
+            &self.gpu.launcher,
+            &self.params,
+            &self.state.grid,
+        );
         match what {
             Exchange::Sums => k.add_sums(l, p, planes, got, d),
             Exchange::Velocities => k.fill_velocities(l, p, planes, got, d),
         }
     }
 
-    /// Sets `strays` to its live particles among its first `places` whose stencil base along `axis`
-    /// lies outside `keep` (`Slabs::keeps`), in stream order.
+    /// Sets `strays[0]` to its live particles among its first `places` whose stencil base along
+    /// `axis` lies outside `keep` (`Slabs::keeps`), `strays[1]` to those of them whose stencil left
+    /// its grid's box, in stream order.
     pub(super) fn count_strays(
         &self,
         places: usize,
@@ -97,6 +140,11 @@ impl CudaSolver {
             .first()
             .copied()
             .context("an empty count")
+    }
+
+    /// Counts its kernels left on its GPU, waited for.
+    pub(super) fn read_counts(&self, counts: &CudaSlice<u32>) -> Result<Vec<u32>> {
+        self.gpu.download(counts)
     }
 
     /// Words on its GPU, waited for.

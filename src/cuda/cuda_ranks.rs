@@ -61,6 +61,7 @@
 //! stream and the sender's next work for the copy, by stream order, not by the host.
 
 use super::gpu::CudaOptions;
+use super::grid::{DeviceGrid, GridBox};
 use super::halo::{Exchange, HaloBuffers, Planes};
 use super::launch::NvtxRange;
 use super::particles::{state_bytes, DeviceParticles};
@@ -118,7 +119,8 @@ pub struct CudaRanks {
     packing: HashMap<(usize, usize), DeviceParticles>,
     /// What `particles` shows before anything was published: nothing.
     unpublished: Particles,
-    /// Per rank of this process: the strays its last g2p counted.
+    /// Per rank of this process: the strays its last g2p counted, and of them those whose stencil
+    /// left its grid's box (`count_strays` in kernels/ranks.cu).
     strays: Vec<CudaSlice<u32>>,
     /// The extremes requested and not yet waited for: each request's handle and every rank's ticket.
     extremes: VecDeque<(usize, Vec<ExtremesTicket>)>,
@@ -338,7 +340,8 @@ impl CudaRanks {
                 bin_order: true,
                 ..options
             };
-            let solver = CudaSolver::rank(scene, &share, &id, flow, packed)
+            let held = GridBox::planes(scene.grid_res, slabs.axis, slabs.held(rank));
+            let solver = CudaSolver::rank(scene, (&share, &id), held, flow, packed)
                 .with_context(|| format!("rank {rank} of {}", slabs.ranks()))?;
             ensure!(
                 solver.keeps_bin_order(),
@@ -351,7 +354,7 @@ impl CudaRanks {
             strays.push(
                 solver
                     .stream()
-                    .alloc_zeros::<u32>(1)
+                    .alloc_zeros::<u32>(2)
                     .context("allocating a stray counter")?,
             );
             solvers.push(solver);
@@ -466,6 +469,15 @@ impl CudaRanks {
 
     /// Times a rank of this process received more particles than it had room for and grew its
     /// buffers.
+    /// The planes across the slab axis each rank of this process holds its grid for, and its nodes.
+    pub fn grid_planes(&self) -> Vec<(Range<u32>, usize)> {
+        let axis = self.slabs.axis;
+        self.solvers
+            .iter()
+            .map(|solver| (solver.held().along(axis), solver.held().nodes()))
+            .collect()
+    }
+
     pub fn growths(&self) -> u64 {
         self.growths
     }
@@ -530,17 +542,22 @@ impl CudaRanks {
     /// from the edge back over the ghosts.
     fn exchange(&mut self, what: Exchange) -> Result<()> {
         let links = self.links();
-        self.exchange_over(&links, what)
+        self.exchange_over(&links, what, &HashMap::new())
     }
 
     /// `what` over `links` (this process's ranks' ends of them): each end packs its planes, the
     /// transport carries them, each end unpacks what arrived. An end without planes does neither.
-    fn exchange_over(&mut self, links: &[Link], what: Exchange) -> Result<()> {
+    /// A rank in `replaced` packs from the grid it held before (`CudaSolver::rebox`).
+    fn exchange_over(&mut self, links: &[Link], what: Exchange, replaced: &Replaced) -> Result<()> {
         for link in links {
             let (packed, _) = link.planes(what);
             if !packed.range.is_empty() {
                 let out = &self.halos[link.rank - self.first].send[link.side as usize];
-                self.solvers[link.rank - self.first].pack_halo(what, packed, out)?;
+                let solver = &self.solvers[link.rank - self.first];
+                match replaced.get(&link.rank) {
+                    Some(old) => solver.pack_old_sums(old, packed, out)?,
+                    None => solver.pack_halo(what, packed, out)?,
+                }
             }
         }
         self.transport
@@ -557,21 +574,44 @@ impl CudaRanks {
 
     /// After the cuts moved (`old` the slabs before): the grid holds the last one_pass's scatter,
     /// each rank's from its particles before they migrated, on its old slab and ghost planes. Each
-    /// rank's sums on the nodes another rank owns now go to that rank, a block of planes at a time,
-    /// and are added there (the sender's zeroed), so the halo exchange and the grid update that
-    /// follow see the sums one GPU would, bit for bit in fixed point. Scattering again from the
-    /// migrated particles would not: a plastic solid's scatter takes the stress its pass's return
-    /// mapping gave, which a scatter alone computes anew from the deformation, to other rounding.
+    /// rank whose slab and ghost planes moved takes a grid of its new ones (`CudaSolver::rebox`).
+    /// Each rank's sums on the nodes another rank owns now go to that rank, a block of planes at a
+    /// time, and are added there (the sender's zeroed), and a rank with a new grid carries its sums
+    /// on the planes it still owns into it; so the halo exchange and the grid update that follow see
+    /// the sums one GPU would, bit for bit in fixed point. Scattering again from the migrated
+    /// particles would not: a plastic solid's scatter takes the stress its pass's return mapping
+    /// gave, which a scatter alone computes anew from the deformation, to other rounding.
     fn carry_old_scatter(&mut self, old: &Slabs) -> Result<()> {
         let (new, ranks) = (self.slabs.clone(), self.slabs.ranks());
+        let grid_res = self.solvers[0].params().grid_res;
+        let mut replaced = Replaced::new();
+        for rank in self.mine() {
+            let held = GridBox::planes(grid_res, new.axis, new.held(rank));
+            let solver = &mut self.solvers[rank - self.first];
+            if solver.held() != held {
+                let grid = solver
+                    .rebox(held)
+                    .with_context(|| format!("rank {rank}: the slabs moved"))?;
+                replaced.insert(rank, grid);
+            }
+        }
         let planes = |range: Range<u32>| Planes {
             axis: new.axis,
             range,
         };
-        let held = |rank: usize| old.low_ghost(rank).start..old.high_ghost(rank).end;
         for (from, to) in (0..ranks).flat_map(|from| (0..ranks).map(move |to| (from, to))) {
-            let (held, owned) = (held(from), new.owned(to));
-            if from == to || held.end <= owned.start || owned.end <= held.start {
+            let (held, owned) = (old.held(from), new.owned(to));
+            if held.end <= owned.start || owned.end <= held.start {
+                continue;
+            }
+            if from == to {
+                if let Some(grid) = replaced.get(&from) {
+                    self.carry_into_new_grid(
+                        from,
+                        grid,
+                        held.start.max(owned.start)..held.end.min(owned.end),
+                    )?;
+                }
                 continue;
             }
             let side = if to > from { Side::Above } else { Side::Below };
@@ -599,8 +639,33 @@ impl CudaRanks {
                         edge: planes(chunk),
                     });
                 }
-                self.exchange_over(&links, Exchange::Sums)?;
+                self.exchange_over(&links, Exchange::Sums, &replaced)?;
             }
+        }
+        Ok(())
+    }
+
+    /// Rank `rank`'s sums on the planes `kept` of the grid it held before (`old`) added into the
+    /// grid it holds now, a block of planes at a time through its send buffer.
+    fn carry_into_new_grid(
+        &mut self,
+        rank: usize,
+        old: &(DeviceGrid, Params),
+        kept: Range<u32>,
+    ) -> Result<()> {
+        let (solver, buffer) = (
+            &self.solvers[rank - self.first],
+            &self.halos[rank - self.first].send[0],
+        );
+        let mut at = kept.start;
+        while at < kept.end {
+            let chunk = Planes {
+                axis: self.slabs.axis,
+                range: at..(at + BLOCK).min(kept.end),
+            };
+            at = chunk.range.end;
+            solver.pack_old_sums(old, &chunk, buffer)?;
+            solver.unpack_halo(Exchange::Sums, &chunk, buffer)?;
         }
         Ok(())
     }
@@ -660,13 +725,24 @@ impl CudaRanks {
 
     /// Particles the last g2p left where one more substep could carry them past their rank's ghost
     /// planes (`Slabs::keeps`), all ranks together: the step's turn.
+    /// A particle that left its rank's grid (more than a cell in a substep, which the time step's
+    /// CFL bound rules out) stops the run: its sums lay outside the nodes the grid holds.
     fn strays(&mut self) -> Result<u64> {
         self.transport.wait_watched(&self.solvers)?;
         let mut counts = Vec::new();
         for (solver, strays) in self.solvers.iter().zip(&self.strays) {
-            counts.push(vec![u64::from(solver.read_count(strays)?)]);
+            counts.push(solver.read_counts(strays)?.into_iter().map(u64::from).collect());
         }
-        Ok(self.turn(Turn::Step, counts)?.iter().map(|count| count[0]).sum())
+        let counts = self.turn(Turn::Step, counts)?;
+        if let Some((rank, count)) = counts.iter().enumerate().find(|(_, count)| count[1] > 0) {
+            bail!(
+                "rank {rank}: {} particles moved past its ghost planes in one substep, more than a \
+                 cell, so their sums left the grid it holds; the time step is too long for the flow: \
+                 lower time_step.cfl or time_step.dt",
+                count[1]
+            );
+        }
+        Ok(counts.iter().map(|count| count[0]).sum())
     }
 
     /// Counts the strays of each rank of this process after its g2p.
@@ -1095,6 +1171,10 @@ fn join_processes(process: &Process, solver: &CudaSolver) -> Result<(Comm, Watch
     Ok((comm, watch))
 }
 
+/// The grids that ranks of this process held before the slabs moved, with the parameters their
+/// kernels ran on them (`CudaSolver::rebox`), by rank.
+type Replaced = HashMap<usize, (DeviceGrid, Params)>;
+
 /// Where two neighbouring ranks meet, seen from one of them: this rank's ghost planes there (the
 /// neighbour's edge) and its edge planes there (the neighbour's ghosts).
 struct Link {
@@ -1118,7 +1198,7 @@ impl Link {
 
     /// The 32-bit words this rank sends and receives on the link for `what`.
     fn words(&self, what: Exchange, params: &Params) -> (usize, usize) {
-        let res = params.grid_res;
+        let res = params.box_res;
         let (send, recv) = self.planes(what);
         let words = what.words_per_node(params);
         (words * send.nodes(res), words * recv.nodes(res))

@@ -1,6 +1,6 @@
 //! The grid on the device: the scatter accumulators (float, and fixed point where that scatter runs),
 //! the node velocities the grid update writes for the gather, and the binned pipeline's list of the
-//! node blocks a substep touched.
+//! node blocks a substep touched; over the box of the domain's nodes this GPU holds (`GridBox`).
 
 use super::bin_lists::{NODE_BLOCK_SLOTS, WORK_COUNTS};
 use super::gpu::Gpu;
@@ -8,7 +8,52 @@ use crate::sim::{Params, ScatterMode};
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
 use glam::Vec3;
+use std::ops::Range;
 use std::sync::Arc;
+
+/// The box of the domain's nodes a GPU's grid holds (`KernelParams::box_lo`, `box_res`): on one GPU
+/// the whole grid; on a rank of several, the planes of its slab and ghost planes along the slab axis
+/// (`Slabs::held`), the whole grid across it, so that a rank's grid shrinks with its share. The
+/// kernels work in the domain's node coordinates and use the box only to address a node
+/// (`grid_index` in kernels/common.cuh). It starts on a node block's edge, as the slabs are cut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GridBox {
+    pub lo: [u32; 3],
+    pub res: [u32; 3],
+}
+
+impl GridBox {
+    /// The whole grid of `grid_res` nodes.
+    pub fn whole(grid_res: [u32; 3]) -> GridBox {
+        GridBox {
+            lo: [0; 3],
+            res: grid_res,
+        }
+    }
+
+    /// The planes `planes` across `axis` of a grid of `grid_res` nodes.
+    pub fn planes(grid_res: [u32; 3], axis: usize, planes: Range<u32>) -> GridBox {
+        let mut held = GridBox::whole(grid_res);
+        held.lo[axis] = planes.start;
+        held.res[axis] = planes.len() as u32;
+        held
+    }
+
+    pub fn nodes(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// Its planes across `axis`.
+    pub fn along(&self, axis: usize) -> Range<u32> {
+        self.lo[axis]..self.lo[axis] + self.res[axis]
+    }
+
+    /// `params` with this box's, for kernels on a grid of this box.
+    pub fn set_in(&self, params: &mut Params) {
+        params.box_lo = self.lo;
+        params.box_res = self.res;
+    }
+}
 
 /// Bytes on the device per node: two float4 and the report sort's cell count (the binned pipeline's
 /// per-block lists are far smaller).
@@ -35,7 +80,8 @@ pub struct NodeBlockList {
 }
 
 pub struct DeviceGrid {
-    pub res: [u32; 3],
+    /// The nodes it holds.
+    pub held: GridBox,
     /// Scatter accumulators, float4 per node: momentum xyz, mass w. Zeroed by the grid update.
     pub acc: CudaSlice<f32>,
     /// Node velocity xyz and mass w, written by the grid update, read by the gather.
@@ -75,21 +121,21 @@ impl NodeBlockList {
 }
 
 impl DeviceGrid {
-    /// A zeroed grid of `res` nodes, with the node-block list and list lengths from
+    /// A zeroed grid of the nodes of `held`, with the node-block list and list lengths from
     /// `NodeBlockList::allocate`.
     pub fn allocate(
         stream: &Arc<CudaStream>,
-        res: [u32; 3],
+        held: GridBox,
         (work_counts, node_blocks): (CudaSlice<u32>, NodeBlockList),
     ) -> Result<DeviceGrid> {
-        let nodes: usize = res.iter().map(|&r| r as usize).product();
+        let nodes = held.nodes();
         let alloc = |len: usize, what: &str| {
             stream
                 .alloc_zeros::<f32>(len)
                 .with_context(|| format!("allocating {what} ({len} floats)"))
         };
         Ok(DeviceGrid {
-            res,
+            held,
             acc: alloc(4 * nodes, "grid accumulators")?,
             vel: alloc(4 * nodes, "grid velocities")?,
             fixed: None,
@@ -101,7 +147,7 @@ impl DeviceGrid {
     }
 
     pub fn num_nodes(&self) -> usize {
-        self.res.iter().map(|&r| r as usize).product()
+        self.held.nodes()
     }
 
     /// Allocates the fixed-point accumulators if they are not yet there.
@@ -118,6 +164,14 @@ impl DeviceGrid {
             });
         }
         Ok(())
+    }
+
+    pub fn has_fixed(&self) -> bool {
+        self.fixed.is_some()
+    }
+
+    pub fn has_volume(&self) -> bool {
+        self.volume.is_some()
     }
 
     /// Allocates the grid's volume if it is not yet there (scenes whose rest densities differ).

@@ -145,8 +145,8 @@ impl GridUpdate {
                 };
                 // Each launch covers the most blocks its part of the list can hold, known from the
                 // walls alone: the lengths stay on the device, and CUDA blocks past them idle. The
-                // kernels take the list to hold a slot per node block of `params`' grid.
-                let slots: usize = bins_per_axis(params.grid_res, NODE_BLOCK_EDGE)
+                // kernels take the list to hold a slot per node block of `params`' grid box.
+                let slots: usize = bins_per_axis(params.box_res, NODE_BLOCK_EDGE)
                     .iter()
                     .map(|&b| b as usize)
                     .product();

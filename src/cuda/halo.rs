@@ -4,12 +4,13 @@
 //! solver runs them (as_rank.rs), where cuda_ranks.rs asks; `dist::halo` is the CPU's version.
 
 use super::gpu::Gpu;
+use super::grid::DeviceGrid;
 use super::launch::{Kernel, Launcher};
 use super::modules::LoadedModules;
-use super::state::{DeviceState, StateArgs};
+use super::state::StateArgs;
 use crate::dist::slabs::BLOCK;
 use crate::sim::{Params, Phase, ScatterMode};
-use anyhow::{Context, Result};
+use anyhow::{ensure, Context, Result};
 use cudarc::driver::{CudaSlice, LaunchArgs, PushKernelArg};
 use std::ops::Range;
 
@@ -125,47 +126,49 @@ impl HaloKernels {
         })
     }
 
-    /// Packs the scatter's sums on the ghost planes `planes` into `out` and zeroes them.
+    /// Packs the scatter's sums on the planes `planes` of `grid` (whose kernels run with `params`)
+    /// into `out` and zeroes them.
     pub fn pack_sums(
         &self,
         l: &Launcher,
         params: &Params,
         planes: &Planes,
-        d: &DeviceState,
+        grid: &DeviceGrid,
         out: &CudaSlice<u32>,
     ) -> Result<()> {
         // SAFETY: the rest of halo_pack_sums' arguments; `out` holds the most words of sums and a
-        // volume per node of a block of planes (`HaloBuffers::allocate`), and ghost planes are at
-        // most a block.
+        // volume per node of a block of planes (`HaloBuffers::allocate`), and the planes packed at
+        // once are at most a block.
         unsafe {
-            over_planes(&self.pack_sums, l, params, &extent(planes, params), |a| {
-                a.accumulators(&d.grid)
-                    .arg(d.grid.volume())
-                    .arg(&d.grid.node_blocks.marks)
+            over_planes(&self.pack_sums, l, params, &extent(planes, params)?, |a| {
+                a.accumulators(grid)
+                    .arg(grid.volume())
+                    .arg(&grid.node_blocks.marks)
                     .arg(out);
             })
         }
     }
 
-    /// Adds packed sums from `received` to the edge planes `planes`, listing the sender's blocks.
+    /// Adds packed sums from `received` to the planes `planes` of `grid`, listing the sender's
+    /// blocks.
     pub fn add_sums(
         &self,
         l: &Launcher,
         params: &Params,
         planes: &Planes,
         received: &CudaSlice<u32>,
-        d: &DeviceState,
+        grid: &DeviceGrid,
     ) -> Result<()> {
-        let blocks = &d.grid.node_blocks;
+        let blocks = &grid.node_blocks;
         // SAFETY: the rest of halo_add_sums' arguments; `received` as in `pack_sums`.
         unsafe {
-            over_planes(&self.add_sums, l, params, &extent(planes, params), |a| {
+            over_planes(&self.add_sums, l, params, &extent(planes, params)?, |a| {
                 a.arg(received)
-                    .accumulators(&d.grid)
-                    .arg(d.grid.volume())
+                    .accumulators(grid)
+                    .arg(grid.volume())
                     .arg(&blocks.marks)
                     .arg(&blocks.list)
-                    .arg(&d.grid.work_counts);
+                    .arg(&grid.work_counts);
             })
         }
     }
@@ -176,14 +179,14 @@ impl HaloKernels {
         l: &Launcher,
         params: &Params,
         planes: &Planes,
-        d: &DeviceState,
+        grid: &DeviceGrid,
         out: &CudaSlice<u32>,
     ) -> Result<()> {
         // SAFETY: the rest of halo_pack_velocities' arguments; a float4 and a volume per node take
         // less than the words per node `out` holds.
         unsafe {
-            over_planes(&self.pack_velocities, l, params, &extent(planes, params), |a| {
-                a.arg(&d.grid.vel).arg(d.grid.volume()).arg(out);
+            over_planes(&self.pack_velocities, l, params, &extent(planes, params)?, |a| {
+                a.arg(&grid.vel).arg(grid.volume()).arg(out);
             })
         }
     }
@@ -195,24 +198,28 @@ impl HaloKernels {
         params: &Params,
         planes: &Planes,
         received: &CudaSlice<u32>,
-        d: &DeviceState,
+        grid: &DeviceGrid,
     ) -> Result<()> {
         // SAFETY: the rest of halo_fill_velocities' arguments; `received` as in `pack_velocities`.
         unsafe {
-            over_planes(&self.fill_velocities, l, params, &extent(planes, params), |a| {
-                a.arg(received).arg(&d.grid.vel).arg(d.grid.volume());
+            over_planes(&self.fill_velocities, l, params, &extent(planes, params)?, |a| {
+                a.arg(received).arg(&grid.vel).arg(grid.volume());
             })
         }
     }
 }
 
-/// The leading arguments of kernels/halo.cu's kernels for `planes`: axis, first plane, nodes.
-fn extent(planes: &Planes, params: &Params) -> [u32; 3] {
-    [
-        planes.axis as u32,
-        planes.range.start,
-        planes.nodes(params.grid_res) as u32,
-    ]
+/// The leading arguments of kernels/halo.cu's kernels for `planes`: axis, first plane, nodes. The
+/// grid's box must hold the planes (a rank's grid holds its slab and ghost planes alone).
+fn extent(planes: &Planes, params: &Params) -> Result<[u32; 3]> {
+    let (axis, range) = (planes.axis, &planes.range);
+    let (lo, res) = (params.box_lo[axis], params.box_res[axis]);
+    ensure!(
+        lo <= range.start && range.end <= lo + res,
+        "planes {range:?} across axis {axis} lie outside the grid's nodes {lo}..{}",
+        lo + res
+    );
+    Ok([axis as u32, range.start, planes.nodes(params.box_res) as u32])
 }
 
 /// Launches one of kernels/halo.cu's kernels over the nodes of some planes: its leading arguments

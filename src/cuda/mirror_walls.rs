@@ -151,17 +151,18 @@ impl WallReach {
         2 * self.axis as u32 + u32::from(self.high)
     }
 
-    /// The nodes within the reach on both sides of the plane, across the other two axes.
+    /// The nodes within the reach on both sides of the plane, across the other two axes of the
+    /// grid's box.
     pub fn nodes(&self, params: &Params) -> usize {
         let across =
-            params.grid_res[(self.axis + 1) % 3] as usize * params.grid_res[(self.axis + 2) % 3] as usize;
+            params.box_res[(self.axis + 1) % 3] as usize * params.box_res[(self.axis + 2) % 3] as usize;
         (2 * self.reach as usize + 1) * across
     }
 }
 
-/// The node blocks that the scatters list with the walls (`node_block_on_a_wall` in
-/// kernels/mirror.cuh): the most that the node-block list's wall part can hold; none where the
-/// mirror is off.
+/// The node blocks of the grid's box that the scatters list with the walls
+/// (`node_block_on_a_wall` in kernels/mirror.cuh): the most that the node-block list's wall part
+/// can hold; none where the mirror is off.
 pub fn node_blocks_on_walls(params: &Params) -> usize {
     if params.wall_mirror_lo == 0 {
         return 0;
@@ -169,12 +170,14 @@ pub fn node_blocks_on_walls(params: &Params) -> usize {
     let (mut all, mut away) = (1usize, 1usize);
     for axis in 0..3 {
         let walls = WallReach::of_axis(params, axis);
-        let blocks = params.grid_res[axis].div_ceil(NODE_BLOCK_EDGE);
-        let taken = (0..blocks)
+        let first = params.box_lo[axis] / NODE_BLOCK_EDGE;
+        let blocks = first..first + params.box_res[axis].div_ceil(NODE_BLOCK_EDGE);
+        let taken = blocks
+            .clone()
             .filter(|&b| walls.iter().any(|w| w.takes_node_block(b)))
             .count();
-        all *= blocks as usize;
-        away *= blocks as usize - taken;
+        all *= blocks.len();
+        away *= blocks.len() - taken;
     }
     // A block is the walls' where some axis's walls take it.
     all - away

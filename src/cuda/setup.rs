@@ -3,6 +3,7 @@
 //! the scene, opens the GPU, loads its kernels and allocates every buffer first.
 
 use super::gpu::CudaOptions;
+use super::grid::GridBox;
 use super::solver::CudaSolver;
 use super::spawn::spawn_on_device;
 use crate::sim::flow::FlowState;
@@ -18,7 +19,12 @@ impl CudaSolver {
         if scene.flow.is_active() || !scene.colliders.is_empty() || scene.has_deformation() {
             return CudaSolver::restore(scene, &scene.spawn(), None, options);
         }
-        let solver = CudaSolver::allocate(scene, scene.slots(), None, options)?;
+        let solver = CudaSolver::allocate(
+            scene,
+            (scene.slots(), GridBox::whole(scene.grid_res)),
+            None,
+            options,
+        )?;
         spawn_on_device(&solver.gpu, &solver.kernels.spawn, scene, &solver.state.particles)?;
         Ok(solver)
     }
@@ -45,20 +51,21 @@ impl CudaSolver {
                 scene.slots()
             );
         }
-        CudaSolver::upload(scene, particles, flow, options)
+        CudaSolver::upload(scene, (particles, GridBox::whole(scene.grid_res)), flow, options)
     }
 
     /// A rank's solver (cuda_ranks.rs): `share` at its places, each carrying its slot in the run
-    /// (`slots`); where the scene has emitters or sinks, the run's lifecycle in `flow`, whose free
-    /// slots and nozzle points name the run's slots, and each held slot's place in `position`.
+    /// (`slots`), on a grid of the nodes of `held` (its slab and ghost planes); where the scene has
+    /// emitters or sinks, the run's lifecycle in `flow`, whose free slots and nozzle points name the
+    /// run's slots, and each held slot's place in `position`.
     pub(super) fn rank(
         scene: &Scene,
-        share: &Particles,
-        slots: &[u32],
+        (share, slots): (&Particles, &[u32]),
+        held: GridBox,
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
-        let mut solver = CudaSolver::upload(scene, share, flow, options)?;
+        let mut solver = CudaSolver::upload(scene, (share, held), flow, options)?;
         let stream = solver.gpu.stream().clone();
         solver.state.particles.upload_slots(&stream, slots)?;
         if let Some(flow) = &mut solver.state.flow {
@@ -70,7 +77,7 @@ impl CudaSolver {
     /// `particles` at their places, in a solver of as many places; the lifecycle in `flow`.
     fn upload(
         scene: &Scene,
-        particles: &Particles,
+        (particles, held): (&Particles, GridBox),
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
@@ -79,7 +86,7 @@ impl CudaSolver {
             scene.num_particles = particles.len();
             scene.flow.capacity = particles.len();
         }
-        let mut solver = CudaSolver::allocate(&scene, particles.len(), flow, options)?;
+        let mut solver = CudaSolver::allocate(&scene, (particles.len(), held), flow, options)?;
         solver.state.particles.upload(solver.gpu.stream(), particles)?;
         if let Some(pbmpm) = &mut solver.pbmpm {
             pbmpm.upload_bias(solver.gpu.stream(), particles)?;

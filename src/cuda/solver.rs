@@ -10,6 +10,7 @@ use super::bodies::DeviceBodies;
 use super::flow::DeviceFlow;
 use super::gpu::{CudaOptions, Gpu};
 use super::graph::{SubstepGraph, SubstepGraphs, SubstepKey};
+use super::grid::GridBox;
 use super::kernels::Kernels;
 use super::launch::NvtxRange;
 use super::lifecycle::RankEmission;
@@ -105,7 +106,7 @@ impl CudaSolver {
     /// `places` particles' (`Scene::slots` but on a rank of several, cuda_ranks.rs).
     pub(super) fn allocate(
         scene: &Scene,
-        places: usize,
+        (places, held): (usize, GridBox),
         flow: Option<&FlowState>,
         options: CudaOptions,
     ) -> Result<CudaSolver> {
@@ -124,7 +125,8 @@ impl CudaSolver {
         DeviceState::check_scene(scene)?;
         let gpu = Gpu::open(&options)?;
         let kernels = Kernels::load(&gpu, &options)?;
-        let state = DeviceState::allocate(&gpu, scene, places, flow, options.bin_order_for(scene))?;
+        let bin_order = options.bin_order_for(scene);
+        let state = DeviceState::allocate(&gpu, scene, (places, held), flow, bin_order)?;
         let pbmpm = match scene.method {
             Method::Pbmpm => Some(PbmpmBuffers::allocate(&gpu, scene, state.bin_order.is_some())?),
             Method::Explicit => None,
@@ -139,6 +141,7 @@ impl CudaSolver {
         };
         let mut params = scene.params();
         params.num_particles = places as u32;
+        held.set_in(&mut params);
         let mut solver = CudaSolver {
             timing: PhaseEvents::new(gpu.ctx.clone(), options.phase_sample),
             gpu,
@@ -181,10 +184,13 @@ impl CudaSolver {
 
     /// Takes `params` for the coming work, checking them once where they changed.
     pub(super) fn accept(&mut self, params: &Params) -> Result<()> {
-        if bytemuck::bytes_of(params) != bytemuck::bytes_of(&self.params) {
-            self.check_params(params)?;
-            self.use_materials(params)?;
-            self.params = *params;
+        // The run's parameters, on the part of the grid this GPU holds.
+        let mut params = *params;
+        self.state.grid.held.set_in(&mut params);
+        if bytemuck::bytes_of(&params) != bytemuck::bytes_of(&self.params) {
+            self.check_params(&params)?;
+            self.use_materials(&params)?;
+            self.params = params;
         }
         Ok(())
     }

@@ -7,7 +7,9 @@ use super::colliders::DeviceColliders;
 use super::counters::CounterRing;
 use super::flow::DeviceFlow;
 use super::gpu::Gpu;
-use super::grid::{DeviceGrid, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE};
+use super::grid::{
+    DeviceGrid, GridBox, NodeBlockList, BYTES_PER_NODE, FIXED_BYTES_PER_NODE, VOLUME_BYTES_PER_NODE,
+};
 use super::launch::{OptionalArg, NULL_POINTER};
 use super::particles::{device_bytes, state_bytes, DeviceParticles};
 use crate::sim::flow::FlowState;
@@ -53,18 +55,19 @@ impl DeviceState {
     }
 
     /// Zeroed buffers for `places` particles of `scene` (every slot on one GPU; its particles are
-    /// uploaded or spawned next), and the lifecycle in `flow` (`None`: the scene's start) where the
-    /// scene has emitters or sinks, which names the run's slots; `bin_order`: the spare particle
-    /// buffers of a pipeline that keeps its particles in bin order.
+    /// uploaded or spawned next) on a grid of the nodes of `held` (one GPU: the whole grid), and the
+    /// lifecycle in `flow` (`None`: the scene's start) where the scene has emitters or sinks, which
+    /// names the run's slots; `bin_order`: the spare particle buffers of a pipeline that keeps its
+    /// particles in bin order.
     pub fn allocate(
         gpu: &Gpu,
         scene: &Scene,
-        places: usize,
+        (places, held): (usize, GridBox),
         flow: Option<&FlowState>,
         bin_order: bool,
     ) -> Result<DeviceState> {
         let n = places;
-        let nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        let nodes = held.nodes();
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
         let deformed = scene.has_deformation();
@@ -93,13 +96,7 @@ impl DeviceState {
 
         let (l, stream) = (&gpu.launcher, gpu.stream());
         let binned = scene.pipeline.is_binned();
-        let bins = Bins::new(
-            l,
-            scene.grid_res,
-            n,
-            if binned { NODE_BLOCK_EDGE } else { 1 },
-            binned,
-        )?;
+        let bins = Bins::new(l, held.res, n, if binned { NODE_BLOCK_EDGE } else { 1 }, binned)?;
         // Allocated in the order of the solver before its restructuring: the particle passes' speed
         // depends on where the arrays land relative to each other (measured on the H200: the dam
         // break's p2g ran 4 % slower with the grid allocated before the particles).
@@ -114,14 +111,9 @@ impl DeviceState {
         } else {
             None
         };
-        let mut grid = DeviceGrid::allocate(stream, scene.grid_res, node_blocks)?;
+        let grid = DeviceGrid::allocate(stream, held, node_blocks)?;
         let counters = CounterRing::allocate(&gpu.ctx, stream)?;
-        if fixed_scatter {
-            grid.ensure_fixed(stream)?;
-        }
-        if gathers_volume {
-            grid.ensure_volume(stream)?;
-        }
+        let grid = with_sums(grid, stream, fixed_scatter, gathers_volume)?;
         let flow = if scene.flow.is_active() {
             let start;
             let state = match flow {
@@ -179,8 +171,40 @@ impl DeviceState {
             order.swapped = false;
         }
         let listed = self.bins.list.is_some();
-        self.bins = Bins::new(&gpu.launcher, self.grid.res, capacity, self.bins.edge, listed)?;
+        self.bins = Bins::new(
+            &gpu.launcher,
+            self.grid.held.res,
+            capacity,
+            self.bins.edge,
+            listed,
+        )?;
         Ok(())
+    }
+
+    /// A grid of the nodes of `held` in place of this one (`CudaRanks`, where the slabs moved),
+    /// zeroed, with the same sums allocated, and bins for it: they list nothing until the next
+    /// binning. Returns the grid it replaced, whose sums the ranks carry into the new ones.
+    pub fn rebox(&mut self, gpu: &Gpu, held: GridBox) -> Result<DeviceGrid> {
+        let (fixed, volume) = (self.grid.has_fixed(), self.grid.has_volume());
+        let extra =
+            if fixed { FIXED_BYTES_PER_NODE } else { 0 } + if volume { VOLUME_BYTES_PER_NODE } else { 0 };
+        // The old grid stays until its sums are carried.
+        gpu.ensure_fits(
+            held.nodes() * (BYTES_PER_NODE + extra),
+            &format!("a rank's grid of {:?} nodes from node {:?}", held.res, held.lo),
+            "run on more GPUs (--gpus), or with a coarser domain.resolution",
+        )?;
+        let (l, stream) = (&gpu.launcher, gpu.stream());
+        let listed = self.bins.list.is_some();
+        self.bins = Bins::new(l, held.res, self.particles.count, self.bins.edge, listed)?;
+        let node_blocks = NodeBlockList::allocate(stream, if listed { self.bins.num_bins() } else { 0 })?;
+        let grid = with_sums(
+            DeviceGrid::allocate(stream, held, node_blocks)?,
+            stream,
+            fixed,
+            volume,
+        )?;
+        Ok(std::mem::replace(&mut self.grid, grid))
     }
 
     /// Which of its two sets of buffers holds the particles: the kernels' arguments differ, so a
@@ -200,12 +224,18 @@ impl DeviceState {
         mass_scattered: Option<u32>,
     ) -> Result<()> {
         let count = self.particles.count;
+        let held = GridBox {
+            lo: params.box_lo,
+            res: params.box_res,
+        };
         ensure!(
-            params.num_particles as usize == count && params.grid_res == self.grid.res,
-            "Params are for {} particles on a {:?} grid, but this CUDA solver holds {count} on {:?}",
+            params.num_particles as usize == count && held == self.grid.held,
+            "Params are for {} particles on a grid of {:?} nodes from node {:?}, but this CUDA solver \
+             holds {count} on {:?}",
             params.num_particles,
-            params.grid_res,
-            self.grid.res
+            held.res,
+            held.lo,
+            self.grid.held
         );
         ensure!(
             params.scatter_mode <= ScatterMode::FixedPoint.code(),
@@ -232,6 +262,22 @@ impl DeviceState {
         }
         Ok(())
     }
+}
+
+/// `grid` with the fixed-point sums and the grid's volume where asked.
+fn with_sums(
+    mut grid: DeviceGrid,
+    stream: &Arc<CudaStream>,
+    fixed: bool,
+    volume: bool,
+) -> Result<DeviceGrid> {
+    if fixed {
+        grid.ensure_fixed(stream)?;
+    }
+    if volume {
+        grid.ensure_volume(stream)?;
+    }
+    Ok(grid)
 }
 
 /// The spare particle buffers of a pipeline that stores its particles in bin order.

@@ -116,6 +116,11 @@ impl Slabs {
         }
     }
 
+    /// The planes `rank` touches: its slab and ghost planes, which its grid holds.
+    pub fn held(&self, rank: usize) -> Range<u32> {
+        self.low_ghost(rank).start..self.high_ghost(rank).end
+    }
+
     /// Whether a particle of `rank` with stencil base node `base` (along the axis) can take one more
     /// substep without migrating: its stencil, one cell further either way, stays inside the slab and
     /// its ghost planes.
@@ -221,6 +226,7 @@ mod tests {
         assert_eq!(s.low_ghost(1), 28..32);
         assert_eq!(s.high_ghost(1), 64..68);
         assert_eq!(s.high_ghost(2), 100..100);
+        assert_eq!((s.held(0), s.held(1), s.held(2)), (0..36, 28..68, 60..100));
         assert_eq!(
             (s.owner(0), s.owner(7), s.owner(8), s.owner(24), s.owner(99)),
             (0, 0, 1, 2, 2)

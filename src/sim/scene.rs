@@ -363,6 +363,8 @@ impl Scene {
             wall_mirror_hi: if self.mirror_wall_mass { mirror_hi } else { [0; 3] },
             density_rule: self.pipeline.density_rule().code(),
             volume_density: u32::from(self.rest_densities_differ()),
+            box_lo: [0; 3],
+            box_res: self.grid_res,
         };
         Params { kernel, materials }
     }

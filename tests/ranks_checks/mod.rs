@@ -181,6 +181,12 @@ fn split_runs_give_one_gpu_s_bits(scene: &Scene, params: &Params, on: On) {
             n != 2 || split.slabs().bounds != start,
             "the even slabs never moved"
         );
+        // Each rank's grid holds its slab and ghost planes as they are now, the slabs moved since.
+        let domain_nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
+        for (rank, (planes, nodes)) in split.grid_planes().into_iter().enumerate() {
+            assert_eq!(planes, split.slabs().held(rank), "rank {rank}'s grid");
+            assert!(nodes < domain_nodes, "rank {rank} holds the whole grid");
+        }
         assert_eq!(got.num_live(), expected.num_live(), "particles lost or gained");
         let gap = max_gap(&got, &expected, scene.dx);
         assert!(
