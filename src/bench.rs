@@ -21,7 +21,7 @@ use crate::backend::{self, BackendKind};
 use crate::cuda::{self, CudaOptions, CudaRanks, CudaSolver};
 use crate::sim::scene::{BlockSpec, DomainSpec, SceneSpec};
 use crate::sim::{
-    presets, Phase, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, Traffic,
+    presets, Holdings, Phase, PhaseTimings, Pipeline, ScatterMode, Scene, Simulation, Solver, Traffic,
     MAX_PENDING_STEP_TIMINGS,
 };
 use anyhow::{bail, ensure, Context, Result};
@@ -145,6 +145,8 @@ pub struct PhaseReport {
     pub state: String,
     pub rows: Vec<PhaseRow>,
     pub total: PhaseRow,
+    /// What each rank held at the end, for a run split over ranks that hold their own share.
+    pub ranks: Option<Holdings>,
 }
 
 /// Nearest-rank percentile of sorted samples (q in (0, 1]); 0 for no samples.
@@ -413,6 +415,7 @@ pub fn phase_bench(scene: &Scene, options: &PhaseBenchOptions) -> Result<PhaseRe
         sim_time_start: sim_time_start.unwrap_or(0.0),
         sim_time_end: sim.time(),
         wall_ms_per_substep: (wall_substeps > 0).then(|| wall.as_secs_f64() * 1e3 / wall_substeps as f64),
+        ranks: sim.solver().holdings(),
         state: format!(
             "stepping from the spawned state under the scene's time-step policy (substep {}, as \
              `mpm run` does); {} warm-up substeps dropped, then {} substeps measured",
@@ -514,6 +517,40 @@ pub fn phase_table(report: &PhaseReport) -> String {
         }
         out.push_str(&line);
         out.push('\n');
+    }
+    if let Some(held) = &report.ranks {
+        out.push_str(&ranks_table(held));
+    }
+    out
+}
+
+/// What each rank held at the end of a run split over ranks: its slab, particles, places, grid and
+/// the device memory its buffers take, and that per particle it owns.
+fn ranks_table(held: &Holdings) -> String {
+    let mut out = format!(
+        "\nRanks (slabs across {}; {} migrations moved {} particles), as each held them at the end:\n\n\
+         | rank | slab (node planes) | particles | particle places | grid nodes | device MiB (particles, bins, grid) | bytes a particle |\n\
+         |---:|---|---:|---:|---:|---:|---:|\n",
+        ["x", "y", "z"][held.axis],
+        held.migrations,
+        held.migrated
+    );
+    for r in &held.ranks {
+        let per_particle = match r.particles {
+            0 => "-".to_string(),
+            n => format!("{:.0}", r.device_bytes as f64 / n as f64),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {}..{} | {} | {} | {} | {:.0} | {per_particle} |",
+            r.rank,
+            r.slab.start,
+            r.slab.end,
+            r.particles,
+            r.places,
+            r.grid_nodes,
+            r.device_bytes as f64 / (1024.0 * 1024.0)
+        );
     }
     out
 }

@@ -33,6 +33,11 @@ impl CudaSolver {
         self.state.grid.held
     }
 
+    /// Bytes its particle, bin and grid buffers take on its GPU.
+    pub(super) fn device_bytes(&self) -> usize {
+        self.state.device_bytes()
+    }
+
     /// A grid of the nodes of `held` in place of its own (the slabs moved), zeroed, its particles
     /// binned again before its next pass. Returns the grid it replaced, with the parameters its
     /// kernels ran on it, for `pack_old_sums`.

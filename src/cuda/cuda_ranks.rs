@@ -77,8 +77,8 @@ use crate::sim::flow::{FlowCounts, FlowState};
 use crate::sim::phase::{Phase, PhaseTimings};
 use crate::sim::ExtremesTicket;
 use crate::sim::{
-    Deformation, Params, ParticleView, Particles, Pipeline, Push, Scene, Solver, StepExtremes, Summary,
-    SummaryTicket,
+    Deformation, Holdings, Params, ParticleView, Particles, Pipeline, Push, RankHolding, Scene, Solver,
+    StepExtremes, Summary, SummaryTicket,
 };
 use anyhow::{bail, ensure, Context, Result};
 use cudarc::driver::CudaSlice;
@@ -469,15 +469,6 @@ impl CudaRanks {
 
     /// Times a rank of this process received more particles than it had room for and grew its
     /// buffers.
-    /// The planes across the slab axis each rank of this process holds its grid for, and its nodes.
-    pub fn grid_planes(&self) -> Vec<(Range<u32>, usize)> {
-        let axis = self.slabs.axis;
-        self.solvers
-            .iter()
-            .map(|solver| (solver.held().along(axis), solver.held().nodes()))
-            .collect()
-    }
-
     pub fn growths(&self) -> u64 {
         self.growths
     }
@@ -1269,6 +1260,31 @@ impl Solver for CudaRanks {
             times.last_return = Some(Instant::now());
         }
         stepped
+    }
+
+    fn holdings(&self) -> Option<Holdings> {
+        let ranks = self
+            .solvers
+            .iter()
+            .enumerate()
+            .map(|(local, solver)| {
+                let rank = self.first + local;
+                RankHolding {
+                    rank,
+                    slab: self.slabs.owned(rank),
+                    particles: self.counts[rank],
+                    places: solver.capacity(),
+                    grid_nodes: solver.held().nodes(),
+                    device_bytes: solver.device_bytes(),
+                }
+            })
+            .collect();
+        Some(Holdings {
+            axis: self.slabs.axis,
+            migrations: self.migrations,
+            migrated: self.migrated.sent,
+            ranks,
+        })
     }
 
     fn ends_frame_next(&mut self) {

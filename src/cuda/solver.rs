@@ -123,6 +123,12 @@ impl CudaSolver {
             scene
         };
         DeviceState::check_scene(scene)?;
+        // pbmpm.cu's grid passes walk the whole grid by its own indexing.
+        ensure!(
+            scene.method == Method::Explicit || held == GridBox::whole(scene.grid_res),
+            "scene {}: position-based MPM runs on one rank",
+            scene.source
+        );
         let gpu = Gpu::open(&options)?;
         let kernels = Kernels::load(&gpu, &options)?;
         let bin_order = options.bin_order_for(scene);

@@ -72,11 +72,7 @@ impl DeviceState {
         let gathers_volume = scene.rest_densities_differ();
         let deformed = scene.has_deformation();
         let per_particle_state = state_bytes(deformed);
-        let needed = n * device_bytes(deformed)
-            + nodes
-                * (BYTES_PER_NODE
-                    + if fixed_scatter { FIXED_BYTES_PER_NODE } else { 0 }
-                    + if gathers_volume { VOLUME_BYTES_PER_NODE } else { 0 });
+        let needed = n * device_bytes(deformed) + nodes * node_bytes(fixed_scatter, gathers_volume);
         gpu.ensure_fits(
             needed,
             &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
@@ -186,11 +182,9 @@ impl DeviceState {
     /// binning. Returns the grid it replaced, whose sums the ranks carry into the new ones.
     pub fn rebox(&mut self, gpu: &Gpu, held: GridBox) -> Result<DeviceGrid> {
         let (fixed, volume) = (self.grid.has_fixed(), self.grid.has_volume());
-        let extra =
-            if fixed { FIXED_BYTES_PER_NODE } else { 0 } + if volume { VOLUME_BYTES_PER_NODE } else { 0 };
         // The old grid stays until its sums are carried.
         gpu.ensure_fits(
-            held.nodes() * (BYTES_PER_NODE + extra),
+            held.nodes() * node_bytes(fixed, volume),
             &format!("a rank's grid of {:?} nodes from node {:?}", held.res, held.lo),
             "run on more GPUs (--gpus), or with a coarser domain.resolution",
         )?;
@@ -205,6 +199,19 @@ impl DeviceState {
             volume,
         )?;
         Ok(std::mem::replace(&mut self.grid, grid))
+    }
+
+    /// Bytes its particle, bin and grid buffers take (as `allocate` counts them; the lifecycle's,
+    /// the colliders' and the counters' are small).
+    pub fn device_bytes(&self) -> usize {
+        let places = self.particles.count;
+        let deformed = self.particles.deformation.is_some();
+        let spare = self
+            .bin_order
+            .as_ref()
+            .map_or(0, |_| places * state_bytes(deformed));
+        let grid = self.grid.num_nodes() * node_bytes(self.grid.has_fixed(), self.grid.has_volume());
+        places * device_bytes(deformed) + spare + grid
     }
 
     /// Which of its two sets of buffers holds the particles: the kernels' arguments differ, so a
@@ -262,6 +269,13 @@ impl DeviceState {
         }
         Ok(())
     }
+}
+
+/// Bytes a grid node takes, with the fixed-point sums and the grid's volume where they are kept.
+fn node_bytes(fixed: bool, volume: bool) -> usize {
+    BYTES_PER_NODE
+        + if fixed { FIXED_BYTES_PER_NODE } else { 0 }
+        + if volume { VOLUME_BYTES_PER_NODE } else { 0 }
 }
 
 /// `grid` with the fixed-point sums and the grid's volume where asked.

@@ -29,8 +29,8 @@ pub use push::Push;
 pub use scene::{Deformation, Particles, Scene, SceneError};
 pub use simulation::{BodyPose, FrameStats, FrameSteps, RunClock, Simulation};
 pub use solver::{
-    ExtremesTicket, ParticleSnapshot, PendingParticles, Solver, StepExtremes, SummaryTicket,
-    MAX_PENDING_STEP_TIMINGS, SNAPSHOTS_IN_FLIGHT,
+    ExtremesTicket, Holdings, ParticleSnapshot, PendingParticles, RankHolding, Solver, StepExtremes,
+    SummaryTicket, MAX_PENDING_STEP_TIMINGS, SNAPSHOTS_IN_FLIGHT,
 };
 pub use summary::Summary;
 pub use view::{ColourBy, DeviceParticleView, ParticleView};

@@ -11,8 +11,36 @@ use super::scene::Particles;
 use super::summary::Summary;
 use super::view::ParticleView;
 use anyhow::{bail, ensure, Result};
+use serde::Serialize;
 
 /// The largest values any particle reached over the substeps since they were last taken.
+/// What the ranks of this process hold ([`Solver::holdings`]): the benchmark's table of ranks.
+#[derive(Debug, Clone, Serialize)]
+pub struct Holdings {
+    /// The axis the slabs cut (0 for x).
+    pub axis: usize,
+    /// Migrations since the run began, and the particles they moved.
+    pub migrations: u64,
+    pub migrated: u64,
+    pub ranks: Vec<RankHolding>,
+}
+
+/// One rank's share, as of its last migration.
+#[derive(Debug, Clone, Serialize)]
+pub struct RankHolding {
+    pub rank: usize,
+    /// The node planes across the slab axis it owns.
+    pub slab: std::ops::Range<u32>,
+    /// Its live particles.
+    pub particles: usize,
+    /// The particle places it allocated: its particles and room for arrivals.
+    pub places: usize,
+    /// The grid nodes it holds: its slab and ghost planes.
+    pub grid_nodes: usize,
+    /// What its particle, bin and grid buffers take on its device, bytes.
+    pub device_bytes: usize,
+}
+
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepExtremes {
     pub max_density: f32,
@@ -240,6 +268,11 @@ pub trait Solver: Send {
     /// The kernel that runs `phase` for the current scene, where the backend chooses among several
     /// (the GPU's one_pass, by scatter mode and size), for a label that names it; `None` otherwise.
     fn phase_kernel(&self, _phase: Phase) -> Option<&'static str> {
+        None
+    }
+    /// What each rank holds, for a run split over slabs whose ranks hold their own share (the CUDA
+    /// ranks); `None` otherwise.
+    fn holdings(&self) -> Option<Holdings> {
         None
     }
     /// What emitters and sinks did so far; `None` without them.

@@ -182,10 +182,18 @@ fn split_runs_give_one_gpu_s_bits(scene: &Scene, params: &Params, on: On) {
             "the even slabs never moved"
         );
         // Each rank's grid holds its slab and ghost planes as they are now, the slabs moved since.
-        let domain_nodes: usize = scene.grid_res.iter().map(|&r| r as usize).product();
-        for (rank, (planes, nodes)) in split.grid_planes().into_iter().enumerate() {
-            assert_eq!(planes, split.slabs().held(rank), "rank {rank}'s grid");
-            assert!(nodes < domain_nodes, "rank {rank} holds the whole grid");
+        let slabs = split.slabs().clone();
+        let across: usize = scene.grid_res.iter().map(|&r| r as usize).product::<usize>()
+            / scene.grid_res[slabs.axis] as usize;
+        for held in split.holdings().expect("the CUDA ranks say what they hold").ranks {
+            let planes = slabs.held(held.rank);
+            assert_eq!(held.slab, slabs.owned(held.rank), "rank {}'s slab", held.rank);
+            assert_eq!(
+                held.grid_nodes,
+                planes.len() * across,
+                "rank {}'s grid is not its planes {planes:?}",
+                held.rank
+            );
         }
         assert_eq!(got.num_live(), expected.num_live(), "particles lost or gained");
         let gap = max_gap(&got, &expected, scene.dx);
