@@ -27,12 +27,17 @@ fn main() -> std::process::ExitCode {
             a_checkpoint_of_two_ranks_resumes_on_three,
             emitters_and_sinks_on_ranks_give_one_gpu_s_bytes,
             ranks_refuse_what_they_do_not_run,
+            a_particle_leaving_its_rank_s_grid_stops_the_run,
         ],
     )
 }
 
 fn fixed_point_ranks_give_one_gpu_s_bits() {
     ranks_checks::fixed_point_ranks_give_one_gpu_s_bits(On::OneGpu);
+}
+
+fn a_particle_leaving_its_rank_s_grid_stops_the_run() {
+    ranks_checks::a_particle_leaving_its_rank_s_grid_stops_the_run(On::OneGpu);
 }
 
 fn float_ranks_follow_one_gpu() {

@@ -326,6 +326,39 @@ fn a_preset_on_two_ranks_gives_one_gpu_s_bits_frame_by_frame(name: &str, frames:
     }
 }
 
+/// A particle that moves more than a cell in a substep leaves its rank's ghost planes, and its
+/// stencil the grid its rank holds: the run stops at the next substep, naming the fix, rather than
+/// step on with sums outside the grid. A push of 4 cells a substep along the slab axis, given to
+/// every particle of the balanced 3-rank tank (a uniform shift: no pressure builds before the
+/// check), carries those beside a cut past it; the substeps before the push run as ever.
+pub fn a_particle_leaving_its_rank_s_grid_stops_the_run(on: On) {
+    let (scene, params) = tank(ScatterMode::FixedPoint);
+    let mut split = ranks(&scene, 3, on);
+    for _ in 0..5 {
+        split.step(&params).expect("the tank steps at its CFL step");
+    }
+    let mut along = glam::Vec3::ZERO;
+    along[split.slabs().axis] = 1.0;
+    let domain = glam::Vec3::from(scene.grid_res.map(|r| r as f32)) * scene.dx;
+    let behind = domain * 0.5 - along * domain;
+    let push = mpm::sim::Push::new(
+        behind,
+        along,
+        100.0 * domain.length(),
+        along * (4.0 * scene.dx / params.dt),
+    );
+    split.apply_push(&push).unwrap();
+    let stopped = (0..4).find_map(|_| split.step(&params).err());
+    let text = format!(
+        "{:#}",
+        stopped.expect("particles moved 4 cells a substep and the ranks stepped on")
+    );
+    assert!(
+        text.contains("moved past its ghost planes") && text.contains("lower time_step.cfl"),
+        "{text}"
+    );
+}
+
 /// The exchanges are phases of their own, timed; every migration's books balance (checked inside
 /// each one: a run whose counts disagree fails the step).
 pub fn the_halo_phases_are_timed_and_migrations_counted(on: On) {
