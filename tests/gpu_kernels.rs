@@ -47,8 +47,60 @@ fn main() -> std::process::ExitCode {
             colliders_trajectory_follows_cpu,
             colliders_fixed_point_runs_are_byte_identical,
             a_block_leaving_a_wall_keeps_its_speed,
+            a_push_moves_the_water_on_every_pipeline,
         ],
     )
+}
+
+/// The viewer's push moves the water on every pipeline. The fused pipeline keeps the next substep's
+/// scatter on its grid, made from the velocities before a push, and its next pass gathers over it:
+/// a push between substeps must reach that scatter. After 3 substeps of the drop, a push along x;
+/// a substep later, the particles it pushed hardest move along x faster than without it by at
+/// least half of what it gave them.
+fn a_push_moves_the_water_on_every_pipeline() {
+    for pipeline in [Pipeline::Fused, Pipeline::Binned, Pipeline::Report] {
+        let mut scene = Scene::load("drop").expect("preset");
+        scene.pipeline = pipeline;
+        let mut params = common::cfl_params(&scene);
+        params.density_rule = pipeline.density_rule().code();
+        let (lo, hi) = scene.fluid_region();
+        let centre = (0.5 * (lo + hi)).as_vec3();
+        let push = mpm::sim::Push::new(
+            centre - Vec3::new(0.0, 0.0, 2.0),
+            Vec3::Z,
+            0.3 * (hi - lo).as_vec3().max_element(),
+            Vec3::new(1.5, 0.0, 0.0),
+        );
+        let after = |pushed: bool| {
+            let mut solver = CudaSolver::new(&scene, CudaOptions::default()).expect("CUDA solver");
+            for _ in 0..3 {
+                solver.step(&params).unwrap();
+            }
+            if pushed {
+                solver.apply_push(&push).unwrap();
+            }
+            solver.step(&params).unwrap();
+            solver.read_particles().unwrap()
+        };
+        let (plain, pushed) = (after(false), after(true));
+        let hard: Vec<usize> = (0..plain.len())
+            .filter(|&i| push.velocity_change(plain.x[i]).x >= 1.0)
+            .collect();
+        assert!(
+            hard.len() > 100,
+            "{pipeline:?}: the push met {} particles",
+            hard.len()
+        );
+        let gained = hard.iter().map(|&i| pushed.v[i].x - plain.v[i].x).sum::<f32>() / hard.len() as f32;
+        println!(
+            "{pipeline:?}: {} particles pushed hardest gained {gained:.3} m/s along x",
+            hard.len()
+        );
+        assert!(
+            gained > 0.5,
+            "{pipeline:?}: the push of at least 1 m/s left them {gained} m/s faster"
+        );
+    }
 }
 
 /// A small closed tank, 32 x 24 x 24 nodes, dx = 1/32 m, water at c0 = 10 m/s; the block is flush

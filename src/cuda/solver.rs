@@ -762,7 +762,16 @@ impl Solver for CudaSolver {
 
     fn apply_push(&mut self, push: &Push) -> Result<()> {
         let (k, l) = (&self.kernels, &self.gpu.launcher);
-        k.push.launch(l, push, &self.state.particles)
+        k.push.launch(l, push, &self.state.particles)?;
+        // The fused pipeline scattered the next substep from the velocities before the push, and
+        // its next pass gathers over that scatter, never reading them again: the scatter is dropped
+        // and the next substep makes it anew from the pushed velocities, as a resumed run's first.
+        if self.pipeline == Pipeline::Fused && self.mass_scattered.is_some() {
+            self.state.grid.clear(self.gpu.stream())?;
+            self.mass_scattered = None;
+            self.resumed = Some(self.params);
+        }
+        Ok(())
     }
 
     fn particles(&self) -> ParticleView<'_> {
