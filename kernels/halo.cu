@@ -1,7 +1,7 @@
 // halo: the ghost exchange's two ends on one rank's grid (src/cuda/halo.rs; src/dist/halo.rs is the
-// CPU ranks' version of the same rule). A rank holds the grid in the domain's node numbering and
-// touches its slab and one block of ghost planes on each inner face: the box its grid holds. After the scatter, the ghost
-// planes' partial sums are packed (and zeroed, as the grid update would), carried to the owner and
+// CPU ranks' version of the same rule). A rank's grid holds its slab and one block of ghost planes
+// on each inner face (its box; planes are named in the domain's node numbering). After the scatter,
+// the ghost planes' partial sums are packed (and zeroed, as the grid update would), carried to the owner and
 // added to its edge planes; after the grid update, the owner's edge planes' velocities are packed,
 // carried back and written over the ghosts. The carrier (a device copy on one GPU, NCCL across GPUs)
 // sees only the packed buffers.

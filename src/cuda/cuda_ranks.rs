@@ -5,7 +5,7 @@
 //!
 //! | phase | every rank, fused pipeline |
 //! |---|---|
-//! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every MIGRATION_INTERVAL substeps: rebalance the slabs and migrate (where the cuts move, the grids' scatter follows them: `carry_old_scatter`); then bin where the rank's schedule says |
+//! | sort        | where the last g2p counted a particle that the next substep could carry past its rank's ghost planes, or every MIGRATION_INTERVAL substeps: rebalance the slabs and migrate (where the cuts move, the ranks beside them take grids of their new planes and the scatter follows the cuts: `carry_old_scatter`); then bin where the rank's schedule says |
 //! | p2g_init    | the first substep's scatter |
 //! | halo_sum    | its ghost planes' sums packed, carried to their owner, added to its edge planes |
 //! | grid_update | the walls' mirror of mass and momentum, the grid update |
@@ -32,6 +32,9 @@
 //! their particles (`Turn::Gather`) at whichever exchange they wait in next; every substep opens
 //! with one, so the others are called before they step on. A process waiting on the others
 //! watches their heartbeats (`dist::launch::Watch`) and stops, naming the rank, when one dies.
+//!
+//! **Each rank's grid holds its slab and ghost planes** (`GridBox`, grid.rs), and the whole grid along
+//! the other two axes: the kernels address a node by it; all else sees the domain's coordinates.
 //!
 //! **Each rank holds its own particles**, with room for more (`with_room`), each carrying its slot in
 //! the run, and keeps them in bin order as one GPU does: every binning gathers its live particles to
