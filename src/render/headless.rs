@@ -12,7 +12,17 @@ use glutin::config::{Api, ConfigSurfaceTypes, ConfigTemplateBuilder};
 use glutin::context::PossiblyCurrentGlContext;
 use glutin::context::{ContextApi, ContextAttributesBuilder, GlProfile, Version};
 use glutin::display::GlDisplay;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
+
+/// The EGL display of each device a context was made on, by the device's handle: initialized once and
+/// kept until the process ends. EGL hands out one display per device however often it is asked, and
+/// glutin terminates its reference when a `Display` drops (where EGL counts references, as Mesa's
+/// does), so each context made after the last one was dropped (one a render, one a test) had the
+/// driver tear the display down and set it up again; CI's runs of the render tests on Mesa's
+/// llvmpipe, contexts made and dropped on two threads at once, now and then aborted at exit with a
+/// double free in that teardown. Kept, a display is set up once and torn down by the driver at exit,
+/// as in most programs.
+static DEVICE_DISPLAYS: Mutex<Vec<(usize, Display)>> = Mutex::new(Vec::new());
 
 /// An off-screen GL context and a framebuffer of a fixed size, bound for drawing.
 pub struct HeadlessGl {
@@ -60,9 +70,21 @@ impl HeadlessGl {
         )
     }
 
-    fn on_device(device: &Device, width: u32, height: u32) -> Result<HeadlessGl> {
+    /// `device`'s display (`DEVICE_DISPLAYS`).
+    fn device_display(device: &Device) -> Result<Display> {
+        let key = device.raw_device() as usize;
+        let mut displays = DEVICE_DISPLAYS.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, display)) = displays.iter().find(|(k, _)| *k == key) {
+            return Ok(display.clone());
+        }
         // SAFETY: no native display is involved (a device display).
         let display = unsafe { Display::with_device(device, None) }.context("eglGetPlatformDisplay")?;
+        displays.push((key, display.clone()));
+        Ok(display)
+    }
+
+    fn on_device(device: &Device, width: u32, height: u32) -> Result<HeadlessGl> {
+        let display = Self::device_display(device)?;
         // A device display has no window configs: ask for pbuffer ones (docs/gpu.md).
         let template = ConfigTemplateBuilder::new()
             .with_surface_type(ConfigSurfaceTypes::PBUFFER)
