@@ -168,6 +168,27 @@ fn a_checkpoint_reads_back_as_written_and_holds_the_whole_state() {
     assert_eq!(names, ["a.mpmck"]);
 }
 
+/// Which nodes a GPU's grid holds (`KernelParams::box_lo`, `box_res`: a rank's slab) is no part of
+/// the run: a checkpoint of parameters with a rank's box writes the bytes of one with the whole
+/// grid's, and reads back with the whole grid's.
+#[test]
+fn a_checkpoint_holds_no_grid_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = Checkpoint::capture(&mut small_sim(1)).unwrap();
+    assert_eq!(whole.params.box_res, whole.params.grid_res);
+    let mut part = whole.clone();
+    part.params.box_lo = [8, 0, 0];
+    part.params.box_res = [16, whole.params.grid_res[1], whole.params.grid_res[2]];
+    let (a, b) = (dir.path().join("whole.mpmck"), dir.path().join("part.mpmck"));
+    whole.write_new(&a).unwrap();
+    part.write_new(&b).unwrap();
+    assert!(
+        std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+        "the grid box reached the file"
+    );
+    assert_eq!(Checkpoint::read(&b).unwrap(), whole);
+}
+
 #[test]
 fn an_existing_file_is_never_replaced() {
     let dir = tempfile::tempdir().unwrap();
