@@ -13,7 +13,8 @@ use std::sync::Arc;
 
 /// The box of the domain's nodes a GPU's grid holds (`KernelParams::box_lo`, `box_res`): on one GPU
 /// the whole grid; on a rank of several, the planes of its slab and ghost planes along the slab axis
-/// (`Slabs::held`), the whole grid across it, so that a rank's grid shrinks with its share. The
+/// (`Slabs::held`) and the whole grid along the other two, so that a rank's grid shrinks with its
+/// slab. The
 /// kernels work in the domain's node coordinates and use the box only to address a node
 /// (`grid_index` in kernels/common.cuh). It starts on a node block's edge, as the slabs are cut.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
