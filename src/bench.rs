@@ -922,6 +922,41 @@ pub fn run(plan: &BenchPlan, out: &mut dyn std::io::Write) -> Result<BenchReport
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::RankHolding;
+
+    #[test]
+    fn the_ranks_table_gives_each_rank_s_memory_a_particle() {
+        let rank = |rank, slab, particles, device_bytes| RankHolding {
+            rank,
+            slab,
+            particles,
+            places: particles + particles / 8 + 1024,
+            grid_nodes: 1000,
+            device_bytes,
+        };
+        let table = ranks_table(&Holdings {
+            axis: 1,
+            migrations: 3,
+            migrated: 42,
+            ranks: vec![
+                rank(0, 0..60, 1_000_000, 226_000_000),
+                rank(1, 60..64, 0, 5 << 20),
+            ],
+        });
+        assert!(
+            table.contains("slabs across y; 3 migrations moved 42 particles"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| 0 | 0..60 | 1000000 | 1126024 | 1000 | 216 | 226 |"),
+            "{table}"
+        );
+        // A rank holding no particle has no bytes a particle.
+        assert!(
+            table.contains("| 1 | 60..64 | 0 | 1024 | 1000 | 5 | - |"),
+            "{table}"
+        );
+    }
 
     #[test]
     fn percentiles_are_nearest_rank() {
