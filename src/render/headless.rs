@@ -18,10 +18,10 @@ use std::sync::{Arc, Mutex};
 /// kept until the process ends. EGL hands out one display per device however often it is asked, and
 /// glutin terminates its reference when a `Display` drops (where EGL counts references, as Mesa's
 /// does), so each context made after the last one was dropped (one a render, one a test) had the
-/// driver tear the display down and set it up again; CI's runs of the render tests on Mesa's
+/// driver tear the display down and set it up again. CI's runs of the render tests on Mesa's
 /// llvmpipe, contexts made and dropped on two threads at once, now and then aborted at exit with a
-/// double free in that teardown. Kept, a display is set up once and torn down by the driver at exit,
-/// as in most programs.
+/// double free in the driver's teardown; that cycle is the suspect (never reproduced here). Kept, a
+/// display is set up once and torn down by the driver at exit, as in most programs.
 static DEVICE_DISPLAYS: Mutex<Vec<(usize, Display)>> = Mutex::new(Vec::new());
 
 /// An off-screen GL context and a framebuffer of a fixed size, bound for drawing.
