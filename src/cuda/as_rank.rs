@@ -13,7 +13,7 @@ use super::render::DeviceParticlesView;
 use super::solver::CudaSolver;
 use crate::sim::{Params, Particles};
 use anyhow::{Context, Result};
-use cudarc::driver::{CudaContext, CudaSlice, DevicePtr};
+use cudarc::driver::{CudaContext, CudaSlice, DevicePtr, DeviceRepr};
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -140,21 +140,12 @@ impl CudaSolver {
 
     /// A count its kernels left on its GPU, waited for.
     pub(super) fn read_count(&self, count: &CudaSlice<u32>) -> Result<u32> {
-        self.gpu
-            .download(count)?
-            .first()
-            .copied()
-            .context("an empty count")
+        self.download(count)?.first().copied().context("an empty count")
     }
 
-    /// Counts its kernels left on its GPU, waited for.
-    pub(super) fn read_counts(&self, counts: &CudaSlice<u32>) -> Result<Vec<u32>> {
-        self.gpu.download(counts)
-    }
-
-    /// Words on its GPU, waited for.
-    pub(super) fn download_words(&self, words: &CudaSlice<u64>) -> Result<Vec<u64>> {
-        self.gpu.download(words)
+    /// A buffer on its GPU (counts its kernels left, words the transport gathered), waited for.
+    pub(super) fn download<T: DeviceRepr + Default + Clone>(&self, buffer: &CudaSlice<T>) -> Result<Vec<T>> {
+        self.gpu.download(buffer)
     }
 
     /// Its particles, places and slots, as the transport reads and writes them.

@@ -725,7 +725,7 @@ impl CudaRanks {
         self.transport.wait_watched(&self.solvers)?;
         let mut counts = Vec::new();
         for (solver, strays) in self.solvers.iter().zip(&self.strays) {
-            counts.push(solver.read_counts(strays)?.into_iter().map(u64::from).collect());
+            counts.push(solver.download(strays)?.into_iter().map(u64::from).collect());
         }
         let counts = self.turn(Turn::Step, counts)?;
         if let Some((rank, count)) = counts.iter().enumerate().find(|(_, count)| count[1] > 0) {

@@ -255,7 +255,7 @@ impl Transport for NcclPerProcess {
             }
         }
         self.wait_all(solvers)?;
-        let words = solver.download_words(&all)?;
+        let words = solver.download(&all)?;
         Ok(words.chunks(len).map(<[u64]>::to_vec).collect())
     }
 
