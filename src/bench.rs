@@ -525,11 +525,11 @@ pub fn phase_table(report: &PhaseReport) -> String {
 }
 
 /// What each rank held at the end of a run split over ranks: its slab, particles, places, grid and
-/// the device memory its buffers take, and that per particle it owns.
+/// the memory its buffers take (a CUDA rank's on its GPU), and that per particle it owns.
 fn ranks_table(held: &Holdings) -> String {
     let mut out = format!(
         "\nRanks (slabs across {}; {} migrations moved {} particles), as each held them at the end:\n\n\
-         | rank | slab (node planes) | particles | particle places | grid nodes | device MiB (particles, bins, grid) | bytes a particle |\n\
+         | rank | slab (node planes) | particles | particle places | grid nodes | MiB (particles, bins, grid) | bytes a particle |\n\
          |---:|---|---:|---:|---:|---:|---:|\n",
         ["x", "y", "z"][held.axis],
         held.migrations,
@@ -538,7 +538,7 @@ fn ranks_table(held: &Holdings) -> String {
     for r in &held.ranks {
         let per_particle = match r.particles {
             0 => "-".to_string(),
-            n => format!("{:.0}", r.device_bytes as f64 / n as f64),
+            n => format!("{:.0}", r.bytes as f64 / n as f64),
         };
         let _ = writeln!(
             out,
@@ -549,7 +549,7 @@ fn ranks_table(held: &Holdings) -> String {
             r.particles,
             r.places,
             r.grid_nodes,
-            r.device_bytes as f64 / (1024.0 * 1024.0)
+            r.bytes as f64 / (1024.0 * 1024.0)
         );
     }
     out
@@ -926,13 +926,13 @@ mod tests {
 
     #[test]
     fn the_ranks_table_gives_each_rank_s_memory_a_particle() {
-        let rank = |rank, slab, particles, device_bytes| RankHolding {
+        let rank = |rank, slab, particles, bytes| RankHolding {
             rank,
             slab,
             particles,
             places: particles + particles / 8 + 1024,
             grid_nodes: 1000,
-            device_bytes,
+            bytes,
         };
         let table = ranks_table(&Holdings {
             axis: 1,

@@ -175,6 +175,46 @@ fn the_first_rebin_balances_even_slabs() {
     assert!(split.migrated().1.sent as usize >= before[0] - after[0]);
 }
 
+/// Each rank's grid stores its slab and ghost planes alone, and follows them when the cut moves:
+/// what `mpm bench` reports of each rank (`Solver::holdings`).
+#[test]
+fn each_rank_s_grid_holds_its_slab_and_ghost_planes() {
+    let scene = tank(common::STIRRED_TANK, Pipeline::Fused);
+    let params = common::cfl_params(&scene);
+    let mut split = stirred_on(&scene, 2);
+    let even = split.slabs().clone();
+    let res = glam::UVec3::from(scene.grid_res);
+    let across = (res.element_product() / res[even.axis]) as usize;
+    let holds_its_planes = |split: &CpuRanks| {
+        let (held, slabs) = (split.holdings().unwrap(), split.slabs());
+        assert_eq!(held.axis, slabs.axis);
+        for r in &held.ranks {
+            assert_eq!(r.slab, slabs.owned(r.rank));
+            assert_eq!(
+                r.grid_nodes,
+                slabs.held(r.rank).len() * across,
+                "rank {} of {:?}",
+                r.rank,
+                slabs.bounds
+            );
+            assert_eq!(r.particles, split.counts()[r.rank]);
+            // Its particles' 64 bytes a slot at least, and 16 a node of its grid.
+            assert!(r.bytes >= 64 * r.places + 16 * r.grid_nodes, "{r:?}");
+        }
+        let nodes: usize = held.ranks.iter().map(|r| r.grid_nodes).sum();
+        println!("bounds {:?}: {held:?}", slabs.bounds);
+        // The whole grid once, and one block of ghost planes each side of the cut.
+        assert_eq!(nodes, (res[slabs.axis] as usize + 2 * 4) * across);
+    };
+    split.step(&params).unwrap();
+    holds_its_planes(&split);
+    for _ in 1..mpm::dist::MIGRATION_INTERVAL {
+        split.step(&params).unwrap();
+    }
+    assert_ne!(split.slabs().bounds, even.bounds, "the cut never moved");
+    holds_its_planes(&split);
+}
+
 /// The exchanges are phases of their own: timed on ranks, zero on one.
 #[test]
 fn the_halo_phases_are_timed() {
@@ -198,10 +238,6 @@ fn more_ranks_than_the_grid_holds_is_a_clear_error() {
     assert!(err.contains("at most 6 ranks"), "{err}");
 }
 
-/// The fixed-point scatter sums integers, whose sums do not depend on their order nor on how they
-/// are split between ranks: 2 and 3 ranks give the one-rank reference's bits exactly, particle by
-/// particle (by id), through 200 stirred substeps with migrations, under both density rules. The 2
-/// ranks start on even slabs, so their first rebin also moves the bounds.
 /// `scene` stirred (`common::stirred`) on `ranks` ranks: 2 on even slabs (their first rebin moves
 /// the cut), more on balanced ones.
 fn stirred_on(scene: &Scene, ranks: usize) -> CpuRanks {
@@ -213,6 +249,10 @@ fn stirred_on(scene: &Scene, ranks: usize) -> CpuRanks {
     }
 }
 
+/// The fixed-point scatter sums integers, whose sums do not depend on their order nor on how they
+/// are split between ranks: 2 and 3 ranks give the one-rank reference's bits exactly, particle by
+/// particle (by id), through 200 stirred substeps with migrations, under both density rules. The 2
+/// ranks start on even slabs, so their first rebin also moves the bounds.
 #[test]
 fn fixed_point_ranks_are_byte_identical_to_one() {
     for pipeline in [Pipeline::Fused, Pipeline::Binned] {

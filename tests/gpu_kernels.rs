@@ -939,9 +939,7 @@ fn sort_orders_particles_by_cell() {
     scene.pipeline = Pipeline::Report;
     let particles = random_particles(&scene, 5);
     let params = common::cfl_params(&scene);
-    let shape = mpm::sim::cpu::GridShape {
-        res: glam::UVec3::from(scene.grid_res),
-    };
+    let shape = mpm::sim::cpu::GridShape::whole(glam::UVec3::from(scene.grid_res));
     let cell = |i: u32| shape.index(Stencil::new(particles.x[i as usize], params.inv_dx).base);
     for block_size in [128, 32] {
         let options = CudaOptions {

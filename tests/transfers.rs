@@ -71,9 +71,7 @@ fn assert_close(a: DVec3, b: DVec3, tol: f64, what: &str) {
 
 #[test]
 fn weights_partition_unity_and_have_the_exact_moments() {
-    let shape = GridShape {
-        res: glam::UVec3::splat(RES),
-    };
+    let shape = GridShape::whole(glam::UVec3::splat(RES));
     let p = common::random_particles(1000, DX, (RES as f32 - 2.0) * DX, 0.0, 0.0, 1);
     for &x in &p.x {
         let (mut sum_w, mut sum_wd, mut sum_wdd) = (0.0f64, DVec3::ZERO, glam::DMat3::ZERO);

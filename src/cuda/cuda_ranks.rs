@@ -1278,7 +1278,7 @@ impl Solver for CudaRanks {
                     particles: self.counts[rank],
                     places: solver.capacity(),
                     grid_nodes: solver.held().nodes(),
-                    device_bytes: solver.device_bytes(),
+                    bytes: solver.device_bytes(),
                 }
             })
             .collect();

@@ -84,9 +84,7 @@ impl<'a> RegionArg<'a> for cudarc::driver::LaunchArgs<'a> {
 
 impl Region {
     fn of(params: &Params) -> Region {
-        let shape = crate::sim::cpu::GridShape {
-            res: glam::UVec3::from(params.grid_res),
-        };
+        let shape = crate::sim::cpu::GridShape::whole(glam::UVec3::from(params.grid_res));
         let (lo, hi) = fluid_region(params, shape);
         Region {
             lo: lo.x,

@@ -14,19 +14,19 @@ use super::slabs::Slabs;
 use super::sockets::SocketComm;
 use super::{check_ranks, starting_slabs};
 use crate::sim::colliders::ColliderFrame;
-use crate::sim::cpu::{is_fixed_point, CpuSolver};
+use crate::sim::cpu::{is_fixed_point, CpuSolver, Grid, GridShape};
 use crate::sim::flow::{Flow, FlowCounts, FlowState, Lifecycle, Slots};
 use crate::sim::params::{gathers_volume, DensityRule, Params};
 use crate::sim::phase::{Phase, PhaseClock, PhaseTimings};
 use crate::sim::push::Push;
-use crate::sim::solver::{push_step_timing, Solver, StepExtremes};
+use crate::sim::solver::{push_step_timing, Holdings, RankHolding, Solver, StepExtremes};
 use crate::sim::ParticleView;
 use crate::sim::{Particles, Scene};
 use anyhow::{anyhow, bail, ensure, Result};
 use bytemuck::Zeroable;
+use glam::UVec3;
 
-/// One rank: the reference solver over its particles and a grid in the domain's node numbering, of
-/// which it touches its slab and ghost planes.
+/// One rank: the reference solver over its particles and a grid of its slab and ghost planes.
 pub struct Rank {
     rank: usize,
     solver: CpuSolver,
@@ -48,7 +48,8 @@ impl Rank {
         let params = scene.params();
         let mut store = RankParticles::share(all, slabs, rank, params.inv_dx);
         let particles = std::mem::take(&mut store.particles);
-        let solver = CpuSolver::new(particles, scene.grid_res);
+        let mut solver = CpuSolver::new(particles, scene.grid_res);
+        solver.grid = Grid::new(held_shape(slabs, UVec3::from(scene.grid_res), rank));
         let halo = HaloNodes::new(slabs, solver.grid.shape, rank);
         Rank {
             mirror_walls: (params.wall_mirror_lo, params.wall_mirror_hi[slabs.axis]),
@@ -110,6 +111,26 @@ impl Rank {
         self.solver.g2p(params);
         clock.lap(Phase::G2p);
         Ok(clock.finish())
+    }
+
+    /// What it holds: its slab, particles and grid, and the host memory they take (its particles'
+    /// ids and the walls' own sums with them).
+    fn holding(&self) -> RankHolding {
+        let (p, grid) = (&self.solver.particles, &self.solver.grid);
+        let own = &self.solver.own;
+        let bytes = p.bytes()
+            + std::mem::size_of_val(self.store.id.as_slice())
+            + grid.bytes()
+            + std::mem::size_of_val(own.mass.as_slice())
+            + std::mem::size_of_val(own.momentum.as_slice());
+        RankHolding {
+            rank: self.rank,
+            slab: self.slabs.owned(self.rank),
+            particles: p.num_live(),
+            places: p.len(),
+            grid_nodes: grid.shape.num_nodes(),
+            bytes,
+        }
     }
 
     /// Parks its live particles inside a sink of `flow`, as the reference's drain does after g2p,
@@ -207,7 +228,12 @@ impl Rank {
         }
         let per_layer = all_sum(comm, &layer_counts(&self.solver.particles, &self.slabs, inv_dx))?;
         if let Some(balanced) = self.slabs.rebalanced(&per_layer, self.mirror_walls)? {
-            self.halo = HaloNodes::new(&balanced, self.solver.grid.shape, self.rank);
+            // The grid was cleared for this substep: one of the new planes holds the same.
+            let shape = held_shape(&balanced, self.solver.grid.shape.res, self.rank);
+            if shape != self.solver.grid.shape {
+                self.solver.grid = Grid::new(shape);
+            }
+            self.halo = HaloNodes::new(&balanced, shape, self.rank);
             self.slabs = balanced;
         }
         self.store.particles = std::mem::take(&mut self.solver.particles);
@@ -219,6 +245,11 @@ impl Rank {
         self.migrations += 1;
         Ok(())
     }
+}
+
+/// What a rank's grid stores in a domain of `res` nodes: its slab and ghost planes (`Slabs::held`).
+fn held_shape(slabs: &Slabs, res: UVec3, rank: usize) -> GridShape {
+    GridShape::planes(res, slabs.axis, slabs.held(rank))
 }
 
 /// What a rank hands over after each substep: its live particles, by id (for readers, checkpoints
@@ -535,6 +566,17 @@ impl Solver for CpuRanks {
         self.ranks
             .iter_mut()
             .try_for_each(|r| r.solver.set_colliders(frame))
+    }
+
+    fn holdings(&self) -> Option<Holdings> {
+        let ranks = self.ranks.iter().map(Rank::holding).collect();
+        let (migrations, migrated) = self.migrated();
+        Some(Holdings {
+            axis: self.slabs().axis,
+            migrations,
+            migrated: migrated.sent,
+            ranks,
+        })
     }
 
     fn take_step_timings(&mut self) -> Result<Option<Vec<PhaseTimings>>> {

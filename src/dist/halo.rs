@@ -3,8 +3,8 @@
 //! ([`sum_into_owners`]); after the grid update the owners' final values go back to the ghosts for the
 //! gather ([`fill_ghosts`]).
 //!
-//! A rank's grid here spans the whole domain in global node numbering, of which it touches its slab
-//! and its ghost planes: the physics (walls, band, colliders) reads global node positions unchanged.
+//! A rank's grid stores its slab and its ghost planes (`GridShape::planes`), its nodes named in the
+//! domain's numbering: the physics (walls, band, colliders) reads their positions unchanged.
 
 use super::comm::Comm;
 use super::slabs::Slabs;

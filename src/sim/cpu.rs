@@ -47,7 +47,7 @@ impl Stencil {
     /// Calls `f(node index, w, d)` for the 27 stencil nodes, d = node - x in cells.
     #[inline(always)]
     pub fn for_each_node(&self, shape: GridShape, mut f: impl FnMut(usize, f32, Vec3)) {
-        let (sx, sxy) = (shape.res.x as usize, (shape.res.x * shape.res.y) as usize);
+        let [_, sx, sxy] = shape.strides();
         let base = shape.index(self.base);
         for oz in 0..3 {
             let (wz, dz) = (self.w[oz].z, oz as f32 - self.fx.z);
@@ -63,30 +63,60 @@ impl Stencil {
     }
 }
 
-/// Node count per axis, and the node order shared with the kernels: x fastest.
+/// The domain's nodes and the box of them a grid stores, in the node order shared with the kernels
+/// (x fastest). One solver's box is the whole domain; a CPU rank's is its slab and ghost planes
+/// (`Slabs::held`), as a CUDA rank's is (`GridBox`, src/cuda/grid.rs). Nodes are named in the
+/// domain's coordinates everywhere; only where one is stored depends on the box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GridShape {
+    /// Nodes per axis of the domain: the walls, their band and the clamp stand at its ends.
     pub res: UVec3,
+    /// The box stored: nodes `box_lo .. box_lo + box_res`.
+    pub box_lo: UVec3,
+    pub box_res: UVec3,
 }
 
 impl GridShape {
+    /// The whole domain of `res` nodes, stored whole.
+    pub const fn whole(res: UVec3) -> GridShape {
+        GridShape {
+            res,
+            box_lo: UVec3::ZERO,
+            box_res: res,
+        }
+    }
+
+    /// The domain of `res` nodes, of which planes `planes` across `axis` are stored.
+    pub fn planes(res: UVec3, axis: usize, planes: std::ops::Range<u32>) -> GridShape {
+        let (mut box_lo, mut box_res) = (UVec3::ZERO, res);
+        box_lo[axis] = planes.start;
+        box_res[axis] = planes.len() as u32;
+        GridShape { res, box_lo, box_res }
+    }
+
+    /// Where node `node` (inside the box) is stored.
     #[inline]
     pub fn index(&self, node: IVec3) -> usize {
-        let n = node.as_uvec3();
-        (n.x + self.res.x * (n.y + self.res.y * n.z)) as usize
+        let n = node.as_uvec3() - self.box_lo;
+        debug_assert!(n.cmplt(self.box_res).all(), "node {node} outside the grid's box");
+        (n.x + self.box_res.x * (n.y + self.box_res.y * n.z)) as usize
     }
 
+    /// The node stored at `index`.
     pub fn node(&self, index: usize) -> UVec3 {
-        let i = index as u32;
-        UVec3::new(
-            i % self.res.x,
-            (i / self.res.x) % self.res.y,
-            i / (self.res.x * self.res.y),
-        )
+        let (i, r) = (index as u32, self.box_res);
+        self.box_lo + UVec3::new(i % r.x, (i / r.x) % r.y, i / (r.x * r.y))
     }
 
+    /// The nodes stored.
     pub fn num_nodes(&self) -> usize {
-        self.res.x as usize * self.res.y as usize * self.res.z as usize
+        self.box_res.x as usize * self.box_res.y as usize * self.box_res.z as usize
+    }
+
+    /// How far apart in storage neighbours along x, y and z lie.
+    pub fn strides(&self) -> [usize; 3] {
+        let r = self.box_res.as_usizevec3();
+        [1, r.x, r.x * r.y]
     }
 }
 
@@ -105,10 +135,8 @@ pub struct Grid {
 }
 
 impl Grid {
-    pub fn new(res: [u32; 3]) -> Grid {
-        let shape = GridShape {
-            res: UVec3::from(res),
-        };
+    /// A zeroed grid of the nodes `shape` stores.
+    pub fn new(shape: GridShape) -> Grid {
         Grid {
             shape,
             mass: vec![0.0; shape.num_nodes()],
@@ -116,6 +144,18 @@ impl Grid {
             fixed: None,
             volume: Vec::new(),
         }
+    }
+
+    /// What its sums take in memory, bytes.
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        let fixed = self.fixed.as_ref().map_or(0, |f| {
+            size_of_val(f.mass.as_slice()) + size_of_val(f.momentum.as_slice())
+        });
+        size_of_val(self.mass.as_slice())
+            + size_of_val(self.momentum.as_slice())
+            + size_of_val(self.volume.as_slice())
+            + fixed
     }
 
     /// The fixed-point sums, zeroed where they were just made.
@@ -264,8 +304,8 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     if params.wall_mirror_lo == 0 {
         return;
     }
-    let res = shape.res;
-    let stride = [1, res.x as usize, (res.x * res.y) as usize];
+    let (res, lo, held) = (shape.res, shape.box_lo, shape.box_res);
+    let stride = shape.strides();
     for a in 0..3 {
         // The two axes across the lines, the smaller stride innermost (x before y before z).
         let (outer, inner) = match a {
@@ -273,21 +313,33 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
             1 => (2, 0),
             _ => (1, 0),
         };
+        // Where plane i along the axis lies on each line, if the box holds it. A rank's box holds a
+        // wall's pairs across its slab axis whole (`Slabs::holds_mirror`) or, in its ghost planes,
+        // some of them; a pair it holds one node of is skipped, and the owner's values overwrite
+        // those ghosts before anything reads them.
+        let along = |i: u32| (i.wrapping_sub(lo[a]) < held[a]).then(|| (i - lo[a]) as usize * stride[a]);
         for (wall, low) in [(params.wall_mirror_lo, true), (params.wall_mirror_hi[a], false)] {
             let reach = wall.min(res[a] - 1 - wall);
             let (fluid, beyond_plane) = (WallSide::Fluid { low }, WallSide::Beyond { low });
-            for u in 0..res[outer] as usize {
-                for v in 0..res[inner] as usize {
+            let on_plane = along(wall);
+            let pairs: Vec<(usize, usize)> = (1..=reach)
+                .filter_map(|d| {
+                    let (beyond, inside) = match low {
+                        true => (wall - d, wall + d),
+                        false => (wall + d, wall - d),
+                    };
+                    Some((along(beyond)?, along(inside)?))
+                })
+                .collect();
+            for u in 0..held[outer] as usize {
+                for v in 0..held[inner] as usize {
                     let line = u * stride[outer] + v * stride[inner];
-                    let at = |i: u32| line + i as usize * stride[a];
-                    let on_plane = at(wall);
-                    let own = values[on_plane];
-                    values[on_plane] = own + image(own, own, a, fluid);
-                    for d in 1..=reach {
-                        let (beyond, inside) = match low {
-                            true => (at(wall - d), at(wall + d)),
-                            false => (at(wall + d), at(wall - d)),
-                        };
+                    if let Some(on_plane) = on_plane {
+                        let own = values[line + on_plane];
+                        values[line + on_plane] = own + image(own, own, a, fluid);
+                    }
+                    for &(beyond, inside) in &pairs {
+                        let (beyond, inside) = (line + beyond, line + inside);
                         let (x, y) = (values[beyond], values[inside]);
                         values[beyond] = x + image(x, y, a, beyond_plane);
                         values[inside] = y + image(y, x, a, fluid);
@@ -585,7 +637,7 @@ impl CpuSolver {
     pub fn new(particles: Particles, grid_res: [u32; 3]) -> CpuSolver {
         CpuSolver {
             particles,
-            grid: Grid::new(grid_res),
+            grid: Grid::new(GridShape::whole(UVec3::from(grid_res))),
             lifecycle: None,
             colliders: ColliderFrame::default(),
             bodies: HostBodies::default(),

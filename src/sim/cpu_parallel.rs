@@ -52,9 +52,7 @@ const TILE: u32 = 4;
 /// A tile's block: its nodes plus the 2-node overhang of its particles' stencils, per axis.
 const BLOCK: u32 = TILE + 2;
 const BLOCK_NODES: usize = (BLOCK * BLOCK * BLOCK) as usize;
-const BLOCK_SHAPE: GridShape = GridShape {
-    res: UVec3::splat(BLOCK),
-};
+const BLOCK_SHAPE: GridShape = GridShape::whole(UVec3::splat(BLOCK));
 /// Particles or nodes per rayon task, at least: below this the task overhead dominates.
 const MIN_PER_TASK: usize = 2048;
 

@@ -134,9 +134,7 @@ impl PbmpmSolver {
             particles.len(),
             "a volume bias per slot"
         );
-        let shape = GridShape {
-            res: UVec3::from(grid_res),
-        };
+        let shape = GridShape::whole(UVec3::from(grid_res));
         let n = shape.num_nodes();
         PbmpmSolver {
             particles,

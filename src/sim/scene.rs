@@ -183,6 +183,19 @@ impl Particles {
         self.x.is_empty()
     }
 
+    /// What the slots' fields take in memory, bytes.
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(self.x.as_slice())
+            + size_of_val(self.v.as_slice())
+            + size_of_val(self.c.as_slice())
+            + size_of_val(self.rho.as_slice())
+            + size_of_val(self.material.as_slice())
+            + size_of_val(self.live.as_slice())
+            + size_of_val(self.deformation.as_slice())
+            + size_of_val(self.volume_bias.as_slice())
+    }
+
     pub fn num_live(&self) -> usize {
         self.live.iter().filter(|&&l| l).count()
     }

@@ -13,7 +13,6 @@ use super::view::ParticleView;
 use anyhow::{bail, ensure, Result};
 use serde::Serialize;
 
-/// The largest values any particle reached over the substeps since they were last taken.
 /// What the ranks of this process hold ([`Solver::holdings`]): the benchmark's table of ranks.
 #[derive(Debug, Clone, Serialize)]
 pub struct Holdings {
@@ -37,10 +36,12 @@ pub struct RankHolding {
     pub places: usize,
     /// The grid nodes it holds: its slab and ghost planes.
     pub grid_nodes: usize,
-    /// What its particle, bin and grid buffers take on its device, bytes.
-    pub device_bytes: usize,
+    /// What its particle, bin and grid buffers take, bytes: device memory for a CUDA rank, host
+    /// memory for a CPU rank.
+    pub bytes: usize,
 }
 
+/// The largest values any particle reached over the substeps since they were last taken.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepExtremes {
     pub max_density: f32,
