@@ -17,7 +17,7 @@ mod common;
 mod harness;
 
 fn main() -> std::process::ExitCode {
-    harness::run(
+    let code = harness::run(
         "headless OpenGL",
         harness::headless_gl,
         harness::tests![
@@ -31,7 +31,13 @@ fn main() -> std::process::ExitCode {
             a_solid_is_drawn_as_itself_and_in_no_liquid_surface,
             a_solid_behind_water_is_seen_through_it,
         ],
-    )
+    );
+    // Every test's context has dropped: the driver tears its display down now, not at exit.
+    if let Err(why) = mpm::render::headless::release_displays() {
+        eprintln!("{why:#}");
+        return std::process::ExitCode::FAILURE;
+    }
+    code
 }
 
 /// The `w` x `h` rectangle of `image` whose bottom-left corner is at (x, y) in GL's convention.

@@ -12,17 +12,37 @@ use glutin::config::{Api, ConfigSurfaceTypes, ConfigTemplateBuilder};
 use glutin::context::PossiblyCurrentGlContext;
 use glutin::context::{ContextApi, ContextAttributesBuilder, GlProfile, Version};
 use glutin::display::GlDisplay;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The EGL display of each device a context was made on, by the device's handle: initialized once and
-/// kept until the process ends. EGL hands out one display per device however often it is asked, and
-/// glutin terminates its reference when a `Display` drops (where EGL counts references, as Mesa's
-/// does), so each context made after the last one was dropped (one a render, one a test) had the
-/// driver tear the display down and set it up again. CI's runs of the render tests on Mesa's
-/// llvmpipe, contexts made and dropped on two threads at once, now and then aborted at exit with a
-/// double free in the driver's teardown; that cycle is the suspect (never reproduced here). Kept, a
-/// display is set up once and torn down by the driver at exit, as in most programs.
+/// kept until [`release_displays`] or the process's end. EGL hands out one display per device however
+/// often it is asked, and glutin terminates its reference when a `Display` drops only where EGL
+/// counts references, so a display is set up once and shared by every context made on its device.
 static DEVICE_DISPLAYS: Mutex<Vec<(usize, Display)>> = Mutex::new(Vec::new());
+
+/// `HeadlessGl`s alive: [`release_displays`] terminates nothing while one is.
+static LIVE_CONTEXTS: AtomicUsize = AtomicUsize::new(0);
+
+/// Terminates the EGL displays this process kept, where no `HeadlessGl` is alive (else it does
+/// nothing and says so): the driver tears each down now, its worker threads joined, instead of in
+/// its handlers at exit. Left to those, Mesa's llvmpipe now and then aborted CI's run of
+/// tests/headless_render.rs after every test had passed (a double free, then "malloc_consolidate():
+/// invalid chunk size"; in one of six fresh-clone CI runs here, never in 16 runs of the test file alone), the
+/// driver's exit-time teardown racing its own threads or the LLVM it was built on. A program done
+/// with headless rendering calls it once, last.
+pub fn release_displays() -> Result<()> {
+    let live = LIVE_CONTEXTS.load(Ordering::SeqCst);
+    if live > 0 {
+        bail!("{live} headless GL context(s) still alive: their EGL displays stay");
+    }
+    let displays = std::mem::take(&mut *DEVICE_DISPLAYS.lock().unwrap_or_else(|e| e.into_inner()));
+    for (_, display) in displays {
+        // SAFETY: no context of this module is alive, and nothing else in mpm uses these displays.
+        unsafe { display.terminate() };
+    }
+    Ok(())
+}
 
 /// An off-screen GL context and a framebuffer of a fixed size, bound for drawing.
 pub struct HeadlessGl {
@@ -167,6 +187,7 @@ impl HeadlessGl {
             if status != glow::FRAMEBUFFER_COMPLETE {
                 bail!("the {width}x{height} framebuffer is incomplete (status {status:#x}); try a smaller --size");
             }
+            LIVE_CONTEXTS.fetch_add(1, Ordering::SeqCst);
             Ok(HeadlessGl {
                 gl,
                 context,
@@ -218,6 +239,7 @@ impl HeadlessGl {
 
 impl Drop for HeadlessGl {
     fn drop(&mut self) {
+        LIVE_CONTEXTS.fetch_sub(1, Ordering::SeqCst);
         if !self.context.is_current() {
             // Dropped on another thread than the one drawing: its GL calls would go elsewhere.
             return;
@@ -231,8 +253,7 @@ impl Drop for HeadlessGl {
         }
         // Released before glutin destroys it: EGL frees a context destroyed while current only once
         // its thread lets go of it, and a thread that ends never does, so the context would be left
-        // to the driver's teardown at exit (a suspect, not proven, in the double free that aborted
-        // one CI run of headless_render there).
+        // to the driver's teardown at exit.
         let _ = self.context.make_not_current_in_place();
     }
 }
