@@ -228,7 +228,7 @@ impl Rank {
         }
         let per_layer = all_sum(comm, &layer_counts(&self.solver.particles, &self.slabs, inv_dx))?;
         if let Some(balanced) = self.slabs.rebalanced(&per_layer, self.mirror_walls)? {
-            // The grid was cleared for this substep: one of the new planes holds the same.
+            // A grid of the new planes loses nothing: this substep's was cleared before the rebin.
             let shape = held_shape(&balanced, self.solver.grid.shape.res, self.rank);
             if shape != self.solver.grid.shape {
                 self.solver.grid = Grid::new(shape);
