@@ -25,12 +25,12 @@ static DEVICE_DISPLAYS: Mutex<Vec<(usize, Display)>> = Mutex::new(Vec::new());
 static LIVE_CONTEXTS: AtomicUsize = AtomicUsize::new(0);
 
 /// Terminates the EGL displays this process kept, where no `HeadlessGl` is alive (else it does
-/// nothing and says so): the driver tears each down now, its worker threads joined, instead of in
+/// nothing and says so): the driver tears each down now, while the process is whole, instead of in
 /// its handlers at exit. Left to those, Mesa's llvmpipe now and then aborted CI's run of
-/// tests/headless_render.rs after every test had passed (a double free, then "malloc_consolidate():
-/// invalid chunk size"; in one of six fresh-clone CI runs here, never in 16 runs of the test file alone), the
-/// driver's exit-time teardown racing its own threads or the LLVM it was built on. A program done
-/// with headless rendering calls it once, last.
+/// tests/headless_render.rs after every test had passed (a double free; then "malloc_consolidate():
+/// invalid chunk size"): in one of six fresh-clone CI runs here, never in 16 runs of the test file
+/// alone, so the exit-time teardown is the suspect, not a proven cause. A program done with headless
+/// rendering calls it once, last.
 pub fn release_displays() -> Result<()> {
     let live = LIVE_CONTEXTS.load(Ordering::SeqCst);
     if live > 0 {
