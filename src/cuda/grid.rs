@@ -4,57 +4,12 @@
 
 use super::bin_lists::{NODE_BLOCK_SLOTS, WORK_COUNTS};
 use super::gpu::Gpu;
+pub use crate::sim::cpu::GridBox;
 use crate::sim::{Params, ScatterMode};
 use anyhow::{Context, Result};
 use cudarc::driver::{CudaSlice, CudaStream};
 use glam::Vec3;
-use std::ops::Range;
 use std::sync::Arc;
-
-/// The box of the domain's nodes a GPU's grid holds (`KernelParams::box_lo`, `box_res`): on one GPU
-/// the whole grid; on a rank of several, the planes of its slab and ghost planes along the slab axis
-/// (`Slabs::held`) and the whole grid along the other two, so that a rank's grid shrinks with its
-/// slab. The
-/// kernels work in the domain's node coordinates and use the box only to address a node
-/// (`grid_index` in kernels/common.cuh). It starts on a node block's edge, as the slabs are cut.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct GridBox {
-    pub lo: [u32; 3],
-    pub res: [u32; 3],
-}
-
-impl GridBox {
-    /// The whole grid of `grid_res` nodes.
-    pub fn whole(grid_res: [u32; 3]) -> GridBox {
-        GridBox {
-            lo: [0; 3],
-            res: grid_res,
-        }
-    }
-
-    /// The planes `planes` across `axis` of a grid of `grid_res` nodes.
-    pub fn planes(grid_res: [u32; 3], axis: usize, planes: Range<u32>) -> GridBox {
-        let mut held = GridBox::whole(grid_res);
-        held.lo[axis] = planes.start;
-        held.res[axis] = planes.len() as u32;
-        held
-    }
-
-    pub fn nodes(&self) -> usize {
-        self.res.iter().map(|&r| r as usize).product()
-    }
-
-    /// Its planes across `axis`.
-    pub fn along(&self, axis: usize) -> Range<u32> {
-        self.lo[axis]..self.lo[axis] + self.res[axis]
-    }
-
-    /// `params` with this box's, for kernels on a grid of this box.
-    pub fn set_in(&self, params: &mut Params) {
-        params.box_lo = self.lo;
-        params.box_res = self.res;
-    }
-}
 
 /// Bytes on the device per node: two float4 and the report sort's cell count (the binned pipeline's
 /// per-block lists are far smaller).

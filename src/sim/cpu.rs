@@ -63,17 +63,59 @@ impl Stencil {
     }
 }
 
-/// The domain's nodes and the box of them a grid stores, in the node order shared with the kernels
-/// (x fastest). One solver's box is the whole domain; a CPU rank's is its slab and ghost planes
-/// (`Slabs::held`), as a CUDA rank's is (`GridBox`, src/cuda/grid.rs). Nodes are named in the
-/// domain's coordinates everywhere; only where one is stored depends on the box.
+/// The box of the domain's nodes a grid holds (on the GPU, `KernelParams::box_lo`, `box_res`): for one
+/// solver the whole grid; on a rank of several, CPU or CUDA, the planes of its slab and ghost planes
+/// along the slab axis (`Slabs::held`) and the whole grid along the other two, so that a rank's grid
+/// shrinks with its slab. Nodes keep the domain's coordinates everywhere; the box only says where
+/// one is stored ([`GridShape::index`], `grid_index` in kernels/common.cuh). It starts on a node
+/// block's edge, as the slabs are cut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GridBox {
+    pub lo: [u32; 3],
+    pub res: [u32; 3],
+}
+
+impl GridBox {
+    /// The whole grid of `grid_res` nodes.
+    pub const fn whole(grid_res: [u32; 3]) -> GridBox {
+        GridBox {
+            lo: [0; 3],
+            res: grid_res,
+        }
+    }
+
+    /// The planes `planes` across `axis` of a grid of `grid_res` nodes.
+    pub fn planes(grid_res: [u32; 3], axis: usize, planes: std::ops::Range<u32>) -> GridBox {
+        let mut held = GridBox::whole(grid_res);
+        held.lo[axis] = planes.start;
+        held.res[axis] = planes.len() as u32;
+        held
+    }
+
+    pub fn nodes(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// Its planes across `axis`.
+    pub fn along(&self, axis: usize) -> std::ops::Range<u32> {
+        self.lo[axis]..self.lo[axis] + self.res[axis]
+    }
+
+    /// `params` with this box's, for kernels on a grid of this box.
+    pub fn set_in(&self, params: &mut Params) {
+        params.box_lo = self.lo;
+        params.box_res = self.res;
+    }
+}
+
+/// The domain's nodes and the box of them a grid stores ([`GridBox`]), in the node order shared with
+/// the kernels (x fastest).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GridShape {
     /// Nodes per axis of the domain: the walls, their band and the clamp stand at its ends.
     pub res: UVec3,
-    /// The box stored: nodes `box_lo .. box_lo + box_res`.
-    pub box_lo: UVec3,
-    pub box_res: UVec3,
+    /// The nodes stored.
+    pub held: GridBox,
 }
 
 impl GridShape {
@@ -81,42 +123,42 @@ impl GridShape {
     pub const fn whole(res: UVec3) -> GridShape {
         GridShape {
             res,
-            box_lo: UVec3::ZERO,
-            box_res: res,
+            held: GridBox::whole([res.x, res.y, res.z]),
         }
     }
 
     /// The domain of `res` nodes, of which planes `planes` across `axis` are stored.
     pub fn planes(res: UVec3, axis: usize, planes: std::ops::Range<u32>) -> GridShape {
-        let (mut box_lo, mut box_res) = (UVec3::ZERO, res);
-        box_lo[axis] = planes.start;
-        box_res[axis] = planes.len() as u32;
-        GridShape { res, box_lo, box_res }
+        GridShape {
+            res,
+            held: GridBox::planes(res.to_array(), axis, planes),
+        }
     }
 
     /// Where node `node` (inside the box) is stored.
     #[inline]
     pub fn index(&self, node: IVec3) -> usize {
-        let n = node.as_uvec3() - self.box_lo;
-        debug_assert!(n.cmplt(self.box_res).all(), "node {node} outside the grid's box");
-        (n.x + self.box_res.x * (n.y + self.box_res.y * n.z)) as usize
+        let (lo, r) = (UVec3::from(self.held.lo), UVec3::from(self.held.res));
+        let n = node.as_uvec3() - lo;
+        debug_assert!(n.cmplt(r).all(), "node {node} outside the grid's box");
+        (n.x + r.x * (n.y + r.y * n.z)) as usize
     }
 
     /// The node stored at `index`.
     pub fn node(&self, index: usize) -> UVec3 {
-        let (i, r) = (index as u32, self.box_res);
-        self.box_lo + UVec3::new(i % r.x, (i / r.x) % r.y, i / (r.x * r.y))
+        let (i, r) = (index as u32, self.held.res);
+        UVec3::from(self.held.lo) + UVec3::new(i % r[0], (i / r[0]) % r[1], i / (r[0] * r[1]))
     }
 
     /// The nodes stored.
     pub fn num_nodes(&self) -> usize {
-        self.box_res.x as usize * self.box_res.y as usize * self.box_res.z as usize
+        self.held.nodes()
     }
 
     /// How far apart in storage neighbours along x, y and z lie.
     pub fn strides(&self) -> [usize; 3] {
-        let r = self.box_res.as_usizevec3();
-        [1, r.x, r.x * r.y]
+        let [rx, ry, _] = self.held.res.map(|r| r as usize);
+        [1, rx, rx * ry]
     }
 }
 
@@ -304,7 +346,7 @@ pub fn mirror_walls<T: Copy + std::ops::Add<Output = T>>(
     if params.wall_mirror_lo == 0 {
         return;
     }
-    let (res, lo, held) = (shape.res, shape.box_lo, shape.box_res);
+    let (res, lo, held) = (shape.res, shape.held.lo, shape.held.res);
     let stride = shape.strides();
     for a in 0..3 {
         // The two axes across the lines, the smaller stride innermost (x before y before z).
