@@ -71,16 +71,15 @@ impl DeviceState {
         let fixed_scatter = scene.scatter == ScatterMode::FixedPoint;
         let gathers_volume = scene.rest_densities_differ();
         let deformed = scene.has_deformation();
-        let per_particle_state = state_bytes(deformed);
-        let needed = n * device_bytes(deformed) + nodes * node_bytes(fixed_scatter, gathers_volume);
+        let bytes = |spare| buffer_bytes(n, deformed, spare, nodes, fixed_scatter, gathers_volume);
         gpu.ensure_fits(
-            needed,
+            bytes(false),
             &format!("scene {} ({n} particles, {nodes} grid nodes)", scene.source),
             "use a coarser domain.resolution, fewer particles, or --backend cpu-parallel",
         )?;
         // Bin order is a speed-up, not a need: a run it would not leave room for keeps its
         // particles in place rather than being refused.
-        let room_for_spare = gpu.fits(needed + n * per_particle_state)?;
+        let room_for_spare = gpu.fits(bytes(true))?;
         if bin_order && !room_for_spare {
             eprintln!(
                 "note: scene {}: no room on the GPU for a second copy of {n} particles' state, so they \
@@ -204,14 +203,14 @@ impl DeviceState {
     /// Bytes its particle, bin and grid buffers take (as `allocate` counts them; the lifecycle's,
     /// the colliders' and the counters' are small).
     pub fn device_bytes(&self) -> usize {
-        let places = self.particles.count;
-        let deformed = self.particles.deformation.is_some();
-        let spare = self
-            .bin_order
-            .as_ref()
-            .map_or(0, |_| places * state_bytes(deformed));
-        let grid = self.grid.num_nodes() * node_bytes(self.grid.has_fixed(), self.grid.has_volume());
-        places * device_bytes(deformed) + spare + grid
+        buffer_bytes(
+            self.particles.count,
+            self.particles.deformation.is_some(),
+            self.bin_order.is_some(),
+            self.grid.num_nodes(),
+            self.grid.has_fixed(),
+            self.grid.has_volume(),
+        )
     }
 
     /// Which of its two sets of buffers holds the particles: the kernels' arguments differ, so a
@@ -269,6 +268,21 @@ impl DeviceState {
         }
         Ok(())
     }
+}
+
+/// Bytes the particle, bin and grid buffers take: `places` particles (`deformed`: with their
+/// deformation; `spare`: with the bin order's second copy of their state) and `nodes` grid nodes
+/// (`fixed`, `volume`: with the fixed-point sums, the grid's volume).
+fn buffer_bytes(
+    places: usize,
+    deformed: bool,
+    spare: bool,
+    nodes: usize,
+    fixed: bool,
+    volume: bool,
+) -> usize {
+    let spare = if spare { state_bytes(deformed) } else { 0 };
+    places * (device_bytes(deformed) + spare) + nodes * node_bytes(fixed, volume)
 }
 
 /// Bytes a grid node takes, with the fixed-point sums and the grid's volume where they are kept.
