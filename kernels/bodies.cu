@@ -5,8 +5,8 @@
 // for the next substep (and for this one's particle backstop) is written into its slot. The CPU twin
 // is step_bodies in src/sim/colliders/bodies.rs, phase for phase and operation for operation in
 // double precision. One block, a warp per body (its lanes share the search for its contacts); the
-// contacts are resolved by one thread in body order, so a run steps its bodies in the same order of
-// operations every time.
+// contacts are resolved by a warp's first lane for each chain of each island of touching bodies, in
+// body order (resolve_chain), so a run steps its bodies in the same order of operations every time.
 #include "common.cuh"
 #include "colliders.cuh"
 
@@ -304,49 +304,130 @@ __device__ __forceinline__ void apply_impulse(BodyMotion* motions, const BodyCon
     if (c.partner != NO_BODY) give(motions[c.partner], d3(c.partner_arm), impulse * -1.0, push);
 }
 
-// resolve_contacts in bodies.rs: sequential impulses over every body's contacts, in body order.
-// The motions it changes are in shared memory (`motions`, copied in and out by the caller): one
-// thread's chain of reads after writes stays out of the L2 cache's latency.
-__device__ void resolve_contacts(BodyMotion* motions, BodyContact* contacts, const u32* counts, u32 num_bodies,
-                                 double dt) {
-    u32 count[MAX_COLLIDERS];
-    for (u32 k = 0; k < num_bodies; ++k) count[k] = counts[k];
+// resolve_contacts in bodies.rs: sequential impulses over every body's contacts, in body order,
+// each contact giving its normal and friction impulse to the velocities, then its push out of the
+// overlap to the push velocities. The two never read each other's values (a contact's stiffness
+// takes only the masses), so each is a chain of its own here, and so is each island of bodies that
+// contacts join (piles): no impulse of one reaches another's motions. One thread walks one chain
+// of one island, in body order: each motion sees the operations the CPU's single walk gives it, in
+// its order, so the same bits, with up to twice the islands working at once (ten cubes in three
+// piles took 6 ms a substep on one thread, BENCHMARKS.md M10). The motions it changes are in
+// shared memory (`motions`, copied in and out by the caller): a chain of reads after writes stays
+// out of the L2 cache's latency.
+
+// A copy in registers of where a contact is and what it joins, which both chains read; each chain
+// copies its own impulses beside it and writes them back at the end (through the reference, every
+// store to a motion may alias the contact, and each field was read again), leaving the other's alone.
+__device__ __forceinline__ BodyContact contact_geometry(const BodyContact& stored) {
+    BodyContact c;
+    for (int k = 0; k < 3; ++k) {
+        c.arm[k] = stored.arm[k];
+        c.partner_arm[k] = stored.partner_arm[k];
+        c.normal[k] = stored.normal[k];
+        c.partner_velocity[k] = stored.partner_velocity[k];
+    }
+    c.depth = stored.depth;
+    c.friction = stored.friction;
+    c.body = stored.body;
+    c.partner = stored.partner;
+    return c;
+}
+
+// The velocity chain's part of one contact: the normal impulse (closing any gap this substep, no
+// more) and the Coulomb friction, kept in `stored`.
+__device__ __forceinline__ void resolve_velocity(BodyMotion* motions, BodyContact& stored, double dt) {
+    BodyContact c = contact_geometry(stored);
+    for (int k = 0; k < 3; ++k) c.friction_impulse[k] = stored.friction_impulse[k];
+    c.normal_impulse = stored.normal_impulse;
+    const D3 normal = d3(c.normal);
+    const D3 relative = relative_velocity(motions, c, false);
+    const double into = dot(relative, normal);
+    const double stiffness = response(motions, c, normal);
+    const double closing = fmax(-c.depth, 0.0) / dt;
+    const double total = fmax(c.normal_impulse - (into + closing) / stiffness, 0.0);
+    D3 change = normal * (total - c.normal_impulse);
+    c.normal_impulse = total;
+    const D3 slide = relative - normal * into;
+    const double speed = length(slide);
+    if (speed > 0.0) {
+        const D3 along = slide * (1.0 / speed);
+        const D3 wanted = d3(c.friction_impulse) - along * (speed / response(motions, c, along));
+        const double limit = c.friction * c.normal_impulse;
+        const D3 friction = length(wanted) > limit ? wanted * (limit / length(wanted)) : wanted;
+        change = change + (friction - d3(c.friction_impulse));
+        store(c.friction_impulse, friction);
+    }
+    apply_impulse(motions, c, change, false);
+    stored.normal_impulse = c.normal_impulse;
+    store(stored.friction_impulse, d3(c.friction_impulse));
+}
+
+// The push chain's part of one contact: the push out of the overlap, kept in `stored`.
+__device__ __forceinline__ void resolve_push(BodyMotion* motions, BodyContact& stored, double dt) {
+    BodyContact c = contact_geometry(stored);
+    c.push_impulse = stored.push_impulse;
+    const D3 normal = d3(c.normal);
+    const double stiffness = response(motions, c, normal);
+    const D3 apart = relative_velocity(motions, c, true);
+    const double wanted = BODY_PUSH_RATE * fmax(c.depth, 0.0) / dt;
+    const double pushed = fmax(c.push_impulse + (wanted - dot(apart, normal)) / stiffness, 0.0);
+    const D3 push = normal * (pushed - c.push_impulse);
+    c.push_impulse = pushed;
+    apply_impulse(motions, c, push, true);
+    stored.push_impulse = c.push_impulse;
+}
+
+// `island[k]`: which island body k is in, numbered from 0 in the order of each island's first
+// body; returns how many. `partners[k]`: a bit for each body that body k's contacts touch. Bodies a
+// contact joins share an island (a hinged body among them: both sides' contacts give it their
+// impulse), the others are one each. One thread.
+__device__ u32 find_islands(const u32* partners, u32 num_bodies, u32* island) {
+    u32 root[MAX_COLLIDERS];
+    for (u32 k = 0; k < num_bodies; ++k) root[k] = k;
+    const auto find = [&](u32 k) {
+        while (root[k] != k) k = root[k];
+        return k;
+    };
+    for (u32 k = 0; k < num_bodies; ++k) {
+        for (u32 bits = partners[k]; bits != 0u; bits &= bits - 1u) {
+            const u32 a = find(k), b = find((u32)__ffs(bits) - 1u);
+            // The lower index is the root, so a body's root comes before it.
+            if (a < b) root[b] = a;
+            if (b < a) root[a] = b;
+        }
+    }
+    u32 islands = 0;
+    for (u32 k = 0; k < num_bodies; ++k) {
+        const u32 r = find(k);
+        island[k] = r == k ? islands++ : island[r];
+    }
+    return islands;
+}
+
+// A bit for each body among the partners of body k's `n` contacts, by its warp.
+__device__ u32 partner_bits(const BodyContact* contacts, u32 n, u32 lane) {
+    u32 bits = 0u;
+    for (u32 i = lane; i < n; i += 32u) {
+        const u32 partner = contacts[i].partner;
+        if (partner != NO_BODY) bits |= 1u << partner;
+    }
+    for (u32 offset = 16u; offset > 0u; offset /= 2u) bits |= __shfl_xor_sync(0xffffffffu, bits, offset);
+    return bits;
+}
+
+// One chain (`push` or the velocities) of island `which`, by one thread, over every sweep.
+__device__ void resolve_chain(BodyMotion* motions, BodyContact* contacts, const u32* counts, const u32* island,
+                              u32 which, bool push, u32 num_bodies, double dt) {
     for (u32 sweep = 0; sweep < BODY_CONTACT_SWEEPS; ++sweep) {
         for (u32 k = 0; k < num_bodies; ++k) {
-            for (u32 i = 0; i < count[k]; ++i) {
-                // A copy in registers, its impulses written back at the end: through the reference,
-                // every store to a motion may alias the contact, and each of its fields was read again.
+            if (island[k] != which) continue;
+            for (u32 i = 0; i < counts[k]; ++i) {
                 BodyContact& stored = contacts[k * MAX_BODY_CONTACTS + i];
-                BodyContact c = stored;
-                const D3 normal = d3(c.normal);
-                const D3 relative = relative_velocity(motions, c, false);
-                const double into = dot(relative, normal);
-                const double stiffness = response(motions, c, normal);
-                const double closing = fmax(-c.depth, 0.0) / dt;
-                const double total = fmax(c.normal_impulse - (into + closing) / stiffness, 0.0);
-                D3 change = normal * (total - c.normal_impulse);
-                c.normal_impulse = total;
-                const D3 slide = relative - normal * into;
-                const double speed = length(slide);
-                if (speed > 0.0) {
-                    const D3 along = slide * (1.0 / speed);
-                    const D3 wanted = d3(c.friction_impulse) - along * (speed / response(motions, c, along));
-                    const double limit = c.friction * c.normal_impulse;
-                    const D3 friction = length(wanted) > limit ? wanted * (limit / length(wanted)) : wanted;
-                    change = change + (friction - d3(c.friction_impulse));
-                    store(c.friction_impulse, friction);
+                if (push) {
+                    resolve_push(motions, stored, dt);
+                } else {
+                    resolve_velocity(motions, stored, dt);
                 }
-                apply_impulse(motions, c, change, false);
-
-                const D3 apart = relative_velocity(motions, c, true);
-                const double wanted = BODY_PUSH_RATE * fmax(c.depth, 0.0) / dt;
-                const double pushed = fmax(c.push_impulse + (wanted - dot(apart, normal)) / stiffness, 0.0);
-                const D3 push = normal * (pushed - c.push_impulse);
-                c.push_impulse = pushed;
-                apply_impulse(motions, c, push, true);
-                stored.normal_impulse = c.normal_impulse;
-                stored.push_impulse = c.push_impulse;
-                store(stored.friction_impulse, d3(c.friction_impulse));
             }
         }
     }
@@ -444,19 +525,35 @@ extern "C" __global__ void step_bodies(const KernelParams params, const BodyWall
     const D3 gravity = d3((double)params.gravity[0], (double)params.gravity[1], (double)params.gravity[2]);
     if (mine && lane == 0) motions[k] = take_impulse(bodies[k], impulses + 6 * k, dt, gravity);
     __syncthreads();
+    __shared__ u32 partners[MAX_COLLIDERS];
     if (mine) {
         const u32 n = is_hinged(bodies[k]) ? 0u
                                            : find_contacts(k, lane, bodies, motions, features, walls, states,
                                                            num_states, sdf, contacts + k * MAX_BODY_CONTACTS);
-        if (lane == 0) contact_counts[k] = n;
+        __syncwarp();  // each lane reads contacts the others wrote
+        const u32 bits = partner_bits(contacts + k * MAX_BODY_CONTACTS, n, lane);
+        if (lane == 0) {
+            contact_counts[k] = n;
+            partners[k] = bits;
+        }
     }
     // Most substeps of floating bodies touch nothing: then there is nothing to resolve.
     const bool touching = __syncthreads_or(mine && lane == 0 && contact_counts[k] > 0u);
     if (touching) {
         __shared__ BodyMotion resolving[MAX_COLLIDERS];
+        __shared__ u32 island[MAX_COLLIDERS];
+        __shared__ u32 islands;
         if (threadIdx.x < num_bodies) resolving[threadIdx.x] = motions[threadIdx.x];
+        if (threadIdx.x == 0) islands = find_islands(partners, num_bodies, island);
         __syncthreads();
-        if (threadIdx.x == 0) resolve_contacts(resolving, contacts, contact_counts, num_bodies, dt);
+        // Chain 2i is island i's velocities, 2i + 1 its pushes, each walked by the first lane of a
+        // warp of its own where the block has enough (two lanes of one warp would take turns).
+        if (lane == 0) {
+            for (u32 chain = k; chain < 2u * islands; chain += blockDim.x / 32u) {
+                resolve_chain(resolving, contacts, contact_counts, island, chain / 2u, chain % 2u == 1u, num_bodies,
+                              dt);
+            }
+        }
         __syncthreads();
         if (threadIdx.x < num_bodies) motions[threadIdx.x] = resolving[threadIdx.x];
         __syncthreads();
