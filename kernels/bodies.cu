@@ -309,8 +309,8 @@ __device__ __forceinline__ void apply_impulse(BodyMotion* motions, const BodyCon
 // overlap to the push velocities. The two never read each other's values (a contact's stiffness
 // takes only the masses), so each is a chain of its own here, and so is each island of bodies that
 // contacts join (piles): no impulse of one reaches another's motions. One thread walks one chain
-// of one island, in body order: each motion sees the operations the CPU's single walk gives it, in
-// its order, so the same bits, with up to twice the islands working at once (ten cubes in three
+// of one island, in body order: each motion sees the operations one walk over every contact gives
+// it, in its order (so the bits of that walk), twice the islands working at once (ten cubes in three
 // piles took 6 ms a substep on one thread, BENCHMARKS.md M10). The motions it changes are in
 // shared memory (`motions`, copied in and out by the caller): a chain of reads after writes stays
 // out of the L2 cache's latency.
